@@ -1,0 +1,63 @@
+"""Shared helpers for the benchmark modules: timing and the result row."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from typing import Any
+
+
+@dataclass(frozen=True)
+class BenchRow:
+    """One measured figure.
+
+    ``value`` is in ``unit``; ``reference`` is the C++ original's figure in the same unit (REFERENCE.md),
+    ``target`` the issue's target; either may be None. Lower is better unless ``higher_is_better``.
+    """
+
+    section: str
+    name: str
+    value: float
+    unit: str
+    reference: float | None = None
+    target: float | None = None
+    higher_is_better: bool = False
+    note: str = ""
+
+    def ratio(self) -> float | None:
+        """value / reference (speed-up factor is 1/ratio for time-like figures)."""
+        if self.reference is None or self.reference == 0:
+            return None
+        return self.value / self.reference
+
+    def meets_target(self) -> bool | None:
+        if self.target is None:
+            return None
+        return self.value >= self.target if self.higher_is_better else self.value <= self.target
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self) | {"ratio": self.ratio(), "meets_target": self.meets_target()}
+
+
+def median_time(fn: Callable[[], object], *, repeat: int = 7, number: int = 1, warmup: int = 2) -> float:
+    """Median wall time of ``fn`` in seconds per call, after ``warmup`` untimed calls."""
+    for _ in range(warmup):
+        fn()
+    samples = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        for _ in range(number):
+            fn()
+        samples.append((time.perf_counter() - start) / number)
+    samples.sort()
+    return samples[len(samples) // 2]
+
+
+def auto_number(fn: Callable[[], object], budget_s: float = 0.05) -> int:
+    """How many calls of ``fn`` fill about ``budget_s`` seconds (at least 1)."""
+    fn()
+    start = time.perf_counter()
+    fn()
+    once = max(time.perf_counter() - start, 1e-9)
+    return max(1, int(budget_s / once))

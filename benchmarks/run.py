@@ -1,0 +1,84 @@
+"""Run every ``benchmarks/bench_*.py`` module and print one Markdown table per section.
+
+Usage: ``python -m benchmarks.run [--quick] [--only NAME ...]`` (``make bench``). Each module exposes
+``run(quick: bool) -> list[BenchRow]``. Results go to ``benchmarks/results/<module>.json`` and the whole
+table to ``benchmarks/results/latest.md``. Reference figures: ``../shared/benchmarks/REFERENCE.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import platform
+import time
+from pathlib import Path
+
+from rich.console import Console
+from rich.progress import Progress
+
+from benchmarks._common import BenchRow
+
+HERE = Path(__file__).resolve().parent
+RESULTS = HERE / "results"
+
+
+def _fmt(value: float | None) -> str:
+    if value is None:
+        return "—"
+    if value == 0:
+        return "0"
+    if abs(value) >= 100:
+        return f"{value:.0f}"
+    if abs(value) >= 1:
+        return f"{value:.2f}"
+    return f"{value:.3g}"
+
+
+def to_markdown(rows: list[BenchRow]) -> str:
+    lines: list[str] = []
+    section = None
+    for row in rows:
+        if row.section != section:
+            section = row.section
+            lines += ["", f"### {section}", "",
+                      "| figure | pfield | unit | C++ original | ratio | target | met | note |",
+                      "|---|---:|---|---:|---:|---:|:---:|---|"]
+        met = {True: "yes", False: "**no**", None: ""}[row.meets_target()]
+        lines.append(
+            f"| {row.name} | {_fmt(row.value)} | {row.unit} | {_fmt(row.reference)} | {_fmt(row.ratio())} | "
+            f"{_fmt(row.target)} | {met} | {row.note} |"
+        )
+    return "\n".join(lines).lstrip() + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--quick", action="store_true", help="fewer repetitions (smoke run)")
+    parser.add_argument("--only", nargs="*", default=[], help="module names without bench_ prefix")
+    args = parser.parse_args()
+    console = Console()
+    modules = sorted(p.stem for p in HERE.glob("bench_*.py"))
+    if args.only:
+        modules = [m for m in modules if m.removeprefix("bench_") in args.only]
+    RESULTS.mkdir(exist_ok=True)
+    all_rows: list[BenchRow] = []
+    with Progress(console=console, transient=True) as progress:
+        task = progress.add_task("benchmarks", total=len(modules))
+        for name in modules:
+            progress.update(task, description=name)
+            start = time.perf_counter()
+            rows = importlib.import_module(f"benchmarks.{name}").run(args.quick)
+            all_rows.extend(rows)
+            payload = {"module": name, "seconds": time.perf_counter() - start, "machine": platform.processor()
+                       or platform.machine(), "python": platform.python_version(),
+                       "rows": [r.as_dict() for r in rows]}
+            (RESULTS / f"{name}.json").write_text(json.dumps(payload, indent=2))
+            progress.advance(task)
+    table = to_markdown(all_rows)
+    (RESULTS / "latest.md").write_text(table)
+    console.print(table, markup=False, highlight=False)
+
+
+if __name__ == "__main__":
+    main()

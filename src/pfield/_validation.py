@@ -1,0 +1,71 @@
+"""Input validation helpers shared by the value types and config objects.
+
+Each helper takes the *field name* first so that the raised :class:`~pfield.errors.InvalidInput`
+names it, e.g. ``InvalidInput("radius", -0.1, "must be > 0")``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pfield.errors import InvalidInput
+
+
+def as_vector(field: str, value: Any, length: int) -> NDArray[np.float64]:
+    """Return ``value`` as a finite, read-only float64 vector of ``length`` elements."""
+    try:
+        array = np.array(value, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInput(field, value, f"expected {length} numbers") from exc
+    if array.shape != (length,):
+        raise InvalidInput(field, value, f"expected {length} numbers, got {array.size}")
+    if not np.all(np.isfinite(array)):
+        raise InvalidInput(field, value, "must be finite (no NaN or inf)")
+    array.setflags(write=False)
+    return array
+
+
+def as_points(field: str, value: Any, dim: int = 3) -> NDArray[np.float64]:
+    """Return ``value`` as a finite ``(N, dim)`` float64 array (a single point becomes ``(1, dim)``)."""
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInput(field, value, f"expected an array of shape (N, {dim})") from exc
+    if array.ndim == 1 and array.shape[0] == dim:
+        array = array.reshape(1, dim)
+    if array.ndim != 2 or array.shape[1] != dim:
+        raise InvalidInput(field, f"array{array.shape}", f"expected shape (N, {dim})")
+    if not np.all(np.isfinite(array)):
+        raise InvalidInput(field, "array", "must be finite (no NaN or inf)")
+    return np.ascontiguousarray(array)
+
+
+def finite(field: str, value: Any) -> float:
+    """Return ``value`` as a finite float."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInput(field, value, "must be a number") from exc
+    if not math.isfinite(number):
+        raise InvalidInput(field, value, "must be finite (no NaN or inf)")
+    return number
+
+
+def positive(field: str, value: Any) -> float:
+    """Return ``value`` as a finite float > 0."""
+    number = finite(field, value)
+    if number <= 0.0:
+        raise InvalidInput(field, value, "must be > 0")
+    return number
+
+
+def nonnegative(field: str, value: Any) -> float:
+    """Return ``value`` as a finite float >= 0."""
+    number = finite(field, value)
+    if number < 0.0:
+        raise InvalidInput(field, value, "must be >= 0")
+    return number

@@ -1,0 +1,41 @@
+"""The built-in demo, one section per area, each writing its pictures into one output folder.
+
+A section is a module with ``TITLE`` and ``run(out_dir, console) -> None``; it raises on failure.
+"""
+
+from __future__ import annotations
+
+import importlib
+import time
+from pathlib import Path
+
+from rich.console import Console
+from rich.rule import Rule
+
+SECTIONS = ("manipulator", "whole_body", "node_session", "mobile", "costmap")
+
+
+def run_demo(out_dir: Path, only: list[str] | None = None) -> int:
+    """Run the demo sections in order; return a process exit code (0 when all succeeded)."""
+    console = Console()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    failures = []
+    for name in SECTIONS:
+        if only and name not in only:
+            continue
+        module = importlib.import_module(f"pfield.demo.{name}")
+        console.print(Rule(f"[bold]{module.TITLE}"))
+        start = time.perf_counter()
+        try:
+            module.run(out_dir, console)
+        except Exception as exc:  # a demo section failing must not hide the others
+            failures.append(name)
+            console.print(f"[red]section {name!r} failed:[/red] {type(exc).__name__}: {exc}")
+        else:
+            console.print(f"[dim]{name}: {time.perf_counter() - start:.1f} s[/dim]")
+    console.print(Rule())
+    console.print(f"Pictures are in [bold]{out_dir.resolve()}[/bold]")
+    if failures:
+        console.print(f"[red]failed sections: {', '.join(failures)}[/red]")
+        return 1
+    return 0

@@ -1,0 +1,13 @@
+"""Demo section: whole_body."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from rich.console import Console
+
+TITLE = "whole_body"
+
+
+def run(out_dir: Path, console: Console) -> None:
+    console.print("[yellow]not built yet[/yellow]")

@@ -1,0 +1,38 @@
+"""Packed, array-only representation of an obstacle set for compiled kernels.
+
+This is the contract between :mod:`pfield.geometry` (which builds it) and every compiled consumer
+(the field, whole-body planning, collision checks). One :class:`PackedObstacles` holds M obstacles:
+
+* ``kinds[i]`` — shape code (``SPHERE`` … ``MESH`` below);
+* ``rows[i]`` — ``ROW_WIDTH`` float64: ``[0:3]`` world position of the shape centre, ``[3:12]`` the
+  row-major rotation matrix (local → world), ``[12:15]`` the shape sizes in the local frame, ``[15]``
+  the mesh index (−1 for primitives). Sizes: Sphere ``(r, 0, 0)``; Box ``(hx, hy, hz)`` half extents;
+  Cylinder ``(r, h/2, 0)``; Ellipsoid ``(a, b, c)`` semi-axes; Capsule ``(r, h/2, 0)`` (half shaft
+  length); Mesh ``(sx, sy, sz)`` scale (already applied to the stored triangles);
+* mesh arrays (all meshes concatenated; empty arrays when there are none): triangle vertices in the
+  obstacle's local, *scaled* frame, angle-weighted pseudo-normals for the sign, a BVH over triangles,
+  and per-mesh offsets into them.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+SPHERE, BOX, CYLINDER, ELLIPSOID, CAPSULE, MESH = 0, 1, 2, 3, 4, 5
+ROW_WIDTH = 16
+SHAPE_CODES = {"Sphere": SPHERE, "Box": BOX, "Cylinder": CYLINDER, "Ellipsoid": ELLIPSOID,
+               "Capsule": CAPSULE, "Mesh": MESH}
+
+
+class PackedObstacles(NamedTuple):
+    kinds: NDArray[np.int64]  # (M,)
+    rows: NDArray[np.float64]  # (M, ROW_WIDTH)
+    triangles: NDArray[np.float64]  # (T, 3, 3) vertices, local scaled frame
+    pseudo_normals: NDArray[np.float64]  # (T, 7, 3): face, 3 edges, 3 vertices (Baerentzen & Aanaes 2005)
+    bvh_lower: NDArray[np.float64]  # (K, 3) node AABB lower corners
+    bvh_upper: NDArray[np.float64]  # (K, 3) node AABB upper corners
+    bvh_nodes: NDArray[np.int64]  # (K, 3): [left child or first triangle, right child or count, is_leaf]
+    mesh_table: NDArray[np.int64]  # (n_meshes, 4): [root node, node count, first triangle, triangle count]

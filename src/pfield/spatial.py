@@ -1,0 +1,317 @@
+"""Spatial value types (:class:`Pose`, :class:`Twist`, :class:`Wrench`) and vectorised SO(3) helpers.
+
+Conventions (DESIGN §2): SI units, quaternions in ROS order ``(x, y, z, w)`` and normalised on input.
+A :class:`Pose` maps points from its local frame to the parent (world) frame:
+``p_world = R(q) p_local + position``. The vectorised functions accept one element (shape ``(4,)`` or
+``(3,)``) or a batch (``(N, 4)``, ``(N, 3)``) and return the same rank. Math: Sola, Deray & Atchuthan,
+"A micro Lie theory for state estimation in robotics" (2018).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, TypeAlias
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from pfield import _spatial_kernels as _k
+from pfield._validation import as_vector
+from pfield.errors import InvalidInput
+
+__all__ = [
+    "Points",
+    "Pose",
+    "Quat",
+    "Twist",
+    "Vec3",
+    "Wrench",
+    "euler_zyx_from_quaternion",
+    "geodesic_angle",
+    "matrix_from_quaternion",
+    "normalize_quaternion",
+    "quaternion_exp",
+    "quaternion_from_euler_zyx",
+    "quaternion_from_matrix",
+    "quaternion_inverse",
+    "quaternion_log",
+    "quaternion_multiply",
+    "rotate_vectors",
+]
+
+Vec3: TypeAlias = NDArray[np.float64]  # (3,)
+Quat: TypeAlias = NDArray[np.float64]  # (4,) x, y, z, w
+Points: TypeAlias = NDArray[np.float64]  # (N, 3)
+
+_IDENTITY_QUAT = (0.0, 0.0, 0.0, 1.0)
+_MIN_QUAT_NORM = 1e-9
+
+
+def _batched(value: ArrayLike, width: int) -> tuple[NDArray[np.float64], bool]:
+    array = np.ascontiguousarray(value, dtype=np.float64)
+    single = array.ndim == 1
+    array = array.reshape(-1, width)
+    return np.ascontiguousarray(array), single
+
+
+def _unbatch(array: NDArray[np.float64], single: bool) -> NDArray[np.float64]:
+    return array[0] if single else array
+
+
+def normalize_quaternion(q: ArrayLike, field_name: str = "orientation") -> Quat:
+    """Unit quaternion from ``q`` (x, y, z, w); rejects non-finite and (near) zero quaternions."""
+    quat = np.array(as_vector(field_name, q, 4))
+    norm = float(np.linalg.norm(quat))
+    if norm < _MIN_QUAT_NORM:
+        raise InvalidInput(field_name, q, "zero quaternion: give a unit quaternion, e.g. {w: 1.0}")
+    quat /= norm
+    quat.setflags(write=False)
+    return quat
+
+
+def quaternion_multiply(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
+    """Hamilton product ``a ⊗ b`` (rotation ``b`` then ``a``), broadcast over batches."""
+    qa, single_a = _batched(a, 4)
+    qb, single_b = _batched(b, 4)
+    qa, qb = np.broadcast_arrays(qa, qb)
+    return _unbatch(_k.batch_mul(np.ascontiguousarray(qa), np.ascontiguousarray(qb)), single_a and single_b)
+
+
+def quaternion_inverse(q: ArrayLike) -> NDArray[np.float64]:
+    """Inverse of unit quaternions (the conjugate)."""
+    quat = np.array(q, dtype=np.float64)
+    quat[..., :3] *= -1.0
+    return quat
+
+
+def rotate_vectors(q: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
+    """Rotate vectors ``v`` by unit quaternions ``q`` (broadcast over batches)."""
+    quat, single_q = _batched(q, 4)
+    vec, single_v = _batched(v, 3)
+    quat, _ = np.broadcast_arrays(quat, np.empty((vec.shape[0], 4)))
+    vec, _ = np.broadcast_arrays(vec, np.empty((quat.shape[0], 3)))
+    out = _k.batch_rotate(np.ascontiguousarray(quat), np.ascontiguousarray(vec))
+    return _unbatch(out, single_q and single_v)
+
+
+def quaternion_exp(rotvec: ArrayLike) -> NDArray[np.float64]:
+    """Exponential map: rotation vector(s) (axis·angle, rad) to unit quaternion(s)."""
+    vec, single = _batched(rotvec, 3)
+    return _unbatch(_k.batch_exp(vec), single)
+
+
+def quaternion_log(q: ArrayLike) -> NDArray[np.float64]:
+    """Logarithm map: unit quaternion(s) to rotation vector(s) with angle in [0, π] (short arc)."""
+    quat, single = _batched(q, 4)
+    return _unbatch(_k.batch_log(quat), single)
+
+
+def geodesic_angle(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64] | float:
+    """Angle (rad, in [0, π]) of the rotation taking ``a`` to ``b``: 2·acos(|⟨a, b⟩|)."""
+    qa, single_a = _batched(a, 4)
+    qb, single_b = _batched(b, 4)
+    qa, qb = np.broadcast_arrays(qa, qb)
+    out = _k.batch_angle(np.ascontiguousarray(qa), np.ascontiguousarray(qb))
+    return float(out[0]) if single_a and single_b else out
+
+
+def matrix_from_quaternion(q: ArrayLike) -> NDArray[np.float64]:
+    """Rotation matrix (3×3, or N×3×3) of unit quaternion(s)."""
+    quat, single = _batched(q, 4)
+    return _unbatch(_k.batch_to_matrix(quat), single)
+
+
+def quaternion_from_matrix(r: ArrayLike) -> NDArray[np.float64]:
+    """Unit quaternion(s) (w ≥ 0) of rotation matrix (matrices), Shepperd's method."""
+    mat = np.ascontiguousarray(r, dtype=np.float64)
+    single = mat.ndim == 2
+    out = _k.batch_from_matrix(np.ascontiguousarray(mat.reshape(-1, 3, 3)))
+    return _unbatch(out, single)
+
+
+def quaternion_from_euler_zyx(yaw: ArrayLike, pitch: ArrayLike, roll: ArrayLike) -> NDArray[np.float64]:
+    """Quaternion of intrinsic Z-Y-X Euler angles (yaw about z, then pitch about y', roll about x'').
+
+    q = q_z(yaw) ⊗ q_y(pitch) ⊗ q_x(roll), the ROS ``tf2`` RPY convention.
+    """
+    cy, sy = np.cos(np.asarray(yaw) * 0.5), np.sin(np.asarray(yaw) * 0.5)
+    cp, sp = np.cos(np.asarray(pitch) * 0.5), np.sin(np.asarray(pitch) * 0.5)
+    cr, sr = np.cos(np.asarray(roll) * 0.5), np.sin(np.asarray(roll) * 0.5)
+    return np.stack(
+        [
+            sr * cp * cy - cr * sp * sy,
+            cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy,
+            cr * cp * cy + sr * sp * sy,
+        ],
+        axis=-1,
+    )
+
+
+def euler_zyx_from_quaternion(q: ArrayLike) -> NDArray[np.float64]:
+    """(yaw, pitch, roll) of unit quaternion(s); pitch in [−π/2, π/2] (gimbal lock gives roll = 0 form)."""
+    quat = np.asarray(q, dtype=np.float64)
+    x, y, z, w = quat[..., 0], quat[..., 1], quat[..., 2], quat[..., 3]
+    yaw = np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    pitch = np.arcsin(np.clip(2.0 * (w * y - z * x), -1.0, 1.0))
+    roll = np.arctan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    return np.stack([yaw, pitch, roll], axis=-1)
+
+
+def _frozen_vector(field_name: str, value: Any, length: int) -> NDArray[np.float64]:
+    return as_vector(field_name, value, length)
+
+
+@dataclass(frozen=True, eq=False, init=False)
+class Pose:
+    """A rigid transform: ``position`` (m) and unit ``orientation`` quaternion (x, y, z, w).
+
+    ``Pose(position=(0.4, 0, 0.1))`` has the identity orientation. Orientation is normalised on input;
+    a zero or non-finite quaternion raises :class:`~pfield.errors.InvalidInput`.
+    """
+
+    position: Vec3
+    orientation: Quat
+
+    def __init__(self, position: ArrayLike = (0.0, 0.0, 0.0), orientation: ArrayLike = _IDENTITY_QUAT) -> None:
+        object.__setattr__(self, "position", _frozen_vector("position", position, 3))
+        object.__setattr__(self, "orientation", normalize_quaternion(orientation))
+
+    @classmethod
+    def identity(cls) -> Pose:
+        return cls()
+
+    @classmethod
+    def from_matrix(cls, matrix: ArrayLike) -> Pose:
+        """Pose of a 4×4 homogeneous transform."""
+        mat = np.asarray(matrix, dtype=np.float64)
+        if mat.shape != (4, 4):
+            raise InvalidInput("matrix", f"array{mat.shape}", "expected a 4x4 homogeneous transform")
+        return cls(mat[:3, 3], quaternion_from_matrix(mat[:3, :3]))
+
+    @property
+    def rotation(self) -> NDArray[np.float64]:
+        """3×3 rotation matrix (local to parent)."""
+        return matrix_from_quaternion(self.orientation)
+
+    def matrix(self) -> NDArray[np.float64]:
+        """4×4 homogeneous transform (local to parent)."""
+        mat = np.eye(4)
+        mat[:3, :3] = self.rotation
+        mat[:3, 3] = self.position
+        return mat
+
+    def inverse(self) -> Pose:
+        q_inv = quaternion_inverse(self.orientation)
+        return Pose(-rotate_vectors(q_inv, self.position), q_inv)
+
+    def __mul__(self, other: Pose) -> Pose:
+        """Composition ``self ∘ other``: first ``other``, then ``self`` (T_a_c = T_a_b * T_b_c)."""
+        return Pose(
+            self.position + rotate_vectors(self.orientation, other.position),
+            quaternion_multiply(self.orientation, other.orientation),
+        )
+
+    def transform_points(self, points: ArrayLike) -> NDArray[np.float64]:
+        """Map points (3,) or (N, 3) from the local frame to the parent frame."""
+        return rotate_vectors(self.orientation, points) + self.position
+
+    def translation_distance(self, other: Pose) -> float:
+        return float(np.linalg.norm(self.position - other.position))
+
+    def rotation_distance(self, other: Pose) -> float:
+        """Geodesic angle (rad) between the two orientations."""
+        return float(geodesic_angle(self.orientation, other.orientation))
+
+    @property
+    def yaw(self) -> float:
+        """Heading about +z (rad), for planar use."""
+        return float(euler_zyx_from_quaternion(self.orientation)[0])
+
+    @classmethod
+    def planar(cls, x: float, y: float, yaw: float) -> Pose:
+        """A pose in the z = 0 plane with heading ``yaw`` about +z."""
+        return cls((x, y, 0.0), (0.0, 0.0, math.sin(0.5 * yaw), math.cos(0.5 * yaw)))
+
+    def isclose(self, other: Pose, atol: float = 1e-9) -> bool:
+        """Same position within ``atol`` and same rotation (q and −q alike) within ``atol`` rad."""
+        return bool(
+            np.allclose(self.position, other.position, atol=atol, rtol=0.0)
+            and self.rotation_distance(other) <= max(atol, 1e-7)
+        )
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Pose):
+            return NotImplemented
+        return bool(
+            np.array_equal(self.position, other.position) and np.array_equal(self.orientation, other.orientation)
+        )
+
+    def __hash__(self) -> int:
+        return hash((self.position.tobytes(), self.orientation.tobytes()))
+
+    def __repr__(self) -> str:
+        p, q = self.position, self.orientation
+        return (
+            f"Pose(position=({p[0]:.6g}, {p[1]:.6g}, {p[2]:.6g}), "
+            f"orientation=({q[0]:.6g}, {q[1]:.6g}, {q[2]:.6g}, {q[3]:.6g}))"
+        )
+
+
+@dataclass(frozen=True, eq=False, init=False)
+class Twist:
+    """Spatial velocity: ``linear`` (m/s) and ``angular`` (rad/s), both in the world frame."""
+
+    linear: Vec3
+    angular: Vec3
+
+    def __init__(self, linear: ArrayLike = (0.0, 0.0, 0.0), angular: ArrayLike = (0.0, 0.0, 0.0)) -> None:
+        object.__setattr__(self, "linear", _frozen_vector("linear", linear, 3))
+        object.__setattr__(self, "angular", _frozen_vector("angular", angular, 3))
+
+    def as_array(self) -> NDArray[np.float64]:
+        """(6,) array, linear first."""
+        return np.concatenate([self.linear, self.angular])
+
+    @classmethod
+    def from_array(cls, values: ArrayLike) -> Twist:
+        array = as_vector("twist", values, 6)
+        return cls(array[:3], array[3:])
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Twist):
+            return NotImplemented
+        return bool(np.array_equal(self.linear, other.linear) and np.array_equal(self.angular, other.angular))
+
+    def __hash__(self) -> int:
+        return hash((self.linear.tobytes(), self.angular.tobytes()))
+
+
+@dataclass(frozen=True, eq=False, init=False)
+class Wrench:
+    """Generalised force: ``force`` (N) and ``torque`` (N·m), both in the world frame."""
+
+    force: Vec3
+    torque: Vec3
+
+    def __init__(self, force: ArrayLike = (0.0, 0.0, 0.0), torque: ArrayLike = (0.0, 0.0, 0.0)) -> None:
+        object.__setattr__(self, "force", _frozen_vector("force", force, 3))
+        object.__setattr__(self, "torque", _frozen_vector("torque", torque, 3))
+
+    def as_array(self) -> NDArray[np.float64]:
+        """(6,) array, force first."""
+        return np.concatenate([self.force, self.torque])
+
+    @classmethod
+    def from_array(cls, values: ArrayLike) -> Wrench:
+        array = as_vector("wrench", values, 6)
+        return cls(array[:3], array[3:])
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Wrench):
+            return NotImplemented
+        return bool(np.array_equal(self.force, other.force) and np.array_equal(self.torque, other.torque))
+
+    def __hash__(self) -> int:
+        return hash((self.force.tobytes(), self.torque.tobytes()))
