@@ -1,0 +1,92 @@
+"""Base class and field types of the pydantic models that mirror ROS 2 ``.msg``/``.srv`` files.
+
+Every message model derives from :class:`RosMessage`: unknown fields are errors, missing fields take the
+ROS default (0, empty string, false, empty array, default-constructed nested message). Each model
+declares its ROS type name (``ros_type = "geometry_msgs/msg/Pose"``) and is registered under it, so
+transports can look a type up by the name a user types on the command line. Field annotations carry
+the ROS primitive type (``Float32`` …) so a test can prove the models equal the ``.msg`` files.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Annotated, Any, ClassVar
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from pfield.errors import InvalidInput
+
+__all__ = [
+    "Bool",
+    "Float32",
+    "Float64",
+    "Int8",
+    "Int16",
+    "Int32",
+    "Int64",
+    "RosMessage",
+    "RosType",
+    "String",
+    "UInt8",
+    "UInt16",
+    "UInt32",
+    "UInt64",
+    "lookup_type",
+    "registered_types",
+]
+
+
+@dataclass(frozen=True)
+class RosType:
+    """Annotation metadata: the ROS primitive type name of a field (``float32``, ``uint8`` …)."""
+
+    name: str
+
+
+Bool = Annotated[bool, RosType("bool")]
+String = Annotated[str, RosType("string")]
+Float32 = Annotated[float, RosType("float32")]
+Float64 = Annotated[float, RosType("float64")]
+Int8 = Annotated[int, Field(ge=-(2**7), lt=2**7), RosType("int8")]
+Int16 = Annotated[int, Field(ge=-(2**15), lt=2**15), RosType("int16")]
+Int32 = Annotated[int, Field(ge=-(2**31), lt=2**31), RosType("int32")]
+Int64 = Annotated[int, Field(ge=-(2**63), lt=2**63), RosType("int64")]
+UInt8 = Annotated[int, Field(ge=0, lt=2**8), RosType("uint8")]
+UInt16 = Annotated[int, Field(ge=0, lt=2**16), RosType("uint16")]
+UInt32 = Annotated[int, Field(ge=0, lt=2**32), RosType("uint32")]
+UInt64 = Annotated[int, Field(ge=0, lt=2**64), RosType("uint64")]
+
+_REGISTRY: dict[str, type[RosMessage]] = {}
+
+
+class RosMessage(BaseModel):
+    """A ROS message (or service request/response) as a strict pydantic model."""
+
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, populate_by_name=True)
+
+    ros_type: ClassVar[str] = ""
+    """Full ROS type name, e.g. ``geometry_msgs/msg/Pose`` or ``pkg/srv/Name_Request``."""
+    ros_constants: ClassVar[dict[str, tuple[str, Any]]] = {}
+    """Constants declared in the interface file: name -> (ROS type, value)."""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        name = cls.__dict__.get("ros_type", "")
+        if name:
+            _REGISTRY[name] = cls
+
+
+def registered_types() -> dict[str, type[RosMessage]]:
+    """All registered message types by ROS name (``pkg/msg/Name``; services as ``pkg/srv/Name_Request``)."""
+    return dict(_REGISTRY)
+
+
+def lookup_type(name: str) -> type[RosMessage]:
+    """Model class for a ROS type name; ``pkg/Name`` is accepted for ``pkg/msg/Name`` as ``ros2`` does."""
+    if name in _REGISTRY:
+        return _REGISTRY[name]
+    parts = name.split("/")
+    if len(parts) == 2 and f"{parts[0]}/msg/{parts[1]}" in _REGISTRY:
+        return _REGISTRY[f"{parts[0]}/msg/{parts[1]}"]
+    known = ", ".join(sorted(_REGISTRY))
+    raise InvalidInput("type", name, f"unknown message type; known types: {known}")

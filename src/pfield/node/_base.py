@@ -1,0 +1,132 @@
+"""The transport-free node contract shared by every pfield node and both transports (HTTP, ROS 2).
+
+A node owns state and message handlers and knows nothing of sockets. It declares what it serves as
+:class:`ServiceSpec`, :class:`SubscriptionSpec` and :class:`PublicationSpec` lists using ROS names and
+types; a transport (``pfield.transport.http`` or ``pfield.transport.ros2``) exposes those and forwards
+decoded requests to the handlers. Outgoing messages go through a :class:`Bus`, which keeps the latest
+message per topic and notifies listeners (the transports) on every publish.
+
+Error contract: handlers raise :class:`~pfield.errors.PfieldError` subclasses (usually ``InvalidInput``)
+for bad input *before* changing any state; services whose response has ``success``/``error_message``
+report planner failures there instead of raising.
+"""
+
+from __future__ import annotations
+
+import threading
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from pfield.interfaces._base import RosMessage
+
+__all__ = ["Bus", "Node", "PublicationSpec", "ServiceSpec", "SubscriptionSpec"]
+
+
+@dataclass(frozen=True)
+class ServiceSpec:
+    """A service a node serves: ``name`` (``/pfield/plan_path``), ROS ``type_name`` and the handler."""
+
+    name: str
+    type_name: str
+    request: type[RosMessage]
+    response: type[RosMessage]
+    handler: Callable[[Any], RosMessage]
+    long_running: bool = False
+    """True when a call may take long (planning): transports run it off their event loop / in its own
+    callback group so that short calls keep answering."""
+
+
+@dataclass(frozen=True)
+class SubscriptionSpec:
+    """A topic a node listens to, with the handler called for every message."""
+
+    topic: str
+    type_name: str
+    model: type[RosMessage]
+    handler: Callable[[Any], None]
+
+
+@dataclass(frozen=True)
+class PublicationSpec:
+    """A topic a node publishes (through its :class:`Bus`)."""
+
+    topic: str
+    type_name: str
+    model: type[RosMessage]
+
+
+Listener = Callable[[str, RosMessage], None]
+
+
+class Bus:
+    """In-process topic bus: the latest message per topic plus listeners called on every publish.
+
+    Thread-safe. Listeners must not block (transports enqueue and return).
+    """
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._latest: dict[str, RosMessage] = {}
+        self._listeners: list[Listener] = []
+
+    def publish(self, topic: str, message: RosMessage) -> None:
+        with self._lock:
+            self._latest[topic] = message
+            listeners = list(self._listeners)
+        for listener in listeners:
+            listener(topic, message)
+
+    def latest(self, topic: str) -> RosMessage | None:
+        with self._lock:
+            return self._latest.get(topic)
+
+    def topics(self) -> list[str]:
+        with self._lock:
+            return sorted(self._latest)
+
+    def add_listener(self, listener: Listener) -> None:
+        with self._lock:
+            self._listeners.append(listener)
+
+    def remove_listener(self, listener: Listener) -> None:
+        with self._lock:
+            if listener in self._listeners:
+                self._listeners.remove(listener)
+
+
+class Node(ABC):
+    """Base of the transport-free nodes (``/pfield_manager``, ``/costmap``, ``/base_controller``)."""
+
+    name: str = ""
+    """ROS node name with leading slash; parameters are addressed by it (``pfield param get /costmap``)."""
+    tick_period: float | None = None
+    """Seconds between :meth:`tick` calls made by the transport, or None for no periodic work."""
+
+    def __init__(self, bus: Bus) -> None:
+        self.bus = bus
+
+    @abstractmethod
+    def services(self) -> list[ServiceSpec]: ...
+
+    @abstractmethod
+    def subscriptions(self) -> list[SubscriptionSpec]: ...
+
+    @abstractmethod
+    def publications(self) -> list[PublicationSpec]: ...
+
+    @abstractmethod
+    def get_parameters(self) -> dict[str, Any]:
+        """Current parameter values by ROS parameter name (JSON-compatible values)."""
+
+    @abstractmethod
+    def set_parameters(self, values: Mapping[str, Any]) -> dict[str, Any]:
+        """Validate all ``values`` first, then apply them together; raise ``InvalidInput`` naming the first
+        bad parameter and change nothing in that case. Returns the new full parameter dict."""
+
+    def tick(self, now: float) -> None:
+        """Periodic work (expiring obstacles, controller output); ``now`` is monotonic seconds."""
+
+    def close(self) -> None:
+        """Release resources (threads) at shutdown."""
