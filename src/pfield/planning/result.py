@@ -1,0 +1,140 @@
+"""The result of every planner: :class:`PlannedPath` (task-space or whole-body), and its CSV export.
+
+A plan is a sequence of N waypoints sampled every ``dt`` seconds: the end-effector pose (world frame),
+the twist commanded at that waypoint, the clearance to the nearest obstacle and, for whole-body plans,
+the joint positions and velocities in the robot's tree order. The first waypoint is the start.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pfield.errors import InvalidInput
+from pfield.spatial import Pose, Twist
+
+__all__ = ["PlannedPath"]
+
+
+def _frozen(name: str, value: object, shape: tuple[int | None, ...]) -> NDArray[np.float64]:
+    array = np.array(value, dtype=np.float64)
+    if array.ndim != len(shape) or any(
+        want is not None and got != want for got, want in zip(array.shape, shape, strict=True)
+    ):
+        expected = tuple("N" if size is None else size for size in shape)
+        raise InvalidInput(name, f"array{array.shape}", f"expected shape {expected}")
+    array.setflags(write=False)
+    return array
+
+
+@dataclass(frozen=True, eq=False)
+class PlannedPath:
+    """A planned trajectory with its status (DESIGN §3.3).
+
+    Attributes:
+        success: True when the last waypoint is within the goal tolerances.
+        failure_reason: empty on success, else a sentence saying why (stagnation, collision, limit).
+        times: (N,) s, ``i·dt`` from the start.
+        positions: (N, 3) m, end-effector positions in the world frame.
+        orientations: (N, 4) unit quaternions (x, y, z, w), world frame.
+        twists: (N, 6) the world-frame twist (linear m/s, angular rad/s) applied from each waypoint.
+        clearances: (N,) m, signed distance to the nearest obstacle (``inf`` without obstacles).
+        iterations: integration steps taken (N − 1 for a plan that was not cut short).
+        joint_names: joint names in tree order (empty for task-space plans).
+        joint_positions: (N, n) rad or m, or None for task-space plans.
+        joint_velocities: (N, n) rad/s or m/s, or None.
+    """
+
+    success: bool
+    failure_reason: str
+    times: NDArray[np.float64]
+    positions: NDArray[np.float64]
+    orientations: NDArray[np.float64]
+    twists: NDArray[np.float64]
+    clearances: NDArray[np.float64]
+    iterations: int = 0
+    joint_names: tuple[str, ...] = ()
+    joint_positions: NDArray[np.float64] | None = field(default=None)
+    joint_velocities: NDArray[np.float64] | None = field(default=None)
+
+    def __post_init__(self) -> None:
+        times = _frozen("times", self.times, (None,))
+        count = times.shape[0]
+        if count == 0:
+            raise InvalidInput("times", "array(0,)", "a plan has at least the start waypoint")
+        object.__setattr__(self, "times", times)
+        object.__setattr__(self, "positions", _frozen("positions", self.positions, (count, 3)))
+        object.__setattr__(self, "orientations", _frozen("orientations", self.orientations, (count, 4)))
+        object.__setattr__(self, "twists", _frozen("twists", self.twists, (count, 6)))
+        object.__setattr__(self, "clearances", _frozen("clearances", self.clearances, (count,)))
+        object.__setattr__(self, "joint_names", tuple(str(name) for name in self.joint_names))
+        width = len(self.joint_names)
+        for name in ("joint_positions", "joint_velocities"):
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, _frozen(name, value, (count, width)))
+        if self.success and self.failure_reason:
+            raise InvalidInput("failure_reason", self.failure_reason, "must be empty when success is True")
+        object.__setattr__(self, "success", bool(self.success))
+        object.__setattr__(self, "iterations", int(self.iterations))
+
+    def __len__(self) -> int:
+        return int(self.times.shape[0])
+
+    @property
+    def poses(self) -> list[Pose]:
+        """The waypoints as :class:`~pfield.spatial.Pose` objects (world frame)."""
+        return [Pose(p, q) for p, q in zip(self.positions, self.orientations, strict=True)]
+
+    @property
+    def twist_list(self) -> list[Twist]:
+        """The twists as :class:`~pfield.spatial.Twist` objects (world frame)."""
+        return [Twist(t[:3], t[3:]) for t in self.twists]
+
+    @property
+    def final_pose(self) -> Pose:
+        return Pose(self.positions[-1], self.orientations[-1])
+
+    @property
+    def duration(self) -> float:
+        """Time of the last waypoint (s)."""
+        return float(self.times[-1])
+
+    @property
+    def min_clearance(self) -> float:
+        """Smallest clearance along the path (m); ``inf`` without obstacles."""
+        return float(np.min(self.clearances))
+
+    def csv_header(self) -> list[str]:
+        """Column names of :meth:`to_csv`."""
+        header = ["time", "x", "y", "z", "qx", "qy", "qz", "qw", "vx", "vy", "vz", "wx", "wy", "wz", "clearance"]
+        if self.joint_positions is not None:
+            header += [f"position_{name}" for name in self.joint_names]
+        if self.joint_velocities is not None:
+            header += [f"velocity_{name}" for name in self.joint_names]
+        return header
+
+    def to_csv(self, path: str | Path) -> Path:
+        """Write one row per waypoint (columns: :meth:`csv_header`, SI units, world frame); return the path.
+
+        Values are written with ``repr`` precision, so reading the file back gives the same floats;
+        ``inf`` clearances are written as ``inf``.
+        """
+        target = Path(path)
+        columns = [self.times[:, None], self.positions, self.orientations, self.twists, self.clearances[:, None]]
+        if self.joint_positions is not None:
+            columns.append(self.joint_positions)
+        if self.joint_velocities is not None:
+            columns.append(self.joint_velocities)
+        table = np.hstack(columns)
+        with target.open("w", newline="") as handle:
+            writer = csv.writer(handle)
+            writer.writerow(self.csv_header())
+            for row in table:
+                writer.writerow([repr(float(v)) if math.isfinite(v) else str(float(v)) for v in row])
+        return target

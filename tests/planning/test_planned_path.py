@@ -1,0 +1,76 @@
+"""PlannedPath: shape validation, derived views and the CSV round trip."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pfield.errors import InvalidInput
+from pfield.planning import PlannedPath
+
+
+def _path(count: int = 3, **overrides: object) -> PlannedPath:
+    values: dict[str, object] = {
+        "success": True,
+        "failure_reason": "",
+        "times": np.arange(count) * 0.01,
+        "positions": np.linspace((0, 0, 0), (1, 2, 3), count),
+        "orientations": np.tile((0.0, 0.0, 0.0, 1.0), (count, 1)),
+        "twists": np.ones((count, 6)) * 0.1,
+        "clearances": np.full(count, math.inf),
+        "iterations": count - 1,
+    }
+    values.update(overrides)
+    return PlannedPath(**values)  # type: ignore[arg-type]
+
+
+def test_views_and_immutability() -> None:
+    path = _path()
+    assert len(path) == 3
+    assert path.poses[2].position.tolist() == [1.0, 2.0, 3.0]
+    assert path.final_pose.isclose(path.poses[-1])
+    assert path.duration == pytest.approx(0.02)
+    assert path.twist_list[0].angular.tolist() == [0.1, 0.1, 0.1]
+    with pytest.raises(ValueError):
+        path.positions[0, 0] = 5.0
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [("positions", np.zeros((3, 2))), ("orientations", np.zeros((2, 4))), ("twists", np.zeros(6)),
+     ("clearances", np.zeros(4)), ("times", np.zeros(0))],
+)
+def test_inconsistent_shapes_are_rejected(field: str, value: object) -> None:
+    with pytest.raises(InvalidInput) as info:
+        _path(**{field: value})
+    assert info.value.field == field
+
+
+def test_success_with_a_reason_is_rejected() -> None:
+    with pytest.raises(InvalidInput, match="failure_reason"):
+        _path(failure_reason="stagnation")
+
+
+def test_csv_round_trip_with_joints(tmp_path: Path) -> None:
+    joints = np.arange(6.0).reshape(3, 2) / 7.0
+    path = _path(joint_names=("a", "b"), joint_positions=joints, joint_velocities=-joints,
+                 clearances=np.array([0.1, math.inf, 0.3]))
+    target = path.to_csv(tmp_path / "plan.csv")
+    with target.open() as handle:
+        rows = list(csv.reader(handle))
+    assert rows[0] == path.csv_header()
+    assert rows[0][-4:] == ["position_a", "position_b", "velocity_a", "velocity_b"]
+    table = np.array([[float(v) for v in row] for row in rows[1:]])
+    assert table.shape == (3, 19)
+    np.testing.assert_array_equal(table[:, 1:4], path.positions)
+    np.testing.assert_array_equal(table[:, 15:17], joints)
+    assert math.isinf(table[1, 14])
+
+
+def test_joint_arrays_must_match_the_names() -> None:
+    with pytest.raises(InvalidInput, match="joint_positions"):
+        _path(joint_names=("a",), joint_positions=np.zeros((3, 2)))
