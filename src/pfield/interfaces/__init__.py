@@ -1,9 +1,32 @@
 """Pydantic models mirroring the ROS 2 messages and services pfield speaks (the wire format).
 
 Import a package module (``pfield.interfaces.geometry_msgs``) to register its types, or use
-:func:`lookup_type` after importing :mod:`pfield.interfaces.all`.
+:func:`lookup_type` / :func:`lookup_service` after importing :mod:`pfield.interfaces.all`.
+:func:`message_from_yaml` parses the YAML flow text of ``ros2 topic pub``; ``pfield.interfaces.convert``
+maps messages to and from pfield's core types.
 """
 
-from pfield.interfaces._base import RosMessage, lookup_type, registered_types
+from pfield.interfaces._base import (
+    RosMessage,
+    ServiceType,
+    lookup_service,
+    lookup_type,
+    registered_services,
+    registered_types,
+)
+from pfield.interfaces._idl import interface_text
+from pfield.interfaces._yaml import message_from_data, message_from_yaml, message_to_data, message_to_yaml
 
-__all__ = ["RosMessage", "lookup_type", "registered_types"]
+__all__ = [
+    "RosMessage",
+    "ServiceType",
+    "interface_text",
+    "lookup_service",
+    "lookup_type",
+    "message_from_data",
+    "message_from_yaml",
+    "message_to_data",
+    "message_to_yaml",
+    "registered_services",
+    "registered_types",
+]

@@ -26,12 +26,15 @@ __all__ = [
     "Int64",
     "RosMessage",
     "RosType",
+    "ServiceType",
     "String",
     "UInt8",
     "UInt16",
     "UInt32",
     "UInt64",
+    "lookup_service",
     "lookup_type",
+    "registered_services",
     "registered_types",
 ]
 
@@ -90,3 +93,35 @@ def lookup_type(name: str) -> type[RosMessage]:
         return _REGISTRY[f"{parts[0]}/msg/{parts[1]}"]
     known = ", ".join(sorted(_REGISTRY))
     raise InvalidInput("type", name, f"unknown message type; known types: {known}")
+
+
+@dataclass(frozen=True)
+class ServiceType:
+    """A ROS service type: ``name`` (``pkg/srv/Name``) with its request and response models."""
+
+    name: str
+    request: type[RosMessage]
+    response: type[RosMessage]
+
+
+def registered_services() -> dict[str, ServiceType]:
+    """Every service whose ``_Request`` and ``_Response`` models are registered, by ``pkg/srv/Name``."""
+    services = {}
+    for name, model in _REGISTRY.items():
+        if name.endswith("_Request") and "/srv/" in name:
+            base = name.removesuffix("_Request")
+            response = _REGISTRY.get(base + "_Response")
+            if response is not None:
+                services[base] = ServiceType(base, model, response)
+    return services
+
+
+def lookup_service(name: str) -> ServiceType:
+    """Service type for ``pkg/srv/Name`` (or ``pkg/Name``)."""
+    services = registered_services()
+    parts = name.split("/")
+    key = f"{parts[0]}/srv/{parts[1]}" if len(parts) == 2 else name
+    if key in services:
+        return services[key]
+    known = ", ".join(sorted(services))
+    raise InvalidInput("type", name, f"unknown service type; known types: {known}")

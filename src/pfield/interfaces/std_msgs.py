@@ -6,7 +6,7 @@ from typing import Self
 
 from pydantic import Field
 
-from pfield.interfaces._base import Int32, RosMessage, String, UInt32
+from pfield.interfaces._base import Float32, Int32, RosMessage, String, UInt32
 
 
 class _SecondsNanoseconds(RosMessage):
@@ -36,3 +36,17 @@ class Header(RosMessage):
     ros_type = "std_msgs/msg/Header"
     stamp: Time = Field(default_factory=Time)
     frame_id: String = ""
+
+
+class ColorRGBA(RosMessage):
+    """Colour with components in [0, 1] (not enforced, as in ROS)."""
+
+    ros_type = "std_msgs/msg/ColorRGBA"
+    r: Float32 = 0.0
+    g: Float32 = 0.0
+    b: Float32 = 0.0
+    a: Float32 = 0.0
+
+
+class Empty(RosMessage):
+    ros_type = "std_msgs/msg/Empty"

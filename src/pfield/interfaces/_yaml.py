@@ -1,0 +1,70 @@
+"""Messages from the YAML flow text of ``ros2 topic pub`` / ``ros2 service call`` and back.
+
+ROS's rules (rosidl_runtime_py ``set_message_fields``): the argument is YAML (``yaml.safe_load``, so JSON
+works too) describing a mapping; missing fields keep their defaults, unknown fields are errors, integers
+are accepted for floating-point fields. An empty argument means the default message. Errors become
+:class:`~pfield.errors.InvalidInput` naming the dotted field path (``obstacles[0].radius``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, TypeVar
+
+import yaml
+from pydantic import ValidationError
+
+from pfield.errors import InvalidInput
+from pfield.interfaces._base import RosMessage
+
+__all__ = ["message_from_data", "message_from_yaml", "message_to_data", "message_to_yaml", "validation_error"]
+
+M = TypeVar("M", bound=RosMessage)
+
+
+def _path(location: tuple[int | str, ...]) -> str:
+    text = ""
+    for part in location:
+        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
+    return text or "message"
+
+
+def validation_error(error: ValidationError, type_name: str) -> InvalidInput:
+    """The first problem of a pydantic error as ``InvalidInput`` naming the field path."""
+    first = error.errors()[0]
+    field = _path(tuple(first["loc"]))
+    reason = first["msg"]
+    if first["type"] == "extra_forbidden":
+        reason = f"unknown field of {type_name}"
+    return InvalidInput(field, first.get("input"), reason)
+
+
+def message_from_data(model: type[M], data: Any) -> M:
+    """Validate a decoded mapping (``None`` means all defaults) as ``model``."""
+    if data is None:
+        data = {}
+    if not isinstance(data, Mapping):
+        raise InvalidInput("message", data, f"expected a mapping of the fields of {model.ros_type}")
+    try:
+        return model.model_validate(data)
+    except ValidationError as exc:
+        raise validation_error(exc, model.ros_type) from None
+
+
+def message_from_yaml(model: type[M], text: str) -> M:
+    """Parse the YAML (or JSON) flow text of a message, e.g. ``"{radius: 0.1}"``."""
+    try:
+        data = yaml.safe_load(text) if text.strip() else None
+    except yaml.YAMLError as exc:
+        raise InvalidInput("yaml", text[:200], f"malformed YAML: {exc}") from None
+    return message_from_data(model, data)
+
+
+def message_to_data(message: RosMessage) -> dict[str, Any]:
+    """JSON-compatible mapping of a message (every field, defaults included, like ``ros2 topic echo``)."""
+    return message.model_dump(mode="json")
+
+
+def message_to_yaml(message: RosMessage) -> str:
+    """Block YAML of a message in field order, as ``ros2 topic echo`` prints it."""
+    return yaml.safe_dump(message_to_data(message), sort_keys=False, default_flow_style=False)
