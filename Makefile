@@ -4,15 +4,33 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test bench lint venv clean
+.PHONY: demo test bench lint venv clean ros2-interfaces
 
 $(STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[dev]'
+	$(PY) -m pip install --quiet -e '.[dev,ros2]'
 	@touch $(STAMP)
 
 venv: $(STAMP)
+
+# ROS 2 interfaces (potential_fields_interfaces) built with plain CMake against the ros-jazzy-* wheels
+# and installed into the venv; rebuilt only when an interface or build file changes (stamp file).
+ROS2_PKG    := ros/potential_fields_interfaces
+ROS2_BUILD  := build/ros2-interfaces
+ROS2_STAMP  := $(VENV)/.ros2-interfaces
+ROS2_PREFIX := $(abspath $(VENV))
+
+$(ROS2_STAMP): $(ROS2_PKG)/CMakeLists.txt $(ROS2_PKG)/package.xml $(ROS2_PKG)/msg $(ROS2_PKG)/srv \
+		$(wildcard $(ROS2_PKG)/msg/*.msg $(ROS2_PKG)/srv/*.srv) | $(STAMP)
+	AMENT_PREFIX_PATH=$(ROS2_PREFIX) CMAKE_PREFIX_PATH=$(ROS2_PREFIX) cmake -S $(ROS2_PKG) -B $(ROS2_BUILD) \
+		-DCMAKE_INSTALL_PREFIX=$(ROS2_PREFIX) -DBUILD_TESTING=OFF -DPython3_EXECUTABLE=$(abspath $(PY)) \
+		-DCMAKE_INSTALL_MESSAGE=NEVER > /dev/null
+	cmake --build $(ROS2_BUILD) -j2 > /dev/null
+	cmake --install $(ROS2_BUILD) > /dev/null
+	@touch $@
+
+ros2-interfaces: $(ROS2_STAMP)
 
 demo: $(STAMP)
 	$(VENV)/bin/pfield demo
@@ -21,11 +39,11 @@ lint: $(STAMP)
 	$(VENV)/bin/ruff check src tests benchmarks examples
 	$(VENV)/bin/mypy
 
-test: lint
+test: lint ros2-interfaces
 	$(VENV)/bin/pytest -q
 
-bench: $(STAMP)
+bench: $(STAMP) ros2-interfaces
 	$(PY) -m benchmarks.run
 
 clean:
-	rm -rf $(VENV) demo_output .pytest_cache .mypy_cache .ruff_cache
+	rm -rf $(VENV) $(ROS2_BUILD) demo_output .pytest_cache .mypy_cache .ruff_cache

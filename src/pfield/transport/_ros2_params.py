@@ -1,0 +1,110 @@
+"""A pfield node's parameters as ROS 2 parameters of its rclpy node, validated by the pfield node.
+
+Every entry of :meth:`pfield.node._base.Node.get_parameters` is declared on the rclpy node with its
+current value, so ``ros2 param list|get|set|dump`` and ``--ros-args -p``/``--params-file`` work as for
+any ROS node. Setting goes through two rclpy callbacks:
+
+* a *pre-set* callback widens integers to doubles for parameters declared as doubles (``ros2 param
+  set /pfield_manager max_linear_velocity 1`` means 1.0, as a user expects, instead of a type error);
+* an *on-set* callback hands the new values to ``node.set_parameters``, which validates them all and
+  applies them together. A rejected value is refused with the node's reason (``InvalidInput`` names the
+  parameter and the value); the rclpy value then stays as it was, and so does the pfield node's.
+"""
+
+from __future__ import annotations
+
+import array
+import logging
+from collections.abc import Mapping
+from typing import Any
+
+from pydantic import ValidationError
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.node import Node as RclpyNode
+from rclpy.parameter import Parameter
+
+from pfield.errors import PfieldError
+from pfield.node._base import Node
+
+__all__ = ["declare_parameters"]
+
+_LOG = logging.getLogger(__name__)
+
+
+def _plain(value: Any) -> Any:
+    """A ROS parameter value as a JSON-compatible Python value (arrays become lists)."""
+    if isinstance(value, array.array | tuple):
+        return list(value)
+    return value
+
+
+def _ros_value(value: Any) -> Any:
+    """A pfield parameter value as a value rclpy can type, or raise TypeError."""
+    if isinstance(value, tuple):
+        value = list(value)
+    Parameter.Type.from_parameter_value(value)
+    return value
+
+
+def _descriptor(name: str, value: Any) -> ParameterDescriptor:
+    # A None or empty-list default gives rclpy no type to enforce: let the pfield node judge.
+    untyped = value is None or value == []
+    return ParameterDescriptor(name=name, description="pfield parameter (validated by the node)",
+                               dynamic_typing=untyped)
+
+
+def declare_parameters(ros_node: RclpyNode, node: Node) -> list[str]:
+    """Declare ``node``'s parameters on ``ros_node`` and install the validation callbacks.
+
+    Values given on the rclpy command line (``--ros-args -p name:=value`` or ``--params-file``) override
+    the node's current ones and are applied through ``node.set_parameters``; a bad one raises
+    ``InvalidInput`` here, before the node serves anything. Returns the declared names.
+    """
+    current = node.get_parameters()
+    declared: list[str] = []
+    for name, value in current.items():
+        try:
+            ros_value = _ros_value(value)
+        except TypeError:
+            _LOG.warning("parameter %s=%r has no ROS parameter type; not exposed over ROS 2", name, value)
+            continue
+        ros_node.declare_parameter(name, ros_value, _descriptor(name, ros_value))
+        declared.append(name)
+    overrides = {
+        name: _plain(ros_node.get_parameter(name).value)
+        for name in declared
+        if _plain(ros_node.get_parameter(name).value) != _plain(current[name])
+    }
+    if overrides:
+        node.set_parameters(overrides)
+    names = frozenset(declared)
+    ros_node.add_pre_set_parameters_callback(lambda parameters: _widen(ros_node, parameters))
+    ros_node.add_on_set_parameters_callback(lambda parameters: _validate(node, names, parameters))
+    return declared
+
+
+def _widen(ros_node: RclpyNode, parameters: list[Parameter]) -> list[Parameter]:
+    """Integers for double parameters become doubles (pre-set callback; may rewrite the list)."""
+    widened = []
+    for parameter in parameters:
+        declared_type = ros_node.get_parameter_or(parameter.name).type_ if ros_node.has_parameter(
+            parameter.name) else None
+        if declared_type == Parameter.Type.DOUBLE and parameter.type_ == Parameter.Type.INTEGER:
+            parameter = Parameter(parameter.name, Parameter.Type.DOUBLE, float(parameter.value))
+        elif declared_type == Parameter.Type.DOUBLE_ARRAY and parameter.type_ == Parameter.Type.INTEGER_ARRAY:
+            parameter = Parameter(parameter.name, Parameter.Type.DOUBLE_ARRAY, [float(v) for v in parameter.value])
+        widened.append(parameter)
+    return widened
+
+
+def _validate(node: Node, names: frozenset[str], parameters: list[Parameter]) -> SetParametersResult:
+    """On-set callback: the pfield node validates and applies the values, or refuses with a reason."""
+    values: Mapping[str, Any] = {p.name: _plain(p.value) for p in parameters if p.name in names}
+    if not values:
+        return SetParametersResult(successful=True)
+    try:
+        node.set_parameters(values)
+    except (PfieldError, ValidationError, ValueError, TypeError) as error:
+        _LOG.warning("%s: refused parameters %s: %s", node.name, sorted(values), error)
+        return SetParametersResult(successful=False, reason=str(error))
+    return SetParametersResult(successful=True)

@@ -1,0 +1,249 @@
+"""pfield's nodes as a real ROS 2 node process (rclpy), beside the HTTP transport.
+
+:class:`Ros2Host` hosts the same transport-free node objects the HTTP server hosts (the manager, the
+base controller and the costmap server when configured), one rclpy node per pfield node, named as the
+pfield node (``/pfield_manager`` …). It is thin: it decodes an rclpy message into the node's pydantic
+model (:mod:`pfield.transport._ros2_convert`), calls the node's handler and encodes the answer. It
+exposes, from each node's :class:`~pfield.node._base.ServiceSpec`/``SubscriptionSpec``/``PublicationSpec``
+lists:
+
+* **services** — a handler's ``PfieldError`` (bad input) becomes ``success: false`` with the reason in
+  ``error_message``/``message`` when the response has such fields; otherwise (``ComputeAutonomyVector``)
+  the default response (a zero twist: no autonomy) is returned and the reason logged. Long-running
+  services (``plan_path``) run in their own callback group on a multi-threaded executor, so that
+  ``compute_autonomy_vector`` keeps answering during a plan;
+* **subscriptions** — a bad message is logged and dropped; the node's state is unchanged (the node
+  validates before changing anything) and it keeps serving. Sensor topics (``sensor_msgs/*``, e.g.
+  ``/scan``) use the sensor-data QoS (best effort), others reliable, depth 10;
+* **publications** — what a node publishes on its :class:`~pfield.node._base.Bus` is converted and
+  published by one publisher thread (the latest message per topic, so a slow subscriber never slows a
+  handler). Publishers are reliable and transient-local ("latched"): RViz or a late subscriber gets
+  the last ``/pfield/planned_path`` and ``/pfield/markers``;
+* **parameters** — every node parameter as a ROS parameter (:mod:`pfield.transport._ros2_params`);
+* **ticks** — a timer per node with a ``tick_period``.
+
+Shutdown order matters with rclpy 7.1: stop the executor, join its thread, wait for callbacks still
+running, then destroy the nodes and shut the context down; otherwise the process can abort and leave
+Fast DDS shared-memory segments in ``/dev/shm`` (docs/ros2.md).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from typing import Any
+
+import rclpy
+from pydantic import ValidationError
+from rclpy.callback_groups import CallbackGroup, MutuallyExclusiveCallbackGroup
+from rclpy.context import Context
+from rclpy.executors import MultiThreadedExecutor
+from rclpy.node import Node as RclpyNode
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+
+from pfield.errors import PfieldError
+from pfield.interfaces._base import RosMessage
+from pfield.node._base import Node, PublicationSpec, ServiceSpec, SubscriptionSpec
+from pfield.transport._ros2_convert import from_ros, interface_class, to_ros
+from pfield.transport._ros2_params import declare_parameters
+from pfield.transport._ros2_publisher import BusPublisher
+
+__all__ = ["LATCHED_QOS", "Ros2Host", "run"]
+
+_LOG = logging.getLogger(__name__)
+
+LATCHED_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+"""QoS of pfield's publications: reliable, transient local (late subscribers get the last message)."""
+_INPUT_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+_BAD_INPUT = (PfieldError, ValidationError, ValueError, TypeError)
+
+
+def _failure_response(response: type[RosMessage], reason: str) -> RosMessage:
+    """The response a service returns for bad input: ``success: false`` plus the reason when the type has
+    those fields (PlanPath, RemoveObstacles, std_srvs/Trigger), else its default."""
+    fields = response.model_fields
+    values: dict[str, Any] = {}
+    if "success" in fields:
+        values["success"] = False
+    for name in ("error_message", "message"):
+        if name in fields:
+            values[name] = reason
+            break
+    return response(**values)
+
+
+class _InFlight:
+    """Counts callbacks running in executor threads so shutdown can wait for them."""
+
+    def __init__(self) -> None:
+        self._count = 0
+        self._idle = threading.Condition()
+
+    @contextmanager
+    def track(self) -> Iterator[None]:
+        with self._idle:
+            self._count += 1
+        try:
+            yield
+        finally:
+            with self._idle:
+                self._count -= 1
+                self._idle.notify_all()
+
+    def wait_idle(self, timeout: float) -> bool:
+        with self._idle:
+            return self._idle.wait_for(lambda: self._count == 0, timeout)
+
+
+class _NodeAdapter:
+    """One pfield node on one rclpy node: its services, subscriptions, publishers, parameters, timer."""
+
+    def __init__(self, node: Node, context: Context, in_flight: _InFlight, publisher: BusPublisher) -> None:
+        self.node = node
+        self._in_flight = in_flight
+        self.ros_node = RclpyNode(node.name.lstrip("/") or "pfield", context=context)
+        self._short = MutuallyExclusiveCallbackGroup()
+        self.long_running_groups = 0
+        for service in node.services():
+            self._add_service(service)
+        for subscription in node.subscriptions():
+            self._add_subscription(subscription)
+        for publication in node.publications():
+            self._add_publication(publication, publisher)
+        declare_parameters(self.ros_node, node)
+        if node.tick_period:
+            self.ros_node.create_timer(node.tick_period, self._tick, callback_group=self._short)
+
+    def _add_service(self, spec: ServiceSpec) -> None:
+        group: CallbackGroup = self._short
+        if spec.long_running:
+            group = MutuallyExclusiveCallbackGroup()
+            self.long_running_groups += 1
+        service_class = interface_class(spec.type_name)
+        callback = self._service_callback(spec, service_class.Response)  # type: ignore[attr-defined]
+        self.ros_node.create_service(service_class, spec.name, callback, callback_group=group)
+
+    def _service_callback(self, spec: ServiceSpec, response_class: type) -> Callable[[Any, Any], Any]:
+        def serve(request: Any, _response: Any) -> Any:
+            with self._in_flight.track():
+                try:
+                    answer = spec.handler(from_ros(request, spec.request))
+                except _BAD_INPUT as error:
+                    _LOG.warning("%s: refused request: %s", spec.name, error)
+                    answer = _failure_response(spec.response, str(error))
+                except Exception as error:  # a bug must not take the node down
+                    _LOG.exception("%s: handler failed", spec.name)
+                    answer = _failure_response(spec.response, f"internal error: {error}")
+                return to_ros(answer, response_class)
+
+        return serve
+
+    def _add_subscription(self, spec: SubscriptionSpec) -> None:
+        qos = qos_profile_sensor_data if spec.type_name.startswith("sensor_msgs/") else _INPUT_QOS
+
+        def receive(message: Any) -> None:
+            with self._in_flight.track():
+                try:
+                    spec.handler(from_ros(message, spec.model))
+                except _BAD_INPUT as error:
+                    _LOG.warning("%s: dropped message: %s", spec.topic, error)
+                except Exception:  # a bug must not take the node down
+                    _LOG.exception("%s: handler failed", spec.topic)
+
+        self.ros_node.create_subscription(interface_class(spec.type_name), spec.topic, receive, qos,
+                                          callback_group=self._short)
+
+    def _add_publication(self, spec: PublicationSpec, publisher: BusPublisher) -> None:
+        message_class = interface_class(spec.type_name)
+        ros_publisher = self.ros_node.create_publisher(message_class, spec.topic, LATCHED_QOS)
+        publisher.register(spec.topic, message_class, ros_publisher.publish)
+
+    def _tick(self) -> None:
+        with self._in_flight.track():
+            try:
+                self.node.tick(time.monotonic())
+            except Exception:  # periodic work must not stop the node
+                _LOG.exception("%s: tick failed", self.node.name)
+
+
+class Ros2Host:
+    """Runs pfield nodes as rclpy nodes on a multi-threaded executor in a background thread.
+
+    ``args`` are ROS command-line arguments (``["--ros-args", "-p", "influence_distance:=0.2"]``).
+    Use as a context manager, or call :meth:`start` and :meth:`shutdown`. The caller owns the nodes
+    (and calls their ``close``); the host only attaches to them.
+    """
+
+    def __init__(self, nodes: Sequence[Node], args: Sequence[str] = ()) -> None:
+        if not nodes:
+            raise ValueError("Ros2Host needs at least one node")
+        self.nodes = list(nodes)
+        self._context = Context()
+        rclpy.init(args=["pfield", *args], context=self._context)
+        self._in_flight = _InFlight()
+        self._publisher = BusPublisher()
+        self._adapters: list[_NodeAdapter] = []
+        try:
+            for node in self.nodes:
+                self._adapters.append(_NodeAdapter(node, self._context, self._in_flight, self._publisher))
+        except BaseException:
+            self._destroy()
+            raise
+        long_running = sum(adapter.long_running_groups for adapter in self._adapters)
+        # one thread per long-running group, plus short callbacks and the parameter services
+        self._executor = MultiThreadedExecutor(num_threads=max(4, long_running + 3), context=self._context)
+        for adapter in self._adapters:
+            self._executor.add_node(adapter.ros_node)
+        self._spin_thread: threading.Thread | None = None
+
+    def start(self) -> None:
+        """Start publishing and spinning (returns at once)."""
+        for node in self.nodes:
+            node.bus.add_listener(self._publisher.enqueue)
+        self._publisher.start()
+        self._spin_thread = threading.Thread(target=self._executor.spin, name="pfield-ros2-executor", daemon=True)
+        self._spin_thread.start()
+        _LOG.info("ROS 2 nodes up: %s", ", ".join(node.name for node in self.nodes))
+
+    def shutdown(self, timeout: float = 10.0) -> None:
+        """Stop in the order rclpy needs: executor, its thread, running callbacks, nodes, context."""
+        for node in self.nodes:
+            node.bus.remove_listener(self._publisher.enqueue)
+        self._executor.shutdown(timeout_sec=timeout)
+        if self._spin_thread is not None:
+            self._spin_thread.join(timeout)
+        if not self._in_flight.wait_idle(timeout):
+            _LOG.warning("callbacks still running after %.0f s at shutdown", timeout)
+        self._publisher.stop(timeout)
+        self._destroy()
+
+    def _destroy(self) -> None:
+        for adapter in self._adapters:
+            adapter.ros_node.destroy_node()
+        self._adapters.clear()
+        if self._context.ok():
+            rclpy.shutdown(context=self._context)
+
+    def __enter__(self) -> Ros2Host:
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.shutdown()
+
+
+def run(nodes: Sequence[Node], args: Sequence[str] = (), stop: threading.Event | None = None) -> None:
+    """Serve ``nodes`` over ROS 2 until ``stop`` is set (or SIGINT/SIGTERM when ``stop`` is None)."""
+    import signal
+
+    event = stop or threading.Event()
+    if stop is None:
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(signum, lambda *_: event.set())
+    with Ros2Host(nodes, args):
+        while not event.wait(0.5):
+            pass
+    _LOG.info("ROS 2 nodes stopped")

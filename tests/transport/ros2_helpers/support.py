@@ -1,0 +1,79 @@
+"""Availability of the ROS 2 pieces the tests need; missing pieces fail in CI and skip elsewhere.
+
+``make test`` installs the ``ros2`` extra and builds ``potential_fields_interfaces`` (``make
+ros2-interfaces``); a private network namespace (``unshare -n``) keeps DDS traffic off the machine's
+networks. When a piece is missing the test says which one and how to get it: in CI (``CI`` set) that is
+a failure, so the ROS 2 tests can never pass by not running; elsewhere the test is skipped.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+HELPERS = Path(__file__).resolve().parent
+REPO = HELPERS.parents[2]
+DOMAIN_ID = "57"
+"""Fixed ROS_DOMAIN_ID of the tests (inside their own network namespace, so no clash is possible)."""
+
+
+def missing(reason: str) -> None:
+    """Fail in CI, skip elsewhere, with ``reason``."""
+    if os.environ.get("CI"):
+        pytest.fail(f"{reason} (CI is set, so this is a failure, not a skip)")
+    pytest.skip(reason)
+
+
+def require_ros2_python() -> None:
+    """rclpy and the built interface package are importable in this interpreter."""
+    if importlib.util.find_spec("rclpy") is None:
+        missing("rclpy is not installed: pip install -e '.[ros2]'")
+    if importlib.util.find_spec("potential_fields_interfaces") is None:
+        missing("potential_fields_interfaces is not built: run `make ros2-interfaces`")
+
+
+def require_netns() -> None:
+    """A private network namespace can be created (``unshare -n``, root or user namespaces)."""
+    if shutil.which("unshare") is None or shutil.which("ip") is None:
+        missing("`unshare`/`ip` not found: the ROS 2 tests need a private network namespace")
+    probe = subprocess.run(["unshare", "-n", "ip", "link", "set", "lo", "up"], capture_output=True, text=True,
+                           check=False, timeout=30)
+    if probe.returncode != 0:
+        missing(f"`unshare -n` is not available here ({probe.stderr.strip() or probe.returncode}): "
+                "the ROS 2 tests need a private network namespace (root or user namespaces)")
+
+
+def ros_environment() -> dict[str, str]:
+    """Environment of every rclpy process of the tests: localhost discovery, fixed domain, no shared memory."""
+    env = dict(os.environ)
+    env.update({
+        "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
+        "ROS_DOMAIN_ID": DOMAIN_ID,
+        "FASTDDS_BUILTIN_TRANSPORTS": "UDPv4",
+        "RMW_IMPLEMENTATION": "rmw_fastrtps_cpp",
+        "PYTHONUNBUFFERED": "1",
+    })
+    return env
+
+
+def dds_shm_entries() -> set[str]:
+    """Fast DDS shared-memory segments and locks in /dev/shm (there must be none after a session)."""
+    shm = Path("/dev/shm")
+    if not shm.is_dir():
+        return set()
+    return {p.name for p in shm.iterdir() if p.name.startswith(("fastrtps_", "fast_datasharing", "sem.fastrtps_"))}
+
+
+def run_session(node_argv: list[str], client_argv: list[str], out_dir: Path, timeout: float = 120.0
+                ) -> subprocess.CompletedProcess[str]:
+    """Run ``netns_session.py`` in a new network namespace: the node process, then the client, then SIGINT."""
+    command = ["unshare", "-n", sys.executable, str(HELPERS / "netns_session.py"), str(out_dir),
+               "--node", *node_argv, "--client", *client_argv]
+    return subprocess.run(command, env=ros_environment(), capture_output=True, text=True, timeout=timeout,
+                          check=False, cwd=REPO)
