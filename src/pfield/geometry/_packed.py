@@ -11,7 +11,12 @@ This is the contract between :mod:`pfield.geometry` (which builds it) and every 
   length); Mesh ``(sx, sy, sz)`` scale (already applied to the stored triangles);
 * mesh arrays (all meshes concatenated; empty arrays when there are none): triangle vertices in the
   obstacle's local, *scaled* frame, angle-weighted pseudo-normals for the sign, a BVH over triangles,
-  and per-mesh offsets into them.
+  and per-mesh offsets into them. BVH node and triangle indices are global (already offset), and each
+  mesh's triangles are stored in its BVH leaf order. ``mesh_table[m, 4]`` is 1 when mesh ``m`` is
+  watertight (signed distance) and 0 otherwise (unsigned distance).
+
+Build it with :func:`pfield.geometry.pack_obstacles`; query it with the kernels of
+:mod:`pfield.geometry._sdf`. Treat the arrays as read-only.
 """
 
 from __future__ import annotations
@@ -35,4 +40,4 @@ class PackedObstacles(NamedTuple):
     bvh_lower: NDArray[np.float64]  # (K, 3) node AABB lower corners
     bvh_upper: NDArray[np.float64]  # (K, 3) node AABB upper corners
     bvh_nodes: NDArray[np.int64]  # (K, 3): [left child or first triangle, right child or count, is_leaf]
-    mesh_table: NDArray[np.int64]  # (n_meshes, 4): [root node, node count, first triangle, triangle count]
+    mesh_table: NDArray[np.int64]  # (n_meshes, 5): [root node, node count, first triangle, triangle count, watertight]
