@@ -91,8 +91,7 @@ def lookup_type(name: str) -> type[RosMessage]:
     parts = name.split("/")
     if len(parts) == 2 and f"{parts[0]}/msg/{parts[1]}" in _REGISTRY:
         return _REGISTRY[f"{parts[0]}/msg/{parts[1]}"]
-    known = ", ".join(sorted(_REGISTRY))
-    raise InvalidInput("type", name, f"unknown message type; known types: {known}")
+    raise InvalidInput("type", name, "unknown message type (`pfield interface list` lists the known ones)")
 
 
 @dataclass(frozen=True)
@@ -123,5 +122,4 @@ def lookup_service(name: str) -> ServiceType:
     key = f"{parts[0]}/srv/{parts[1]}" if len(parts) == 2 else name
     if key in services:
         return services[key]
-    known = ", ".join(sorted(services))
-    raise InvalidInput("type", name, f"unknown service type; known types: {known}")
+    raise InvalidInput("type", name, "unknown service type (`pfield interface list` lists the known ones)")
