@@ -1,0 +1,218 @@
+"""FindValidPose: the closest pose to a requested one where a footprint fits (Move Base Flex's service).
+
+Candidates (Move Base Flex ``mbf_msgs/FindValidPose``, with the contract kept exactly):
+
+* positions ``p₀ + (i, j)·res`` on the costmap's lattice through the requested position, with
+  ``res·√(i² + j²) ≤ dist_tolerance``; yaws ``ψ₀ + δ`` with ``δ = 0, +Δ, −Δ, +2Δ, −2Δ, …``,
+  ``|δ| ≤ min(angle_tolerance, π)`` (``Δ = angle_increment``; +π and −π are the same yaw, kept once);
+* **order**: distance ``√(i² + j²)``, then ``|δ|``, then the tie-break: +δ before −δ, then the polar
+  angle ``atan2(j, i)`` of the offset in [0, 2π) (counter-clockwise from the map's +x axis). The
+  requested pose is first.
+
+Each candidate's footprint (``footprint`` padded by ``safety_dist``) is rasterised exactly and given the
+state OUTSIDE (a covered cell is outside the map) > LETHAL > UNKNOWN > INSCRIBED > FREE, and the cost =
+the **sum** of the covered in-map cells' costs. Answer: the first FREE or INSCRIBED candidate in order,
+FREE preferred at equal distance; failing that the first UNKNOWN; failing that the first OUTSIDE;
+otherwise LETHAL with no pose.
+
+Speed: one rasterised kernel per yaw, shared by every position (the sub-cell offset is the same for all
+lattice positions); rings of equal distance evaluated in order, stopping at the first ring holding a FREE
+or INSCRIBED candidate; a lethal-distance prefilter; all compiled (:mod:`pfield.costmap._kernels`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import IntEnum
+from functools import lru_cache
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pfield.costmap import _kernels as _k
+from pfield.costmap.costmap import Costmap2D
+from pfield.costmap.footprint import Footprint
+from pfield.errors import InvalidInput
+from pfield.spatial import Pose, quaternion_multiply
+
+__all__ = [
+    "DEFAULT_ANGLE_INCREMENT",
+    "MAX_CANDIDATE_POSITIONS",
+    "PoseState",
+    "SearchTrace",
+    "ValidPoseResult",
+    "candidate_offsets",
+    "find_valid_pose",
+    "pose_state",
+    "yaw_offsets",
+]
+
+DEFAULT_ANGLE_INCREMENT = math.radians(5.0)
+MAX_CANDIDATE_POSITIONS = 4_000_000
+_SLACK = 1e-9
+_FAR_CELLS = 2.0**40
+
+
+class PoseState(IntEnum):
+    """The response's state constants (``FindValidPose.srv``)."""
+
+    FREE = 0
+    INSCRIBED = 1
+    LETHAL = 2
+    UNKNOWN = 3
+    OUTSIDE = 4
+
+
+@dataclass(frozen=True, eq=False)
+class SearchTrace:
+    """The candidates of one search: ``positions`` (P, 2) map-frame xy in answer order, ``yaw_offsets``
+    (A,) in order, and ``states[p, a]`` (uint8: a :class:`PoseState`; 5 = rejected, i.e. neither FREE
+    nor INSCRIBED and not needed as a fallback; 255 = not evaluated)."""
+
+    positions: NDArray[np.float64]
+    yaw_offsets: NDArray[np.float64]
+    states: NDArray[np.uint8]
+
+    @property
+    def evaluated(self) -> int:
+        """Number of candidates whose state was computed."""
+        return int(np.count_nonzero(self.states != _k.NOT_EVALUATED))
+
+
+@dataclass(frozen=True, eq=False)
+class ValidPoseResult:
+    """FindValidPose's answer: ``state``, ``cost`` (sum over covered cells) and ``pose`` (None if LETHAL).
+
+    ``distance`` (m) and ``yaw_offset`` (rad) locate the answer relative to the requested pose.
+    """
+
+    state: PoseState
+    cost: int
+    pose: Pose | None
+    distance: float | None
+    yaw_offset: float | None
+    trace: SearchTrace
+
+
+@lru_cache(maxsize=16)
+def candidate_offsets(max_ring: int) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """Lattice offsets ``(i, j)`` with ``i² + j² ≤ max_ring`` in answer order, and ring starts.
+
+    Returns ``(pos_i, pos_j, ring_ptr)``: positions sorted by ``i² + j²`` then polar angle in [0, 2π);
+    ring ``r`` is ``ring_ptr[r]:ring_ptr[r+1]`` (equal ``i² + j²``).
+    """
+    reach = math.isqrt(max_ring)
+    grid = np.arange(-reach, reach + 1, dtype=np.int64)
+    pos_i, pos_j = (a.reshape(-1) for a in np.meshgrid(grid, grid, indexing="xy"))
+    r2 = pos_i * pos_i + pos_j * pos_j
+    keep = r2 <= max_ring
+    pos_i, pos_j, r2 = pos_i[keep], pos_j[keep], r2[keep]
+    polar = np.mod(np.arctan2(pos_j, pos_i), 2.0 * math.pi)
+    order = np.lexsort((polar, r2))
+    pos_i, pos_j, r2 = pos_i[order], pos_j[order], r2[order]
+    starts = np.flatnonzero(np.diff(r2)) + 1
+    ring_ptr = np.concatenate(([0], starts, [r2.size])).astype(np.int64)
+    for array in (pos_i, pos_j, ring_ptr):
+        array.setflags(write=False)
+    return np.ascontiguousarray(pos_i), np.ascontiguousarray(pos_j), ring_ptr
+
+
+def yaw_offsets(angle_tolerance: float, angle_increment: float) -> NDArray[np.float64]:
+    """Yaw offsets ``0, +Δ, −Δ, +2Δ, −2Δ, …`` within ``min(angle_tolerance, π)`` (rad), ±π kept once."""
+    limit = min(angle_tolerance, math.pi) * (1.0 + _SLACK)
+    offsets = [0.0]
+    k = 1
+    while k * angle_increment <= limit:
+        delta = k * angle_increment
+        offsets.append(min(delta, math.pi))
+        if delta < math.pi - 1e-12:
+            offsets.append(-delta)
+        k += 1
+    return np.array(offsets)
+
+
+def _check_nonnegative(name: str, value: float) -> float:
+    number = float(value)
+    if not math.isfinite(number) or number < 0.0:
+        raise InvalidInput(name, value, "must be a finite number >= 0")
+    return number
+
+
+def _kernels(costmap: Costmap2D, footprint: Footprint, pose: Pose, yaws: NDArray[np.float64]
+             ) -> tuple[int, int, tuple[NDArray[np.int64], ...]]:
+    """Base cell of the requested pose and the rasterised footprint per yaw (CSR arrays)."""
+    u0 = (float(pose.position[0]) - costmap.origin_x) / costmap.resolution
+    v0 = (float(pose.position[1]) - costmap.origin_y) / costmap.resolution
+    if max(abs(u0), abs(v0)) > _FAR_CELLS:
+        raise InvalidInput("pose.position", pose.position.tolist(), "too far from the map (over 2^40 cells)")
+    base_m, base_n = math.floor(u0), math.floor(v0)
+    points = footprint.points
+    kernels = _k.build_kernels(np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1]),
+                               u0 - base_m, v0 - base_n, yaws, 1.0 / costmap.resolution)
+    return base_m, base_n, kernels
+
+
+def _answer_pose(pose: Pose, costmap: Costmap2D, i: int, j: int, delta: float) -> Pose:
+    if i == 0 and j == 0 and delta == 0.0:
+        return pose
+    turn = np.array([0.0, 0.0, math.sin(0.5 * delta), math.cos(0.5 * delta)])
+    position = pose.position + np.array([i * costmap.resolution, j * costmap.resolution, 0.0])
+    return Pose(position, quaternion_multiply(turn, pose.orientation))
+
+
+def find_valid_pose(
+    costmap: Costmap2D, footprint: Footprint, pose: Pose, *, safety_dist: float = 0.0,
+    dist_tolerance: float = 0.0, angle_tolerance: float = 0.0, angle_increment: float = DEFAULT_ANGLE_INCREMENT,
+) -> ValidPoseResult:
+    """The closest valid pose to ``pose`` (in the costmap's frame) for ``footprint`` padded by ``safety_dist``.
+
+    Distances in m, angles in rad; see the module docstring for the candidate order and the answer rule.
+    Raises :class:`~pfield.errors.InvalidInput` for negative or non-finite tolerances or safety distance.
+    """
+    safety_dist = _check_nonnegative("safety_dist", safety_dist)
+    dist_tolerance = _check_nonnegative("dist_tolerance", dist_tolerance)
+    angle_tolerance = _check_nonnegative("angle_tolerance", angle_tolerance)
+    if not (math.isfinite(angle_increment) and angle_increment > 0.0):
+        raise InvalidInput("angle_increment", angle_increment, "must be a finite number > 0")
+    if not np.all(np.isfinite(pose.position)):
+        raise InvalidInput("pose.position", pose.position.tolist(), "must be finite")
+    robot = footprint.padded(safety_dist) if safety_dist > 0.0 else footprint
+    deltas = yaw_offsets(angle_tolerance, angle_increment)
+    yaw0 = pose.yaw
+    base_m, base_n, (k_ptr, k_dm, k_dn, k_box) = _kernels(costmap, robot, pose, yaw0 + deltas)
+    reach = int(np.abs(k_box).max()) + 2
+    corner = max(abs(base_m), abs(base_n), abs(base_m - costmap.size_x), abs(base_n - costmap.size_y))
+    max_ring = math.floor((dist_tolerance / costmap.resolution) ** 2 * (1.0 + _SLACK) + _SLACK)
+    max_ring = min(max_ring, 2 * (corner + reach) ** 2)  # beyond this every candidate is entirely OUTSIDE
+    if math.pi * max_ring > MAX_CANDIDATE_POSITIONS:
+        raise InvalidInput("dist_tolerance", dist_tolerance,
+                           f"too large for resolution {costmap.resolution} (over {MAX_CANDIDATE_POSITIONS} positions)")
+    pos_i, pos_j, ring_ptr = candidate_offsets(max_ring)
+    states = np.full((pos_i.size, deltas.size), _k.NOT_EVALUATED, dtype=np.uint8)
+    limit = robot.inscribed_radius / costmap.resolution if robot.contains_center else -1.0
+    offset = math.hypot((pose.position[0] - costmap.origin_x) / costmap.resolution - base_m - 0.5,
+                        (pose.position[1] - costmap.origin_y) / costmap.resolution - base_n - 0.5)
+    found = _k.search_rings(costmap.costs, base_m, base_n, ring_ptr, pos_i, pos_j, k_ptr, k_dm, k_dn, k_box,
+                            costmap.lethal_distance, limit - offset - 1e-9, states)
+    positions = np.column_stack((pose.position[0] + pos_i * costmap.resolution,
+                                 pose.position[1] + pos_j * costmap.resolution))
+    trace = SearchTrace(positions, deltas, states)
+    for p_slot, a_slot in ((0, 1), (3, 4), (5, 6)):
+        p, a = int(found[p_slot]), int(found[a_slot])
+        if p >= 0:
+            i, j = int(pos_i[p]), int(pos_j[p])
+            state, cost = _k.evaluate_cells(costmap.costs, base_m + i, base_n + j, k_dm[k_ptr[a]:k_ptr[a + 1]],
+                                            k_dn[k_ptr[a]:k_ptr[a + 1]], k_box[a], _k.EVAL_FULL)
+            return ValidPoseResult(PoseState(state), int(cost), _answer_pose(pose, costmap, i, j, float(deltas[a])),
+                                   costmap.resolution * math.hypot(i, j), float(deltas[a]), trace)
+    return ValidPoseResult(PoseState.LETHAL, 0, None, None, None, trace)
+
+
+def pose_state(costmap: Costmap2D, footprint: Footprint, x: float, y: float, yaw: float) -> tuple[PoseState, int]:
+    """State and cost (sum of covered in-map cells' costs) of the footprint at ``(x, y, yaw)`` in the map frame."""
+    cells = footprint.cells(x, y, yaw, (costmap.origin_x, costmap.origin_y), costmap.resolution)
+    dm, dn = np.ascontiguousarray(cells[:, 0]), np.ascontiguousarray(cells[:, 1])
+    box = np.array([dm.min(), dm.max(), dn.min(), dn.max()], dtype=np.int64)
+    state, cost = _k.evaluate_cells(costmap.costs, 0, 0, dm, dn, box, _k.EVAL_FULL)
+    return PoseState(state), int(cost)
