@@ -1,9 +1,91 @@
-"""CLI commands of this area (registered on the main app by :mod:`pfield.cli`)."""
+"""``pfield plot2d`` and ``pfield sim2d``: the mobile base's plots and simulation."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from pfield.errors import PfieldError
+
+
+def _progress(console: Console) -> Progress:
+    return Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+                    TextColumn("{task.fields[note]}"), TimeElapsedColumn(), console=console, transient=True)
+
+
+def _list_scenarios(console: Console) -> None:
+    from pfield.mobile.scenarios import BUILTIN_SCENARIOS
+
+    table = Table("scenario", "sensor", "expected", "description")
+    for name, scenario in BUILTIN_SCENARIOS.items():
+        table.add_row(name, scenario.sensor, scenario.expected, scenario.description)
+    console.print(table)
+
+
+def run_sim2d(scenario_name: str, output_dir: Path, drive: str | None, gif: bool, console: Console) -> str:
+    """Simulate one scenario with a progress bar, write its PNG (and GIF); return the outcome."""
+    from pfield.mobile.scenarios import load_scenario
+    from pfield.mobile.sim import simulate
+    from pfield.viz.plots2d_sim import render_gif, render_png
+
+    scenario = load_scenario(scenario_name)
+    if drive is not None:
+        scenario = scenario.with_drive(drive)
+    output_dir.mkdir(parents=True, exist_ok=True)
+    stem = output_dir / f"sim2d_{scenario.name}_{scenario.config.drive}"
+    steps = round(scenario.duration * scenario.rate)
+    with _progress(console) as progress:
+        task = progress.add_task(f"simulating {scenario.name}", total=steps, note="")
+        result = simulate(scenario, lambda t, _: progress.update(
+            task, completed=round(t * scenario.rate) + 1, note=f"t = {t:5.1f} s"))
+        progress.update(task, completed=steps)
+        png = render_png(result, stem.with_suffix(".png"))
+        if gif:
+            frames = progress.add_task("rendering GIF", total=None, note="")
+            render_gif(result, stem.with_suffix(".gif"),
+                       progress=lambda n, total: progress.update(frames, completed=n, total=total))
+    console.print(f"[bold]{scenario.name}[/bold] ({scenario.config.drive}): [bold]{result.outcome}[/bold] after "
+                  f"{result.times[-1]:.1f} s, {result.final_distance_to_goal:.2f} m from the goal, min clearance "
+                  f"{result.min_clearance:.2f} m (expected: {scenario.expected})")
+    console.print(f"wrote {png}" + (f" and {stem.with_suffix('.gif')}" if gif else ""))
+    return result.outcome
 
 
 def register(app: typer.Typer) -> None:
-    """Add this area's commands to ``app``."""
+    """Add ``plot2d`` and ``sim2d`` to ``app``."""
+
+    @app.command("plot2d")
+    def plot2d(
+        output_dir: Path = typer.Option(Path("plots2d"), "--output-dir", "-o", help="Where the PNGs go."),
+    ) -> None:
+        """Plot the seed's 2D vector field: radial profiles (unclamped/clamped) and field plots (PNG)."""
+        from pfield.viz.plots2d import save_seed_plots
+
+        console = Console()
+        with console.status("plotting the 2D field"):
+            paths = save_seed_plots(output_dir)
+        for path in paths:
+            console.print(f"wrote {path}")
+
+    @app.command("sim2d")
+    def sim2d(
+        scenario: str = typer.Argument("grid_pass", help="Built-in scenario name or a scenario YAML file."),
+        output_dir: Path = typer.Option(Path("sim2d"), "--output-dir", "-o", help="Where PNG and GIF go."),
+        drive: str | None = typer.Option(None, "--drive", help="holonomic or diff_drive (default: scenario's)."),
+        gif: bool = typer.Option(True, "--gif/--no-gif", help="Also write an animated GIF."),
+        list_scenarios: bool = typer.Option(False, "--list", help="List the built-in scenarios and exit."),
+    ) -> None:
+        """Simulate the 2D controller in a scenario; writes a PNG and an animated GIF."""
+        console = Console()
+        if list_scenarios:
+            _list_scenarios(console)
+            return
+        try:
+            run_sim2d(scenario, output_dir, drive, gif, console)
+        except PfieldError as exc:
+            console.print(f"[red]error:[/red] {exc}")
+            raise typer.Exit(2) from exc

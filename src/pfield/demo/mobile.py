@@ -1,4 +1,4 @@
-"""Demo section: mobile."""
+"""Demo section: the mobile base's 2D vector field — the seed's plots and one simulated scenario."""
 
 from __future__ import annotations
 
@@ -6,8 +6,18 @@ from pathlib import Path
 
 from rich.console import Console
 
-TITLE = "mobile"
+TITLE = "mobile base: 2D vector field, plots and simulation"
 
 
 def run(out_dir: Path, console: Console) -> None:
-    console.print("[yellow]not built yet[/yellow]")
+    """Write the seed's profile and field plots and simulate the doorway scenario (diff drive)."""
+    from pfield.cli._mobile import run_sim2d
+    from pfield.viz.plots2d import save_seed_plots
+
+    target = out_dir / "mobile"
+    with console.status("plotting the 2D field (seed parameter sets)"):
+        paths = save_seed_plots(target)
+    console.print(f"{len(paths)} field plots: " + ", ".join(p.name for p in paths))
+    outcome = run_sim2d("doorway", target, "diff_drive", True, console)
+    if outcome != "goal_reached":
+        raise RuntimeError(f"doorway simulation ended with {outcome!r}, expected goal_reached")

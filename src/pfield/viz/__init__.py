@@ -1,0 +1,1 @@
+"""Visualisation: matplotlib plots (headless PNG/GIF) and viewers."""
