@@ -1,16 +1,42 @@
-"""Obstacle geometry: shapes, obstacles and exact signed distances (see ``docs/geometry.md``).
+"""Obstacle geometry: shapes, obstacles, mesh resources and exact signed distances.
 
-Compiled consumers use :mod:`pfield.geometry._sdf` (``obstacle_signed_distance``,
-``min_signed_distance``, ``signed_distances``) on a :class:`PackedObstacles`.
+Public API (see ``docs/geometry.md``)::
+
+    from pfield.geometry import Obstacle, Sphere, Box, Cylinder, Ellipsoid, Capsule, Mesh, ResourceResolver
+    obstacle = Obstacle("ball", Sphere(radius=0.1), Pose(position=(0.4, 0, 0.1)))
+    d, n = obstacle.signed_distance(points)          # (N,), (N, 3)
+    packed = pack_obstacles([obstacle, ...])          # for compiled consumers
+
+Compiled consumers call :func:`obstacle_signed_distance`, :func:`min_signed_distance` or
+:func:`signed_distances` (numba kernels) on a :class:`PackedObstacles`.
 """
 
 from pfield.geometry._packed import PackedObstacles
 from pfield.geometry._sdf import empty_packed, min_signed_distance, obstacle_signed_distance, signed_distances
+from pfield.geometry.mesh import Mesh, MeshData, load_mesh_arrays, read_mesh_file
+from pfield.geometry.obstacle import GROUPS, SHAPE_TYPES, Obstacle, Shape, pack_obstacles
+from pfield.geometry.resources import ResourceResolver
+from pfield.geometry.shapes import Box, Capsule, Cylinder, Ellipsoid, Sphere
 
 __all__ = [
+    "GROUPS",
+    "SHAPE_TYPES",
+    "Box",
+    "Capsule",
+    "Cylinder",
+    "Ellipsoid",
+    "Mesh",
+    "MeshData",
+    "Obstacle",
     "PackedObstacles",
+    "ResourceResolver",
+    "Shape",
+    "Sphere",
     "empty_packed",
+    "load_mesh_arrays",
     "min_signed_distance",
     "obstacle_signed_distance",
+    "pack_obstacles",
+    "read_mesh_file",
     "signed_distances",
 ]

@@ -1,0 +1,120 @@
+"""Resolution of resource URIs (meshes, URDF files) to files, confined to allowed places.
+
+Accepted forms:
+
+* ``package://<pkg>/<relative path>`` — through the configured ``package_paths`` (``{pkg: directory}``),
+  then through the ament index: ``<prefix>/share/<pkg>`` for each prefix of ``AMENT_PREFIX_PATH``;
+* ``file:///abs/path`` and plain paths (relative to the current directory) — only when the resolved
+  path (symlinks and ``..`` resolved) lies inside one of ``allowed_roots``.
+
+A ``package://`` file must stay inside its package directory. Anything else (other schemes, files
+outside the roots, escapes through ``..`` or symlinks) raises :class:`~pfield.errors.ResourceNotAllowed`;
+a missing package or file raises :class:`~pfield.errors.ResourceNotFound` saying what to configure.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from urllib.parse import unquote, urlparse
+
+from pfield.errors import InvalidInput, ResourceNotAllowed, ResourceNotFound
+
+__all__ = ["ResourceResolver"]
+
+_PACKAGE = "package://"
+
+
+def _inside(path: Path, root: Path) -> bool:
+    return path == root or root in path.parents
+
+
+@dataclass(frozen=True)
+class ResourceResolver:
+    """Maps resource URIs to existing files inside allowed places (see the module docstring).
+
+    ``package_paths`` maps ROS package names to their directories; ``allowed_roots`` are the directories
+    ``file://`` URIs and plain paths may point into. ``use_ament`` also looks packages up under
+    ``AMENT_PREFIX_PATH``. The default resolver (:meth:`default`) allows the current working directory only.
+    """
+
+    package_paths: Mapping[str, Path] = field(default_factory=dict)
+    allowed_roots: Sequence[Path] = ()
+    use_ament: bool = True
+
+    def __post_init__(self) -> None:
+        packages: dict[str, Path] = {}
+        for name, directory in dict(self.package_paths).items():
+            if not name or "/" in name:
+                raise InvalidInput("package_paths", name, "package names are non-empty and contain no '/'")
+            packages[name] = Path(directory).expanduser().resolve()
+        roots = tuple(Path(root).expanduser().resolve() for root in self.allowed_roots)
+        object.__setattr__(self, "package_paths", packages)
+        object.__setattr__(self, "allowed_roots", roots)
+
+    @classmethod
+    def default(cls) -> ResourceResolver:
+        """No package paths (except the ament index) and the current working directory as the only root."""
+        return cls(allowed_roots=(Path.cwd(),))
+
+    def resolve(self, uri: str) -> Path:
+        """The existing file ``uri`` names (absolute, symlinks resolved).
+
+        Raises :class:`ResourceNotAllowed` outside the allowed places, :class:`ResourceNotFound` when the
+        package or file does not exist, :class:`InvalidInput` for an empty or malformed URI.
+        """
+        if not isinstance(uri, str) or not uri.strip():
+            raise InvalidInput("mesh_resource", uri, "empty resource URI")
+        if uri.startswith(_PACKAGE):
+            return self._resolve_package(uri)
+        scheme = urlparse(uri).scheme
+        if scheme == "file":
+            parsed = urlparse(uri)
+            if parsed.netloc not in ("", "localhost"):
+                raise ResourceNotAllowed(f"{uri!r}: file:// URIs must name a local file (file:///abs/path)")
+            return self._resolve_file(uri, Path(unquote(parsed.path)))
+        if scheme and len(scheme) > 1:  # "C:" style drive letters are not schemes
+            raise ResourceNotAllowed(f"{uri!r}: scheme {scheme!r} not supported; use package://, file:// or a path")
+        return self._resolve_file(uri, Path(uri).expanduser())
+
+    def _resolve_file(self, uri: str, path: Path) -> Path:
+        resolved = (Path.cwd() / path).resolve()
+        if not any(_inside(resolved, root) for root in self.allowed_roots):
+            roots = ", ".join(str(root) for root in self.allowed_roots) or "none configured"
+            raise ResourceNotAllowed(
+                f"{uri!r} resolves to {resolved}, outside the allowed roots ({roots}); "
+                "add its directory as an allowed root (e.g. --mesh-root DIR) or use package://"
+            )
+        return _existing(uri, resolved)
+
+    def _resolve_package(self, uri: str) -> Path:
+        package, _, relative = uri[len(_PACKAGE):].partition("/")
+        if not package or not relative:
+            raise InvalidInput("mesh_resource", uri, "expected package://<package>/<path inside the package>")
+        directory = self.package_directory(package)
+        resolved = (directory / unquote(relative)).resolve()
+        if not _inside(resolved, directory):
+            raise ResourceNotAllowed(f"{uri!r} resolves to {resolved}, outside package {package!r} ({directory})")
+        return _existing(uri, resolved)
+
+    def package_directory(self, package: str) -> Path:
+        """The directory of ROS package ``package`` (configured paths first, then the ament index)."""
+        if package in self.package_paths:
+            return Path(self.package_paths[package])
+        if self.use_ament:
+            for prefix in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep):
+                candidate = Path(prefix) / "share" / package
+                if prefix and candidate.is_dir():
+                    return candidate.resolve()
+        raise ResourceNotFound(
+            f"package {package!r} is unknown: add --package-path {package}=DIR "
+            f"(or ResourceResolver(package_paths={{{package!r}: DIR}})) or source its ROS workspace"
+        )
+
+
+def _existing(uri: str, path: Path) -> Path:
+    if not path.is_file():
+        raise ResourceNotFound(f"{uri!r}: no such file {path}")
+    return path
