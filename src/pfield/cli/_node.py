@@ -1,9 +1,165 @@
-"""CLI commands of this area (registered on the main app by :mod:`pfield.cli`)."""
+"""``pfield serve`` (the standalone node) and the ros2-like client verbs (topic, service, param, interface).
+
+Other areas add their nodes to ``serve`` with :func:`register_node_factory`: a factory receives the
+:class:`ServeContext` (bus, robot, options such as ``--map``/``--footprint``) and returns the nodes to
+serve (none when its options are absent).
+"""
 
 from __future__ import annotations
 
+import ipaddress
+import logging
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Annotated, Any
+
 import typer
+import yaml
+
+from pfield.cli import _node_client
+from pfield.errors import InvalidInput, PfieldError
+from pfield.node._base import Bus, Node
+from pfield.transport import DEFAULT_HOST, DEFAULT_PORT
+
+__all__ = ["ServeContext", "register", "register_node_factory"]
+
+_log = logging.getLogger(__name__)
+
+
+@dataclass
+class ServeContext:
+    """What ``pfield serve`` knows when it builds the nodes."""
+
+    bus: Bus
+    robot: Any
+    package_paths: dict[str, Path]
+    mesh_roots: list[Path]
+    map_file: Path | None = None
+    footprint: str | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+NodeFactory = Callable[[ServeContext], list[Node]]
+_FACTORIES: list[NodeFactory] = []
+
+
+def register_node_factory(factory: NodeFactory) -> None:
+    """Have ``pfield serve`` also serve the nodes ``factory(context)`` returns."""
+    if factory not in _FACTORIES:
+        _FACTORIES.append(factory)
+
+
+def parse_package_paths(values: list[str]) -> dict[str, Path]:
+    """``{NAME: DIR}`` of ``--package-path NAME=DIR`` options. Packages not given here are looked up in the
+    ament index (``AMENT_PREFIX_PATH``) by the resource resolver."""
+    paths: dict[str, Path] = {}
+    for value in values:
+        name, sep, directory = value.partition("=")
+        if not sep or not name or not directory:
+            raise InvalidInput("--package-path", value, "expected NAME=DIR")
+        if not Path(directory).is_dir():
+            raise InvalidInput("--package-path", value, f"{directory} is not a directory")
+        paths[name] = Path(directory).resolve()
+    return paths
+
+
+def load_ros_parameters(path: Path) -> dict[str, dict[str, Any]]:
+    """``{node name: {parameter: value}}`` of a ROS 2 parameters file (``node: {ros__parameters: {...}}``)."""
+    try:
+        data = yaml.safe_load(path.read_text()) or {}
+    except (OSError, yaml.YAMLError) as exc:
+        raise InvalidInput("--params", str(path), f"cannot read parameters: {exc}") from None
+    if not isinstance(data, dict):
+        raise InvalidInput("--params", str(path), "expected a mapping of node names")
+    result = {}
+    for node, section in data.items():
+        params = section.get("ros__parameters") if isinstance(section, dict) else None
+        if not isinstance(params, dict):
+            raise InvalidInput(f"{node}.ros__parameters", section, "expected a ros__parameters mapping")
+        result["/" + str(node).lstrip("/")] = params
+    return result
+
+
+def _load_robot(robot: str, end_effector: str | None) -> Any:
+    from pfield.robot import RobotModel
+
+    if robot.lower() in ("xarm7", "panda"):
+        return RobotModel.builtin(robot.lower())
+    if not end_effector:
+        raise InvalidInput("--end-effector", None, "a URDF robot needs --end-effector LINK")
+    return RobotModel.from_urdf(robot, end_effector=end_effector)
+
+
+def build_nodes(context: ServeContext, params: dict[str, dict[str, Any]], csv_dir: Path | None) -> list[Node]:
+    """The manager plus every registered factory's nodes, with ``--params`` applied (``/**`` to all)."""
+    from pfield.node._planning import make_resolver
+    from pfield.node.manager import ManagerNode
+
+    resolver = make_resolver(context.package_paths, context.mesh_roots)
+    nodes: list[Node] = [ManagerNode(context.bus, context.robot, resolver=resolver, csv_dir=csv_dir)]
+    for factory in _FACTORIES:
+        nodes.extend(factory(context))
+    by_name = {node.name: node for node in nodes}
+    for name, values in params.items():
+        targets = list(by_name.values()) if name == "/**" else [by_name[name]] if name in by_name else []
+        if not targets:
+            _log.warning("--params: no node %s here; its parameters are ignored", name)
+        for node in targets:
+            node.set_parameters(values if name != "/**" else {k: v for k, v in values.items()
+                                                              if k in node.get_parameters()})
+    return nodes
+
+
+def _check_host(host: str, token: str | None) -> None:
+    try:
+        loopback = host == "localhost" or ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        loopback = False
+    if not loopback and not token:
+        raise InvalidInput("--host", host, "serving beyond this machine needs --token (or PFIELD_TOKEN)")
+
+
+def serve(
+    robot: Annotated[str, typer.Option(help="xarm7, panda or a URDF file")] = "xarm7",
+    end_effector: Annotated[str | None, typer.Option(help="end-effector link of a URDF robot")] = None,
+    params: Annotated[Path | None, typer.Option(help="ROS 2 parameters YAML (node: ros__parameters: ...)")] = None,
+    package_path: Annotated[list[str] | None, typer.Option(help="NAME=DIR for package:// URIs (repeatable)")] = None,
+    mesh_root: Annotated[list[Path] | None, typer.Option(help="directory meshes may be read from (repeatable)")]
+    = None,
+    map: Annotated[Path | None, typer.Option(help="map_server YAML for the costmap node")] = None,
+    footprint: Annotated[str | None, typer.Option(help="nav2 footprint '[[x, y], ...]' for the costmap")] = None,
+    host: Annotated[str, typer.Option(help="address to bind; other than loopback needs --token")] = DEFAULT_HOST,
+    port: Annotated[int, typer.Option(help="TCP port")] = DEFAULT_PORT,
+    token: Annotated[str | None, typer.Option(envvar="PFIELD_TOKEN", help="bearer token clients must send")]
+    = None,
+    csv_dir: Annotated[Path | None, typer.Option(help="save every planned path as CSV here")] = None,
+    log_level: Annotated[str, typer.Option(help="debug, info, warning or error")] = "info",
+) -> None:
+    """Start the pfield node (HTTP + WebSocket) with the ROS names of the seed's interfaces."""
+    import uvicorn
+
+    from pfield.transport.http import create_app
+
+    logging.basicConfig(level=log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
+    try:
+        _check_host(host, token)
+        packages = parse_package_paths(package_path or [])
+        parameters = load_ros_parameters(params) if params else {}
+        context = ServeContext(Bus(), _load_robot(robot, end_effector), packages,
+                               [p.resolve() for p in mesh_root or []], map, footprint)
+        nodes = build_nodes(context, parameters, csv_dir)
+    except PfieldError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+    app = create_app(nodes, token=token)
+    typer.echo(f"pfield node on http://{host}:{port} ({', '.join(n.name for n in nodes)})", err=True)
+    sys.stderr.flush()
+    uvicorn.run(app, host=host, port=port, log_level="warning" if log_level != "debug" else "debug")
 
 
 def register(app: typer.Typer) -> None:
-    """Add this area's commands to ``app``."""
+    """Add ``serve`` and the ``topic``/``service``/``param``/``interface`` verbs to ``app``."""
+    app.command("serve")(serve)
+    _node_client.register(app)

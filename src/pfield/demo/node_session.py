@@ -1,13 +1,113 @@
-"""Demo section: node_session."""
+"""Demo section: a scripted session with the standalone node, as a user would drive it with the CLI.
+
+Starts ``/pfield_manager`` (xArm7) behind the HTTP server on a free 127.0.0.1 port, publishes the seed's
+six obstacles (the mesh one from a small package written into the output folder), calls the seed's
+``plan_path`` (task_space and whole_body) and ``compute_autonomy_vector`` (both methods), shows the
+answers, then stops the node. The requests are the seed's YAML texts, parsed by ROS's rules.
+"""
 
 from __future__ import annotations
 
+import math
+import time
 from pathlib import Path
+from typing import Any
 
+import httpx
 from rich.console import Console
+from rich.table import Table
 
-TITLE = "node_session"
+TITLE = "Standalone node session (seed CLI examples over HTTP)"
+
+_ORIENTATION = "orientation: {x: 0.707, y: 0.0, z: 0.707, w: 0.0}"
+_GOAL = f"goal: {{position: {{x: 0.5, y: 0.2, z: 0.4}}, {_ORIENTATION}}}"
+_OBSTACLES = [
+    "{frame_id: 'ball', type: 'Sphere', group: 'Static', pose: {position: {x: 0.4, y: 0.0, z: 0.1}, "
+    "orientation: {w: 1.0}}, radius: 0.1}",
+    "{frame_id: 'table', type: 'Box', group: 'Static', pose: {position: {x: 0.66, y: 0.0, z: 0.3}, "
+    "orientation: {w: 1.0}}, length: 0.15, width: 0.7, height: 0.6}",
+    "{frame_id: 'pitcher', type: 'Cylinder', group: 'Static', pose: {position: {x: 0.51, y: 0.0, z: 0.15}, "
+    "orientation: {w: 1.0}}, radius: 0.09, height: 0.3}",
+    "{frame_id: 'ellipsoid_obs', type: 'Ellipsoid', group: 'Static', pose: {position: {x: 0.5, y: 0.1, z: 0.2}, "
+    "orientation: {w: 1.0}}, semi_x: 0.08, semi_y: 0.05, semi_z: 0.12}",
+    "{frame_id: 'capsule_obs', type: 'Capsule', group: 'Static', pose: {position: {x: 0.45, y: 0.0, z: 0.2}, "
+    "orientation: {w: 1.0}}, radius: 0.05, height: 0.2}",
+    "{frame_id: 'mesh_obs', type: 'Mesh', group: 'Static', pose: {position: {x: 0.5, y: 0.0, z: 0.1}, "
+    "orientation: {w: 1.0}}, mesh_resource: 'package://my_robot_description/meshes/obstacle.dae', "
+    "scale_x: 1.0, scale_y: 1.0, scale_z: 1.0}",
+]
+_PLANS = {
+    "task_space": "{start: {position: {x: 0.227, y: 0.0, z: 0.294}, " + _ORIENTATION + "}, " + _GOAL +
+                  ", delta_time: 0.02, goal_tolerance: 0.01, max_iterations: 25000, planning_method: 'task_space'}",
+    "whole_body": "{" + _GOAL + ", starting_joint_angles: [0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0], "
+                  "delta_time: 0.02, goal_tolerance: 0.01, max_iterations: 25000, planning_method: 'whole_body'}",
+}
+_QUERY = "query_pose: {header: {frame_id: 'world'}, pose: {position: {x: 0.3, y: 0.1, z: 0.35}, " + _ORIENTATION + "}}"
+_AUTONOMY = {
+    "task_space": "{" + _QUERY + ", delta_time: 0.02, planning_method: 'task_space'}",
+    "whole_body": "{" + _QUERY + ", joint_angles: [0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0], "
+                  "prev_joint_velocities: [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], delta_time: 0.02, "
+                  "planning_method: 'whole_body'}",
+}
+
+
+def _write_mesh_package(out_dir: Path) -> Path:
+    """A tiny ``my_robot_description`` package with an 8 cm cube as ``meshes/obstacle.dae``."""
+    import trimesh
+
+    package = out_dir / "my_robot_description"
+    (package / "meshes").mkdir(parents=True, exist_ok=True)
+    trimesh.creation.box(extents=(0.08, 0.08, 0.08)).export(package / "meshes" / "obstacle.dae")
+    return package
+
+
+def _post(client: httpx.Client, path: str, model: Any, text: str) -> dict[str, Any]:
+    from pfield.interfaces import message_from_yaml
+
+    answer = client.post(path, content=message_from_yaml(model, text).model_dump_json(),
+                         headers={"content-type": "application/json"})
+    if answer.status_code >= 400:
+        raise RuntimeError(f"{path}: {answer.json().get('error')}")
+    return dict(answer.json())
+
+
+def _plan_row(method: str, response: dict[str, Any], seconds: float) -> list[str]:
+    poses = response["end_effector_path"]["poses"]
+    end = poses[-1]["pose"]["position"]
+    error = math.dist((end["x"], end["y"], end["z"]), (0.5, 0.2, 0.4))
+    return [method, str(response["success"]), str(len(poses)), f"{error * 1000:.2f}", f"{seconds:.2f}",
+            str(len(response["joint_trajectory"]["joint_names"])), response["error_message"] or "-"]
 
 
 def run(out_dir: Path, console: Console) -> None:
-    console.print("[yellow]not built yet[/yellow]")
+    from pfield.interfaces import potential_fields_interfaces as pfi
+    from pfield.node._base import Bus
+    from pfield.node._planning import make_resolver
+    from pfield.node.manager import ManagerNode
+    from pfield.robot import RobotModel
+    from pfield.transport.http import ServerThread, create_app
+
+    package = _write_mesh_package(out_dir)
+    node = ManagerNode(Bus(), RobotModel.builtin("xarm7"),
+                       resolver=make_resolver({"my_robot_description": package}, []), csv_dir=out_dir / "plans")
+    with ServerThread(create_app([node])) as server, httpx.Client(base_url=server.url, timeout=None) as client:
+        console.print(f"node /pfield_manager serving on {server.url}")
+        for text in _OBSTACLES:
+            _post(client, "/topic/pfield/obstacles", pfi.ObstacleArray,
+                  "{header: {frame_id: 'world'}, obstacles: [" + text + "]}")
+        console.print(f"published {len(_OBSTACLES)} obstacles: {', '.join(o.id for o in node.obstacles())}")
+        plans = Table("method", "success", "waypoints", "final error (mm)", "time (s)", "joints", "error_message",
+                      title="pfield service call /pfield/plan_path")
+        for method, text in _PLANS.items():
+            start = time.perf_counter()
+            response = _post(client, "/srv/pfield/plan_path", pfi.PlanPath_Request, text)
+            plans.add_row(*_plan_row(method, response, time.perf_counter() - start))
+        console.print(plans)
+        vectors = Table("method", "linear (m/s)", "angular (rad/s)", title="/pfield/compute_autonomy_vector")
+        for method, text in _AUTONOMY.items():
+            twist = _post(client, "/srv/pfield/compute_autonomy_vector", pfi.ComputeAutonomyVector_Request,
+                          text)["autonomy_vector"]["twist"]
+            vectors.add_row(method, *(", ".join(f"{twist[part][k]:+.4f}" for k in "xyz")
+                                      for part in ("linear", "angular")))
+        console.print(vectors)
+    console.print(f"node stopped; plans saved as CSV in {out_dir / 'plans'}")

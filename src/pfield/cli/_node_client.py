@@ -1,0 +1,214 @@
+"""The ros2-like client verbs: ``topic``, ``service``, ``param`` and ``interface``.
+
+They talk to a running ``pfield serve`` found through ``--url``, ``PFIELD_URL`` or http://127.0.0.1:8357
+(token from ``--token``/``PFIELD_TOKEN``). YAML arguments are validated locally first (ROS's flow syntax
+and default filling), so a typo is reported before anything is sent. Answers print as YAML; any failure
+prints ``error: ...`` on stderr and exits with status 1.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Annotated, Any, NoReturn
+
+import httpx
+import typer
+import yaml
+
+import pfield.interfaces.all  # noqa: F401 - registers every message type
+from pfield.errors import PfieldError
+from pfield.interfaces import interface_text, lookup_service, lookup_type, message_from_yaml, registered_types
+from pfield.interfaces._base import registered_services
+from pfield.transport import DEFAULT_URL
+
+__all__ = ["register"]
+
+Url = Annotated[str, typer.Option(envvar="PFIELD_URL", help="server address")]
+Token = Annotated[str | None, typer.Option(envvar="PFIELD_TOKEN", help="bearer token of the server")]
+topic_app = typer.Typer(help="Publish, echo and list topics.", no_args_is_help=True)
+service_app = typer.Typer(help="Call and list services.", no_args_is_help=True)
+param_app = typer.Typer(help="Get, set and dump node parameters.", no_args_is_help=True)
+interface_app = typer.Typer(help="Show message and service definitions.", no_args_is_help=True)
+
+
+def _fail(message: str) -> NoReturn:
+    typer.echo(f"error: {message}", err=True)
+    raise typer.Exit(1)
+
+
+def _print_yaml(data: Any) -> None:
+    typer.echo(yaml.safe_dump(data, sort_keys=False, default_flow_style=False).rstrip("\n"))
+
+
+@contextmanager
+def _client(url: str, token: str | None) -> Iterator[httpx.Client]:
+    headers = {"Authorization": f"Bearer {token}"} if token else {}
+    try:
+        with httpx.Client(base_url=url.rstrip("/"), headers=headers, timeout=None) as client:
+            yield client
+    except httpx.TransportError as exc:
+        _fail(f"cannot reach the pfield node at {url} ({exc}); start it with `pfield serve`")
+
+
+def _request(client: httpx.Client, method: str, path: str, **kwargs: Any) -> Any:
+    response = client.request(method, path, **kwargs)
+    if response.status_code >= 400:
+        try:
+            body = response.json()
+            _fail(body.get("error") or json.dumps(body))
+        except ValueError:
+            _fail(f"HTTP {response.status_code}: {response.text}")
+    return response.json()
+
+
+def _local(parse: Any, *args: Any) -> Any:
+    try:
+        return parse(*args)
+    except PfieldError as exc:
+        _fail(str(exc))
+
+
+@topic_app.command("pub")
+def topic_pub(topic: str, type_name: Annotated[str, typer.Argument(metavar="TYPE")],
+              values: Annotated[str, typer.Argument(metavar="YAML")] = "",
+              once: Annotated[bool, typer.Option("--once", "-1", help="publish one message and exit")] = False,
+              times: Annotated[int, typer.Option("--times", "-t", help="publish this many messages")] = 0,
+              rate: Annotated[float, typer.Option("--rate", "-r", help="messages per second")] = 1.0,
+              url: Url = DEFAULT_URL, token: Token = None) -> None:
+    """Publish a message given as YAML (ROS flow syntax), once or repeatedly at --rate."""
+    message = _local(message_from_yaml, _local(lookup_type, type_name), values)
+    count = 1 if once else times
+    with _client(url, token) as client:
+        sent = 0
+        while count == 0 or sent < count:
+            if sent:
+                time.sleep(1.0 / max(rate, 1e-3))
+            _request(client, "POST", f"/topic/{topic.lstrip('/')}", params={"type": type_name},
+                     content=message.model_dump_json(), headers={"content-type": "application/json"})
+            sent += 1
+            typer.echo(f"publishing #{sent}: {type(message).ros_type}", err=True)
+
+
+@topic_app.command("echo")
+def topic_echo(topic: str, type_name: Annotated[str | None, typer.Argument(metavar="[TYPE]")] = None,
+               once: Annotated[bool, typer.Option("--once", help="print one message and exit")] = False,
+               url: Url = DEFAULT_URL, token: Token = None) -> None:
+    """Print the messages of a topic as YAML (the latest one first), separated by ``---``."""
+    from websockets.exceptions import WebSocketException
+    from websockets.sync.client import connect
+
+    ws_url = url.rstrip("/").replace("http", "ws", 1) + f"/ws/topic/{topic.lstrip('/')}"
+    headers = {"Authorization": f"Bearer {token}"} if token else None
+    try:
+        with connect(ws_url, additional_headers=headers, max_size=None) as socket:
+            for text in socket:
+                _print_yaml(json.loads(text))
+                typer.echo("---")
+                if once:
+                    return
+    except (OSError, WebSocketException) as exc:
+        _fail(f"cannot stream {topic} from {url}: {exc}")
+
+
+@topic_app.command("list")
+def topic_list(show_types: Annotated[bool, typer.Option("--show-types", "-t")] = False,
+               url: Url = DEFAULT_URL, token: Token = None) -> None:
+    """List the topics the server knows (subscribed, published or seen)."""
+    with _client(url, token) as client:
+        for topic in _request(client, "GET", "/topics"):
+            typer.echo(f"{topic['name']} [{topic['type']}]" if show_types else topic["name"])
+
+
+@service_app.command("call")
+def service_call(service: str, type_name: Annotated[str, typer.Argument(metavar="TYPE")],
+                 values: Annotated[str, typer.Argument(metavar="YAML")] = "",
+                 url: Url = DEFAULT_URL, token: Token = None) -> None:
+    """Call a service with a request given as YAML; print the response as YAML."""
+    service_type = _local(lookup_service, type_name)
+    request = _local(message_from_yaml, service_type.request, values)
+    name = "/" + service.lstrip("/")
+    with _client(url, token) as client:
+        served = {s["name"]: s["type"] for s in _request(client, "GET", "/services")}
+        if name in served and lookup_service(served[name]) is not service_type:
+            _fail(f"{name} is a {served[name]} service, not {type_name}")
+        typer.echo(f"requester: making request: {service_type.request.ros_type}", err=True)
+        response = _request(client, "POST", f"/srv{name}", content=request.model_dump_json(),
+                            headers={"content-type": "application/json"})
+    typer.echo("response:")
+    _print_yaml(response)
+
+
+@service_app.command("list")
+def service_list(show_types: Annotated[bool, typer.Option("--show-types", "-t")] = False,
+                 url: Url = DEFAULT_URL, token: Token = None) -> None:
+    """List the services the server offers."""
+    with _client(url, token) as client:
+        for service in _request(client, "GET", "/services"):
+            typer.echo(f"{service['name']} [{service['type']}]" if show_types else service["name"])
+
+
+def _node_path(node: str) -> str:
+    return "/param/" + node.lstrip("/")
+
+
+@param_app.command("list")
+def param_list(node: str, url: Url = DEFAULT_URL, token: Token = None) -> None:
+    """List a node's parameter names."""
+    with _client(url, token) as client:
+        for name in _request(client, "GET", _node_path(node)):
+            typer.echo(f"  {name}")
+
+
+@param_app.command("get")
+def param_get(node: str, name: str, url: Url = DEFAULT_URL, token: Token = None) -> None:
+    """Print one parameter's value."""
+    with _client(url, token) as client:
+        values = _request(client, "GET", _node_path(node))
+    if name not in values:
+        _fail(f"{node} has no parameter {name!r}; known: {', '.join(values)}")
+    _print_yaml(values[name])
+
+
+@param_app.command("set")
+def param_set(node: str, name: str, value: str, url: Url = DEFAULT_URL, token: Token = None) -> None:
+    """Set one parameter (value parsed as YAML); the node validates it and keeps the old value on error."""
+    try:
+        parsed = yaml.safe_load(value)
+    except yaml.YAMLError as exc:
+        _fail(f"{name}={value!r}: malformed YAML: {exc}")
+    with _client(url, token) as client:
+        _request(client, "PUT", _node_path(node), json={name: parsed})
+    typer.echo("Set parameter successful")
+
+
+@param_app.command("dump")
+def param_dump(node: str, url: Url = DEFAULT_URL, token: Token = None) -> None:
+    """Print a node's parameters as a ROS 2 parameters file (usable with ``pfield serve --params``)."""
+    with _client(url, token) as client:
+        values = _request(client, "GET", _node_path(node))
+    _print_yaml({"/" + node.lstrip("/"): {"ros__parameters": values}})
+
+
+@interface_app.command("show")
+def interface_show(type_name: Annotated[str, typer.Argument(metavar="TYPE")]) -> None:
+    """Print a message or service definition (the .msg/.srv text)."""
+    typer.echo(_local(interface_text, type_name))
+
+
+@interface_app.command("list")
+def interface_list() -> None:
+    """List every message and service type pfield knows."""
+    for name in sorted(n for n in registered_types() if "/msg/" in n):
+        typer.echo(name)
+    for name in sorted(registered_services()):
+        typer.echo(name)
+
+
+def register(app: typer.Typer) -> None:
+    app.add_typer(topic_app, name="topic")
+    app.add_typer(service_app, name="service")
+    app.add_typer(param_app, name="param")
+    app.add_typer(interface_app, name="interface")

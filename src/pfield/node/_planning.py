@@ -1,0 +1,82 @@
+"""The manager's calls into the library (field, planners, meshes), kept in one place.
+
+Task-space plans come from :meth:`PotentialField.plan`; when the request also gives joint angles, the
+joint trajectory is attached by IK along the path (:func:`pfield.planning.joint_trajectory.
+attach_joint_trajectory`). Whole-body plans come from :meth:`PotentialField.plan_whole_body` with the
+start pose implied by the joint angles (the request's ``start`` is ignored, as the seed says).
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pfield.field.config import FieldConfig
+from pfield.planning.result import PlannedPath
+from pfield.spatial import Pose, Twist
+
+__all__ = ["PlanInputs", "make_field", "make_mesh", "make_resolver", "run_plan", "whole_body_twist"]
+
+
+@dataclass(frozen=True)
+class PlanInputs:
+    """A validated PlanPath request (dt in s, tolerance in m)."""
+
+    method: str
+    goal: Pose
+    start: Pose | None
+    joint_angles: NDArray[np.float64] | None
+    delta_time: float
+    goal_tolerance: float
+    max_iterations: int
+
+
+def make_field(config: FieldConfig, goal: Pose, obstacles: Sequence[Any]) -> Any:
+    potential_field = importlib.import_module("pfield.field").PotentialField
+    return potential_field(config, goal=goal, obstacles=list(obstacles))
+
+
+def make_mesh(resource: str, scale: tuple[float, float, float], resolver: Any) -> Any:
+    """A Mesh shape of ``resource`` resolved through ``resolver`` (a :class:`~pfield.geometry.ResourceResolver`)."""
+    from pfield.geometry import Mesh
+
+    return Mesh(resource, *scale, resolver=resolver)
+
+
+def run_plan(config: FieldConfig, obstacles: Sequence[Any], robot: Any, inputs: PlanInputs) -> PlannedPath:
+    field = make_field(config, inputs.goal, obstacles)
+    if inputs.method == "whole_body":
+        assert inputs.joint_angles is not None
+        return field.plan_whole_body(robot, inputs.joint_angles, inputs.delta_time, inputs.goal_tolerance,
+                                     inputs.max_iterations)
+    assert inputs.start is not None
+    path: PlannedPath = field.plan(start=inputs.start, dt=inputs.delta_time, goal_tolerance=inputs.goal_tolerance,
+                                   max_iterations=inputs.max_iterations)
+    if inputs.joint_angles is not None:
+        from pfield.planning.joint_trajectory import attach_joint_trajectory
+
+        path = attach_joint_trajectory(path, robot, inputs.joint_angles)
+    return path
+
+
+def whole_body_twist(field: Any, robot: Any, q: NDArray[np.float64], qd: NDArray[np.float64] | None,
+                     dt: float) -> Twist:
+    """End-effector twist of the whole-body autonomy vector at joint angles ``q`` (world frame)."""
+    autonomy = importlib.import_module("pfield.autonomy")
+    twist: Twist = autonomy.whole_body_autonomy_vector(field, robot, q, prev_joint_velocities=qd, dt=dt)
+    return twist
+
+
+def make_resolver(package_paths: Mapping[str, Path], mesh_roots: Sequence[Path]) -> Any:
+    """The node's :class:`~pfield.geometry.ResourceResolver`: ``package://`` through ``package_paths``;
+    files only inside ``mesh_roots`` or a package directory."""
+    from pfield.geometry import ResourceResolver
+
+    allowed = [*mesh_roots, *package_paths.values()]
+    return ResourceResolver(package_paths=dict(package_paths), allowed_roots=allowed)
