@@ -92,6 +92,9 @@ class CostmapParams:
             raise InvalidInput("footprint", self.footprint, 'must be a string like "[[0.4, 0.25], ...]"')
         if not isinstance(self.global_frame, str) or not self.global_frame:
             raise InvalidInput("global_frame", self.global_frame, "must be a non-empty frame name")
+        for name in ("trinary_costmap", "track_unknown_space"):
+            if not isinstance(getattr(self, name), bool):
+                raise InvalidInput(name, getattr(self, name), "must be true or false")
         threshold = self.lethal_cost_threshold
         if isinstance(threshold, bool) or not isinstance(threshold, int) or not 1 <= threshold <= 100:
             raise InvalidInput("lethal_cost_threshold", threshold, "must be an integer in [1, 100]")
