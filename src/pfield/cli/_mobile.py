@@ -9,7 +9,9 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from pfield.cli._node import ServeContext, register_node_factory
 from pfield.errors import PfieldError
+from pfield.node._base import Node
 
 
 def _progress(console: Console) -> Progress:
@@ -55,8 +57,16 @@ def run_sim2d(scenario_name: str, output_dir: Path, drive: str | None, gif: bool
     return result.outcome
 
 
+def _serve_base_controller(context: ServeContext) -> list[Node]:
+    """``pfield serve`` also serves ``/base_controller`` (goal, scan, teleop in; ``/cmd_vel`` out)."""
+    from pfield.node.base_controller import BaseControllerNode
+
+    return [BaseControllerNode(context.bus)]
+
+
 def register(app: typer.Typer) -> None:
-    """Add ``plot2d`` and ``sim2d`` to ``app``."""
+    """Add ``plot2d`` and ``sim2d`` to ``app`` and the base controller node to ``pfield serve``."""
+    register_node_factory(_serve_base_controller)
 
     @app.command("plot2d")
     def plot2d(

@@ -21,7 +21,7 @@ class LaserScan(RosMessage):
 
     # ``inf`` ranges are normal ("no return"): keep them through JSON as ``Infinity``/``NaN`` literals
     # (what Python's json module and pydantic read back) instead of pydantic's default ``null``.
-    model_config = ConfigDict(**RosMessage.model_config, ser_json_inf_nan="constants")
+    model_config = ConfigDict(**{**RosMessage.model_config, "ser_json_inf_nan": "constants"})  # type: ignore[typeddict-item]
 
     ros_type = "sensor_msgs/msg/LaserScan"
     header: Header = Field(default_factory=Header)

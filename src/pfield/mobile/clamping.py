@@ -12,8 +12,9 @@ A zero vector has no direction and stays zero (at the goal, exactly on an obstac
 result is never NaN and ‖v‖ ≤ max_spd_norm always holds.
 
 ``hard`` (default, the original's): n ↦ min(max(n, lower), upper). ``tanh`` (smooth, optional):
-n ↦ max(lower, upper·tanh(n / upper)), which equals the identity for small n, has no kink at the upper
-bound and never reaches it; choose it when the kink's chattering matters (e.g. between two obstacles).
+n ↦ max(lower, upper·tanh(n / upper)) for the two parts (≈ identity for small n, no kink at the upper
+bound), while the sum keeps the hard clamp (it only binds when both parts push the same way, and a second
+tanh would pull free-space speeds below ``min_spd_norm``). Choose it when the kink's chattering matters.
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ HARD, TANH = 0, 1
 @njit(cache=True, inline="always")
 def clamp_norm(vx: float, vy: float, lower: float, upper: float, mode: int) -> tuple[float, float]:
     """Rescale (vx, vy) so its norm lies in [lower, upper], keeping the direction; zero stays zero."""
-    norm = math.sqrt(vx * vx + vy * vy)
+    norm = math.hypot(vx, vy)  # no underflow to 0 for tiny vectors (they keep their direction)
     if norm == 0.0:
         return 0.0, 0.0
     if mode == TANH:
@@ -49,7 +50,8 @@ def clamped_sum(ax: float, ay: float, rx: float, ry: float, min_spd: float, max_
     """The command of the clamping strategy from the raw attractive (ax, ay) and repulsive (rx, ry) parts."""
     rx, ry = clamp_norm(rx, ry, 0.0, max_spd, mode)
     ax, ay = clamp_norm(ax, ay, min_spd, max_spd, mode)
-    return clamp_norm(ax + rx, ay + ry, 0.0, max_spd, mode)
+    # the sum's clamp is hard in both modes: a second tanh would pull free-space speeds below min_spd_norm
+    return clamp_norm(ax + rx, ay + ry, 0.0, max_spd, HARD)
 
 
 @njit(cache=True)

@@ -1,0 +1,130 @@
+"""``/base_controller``: topics in, ``/cmd_vel`` out on ticks, parameters, bad input rejected with state kept."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from pfield.errors import InvalidInput, UnknownFrame
+from pfield.interfaces import geometry_msgs as gm
+from pfield.interfaces import std_srvs
+from pfield.interfaces.sensor_msgs import LaserScan
+from pfield.interfaces.std_msgs import Header
+from pfield.mobile.controller import ControllerState
+from pfield.node._base import Bus
+from pfield.node.base_controller import BaseControllerNode
+
+
+class FakeClock:
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+@pytest.fixture
+def node():
+    clock = FakeClock()
+    node = BaseControllerNode(Bus(), rate=20.0, clock=clock)
+    node.set_parameters({"kr_height": 0.0, "max_linear_acceleration": 0.0, "max_angular_acceleration": 0.0})
+    node.clock = clock
+    return node
+
+
+def _tick(node, seconds):
+    for _ in range(round(seconds / node.tick_period)):
+        node.clock.now += node.tick_period
+        node.tick(node.clock.now)
+    return node.bus.latest("/cmd_vel")
+
+
+def _goal(x, y, frame="odom"):
+    return gm.PointStamped.model_validate({"header": {"frame_id": frame}, "point": {"x": x, "y": y}})
+
+
+def test_contract_names_and_types(node):
+    assert node.name == "/base_controller" and node.tick_period == pytest.approx(0.05)
+    assert {(s.topic, s.type_name) for s in node.subscriptions()} == {
+        ("/goal_point", "geometry_msgs/msg/PointStamped"), ("/scan", "sensor_msgs/msg/LaserScan"),
+        ("/cmd_vel_teleop", "geometry_msgs/msg/Twist")}
+    assert [(p.topic, p.type_name) for p in node.publications()] == [("/cmd_vel", "geometry_msgs/msg/Twist")]
+
+
+def test_goal_point_is_followed_until_reached(node):
+    node.on_goal(_goal(1.0, 0.0))
+    twist = _tick(node, 0.1)
+    assert twist.linear.x > 0.0 and node.state == ControllerState.FOLLOWING
+    _tick(node, 10.0)
+    assert node.state == ControllerState.REACHED and node.goal is None
+    assert math.hypot(node.pose[0] - 1.0, node.pose[1]) <= 0.1
+    assert node.bus.latest("/cmd_vel") == gm.Twist()
+
+
+def test_goal_in_base_frame_is_relative_to_the_robot(node):
+    node.on_goal(_goal(1.0, 0.0))
+    _tick(node, 10.0)
+    node.on_goal(_goal(0.0, 2.0, frame="base_link"))
+    assert node.goal.tolist() == pytest.approx([node.pose[0], node.pose[1] + 2.0])
+
+
+def test_bad_goal_is_rejected_and_goal_kept(node):
+    node.on_goal(_goal(3.0, 0.0))
+    with pytest.raises(UnknownFrame):
+        node.on_goal(_goal(0.0, 0.0, frame="map"))
+    with pytest.raises(InvalidInput, match="point"):
+        node.on_goal(_goal(math.nan, 0.0))
+    assert node.goal.tolist() == [3.0, 0.0]
+
+
+def test_scan_sets_obstacles_and_bad_scan_keeps_them(node):
+    node.set_parameters({"kr_height": 1.0, "kr_dist": 0.5, "kr_slope": 10.0})
+    scan = LaserScan.model_validate({"header": {"frame_id": "laser"}, "angle_min": -math.pi,
+                                     "angle_increment": math.pi / 2, "range_min": 0.1, "range_max": 5.0,
+                                     "ranges": [2.0, 2.0, 0.6, 2.0]})
+    node.on_scan(scan)
+    node.on_teleop(gm.Twist(linear=gm.Vector3(x=0.5)))
+    slowed = _tick(node, 0.05)
+    assert 0.0 < slowed.linear.x < 0.5  # an obstacle 0.6 m ahead pushes back on the operator
+    points = node.obstacle_points
+    assert points.shape == (4, 2)
+    bad = scan.model_copy(update={"range_min": 6.0})
+    with pytest.raises(InvalidInput, match="range_max"):
+        node.on_scan(bad)
+    with pytest.raises(UnknownFrame):
+        node.on_scan(scan.model_copy(update={"header": Header(frame_id="camera")}))
+    assert (node.obstacle_points == points).all()
+
+
+def test_teleop_has_priority_then_stale_input_gives_zero(node):
+    node.on_teleop(gm.Twist(linear=gm.Vector3(x=0.2, y=-0.1), angular=gm.Vector3(z=0.3)))
+    twist = _tick(node, 0.05)
+    assert (twist.linear.x, twist.linear.y, twist.angular.z) == pytest.approx((0.2, -0.1, 0.3))
+    assert node.state == ControllerState.TELEOP
+    stale = _tick(node, 1.0)
+    assert stale == gm.Twist() and node.state == ControllerState.TIMEOUT
+    with pytest.raises(InvalidInput):
+        node.on_teleop(gm.Twist(linear=gm.Vector3(x=math.inf)))
+
+
+def test_parameters_are_validated_all_or_nothing(node):
+    before = node.get_parameters()
+    assert before["attraction"] == "power" and before["drive"] == "holonomic" and before["odom_frame"] == "odom"
+    for bad in ({"kr_slope": 0.0}, {"ka": 2.0, "min_spd_norm": 5.0}, {"no_such": 1}, {"ka": True},
+                {"drive": "walking"}, {"base_frame": ""}, {"ka": 1.0, "teleop_timeout": -1.0}):
+        with pytest.raises(InvalidInput):
+            node.set_parameters(bad)
+        assert node.get_parameters() == before
+    after = node.set_parameters({"ka": 1.0, "attraction": "linear", "drive": "diff_drive", "base_frame": "base"})
+    assert (after["ka"], after["attraction"], after["drive"], after["base_frame"]) == (1.0, "linear", "diff_drive",
+                                                                                        "base")
+
+
+def test_cancel_goal_service(node):
+    node.on_goal(_goal(3.0, 0.0))
+    (service,) = node.services()
+    assert service.name == "/base_controller/cancel_goal"
+    response = service.handler(std_srvs.Trigger_Request())
+    assert response.success and node.goal is None
+    assert _tick(node, 0.1) == gm.Twist()
