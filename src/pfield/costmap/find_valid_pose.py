@@ -161,6 +161,30 @@ def _answer_pose(pose: Pose, costmap: Costmap2D, i: int, j: int, delta: float) -
     return Pose(position, quaternion_multiply(turn, pose.orientation))
 
 
+def _max_ring(costmap: Costmap2D, base_m: int, base_n: int, k_box: NDArray[np.int64], dist_tolerance: float) -> int:
+    """Largest ``i² + j²`` to search: the tolerance, capped where every candidate lies entirely outside the map
+    (a position that far out is OUTSIDE and nearer to the request than anything beyond it)."""
+    reach = int(np.abs(k_box).max()) + 2
+    corner = max(abs(base_m), abs(base_n), abs(base_m - costmap.size_x), abs(base_n - costmap.size_y))
+    max_ring = math.floor((dist_tolerance / costmap.resolution) ** 2 * (1.0 + _SLACK) + _SLACK)
+    max_ring = min(max_ring, 2 * (corner + reach) ** 2)
+    if math.pi * max_ring > MAX_CANDIDATE_POSITIONS:
+        raise InvalidInput("dist_tolerance", dist_tolerance,
+                           f"too large for resolution {costmap.resolution} (over {MAX_CANDIDATE_POSITIONS} positions)")
+    return max_ring
+
+
+def _check_request(safety_dist: float, dist_tolerance: float, angle_tolerance: float, angle_increment: float,
+                   pose: Pose) -> tuple[float, float, float]:
+    values = (_check_nonnegative("safety_dist", safety_dist), _check_nonnegative("dist_tolerance", dist_tolerance),
+              _check_nonnegative("angle_tolerance", angle_tolerance))
+    if not (math.isfinite(angle_increment) and angle_increment > 0.0):
+        raise InvalidInput("angle_increment", angle_increment, "must be a finite number > 0")
+    if not np.all(np.isfinite(pose.position)):
+        raise InvalidInput("pose.position", pose.position.tolist(), "must be finite")
+    return values
+
+
 def find_valid_pose(
     costmap: Costmap2D, footprint: Footprint, pose: Pose, *, safety_dist: float = 0.0,
     dist_tolerance: float = 0.0, angle_tolerance: float = 0.0, angle_increment: float = DEFAULT_ANGLE_INCREMENT,
@@ -170,26 +194,14 @@ def find_valid_pose(
     Distances in m, angles in rad; see the module docstring for the candidate order and the answer rule.
     Raises :class:`~pfield.errors.InvalidInput` for negative or non-finite tolerances or safety distance.
     """
-    safety_dist = _check_nonnegative("safety_dist", safety_dist)
-    dist_tolerance = _check_nonnegative("dist_tolerance", dist_tolerance)
-    angle_tolerance = _check_nonnegative("angle_tolerance", angle_tolerance)
-    if not (math.isfinite(angle_increment) and angle_increment > 0.0):
-        raise InvalidInput("angle_increment", angle_increment, "must be a finite number > 0")
-    if not np.all(np.isfinite(pose.position)):
-        raise InvalidInput("pose.position", pose.position.tolist(), "must be finite")
+    safety_dist, dist_tolerance, angle_tolerance = _check_request(safety_dist, dist_tolerance, angle_tolerance,
+                                                                  angle_increment, pose)
     robot = footprint.padded(safety_dist) if safety_dist > 0.0 else footprint
     deltas = yaw_offsets(angle_tolerance, angle_increment)
-    yaw0 = pose.yaw
-    base_m, base_n, (k_ptr, k_dm, k_dn, k_box) = _kernels(costmap, robot, pose, yaw0 + deltas)
-    reach = int(np.abs(k_box).max()) + 2
-    corner = max(abs(base_m), abs(base_n), abs(base_m - costmap.size_x), abs(base_n - costmap.size_y))
-    max_ring = math.floor((dist_tolerance / costmap.resolution) ** 2 * (1.0 + _SLACK) + _SLACK)
-    max_ring = min(max_ring, 2 * (corner + reach) ** 2)  # beyond this every candidate is entirely OUTSIDE
-    if math.pi * max_ring > MAX_CANDIDATE_POSITIONS:
-        raise InvalidInput("dist_tolerance", dist_tolerance,
-                           f"too large for resolution {costmap.resolution} (over {MAX_CANDIDATE_POSITIONS} positions)")
-    pos_i, pos_j, ring_ptr = candidate_offsets(max_ring)
+    base_m, base_n, (k_ptr, k_dm, k_dn, k_box) = _kernels(costmap, robot, pose, pose.yaw + deltas)
+    pos_i, pos_j, ring_ptr = candidate_offsets(_max_ring(costmap, base_m, base_n, k_box, dist_tolerance))
     states = np.full((pos_i.size, deltas.size), _k.NOT_EVALUATED, dtype=np.uint8)
+    # prefilter: lethal-cell centres within (inscribed radius − offset of the pose from its cell centre)
     limit = robot.inscribed_radius / costmap.resolution if robot.contains_center else -1.0
     offset = math.hypot((pose.position[0] - costmap.origin_x) / costmap.resolution - base_m - 0.5,
                         (pose.position[1] - costmap.origin_y) / costmap.resolution - base_n - 0.5)
@@ -198,7 +210,7 @@ def find_valid_pose(
     positions = np.column_stack((pose.position[0] + pos_i * costmap.resolution,
                                  pose.position[1] + pos_j * costmap.resolution))
     trace = SearchTrace(positions, deltas, states)
-    for p_slot, a_slot in ((0, 1), (3, 4), (5, 6)):
+    for p_slot, a_slot in ((0, 1), (3, 4), (5, 6)):  # FREE/INSCRIBED, else UNKNOWN, else OUTSIDE
         p, a = int(found[p_slot]), int(found[a_slot])
         if p >= 0:
             i, j = int(pos_i[p]), int(pos_j[p])
