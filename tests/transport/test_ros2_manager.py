@@ -1,0 +1,113 @@
+"""Acceptance test of the ROS 2 node: the real ``/pfield_manager`` (``pfield ros2 node``) driven by a second
+rclpy process with the seed document's examples, in a private network namespace.
+
+The node process resolves the seed's ``package://my_robot_description/meshes/obstacle.dae`` through
+``--package-path`` (tests/data/my_robot_description). ``ros2_helpers/manager_scenario.py`` is the client.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+from ros2_helpers import seed_examples as seed
+from ros2_helpers.support import HELPERS, REPO, dds_shm_entries, require_netns, require_ros2_python, run_session
+
+pytestmark = [pytest.mark.ros2, pytest.mark.slow]
+
+XARM7_JOINTS = [f"joint{i}" for i in range(1, 8)]
+METHODS = ["task_space"]
+"""Planning methods asserted here. The client also calls the whole-body examples; their assertions join
+this list when the whole-body planner and autonomy vector land (the node already serves them)."""
+SEED_IDS = sorted(seed.OBSTACLES)
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    require_ros2_python()
+    require_netns()
+    out = tmp_path_factory.mktemp("ros2_manager")
+    package = REPO / "tests" / "data" / "my_robot_description"
+    node = [str(Path(sys.executable).with_name("pfield")), "ros2", "node", "--robot", "xarm7",
+            "--package-path", f"my_robot_description={package}"]
+    shm_before = dds_shm_entries()
+    process = run_session(node, [sys.executable, str(HELPERS / "manager_scenario.py")], out, timeout=600)
+    assert process.returncode == 0, process.stderr
+    logs = {name: (out / name).read_text() for name in ("node.log", "client.log")}
+    assert (out / "results.json").exists(), logs
+    results = json.loads((out / "results.json").read_text())
+    assert "error" not in results, results["error"] + "\n--- node log ---\n" + logs["node.log"]
+    return {"results": results, "session": json.loads((out / "session.json").read_text()), "logs": logs,
+            "new_shm": dds_shm_entries() - shm_before}
+
+
+def _distance(a: list[float], b: tuple[float, ...]) -> float:
+    return math.dist(a, b)
+
+
+def test_seed_obstacles_are_all_held_and_drawn(session: dict[str, Any]) -> None:
+    results = session["results"]
+    assert results["held_after_seed"] == SEED_IDS  # the mesh one resolved through the package path
+    assert {"obstacles", "influence"} <= set(results["marker_namespaces"])
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_seed_plan_path_reaches_the_goal(session: dict[str, Any], method: str) -> None:
+    plan = session["results"][f"plan_{method}"]
+    assert plan["success"] is True, plan["error_message"]
+    assert plan["error_message"] == ""
+    assert _distance(plan["final_position"], seed.GOAL_POSITION) <= 0.01 + 1e-6  # the request's goal_tolerance
+    assert plan["path_frame"] == "world"
+    assert plan["twists"] == plan["poses"]  # one end-effector twist per step
+    if method == "whole_body":
+        assert plan["joint_names"] == XARM7_JOINTS
+        assert plan["joint_points"] == plan["poses"] and plan["joint_point_sizes"] == [7]
+    # the same path was published on /pfield/planned_path
+    assert session["results"][f"planned_path_{method}"] == {"poses": plan["poses"], "frame": "world"}
+
+
+def test_path_marker_published(session: dict[str, Any]) -> None:
+    assert session["results"]["path_marker_points"] > 1
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_seed_autonomy_vector_points_to_the_goal(session: dict[str, Any], method: str) -> None:
+    velocity = session["results"][f"autonomy_{method}"]
+    assert all(math.isfinite(v) for v in velocity)
+    to_goal = [g - q for g, q in zip(seed.GOAL_POSITION, seed.QUERY_POSITION, strict=True)]
+    cosine = sum(v * d for v, d in zip(velocity, to_goal, strict=True)) / (math.hypot(*velocity) * math.hypot(*to_goal))
+    assert cosine > 0.9  # no obstacle within the influence distance of the query pose
+
+
+def test_parameter_change_takes_effect_and_bad_values_are_refused(session: dict[str, Any]) -> None:
+    results = session["results"]
+    assert results["set_max_linear_velocity"] == [[True, ""]]
+    assert math.hypot(*results["autonomy_task_space"]) > 0.01
+    assert math.hypot(*results["autonomy_task_space_slow"]) <= 0.01 + 1e-9
+    (ok, reason), = results["set_bad"]
+    assert not ok and "max_linear_velocity" in reason and "-1.0" in reason
+    (ok, reason), = results["set_bad_influence"]
+    assert not ok and "influence_distance" in reason
+    assert results["params_after"]["max_linear_velocity"] == 0.01
+    assert results["params_after"]["influence_distance"] == 0.1
+
+
+def test_bad_obstacles_leave_the_node_serving_with_its_state(session: dict[str, Any]) -> None:
+    results = session["results"]
+    assert results["held_after_bad"] == sorted([*SEED_IDS, "probe"])  # nothing of the bad messages was added
+    assert results["remove_probe"] is True
+    assert results["autonomy_unchanged_by_bad"] is True
+    log = session["logs"]["node.log"]
+    for fragment in ("obstacles[1].radius", "obstacles[0].type", "file:///etc/passwd", "package://nowhere"):
+        assert fragment in log, fragment
+
+
+def test_clean_shutdown(session: dict[str, Any]) -> None:
+    assert session["session"] == {"client_returncode": 0, "node_returncode": 0, "node_died_early": False,
+                                  "node_killed": False}
+    assert session["new_shm"] == set()
+    assert "terminate called" not in session["logs"]["node.log"]
