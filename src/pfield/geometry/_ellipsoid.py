@@ -10,9 +10,11 @@ We follow D. Eberly, "Distance from a Point to an Ellipse, an Ellipsoid, or a Hy
 ``e0 ≥ e1 ≥ e2``, treat points on coordinate planes separately (where the closest point may leave
 the plane, for inside points near the smallest axis), and solve the scaled equation
 ``F(s) = Σ (r_i z_i / (s + r_i))² − 1`` with ``r_i = (e_i/e2)²``, ``z_i = y_i/e_i`` on the bracket
-``[z2 − 1, ‖r∘z‖ − 1]`` (or ``[z2 − 1, 0]`` inside). ``F`` is convex and decreasing there; we use
+``[z2 − 1, ‖r∘z‖ − 1]`` (or ``[z2 − 1, 0]`` inside), written in ``u = s + 1`` so that roots near
+the pole keep their relative precision. ``F`` is convex and decreasing there; we use
 Halley's method (cubic convergence, ~3 steps) kept inside the shrinking bracket, falling back to
-bisection whenever a step leaves it, so the solve is as robust as Eberly's bisection but faster.
+bisection (geometric while the bracket spans orders of magnitude, since u > 0) whenever a step
+leaves it, so the solve is as robust as Eberly's bisection but faster.
 Works for points inside and outside, on the axes and at the centre.
 """
 
@@ -24,35 +26,42 @@ from numba import njit
 
 _MAX_ITERATIONS = 128
 _REL_TOL = 1e-15
+_FLAT = 1e-100
 
 
 @njit(cache=True)
 def _root(r0: float, r1: float, z0: float, z1: float, z2: float, g: float) -> float:
-    """Root of Σ (n_i / (s + r_i))² − 1 with n = (r0 z0, r1 z1, z2), r = (r0, r1, 1); set z1 = 0 for 2D."""
+    """Root u = s + 1 > 0 of Σ (n_i / (u + c_i))² − 1, n = (r0 z0, r1 z1, z2), c = (r0 − 1, r1 − 1, 0).
+
+    Solving for u instead of s keeps full relative precision when the root is near the pole
+    s = −1 (points near the centre of a sphere-like ellipsoid); set z1 = 0 for the 2D problem.
+    """
     n0, n1 = r0 * z0, r1 * z1
-    lo = z2 - 1.0
-    hi = 0.0 if g < 0.0 else math.sqrt(n0 * n0 + n1 * n1 + z2 * z2) - 1.0
-    s = hi
+    c0, c1 = r0 - 1.0, r1 - 1.0
+    lo = z2
+    hi = 1.0 if g < 0.0 else math.sqrt(n0 * n0 + n1 * n1 + z2 * z2)
+    u = hi
     for _ in range(_MAX_ITERATIONS):
-        i0, i1, i2 = 1.0 / (s + r0), 1.0 / (s + r1), 1.0 / (s + 1.0)
+        i0, i1, i2 = 1.0 / (u + c0), 1.0 / (u + c1), 1.0 / u
         a0, a1, a2 = n0 * i0, n1 * i1, z2 * i2
         f = a0 * a0 + a1 * a1 + a2 * a2 - 1.0
         if f > 0.0:
-            lo = s
+            lo = u
         elif f < 0.0:
-            hi = s
+            hi = u
         else:
-            return s
+            return u
         b0, b1, b2 = a0 * a0 * i0, a1 * a1 * i1, a2 * a2 * i2
         df = -2.0 * (b0 + b1 + b2)
         ddf = 6.0 * (b0 * i0 + b1 * i1 + b2 * i2)
-        nxt = s - 2.0 * f * df / (2.0 * df * df - f * ddf)  # Halley's step
+        nxt = u - 2.0 * f * df / (2.0 * df * df - f * ddf)  # Halley's step
         if not (lo < nxt < hi):
-            nxt = 0.5 * (lo + hi)
-        if abs(nxt - s) <= _REL_TOL * max(1.0, abs(s)):
+            # Bisect; geometrically while the bracket spans orders of magnitude (roots near u = z2 ≪ 1).
+            nxt = math.sqrt(lo * hi) if hi > 4.0 * lo else 0.5 * (lo + hi)
+        if abs(nxt - u) <= _REL_TOL * u:
             return nxt
-        s = nxt
-    return s
+        u = nxt
+    return u
 
 
 @njit(cache=True)
@@ -65,8 +74,8 @@ def _closest_ellipse(e0: float, e1: float, y0: float, y1: float) -> tuple[float,
             if g == 0.0:
                 return y0, y1
             r0 = (e0 / e1) ** 2
-            s = _root(r0, 1.0, z0, 0.0, z1, g)
-            return r0 * y0 / (s + r0), y1 / (s + 1.0)
+            u = _root(r0, 1.0, z0, 0.0, z1, g)
+            return r0 * y0 / (u + (r0 - 1.0)), y1 / u
         return 0.0, e1
     denom0 = e0 * e0 - e1 * e1
     numer0 = e0 * y0
@@ -87,8 +96,8 @@ def _closest_sorted(e0: float, e1: float, e2: float, y0: float, y1: float, y2: f
                 if g == 0.0:
                     return y0, y1, y2
                 r0, r1 = (e0 / e2) ** 2, (e1 / e2) ** 2
-                s = _root(r0, r1, z0, z1, z2, g)
-                return r0 * y0 / (s + r0), r1 * y1 / (s + r1), y2 / (s + 1.0)
+                u = _root(r0, r1, z0, z1, z2, g)
+                return r0 * y0 / (u + (r0 - 1.0)), r1 * y1 / (u + (r1 - 1.0)), y2 / u
             x1, x2 = _closest_ellipse(e1, e2, y1, y2)
             return 0.0, x1, x2
         if y0 > 0.0:
@@ -141,7 +150,11 @@ def ellipsoid_signed_distance(
     sx = 1.0 if qx >= 0.0 else -1.0
     sy = 1.0 if qy >= 0.0 else -1.0
     sz = 1.0 if qz >= 0.0 else -1.0
-    ya, yb, yc = abs(qx), abs(qy), abs(qz)
+    # Coordinates below 1e-100 of their semi-axis are treated as on the plane: the root solve
+    # would otherwise run through denormals (the error is < 1e-100 m).
+    ya = abs(qx) if abs(qx) > _FLAT * a else 0.0
+    yb = abs(qy) if abs(qy) > _FLAT * b else 0.0
+    yc = abs(qz) if abs(qz) > _FLAT * c else 0.0
     i0, i1, i2 = _descending_order(a, b, c)
     x0, x1, x2 = _closest_sorted(
         _pick(i0, a, b, c), _pick(i1, a, b, c), _pick(i2, a, b, c),
