@@ -34,7 +34,7 @@ def _obstacle(shape, quaternion) -> Obstacle:  # type: ignore[no-untyped-def]
        point=st.tuples(coordinates, coordinates, coordinates))
 def test_moving_along_the_normal_changes_d_by_the_step(shape, quaternion, point):
     obstacle = _obstacle(shape, quaternion)
-    p = np.array(point) + (0.1, -0.2, 0.05)
+    p = np.array(point) + np.array([0.1, -0.2, 0.05])
     (d,), (n,) = obstacle.signed_distance(p)
     assert abs(np.linalg.norm(n) - 1.0) < 1e-12
     # Outside, the closest point stays the same along the outward ray; inside (convex shapes) it stays
