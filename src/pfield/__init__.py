@@ -2,6 +2,7 @@
 
 __version__ = "0.1.0"
 
+from pfield.field import FieldConfig, PotentialField
 from pfield.geometry import (
     Box,
     Capsule,
@@ -13,14 +14,18 @@ from pfield.geometry import (
     Sphere,
     pack_obstacles,
 )
+from pfield.planning import PlannedPath
 
 __all__ = [
     "Box",
     "Capsule",
     "Cylinder",
     "Ellipsoid",
+    "FieldConfig",
     "Mesh",
     "Obstacle",
+    "PlannedPath",
+    "PotentialField",
     "ResourceResolver",
     "Sphere",
     "pack_obstacles",

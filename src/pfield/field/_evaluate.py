@@ -1,0 +1,245 @@
+"""Compiled evaluation of the field at a pose: the raw wrench and the constrained twist (numba).
+
+Inputs shared by every kernel here:
+
+* ``goal`` (7,): goal position (m) then orientation quaternion (x, y, z, w), world frame;
+* ``params`` (16,): :meth:`FieldConfig.packed`, indexed by the constants below;
+* ``packed``: :class:`~pfield.geometry._packed.PackedObstacles`;
+* ``aux`` (M, 7): per obstacle the unit circulation axis c (3), a bounding radius (m) and the shape
+  centre (3), built by :func:`obstacle_aux`. The bound lets far obstacles be skipped exactly: the signed
+  distance is at least ‖p − centre‖ − radius.
+
+Kernels that take ``packed`` are inlined (``inline="always"``) into their callers: numba reference-counts
+every array of a tuple argument at each non-inlined call (two atomic operations per array), which would
+cost more than the whole evaluation without obstacles. For the same reason the obstacle count and
+centres are read from ``aux`` (a plain array): reading a field of the ``packed`` named tuple also costs
+a reference-count pair, so ``packed`` is touched only to evaluate an obstacle's signed distance.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from pfield.field._unowned import unowned, unowned_arrays
+from pfield.field.forces import (
+    attraction,
+    damper_speed,
+    deflect,
+    khatib_magnitude,
+    rate_limit,
+    rotation_error,
+    soft_saturate,
+)
+from pfield.geometry._packed import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE, PackedObstacles
+from pfield.geometry._sdf import obstacle_signed_distance
+
+# Positions in FieldConfig.packed() (a test checks them against PARAM_NAMES).
+ATTRACTIVE_GAIN, ROTATIONAL_GAIN, REPULSIVE_GAIN = 0, 1, 2
+MAX_LINEAR_VELOCITY, MAX_ANGULAR_VELOCITY = 3, 4
+MAX_LINEAR_ACCELERATION, MAX_ANGULAR_ACCELERATION = 5, 6
+INFLUENCE_DISTANCE, ATTRACTIVE_THRESHOLD, ROTATION_TOLERANCE = 7, 8, 9
+MAX_REPULSIVE_FORCE, SAFETY_DISTANCE, DAMPER_GAIN, CIRCULATION_GAIN = 10, 11, 12, 13
+STAGNATION_WINDOW, STAGNATION_PROGRESS = 14, 15
+
+
+def obstacle_aux(packed: PackedObstacles, goal_position: np.ndarray) -> np.ndarray:
+    """(M, 7) circulation axes, bounding radii and centres of the packed obstacles for a goal position.
+
+    The circulation axis of obstacle i is c_i = normalize((g − centre_i) × ẑ) (× x̂ when the goal lies
+    straight above or below the centre): the tangential motion n × c_i then runs in the vertical plane
+    through the centre and the goal, over the top of the obstacle when approaching it head-on.
+    """
+    count = packed.kinds.shape[0]
+    aux = np.zeros((count, 7))
+    for i in range(count):
+        centre = packed.rows[i, :3]
+        toward_goal = goal_position - centre
+        axis = np.cross(toward_goal, (0.0, 0.0, 1.0))
+        if np.linalg.norm(axis) <= 1e-9 * max(float(np.linalg.norm(toward_goal)), 1e-9):
+            axis = np.cross(toward_goal, (1.0, 0.0, 0.0))
+        norm = float(np.linalg.norm(axis))
+        aux[i, :3] = axis / norm if norm > 1e-12 else (1.0, 0.0, 0.0)
+        aux[i, 3] = _bounding_radius(packed, i)
+        aux[i, 4:7] = centre
+    return aux
+
+
+def _bounding_radius(packed: PackedObstacles, i: int) -> float:
+    kind = int(packed.kinds[i])
+    s0, s1, s2 = (float(v) for v in packed.rows[i, 12:15])
+    if kind == SPHERE:
+        return s0
+    if kind == BOX:
+        return math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+    if kind == CYLINDER:
+        return math.sqrt(s0 * s0 + s1 * s1)
+    if kind == ELLIPSOID:
+        return max(s0, s1, s2)
+    if kind == CAPSULE:
+        return s0 + s1
+    if kind == MESH:
+        first, length = (int(v) for v in packed.mesh_table[int(packed.rows[i, 15]), 2:4])
+        vertices = packed.triangles[first:first + length].reshape(-1, 3)
+        return float(np.max(np.linalg.norm(vertices, axis=1))) if length else 0.0
+    return math.inf
+
+
+@njit(cache=True, inline="always")
+def _lower_bound(aux: np.ndarray, i: int, p: np.ndarray) -> float:
+    dx, dy, dz = p[0] - aux[i, 4], p[1] - aux[i, 5], p[2] - aux[i, 6]
+    return math.sqrt(dx * dx + dy * dy + dz * dz) - aux[i, 3]
+
+
+@njit(cache=True, inline="always")
+def field_wrench(
+    p: np.ndarray, qx: float, qy: float, qz: float, qw: float,
+    goal: np.ndarray, params: np.ndarray, packed: PackedObstacles, aux: np.ndarray,
+) -> tuple[float, float, float, float, float, float]:
+    """Raw wrench (N, N·m) at pose (p, q): attraction + Σ saturated Khatib repulsion, rotational torque."""
+    fx, fy, fz = attraction(goal[0] - p[0], goal[1] - p[1], goal[2] - p[2],
+                            params[ATTRACTIVE_GAIN], params[ATTRACTIVE_THRESHOLD])
+    influence = params[INFLUENCE_DISTANCE]
+    for i in range(aux.shape[0]):
+        if _lower_bound(aux, i, p) >= influence:
+            continue
+        d, nx, ny, nz = obstacle_signed_distance(packed, i, p)
+        m = khatib_magnitude(d, params[REPULSIVE_GAIN], influence, params[MAX_REPULSIVE_FORCE])
+        fx, fy, fz = fx + m * nx, fy + m * ny, fz + m * nz
+    rx, ry, rz = rotation_error(qx, qy, qz, qw, goal[3], goal[4], goal[5], goal[6])
+    k = params[ROTATIONAL_GAIN]
+    return fx, fy, fz, k * rx, k * ry, k * rz
+
+
+@njit(cache=True, inline="always")
+def _avoid(
+    p: np.ndarray, vx: float, vy: float, vz: float,
+    params: np.ndarray, packed: PackedObstacles, aux: np.ndarray,
+) -> tuple[float, float, float, float, int]:
+    """Apply every obstacle's velocity damper (twice when several bind); also the exact clearance."""
+    influence, safety = params[INFLUENCE_DISTANCE], params[SAFETY_DISTANCE]
+    vmax = params[MAX_LINEAR_VELOCITY]
+    gain = params[DAMPER_GAIN] * vmax
+    accel, kappa = params[MAX_LINEAR_ACCELERATION], params[CIRCULATION_GAIN]
+    clearance, nearest, active = math.inf, -1, 0
+    for sweep in range(2):
+        if sweep == 1 and active < 2:
+            break
+        for i in range(aux.shape[0]):
+            bound = _lower_bound(aux, i, p)
+            if bound >= influence and (sweep == 1 or bound >= clearance):
+                continue
+            d, nx, ny, nz = obstacle_signed_distance(packed, i, p)
+            if sweep == 0 and d < clearance:
+                clearance, nearest = d, i
+            if d < influence:
+                allowed = damper_speed(d, influence, safety, gain, vmax, accel)
+                vx, vy, vz, hit = deflect(vx, vy, vz, nx, ny, nz, aux[i, 0], aux[i, 1], aux[i, 2], allowed, kappa)
+                active += hit
+    return vx, vy, vz, clearance, nearest
+
+
+@njit(cache=True, inline="always")
+def constrained_twist(
+    p: np.ndarray, qx: float, qy: float, qz: float, qw: float,
+    goal: np.ndarray, params: np.ndarray, packed: PackedObstacles, aux: np.ndarray,
+    previous: np.ndarray, use_previous: bool, dt: float,
+) -> tuple[float, float, float, float, float, float, float, int]:
+    """The autonomy twist at pose (p, q) and the clearance: (vx, vy, vz, ωx, ωy, ωz, clearance, nearest).
+
+    1. v = soft-saturated attraction, ω = soft-saturated k_rot · log(q_g ⊗ q⁻¹);
+    2. each obstacle within Q limits the approach speed (velocity damper) and turns the excess into
+       tangential motion (:func:`~pfield.field.forces.deflect`);
+    3. with ``use_previous``, rate limits ‖v − v_prev‖ ≤ a_max dt and ‖ω − ω_prev‖ ≤ α_max dt.
+    ``clearance`` is the smallest signed distance over all obstacles (inf without any), ``nearest`` its
+    index (−1).
+    """
+    vx, vy, vz = attraction(goal[0] - p[0], goal[1] - p[1], goal[2] - p[2],
+                            params[ATTRACTIVE_GAIN], params[ATTRACTIVE_THRESHOLD])
+    vx, vy, vz = soft_saturate(vx, vy, vz, params[MAX_LINEAR_VELOCITY])
+    rx, ry, rz = rotation_error(qx, qy, qz, qw, goal[3], goal[4], goal[5], goal[6])
+    k = params[ROTATIONAL_GAIN]
+    wx, wy, wz = soft_saturate(k * rx, k * ry, k * rz, params[MAX_ANGULAR_VELOCITY])
+    vx, vy, vz, clearance, nearest = _avoid(p, vx, vy, vz, params, packed, aux)
+    if use_previous:
+        vx, vy, vz = rate_limit(vx, vy, vz, previous[0], previous[1], previous[2],
+                                params[MAX_LINEAR_ACCELERATION] * dt)
+        wx, wy, wz = rate_limit(wx, wy, wz, previous[3], previous[4], previous[5],
+                                params[MAX_ANGULAR_ACCELERATION] * dt)
+    return vx, vy, vz, wx, wy, wz, clearance, nearest
+
+
+# ---------------------------------------------------------------------------------------------------
+# Entry points called from Python. They take the eight arrays of PackedObstacles one by one (``*packed``
+# in Python) because numba's dispatcher types a named tuple slowly; see pfield.field._unowned.
+
+
+@njit(cache=True)
+def twist_at(
+    position: np.ndarray, orientation: np.ndarray, goal: np.ndarray, params: np.ndarray, aux: np.ndarray,
+    previous: np.ndarray, use_previous: bool, dt: float,
+    kinds: np.ndarray, rows: np.ndarray, triangles: np.ndarray, pseudo_normals: np.ndarray,
+    bvh_lower: np.ndarray, bvh_upper: np.ndarray, bvh_nodes: np.ndarray, mesh_table: np.ndarray,
+) -> np.ndarray:
+    """:func:`constrained_twist` at one pose (position (3,), quaternion (4,)); returns (6,)."""
+    packed = unowned_arrays(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table)
+    out = np.empty(6)
+    q = orientation
+    out[0], out[1], out[2], out[3], out[4], out[5], _, _ = constrained_twist(
+        unowned(position), q[0], q[1], q[2], q[3], unowned(goal), unowned(params), packed, unowned(aux),
+        unowned(previous), use_previous, dt)
+    return out
+
+
+@njit(cache=True)
+def wrench_at(
+    position: np.ndarray, orientation: np.ndarray, goal: np.ndarray, params: np.ndarray, aux: np.ndarray,
+    kinds: np.ndarray, rows: np.ndarray, triangles: np.ndarray, pseudo_normals: np.ndarray,
+    bvh_lower: np.ndarray, bvh_upper: np.ndarray, bvh_nodes: np.ndarray, mesh_table: np.ndarray,
+) -> np.ndarray:
+    """:func:`field_wrench` at one pose (position (3,), quaternion (4,)); returns (6,)."""
+    packed = unowned_arrays(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table)
+    out = np.empty(6)
+    q = orientation
+    out[0], out[1], out[2], out[3], out[4], out[5] = field_wrench(
+        unowned(position), q[0], q[1], q[2], q[3], unowned(goal), unowned(params), packed, unowned(aux))
+    return out
+
+
+@njit(cache=True)
+def batch_wrenches(
+    positions: np.ndarray, orientations: np.ndarray, goal: np.ndarray, params: np.ndarray, aux: np.ndarray,
+    kinds: np.ndarray, rows: np.ndarray, triangles: np.ndarray, pseudo_normals: np.ndarray,
+    bvh_lower: np.ndarray, bvh_upper: np.ndarray, bvh_nodes: np.ndarray, mesh_table: np.ndarray,
+) -> np.ndarray:
+    """Raw wrenches (N, 6) at N poses (positions (N, 3), unit quaternions (N, 4))."""
+    packed = unowned_arrays(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table)
+    out = np.empty((positions.shape[0], 6))
+    goal, params, aux = unowned(goal), unowned(params), unowned(aux)
+    positions, orientations = unowned(positions), unowned(orientations)
+    for k in range(positions.shape[0]):
+        q = orientations[k]
+        out[k, 0], out[k, 1], out[k, 2], out[k, 3], out[k, 4], out[k, 5] = field_wrench(
+            positions[k], q[0], q[1], q[2], q[3], goal, params, packed, aux)
+    return out
+
+
+@njit(cache=True)
+def batch_twists(
+    positions: np.ndarray, orientations: np.ndarray, goal: np.ndarray, params: np.ndarray, aux: np.ndarray,
+    previous: np.ndarray,
+    kinds: np.ndarray, rows: np.ndarray, triangles: np.ndarray, pseudo_normals: np.ndarray,
+    bvh_lower: np.ndarray, bvh_upper: np.ndarray, bvh_nodes: np.ndarray, mesh_table: np.ndarray,
+) -> np.ndarray:
+    """Constrained twists (N, 6) at N poses, without rate limit (``previous`` (6,) is unused scratch)."""
+    packed = unowned_arrays(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table)
+    out = np.empty((positions.shape[0], 6))
+    goal, params, aux, previous = unowned(goal), unowned(params), unowned(aux), unowned(previous)
+    positions, orientations = unowned(positions), unowned(orientations)
+    for k in range(positions.shape[0]):
+        q = orientations[k]
+        out[k, 0], out[k, 1], out[k, 2], out[k, 3], out[k, 4], out[k, 5], _, _ = constrained_twist(
+            positions[k], q[0], q[1], q[2], q[3], goal, params, packed, aux, previous, False, 0.0)
+    return out

@@ -1,0 +1,238 @@
+"""The 3D potential field over a goal pose and an obstacle set (:class:`PotentialField`).
+
+The object is immutable: it validates its inputs, packs the obstacles and the parameters once into
+arrays, and every query is one call of a compiled kernel (:mod:`pfield.field._evaluate`). Changing the
+goal, the obstacles or the parameters gives a new field (:meth:`PotentialField.with_goal` …).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from pfield._validation import as_points, finite
+from pfield.errors import InvalidInput
+from pfield.field._evaluate import batch_twists, batch_wrenches, obstacle_aux, twist_at, wrench_at
+from pfield.field.config import FieldConfig
+from pfield.geometry import Obstacle, PackedObstacles, pack_obstacles, signed_distances
+from pfield.spatial import Pose, Twist, Wrench
+
+if TYPE_CHECKING:
+    from pfield.planning.result import PlannedPath
+
+__all__ = ["FieldArrays", "PotentialField"]
+
+_NO_PREVIOUS = np.zeros(6)
+_IDENTITY = np.array([0.0, 0.0, 0.0, 1.0])
+
+
+class FieldArrays(NamedTuple):
+    """What the compiled kernels of :mod:`pfield.field._evaluate` take (C-contiguous float64 arrays).
+
+    ``goal`` (7,) position + quaternion (x, y, z, w); ``params`` (16,) :meth:`FieldConfig.packed`;
+    ``packed`` the obstacles; ``aux`` (M, 7) circulation axes, bounding radii and centres.
+    """
+
+    goal: NDArray[np.float64]
+    params: NDArray[np.float64]
+    packed: PackedObstacles
+    aux: NDArray[np.float64]
+
+
+def _readonly(array: NDArray[np.float64]) -> NDArray[np.float64]:
+    array.setflags(write=False)
+    return array
+
+
+def _fast_twist(values: NDArray[np.float64]) -> Twist:
+    """A Twist from a fresh, finite (6,) kernel output, skipping the (already satisfied) validation."""
+    twist = object.__new__(Twist)
+    values.setflags(write=False)
+    object.__setattr__(twist, "linear", values[:3])
+    object.__setattr__(twist, "angular", values[3:])
+    return twist
+
+
+def _fast_wrench(values: NDArray[np.float64]) -> Wrench:
+    wrench = object.__new__(Wrench)
+    values.setflags(write=False)
+    object.__setattr__(wrench, "force", values[:3])
+    object.__setattr__(wrench, "torque", values[3:])
+    return wrench
+
+
+def _check_pose(name: str, pose: Any) -> Pose:
+    if not isinstance(pose, Pose):
+        raise InvalidInput(name, pose, "expected a pfield.Pose")
+    return pose
+
+
+class PotentialField:
+    """Attraction to ``goal``, repulsion from ``obstacles`` and the constrained twist, in the world frame.
+
+    ``PotentialField(FieldConfig(), goal=Pose((0.5, 0.2, 0.4)), obstacles=[...])``. Obstacle ids must be
+    unique. See ``docs/field.md`` for the laws; the parameters are those of :class:`FieldConfig`.
+    """
+
+    __slots__ = ("_arrays", "_config", "_goal", "_obstacles")
+
+    def __init__(self, config: FieldConfig, goal: Pose, obstacles: Sequence[Obstacle] = ()) -> None:
+        if not isinstance(config, FieldConfig):
+            raise InvalidInput("config", config, "expected a pfield.FieldConfig")
+        goal = _check_pose("goal", goal)
+        items = tuple(obstacles)
+        seen: set[str] = set()
+        for index, obstacle in enumerate(items):
+            if not isinstance(obstacle, Obstacle):
+                raise InvalidInput(f"obstacles[{index}]", obstacle, "expected a pfield.Obstacle")
+            if obstacle.id in seen:
+                raise InvalidInput(f"obstacles[{index}].id", obstacle.id, "duplicate obstacle id")
+            seen.add(obstacle.id)
+        self._build(config, goal, items, pack_obstacles(items))
+
+    def _build(self, config: FieldConfig, goal: Pose, obstacles: tuple[Obstacle, ...], packed: PackedObstacles) -> None:
+        self._config, self._goal, self._obstacles = config, goal, obstacles
+        goal_array = _readonly(np.concatenate([goal.position, goal.orientation]))
+        aux = _readonly(obstacle_aux(packed, goal_array[:3]))
+        self._arrays = FieldArrays(goal_array, _readonly(config.packed()), packed, aux)
+
+    @classmethod
+    def _from_parts(
+        cls, config: FieldConfig, goal: Pose, obstacles: tuple[Obstacle, ...], packed: PackedObstacles
+    ) -> PotentialField:
+        field = cls.__new__(cls)
+        field._build(config, goal, obstacles, packed)
+        return field
+
+    # ---------------------------------------------------------------- properties and derived fields
+
+    @property
+    def config(self) -> FieldConfig:
+        return self._config
+
+    @property
+    def goal(self) -> Pose:
+        return self._goal
+
+    @property
+    def obstacles(self) -> tuple[Obstacle, ...]:
+        return self._obstacles
+
+    @property
+    def arrays(self) -> FieldArrays:
+        """The packed inputs of the compiled kernels (for other compiled consumers, e.g. whole-body)."""
+        return self._arrays
+
+    def with_goal(self, goal: Pose) -> PotentialField:
+        """The same field with another goal (the obstacles are not packed again)."""
+        return self._from_parts(self._config, _check_pose("goal", goal), self._obstacles, self._arrays.packed)
+
+    def with_obstacles(self, obstacles: Sequence[Obstacle]) -> PotentialField:
+        """The same field with another obstacle set."""
+        return PotentialField(self._config, self._goal, obstacles)
+
+    def with_config(self, config: FieldConfig) -> PotentialField:
+        """The same field with other parameters."""
+        if not isinstance(config, FieldConfig):
+            raise InvalidInput("config", config, "expected a pfield.FieldConfig")
+        return self._from_parts(config, self._goal, self._obstacles, self._arrays.packed)
+
+    def __repr__(self) -> str:
+        return f"PotentialField(goal={self._goal!r}, obstacles={[o.id for o in self._obstacles]})"
+
+    # ---------------------------------------------------------------- single poses
+
+    def wrench(self, pose: Pose) -> Wrench:
+        """The raw wrench at ``pose`` (world frame, before any limit).
+
+        force = attraction (quadratic within Γ, conical beyond) + Σ_i saturated Khatib repulsion
+        F_cap·tanh(η (1/d_i − 1/Q)/d_i² / F_cap) · n_i over obstacles with d_i < Q;
+        torque = k_rot · log(q_goal ⊗ q⁻¹). Units N and N·m (unit mass and inertia).
+        """
+        pose = _check_pose("pose", pose)
+        goal, params, packed, aux = self._arrays
+        return _fast_wrench(wrench_at(pose.position, pose.orientation, goal, params, aux, *packed))
+
+    def twist(self, pose: Pose, previous: Twist | None = None, dt: float = 0.0) -> Twist:
+        """The constrained twist at ``pose``: the task-space autonomy vector (m/s, rad/s, world frame).
+
+        Soft-saturated attraction and rotation, velocity dampers with a consistent tangential
+        component near obstacles, then — when ``previous`` is given — rate limits
+        ‖v − v_prev‖ ≤ a_max·``dt`` and ‖ω − ω_prev‖ ≤ α_max·``dt`` (``dt`` > 0 s required then).
+        """
+        pose = _check_pose("pose", pose)
+        goal, params, packed, aux = self._arrays
+        if previous is None:
+            values = twist_at(pose.position, pose.orientation, goal, params, aux, _NO_PREVIOUS, False, 0.0, *packed)
+            return _fast_twist(values)
+        if not isinstance(previous, Twist):
+            raise InvalidInput("previous", previous, "expected a pfield.Twist or None")
+        step = finite("dt", dt)
+        if step <= 0.0:
+            raise InvalidInput("dt", dt, "must be > 0 when a previous twist is given")
+        prior = np.concatenate([previous.linear, previous.angular])
+        return _fast_twist(twist_at(pose.position, pose.orientation, goal, params, aux, prior, True, step, *packed))
+
+    # ---------------------------------------------------------------- batches
+
+    def _batch(self, positions: ArrayLike, orientations: ArrayLike | None) -> tuple[NDArray[Any], NDArray[Any]]:
+        points = as_points("positions", positions)
+        if orientations is None:
+            return points, np.ascontiguousarray(np.broadcast_to(self._goal.orientation, (points.shape[0], 4)))
+        quats = np.array(orientations, dtype=np.float64)
+        if quats.ndim == 1:
+            quats = np.broadcast_to(quats, (points.shape[0], 4)) if quats.shape == (4,) else quats.reshape(0, 4)
+        if quats.shape != (points.shape[0], 4) or not np.all(np.isfinite(quats)):
+            raise InvalidInput("orientations", f"array{quats.shape}", f"expected ({points.shape[0]}, 4) finite")
+        norms = np.linalg.norm(quats, axis=1, keepdims=True)
+        if np.any(norms < 1e-9):
+            raise InvalidInput("orientations", "array", "contains a zero quaternion")
+        return points, np.ascontiguousarray(quats / norms)
+
+    def wrenches(self, positions: ArrayLike, orientations: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Raw wrenches (N, 6) = force, torque at N poses; orientations (N, 4) default to the goal's."""
+        points, quats = self._batch(positions, orientations)
+        goal, params, packed, aux = self._arrays
+        return batch_wrenches(points, quats, goal, params, aux, *packed)
+
+    def twists(self, positions: ArrayLike, orientations: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Constrained twists (N, 6) = linear, angular at N poses, without a previous twist."""
+        points, quats = self._batch(positions, orientations)
+        goal, params, packed, aux = self._arrays
+        return batch_twists(points, quats, goal, params, aux, np.zeros(6), *packed)
+
+    def clearances(self, positions: ArrayLike) -> NDArray[np.float64]:
+        """Signed distance (m) of each point (N, 3) to the nearest obstacle (inf without obstacles)."""
+        points = as_points("positions", positions)
+        if not self._obstacles:
+            return np.full(points.shape[0], math.inf)
+        distances, _ = signed_distances(self._arrays.packed, points)
+        return np.asarray(distances.min(axis=1))
+
+    # ---------------------------------------------------------------- planning
+
+    def plan(
+        self,
+        start: Pose,
+        dt: float = 0.01,
+        goal_tolerance: float = 0.01,
+        max_iterations: int = 30000,
+        rotation_tolerance: float | None = None,
+    ) -> PlannedPath:
+        """Task-space plan from ``start`` to the goal (see :func:`pfield.planning.task_space.plan_task_space`)."""
+        from pfield.planning.task_space import plan_task_space
+
+        return plan_task_space(self, start, dt=dt, goal_tolerance=goal_tolerance, max_iterations=max_iterations,
+                               rotation_tolerance=rotation_tolerance)
+
+    def plan_whole_body(
+        self, robot: Any, q0: ArrayLike, dt: float = 0.01, goal_tolerance: float = 0.01, max_iterations: int = 30000
+    ) -> PlannedPath:
+        """Whole-body plan of ``robot`` from joint positions ``q0`` (:mod:`pfield.planning.whole_body`)."""
+        from pfield.planning.whole_body import plan_whole_body
+
+        return plan_whole_body(self, robot, q0, dt=dt, goal_tolerance=goal_tolerance, max_iterations=max_iterations)

@@ -1,0 +1,162 @@
+"""Compiled force and limit laws of the 3D potential field (the functional core; numba, ``cache=True``).
+
+Every kernel takes and returns plain floats (tuples for vectors), allocates nothing, and is meant to be
+called from other compiled code — :mod:`pfield.field._evaluate` (wrench and constrained twist),
+:mod:`pfield.planning.task_space` (the planning loop) and the whole-body planner. All vectors are in the
+world frame, SI units.
+
+Laws (see ``docs/field.md`` for the reasoning):
+
+* attraction, quadratic within Γ and conical beyond (Choset et al. 2005, §4.1, eqs. 4.2–4.3):
+  F = −k (p − g) for ‖p − g‖ ≤ Γ, F = −k Γ (p − g)/‖p − g‖ beyond — continuous in value and direction;
+* rotational attraction τ = k_rot · log(q_g ⊗ q⁻¹), the world-frame rotation vector of the error
+  (Sola et al. 2018, "A micro Lie theory", eq. 26 with the left ⊖);
+* Khatib repulsion magnitude η (1/d − 1/Q)/d² for 0 < d < Q (Khatib 1986, eq. 19), saturated smoothly
+  as F_cap · tanh(m / F_cap), equal to F_cap for d ≤ 0;
+* velocity damper: the approach speed toward an obstacle is at most ξ (d − d_s)/(Q − d_s)
+  (Faverjon & Tournassoud 1987; Haviland & Corke 2021, NEO, eq. 20), and at most √(2 a (d − d_s)) so
+  that the acceleration limit can still brake before d_s;
+* soft saturation v ← v_max · tanh(‖v‖/v_max) · v/‖v‖, and the rate limit ‖v − v_prev‖ ≤ a_max · dt.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+__all__ = [
+    "attraction",
+    "damper_speed",
+    "deflect",
+    "khatib_magnitude",
+    "rate_limit",
+    "rotation_error",
+    "soft_saturate",
+]
+
+_TINY = 1e-12
+
+
+@njit(cache=True)
+def attraction(ex: float, ey: float, ez: float, gain: float, threshold: float) -> tuple[float, float, float]:
+    """Attractive force (N) for the goal error e = g − p (m): k e within Γ = ``threshold``, k Γ e/‖e‖ beyond.
+
+    Both branches give k Γ ê at ‖e‖ = Γ, so the force is continuous in value and direction.
+    """
+    distance = math.sqrt(ex * ex + ey * ey + ez * ez)
+    scale = gain if distance <= threshold else gain * threshold / distance
+    return scale * ex, scale * ey, scale * ez
+
+
+@njit(cache=True)
+def rotation_error(
+    qx: float, qy: float, qz: float, qw: float, gx: float, gy: float, gz: float, gw: float
+) -> tuple[float, float, float]:
+    """World-frame rotation error log(q_g ⊗ q⁻¹) (rad, axis·angle, angle in [0, π]) of unit quaternions.
+
+    Integrating ω = k · error on the left, q ← exp(ω dt) ⊗ q, shrinks the error along its own axis,
+    so every start rotation up to 180° converges. q and −q give the same (short-arc) error.
+    """
+    # e = g ⊗ conj(q)
+    ex = gw * -qx + gx * qw + gy * -qz - gz * -qy
+    ey = gw * -qy - gx * -qz + gy * qw + gz * -qx
+    ez = gw * -qz + gx * -qy - gy * -qx + gz * qw
+    ew = gw * qw + gx * qx + gy * qy + gz * qz
+    if ew < 0.0:
+        ex, ey, ez, ew = -ex, -ey, -ez, -ew
+    vnorm = math.sqrt(ex * ex + ey * ey + ez * ez)
+    if vnorm < 1e-12:
+        scale = 2.0 / max(ew, _TINY)
+    else:
+        scale = 2.0 * math.atan2(vnorm, ew) / vnorm
+    return scale * ex, scale * ey, scale * ez
+
+
+@njit(cache=True)
+def khatib_magnitude(distance: float, gain: float, influence: float, cap: float) -> float:
+    """Saturated Khatib repulsion magnitude (N) at signed distance ``distance`` (m).
+
+    m = η (1/d − 1/Q)/d² for 0 < d < Q, 0 for d ≥ Q; returned as F_cap · tanh(m/F_cap), which is smooth,
+    ≤ F_cap, equal to m for m ≪ F_cap, and F_cap for d ≤ 0 (inside the obstacle).
+    """
+    if distance >= influence:
+        return 0.0
+    if distance <= 0.0:
+        return cap
+    raw = gain * (1.0 / distance - 1.0 / influence) / (distance * distance)
+    return cap * math.tanh(raw / cap)
+
+
+@njit(cache=True)
+def soft_saturate(x: float, y: float, z: float, limit: float) -> tuple[float, float, float]:
+    """v ← limit · tanh(‖v‖/limit) · v/‖v‖: the same direction, a norm always below ``limit``."""
+    norm = math.sqrt(x * x + y * y + z * z)
+    if norm < _TINY:
+        return x, y, z
+    scale = limit * math.tanh(norm / limit) / norm
+    return scale * x, scale * y, scale * z
+
+
+@njit(cache=True)
+def rate_limit(
+    x: float, y: float, z: float, px: float, py: float, pz: float, max_change: float
+) -> tuple[float, float, float]:
+    """The point of the ball ‖v − v_prev‖ ≤ ``max_change`` nearest to v (= a_max · dt)."""
+    dx, dy, dz = x - px, y - py, z - pz
+    norm = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if norm <= max_change:
+        return x, y, z
+    scale = max_change / norm
+    return px + scale * dx, py + scale * dy, pz + scale * dz
+
+
+@njit(cache=True)
+def damper_speed(
+    distance: float, influence: float, safety: float, gain: float, max_speed: float, max_acceleration: float
+) -> float:
+    """Largest allowed approach speed (m/s) toward an obstacle at ``distance`` (NEO velocity damper).
+
+    s = ξ (d − d_s)/(Q − d_s) with ξ = ``gain`` (m/s), capped by √(2 a_max (d − d_s)) so a rate-limited
+    twist can still stop before d_s. Negative below d_s (the twist must move away), never below
+    −``max_speed``. Only meaningful for d < Q.
+    """
+    margin = distance - safety
+    speed = gain * margin / (influence - safety)
+    if margin > 0.0:
+        speed = min(speed, math.sqrt(2.0 * max_acceleration * margin))
+    return max(speed, -max_speed)
+
+
+@njit(cache=True)
+def deflect(
+    vx: float, vy: float, vz: float,
+    nx: float, ny: float, nz: float,
+    cx: float, cy: float, cz: float,
+    allowed: float, circulation: float,
+) -> tuple[float, float, float, bool]:
+    """Enforce the damper n·v ≥ −``allowed`` and turn the removed approach speed into tangential motion.
+
+    With a = −n·v the approach speed and e = a − s its excess, the twist becomes −s n + t τ: the normal
+    part is exactly the allowed approach, t = √(‖v‖² − s²) keeps the speed, and τ is the direction of
+    P_n v + κ e (n × c), i.e. the projection of v on the tangent plane (the short way around) plus a
+    circulation about the obstacle's fixed axis c that decides head-on cases consistently. At e = 0 the
+    result equals v, so the map is continuous. Returns (v', active).
+    """
+    normal_speed = vx * nx + vy * ny + vz * nz
+    excess = -normal_speed - allowed
+    if excess <= 0.0:
+        return vx, vy, vz, False
+    px, py, pz = vx - normal_speed * nx, vy - normal_speed * ny, vz - normal_speed * nz
+    weight = circulation * excess
+    wx = px + weight * (ny * cz - nz * cy)
+    wy = py + weight * (nz * cx - nx * cz)
+    wz = pz + weight * (nx * cy - ny * cx)
+    w_norm = math.sqrt(wx * wx + wy * wy + wz * wz)
+    speed_sq = vx * vx + vy * vy + vz * vz
+    tangential = math.sqrt(max(speed_sq - allowed * allowed, 0.0))
+    ox, oy, oz = -allowed * nx, -allowed * ny, -allowed * nz
+    if w_norm > _TINY:
+        scale = tangential / w_norm
+        ox, oy, oz = ox + scale * wx, oy + scale * wy, oz + scale * wz
+    return ox, oy, oz, True

@@ -1,0 +1,175 @@
+"""The compiled force and limit laws of pfield.field.forces: exact values, continuity, bounds."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from pfield.field._evaluate import (
+    ATTRACTIVE_GAIN,
+    ATTRACTIVE_THRESHOLD,
+    CIRCULATION_GAIN,
+    DAMPER_GAIN,
+    INFLUENCE_DISTANCE,
+    MAX_ANGULAR_ACCELERATION,
+    MAX_ANGULAR_VELOCITY,
+    MAX_LINEAR_ACCELERATION,
+    MAX_LINEAR_VELOCITY,
+    MAX_REPULSIVE_FORCE,
+    REPULSIVE_GAIN,
+    ROTATION_TOLERANCE,
+    ROTATIONAL_GAIN,
+    SAFETY_DISTANCE,
+    STAGNATION_PROGRESS,
+    STAGNATION_WINDOW,
+)
+from pfield.field.config import PARAM_NAMES
+from pfield.field.forces import (
+    attraction,
+    damper_speed,
+    deflect,
+    khatib_magnitude,
+    rate_limit,
+    rotation_error,
+    soft_saturate,
+)
+from pfield.spatial import quaternion_exp, quaternion_inverse, quaternion_log, quaternion_multiply
+
+finite = st.floats(-10.0, 10.0, allow_nan=False)
+vectors = st.tuples(finite, finite, finite)
+
+
+def test_kernel_parameter_positions_match_the_config_fields() -> None:
+    positions = {
+        "attractive_gain": ATTRACTIVE_GAIN, "rotational_attractive_gain": ROTATIONAL_GAIN,
+        "repulsive_gain": REPULSIVE_GAIN, "max_linear_velocity": MAX_LINEAR_VELOCITY,
+        "max_angular_velocity": MAX_ANGULAR_VELOCITY, "max_linear_acceleration": MAX_LINEAR_ACCELERATION,
+        "max_angular_acceleration": MAX_ANGULAR_ACCELERATION, "influence_distance": INFLUENCE_DISTANCE,
+        "attractive_threshold": ATTRACTIVE_THRESHOLD, "rotation_tolerance": ROTATION_TOLERANCE,
+        "max_repulsive_force": MAX_REPULSIVE_FORCE, "safety_distance": SAFETY_DISTANCE,
+        "damper_gain": DAMPER_GAIN, "circulation_gain": CIRCULATION_GAIN,
+        "stagnation_window": STAGNATION_WINDOW, "stagnation_progress": STAGNATION_PROGRESS,
+    }
+    assert {name: PARAM_NAMES.index(name) for name in PARAM_NAMES} == positions
+
+
+@pytest.mark.parametrize("threshold", [2.0, 5.0])
+def test_attraction_is_quadratic_within_the_threshold(threshold: float) -> None:
+    # at (2, 0, 0) toward the origin: e = g − p = (−2, 0, 0), F = k e = (−6, 0, 0)
+    assert attraction(-2.0, 0.0, 0.0, 3.0, threshold) == (-6.0, 0.0, 0.0)
+
+
+def test_attraction_is_conical_beyond_the_threshold_and_continuous_at_it() -> None:
+    far = np.array(attraction(-4.0, 3.0, 0.0, 3.0, 2.0))
+    np.testing.assert_allclose(far, 3.0 * 2.0 * np.array([-0.8, 0.6, 0.0]), rtol=1e-15)
+    inside = np.array(attraction(-2.0 + 1e-12, 0.0, 0.0, 3.0, 2.0))
+    outside = np.array(attraction(-2.0 - 1e-12, 0.0, 0.0, 3.0, 2.0))
+    np.testing.assert_allclose(inside, outside, atol=1e-10)
+
+
+@settings(max_examples=100, deadline=None)
+@given(vectors)
+def test_attraction_magnitude_never_exceeds_gain_times_threshold(error: tuple[float, float, float]) -> None:
+    force = np.array(attraction(*error, 3.0, 0.5))
+    assert np.linalg.norm(force) <= 3.0 * 0.5 * (1 + 1e-12)
+    assert np.dot(force, error) >= 0.0
+
+
+@settings(max_examples=100, deadline=None)
+@given(vectors, vectors)
+def test_rotation_error_is_the_world_frame_log(a: tuple[float, float, float], b: tuple[float, float, float]) -> None:
+    q = quaternion_exp(np.array(a) * 0.3)
+    g = quaternion_exp(np.array(b) * 0.3)
+    expected = quaternion_log(quaternion_multiply(g, quaternion_inverse(q)))
+    np.testing.assert_allclose(rotation_error(*q, *g), expected, atol=1e-9)
+    # applying exp(error) on the left of q lands on the goal
+    np.testing.assert_allclose(abs(np.dot(quaternion_multiply(quaternion_exp(expected), q), g)), 1.0, atol=1e-9)
+
+
+def test_rotation_error_at_half_a_turn_has_angle_pi() -> None:
+    error = rotation_error(0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0)
+    assert math.isclose(float(np.linalg.norm(error)), math.pi, rel_tol=1e-12)
+
+
+def test_khatib_magnitude_matches_the_formula_and_is_capped_smoothly() -> None:
+    eta, q, cap = 0.3, 0.1, 1e9
+    for d in (0.02, 0.05, 0.09):
+        assert math.isclose(khatib_magnitude(d, eta, q, cap), eta * (1 / d - 1 / q) / d**2, rel_tol=1e-9)
+    assert khatib_magnitude(0.1, eta, q, 10.0) == 0.0
+    assert khatib_magnitude(0.5, eta, q, 10.0) == 0.0
+    assert khatib_magnitude(0.0, eta, q, 10.0) == 10.0
+    assert khatib_magnitude(-0.3, eta, q, 10.0) == 10.0
+    assert math.isclose(khatib_magnitude(1e-4, eta, q, 10.0), 10.0, rel_tol=1e-12)
+    samples = [khatib_magnitude(d, eta, q, 10.0) for d in np.linspace(1e-4, 0.1, 400)]
+    assert all(earlier >= later for earlier, later in itertools.pairwise(samples))
+    assert max(samples) <= 10.0
+
+
+@settings(max_examples=100, deadline=None)
+@given(vectors, st.floats(0.01, 5.0))
+def test_soft_saturation_keeps_direction_and_bounds_the_norm(v: tuple[float, float, float], limit: float) -> None:
+    out = np.array(soft_saturate(*v, limit))
+    assert np.linalg.norm(out) <= limit * (1 + 1e-12)
+    if np.linalg.norm(v) > 1e-9:
+        np.testing.assert_allclose(np.cross(out, v), 0.0, atol=1e-9)
+        assert np.dot(out, v) > 0.0
+
+
+def test_soft_saturation_is_near_identity_for_small_inputs() -> None:
+    np.testing.assert_allclose(soft_saturate(1e-4, 0.0, 0.0, 1.0), (1e-4, 0.0, 0.0), rtol=1e-8)
+
+
+@settings(max_examples=100, deadline=None)
+@given(vectors, vectors, st.floats(0.0, 1.0))
+def test_rate_limit_moves_at_most_max_change(
+    v: tuple[float, float, float], previous: tuple[float, float, float], change: float
+) -> None:
+    out = np.array(rate_limit(*v, *previous, change))
+    assert np.linalg.norm(out - previous) <= change * (1 + 1e-12) + 1e-15
+    if np.linalg.norm(np.subtract(v, previous)) <= change:
+        np.testing.assert_array_equal(out, v)
+
+
+def test_damper_speed_is_linear_then_braking_limited_and_negative_inside_the_margin() -> None:
+    q, ds, xi = 0.1, 0.01, 0.05
+    assert math.isclose(damper_speed(0.1, q, ds, xi, 0.05, 1.0), xi)
+    assert math.isclose(damper_speed(0.055, q, ds, xi, 0.05, 1.0), xi * 0.5)
+    assert damper_speed(ds, q, ds, xi, 0.05, 1.0) == 0.0
+    assert damper_speed(0.0, q, ds, xi, 0.05, 1.0) < 0.0
+    assert damper_speed(-5.0, q, ds, xi, 0.05, 1.0) == -0.05
+    # a weak brake (a = 0.001 m/s²) caps the speed at √(2 a (d − d_s))
+    assert math.isclose(damper_speed(0.06, q, ds, xi, 0.05, 0.001), math.sqrt(2 * 0.001 * 0.05))
+
+
+def test_deflect_leaves_allowed_motion_alone() -> None:
+    assert deflect(0.01, 0.02, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.05, 1.0) == (0.01, 0.02, 0.0, False)
+
+
+def test_deflect_turns_a_head_on_approach_around_the_obstacle() -> None:
+    # moving along −x into an obstacle whose outward normal at the point is +x; circulation axis +y
+    vx, vy, vz, active = deflect(-0.05, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.01, 1.0)
+    assert active
+    assert math.isclose(vx, -0.01)  # the normal part is exactly the allowed approach
+    assert math.isclose(math.hypot(vx, vy, vz), 0.05)  # the speed is kept
+    assert vz > 0.0 and vy == 0.0  # tangential motion along n × c = x̂ × ŷ = +ẑ
+
+
+@settings(max_examples=100, deadline=None)
+@given(vectors, st.floats(-0.05, 0.1))
+def test_deflect_enforces_the_damper_and_keeps_the_speed(v: tuple[float, float, float], allowed: float) -> None:
+    normal = np.array([0.0, 0.6, 0.8])
+    out = np.array(deflect(*v, *normal, 1.0, 0.0, 0.0, allowed, 1.0)[:3])
+    assert -np.dot(out, normal) <= allowed + 1e-9
+    assert np.linalg.norm(out) <= max(np.linalg.norm(v), abs(allowed)) * (1 + 1e-9) + 1e-12
+
+
+def test_deflect_is_continuous_where_the_damper_starts_to_act() -> None:
+    v = (-0.03, 0.02, 0.0)
+    normal = (1.0, 0.0, 0.0)
+    just_active = deflect(*v, *normal, 0.0, 0.0, 1.0, 0.03 - 1e-9, 1.0)[:3]
+    np.testing.assert_allclose(just_active, v, atol=1e-6)

@@ -1,0 +1,192 @@
+"""Task-space planning: convergence, rotations, obstacle avoidance, stagnation, bad input."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pfield.errors import InvalidInput
+from pfield.field import FieldConfig, PotentialField
+from pfield.geometry import Box, Obstacle, Sphere
+from pfield.planning import PlannedPath
+from pfield.planning.scenes import SEED_GOAL, SEED_PLAN, SEED_START, seed_obstacles
+from pfield.spatial import Pose, geodesic_angle, quaternion_exp
+
+
+def _dense_clearance(field: PotentialField, path: PlannedPath, samples: int = 8) -> float:
+    """Smallest clearance over the waypoints and points between them (straight segments)."""
+    p = path.positions
+    between = [p[:-1] + (p[1:] - p[:-1]) * t for t in np.linspace(0.0, 1.0, samples)]
+    return float(field.clearances(np.concatenate([p, *between])).min())
+
+
+def test_a_plan_that_starts_at_the_goal_has_one_point() -> None:
+    goal = Pose((0.5, 0.2, 0.4), (0.707, 0.0, 0.707, 0.0))
+    path = PotentialField(FieldConfig(), goal).plan(goal)
+    assert path.success and len(path) == 1 and path.iterations == 0
+    assert path.final_pose.isclose(goal)
+
+
+def test_free_space_plan_converges_monotonically() -> None:
+    goal = Pose((0.6, 0.3, 0.3))
+    path = PotentialField(FieldConfig(), goal).plan(Pose((0.3, 0.0, 0.5)), dt=0.01)
+    assert path.success and path.failure_reason == ""
+    errors = np.linalg.norm(path.positions - goal.position, axis=1)
+    assert np.all(np.diff(errors) <= 1e-12)
+    assert errors[-1] <= 0.01 < errors[-2]
+    np.testing.assert_allclose(path.times, np.arange(len(path)) * 0.01)
+    np.testing.assert_array_equal(path.positions[0], (0.3, 0.0, 0.5))
+    assert np.all(np.isinf(path.clearances))
+
+
+def test_recorded_twists_obey_the_limits_and_integrate_to_the_path() -> None:
+    config = FieldConfig()
+    start = Pose((0.0, 0.0, 0.0), quaternion_exp((0.0, 2.0, 0.0)))
+    path = PotentialField(config, Pose((0.3, -0.1, 0.2))).plan(start, dt=0.02)
+    linear, angular = path.twists[:, :3], path.twists[:, 3:]
+    assert np.linalg.norm(linear, axis=1).max() <= config.max_linear_velocity + 1e-12
+    assert np.linalg.norm(angular, axis=1).max() <= config.max_angular_velocity + 1e-12
+    assert np.linalg.norm(np.diff(linear, axis=0), axis=1).max() <= config.max_linear_acceleration * 0.02 + 1e-12
+    assert np.linalg.norm(np.diff(angular, axis=0), axis=1).max() <= config.max_angular_acceleration * 0.02 + 1e-12
+    # each step applies the recorded twist: p[i+1] = p[i] + dt v[i]
+    np.testing.assert_allclose(np.diff(path.positions, axis=0), 0.02 * linear[:-1], atol=1e-15)
+    np.testing.assert_allclose(np.linalg.norm(path.orientations, axis=1), 1.0, atol=1e-12)
+
+
+def test_200_random_orientations_up_to_half_a_turn_converge() -> None:
+    rng = np.random.default_rng(7)
+    field = PotentialField(FieldConfig(), Pose())
+    axes = rng.normal(size=(200, 3))
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    angles = rng.uniform(0.0, math.pi, 200)
+    angles[:10] = math.pi  # exactly half a turn
+    goals = quaternion_exp(rng.normal(size=(200, 3)))
+    for axis, angle, goal in zip(axes, angles, goals, strict=True):
+        start_q = quaternion_exp(axis * angle)
+        # the start is `angle` away from the goal: rotate the goal by the start offset
+        goal_pose = Pose((0.1, 0.0, 0.0), goal)
+        start = Pose((0.1, 0.0, 0.0), _compose(start_q, goal))
+        path = field.with_goal(goal_pose).plan(start, dt=0.02, max_iterations=20000)
+        assert path.success, path.failure_reason
+        assert geodesic_angle(path.orientations[-1], goal) <= 0.05
+
+
+def _compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    from pfield.spatial import quaternion_multiply
+
+    return np.asarray(quaternion_multiply(a, b))
+
+
+def test_a_head_on_sphere_is_avoided_with_positive_clearance() -> None:
+    ball = Obstacle("ball", Sphere(radius=0.1), Pose((0.5, 0.0, 0.3)))
+    field = PotentialField(FieldConfig(), Pose((0.8, 0.0, 0.3)), [ball])
+    path = field.plan(Pose((0.2, 0.0, 0.3)))
+    assert path.success, path.failure_reason
+    assert path.min_clearance > 0.0
+    assert _dense_clearance(field, path) > 0.0
+    np.testing.assert_allclose(path.clearances, ball.signed_distance(path.positions)[0], rtol=1e-12)
+
+
+def test_a_head_on_sphere_is_avoided_with_the_original_parameters_too() -> None:
+    from pfield.planning.scenes import DEFAULT_PARAMS
+
+    ball = Obstacle("ball", Sphere(radius=0.1), Pose((0.5, 0.0, 0.3)))
+    field = PotentialField(DEFAULT_PARAMS, Pose((0.8, 0.0, 0.3)), [ball])
+    path = field.plan(Pose((0.2, 0.0, 0.3)))
+    assert path.success and _dense_clearance(field, path) > 0.0
+
+
+def _trap(closed: bool) -> list[Obstacle]:
+    walls = [
+        Obstacle("bottom", Box(0.05, 0.4, 0.4), Pose((0.6, 0.0, 0.3))),
+        Obstacle("left", Box(0.3, 0.05, 0.4), Pose((0.45, 0.2, 0.3))),
+        Obstacle("right", Box(0.3, 0.05, 0.4), Pose((0.45, -0.2, 0.3))),
+    ]
+    if closed:
+        walls += [Obstacle("lid", Box(0.3, 0.4, 0.05), Pose((0.45, 0.0, 0.5))),
+                  Obstacle("floor", Box(0.3, 0.4, 0.05), Pose((0.45, 0.0, 0.1)))]
+    return walls
+
+
+@pytest.mark.parametrize("closed", [False, True])
+def test_a_u_shaped_trap_ends_in_stagnation_or_the_goal_never_inside(closed: bool) -> None:
+    field = PotentialField(FieldConfig(), Pose((0.9, 0.0, 0.3)), _trap(closed))
+    path = field.plan(Pose((0.45, 0.0, 0.3)))
+    assert path.success or path.failure_reason.startswith("stagnation"), path.failure_reason
+    assert _dense_clearance(field, path) > 0.0
+    if closed:  # a box open only toward the start cannot be left toward the goal
+        assert not path.success and "stagnation" in path.failure_reason
+
+
+def test_a_goal_8_cm_in_front_of_a_box_face_is_reached() -> None:
+    wall = Obstacle("wall", Box(0.1, 0.6, 0.6), Pose((0.5, 0.0, 0.3)))
+    goal = Pose((0.37, 0.0, 0.3))  # the face is at x = 0.45
+    assert wall.signed_distance(goal.position)[0][0] == pytest.approx(0.08)
+    field = PotentialField(FieldConfig(influence_distance=0.1), goal, [wall])
+    for start in (Pose((0.0, 0.0, 0.3)), Pose((0.2, 0.3, 0.5))):
+        path = field.plan(start)
+        assert path.success, path.failure_reason
+        assert np.linalg.norm(path.positions[-1] - goal.position) <= 0.01
+
+
+def test_the_seed_example_plans_through_the_six_seed_obstacles(tmp_path: Path) -> None:
+    field = PotentialField(FieldConfig(), SEED_GOAL, seed_obstacles(tmp_path))
+    path = field.plan(SEED_START, **SEED_PLAN)
+    assert path.success, path.failure_reason
+    assert np.linalg.norm(path.positions[-1] - SEED_GOAL.position) <= 0.01
+    assert _dense_clearance(field, path) > 0.0
+
+
+def test_the_iteration_limit_is_reported() -> None:
+    field = PotentialField(FieldConfig(), Pose((1.0, 0.0, 0.0)))
+    path = field.plan(Pose(), max_iterations=5)
+    assert not path.success and len(path) == 6 and path.iterations == 5
+    assert path.failure_reason.startswith("iteration limit")
+
+
+def test_zero_max_iterations_means_the_default() -> None:
+    field = PotentialField(FieldConfig(), Pose((1.0, 0.0, 0.0)))
+    assert field.plan(Pose(), max_iterations=0).success
+    assert field.plan(Pose(), max_iterations=-3).success
+
+
+def test_a_start_inside_an_obstacle_is_a_collision() -> None:
+    ball = Obstacle("ball", Sphere(radius=0.1), Pose((0.0, 0.0, 0.0)))
+    path = PotentialField(FieldConfig(), Pose((1.0, 0.0, 0.0)), [ball]).plan(Pose((0.02, 0.0, 0.0)))
+    assert not path.success and len(path) == 1
+    assert path.failure_reason == "collision: the start pose is inside 'ball'"
+
+
+def test_a_goal_inside_an_obstacle_is_unreachable() -> None:
+    ball = Obstacle("ball", Sphere(radius=0.1), Pose((1.0, 0.0, 0.0)))
+    path = PotentialField(FieldConfig(), Pose((1.05, 0.0, 0.0)), [ball]).plan(Pose())
+    assert not path.success and len(path) == 1
+    assert "unreachable goal" in path.failure_reason and "'ball'" in path.failure_reason
+
+
+@pytest.mark.parametrize(
+    ("arguments", "name"),
+    [
+        ({"start": (0, 0, 0)}, "start"),
+        ({"dt": 0.0}, "dt"),
+        ({"dt": -0.01}, "dt"),
+        ({"dt": math.nan}, "dt"),
+        ({"dt": True}, "dt"),
+        ({"goal_tolerance": 0.0}, "goal_tolerance"),
+        ({"goal_tolerance": "small"}, "goal_tolerance"),
+        ({"max_iterations": 10.5}, "max_iterations"),
+        ({"max_iterations": True}, "max_iterations"),
+        ({"max_iterations": 10**9}, "max_iterations"),
+        ({"rotation_tolerance": 0.0}, "rotation_tolerance"),
+        ({"rotation_tolerance": 4.0}, "rotation_tolerance"),
+    ],
+)
+def test_bad_planning_input_names_the_argument(arguments: dict[str, object], name: str) -> None:
+    field = PotentialField(FieldConfig(), Pose((1.0, 0.0, 0.0)))
+    values: dict[str, object] = {"start": Pose()} | arguments
+    with pytest.raises(InvalidInput) as info:
+        field.plan(**values)  # type: ignore[arg-type]
+    assert info.value.field == name
