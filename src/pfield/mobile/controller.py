@@ -82,6 +82,7 @@ class BaseController:
         self._config = config or ControllerConfig()
         self._goal: NDArray[np.float64] | None = None
         self._obstacles = point_obstacles(None)
+        self._columns = (np.empty(0), np.empty(0))
         self._teleop: _Teleop | None = None
         self._last = np.zeros(3)
         self._last_time: float | None = None
@@ -125,13 +126,17 @@ class BaseController:
 
     def set_obstacles(self, obstacles: ObstaclePoints) -> None:
         """Replace the obstacle points (fixed frame) and weights."""
-        self._obstacles = point_obstacles(obstacles.points, obstacles.weights)
+        self._store(point_obstacles(obstacles.points, obstacles.weights))
 
     def update_scan(self, scan: LaserScan, robot_pose: ArrayLike) -> None:
         """Replace the obstacles by the points of ``scan`` taken at ``robot_pose`` (x, y, yaw)."""
         sensor = compose_pose2d(robot_pose, self._config.sensor_pose)
-        self._obstacles = scan_obstacles(scan, sensor, self._config.scan_weighting,
-                                         self._config.scan_sector_angle)
+        self._store(scan_obstacles(scan, sensor, self._config.scan_weighting, self._config.scan_sector_angle))
+
+    def _store(self, obstacles: ObstaclePoints) -> None:
+        self._obstacles = obstacles
+        # the kernels take x and y as separate contiguous columns (vectorised loop)
+        self._columns = (np.ascontiguousarray(obstacles.points[:, 0]), np.ascontiguousarray(obstacles.points[:, 1]))
 
     def set_teleop(self, linear_x: float, linear_y: float, angular_z: float, now: float) -> None:
         """Operator velocity in the robot frame (m/s, rad/s) received at monotonic time ``now`` (s)."""
@@ -172,7 +177,7 @@ class BaseController:
             self._idle_state = ControllerState.REACHED
             return None, ControllerState.REACHED, None
         p = self._params
-        vx, vy = velocity_at(x, y, self._goal, True, self._obstacles.points, self._obstacles.weights, p.ka,
+        vx, vy = velocity_at(x, y, self._goal, True, *self._columns, self._obstacles.weights, p.ka,
                              p.attraction_code, p.kr_dist, p.kr_height, p.kr_slope, p.min_spd_norm,
                              p.max_spd_norm, p.clamping_code)
         stuck = self._update_stuck(x, y, now)
@@ -184,9 +189,8 @@ class BaseController:
         diff = self._config.drive == "diff_drive"
         ux, uy = clamp_norm(teleop.linear_x, 0.0 if diff else teleop.linear_y, 0.0, p.max_spd_norm, 0)
         wz = float(np.clip(teleop.angular_z, -self._config.max_angular_speed, self._config.max_angular_speed))
-        _, _, _, rx, ry = components_at(x, y, np.zeros(2), False, self._obstacles.points,
-                                        self._obstacles.weights, p.ka, p.attraction_code, p.kr_dist,
-                                        p.kr_height, p.kr_slope)
+        _, _, _, rx, ry = components_at(x, y, np.zeros(2), False, *self._columns, self._obstacles.weights, p.ka,
+                                        p.attraction_code, p.kr_dist, p.kr_height, p.kr_slope)
         rx, ry = clamp_norm(rx, ry, 0.0, p.max_spd_norm, p.clamping_code)
         c, s = math.cos(yaw), math.sin(yaw)
         bx, by = c * rx + s * ry, -s * rx + c * ry
