@@ -217,7 +217,7 @@ def search_rings(
     (a outer, p inner) is the answer order, so the first FREE candidate met is the answer and the first
     UNKNOWN / OUTSIDE met overall are the fallbacks. Prefilter: when the whole footprint is inside the
     map for every yaw and the nearest lethal cell centre is within ``prefilter_limit`` cells of the base
-    cell centre, that cell centre lies inside the footprint's inscribed disc: LETHAL for every yaw.
+    cell centre, that cell meets the footprint's inscribed disc: LETHAL for every yaw.
 
     Once an UNKNOWN fallback is known, later candidates are only asked "FREE or INSCRIBED?" (an OUTSIDE
     one can no longer win) and may be recorded as STATE_REJECTED.

@@ -174,6 +174,21 @@ def _max_ring(costmap: Costmap2D, base_m: int, base_n: int, k_box: NDArray[np.in
     return max_ring
 
 
+def _prefilter_limit(costmap: Costmap2D, robot: Footprint, pose: Pose, base_m: int, base_n: int) -> float:
+    """Lethal distance (cells, from a base cell centre) below which a position is LETHAL for every yaw.
+
+    With c the pose's offset from its cell centre and L a lethal cell centre at distance D from the base
+    cell centre, the candidate centre is within D + |c| of L, and the lethal cell holds the disc of radius
+    ½ around L (minus its top/right rim). If D + |c| − ½ < r_i the cell meets the inscribed disc, which the
+    footprint contains when the robot centre is inside it: D < r_i + ½ − |c| (a margin of 1e-6 cells).
+    """
+    if not robot.contains_center:
+        return -1.0
+    offset = math.hypot((pose.position[0] - costmap.origin_x) / costmap.resolution - base_m - 0.5,
+                        (pose.position[1] - costmap.origin_y) / costmap.resolution - base_n - 0.5)
+    return robot.inscribed_radius / costmap.resolution + 0.5 - offset - 1e-6
+
+
 def _check_request(safety_dist: float, dist_tolerance: float, angle_tolerance: float, angle_increment: float,
                    pose: Pose) -> tuple[float, float, float]:
     values = (_check_nonnegative("safety_dist", safety_dist), _check_nonnegative("dist_tolerance", dist_tolerance),
@@ -201,12 +216,8 @@ def find_valid_pose(
     base_m, base_n, (k_ptr, k_dm, k_dn, k_box) = _kernels(costmap, robot, pose, pose.yaw + deltas)
     pos_i, pos_j, ring_ptr = candidate_offsets(_max_ring(costmap, base_m, base_n, k_box, dist_tolerance))
     states = np.full((pos_i.size, deltas.size), _k.NOT_EVALUATED, dtype=np.uint8)
-    # prefilter: lethal-cell centres within (inscribed radius − offset of the pose from its cell centre)
-    limit = robot.inscribed_radius / costmap.resolution if robot.contains_center else -1.0
-    offset = math.hypot((pose.position[0] - costmap.origin_x) / costmap.resolution - base_m - 0.5,
-                        (pose.position[1] - costmap.origin_y) / costmap.resolution - base_n - 0.5)
     found = _k.search_rings(costmap.costs, base_m, base_n, ring_ptr, pos_i, pos_j, k_ptr, k_dm, k_dn, k_box,
-                            costmap.lethal_distance, limit - offset - 1e-9, states)
+                            costmap.lethal_distance, _prefilter_limit(costmap, robot, pose, base_m, base_n), states)
     positions = np.column_stack((pose.position[0] + pos_i * costmap.resolution,
                                  pose.position[1] + pos_j * costmap.resolution))
     trace = SearchTrace(positions, deltas, states)
