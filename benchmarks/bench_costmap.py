@@ -6,6 +6,9 @@ requests at the map centre, yaw 0, 5° yaw steps.
 
 * no solution: 1 m & ±90° (C++ Move Base Flex-style loop ≈ 0.43 s; target ≤ 50 ms), 1 m & ±180° (≈ 1.2 s),
   2 m & ±90° (≈ 3.9 s). Every candidate is LETHAL, so every candidate is examined.
+* the same with the robot's centre outside its footprint (same 0.8×0.5 m rectangle, shifted 0.45 m
+  forward), which disables the lethal-distance prefilter: every candidate is rasterised and scanned
+  until its first lethal cell.
 * the same with the obstacles turned into unknown cells, which the lethal-distance prefilter cannot
   skip: every candidate is scanned cell by cell (answer UNKNOWN; no C++ figure).
 * typical: a 3×3 m cleared area around the request, one obstacle under the robot's centre, 1 m and
@@ -25,6 +28,7 @@ from pfield.costmap import (
     NO_INFORMATION,
     Costmap2D,
     CostmapParams,
+    Footprint,
     OccupancyMap,
     PoseState,
     build_costmap,
@@ -46,8 +50,9 @@ def _params() -> CostmapParams:
     return CostmapParams(footprint=ROBOT, footprint_padding=0.0)
 
 
-def _time(costmap: Costmap2D, pose: Pose, dist: float, angle: float, quick: bool) -> tuple[float, PoseState, float]:
-    footprint = _params().robot_footprint()
+def _time(costmap: Costmap2D, pose: Pose, dist: float, angle: float, quick: bool,
+          footprint: Footprint | None = None) -> tuple[float, PoseState, float]:
+    footprint = footprint or _params().robot_footprint()
 
     def call() -> object:
         return find_valid_pose(costmap, footprint, pose, dist_tolerance=dist, angle_tolerance=angle)
@@ -69,6 +74,10 @@ def run(quick: bool) -> list[BenchRow]:
     for name, dist, angle, reference, target in cases:
         ms, state, _ = _time(costmap, centre, dist, angle, quick)
         rows.append(BenchRow(SECTION, name, ms, "ms", reference, target, note=f"answer {state.name}"))
+    behind = Footprint.from_points([[0.85, 0.25], [0.05, 0.25], [0.05, -0.25], [0.85, -0.25]])
+    ms, state, _ = _time(costmap, centre, 1.0, math.pi / 2, quick, behind)
+    rows.append(BenchRow(SECTION, "no solution, 1 m ±90°, prefilter off", ms, "ms", 430.0,
+                         note=f"answer {state.name}; robot centre outside its footprint"))
     unknown = Costmap2D(np.where(costmap.costs == LETHAL_OBSTACLE, NO_INFORMATION, 0).astype(np.uint8), 0.05)
     ms, state, _ = _time(unknown, centre, 1.0, math.pi / 2, quick)
     rows.append(BenchRow(SECTION, "all candidates scanned (obstacles unknown), 1 m ±90°", ms, "ms",
