@@ -57,6 +57,18 @@ def test_free_pose_unchanged_and_lethal_pose_moved() -> None:
     assert stuck.state == 2 and stuck.pose == gm.PoseStamped()
 
 
+def test_use_padded_fp_and_safety_dist_from_the_padded_footprint() -> None:
+    node = _node()
+    node.set_parameters({"footprint_padding": 0.1})
+    # square spans x ∈ [-0.25, -0.05] at x = -0.15: the obstacle cell x ∈ [0.0, 0.1) is 0.05 m away
+    plain = node.on_find_valid_pose(_request(-0.15, 0.05))
+    padded = node.on_find_valid_pose(_request(-0.15, 0.05, use_padded_fp=True))
+    assert (plain.state, padded.state) == (0, 2)
+    # safety_dist 0.1 reaches the obstacle from the unpadded square, and farther from the padded one
+    assert node.on_find_valid_pose(_request(-0.25, 0.05, safety_dist=0.1)).state == 0
+    assert node.on_find_valid_pose(_request(-0.25, 0.05, safety_dist=0.1, use_padded_fp=True)).state == 2
+
+
 def test_unknown_and_outside_states() -> None:
     node = _node()
     assert node.on_find_valid_pose(_request(1.55, 0.0)).state == 3
