@@ -125,5 +125,13 @@ def test_bad_params_rejected(field: str, value: object) -> None:
     assert info.value.field == field
 
 
+def test_footprint_parameter_accepts_a_list_of_pairs() -> None:
+    params = CostmapParams(footprint=[[0.4, 0.25], [-0.4, 0.25], [-0.4, -0.25]])  # type: ignore[arg-type]
+    assert params.footprint == "[[0.4, 0.25], [-0.4, 0.25], [-0.4, -0.25]]"
+    assert CostmapParams(footprint=[]).footprint == "[]"  # type: ignore[arg-type]
+    with pytest.raises(InvalidInput, match="footprint"):
+        CostmapParams(footprint=[[0, 0], [1, 1]])  # type: ignore[arg-type]
+
+
 def test_inscribed_value_constant() -> None:
     assert INSCRIBED_INFLATED_OBSTACLE == 253

@@ -61,7 +61,8 @@ NO_INFORMATION = _k.NO_INFORMATION
 class CostmapParams:
     """Parameters of the ``/costmap`` node, named as nav2's (DESIGN §3.4); lengths in m, angles in rad.
 
-    ``footprint`` is nav2's string ``"[[x, y], ...]"``; ``"[]"`` means a circle of ``robot_radius``.
+    ``footprint`` is nav2's string ``"[[x, y], ...]"`` (a list of pairs is accepted and converted);
+    ``"[]"`` means a circle of ``robot_radius``.
     ``resolution`` and ``local_window_size`` shape the local (rolling) window around the robot;
     ``angle_increment`` is FindValidPose's yaw step (Move Base Flex uses 5°).
     """
@@ -88,6 +89,9 @@ class CostmapParams:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value) or value <= 0:
                 raise InvalidInput(name, value, "must be a finite number > 0")
+        if isinstance(self.footprint, list | tuple):  # a YAML-parsed "[[x, y], ...]" (pfield param set)
+            object.__setattr__(self, "footprint", "[]" if not self.footprint
+                               else Footprint.from_points(self.footprint).to_string())
         if not isinstance(self.footprint, str):
             raise InvalidInput("footprint", self.footprint, 'must be a string like "[[0.4, 0.25], ...]"')
         if not isinstance(self.global_frame, str) or not self.global_frame:
