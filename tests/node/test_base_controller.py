@@ -128,3 +128,31 @@ def test_cancel_goal_service(node):
     response = service.handler(std_srvs.Trigger_Request())
     assert response.success and node.goal is None
     assert _tick(node, 0.1) == gm.Twist()
+
+
+def test_served_over_http_on_loopback():
+    """The node behind the real HTTP transport: goal in, cmd_vel out on ticks, bad input answered 4xx."""
+    import time
+
+    import httpx
+
+    from pfield.transport.http import ServerThread, create_app
+
+    node = BaseControllerNode(Bus(), rate=50.0)
+    with ServerThread(create_app([node])) as server, httpx.Client(base_url=server.url, timeout=5.0) as client:
+        scan = '{"angle_min": -3.14159, "angle_increment": 1.5708, "range_max": 5.0, ' \
+               '"ranges": [Infinity, 4.0, NaN, 4.0]}'
+        assert client.post("/topic/scan", content=scan, headers={"content-type": "application/json"}).is_success
+        goal = {"header": {"frame_id": "odom"}, "point": {"x": 50.0, "y": 0.0}}
+        assert client.post("/topic/goal_point", json=goal).is_success
+        deadline = time.monotonic() + 10.0
+        speed = 0.0
+        while speed <= 0.0 and time.monotonic() < deadline:
+            speed = client.get("/topic/cmd_vel").json()["linear"]["x"]
+        assert speed > 0.0
+        bad_goal = {"header": {"frame_id": "map"}, "point": {"x": 1.0}}
+        assert client.post("/topic/goal_point", json=bad_goal).status_code in (400, 422)
+        assert node.goal.tolist() == [50.0, 0.0]
+        assert client.put("/param/base_controller", json={"kr_slope": -1.0}).status_code in (400, 422)
+        assert client.put("/param/base_controller", json={"drive": "diff_drive"}).json()["drive"] == "diff_drive"
+        assert client.get("/param/base_controller").json()["kr_slope"] == 30.0
