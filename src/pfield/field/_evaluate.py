@@ -5,9 +5,9 @@ Inputs shared by every kernel here:
 * ``goal`` (7,): goal position (m) then orientation quaternion (x, y, z, w), world frame;
 * ``params`` (16,): :meth:`FieldConfig.packed`, indexed by the constants below;
 * ``packed``: :class:`~pfield.geometry._packed.PackedObstacles`;
-* ``aux`` (M, 7): per obstacle the unit circulation axis c (3), a bounding radius (m) and the shape
-  centre (3), built by :func:`obstacle_aux`. The bound lets far obstacles be skipped exactly: the signed
-  distance is at least ‖p − centre‖ − radius.
+* ``aux`` (M, 8): per obstacle the unit circulation axis c (3), a bounding radius (m), the shape centre
+  (3) and 1.0 for spheres, built by :func:`obstacle_aux`. The bound lets far obstacles be skipped
+  exactly, since the signed distance is at least ‖p − centre‖ − radius; for a sphere it is the distance.
 
 Kernels that take ``packed`` are inlined (``inline="always"``) into their callers: numba reference-counts
 every array of a tuple argument at each non-inlined call (two atomic operations per array), which would
@@ -46,14 +46,14 @@ STAGNATION_WINDOW, STAGNATION_PROGRESS = 14, 15
 
 
 def obstacle_aux(packed: PackedObstacles, goal_position: np.ndarray) -> np.ndarray:
-    """(M, 7) circulation axes, bounding radii and centres of the packed obstacles for a goal position.
+    """(M, 8) circulation axes, bounding radii, centres and sphere flags of packed obstacles for a goal.
 
     The circulation axis of obstacle i is c_i = normalize((g − centre_i) × ẑ) (× x̂ when the goal lies
     straight above or below the centre): the tangential motion n × c_i then runs in the vertical plane
     through the centre and the goal, over the top of the obstacle when approaching it head-on.
     """
     count = packed.kinds.shape[0]
-    aux = np.zeros((count, 7))
+    aux = np.zeros((count, 8))
     for i in range(count):
         centre = packed.rows[i, :3]
         toward_goal = goal_position - centre
@@ -64,6 +64,7 @@ def obstacle_aux(packed: PackedObstacles, goal_position: np.ndarray) -> np.ndarr
         aux[i, :3] = axis / norm if norm > 1e-12 else (1.0, 0.0, 0.0)
         aux[i, 3] = _bounding_radius(packed, i)
         aux[i, 4:7] = centre
+        aux[i, 7] = 1.0 if int(packed.kinds[i]) == SPHERE else 0.0
     return aux
 
 
@@ -88,9 +89,22 @@ def _bounding_radius(packed: PackedObstacles, i: int) -> float:
 
 
 @njit(cache=True, inline="always")
-def _lower_bound(aux: np.ndarray, i: int, p: np.ndarray) -> float:
+def _lower_bound(aux: np.ndarray, i: int, p: np.ndarray) -> tuple[float, float, float, float, float]:
+    """(‖p − c‖ − radius, p − c, ‖p − c‖): a lower bound of obstacle i's signed distance at p."""
     dx, dy, dz = p[0] - aux[i, 4], p[1] - aux[i, 5], p[2] - aux[i, 6]
-    return math.sqrt(dx * dx + dy * dy + dz * dz) - aux[i, 3]
+    norm = math.sqrt(dx * dx + dy * dy + dz * dz)
+    return norm - aux[i, 3], dx, dy, dz, norm
+
+
+@njit(cache=True, inline="always")
+def _signed_distance(
+    packed: PackedObstacles, aux: np.ndarray, i: int, p: np.ndarray,
+    bound: float, dx: float, dy: float, dz: float, norm: float,
+) -> tuple[float, float, float, float]:
+    """Signed distance and normal of obstacle i at p; spheres reuse the (exact) bound of :func:`_lower_bound`."""
+    if aux[i, 7] != 0.0 and norm > 0.0:
+        return bound, dx / norm, dy / norm, dz / norm
+    return obstacle_signed_distance(packed, i, p)
 
 
 @njit(cache=True, inline="always")
@@ -103,9 +117,10 @@ def field_wrench(
                             params[ATTRACTIVE_GAIN], params[ATTRACTIVE_THRESHOLD])
     influence = params[INFLUENCE_DISTANCE]
     for i in range(aux.shape[0]):
-        if _lower_bound(aux, i, p) >= influence:
+        bound, dx, dy, dz, norm = _lower_bound(aux, i, p)
+        if bound >= influence:
             continue
-        d, nx, ny, nz = obstacle_signed_distance(packed, i, p)
+        d, nx, ny, nz = _signed_distance(packed, aux, i, p, bound, dx, dy, dz, norm)
         m = khatib_magnitude(d, params[REPULSIVE_GAIN], influence, params[MAX_REPULSIVE_FORCE])
         fx, fy, fz = fx + m * nx, fy + m * ny, fz + m * nz
     rx, ry, rz = rotation_error(qx, qy, qz, qw, goal[3], goal[4], goal[5], goal[6])
@@ -128,10 +143,10 @@ def _avoid(
         if sweep == 1 and active < 2:
             break
         for i in range(aux.shape[0]):
-            bound = _lower_bound(aux, i, p)
+            bound, dx, dy, dz, norm = _lower_bound(aux, i, p)
             if bound >= influence and (sweep == 1 or bound >= clearance):
                 continue
-            d, nx, ny, nz = obstacle_signed_distance(packed, i, p)
+            d, nx, ny, nz = _signed_distance(packed, aux, i, p, bound, dx, dy, dz, norm)
             if sweep == 0 and d < clearance:
                 clearance, nearest = d, i
             if d < influence:

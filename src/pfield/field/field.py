@@ -34,7 +34,7 @@ class FieldArrays(NamedTuple):
     """What the compiled kernels of :mod:`pfield.field._evaluate` take (C-contiguous float64 arrays).
 
     ``goal`` (7,) position + quaternion (x, y, z, w); ``params`` (16,) :meth:`FieldConfig.packed`;
-    ``packed`` the obstacles; ``aux`` (M, 7) circulation axes, bounding radii and centres.
+    ``packed`` the obstacles; ``aux`` (M, 8) circulation axes, bounding radii, centres and sphere flags.
     """
 
     goal: NDArray[np.float64]

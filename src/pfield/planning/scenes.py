@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -39,7 +40,7 @@ __all__ = [
 _TOOL_FORWARD = (0.707, 0.0, 0.707, 0.0)
 SEED_START = Pose((0.227, 0.0, 0.294), _TOOL_FORWARD)
 SEED_GOAL = Pose((0.5, 0.2, 0.4), _TOOL_FORWARD)
-SEED_PLAN = {"dt": 0.02, "goal_tolerance": 0.01, "max_iterations": 25000}
+SEED_PLAN: dict[str, Any] = {"dt": 0.02, "goal_tolerance": 0.01, "max_iterations": 25000}
 """delta_time, goal_tolerance and max_iterations of the seed's task-space PlanPath example."""
 
 BENCH_START = Pose((0.3, 0.0, 0.5))
