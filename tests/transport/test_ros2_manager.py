@@ -111,3 +111,14 @@ def test_clean_shutdown(session: dict[str, Any]) -> None:
                                   "node_killed": False}
     assert session["new_shm"] == set()
     assert "terminate called" not in session["logs"]["node.log"]
+
+
+def test_base_controller_and_costmap_nodes_in_the_same_process(session: dict[str, Any]) -> None:
+    results = session["results"]
+    forward, sideways, _turn = results["cmd_vel"]  # goal 2 m straight ahead, open laser scan
+    assert 0.0 < math.hypot(forward, sideways) <= results["max_spd_norm"] + 1e-9
+    free_state, x, y, frame = results["find_valid_pose_free"]
+    assert (free_state, x, y, frame) == (0, 0.3, 0.3, "map")  # FREE, and the requested pose itself
+    assert results["find_valid_pose_blocked"] == 2  # LETHAL: inside the block, no tolerance to move
+    assert results["find_valid_pose_bad_costmap"] == 2  # refused: LETHAL, never FREE
+    assert "costmap=7: must be 1 (LOCAL_COSTMAP) or 2 (GLOBAL_COSTMAP)" in session["logs"]["node.log"]

@@ -8,8 +8,9 @@ exposes, from each node's :class:`~pfield.node._base.ServiceSpec`/``Subscription
 lists:
 
 * **services** — a handler's ``PfieldError`` (bad input) becomes ``success: false`` with the reason in
-  ``error_message``/``message`` when the response has such fields; otherwise (``ComputeAutonomyVector``)
-  the default response (a zero twist: no autonomy) is returned and the reason logged. Long-running
+  ``error_message``/``message`` when the response has such fields, ``state: LETHAL`` for FindValidPose
+  (mbf's "nothing found"); otherwise (``ComputeAutonomyVector``) the default response (a zero twist: no
+  autonomy) is returned. The reason is always logged. Long-running
   services (``plan_path``) run in their own callback group on a multi-threaded executor, so that
   ``compute_autonomy_vector`` keeps answering during a plan;
 * **subscriptions** — a bad message is logged and dropped; the node's state is unchanged (the node
@@ -61,11 +62,18 @@ _INPUT_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 _BAD_INPUT = (PfieldError, ValidationError, ValueError, TypeError)
 
 
+_FAILURE_VALUES: dict[str, dict[str, Any]] = {
+    # mbf_msgs' contract: LETHAL (2) when no valid pose is found; never answer FREE to a refused request
+    "potential_fields_interfaces/srv/FindValidPose_Response": {"state": 2},
+}
+
+
 def _failure_response(response: type[RosMessage], reason: str) -> RosMessage:
     """The response a service returns for bad input: ``success: false`` plus the reason when the type has
-    those fields (PlanPath, RemoveObstacles, std_srvs/Trigger), else its default."""
+    those fields (PlanPath, RemoveObstacles, std_srvs/Trigger), FindValidPose's ``state: LETHAL``, else
+    the default response."""
     fields = response.model_fields
-    values: dict[str, Any] = {}
+    values: dict[str, Any] = dict(_FAILURE_VALUES.get(response.ros_type, {}))
     if "success" in fields:
         values["success"] = False
     for name in ("error_message", "message"):

@@ -117,13 +117,48 @@ def bad_obstacles(client: BlockingClient, results: dict[str, Any]) -> None:
     results["autonomy_unchanged_by_bad"] = before == after and all(math.isfinite(v) for v in after)
 
 
+def occupancy_grid() -> dict[str, Any]:
+    """A 2 m x 2 m map at 5 cm, free but for a lethal 20 cm block centred at (1, 1)."""
+    data = [0] * (40 * 40)
+    for row in range(18, 22):
+        for column in range(18, 22):
+            data[row * 40 + column] = 100
+    return {"header": {"frame_id": "map"}, "info": {"resolution": 0.05, "width": 40, "height": 40},
+            "data": data}
+
+
+def mobile_and_costmap(client: BlockingClient, results: dict[str, Any]) -> None:
+    """The other nodes of the process: the base controller's topics and the costmap's FindValidPose."""
+    commands = client.subscribe("/cmd_vel", "geometry_msgs/msg/Twist")
+    scan = {"header": {"frame_id": ""}, "angle_min": -1.5, "angle_max": 1.5, "angle_increment": 0.5,
+            "range_min": 0.05, "range_max": 10.0, "ranges": [8.0] * 7}
+    client.publish("/scan", "sensor_msgs/msg/LaserScan", scan)
+    client.publish("/goal_point", "geometry_msgs/msg/PointStamped", {"point": {"x": 2.0, "y": 0.0}})
+    moving = commands.wait_for(lambda m: m["linear"]["x"] > 0.0)
+    results["cmd_vel"] = [moving["linear"]["x"], moving["linear"]["y"], moving["angular"]["z"]]
+    results["max_spd_norm"] = client.get_parameters("/base_controller", ["max_spd_norm"])["max_spd_norm"]
+    client.publish("/map", "nav_msgs/msg/OccupancyGrid", occupancy_grid())
+    costmaps = client.subscribe("/costmap/costmap", "nav_msgs/msg/OccupancyGrid")
+    costmaps.wait_for(lambda m: m["info"]["width"] == 40)
+    service = ("/pfield/find_valid_pose", "potential_fields_interfaces/srv/FindValidPose")
+    request = {"pose": {"header": {"frame_id": "map"}, "pose": {"position": {"x": 0.3, "y": 0.3}}},
+               "dist_tolerance": 0.5, "angle_tolerance": 0.5, "costmap": 2}
+    free = client.call(*service, request)
+    results["find_valid_pose_free"] = [free["state"], free["pose"]["pose"]["position"]["x"],
+                                       free["pose"]["pose"]["position"]["y"], free["pose"]["header"]["frame_id"]]
+    blocked = dict(request, pose={"header": {"frame_id": "map"}, "pose": {"position": {"x": 1.0, "y": 1.0}}},
+                   dist_tolerance=0.0, angle_tolerance=0.0)
+    results["find_valid_pose_blocked"] = client.call(*service, blocked)["state"]
+    results["find_valid_pose_bad_costmap"] = client.call(*service, dict(request, costmap=7))["state"]
+
+
 def main() -> None:
     results: dict[str, Any] = {}
     start = time.perf_counter()
     client = BlockingClient()
     timeline = results["timeline"] = {}
     try:
-        for phase in (obstacles_and_plans, autonomy_and_parameters, bad_obstacles):
+        for phase in (obstacles_and_plans, autonomy_and_parameters, bad_obstacles, mobile_and_costmap):
             phase(client, results)
             timeline[phase.__name__] = round(time.perf_counter() - start, 2)
     except Exception:
