@@ -176,3 +176,26 @@ def test_batch_min_and_empty_kernels_agree(rng):
 def test_min_signed_distance_ties_go_to_the_lowest_index():
     twins = [Obstacle("a", Sphere(0.1), Pose((1.0, 0, 0))), Obstacle("b", Sphere(0.1), Pose((-1.0, 0, 0)))]
     assert min_signed_distance(pack_obstacles(twins), np.zeros(3))[4] == 0
+
+
+def test_bounded_query_is_exact_within_the_cutoff_and_a_lower_bound_beyond(rng):
+    from pfield.geometry import Mesh, ResourceResolver, obstacle_signed_distance_within
+
+    from ._helpers import MESHES
+
+    cube = Mesh(str(MESHES / "unit_cube.obj"), 0.2, 0.3, 0.1, resolver=ResourceResolver(allowed_roots=[MESHES]))
+    obstacles = [Obstacle(f"o{i}", shape, random_pose(rng, 0.3)) for i, shape in enumerate([*SHAPES, cube])]
+    packed = pack_obstacles(obstacles)
+    cutoff = 0.1
+    beyond = 0
+    for point in rng.uniform(-1.0, 1.0, (400, 3)):
+        for i in range(len(obstacles)):
+            exact = obstacle_signed_distance(packed, i, point)
+            bounded = obstacle_signed_distance_within(packed, i, point, cutoff)
+            if exact[0] <= cutoff:
+                assert bounded == exact
+            else:
+                beyond += bounded != exact
+                assert cutoff < bounded[0] <= exact[0] + 1e-12
+                assert abs(np.linalg.norm(bounded[1:]) - 1.0) < 1e-12
+    assert beyond > 100  # the cheap bound was actually used

@@ -12,7 +12,13 @@ Compiled consumers call :func:`obstacle_signed_distance`, :func:`min_signed_dist
 """
 
 from pfield.geometry._packed import PackedObstacles
-from pfield.geometry._sdf import empty_packed, min_signed_distance, obstacle_signed_distance, signed_distances
+from pfield.geometry._sdf import (
+    empty_packed,
+    min_signed_distance,
+    obstacle_signed_distance,
+    obstacle_signed_distance_within,
+    signed_distances,
+)
 from pfield.geometry.mesh import Mesh, MeshData, load_mesh_arrays, read_mesh_file
 from pfield.geometry.obstacle import GROUPS, SHAPE_TYPES, Obstacle, Shape, pack_obstacles
 from pfield.geometry.resources import ResourceResolver
@@ -36,6 +42,7 @@ __all__ = [
     "load_mesh_arrays",
     "min_signed_distance",
     "obstacle_signed_distance",
+    "obstacle_signed_distance_within",
     "pack_obstacles",
     "read_mesh_file",
     "signed_distances",

@@ -26,6 +26,8 @@ from numba import njit
 
 _MAX_ITERATIONS = 128
 _REL_TOL = 1e-15
+_HALLEY_TOL = 1e-9
+_NOISE = 1e-15
 _FLAT = 1e-100
 
 
@@ -45,20 +47,23 @@ def _root(r0: float, r1: float, z0: float, z1: float, z2: float, g: float) -> fl
         i0, i1, i2 = 1.0 / (u + c0), 1.0 / (u + c1), 1.0 / u
         a0, a1, a2 = n0 * i0, n1 * i1, z2 * i2
         f = a0 * a0 + a1 * a1 + a2 * a2 - 1.0
+        if abs(f) <= _NOISE:  # F is at its rounding-noise floor: u is the root to machine precision
+            return u
         if f > 0.0:
             lo = u
-        elif f < 0.0:
-            hi = u
         else:
-            return u
+            hi = u
         b0, b1, b2 = a0 * a0 * i0, a1 * a1 * i1, a2 * a2 * i2
         df = -2.0 * (b0 + b1 + b2)
         ddf = 6.0 * (b0 * i0 + b1 * i1 + b2 * i2)
         nxt = u - 2.0 * f * df / (2.0 * df * df - f * ddf)  # Halley's step
-        if not (lo < nxt < hi):
+        if lo < nxt < hi:
+            if abs(nxt - u) <= _HALLEY_TOL * u:  # cubic convergence: the error after this step is ~tol³
+                return nxt
+        else:
             # Bisect; geometrically while the bracket spans orders of magnitude (roots near u = z2 ≪ 1).
             nxt = math.sqrt(lo * hi) if hi > 4.0 * lo else 0.5 * (lo + hi)
-        if abs(nxt - u) <= _REL_TOL * u:
+        if hi - lo <= _REL_TOL * hi:
             return nxt
         u = nxt
     return u

@@ -38,12 +38,13 @@ from pfield.geometry._packed import (
     SPHERE,
     PackedObstacles,
 )
-from pfield.geometry._raw import int_pointer
+from pfield.geometry._raw import float_pointer, int_pointer
 
 __all__ = [
     "empty_packed",
     "min_signed_distance",
     "obstacle_signed_distance",
+    "obstacle_signed_distance_within",
     "signed_distances",
 ]
 
@@ -130,10 +131,30 @@ def _mesh_addresses(packed: PackedObstacles) -> tuple[int, int, int, int, int, i
 
 
 @njit(cache=True)
+def _bounding_sphere(qx: float, qy: float, qz: float, radius: float) -> tuple[float, float, float, float]:
+    """Distance to a sphere about the origin: a lower bound of the distance to any shape inside it."""
+    norm = math.sqrt(qx * qx + qy * qy + qz * qz)
+    if norm == 0.0:
+        return -radius, 0.0, 0.0, 1.0
+    return norm - radius, qx / norm, qy / norm, qz / norm
+
+
+@njit(cache=True)
 def _mesh_local(
-    meshes: tuple[int, int, int, int, int, int, int, int], m: int, qx: float, qy: float, qz: float
+    meshes: tuple[int, int, int, int, int, int, int, int], m: int, qx: float, qy: float, qz: float,
+    cutoff: float,
 ) -> tuple[float, float, float, float]:
     table = carray(int_pointer(meshes[5]), (m + 1, 5))
+    if cutoff < math.inf:
+        root = table[m, 0]
+        lower = carray(float_pointer(meshes[2] + 24 * root), (3,))
+        upper = carray(float_pointer(meshes[3] + 24 * root), (3,))
+        gx = qx - min(max(qx, lower[0]), upper[0])
+        gy = qy - min(max(qy, lower[1]), upper[1])
+        gz = qz - min(max(qz, lower[2]), upper[2])
+        gap = math.sqrt(gx * gx + gy * gy + gz * gz)
+        if gap > cutoff:  # outside the mesh's bounding box by more than the cutoff
+            return gap, gx / gap, gy / gap, gz / gap
     return mesh_signed_distance_at(
         meshes[0], meshes[1], meshes[2], meshes[3], meshes[4], meshes[6], meshes[7],
         table[m, 0], table[m, 4] != 0, qx, qy, qz,
@@ -143,7 +164,7 @@ def _mesh_local(
 @njit(cache=True, inline="always")
 def _row_signed_distance(
     kinds: np.ndarray, rows: np.ndarray, meshes: tuple[int, int, int, int, int, int, int, int],
-    i: int, px: float, py: float, pz: float,
+    i: int, px: float, py: float, pz: float, cutoff: float,
 ) -> tuple[float, float, float, float]:
     # The row is read in one block so numba can prune its reference counting in callers' loops.
     cx, cy, cz = rows[i, 0], rows[i, 1], rows[i, 2]
@@ -167,9 +188,11 @@ def _row_signed_distance(
     elif kind == CAPSULE:
         d, lx, ly, lz = capsule_local(qx, qy, qz, s0, s1)
     elif kind == ELLIPSOID:
-        d, lx, ly, lz = ellipsoid_signed_distance(qx, qy, qz, s0, s1, s2)
+        d, lx, ly, lz = _bounding_sphere(qx, qy, qz, max(s0, s1, s2))
+        if d <= cutoff:
+            d, lx, ly, lz = ellipsoid_signed_distance(qx, qy, qz, s0, s1, s2)
     elif kind == MESH:
-        d, lx, ly, lz = _mesh_local(meshes, int(mesh), qx, qy, qz)
+        d, lx, ly, lz = _mesh_local(meshes, int(mesh), qx, qy, qz, cutoff)
     else:
         d, lx, ly, lz = sphere_local(qx, qy, qz, s0)
     return d, r00 * lx + r01 * ly + r02 * lz, r10 * lx + r11 * ly + r12 * lz, r20 * lx + r21 * ly + r22 * lz
@@ -185,7 +208,21 @@ def obstacle_signed_distance(packed: PackedObstacles, i: int, p: np.ndarray) -> 
     Inlined into the caller (numba ``inline="always"``), allocation- and reference-count-free for
     primitives: about 3 ns for a sphere inside a compiled loop.
     """
-    return _row_signed_distance(packed.kinds, packed.rows, _mesh_addresses(packed), i, p[0], p[1], p[2])
+    return _row_signed_distance(packed.kinds, packed.rows, _mesh_addresses(packed), i, p[0], p[1], p[2], math.inf)
+
+
+@njit(cache=True, inline="always")
+def obstacle_signed_distance_within(
+    packed: PackedObstacles, i: int, p: np.ndarray, cutoff: float
+) -> tuple[float, float, float, float]:
+    """:func:`obstacle_signed_distance`, exact whenever ``d ≤ cutoff``; beyond, possibly a cheaper bound.
+
+    When the true distance exceeds ``cutoff`` (m) the result may instead be a lower bound ``d'`` with
+    ``cutoff < d' ≤ d`` and a unit normal pointing away from the obstacle (ellipsoids: the distance to
+    their bounding sphere; meshes: to their bounding box). Consumers that ignore obstacles beyond an
+    influence distance (Khatib repulsion) get identical results, faster.
+    """
+    return _row_signed_distance(packed.kinds, packed.rows, _mesh_addresses(packed), i, p[0], p[1], p[2], cutoff)
 
 
 @njit(cache=True, inline="always")
@@ -198,7 +235,7 @@ def min_signed_distance(packed: PackedObstacles, p: np.ndarray) -> tuple[float, 
     px, py, pz = p[0], p[1], p[2]
     best, bx, by, bz, best_i = math.inf, 0.0, 0.0, 0.0, -1
     for i in range(kinds.shape[0]):
-        d, nx, ny, nz = _row_signed_distance(kinds, rows, meshes, i, px, py, pz)
+        d, nx, ny, nz = _row_signed_distance(kinds, rows, meshes, i, px, py, pz, math.inf)
         if d < best:
             best, bx, by, bz, best_i = d, nx, ny, nz, i
     return best, bx, by, bz, best_i

@@ -1,0 +1,129 @@
+"""Signed-distance speed: per point, inside a compiled loop, for meshes and every primitive shape.
+
+The loop calls :func:`pfield.geometry.obstacle_signed_distance` (or ``min_signed_distance`` over ten
+obstacles) for each of a few thousand query points and sums the distances, the way the field's and the
+planners' kernels use it. Query points fill a cube three times the obstacle's size around it, so about
+a quarter are near the surface and some are inside. C++ figures (REFERENCE.md §3) are whole wrench
+evaluations (distance + repulsion + attraction) of the named scene, the closest comparable figure.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from numba import njit
+
+from benchmarks._common import BenchRow, median_time
+from pfield.geometry import (
+    Box,
+    Capsule,
+    Cylinder,
+    Ellipsoid,
+    Mesh,
+    Obstacle,
+    ResourceResolver,
+    Sphere,
+    min_signed_distance,
+    obstacle_signed_distance,
+    obstacle_signed_distance_within,
+    pack_obstacles,
+)
+from pfield.geometry._packed import PackedObstacles
+from pfield.spatial import Pose, quaternion_exp
+
+SECTION = "geometry: signed distance per point (compiled loop)"
+MESHES = Path(__file__).resolve().parents[1] / "tests" / "data" / "meshes"
+
+
+@njit(cache=True)
+def _distance_loop(packed: PackedObstacles, points: np.ndarray) -> float:
+    total = 0.0
+    for k in range(points.shape[0]):
+        total += obstacle_signed_distance(packed, 0, points[k])[0]
+    return total
+
+
+@njit(cache=True)
+def _within_loop(packed: PackedObstacles, points: np.ndarray) -> float:
+    total = 0.0
+    for k in range(points.shape[0]):
+        for i in range(packed.kinds.shape[0]):
+            total += obstacle_signed_distance_within(packed, i, points[k], 0.1)[0]
+    return total
+
+
+@njit(cache=True)
+def _min_loop(packed: PackedObstacles, points: np.ndarray) -> float:
+    total = 0.0
+    for k in range(points.shape[0]):
+        total += min_signed_distance(packed, points[k])[0]
+    return total
+
+
+def _per_point_us(loop, packed: PackedObstacles, points: np.ndarray, quick: bool) -> float:  # type: ignore[no-untyped-def]
+    seconds = median_time(lambda: loop(packed, points), repeat=3 if quick else 9, number=1 if quick else 3)
+    return seconds / len(points) * 1e6
+
+
+def _points(rng: np.random.Generator, centre: np.ndarray, half_extent: float, count: int) -> np.ndarray:
+    return np.ascontiguousarray(centre + rng.uniform(-half_extent, half_extent, (count, 3)))
+
+
+def _scene_positions(count: int) -> np.ndarray:
+    """REFERENCE.md §2 field-evaluation layout: a Fibonacci sphere of radius 0.3 about (0.45, 0.15, 0.4)."""
+    i = np.arange(count)
+    z = 1.0 - (2.0 * i + 1.0) / count
+    rho, theta = np.sqrt(1.0 - z * z), i * 2.399963229728653
+    return np.array([0.45, 0.15, 0.40]) + 0.30 * np.stack([rho * np.cos(theta), rho * np.sin(theta), z], axis=1)
+
+
+SCENES = {  # name: (shape, rotation axis, C++ wrench µs for 10 obstacles)
+    "spheres": (Sphere(0.03), (0.0, 0.0, 1.0), 0.64),
+    "boxes": (Box(0.06, 0.04, 0.08), (0.0, 0.0, 1.0), 0.78),
+    "cylinders": (Cylinder(0.03, 0.10), (1.0, 0.0, 0.0), 0.84),
+    "ellipsoids": (Ellipsoid(0.03, 0.04, 0.05), (0.0, 1.0, 0.0), 0.79),
+    "capsules": (Capsule(0.02, 0.08), (1.0, 0.0, 0.0), 0.78),
+}
+
+
+def _mesh_rows(rng: np.random.Generator, quick: bool) -> list[BenchRow]:
+    resolver = ResourceResolver(allowed_roots=[MESHES])
+    rows = []
+    for file_name, label, reference, target in (("cylinder_448.stl", "mesh, 448 triangles", 8.2, 8.0),
+                                                  ("unit_cube.stl", "mesh, 12 triangles (unit cube)", 3.4, 3.4)):
+        mesh = Mesh(str(MESHES / file_name), resolver=resolver)
+        packed = pack_obstacles([Obstacle("m", mesh, Pose((1.0, 0.0, 0.5)))])
+        points = _points(rng, np.array([1.0, 0.0, 0.5]), 1.5 * mesh.bounding_radius(), 2000 if quick else 20000)
+        value = _per_point_us(_distance_loop, packed, points, quick)
+        rows.append(BenchRow(SECTION, label, value, "µs/point", reference, target,
+                             note="C++ figure: one wrench with this mesh"))
+    return rows
+
+
+def _primitive_rows(rng: np.random.Generator, quick: bool) -> list[BenchRow]:
+    rows = []
+    count = 5000 if quick else 50000
+    for name, (shape, axis, reference) in SCENES.items():
+        single = pack_obstacles([Obstacle("o", shape, Pose((0.0, 0.0, 0.0), quaternion_exp(np.multiply(axis, 0.3))))])
+        points = _points(rng, np.zeros(3), 1.5 * shape.bounding_radius(), count)
+        label = "box" if name == "boxes" else name[:-1]
+        rows.append(BenchRow(SECTION, f"one {label}", _per_point_us(_distance_loop, single, points, quick) * 1e3,
+                             "ns/point"))
+        ten = pack_obstacles([
+            Obstacle(f"o{i}", shape, Pose(position, quaternion_exp(np.multiply(axis, 0.1 * i))))
+            for i, position in enumerate(_scene_positions(10))
+        ])
+        scene_points = _points(rng, np.array([0.45, 0.15, 0.40]), 0.4, count // 5)
+        rows.append(BenchRow(SECTION, f"{name}_10: nearest of 10", _per_point_us(_min_loop, ten, scene_points, quick),
+                             "µs/point", reference, None, note="C++ figure: whole wrench of the scene"))
+        rows.append(BenchRow(SECTION, f"{name}_10: all 10, cutoff 0.1 m", _per_point_us(_within_loop, ten,
+                             scene_points, quick), "µs/point", reference, None,
+                             note="obstacle_signed_distance_within (exact up to the influence distance)"))
+    return rows
+
+
+def run(quick: bool) -> list[BenchRow]:
+    """Rows for ``make bench`` (see :mod:`benchmarks.run`)."""
+    rng = np.random.default_rng(7)
+    return _mesh_rows(rng, quick) + _primitive_rows(rng, quick)
