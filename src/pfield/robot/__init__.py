@@ -1,0 +1,5 @@
+"""Robots: URDF models (pinocchio), compiled kinematics, link capsules, collision checks and IK."""
+
+from pfield.robot.model import RobotModel
+
+__all__ = ["RobotModel"]

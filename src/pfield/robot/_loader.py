@@ -1,0 +1,144 @@
+"""Loading a URDF (+ optional SRDF) into pinocchio models, with ``package://`` URIs resolved first.
+
+Mesh URIs in the URDF are rewritten to absolute paths before pinocchio sees the text, so the package
+roots given by the caller are the only places meshes come from (no ROS environment variables, no network).
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from pfield.errors import InvalidInput, ResourceNotFound
+
+__all__ = ["LoadedRobot", "load_urdf", "read_disabled_pairs"]
+
+_LOG = logging.getLogger(__name__)
+_PACKAGE_URI = re.compile(r"package://([^/\"']+)/")
+_ONE_DOF_JOINTS = ("JointModelR", "JointModelP", "JointModelRevoluteUnaligned", "JointModelPrismaticUnaligned",
+                   "JointModelRUB")
+
+
+@dataclass(frozen=True)
+class LoadedRobot:
+    """Pinocchio kinematic + collision models after locking the requested joints."""
+
+    model: pin.Model
+    collision_model: pin.GeometryModel
+    urdf_path: Path
+    robot_name: str
+
+
+def _read_text(field: str, path: Path) -> str:
+    try:
+        return path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ResourceNotFound(f"{field}: cannot read {str(path)!r}: {exc}") from exc
+
+
+def _resolve_uris(text: str, urdf_dir: Path, package_paths: dict[str, Path]) -> str:
+    """Replace ``package://pkg/`` and ``file://`` prefixes by absolute directories."""
+
+    def package_root(match: re.Match[str]) -> str:
+        package = match.group(1)
+        root = package_paths.get(package)
+        if root is None:
+            raise ResourceNotFound(
+                f"package_paths: the URDF refers to package://{package}/ but no root was given for it "
+                f"(known: {sorted(package_paths) or 'none'}); pass package_paths={{{package!r}: '/path/to/{package}'}}"
+            )
+        return str(root) + "/"
+
+    text = _PACKAGE_URI.sub(package_root, text)
+    text = text.replace("file://", "")
+    # relative mesh paths are relative to the URDF's folder
+    return re.sub(r'filename="(?!/)([^"]+)"', lambda m: f'filename="{urdf_dir / m.group(1)}"', text)
+
+
+def _check_supported(model: pin.Model, field: str) -> None:
+    for joint_id in range(1, model.njoints):
+        joint = model.joints[joint_id]
+        short = joint.shortname()
+        if joint.nv != 1 or not short.startswith(_ONE_DOF_JOINTS):
+            raise InvalidInput(field, model.names[joint_id],
+                               f"joint type {short} is not supported (only revolute, continuous and prismatic); "
+                               "lock it with locked_joints={name: value}")
+
+
+def load_urdf(urdf_path: str | Path, package_paths: dict[str, str | Path] | None = None,
+              locked_joints: dict[str, float] | None = None) -> LoadedRobot:
+    """Build pinocchio's kinematic and collision models from a URDF, locking ``locked_joints``.
+
+    Raises :class:`ResourceNotFound` for an unreadable URDF or mesh and :class:`InvalidInput` for a malformed
+    one, an unknown locked joint or an unsupported joint type.
+    """
+    path = Path(urdf_path).expanduser().resolve()
+    text = _read_text("urdf", path)
+    roots = {name: Path(root).expanduser().resolve() for name, root in (package_paths or {}).items()}
+    for name, root in roots.items():
+        if not root.is_dir():
+            raise ResourceNotFound(f"package_paths[{name!r}]: {str(root)!r} is not a directory")
+    resolved = _resolve_uris(text, path.parent, roots)
+    try:
+        model = pin.buildModelFromXML(resolved)
+        geometry = pin.buildGeomFromUrdfString(model, resolved, pin.COLLISION)
+    except (RuntimeError, ValueError) as exc:
+        raise InvalidInput("urdf", str(path), f"pinocchio could not parse it: {exc}") from exc
+    model, geometry = _lock(model, geometry, locked_joints or {})
+    _check_supported(model, "urdf")
+    try:
+        robot_name = ET.fromstring(text).get("name", path.stem)
+    except ET.ParseError:
+        robot_name = path.stem
+    return LoadedRobot(model, geometry, path, robot_name)
+
+
+def _lock(model: pin.Model, geometry: pin.GeometryModel,
+          locked: dict[str, float]) -> tuple[pin.Model, pin.GeometryModel]:
+    if not locked:
+        return model, geometry
+    q_ref = pin.neutral(model)
+    ids = []
+    for name, value in locked.items():
+        if not model.existJointName(name):
+            raise InvalidInput(f"locked_joints[{name!r}]", value, f"no such joint; joints: {list(model.names)[1:]}")
+        joint_id = model.getJointId(name)
+        ids.append(joint_id)
+        q_ref[model.joints[joint_id].idx_q] = float(value)
+    reduced, reduced_geometry = pin.buildReducedModel(model, geometry, ids, q_ref)
+    return reduced, reduced_geometry
+
+
+def read_disabled_pairs(srdf_path: str | Path) -> set[frozenset[str]]:
+    """Link pairs of the SRDF's ``<disable_collisions link1=… link2=…/>`` elements."""
+    path = Path(srdf_path).expanduser()
+    text = _read_text("srdf", path)
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError as exc:
+        raise InvalidInput("srdf", str(path), f"not valid XML: {exc}") from exc
+    pairs = set()
+    for element in root.iter("disable_collisions"):
+        first, second = element.get("link1"), element.get("link2")
+        if first and second:
+            pairs.add(frozenset((first, second)))
+    _LOG.debug("SRDF %s disables %d link pairs", path, len(pairs))
+    return pairs
+
+
+def joint_axis(model: pin.Model, joint_id: int) -> tuple[np.ndarray, int]:
+    """Unit axis (joint frame) and kind (0 revolute, 1 prismatic) of a 1-DoF pinocchio joint."""
+    joint = model.joints[joint_id]
+    data = joint.createData()
+    joint.calc(data, pin.neutral(model)[joint.idx_q: joint.idx_q + joint.nq])
+    subspace = np.array(data.S, dtype=np.float64).reshape(6, -1)[:, 0]
+    linear, angular = subspace[:3], subspace[3:]
+    if np.linalg.norm(angular) > 0.5:
+        return angular / np.linalg.norm(angular), 0
+    return linear / np.linalg.norm(linear), 1

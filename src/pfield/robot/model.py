@@ -1,0 +1,239 @@
+"""The robot model: a URDF loaded with pinocchio, packed into arrays for the compiled kinematics.
+
+Pinocchio (Carpentier et al., "The Pinocchio C++ library", SII 2019) parses the URDF, locks joints and
+stays the reference the compiled kernels of :mod:`pfield.robot._kinematics` are tested against.
+
+Joint angles policy (every public entry point): a wrong count or a non-finite value raises
+:class:`~pfield.errors.InvalidInput`; an angle outside the URDF limits by more than
+``LIMIT_TOLERANCE`` (1e-4 rad or m, the size of a float32 rounding of a ROS message) is **rejected**
+with an error naming the joint and its limits; smaller excursions are clamped onto the limit. Rejecting
+is safer than clamping: a configuration outside the limits means the caller's state is wrong.
+"""
+
+from __future__ import annotations
+
+import logging
+from functools import cached_property
+from pathlib import Path
+from typing import TYPE_CHECKING, NamedTuple
+
+import numpy as np
+import pinocchio as pin
+from numpy.typing import ArrayLike, NDArray
+
+from pfield._validation import as_vector
+from pfield.errors import InvalidInput
+from pfield.robot import _kinematics as _k
+from pfield.robot._loader import LoadedRobot, joint_axis, load_urdf, read_disabled_pairs
+from pfield.robot.catalog import builtin_spec, example_robot_data_root
+from pfield.spatial import Pose, quaternion_from_matrix
+
+if TYPE_CHECKING:
+    from pfield.robot.geometry import RobotGeometry
+
+__all__ = ["LIMIT_TOLERANCE", "KinematicArrays", "RobotModel"]
+
+_LOG = logging.getLogger(__name__)
+LIMIT_TOLERANCE = 1e-4
+
+
+class KinematicArrays(NamedTuple):
+    """The packed kinematic tree (see :mod:`pfield.robot._kinematics`) and the end-effector frame."""
+
+    parents: NDArray[np.int64]  # (n,)
+    place_rot: NDArray[np.float64]  # (n, 3, 3)
+    place_pos: NDArray[np.float64]  # (n, 3)
+    axes: NDArray[np.float64]  # (n, 3)
+    kinds: NDArray[np.int64]  # (n,)
+    support: NDArray[np.int64]  # (n, n)
+    ee_joint: int
+    ee_rot: NDArray[np.float64]  # (3, 3)
+    ee_pos: NDArray[np.float64]  # (3,)
+
+
+def _pack_kinematics(model: pin.Model, ee_frame: pin.Frame) -> KinematicArrays:
+    n = model.njoints - 1
+    parents = np.array([model.parents[j] - 1 for j in range(1, n + 1)], dtype=np.int64)
+    place_rot = np.array([model.jointPlacements[j].rotation for j in range(1, n + 1)]).reshape(n, 3, 3)
+    place_pos = np.array([model.jointPlacements[j].translation for j in range(1, n + 1)]).reshape(n, 3)
+    axes_kinds = [joint_axis(model, j) for j in range(1, n + 1)]
+    axes = np.array([a for a, _ in axes_kinds], dtype=np.float64).reshape(n, 3)
+    kinds = np.array([k for _, k in axes_kinds], dtype=np.int64)
+    support = np.zeros((n, n), dtype=np.int64)
+    for k in range(n):
+        j = k
+        while j >= 0:
+            support[k, j] = 1
+            j = int(parents[j])
+    return KinematicArrays(parents, np.ascontiguousarray(place_rot), np.ascontiguousarray(place_pos), axes, kinds,
+                           support, int(ee_frame.parentJoint) - 1,
+                           np.ascontiguousarray(ee_frame.placement.rotation, dtype=np.float64),
+                           np.ascontiguousarray(ee_frame.placement.translation, dtype=np.float64))
+
+
+class RobotModel:
+    """A kinematic robot: joint names in tree order, limits, end-effector FK and Jacobian, link geometry.
+
+    Build with :meth:`from_urdf` or :meth:`builtin`. ``forward_kinematics(q)`` gives the end-effector pose
+    in the robot's root (world) frame; ``jacobian(q)`` its 6×n world-aligned Jacobian, linear rows first
+    (pinocchio's ``LOCAL_WORLD_ALIGNED``). Joint angles are in rad (revolute) or m (prismatic).
+    """
+
+    def __init__(self, loaded: LoadedRobot, end_effector: str, disabled_pairs: set[frozenset[str]] | None = None,
+                 name: str | None = None) -> None:
+        model = loaded.model
+        if not model.existFrame(end_effector):
+            links = [f.name for f in model.frames if f.type == pin.FrameType.BODY]
+            raise InvalidInput("end_effector", end_effector, f"no such frame in the URDF; links: {links}")
+        self._loaded = loaded
+        self.name = name or loaded.robot_name
+        self.end_effector = end_effector
+        self.disabled_pairs = frozenset(disabled_pairs) if disabled_pairs is not None else None
+        self.kinematics = _pack_kinematics(model, model.frames[model.getFrameId(end_effector)])
+        n = model.njoints - 1
+        self._joint_names = tuple(model.names[j] for j in range(1, n + 1))
+        idx_q = [model.joints[j].idx_q for j in range(1, n + 1)]
+        idx_v = [model.joints[j].idx_v for j in range(1, n + 1)]
+        self._continuous = np.array([model.joints[j].nq == 2 for j in range(1, n + 1)])
+        lower = np.where(self._continuous, -np.inf, model.lowerPositionLimit[idx_q])
+        upper = np.where(self._continuous, np.inf, model.upperPositionLimit[idx_q])
+        self._lower, self._upper = _frozen(lower), _frozen(upper)
+        self._velocity = _frozen(np.asarray(model.velocityLimit)[idx_v])
+        self._idx_q = np.array(idx_q)
+        self._rotations = np.empty((n, 3, 3))
+        self._origins = np.empty((n, 3))
+
+    # ---- construction -------------------------------------------------------------------------------
+    @classmethod
+    def from_urdf(cls, path: str | Path, end_effector: str, package_paths: dict[str, str | Path] | None = None,
+                  srdf: str | Path | None = None, locked_joints: dict[str, float] | None = None) -> RobotModel:
+        """Load a URDF. ``package_paths`` maps package names to their root folders (for ``package://``).
+
+        ``srdf`` (optional) supplies the disabled self-collision pairs; without it adjacent links are
+        excluded. ``locked_joints`` maps joint names to fixed values (e.g. gripper fingers).
+        """
+        loaded = load_urdf(path, package_paths, locked_joints)
+        disabled = read_disabled_pairs(srdf) if srdf is not None else None
+        return cls(loaded, end_effector, disabled)
+
+    @classmethod
+    def builtin(cls, name: str) -> RobotModel:
+        """``"xarm7"`` or ``"panda"`` from the installed example-robot-data files (see :mod:`.catalog`)."""
+        spec = builtin_spec(name)
+        root = example_robot_data_root()
+        loaded = load_urdf(root / spec.urdf, {"example-robot-data": root}, spec.locked_joints)
+        return cls(loaded, spec.end_effector, read_disabled_pairs(root / spec.srdf), name=str(name).lower())
+
+    # ---- properties -----------------------------------------------------------------------------------
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        """Actuated joints in kinematic-tree order (parents before children)."""
+        return self._joint_names
+
+    @property
+    def n_joints(self) -> int:
+        return len(self._joint_names)
+
+    @property
+    def lower_limits(self) -> NDArray[np.float64]:
+        """Lower position limits (rad or m); −inf for continuous joints."""
+        return self._lower
+
+    @property
+    def upper_limits(self) -> NDArray[np.float64]:
+        """Upper position limits (rad or m); +inf for continuous joints."""
+        return self._upper
+
+    @property
+    def velocity_limits(self) -> NDArray[np.float64]:
+        """Joint speed limits from the URDF (rad/s or m/s)."""
+        return self._velocity
+
+    @property
+    def pinocchio_model(self) -> pin.Model:
+        """The (reduced) pinocchio model; the reference for every kinematic quantity."""
+        return self._loaded.model
+
+    @property
+    def collision_model(self) -> pin.GeometryModel:
+        """Pinocchio's collision geometry (coal shapes) of the URDF's ``<collision>`` elements."""
+        return self._loaded.collision_model
+
+    @property
+    def urdf_path(self) -> Path:
+        return self._loaded.urdf_path
+
+    @cached_property
+    def geometry(self) -> RobotGeometry:
+        """Link capsules and self-collision pairs (fitted once, on first use)."""
+        from pfield.robot.geometry import fit_robot_geometry
+
+        return fit_robot_geometry(self)
+
+    # ---- validation -------------------------------------------------------------------------------------
+    def check_joint_angles(self, q: ArrayLike, field: str = "joint_angles") -> NDArray[np.float64]:
+        """Validated copy of ``q`` (see the module docstring for the limits policy)."""
+        values = np.array(as_vector(field, q, self.n_joints))
+        below = values < self._lower - LIMIT_TOLERANCE
+        above = values > self._upper + LIMIT_TOLERANCE
+        if below.any() or above.any():
+            i = int(np.flatnonzero(below | above)[0])
+            raise InvalidInput(f"{field}[{i}]", float(values[i]),
+                               f"outside the limits of {self._joint_names[i]} "
+                               f"[{self._lower[i]:.6g}, {self._upper[i]:.6g}]")
+        return np.clip(values, self._lower, self._upper)
+
+    def pinocchio_configuration(self, q: ArrayLike) -> NDArray[np.float64]:
+        """Pinocchio's configuration vector for angles ``q`` (continuous joints become (cos, sin))."""
+        values = np.asarray(q, dtype=np.float64)
+        config = np.zeros(self.pinocchio_model.nq)
+        for i, start in enumerate(self._idx_q):
+            if self._continuous[i]:
+                config[start:start + 2] = (np.cos(values[i]), np.sin(values[i]))
+            else:
+                config[start] = values[i]
+        return config
+
+    # ---- kinematics -----------------------------------------------------------------------------------
+    def joint_frames(self, q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """World rotations (n, 3, 3) and origins (n, 3) of every joint frame at validated ``q``."""
+        values = self.check_joint_angles(q)
+        k = self.kinematics
+        rotations, origins = np.empty((self.n_joints, 3, 3)), np.empty((self.n_joints, 3))
+        _k.joint_transforms(values, k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, rotations, origins)
+        return rotations, origins
+
+    def forward_kinematics(self, q: ArrayLike) -> Pose:
+        """End-effector pose in the world (robot root) frame at joint angles ``q``."""
+        rotation, position = self._ee_kinematics(self.check_joint_angles(q), np.empty((6, self.n_joints)))
+        return Pose(position, quaternion_from_matrix(rotation))
+
+    def jacobian(self, q: ArrayLike) -> NDArray[np.float64]:
+        """6×n end-effector Jacobian, world-aligned axes, linear rows first: ``[v; ω] = J(q) q̇``."""
+        jac = np.empty((6, self.n_joints))
+        self._ee_kinematics(self.check_joint_angles(q), jac)
+        return jac
+
+    def end_effector_positions(self, qs: ArrayLike) -> NDArray[np.float64]:
+        """End-effector positions (N, 3) of N configurations (not validated: trajectory post-processing)."""
+        k = self.kinematics
+        array = np.ascontiguousarray(np.asarray(qs, dtype=np.float64).reshape(-1, self.n_joints))
+        return _k.batch_end_effector_positions(array, k.parents, k.place_rot, k.place_pos, k.axes, k.kinds,
+                                               k.ee_joint, k.ee_rot, k.ee_pos)
+
+    def _ee_kinematics(self, q: NDArray[np.float64],
+                       jac: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        k = self.kinematics
+        rotation, position = _k.end_effector_kinematics(
+            q, k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, k.support, k.ee_joint, k.ee_rot, k.ee_pos,
+            self._rotations, self._origins, jac)
+        return rotation, position
+
+    def __repr__(self) -> str:
+        return f"RobotModel({self.name!r}, joints={list(self._joint_names)}, end_effector={self.end_effector!r})"
+
+
+def _frozen(values: ArrayLike) -> NDArray[np.float64]:
+    array = np.array(values, dtype=np.float64)
+    array.setflags(write=False)
+    return array

@@ -1,0 +1,175 @@
+"""RobotModel: loading, the compiled kinematics against pinocchio, Jacobians against finite differences."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from pfield import errors
+from pfield.robot import RobotModel
+from pfield.robot import _kinematics as kin
+from pfield.robot.catalog import example_robot_data_root
+from pfield.spatial import Pose
+
+Q0 = np.array([0.0, -0.6, 0.0, 0.9, 0.0, 1.5, 0.0])
+
+
+@pytest.fixture(scope="module")
+def xarm() -> RobotModel:
+    return RobotModel.builtin("xarm7")
+
+
+@pytest.fixture(scope="module")
+def panda() -> RobotModel:
+    return RobotModel.builtin("panda")
+
+
+def _random_configurations(robot: RobotModel, count: int, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    lower = np.maximum(robot.lower_limits, -np.pi)
+    upper = np.minimum(robot.upper_limits, np.pi)
+    return rng.uniform(lower, upper, size=(count, robot.n_joints))
+
+
+def test_xarm_joints_limits_and_reference_fk(xarm: RobotModel) -> None:
+    assert xarm.joint_names == tuple(f"joint{i}" for i in range(1, 8))
+    assert xarm.end_effector == "link_eef"
+    np.testing.assert_allclose(xarm.lower_limits[[1, 3, 5]], [-2.059, -0.19198, -1.69297])
+    np.testing.assert_allclose(xarm.upper_limits[[1, 3, 5]], [2.0944, 3.927, np.pi])
+    np.testing.assert_allclose(xarm.velocity_limits, 3.14)
+    pose = xarm.forward_kinematics(Q0)
+    np.testing.assert_allclose(pose.position, [0.30101404, 0.00000346, 0.49454543], atol=1e-6)
+    # REFERENCE: "tool down" — the tool z axis points along world −z
+    np.testing.assert_allclose(pose.rotation[:, 2], [0.0, 0.0, -1.0], atol=1e-4)
+
+
+def test_panda_has_seven_arm_joints_and_tcp(panda: RobotModel) -> None:
+    assert panda.joint_names == tuple(f"panda_joint{i}" for i in range(1, 8))
+    assert panda.end_effector == "panda_hand_tcp"
+    q = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
+    model = panda.pinocchio_model
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q)
+    hand = data.oMf[model.getFrameId("panda_hand")]
+    tcp = panda.forward_kinematics(q)
+    # the TCP lies 0.1034 m along the hand's z axis
+    np.testing.assert_allclose(tcp.position, hand.translation + 0.1034 * hand.rotation[:, 2], atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["xarm7", "panda"])
+def test_compiled_kinematics_equal_pinocchio(name: str, xarm: RobotModel, panda: RobotModel) -> None:
+    robot = xarm if name == "xarm7" else panda
+    model, k = robot.pinocchio_model, robot.kinematics
+    data = model.createData()
+    frame = model.getFrameId(robot.end_effector)
+    rotations, origins, jac = np.empty((robot.n_joints, 3, 3)), np.empty((robot.n_joints, 3)), np.empty((6, 7))
+    worst_pose, worst_jac = 0.0, 0.0
+    for q in _random_configurations(robot, 1000, seed=1):
+        rot, pos = kin.end_effector_kinematics(q, k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, k.support,
+                                               k.ee_joint, k.ee_rot, k.ee_pos, rotations, origins, jac)
+        reference = pin.computeFrameJacobian(model, data, q, frame, pin.LOCAL_WORLD_ALIGNED)
+        placement = data.oMf[frame]
+        worst_pose = max(worst_pose, np.abs(pos - placement.translation).max(), np.abs(rot - placement.rotation).max())
+        worst_jac = max(worst_jac, np.abs(jac - reference).max())
+        for j in range(robot.n_joints):  # every joint frame, not only the end effector
+            worst_pose = max(worst_pose, np.abs(origins[j] - data.oMi[j + 1].translation).max())
+    assert worst_pose < 1e-9
+    assert worst_jac < 1e-9
+
+
+@pytest.mark.parametrize("name", ["xarm7", "panda"])
+def test_jacobian_equals_finite_differences(name: str, xarm: RobotModel, panda: RobotModel) -> None:
+    robot = xarm if name == "xarm7" else panda
+    h = 1e-6
+    for q in _random_configurations(robot, 20, seed=2):
+        q = np.clip(q, robot.lower_limits + 2 * h, robot.upper_limits - 2 * h)
+        jac = robot.jacobian(q)
+        base = robot.forward_kinematics(q)
+        for j in range(robot.n_joints):
+            step = np.zeros(robot.n_joints)
+            step[j] = h
+            plus, minus = robot.forward_kinematics(q + step), robot.forward_kinematics(q - step)
+            np.testing.assert_allclose(jac[:3, j], (plus.position - minus.position) / (2 * h), atol=1e-7)
+            # angular column: rotation vector of R(q + h) R(q)^T divided by h (world frame)
+            delta = pin.log3(plus.rotation @ base.rotation.T)
+            np.testing.assert_allclose(jac[3:, j], delta / h, atol=1e-5)
+
+
+def test_from_urdf_with_package_paths_and_srdf(tmp_path: Path) -> None:
+    root = example_robot_data_root()
+    # a user copy of the URDF elsewhere, its package:// URIs resolved through package_paths
+    urdf = tmp_path / "arm.urdf"
+    shutil.copy(root / "robots/xarm_description/urdf/xarm7.urdf", urdf)
+    robot = RobotModel.from_urdf(urdf, end_effector="link7", package_paths={"example-robot-data": root},
+                                 srdf=root / "robots/xarm_description/srdf/xarm7.srdf")
+    builtin = RobotModel.builtin("xarm7")
+    assert robot.forward_kinematics(Q0).isclose(builtin.forward_kinematics(Q0), atol=1e-12)
+    assert robot.disabled_pairs is not None and frozenset(("link1", "link2")) in robot.disabled_pairs
+    assert len(robot.collision_model.geometryObjects) == 8
+
+
+def test_unknown_builtin_lists_known_names() -> None:
+    with pytest.raises(errors.InvalidInput, match="panda.*xarm7") as info:
+        RobotModel.builtin("ur5")
+    assert info.value.field == "robot"
+
+
+def test_unreadable_urdf(tmp_path: Path) -> None:
+    with pytest.raises(errors.ResourceNotFound, match="urdf"):
+        RobotModel.from_urdf(tmp_path / "missing.urdf", end_effector="tool")
+    broken = tmp_path / "broken.urdf"
+    broken.write_text("<robot name='x'><link name='a'/><joint name='j' type='revolute'>")
+    with pytest.raises(errors.PfieldError):
+        RobotModel.from_urdf(broken, end_effector="a")
+
+
+def test_missing_package_root_is_named(tmp_path: Path) -> None:
+    root = example_robot_data_root()
+    with pytest.raises(errors.ResourceNotFound, match="example-robot-data"):
+        RobotModel.from_urdf(root / "robots/xarm_description/urdf/xarm7.urdf", end_effector="link_eef")
+
+
+def test_missing_end_effector_lists_links() -> None:
+    root = example_robot_data_root()
+    with pytest.raises(errors.InvalidInput, match="link_eef") as info:
+        RobotModel.from_urdf(root / "robots/xarm_description/urdf/xarm7.urdf", end_effector="gripper",
+                             package_paths={"example-robot-data": root})
+    assert info.value.field == "end_effector"
+
+
+@pytest.mark.parametrize(
+    ("q", "field"),
+    [
+        ([0.0] * 6, "joint_angles"),
+        ([0.0] * 8, "joint_angles"),
+        ([0.0, float("nan"), 0, 0, 0, 0, 0], "joint_angles"),
+        ([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, float("inf")], "joint_angles"),
+        ([0.0, 2.5, 0.0, 0.0, 0.0, 0.0, 0.0], "joint_angles[1]"),
+        ([0.0, 0.0, 0.0, -0.5, 0.0, 0.0, 0.0], "joint_angles[3]"),
+    ],
+)
+def test_bad_joint_angles_are_rejected(xarm: RobotModel, q: list[float], field: str) -> None:
+    with pytest.raises(errors.InvalidInput) as info:
+        xarm.forward_kinematics(q)
+    assert info.value.field == field
+    with pytest.raises(errors.InvalidInput):
+        xarm.jacobian(q)
+
+
+def test_float32_rounding_at_a_limit_is_clamped(xarm: RobotModel) -> None:
+    q = Q0.copy()
+    q[1] = float(np.float32(xarm.upper_limits[1])) + 5e-5
+    at_limit = Q0.copy()
+    at_limit[1] = xarm.upper_limits[1]
+    assert xarm.forward_kinematics(q) == xarm.forward_kinematics(at_limit)
+
+
+def test_forward_kinematics_returns_pose(xarm: RobotModel) -> None:
+    pose = xarm.forward_kinematics(Q0)
+    assert isinstance(pose, Pose)
+    positions = xarm.end_effector_positions(np.stack([Q0, Q0]))
+    np.testing.assert_allclose(positions, [pose.position, pose.position], atol=1e-12)
