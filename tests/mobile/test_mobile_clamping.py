@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from pfield.mobile import VectorFieldParams, field_components, velocity
@@ -18,6 +18,8 @@ finite = st.floats(min_value=-1e6, max_value=1e6, allow_nan=False)
 @settings(max_examples=300, deadline=None)
 @given(vx=finite, vy=finite, lower=st.floats(0.0, 1.0), span=st.floats(0.01, 2.0),
        mode=st.sampled_from([HARD, TANH]))
+@example(vx=0.0, vy=2.225073858507203e-309, lower=1.0, span=1.0, mode=HARD)  # subnormal: 1/norm overflows
+@example(vx=0.0, vy=1.0913167793951157e-194, lower=0.0, span=1.0, mode=HARD)  # vx²+vy² underflows
 def test_clamp_norm_keeps_direction_and_bounds(vx, vy, lower, span, mode):
     upper = lower + span
     cx, cy = clamp_norm(vx, vy, lower, upper, mode)

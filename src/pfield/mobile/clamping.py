@@ -40,8 +40,8 @@ def clamp_norm(vx: float, vy: float, lower: float, upper: float, mode: int) -> t
         target = max(lower, upper * math.tanh(norm / upper))
     else:
         target = min(max(norm, lower), upper)
-    scale = target / norm
-    return vx * scale, vy * scale
+    # unit direction first: target/norm overflows for subnormal vectors
+    return (vx / norm) * target, (vy / norm) * target
 
 
 @njit(cache=True, inline="always")
