@@ -77,6 +77,13 @@ def test_no_nan_on_goal_or_obstacle_point():
         for values in (potential(points, goal, obstacles, params), gradient(points, goal, obstacles, params),
                        velocity(points, goal, obstacles, params)):
             assert np.all(np.isfinite(values))
+    # ka < 1 right next to the goal: the power law's ka·d^(ka−1) is capped, never inf or NaN
+    tiny = np.array([[0.0, 5e-324], [1e-200, 0.0], [-1e-310, 1e-310]])
+    for ka in (0.01, 0.5):
+        weak = VectorFieldParams(ka=ka, kr_height=2.0)
+        assert np.all(np.isfinite(gradient(tiny, [0.0, 0.0], [[0.0, 0.0]], weak)))
+        command = velocity(tiny, [0.0, 0.0], [[0.0, 0.0]], weak)
+        assert np.all(np.isfinite(command)) and np.linalg.norm(command, axis=1).max() <= 1.0
     # on an isolated obstacle point the repulsion has no direction: zero
     assert np.all(gradient([[0.0, 0.0]], None, [[0.0, 0.0]], params) == 0.0)
 

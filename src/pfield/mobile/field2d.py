@@ -33,6 +33,7 @@ from pfield.mobile.params import VectorFieldParams
 __all__ = ["FieldComponents", "field_components", "gradient", "potential", "velocity"]
 
 POWER, LINEAR = 0, 1
+_MAX_MAGNITUDE = 1e300  # cap of the power law's ka·d^(ka−1) for ka < 1 at d → 0 (clamped away anyway)
 # Reassociation lets LLVM vectorise the obstacle sums; 'nnan'/'ninf' (2× faster again) are safe because
 # the object layer only passes finite coordinates and weights, fast_exp clips its argument and 1/r is
 # guarded, so no intermediate is NaN or inf. Kernel callers must keep that precondition.
@@ -46,11 +47,12 @@ def attraction_at(px: float, py: float, gx: float, gy: float, ka: float, law: in
     dy = gy - py
     if law == LINEAR:
         return ka * dx, ka * dy
-    d2 = dx * dx + dy * dy
-    if d2 == 0.0 or ka == 0.0:
+    distance = math.hypot(dx, dy)  # hypot: no underflow to 0 next to the goal
+    if distance == 0.0 or ka == 0.0:
         return 0.0, 0.0
-    scale = ka * d2 ** (0.5 * ka - 1.0)
-    return scale * dx, scale * dy
+    # magnitude ka·d^(ka−1), capped so that ka < 1 right next to the goal stays finite
+    magnitude = min(ka * distance ** (ka - 1.0), _MAX_MAGNITUDE)
+    return magnitude * (dx / distance), magnitude * (dy / distance)
 
 
 @njit(cache=True, inline="always")
