@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -73,3 +74,17 @@ def test_scenario_yaml_file(tmp_path):
     path.write_text("start: [0, 0]\ngoal: [2, 0]\nparams: {}\n")
     with pytest.raises(InvalidInput, match="start"):
         load_scenario(path)
+
+
+def test_collision_and_timeout_outcomes_and_progress():
+    corridor = BUILTIN_SCENARIOS["corridor"]  # without repulsion the straight line cuts the inner corner
+    blind = dataclasses.replace(corridor, params=dataclasses.replace(corridor.params, kr_height=0.0))
+    crashed = simulate(blind)
+    assert crashed.outcome == "collision" and crashed.states[-1] == "collision"
+    assert crashed.min_clearance < corridor.robot_radius
+    doorway = BUILTIN_SCENARIOS["doorway"]
+    seen = []
+    short = simulate(dataclasses.replace(doorway, duration=1.0), progress=lambda t, total: seen.append((t, total)))
+    assert short.outcome == "timeout"
+    assert len(seen) == len(short.times) == 20 and seen[-1] == (pytest.approx(0.95), 1.0)
+    assert short.poses.shape == (20, 3) and short.commands.shape == (20, 3)
