@@ -6,6 +6,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 import yaml
 
@@ -170,3 +171,13 @@ def test_autonomy_vector_needs_a_goal_and_the_fixed_frame(node: ManagerNode) -> 
     request = message_from_yaml(pfi.ComputeAutonomyVector_Request, "{query_pose: {header: {frame_id: 'odom'}}}")
     with pytest.raises(UnknownFrame):
         node.compute_autonomy_vector(request)
+
+
+def test_path_marker_is_thinned_but_keeps_both_ends() -> None:
+    from pfield.node._markers import MAX_PATH_POINTS, state_markers
+
+    positions = np.column_stack([np.arange(30001) * 1e-4, np.zeros(30001), np.zeros(30001)])
+    markers = state_markers("world", None, [], 0.1, positions).markers
+    (strip,) = [m for m in markers if m.ns == "path"]
+    assert len(strip.points) <= MAX_PATH_POINTS + 1
+    assert (strip.points[0].x, strip.points[-1].x) == (0.0, pytest.approx(3.0))

@@ -40,6 +40,9 @@ def _fail(message: str) -> NoReturn:
 
 
 def _print_yaml(data: Any) -> None:
+    if not isinstance(data, dict | list):
+        typer.echo(json.dumps(data) if data is None or isinstance(data, bool) else str(data))
+        return
     typer.echo(yaml.safe_dump(data, sort_keys=False, default_flow_style=False).rstrip("\n"))
 
 
@@ -132,7 +135,7 @@ def service_call(service: str, type_name: Annotated[str, typer.Argument(metavar=
     name = "/" + service.lstrip("/")
     with _client(url, token) as client:
         served = {s["name"]: s["type"] for s in _request(client, "GET", "/services")}
-        if name in served and lookup_service(served[name]) is not service_type:
+        if name in served and lookup_service(served[name]).name != service_type.name:
             _fail(f"{name} is a {served[name]} service, not {type_name}")
         typer.echo(f"requester: making request: {service_type.request.ros_type}", err=True)
         response = _request(client, "POST", f"/srv{name}", content=request.model_dump_json(),

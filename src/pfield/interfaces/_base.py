@@ -65,7 +65,8 @@ _REGISTRY: dict[str, type[RosMessage]] = {}
 class RosMessage(BaseModel):
     """A ROS message (or service request/response) as a strict pydantic model."""
 
-    model_config = ConfigDict(extra="forbid", validate_assignment=True, populate_by_name=True)
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, populate_by_name=True,
+                              ser_json_inf_nan="constants")
 
     ros_type: ClassVar[str] = ""
     """Full ROS type name, e.g. ``geometry_msgs/msg/Pose`` or ``pkg/srv/Name_Request``."""

@@ -56,7 +56,10 @@ def message_from_yaml(model: type[M], text: str) -> M:
     try:
         data = yaml.safe_load(text) if text.strip() else None
     except yaml.YAMLError as exc:
-        raise InvalidInput("yaml", text[:200], f"malformed YAML: {exc}") from None
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise InvalidInput("yaml", text[:200], f"malformed YAML: {problem}{where}") from None
     return message_from_data(model, data)
 
 

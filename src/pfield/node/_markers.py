@@ -2,12 +2,14 @@
 
 Namespaces: ``goal`` (an arrow along the goal's x axis), ``obstacles`` (one marker per obstacle, coloured
 by group), ``influence`` (each primitive grown by the influence distance Q, translucent: where repulsion
-acts), ``path`` (a line strip). The array starts with a DELETEALL marker so a display drops stale ones.
+acts), ``path`` (a line strip, thinned to :data:`MAX_PATH_POINTS`). The array starts with a DELETEALL
+marker so a display drops stale ones.
 RViz marker conventions: SPHERE/CUBE/CYLINDER ``scale`` are full extents (m); CYLINDER is along local z.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -22,6 +24,8 @@ from pfield.spatial import Pose
 
 __all__ = ["state_markers"]
 
+MAX_PATH_POINTS = 1000
+"""The path strip shows at most this many points (every k-th waypoint and the last one)."""
 _GROUP_COLOURS = {"Static": (0.55, 0.55, 0.6), "Dynamic": (1.0, 0.55, 0.1), "Robot": (0.2, 0.45, 0.9)}
 
 
@@ -80,7 +84,9 @@ def state_markers(frame_id: str, goal: Pose | None, obstacles: Sequence[Any], in
                               scale=Vector3(x=0.1, y=0.01, z=0.01), color=ColorRGBA(r=0.1, g=0.8, b=0.2, a=1.0)))
     markers += _obstacle_markers(obstacles, header, influence_distance)
     if path_positions is not None and len(path_positions) > 1:
-        points = [Point(x=p[0], y=p[1], z=p[2]) for p in path_positions.tolist()]
+        stride = max(1, math.ceil(len(path_positions) / MAX_PATH_POINTS))
+        shown = np.vstack([path_positions[:-1:stride], path_positions[-1:]])
+        points = [Point(x=p[0], y=p[1], z=p[2]) for p in shown.tolist()]
         markers.append(Marker(header=header, ns="path", type=Marker.LINE_STRIP, points=points,
                               scale=Vector3(x=0.005), color=ColorRGBA(r=0.9, g=0.2, b=0.6, a=1.0)))
     return MarkerArray(markers=markers)

@@ -38,8 +38,9 @@ class PlanInputs:
 
 
 def make_field(config: FieldConfig, goal: Pose, obstacles: Sequence[Any]) -> Any:
-    potential_field = importlib.import_module("pfield.field").PotentialField
-    return potential_field(config, goal=goal, obstacles=list(obstacles))
+    from pfield.field import PotentialField
+
+    return PotentialField(config, goal=goal, obstacles=list(obstacles))
 
 
 def make_mesh(resource: str, scale: tuple[float, float, float], resolver: Any) -> Any:

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from pfield._validation import as_vector
 from pfield.errors import InvalidInput, PfieldError, UnknownFrame
 from pfield.field.config import FieldConfig
 from pfield.interfaces import geometry_msgs as gm
@@ -307,18 +308,19 @@ class ManagerNode(Node):
         if not (math.isfinite(request.delta_time) and request.delta_time >= 0):
             raise InvalidInput("delta_time", request.delta_time, "must be >= 0 s")
         self._check_frame("query_pose.header.frame_id", request.query_pose.header.frame_id)
-        field = self._current_field()
-        if field is None:
-            raise InvalidInput("goal", None, "no goal yet: publish /pfield/planning_goal_pose or call plan_path")
         if method == WHOLE_BODY:
             q = self.robot.check_joint_angles(request.joint_angles, "joint_angles")
             qd = None
             if request.prev_joint_velocities:
-                from pfield._validation import as_vector
-
                 qd = as_vector("prev_joint_velocities", request.prev_joint_velocities, len(q))
+        else:
+            pose = pose_from_msg(request.query_pose.pose, "query_pose.pose")
+        field = self._current_field()
+        if field is None:
+            raise InvalidInput("goal", None, "no goal yet: publish /pfield/planning_goal_pose or call plan_path")
+        if method == WHOLE_BODY:
             twist = _planning.whole_body_twist(field, self.robot, q, qd, request.delta_time)
         else:
-            twist = field.twist(pose_from_msg(request.query_pose.pose, "query_pose.pose"))
+            twist = field.twist(pose)
         vector = twist_stamped(twist, self._params.fixed_frame, time.time())
         return pfi.ComputeAutonomyVector_Response(autonomy_vector=vector)
