@@ -1,9 +1,116 @@
-"""CLI commands of this area (registered on the main app by :mod:`pfield.cli`)."""
+"""``pfield plan``: a task-space plan in the built-in seed scene or a scene YAML, written as a PNG (and CSV).
+
+Scene file (YAML; every key optional, the seed's example fills what is missing)::
+
+    obstacles:        # potential_fields_interfaces/msg/Obstacle entries, the seed's fields
+      - {frame_id: ball, type: Sphere, group: Static, radius: 0.1,
+         pose: {position: {x: 0.4, y: 0.0, z: 0.1}, orientation: {w: 1.0}}}
+    start: {position: {x: 0.227, y: 0.0, z: 0.294}, orientation: {x: 0.707, y: 0.0, z: 0.707, w: 0.0}}
+    goal:  {position: {x: 0.5, y: 0.2, z: 0.4}, orientation: {x: 0.707, y: 0.0, z: 0.707, w: 0.0}}
+    params: {attractive_gain: 3.0, influence_distance: 0.1}   # FieldConfig fields (ROS parameter names)
+    delta_time: 0.02
+    goal_tolerance: 0.01
+    max_iterations: 25000
+
+Obstacles without a ``group`` are ``Static``. Mesh resources may be plain or ``file://`` paths inside the
+scene file's folder or the current folder.
+"""
 
 from __future__ import annotations
 
+import tempfile
+from pathlib import Path
+from typing import Any
+
 import typer
+import yaml
+from rich.console import Console
+
+from pfield.errors import InvalidInput, PfieldError
+
+__all__ = ["load_scene", "register"]
+
+
+def _mapping(data: Any, name: str) -> dict[str, Any]:
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        raise InvalidInput(name, data, "expected a mapping")
+    return data
+
+
+def load_scene(path: Path | None, mesh_directory: Path) -> dict[str, Any]:
+    """Obstacles, start, goal, FieldConfig and planning arguments of a scene file (None: the seed scene)."""
+    from pfield.field import FieldConfig
+    from pfield.geometry import Mesh, ResourceResolver
+    from pfield.interfaces import geometry_msgs as gm
+    from pfield.interfaces._yaml import message_from_data
+    from pfield.interfaces.convert import obstacle_from_msg, pose_from_msg
+    from pfield.interfaces.potential_fields_interfaces import Obstacle as ObstacleMsg
+    from pfield.planning.scenes import SEED_GOAL, SEED_PLAN, SEED_START, seed_obstacles
+
+    scene: dict[str, Any] = {"start": SEED_START, "goal": SEED_GOAL, "config": FieldConfig(), **SEED_PLAN}
+    if path is None:
+        return scene | {"obstacles": seed_obstacles(mesh_directory)}
+    try:
+        data = _mapping(yaml.safe_load(path.read_text()), "scene")
+    except (OSError, yaml.YAMLError) as exc:
+        raise InvalidInput("scene", str(path), f"cannot read the scene file ({exc})") from None
+    resolver = ResourceResolver(allowed_roots=(path.resolve().parent, Path.cwd()))
+
+    def make_mesh(resource: str, sx: float, sy: float, sz: float) -> Mesh:
+        return Mesh(resource, sx, sy, sz, resolver=resolver)
+
+    entries = data.get("obstacles") or []
+    if not isinstance(entries, list):
+        raise InvalidInput("obstacles", entries, "expected a list of Obstacle messages")
+    scene["obstacles"] = [
+        obstacle_from_msg(message_from_data(ObstacleMsg, {"group": "Static"} | _mapping(entry, f"obstacles[{i}]")),
+                          make_mesh, f"obstacles[{i}]")
+        for i, entry in enumerate(entries)
+    ]
+    for key in ("start", "goal"):
+        if key in data:
+            scene[key] = pose_from_msg(message_from_data(gm.Pose, data[key]), key)
+    scene["config"] = FieldConfig().replace(**_mapping(data.get("params"), "params"))
+    for key, name in (("delta_time", "dt"), ("goal_tolerance", "goal_tolerance"), ("max_iterations", "max_iterations")):
+        if key in data:
+            scene[name] = data[key]
+    return scene
+
+
+def _plan(scene_file: Path | None, output: Path, csv: Path | None, console: Console) -> int:
+    from pfield.field import PotentialField
+    from pfield.viz.plots import save_path_plot
+
+    with tempfile.TemporaryDirectory() as meshes:
+        scene = load_scene(scene_file, Path(meshes))
+        field = PotentialField(scene["config"], scene["goal"], scene["obstacles"])
+        path = field.plan(scene["start"], dt=scene["dt"], goal_tolerance=scene["goal_tolerance"],
+                          max_iterations=scene["max_iterations"])
+        save_path_plot(path, output, scene["obstacles"], scene["goal"])
+    if csv is not None:
+        path.to_csv(csv)
+    state = "[green]reached the goal[/green]" if path.success else f"[red]failed[/red]: {path.failure_reason}"
+    console.print(f"{state}: {len(path)} waypoints over {path.duration:.2f} s, min clearance "
+                  f"{path.min_clearance:.4g} m; plot written to {output}" + (f", waypoints to {csv}" if csv else ""))
+    return 0 if path.success else 1
 
 
 def register(app: typer.Typer) -> None:
-    """Add this area's commands to ``app``."""
+    """Add ``pfield plan`` to ``app``."""
+
+    @app.command("plan")
+    def plan(
+        scene: Path | None = typer.Option(None, "--scene", "-s", help="Scene YAML (default: the seed's scene)."),
+        output: Path = typer.Option(Path("plan.png"), "--output", "-o", help="PNG of the path and obstacles."),
+        csv: Path | None = typer.Option(None, "--csv", help="Also write the waypoints as CSV."),
+    ) -> None:
+        """Plan a task-space path with the potential field and plot it (exit 1 when the goal is not reached)."""
+        console = Console()
+        try:
+            code = _plan(scene, output, csv, console)
+        except PfieldError as exc:
+            console.print(f"[red]error:[/red] {exc}")
+            raise typer.Exit(2) from None
+        raise typer.Exit(code)

@@ -180,12 +180,13 @@ class PotentialField:
     # ---------------------------------------------------------------- batches
 
     def _batch(self, positions: ArrayLike, orientations: ArrayLike | None) -> tuple[NDArray[Any], NDArray[Any]]:
-        points = as_points("positions", positions)
+        # Writable C-contiguous copies when needed, so that the kernels see one array type (one compilation).
+        points = np.require(as_points("positions", positions), requirements=["C", "W"])
         if orientations is None:
-            return points, np.ascontiguousarray(np.broadcast_to(self._goal.orientation, (points.shape[0], 4)))
+            return points, np.tile(self._goal.orientation, (points.shape[0], 1))
         quats = np.array(orientations, dtype=np.float64)
-        if quats.ndim == 1:
-            quats = np.broadcast_to(quats, (points.shape[0], 4)) if quats.shape == (4,) else quats.reshape(0, 4)
+        if quats.shape == (4,):
+            quats = np.tile(quats, (points.shape[0], 1))
         if quats.shape != (points.shape[0], 4) or not np.all(np.isfinite(quats)):
             raise InvalidInput("orientations", f"array{quats.shape}", f"expected ({points.shape[0]}, 4) finite")
         norms = np.linalg.norm(quats, axis=1, keepdims=True)

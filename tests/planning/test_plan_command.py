@@ -1,0 +1,68 @@
+"""``pfield plan``: the seed scene, a scene file, bad scene files; and the manipulator examples run."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+from PIL import Image
+from typer.testing import CliRunner
+
+from pfield.cli import app
+
+REPO = Path(__file__).resolve().parents[2]
+EXAMPLES = REPO / "examples" / "manipulator"
+
+
+def test_plan_in_the_seed_scene_writes_png_and_csv(tmp_path: Path) -> None:
+    result = CliRunner().invoke(app, ["plan", "-o", str(tmp_path / "p.png"), "--csv", str(tmp_path / "p.csv")])
+    assert result.exit_code == 0, result.output
+    assert "reached the goal" in result.output
+    with Image.open(tmp_path / "p.png") as image:
+        assert image.format == "PNG"
+    assert (tmp_path / "p.csv").read_text().startswith("time,")
+
+
+def test_plan_with_the_example_scene_file(tmp_path: Path) -> None:
+    result = CliRunner().invoke(app, ["plan", "--scene", str(EXAMPLES / "scene.yaml"), "-o", str(tmp_path / "s.png")])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "s.png").exists()
+
+
+def test_a_failed_plan_exits_with_1(tmp_path: Path) -> None:
+    scene = tmp_path / "short.yaml"
+    scene.write_text("goal: {position: {x: 2.0}, orientation: {w: 1.0}}\nmax_iterations: 3\n")
+    result = CliRunner().invoke(app, ["plan", "-s", str(scene), "-o", str(tmp_path / "f.png")])
+    assert result.exit_code == 1
+    assert "iteration limit" in result.output
+
+
+def test_bad_scene_files_exit_with_2_naming_the_field(tmp_path: Path) -> None:
+    cases = {
+        "obstacles: [{frame_id: x, type: Cone}]": "obstacles[0].type",
+        "obstacles: [{frame_id: b, type: Sphere, radius: -1}]": "obstacles[0].radius",
+        "params: {attractive_gain: -2}": "attractive_gain",
+        "goal: {orientation: {w: 0.0}}": "goal.orientation",
+        "obstacles: [{frame_id: m, type: Mesh, mesh_resource: /etc/passwd.stl, scale_x: 1, scale_y: 1, scale_z: 1}]":
+            "passwd",
+        "[1, 2": "scene",
+    }
+    for text, name in cases.items():
+        scene = tmp_path / "bad.yaml"
+        scene.write_text(text)
+        result = CliRunner().invoke(app, ["plan", "-s", str(scene), "-o", str(tmp_path / "b.png")])
+        assert result.exit_code == 2, (text, result.output)
+        assert name in result.output.replace("\n", ""), (text, result.output)
+    assert not (tmp_path / "b.png").exists()
+
+
+def test_the_examples_run_headless(tmp_path: Path) -> None:
+    for script in ("head_on_comparison.py", "autonomy_vector_slice.py"):
+        args = [sys.executable, str(EXAMPLES / script), "--output-dir", str(tmp_path)]
+        if script == "autonomy_vector_slice.py":
+            args += ["--resolution", "11"]
+        done = subprocess.run(args, capture_output=True, text=True, timeout=300, check=False)
+        assert done.returncode == 0, done.stderr
+    assert (tmp_path / "example_head_on.png").exists()
+    assert (tmp_path / "example_autonomy_vector_slice.png").exists()
