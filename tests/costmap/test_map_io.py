@@ -78,6 +78,14 @@ def test_raw_mode_ignores_negate(tmp_path: Path, negate: int) -> None:
     assert occ.data[0].tolist() == [0, -1, -1, 100, -1, 50, -1]
 
 
+def test_sixteen_bit_image(tmp_path: Path) -> None:
+    grey = np.array([[0, 65535, 205 * 257, 254 * 257]], dtype=np.uint16)
+    Image.fromarray(grey).save(tmp_path / "deep.png")  # mode I;16
+    (tmp_path / "deep.yaml").write_text("image: deep.png\nresolution: 0.1\norigin: [0, 0, 0]\nnegate: 0\n"
+                                        "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    assert load_map(tmp_path / "deep.yaml").data.tolist() == [[100, 0, -1, 0]]
+
+
 def test_trinary_round_trip(tmp_path: Path) -> None:
     data = np.array([[0, 100, -1, 50, 20, 65]], dtype=np.int8)
     occ = OccupancyMap(data, 0.1, (1.5, -2.25, 0.0))
