@@ -63,7 +63,7 @@ def test_seed_obstacles_are_held_and_replaced_by_id(node: ManagerNode) -> None:
     markers = node.bus.latest("/pfield/markers")
     assert isinstance(markers, MarkerArray) and markers.markers[0].action == Marker.DELETEALL
     by_ns = [m.ns for m in markers.markers]
-    assert by_ns.count("obstacles") == 6 and by_ns.count("influence") == 5
+    assert by_ns.count("obstacles") == 6 and by_ns.count("influence") == 6
     ball = next(m for m in markers.markers if m.ns == "influence" and m.id == 0)
     assert ball.scale.x == pytest.approx(2 * (0.2 + node.config.influence_distance))
 

@@ -67,7 +67,11 @@ def _post(client: httpx.Client, path: str, model: Any, text: str) -> dict[str, A
     answer = client.post(path, content=message_from_yaml(model, text).model_dump_json(),
                          headers={"content-type": "application/json"})
     if answer.status_code >= 400:
-        raise RuntimeError(f"{path}: {answer.json().get('error')}")
+        try:
+            reason = answer.json().get("error")
+        except ValueError:
+            reason = answer.text
+        raise RuntimeError(f"{path}: {reason}")
     return dict(answer.json())
 
 
@@ -96,18 +100,46 @@ def run(out_dir: Path, console: Console) -> None:
             _post(client, "/topic/pfield/obstacles", pfi.ObstacleArray,
                   "{header: {frame_id: 'world'}, obstacles: [" + text + "]}")
         console.print(f"published {len(_OBSTACLES)} obstacles: {', '.join(o.id for o in node.obstacles())}")
-        plans = Table("method", "success", "waypoints", "final error (mm)", "time (s)", "joints", "error_message",
-                      title="pfield service call /pfield/plan_path")
-        for method, text in _PLANS.items():
-            start = time.perf_counter()
+        failures = _show_plans(client, console) + _show_autonomy(client, console)
+    console.print(f"node stopped; plans saved as CSV in {out_dir / 'plans'}")
+    if failures:
+        raise RuntimeError("; ".join(failures))
+
+
+def _show_plans(client: httpx.Client, console: Console) -> list[str]:
+    from pfield.interfaces import potential_fields_interfaces as pfi
+
+    failures = []
+    plans = Table("method", "success", "steps", "end error mm", "time s", "joints", "error_message",
+                  title="pfield service call /pfield/plan_path")
+    for method, text in _PLANS.items():
+        start = time.perf_counter()
+        try:
             response = _post(client, "/srv/pfield/plan_path", pfi.PlanPath_Request, text)
-            plans.add_row(*_plan_row(method, response, time.perf_counter() - start))
-        console.print(plans)
-        vectors = Table("method", "linear (m/s)", "angular (rad/s)", title="/pfield/compute_autonomy_vector")
-        for method, text in _AUTONOMY.items():
+        except RuntimeError as exc:
+            failures.append(str(exc))
+            plans.add_row(method, "error", "", "", "", "", str(exc))
+            continue
+        plans.add_row(*_plan_row(method, response, time.perf_counter() - start))
+        if not response["success"]:
+            failures.append(f"{method} plan: {response['error_message']}")
+    console.print(plans)
+    return failures
+
+
+def _show_autonomy(client: httpx.Client, console: Console) -> list[str]:
+    from pfield.interfaces import potential_fields_interfaces as pfi
+
+    failures = []
+    vectors = Table("method", "linear (m/s)", "angular (rad/s)", title="/pfield/compute_autonomy_vector")
+    for method, text in _AUTONOMY.items():
+        try:
             twist = _post(client, "/srv/pfield/compute_autonomy_vector", pfi.ComputeAutonomyVector_Request,
                           text)["autonomy_vector"]["twist"]
-            vectors.add_row(method, *(", ".join(f"{twist[part][k]:+.4f}" for k in "xyz")
-                                      for part in ("linear", "angular")))
-        console.print(vectors)
-    console.print(f"node stopped; plans saved as CSV in {out_dir / 'plans'}")
+        except RuntimeError as exc:
+            failures.append(str(exc))
+            vectors.add_row(method, "error", str(exc))
+            continue
+        vectors.add_row(method, *(", ".join(f"{twist[part][k]:+.4f}" for k in "xyz") for part in ("linear", "angular")))
+    console.print(vectors)
+    return failures

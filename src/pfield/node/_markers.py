@@ -1,9 +1,9 @@
 """RViz-style markers of the manager's state: goal, obstacles, influence zones and the last path.
 
 Namespaces: ``goal`` (an arrow along the goal's x axis), ``obstacles`` (one marker per obstacle, coloured
-by group), ``influence`` (each primitive grown by the influence distance Q, translucent: where repulsion
-acts), ``path`` (a line strip, thinned to :data:`MAX_PATH_POINTS`). The array starts with a DELETEALL
-marker so a display drops stale ones.
+by group), ``influence`` (each primitive grown by the influence distance Q, a mesh's bounding sphere grown
+by Q; translucent: where repulsion acts), ``path`` (a line strip, thinned to :data:`MAX_PATH_POINTS`).
+The array starts with a DELETEALL marker so a display drops stale ones.
 RViz marker conventions: SPHERE/CUBE/CYLINDER ``scale`` are full extents (m); CYLINDER is along local z.
 """
 
@@ -58,11 +58,14 @@ def _obstacle_markers(obstacles: Sequence[Any], header: Header, influence_distan
         rgb = _GROUP_COLOURS.get(obstacle.group, (0.5, 0.5, 0.5))
         pose = pose_to_msg(obstacle.pose)
         primitive = _shape_marker(obstacle.shape, 0.0)
-        if primitive is None:
+        if primitive is None:  # a mesh: drawn as itself, its influence zone as its bounding sphere grown by Q
             shape = obstacle.shape
             markers.append(Marker(header=header, ns="obstacles", id=index, type=Marker.MESH_RESOURCE, pose=pose,
                                   scale=Vector3(x=shape.scale_x, y=shape.scale_y, z=shape.scale_z),
                                   color=_colour(rgb, 0.9), mesh_resource=str(shape.mesh_resource), text=obstacle.id))
+            d = 2.0 * (obstacle.bounding_radius() + influence_distance)
+            markers.append(Marker(header=header, ns="influence", id=index, type=Marker.SPHERE, pose=pose,
+                                  scale=Vector3(x=d, y=d, z=d), color=_colour(rgb, 0.15)))
             continue
         kind, scale = primitive
         markers.append(Marker(header=header, ns="obstacles", id=index, type=kind, pose=pose,
