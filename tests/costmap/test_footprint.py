@@ -118,3 +118,20 @@ def test_rasterisation_matches_shapely_on_random_polygons() -> None:
         ours = {tuple(c) for c in fp.cells(x, y, yaw, (0.0, 0.0), 1.0).tolist()}
         assert ours == _shapely_cells(Polygon(fp.posed(x, y, yaw)))
         checked += 1
+
+
+def test_rasterisation_shifts_with_whole_cells() -> None:
+    """Moving the pose by whole cells moves the covered cells by the same amount (what FindValidPose's
+    per-yaw kernels rely on). Seeded random poses plus the axis-aligned yaws; resolution 0.25."""
+    fp = Footprint.from_points([[0.4, 0.25], [-0.4, 0.25], [-0.1, 0.0], [-0.4, -0.25], [0.4, -0.25]])
+    res = 0.25
+    rng = np.random.default_rng(11)
+    yaws = [0.0, math.pi / 2, math.pi, -math.pi / 2, *rng.uniform(-math.pi, math.pi, 100).tolist()]
+    for yaw in yaws:
+        x, y = rng.integers(-192, 192, 2) / 64.0
+        shift = rng.integers(-20, 21, 2)
+        base = fp.cells(x, y, yaw, (0.0, 0.0), res)
+        moved = fp.cells(x + shift[0] * res, y + shift[1] * res, yaw, (0.0, 0.0), res)
+        assert {tuple(c) for c in (base + shift).tolist()} == {tuple(c) for c in moved.tolist()}, yaw
+        vertices = np.floor(fp.posed(x, y, yaw) / res).astype(int)
+        assert {tuple(v) for v in vertices.tolist()} <= {tuple(c) for c in base.tolist()}
