@@ -11,9 +11,9 @@ Candidates (Move Base Flex ``mbf_msgs/FindValidPose``, with the contract kept ex
 
 Each candidate's footprint (``footprint`` padded by ``safety_dist``) is rasterised exactly and given the
 state OUTSIDE (a covered cell is outside the map) > LETHAL > UNKNOWN > INSCRIBED > FREE, and the cost =
-the **sum** of the covered in-map cells' costs. Answer: the first FREE or INSCRIBED candidate in order,
-FREE preferred at equal distance; failing that the first UNKNOWN; failing that the first OUTSIDE;
-otherwise LETHAL with no pose.
+the **sum** of the covered in-map cells' costs. Answer: among FREE and INSCRIBED candidates those at the
+smallest distance, FREE ones preferred, the first in order; failing that the first UNKNOWN; failing that
+the first OUTSIDE; otherwise LETHAL with no pose.
 
 Speed: one rasterised kernel per yaw, shared by every position (the sub-cell offset is the same for all
 lattice positions); rings of equal distance evaluated in order, stopping at the first ring holding a FREE
