@@ -7,10 +7,10 @@ with ``--package-path my_robot_description=tests/data/my_robot_description``.
 
 import pytest
 
-# The whole-body planner and autonomy vector are still landing (robot area): these checks run, and
-# report XPASS as soon as the planner handles the seed's start configuration.
-WHOLE_BODY_PENDING = pytest.mark.xfail(
-    reason="whole-body planning/autonomy of the robot area not finished for the seed's start", strict=False)
+# The whole-body autonomy vector (pfield.autonomy, robot area) is still landing: the check runs and
+# reports XPASS as soon as it is there.
+WHOLE_BODY_PENDING = pytest.mark.xfail(reason="pfield.autonomy (whole-body autonomy vector) not landed yet",
+                                       strict=False)
 
 OBSTACLE_EXAMPLES = {
     "ball": '''ros2 topic pub --once /pfield/obstacles potential_fields_interfaces/msg/ObstacleArray "{

@@ -17,7 +17,6 @@ from node_seed_examples import (
     OBSTACLE_EXAMPLES,
     PLAN_TASK_SPACE,
     PLAN_WHOLE_BODY,
-    WHOLE_BODY_PENDING,
 )
 from pfield_node_server import NodeServer
 
@@ -137,8 +136,7 @@ def test_bad_http_requests(seeded: NodeServer, path: str, body: bytes, params: d
     assert state(seeded) == before
 
 
-@pytest.mark.parametrize("command", [PLAN_TASK_SPACE, pytest.param(PLAN_WHOLE_BODY, marks=WHOLE_BODY_PENDING)],
-                         ids=["task_space", "whole_body"])
+@pytest.mark.parametrize("command", [PLAN_TASK_SPACE, PLAN_WHOLE_BODY], ids=["task_space", "whole_body"])
 def test_the_seed_plans_still_succeed_after_all_bad_input(seeded: NodeServer, command: str) -> None:
     assert sorted(seeded.obstacle_ids()) == sorted(OBSTACLE_EXAMPLES)
     response = seeded.call(*shlex.split(command)[3:])

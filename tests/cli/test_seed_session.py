@@ -59,7 +59,6 @@ def test_seed_task_space_plan_reaches_the_goal_among_all_obstacles(seeded: NodeS
     assert (start["x"], start["y"], start["z"]) == pytest.approx((0.227, 0.0, 0.294))
 
 
-@WHOLE_BODY_PENDING
 def test_seed_whole_body_plan_reaches_the_goal_among_all_obstacles(seeded: NodeServer) -> None:
     response = call_seed(seeded, PLAN_WHOLE_BODY)
     check_plan(response)
