@@ -26,7 +26,7 @@ FACE, EDGE_AB, EDGE_BC, EDGE_CA, VERTEX_A, VERTEX_B, VERTEX_C = 0, 1, 2, 3, 4, 5
 _ON_SURFACE = 1e-12
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def closest_point_on_triangle(
     triangles: np.ndarray, t: int, px: float, py: float, pz: float
 ) -> tuple[float, float, float, int]:
@@ -72,7 +72,7 @@ def closest_point_on_triangle(
     return ax + v * abx + w * acx, ay + v * aby + w * acy, az + v * abz + w * acz, FACE
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _box_distance_squared(lower: np.ndarray, upper: np.ndarray, k: int, px: float, py: float, pz: float) -> float:
     """Squared distance from ``p`` to the AABB of node ``k`` (0 inside): a lower bound for its triangles."""
     gx = max(lower[k, 0] - px, 0.0, px - upper[k, 0])
@@ -81,7 +81,7 @@ def _box_distance_squared(lower: np.ndarray, upper: np.ndarray, k: int, px: floa
     return gx * gx + gy * gy + gz * gz
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _leaf_closest(
     triangles: np.ndarray, first: int, count: int, px: float, py: float, pz: float,
     best: float, best_t: int, best_feature: int, cx: float, cy: float, cz: float,

@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 
 LEAF_SIZE = 4
@@ -31,6 +32,11 @@ def _unit(vectors: NDArray[np.float64]) -> NDArray[np.float64]:
     return vectors / np.where(norms > 0.0, norms, 1.0)
 
 
+def _scatter_sum(indices: NDArray[np.int64], values: NDArray[np.float64], size: int) -> NDArray[np.float64]:
+    """Row sums of ``values`` (K, 3) grouped by ``indices`` (K,) into ``size`` rows."""
+    return np.stack([np.bincount(indices, weights=values[:, k], minlength=size) for k in range(3)], axis=1)
+
+
 def pseudo_normals(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> NDArray[np.float64]:
     """``(F, 7, 3)``: unit normals of [face, edge ab, edge bc, edge ca, vertex a, vertex b, vertex c]."""
     corners = vertices[faces]  # (F, 3, 3)
@@ -41,50 +47,60 @@ def pseudo_normals(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> N
         u = _unit(corners[:, (k + 1) % 3] - corners[:, k])
         v = _unit(corners[:, (k + 2) % 3] - corners[:, k])
         angles[:, k] = np.arccos(np.clip(np.einsum("ij,ij->i", u, v), -1.0, 1.0))
-    vertex_sum = np.zeros_like(vertices)
-    for k in range(3):
-        np.add.at(vertex_sum, faces[:, k], angles[:, k, None] * face_normals)
-    vertex_normals = _unit(vertex_sum)
-    edges = np.stack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]], axis=1).reshape(-1, 2)
-    edge_keys = np.sort(edges, axis=1)
-    _, edge_ids = np.unique(edge_keys, axis=0, return_inverse=True)
-    edge_ids = edge_ids.reshape(-1)
-    edge_sum = np.zeros((edge_ids.max() + 1 if len(edge_ids) else 0, 3))
-    np.add.at(edge_sum, edge_ids, np.repeat(face_normals, 3, axis=0))
-    edge_normals = _unit(edge_sum)[edge_ids].reshape(-1, 3, 3)
+    weighted = (angles[:, :, None] * face_normals[:, None, :]).reshape(-1, 3)
+    vertex_normals = _unit(_scatter_sum(faces.reshape(-1), weighted, len(vertices)))
+    ends = np.stack([faces, np.roll(faces, -1, axis=1)], axis=2).reshape(-1, 2)  # edges ab, bc, ca
+    keys = np.minimum(ends[:, 0], ends[:, 1]) * len(vertices) + np.maximum(ends[:, 0], ends[:, 1])
+    _, edge_ids = np.unique(keys, return_inverse=True)
+    edge_sum = _scatter_sum(edge_ids.reshape(-1), np.repeat(face_normals, 3, axis=0), int(edge_ids.max()) + 1)
     out = np.empty((len(faces), 7, 3))
     out[:, 0] = face_normals
-    out[:, 1:4] = edge_normals
+    out[:, 1:4] = _unit(edge_sum)[edge_ids].reshape(-1, 3, 3)
     out[:, 4:7] = vertex_normals[faces]
     return out
 
 
-def build_bvh(triangles: NDArray[np.float64], leaf_size: int = LEAF_SIZE) -> Bvh:
-    """Median-split AABB tree over ``triangles`` (T, 3, 3); nodes in depth-first order."""
-    centroids = triangles.mean(axis=1)
-    lows, highs = triangles.min(axis=1), triangles.max(axis=1)
-    order = np.arange(len(triangles), dtype=np.int64)
-    lower: list[NDArray[np.float64]] = []
-    upper: list[NDArray[np.float64]] = []
-    nodes: list[list[int]] = []
-    pending = [(0, len(triangles), -1, 0)]  # (first, count, parent, which child slot)
-    while pending:
-        first, count, parent, slot = pending.pop()
-        index = len(nodes)
+@njit(cache=True)
+def _build(centroids: np.ndarray, lows: np.ndarray, highs: np.ndarray, leaf_size: int) -> tuple[
+        np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    count = centroids.shape[0]
+    capacity = max(1, 2 * count)
+    order = np.arange(count)
+    lower, upper = np.empty((capacity, 3)), np.empty((capacity, 3))
+    nodes = np.empty((capacity, 3), np.int64)
+    pending = np.empty((256, 4), np.int64)  # (first, count, parent, child slot); depth ≤ log2(count) + 1
+    pending[0] = (0, count, -1, 0)
+    top, used = 1, 0
+    while top > 0:
+        top -= 1
+        first, size, parent, slot = pending[top, 0], pending[top, 1], pending[top, 2], pending[top, 3]
+        index = used
+        used += 1
         if parent >= 0:
-            nodes[parent][slot] = index
-        members = order[first:first + count]
-        lower.append(lows[members].min(axis=0))
-        upper.append(highs[members].max(axis=0))
-        if count <= leaf_size:
-            nodes.append([first, count, 1])
+            nodes[parent, slot] = index
+        members = order[first:first + size]
+        for axis in range(3):
+            lower[index, axis] = lows[members, axis].min()
+            upper[index, axis] = highs[members, axis].max()
+        if size <= leaf_size:
+            nodes[index, 0], nodes[index, 1], nodes[index, 2] = first, size, 1
             continue
-        nodes.append([-1, -1, 0])
-        spread = centroids[members].max(axis=0) - centroids[members].min(axis=0)
+        nodes[index, 0], nodes[index, 1], nodes[index, 2] = -1, -1, 0
+        spread = np.empty(3)
+        for axis in range(3):
+            spread[axis] = centroids[members, axis].max() - centroids[members, axis].min()
         axis = int(np.argmax(spread))
-        half = count // 2
-        split = np.argpartition(centroids[members, axis], half, kind="introselect")
-        order[first:first + count] = members[split]
-        pending.append((first + half, count - half, index, 1))
-        pending.append((first, half, index, 0))
-    return Bvh(order, np.array(lower), np.array(upper), np.array(nodes, dtype=np.int64))
+        order[first:first + size] = members[np.argsort(centroids[members, axis], kind="mergesort")]
+        half = size // 2
+        pending[top] = (first + half, size - half, index, 1)
+        pending[top + 1] = (first, half, index, 0)
+        top += 2
+    return order, lower[:used].copy(), upper[:used].copy(), nodes[:used].copy()
+
+
+def build_bvh(triangles: NDArray[np.float64], leaf_size: int = LEAF_SIZE) -> Bvh:
+    """Median-split AABB tree over ``triangles`` (T, 3, 3); nodes in depth-first order (compiled build)."""
+    order, lower, upper, nodes = _build(np.ascontiguousarray(triangles.mean(axis=1)),
+                                        np.ascontiguousarray(triangles.min(axis=1)),
+                                        np.ascontiguousarray(triangles.max(axis=1)), leaf_size)
+    return Bvh(order, lower, upper, nodes)
