@@ -181,3 +181,47 @@ def test_path_marker_is_thinned_but_keeps_both_ends() -> None:
     (strip,) = [m for m in markers if m.ns == "path"]
     assert len(strip.points) <= MAX_PATH_POINTS + 1
     assert (strip.points[0].x, strip.points[-1].x) == (0.0, pytest.approx(3.0))
+
+
+def test_meshes_resolve_from_mesh_roots_and_the_ament_index(robot: Any, tmp_path: Path,
+                                                             monkeypatch: pytest.MonkeyPatch) -> None:
+    import shutil
+
+    source = PACKAGE / "meshes" / "obstacle.dae"
+    share = tmp_path / "prefix" / "share" / "ament_only_description" / "meshes"
+    share.mkdir(parents=True)
+    shutil.copy(source, share / "obstacle.dae")
+    monkeypatch.setenv("AMENT_PREFIX_PATH", str(tmp_path / "prefix"))
+    manager = ManagerNode(Bus(), robot, resolver=make_resolver({}, [source.parent]))
+    manager.on_obstacles(obstacles(
+        f"{{frame_id: 'a', type: 'Mesh', group: 'Static', {POSE}, mesh_resource: 'file://{source}', "
+        "scale_x: 1, scale_y: 1, scale_z: 1}",
+        f"{{frame_id: 'b', type: 'Mesh', group: 'Static', {POSE}, mesh_resource: "
+        "'package://ament_only_description/meshes/obstacle.dae', scale_x: 2, scale_y: 2, scale_z: 2}"))
+    assert ids(manager) == ["a", "b"]
+    outside = ManagerNode(Bus(), robot, resolver=make_resolver({}, [tmp_path / "elsewhere"]))
+    with pytest.raises(InvalidInput) as info:
+        outside.on_obstacles(obstacles(f"{{frame_id: 'a', type: 'Mesh', group: 'Static', {POSE}, "
+                                       f"mesh_resource: 'file://{source}', scale_x: 1, scale_y: 1, scale_z: 1}}"))
+    assert info.value.field == "obstacles[0].mesh_resource"
+
+
+def test_plan_publishes_path_markers_goal_and_csv(robot: Any, tmp_path: Path) -> None:
+    manager = ManagerNode(Bus(), robot, csv_dir=tmp_path)
+    manager.on_obstacles(obstacles(SEED[0]))
+    request = message_from_yaml(pfi.PlanPath_Request, "{start: {position: {x: 0.227, z: 0.294}}, "
+                                "goal: {position: {x: 0.3, y: 0.2, z: 0.35}}, delta_time: 0.02, goal_tolerance: 0.01}")
+    response = manager.plan_path(request)
+    assert response.success, response.error_message
+    assert manager.goal is not None and manager.goal.position.tolist() == [0.3, 0.2, 0.35]
+    published = manager.bus.latest("/pfield/planned_path")
+    assert published == response.end_effector_path
+    markers = manager.bus.latest("/pfield/markers")
+    assert isinstance(markers, MarkerArray)
+    (strip,) = [m for m in markers.markers if m.ns == "path"]
+    assert strip.points[-1] == published.poses[-1].pose.position
+    (saved,) = list(tmp_path.glob("plan_*_task_space.csv"))
+    assert len(saved.read_text().splitlines()) == len(published.poses) + 1
+    twist = manager.compute_autonomy_vector(message_from_yaml(
+        pfi.ComputeAutonomyVector_Request, "{query_pose: {pose: {position: {x: 0.3, y: 0.0, z: 0.35}}}}"))
+    assert twist.autonomy_vector.twist.linear.y > 0.0  # toward the goal at y = 0.2
