@@ -194,17 +194,22 @@ def constrained_twist(
 @njit(cache=True)
 def twist_at(
     position: np.ndarray, orientation: np.ndarray, goal: np.ndarray, params: np.ndarray, aux: np.ndarray,
-    previous: np.ndarray, use_previous: bool, dt: float,
+    previous_linear: np.ndarray, previous_angular: np.ndarray, use_previous: bool, dt: float,
     kinds: np.ndarray, rows: np.ndarray, triangles: np.ndarray, pseudo_normals: np.ndarray,
     bvh_lower: np.ndarray, bvh_upper: np.ndarray, bvh_nodes: np.ndarray, mesh_table: np.ndarray,
 ) -> np.ndarray:
-    """:func:`constrained_twist` at one pose (position (3,), quaternion (4,)); returns (6,)."""
+    """:func:`constrained_twist` at one pose (position (3,), quaternion (4,)); returns (6,).
+
+    The previous twist comes as its linear and angular parts (3,) each (used when ``use_previous``).
+    """
     packed = unowned_arrays(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table)
     out = np.empty(6)
+    out[:3] = previous_linear
+    out[3:] = previous_angular
     q = orientation
     out[0], out[1], out[2], out[3], out[4], out[5], _, _ = constrained_twist(
         unowned(position), q[0], q[1], q[2], q[3], unowned(goal), unowned(params), packed, unowned(aux),
-        unowned(previous), use_previous, dt)
+        unowned(out), use_previous, dt)
     return out
 
 

@@ -26,8 +26,8 @@ if TYPE_CHECKING:
 
 __all__ = ["FieldArrays", "PotentialField"]
 
-_NO_PREVIOUS = np.zeros(6)
-_IDENTITY = np.array([0.0, 0.0, 0.0, 1.0])
+_ZERO = np.zeros(3)
+_ZERO.setflags(write=False)  # the same (read-only) array type as Twist.linear: one compiled specialisation
 
 
 class FieldArrays(NamedTuple):
@@ -167,15 +167,16 @@ class PotentialField:
         pose = _check_pose("pose", pose)
         goal, params, packed, aux = self._arrays
         if previous is None:
-            values = twist_at(pose.position, pose.orientation, goal, params, aux, _NO_PREVIOUS, False, 0.0, *packed)
+            values = twist_at(pose.position, pose.orientation, goal, params, aux, _ZERO, _ZERO, False, 0.0, *packed)
             return _fast_twist(values)
         if not isinstance(previous, Twist):
             raise InvalidInput("previous", previous, "expected a pfield.Twist or None")
         step = finite("dt", dt)
         if step <= 0.0:
             raise InvalidInput("dt", dt, "must be > 0 when a previous twist is given")
-        prior = np.concatenate([previous.linear, previous.angular])
-        return _fast_twist(twist_at(pose.position, pose.orientation, goal, params, aux, prior, True, step, *packed))
+        values = twist_at(pose.position, pose.orientation, goal, params, aux, previous.linear, previous.angular, True,
+                          step, *packed)
+        return _fast_twist(values)
 
     # ---------------------------------------------------------------- batches
 
