@@ -113,7 +113,7 @@ def test_from_urdf_with_package_paths_and_srdf(tmp_path: Path) -> None:
 
 
 def test_unknown_builtin_lists_known_names() -> None:
-    with pytest.raises(errors.InvalidInput, match="panda.*xarm7") as info:
+    with pytest.raises(errors.InvalidInput, match=r"panda.*xarm7") as info:
         RobotModel.builtin("ur5")
     assert info.value.field == "robot"
 

@@ -1,0 +1,408 @@
+"""Compiled whole-body field: one joint-velocity step and the planning loop (numba, ``cache=True``).
+
+Each step solves the small QP (Haviland & Corke, "NEO: A novel expeditious optimisation algorithm for
+reactive motion control of manipulators", RA-L 2021, eqs. 14–20)::
+
+    minimise  ½‖J q̇ − ẋ‖²_W + ½ λ² ‖q̇ − q̇_rep‖²
+    s.t.      n_kᵀ J_k q̇ ≥ −s(d_k)         for every link–obstacle and self-collision pair within Q,
+              ±q̇_j ≥ −s_j(q_j)             near the joint position limits,
+
+where ẋ = [v; ω] is the field's end-effector twist (attraction of :mod:`pfield.field.forces`, soft
+saturated), J the end-effector Jacobian, W = diag(1, 1, 1, w_r, w_r, w_r), n_k the unit normal from the
+obstacle to link point k and J_k that point's linear Jacobian (so n_kᵀ J_k q̇ = ḋ_k). The velocity damper
+s(d) = min(ξ v_max (d − d_s)/(Q − d_s), (d − d_s)/(2 dt)) lets links approach obstacles only as fast as
+they can still stop at d_s (Faverjon & Tournassoud 1987), so a goal configuration inside the influence
+distance is still reached: nothing *pushes* the end effector off its goal. The Khatib repulsion
+η(1/d − 1/Q)/d² (saturated, Khatib 1986) enters only as the posture preference q̇_rep = Σ J_kᵀ n_k ·
+v_max·m_k/F_cap, which a small λ² confines to the task's null space: the redundant joints bend away
+from obstacles without displacing the goal. The damped least-squares part (λ) also keeps the step bounded
+near singularities (Nakamura & Hanafusa 1986). After the QP, the joint speeds are scaled uniformly into
+the URDF velocity limits and rate-limited by the joint acceleration limits (dropped in a step where the
+rate limit would break a damper row: safety first).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from pfield._spatial_kernels import matrix_to_quat
+from pfield.field.forces import attraction, khatib_magnitude, rotation_error, soft_saturate
+from pfield.geometry._packed import CAPSULE, SPHERE, PackedObstacles
+from pfield.planning._qp import cholesky_inplace, cholesky_solve, hildreth
+from pfield.robot._distance import (
+    closest_segment_points,
+    point_segment_distance,
+    round_segment_distance,
+    segment_obstacle_distance,
+)
+from pfield.robot._kinematics import (
+    frame_pose,
+    joint_transforms,
+    linear_point_jacobian,
+    point_jacobian,
+    transform_point_into,
+)
+
+# indices into the parameter vector (see pfield.planning.whole_body._parameters)
+K_ATT, K_ROT, GAMMA, V_MAX, W_MAX, INFLUENCE, SAFETY, XI, ETA, F_CAP, DT, TOL, ROT_TOL, STAG_STEPS, \
+    STAG_PROGRESS, JOINT_INFLUENCE, JOINT_SAFETY, ROT_WEIGHT, DAMPING, NULL_GAIN = range(20)
+N_PARAMS = 20
+
+SUCCESS, ITERATION_LIMIT, STAGNATION, COLLISION, SELF_COLLISION = range(5)
+
+
+class RobotArrays(NamedTuple):
+    """Kinematics (see :mod:`pfield.robot._kinematics`), link capsules and limits, packed for the kernel."""
+
+    parents: NDArray[np.int64]
+    place_rot: NDArray[np.float64]
+    place_pos: NDArray[np.float64]
+    axes: NDArray[np.float64]
+    kinds: NDArray[np.int64]
+    support: NDArray[np.int64]
+    ee_joint: int
+    ee_rot: NDArray[np.float64]
+    ee_pos: NDArray[np.float64]
+    cap_joint: NDArray[np.int64]
+    cap_a: NDArray[np.float64]
+    cap_b: NDArray[np.float64]
+    cap_r: NDArray[np.float64]
+    self_pairs: NDArray[np.int64]
+    lower: NDArray[np.float64]
+    upper: NDArray[np.float64]
+    max_velocity: NDArray[np.float64]
+    max_acceleration: NDArray[np.float64]
+
+
+class Scene(NamedTuple):
+    """Obstacles, their bounding spheres (centre, radius) for culling far link–obstacle pairs, and offsets.
+
+    Capsules over-approximate the links, so a valid start can have capsules closer than ``safety_distance``
+    (or overlapping). ``obstacle_offsets[c, i]`` and ``self_offsets[k]`` (≤ 0, m) are subtracted from those
+    pairs' distances: such a pair may not get any closer than it starts, and only that counts as a
+    collision (:func:`initial_offsets`).
+    """
+
+    packed: PackedObstacles
+    centres: NDArray[np.float64]  # (M, 3)
+    bounds: NDArray[np.float64]  # (M,)
+    obstacle_offsets: NDArray[np.float64]  # (L, M)
+    self_offsets: NDArray[np.float64]  # (P,)
+
+
+class Workspace(NamedTuple):
+    rotations: NDArray[np.float64]
+    origins: NDArray[np.float64]
+    jac: NDArray[np.float64]
+    jlin: NDArray[np.float64]
+    jlin2: NDArray[np.float64]
+    rows: NDArray[np.float64]
+    b: NDArray[np.float64]
+    hinv: NDArray[np.float64]
+    mu: NDArray[np.float64]
+    curvature: NDArray[np.float64]
+    h: NDArray[np.float64]
+    rhs: NDArray[np.float64]
+    x: NDArray[np.float64]
+    free: NDArray[np.float64]
+    seg_a: NDArray[np.float64]
+    seg_b: NDArray[np.float64]
+    limited: NDArray[np.float64]
+    scratch: NDArray[np.float64]
+    task: NDArray[np.float64]
+    out: NDArray[np.float64]  # [twist(6), position(3), quaternion(4), clearance, self clearance, pos err, rot err,
+    #                            culprit capsule, culprit obstacle]
+
+
+@njit(cache=True)
+def make_workspace(n, n_capsules, n_obstacles, n_pairs):  # type: ignore[no-untyped-def]
+    m_max = n_capsules * n_obstacles + n_pairs + 2 * n
+    return Workspace(np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((6, n)), np.empty((3, n)), np.empty((3, n)),
+                     np.empty((m_max, n)), np.empty(m_max), np.empty((m_max, n)), np.empty(m_max), np.empty(m_max),
+                     np.empty((n, n)),
+                     np.empty(n), np.empty(n), np.empty(n), np.empty((n_capsules, 3)), np.empty((n_capsules, 3)),
+                     np.empty(n), np.empty((2, 3)), np.empty((2, 6)), np.empty(20))
+
+
+@njit(cache=True, inline="always")
+def _allowed_speed(distance, influence, safety, speed, dt):  # type: ignore[no-untyped-def]
+    """Velocity damper: the fastest allowed approach (negative: the required retreat) at ``distance``."""
+    margin = distance - safety
+    if margin <= 0.0:
+        return max(0.5 * margin / dt, -speed)
+    return min(speed * margin / (influence - safety), 0.5 * margin / dt)
+
+
+@njit(cache=True, inline="always")
+def _task(robot, goal_p, goal_q, params, ws):  # type: ignore[no-untyped-def]
+    """End-effector pose, Jacobian and the field's desired twist; fills ws.h/ws.rhs with the QP's normal eqs."""
+    rot, pos = frame_pose(ws.rotations, ws.origins, robot.ee_joint, robot.ee_rot, robot.ee_pos)
+    point_jacobian(ws.rotations, ws.origins, robot.axes, robot.kinds, robot.support, robot.ee_joint, pos, ws.jac)
+    quat = matrix_to_quat(rot)
+    ex, ey, ez = goal_p[0] - pos[0], goal_p[1] - pos[1], goal_p[2] - pos[2]
+    fx, fy, fz = attraction(ex, ey, ez, params[K_ATT], params[GAMMA])
+    vx, vy, vz = soft_saturate(fx, fy, fz, params[V_MAX])
+    rx, ry, rz = rotation_error(quat[0], quat[1], quat[2], quat[3], goal_q[0], goal_q[1], goal_q[2], goal_q[3])
+    k = params[K_ROT]
+    wx, wy, wz = soft_saturate(k * rx, k * ry, k * rz, params[W_MAX])
+    twist, weights = ws.task[0], ws.task[1]
+    twist[0], twist[1], twist[2], twist[3], twist[4], twist[5] = vx, vy, vz, wx, wy, wz
+    weights[0:3] = 1.0
+    weights[3:6] = params[ROT_WEIGHT]
+    n = ws.x.shape[0]
+    for i in range(n):
+        s = 0.0
+        for r in range(6):
+            s += ws.jac[r, i] * weights[r] * twist[r]
+        ws.rhs[i] = s
+        for j in range(i + 1):
+            s = 0.0
+            for r in range(6):
+                s += ws.jac[r, i] * weights[r] * ws.jac[r, j]
+            ws.h[i, j] = s
+            ws.h[j, i] = s
+        ws.h[i, i] += params[DAMPING]
+    ws.out[6:9] = pos
+    ws.out[9:13] = quat
+    ws.out[15] = math.sqrt(ex * ex + ey * ey + ez * ez)
+    ws.out[16] = math.sqrt(rx * rx + ry * ry + rz * rz)
+
+
+@njit(cache=True, inline="always")
+def _segments(robot, ws):  # type: ignore[no-untyped-def]
+    for c in range(robot.cap_joint.shape[0]):
+        j = robot.cap_joint[c]
+        transform_point_into(ws.rotations, ws.origins, j, robot.cap_a[c], ws.seg_a[c])
+        transform_point_into(ws.rotations, ws.origins, j, robot.cap_b[c], ws.seg_b[c])
+
+
+@njit(cache=True, inline="always")
+def _add_row(kin, jlin, rows, bounds, m, nx, ny, nz, joint, px, py, pz, bound):  # type: ignore[no-untyped-def]
+    """Row nᵀ J_p(point) (J of the point carried by ``joint``) with bound −s; returns the new row count.
+
+    ``kin`` = (rotations, origins, axes, kinds, support), unpacked by the caller outside its loops.
+    """
+    linear_point_jacobian(kin[0], kin[1], kin[2], kin[3], kin[4], joint, px, py, pz, jlin)
+    for j in range(jlin.shape[1]):
+        rows[m, j] = nx * jlin[0, j] + ny * jlin[1, j] + nz * jlin[2, j]
+    bounds[m] = bound
+    return m + 1
+
+
+@njit(cache=True, inline="always")
+def _obstacle_rows(robot, scene, params, ws, m):  # type: ignore[no-untyped-def]
+    """Damper rows and null-space repulsion of every link–obstacle pair within Q; returns the row count."""
+    influence, dt = params[INFLUENCE], params[DT]
+    clearance, culprit_c, culprit_o = math.inf, -1, -1
+    # hoisted out of the loops: numba reference-counts tuple members on every access (see _distance)
+    packed, centres, bounds = scene.packed, scene.centres, scene.bounds
+    rows, kinds = packed.rows, packed.kinds
+    seg_a, seg_b, cap_r, cap_joint, scratch = ws.seg_a, ws.seg_b, robot.cap_r, robot.cap_joint, ws.scratch
+    offsets = scene.obstacle_offsets
+    worst = math.inf
+    speed, safety, null_scale = params[XI] * params[V_MAX], params[SAFETY], params[NULL_GAIN] * params[V_MAX]
+    kin = (ws.rotations, ws.origins, robot.axes, robot.kinds, robot.support)
+    jlin, wrows, wb, free = ws.jlin, ws.rows, ws.b, ws.free
+    for c in range(cap_joint.shape[0]):
+        a, b, radius = seg_a[c], seg_b[c], cap_r[c]
+        for i in range(bounds.shape[0]):
+            lower = point_segment_distance(centres[i], a, b) - bounds[i] - radius
+            if lower >= influence:
+                clearance = min(clearance, lower)
+                continue
+            if kinds[i] == SPHERE or kinds[i] == CAPSULE:
+                d, t, nx, ny, nz = round_segment_distance(rows, kinds, i, a, b, scratch)
+            else:
+                d, t, nx, ny, nz = segment_obstacle_distance(packed, i, a, b, scratch)
+            d -= radius
+            clearance = min(clearance, d)
+            d -= offsets[c, i]
+            if d < worst:
+                worst, culprit_c, culprit_o = d, c, i
+            if d >= influence or cap_joint[c] < 0:
+                continue
+            bound = -_allowed_speed(d, influence, safety, speed, dt)
+            m = _add_row(kin, jlin, wrows, wb, m, nx, ny, nz, cap_joint[c], a[0] + t * (b[0] - a[0]),
+                         a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2]), bound)
+            push = null_scale * khatib_magnitude(d, params[ETA], influence, params[F_CAP]) / params[F_CAP]
+            for j in range(free.shape[0]):
+                free[j] += push * wrows[m - 1, j]
+    ws.out[13], ws.out[17], ws.out[18], ws.out[19] = clearance, culprit_c, culprit_o, worst
+    return m
+
+
+@njit(cache=True, inline="always")
+def _self_rows(robot, scene, params, ws, m):  # type: ignore[no-untyped-def]
+    influence, dt = params[INFLUENCE], params[DT]
+    speed, safety = params[XI] * params[V_MAX], params[SAFETY]
+    clearance = math.inf
+    kin = (ws.rotations, ws.origins, robot.axes, robot.kinds, robot.support)
+    jlin, jlin2, wrows, wb = ws.jlin, ws.jlin2, ws.rows, ws.b
+    pairs, seg_a, seg_b, cap_r, cap_joint = robot.self_pairs, ws.seg_a, ws.seg_b, robot.cap_r, robot.cap_joint
+    offsets = scene.self_offsets
+    for k in range(pairs.shape[0]):
+        c1, c2 = pairs[k, 0], pairs[k, 1]
+        a1, b1, a2, b2 = seg_a[c1], seg_b[c1], seg_a[c2], seg_b[c2]
+        s, t = closest_segment_points(a1, b1, a2, b2)
+        p1x, p1y, p1z = a1[0] + s * (b1[0] - a1[0]), a1[1] + s * (b1[1] - a1[1]), a1[2] + s * (b1[2] - a1[2])
+        p2x, p2y, p2z = a2[0] + t * (b2[0] - a2[0]), a2[1] + t * (b2[1] - a2[1]), a2[2] + t * (b2[2] - a2[2])
+        dx, dy, dz = p1x - p2x, p1y - p2y, p1z - p2z
+        dist = math.sqrt(dx * dx + dy * dy + dz * dz)
+        d = dist - cap_r[c1] - cap_r[c2] - offsets[k]
+        clearance = min(clearance, d)
+        if d >= influence or dist < 1e-12:
+            continue
+        nx, ny, nz = dx / dist, dy / dist, dz / dist
+        bound = -_allowed_speed(d, influence, safety, speed, dt)
+        m = _add_row(kin, jlin, wrows, wb, m, nx, ny, nz, cap_joint[c1], p1x, p1y, p1z, bound)
+        linear_point_jacobian(kin[0], kin[1], kin[2], kin[3], kin[4], cap_joint[c2], p2x, p2y, p2z, jlin2)
+        for j in range(jlin2.shape[1]):
+            wrows[m - 1, j] -= nx * jlin2[0, j] + ny * jlin2[1, j] + nz * jlin2[2, j]
+    ws.out[14] = clearance
+    return m
+
+
+@njit(cache=True, inline="always")
+def _joint_limit_rows(q, robot, params, ws, m):  # type: ignore[no-untyped-def]
+    n = q.shape[0]
+    for j in range(n):
+        for side in (1.0, -1.0):
+            limit = robot.lower[j] if side > 0 else robot.upper[j]
+            if not math.isfinite(limit):
+                continue
+            gap = side * (q[j] - limit)
+            if gap >= params[JOINT_INFLUENCE]:
+                continue
+            ws.rows[m, :] = 0.0
+            ws.rows[m, j] = side
+            ws.b[m] = -_allowed_speed(gap, params[JOINT_INFLUENCE], params[JOINT_SAFETY], robot.max_velocity[j],
+                                      params[DT])
+            m += 1
+    return m
+
+
+@njit(cache=True, inline="always")
+def _limit_speed(q_prev_velocity, has_prev, robot, params, ws, m):  # type: ignore[no-untyped-def]
+    """Uniform scaling into the velocity limits, then the joint rate limit unless it breaks a damper."""
+    x = ws.x
+    n = x.shape[0]
+    scale = 1.0
+    for j in range(n):
+        if abs(x[j]) * scale > robot.max_velocity[j]:
+            scale = robot.max_velocity[j] / abs(x[j])
+    x *= scale
+    if not has_prev:
+        return
+    limited = ws.limited
+    for j in range(n):
+        step = robot.max_acceleration[j] * params[DT]
+        limited[j] = min(max(x[j], q_prev_velocity[j] - step), q_prev_velocity[j] + step)
+    for k in range(m):
+        with_limit, without = 0.0, 0.0
+        for j in range(n):
+            with_limit += ws.rows[k, j] * limited[j]
+            without += ws.rows[k, j] * x[j]
+        if with_limit < ws.b[k] - 1e-9 and with_limit < without:
+            return
+    x[:] = limited
+
+
+@njit(cache=True)
+def joint_velocity_step(  # type: ignore[no-untyped-def]
+        q, previous, has_prev, robot, scene, goal_p, goal_q, params, ws):
+    """The whole-body field's joint velocity at ``q`` into ``ws.x``; pose, twist, clearances into ``ws.out``."""
+    joint_transforms(q, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds, ws.rotations,
+                     ws.origins)
+    _task(robot, goal_p, goal_q, params, ws)
+    _segments(robot, ws)
+    ws.free[:] = 0.0
+    m = _obstacle_rows(robot, scene, params, ws, 0)
+    m = _self_rows(robot, scene, params, ws, m)
+    m = _joint_limit_rows(q, robot, params, ws, m)
+    n = q.shape[0]
+    for j in range(n):
+        ws.rhs[j] += params[DAMPING] * ws.free[j]
+    cholesky_inplace(ws.h, n)
+    cholesky_solve(ws.h, ws.rhs, ws.x, n)
+    hildreth(ws.h, ws.x, ws.rows, ws.b, m, n, ws.hinv, ws.mu, ws.curvature, 20, 1e-7)
+    _limit_speed(previous, has_prev, robot, params, ws, m)
+    for r in range(6):
+        s = 0.0
+        for j in range(n):
+            s += ws.jac[r, j] * ws.x[j]
+        ws.out[r] = s
+    return m
+
+
+@njit(cache=True)
+def plan_loop(q0, robot, scene, goal_p, goal_q, params, max_iterations):  # type: ignore[no-untyped-def]
+    """Integrate q ← clip(q + q̇ dt) from ``q0`` until the goal, a collision, stagnation or the iteration limit.
+
+    Returns ``(status, count, q, qdot, positions, quaternions, twists, clearances, culprit)`` with ``count``
+    recorded waypoints (the start included). Waypoint k holds the configuration q_k, the velocity applied
+    from it (zero at the last waypoint of a successful plan) and the end-effector twist J(q_k) q̇_k.
+    """
+    n = q0.shape[0]
+    ws = make_workspace(n, robot.cap_joint.shape[0], scene.bounds.shape[0], robot.self_pairs.shape[0])
+    total = max_iterations + 1
+    qs, qds = np.empty((total, n)), np.empty((total, n))
+    positions, quats, twists, clear = np.empty((total, 3)), np.empty((total, 4)), np.empty((total, 6)), np.empty(total)
+    q, previous = q0.copy(), np.zeros(n)
+    best_pos, best_rot, best_step = math.inf, math.inf, 0
+    window, progress, dt = int(params[STAG_STEPS]), params[STAG_PROGRESS], params[DT]
+    status, count = ITERATION_LIMIT, total
+    culprit = np.array((-1, -1))
+    for k in range(total):
+        joint_velocity_step(q, previous, True, robot, scene, goal_p, goal_q, params, ws)
+        qs[k], positions[k], quats[k], clear[k] = q, ws.out[6:9], ws.out[9:13], ws.out[13]
+        pos_err, rot_err = ws.out[15], ws.out[16]
+        if ws.out[19] < 0.0 or ws.out[14] < 0.0:
+            status, count = (COLLISION if ws.out[19] < 0.0 else SELF_COLLISION), k + 1
+            culprit[0], culprit[1] = int(ws.out[17]), int(ws.out[18])
+            qds[k], twists[k] = 0.0, 0.0
+            break
+        if pos_err <= params[TOL] and rot_err <= params[ROT_TOL]:
+            status, count = SUCCESS, k + 1
+            qds[k], twists[k] = 0.0, 0.0
+            break
+        qds[k], twists[k] = ws.x, ws.out[0:6]
+        if k == total - 1:
+            break
+        if pos_err < best_pos - progress or rot_err < best_rot - progress:
+            best_pos, best_rot, best_step = min(pos_err, best_pos), min(rot_err, best_rot), k
+        elif k - best_step > window:
+            status, count = STAGNATION, k + 1
+            break
+        for j in range(n):
+            q[j] = min(max(q[j] + ws.x[j] * dt, robot.lower[j]), robot.upper[j])
+            previous[j] = ws.x[j]
+    return status, count, qs[:count], qds[:count], positions[:count], quats[:count], twists[:count], \
+        clear[:count], culprit
+
+
+@njit(cache=True)
+def pair_distances(q, robot, scene):  # type: ignore[no-untyped-def]
+    """Exact capsule clearances (m) at ``q``: link–obstacle pairs (L, M) and self-collision pairs (P,)."""
+    n = q.shape[0]
+    ws = make_workspace(n, robot.cap_joint.shape[0], scene.bounds.shape[0], robot.self_pairs.shape[0])
+    joint_transforms(q, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds, ws.rotations,
+                     ws.origins)
+    _segments(robot, ws)
+    obstacle = np.empty((robot.cap_joint.shape[0], scene.bounds.shape[0]))
+    for c in range(robot.cap_joint.shape[0]):
+        for i in range(scene.bounds.shape[0]):
+            d = segment_obstacle_distance(scene.packed, i, ws.seg_a[c], ws.seg_b[c], ws.scratch)[0]
+            obstacle[c, i] = d - robot.cap_r[c]
+    pairs = robot.self_pairs
+    own = np.empty(pairs.shape[0])
+    for k in range(pairs.shape[0]):
+        c1, c2 = pairs[k, 0], pairs[k, 1]
+        s, t = closest_segment_points(ws.seg_a[c1], ws.seg_b[c1], ws.seg_a[c2], ws.seg_b[c2])
+        diff = (ws.seg_a[c1] + s * (ws.seg_b[c1] - ws.seg_a[c1])) - (ws.seg_a[c2] + t * (ws.seg_b[c2] - ws.seg_a[c2]))
+        own[k] = math.sqrt(diff @ diff) - robot.cap_r[c1] - robot.cap_r[c2]
+    return obstacle, own

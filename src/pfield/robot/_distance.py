@@ -1,0 +1,210 @@
+"""Compiled closest points between link segments and obstacles (and between two segments).
+
+A link capsule is a segment s(t) = a + t (b − a), t ∈ [0, 1], swept by a sphere of radius r, so its signed
+distance to an obstacle is ``min_t d_O(s(t)) − r`` with d_O the obstacle's exact signed distance
+(:func:`pfield.geometry._sdf.obstacle_signed_distance`). The minimisation is continuous:
+
+* spheres and capsules: closed form (point–segment, segment–segment; Ericson, *Real-Time Collision
+  Detection* 2005, §5.1.2 and §5.1.9);
+* boxes, cylinders, ellipsoids: the signed distance of a convex set is convex (a maximum of affine
+  functions), so f(t) = d_O(s(t)) is convex and its minimiser is found by bisection on the sign of
+  f'(t) = ∇d_O · (b − a), whose gradient is the kernel's normal;
+* meshes (possibly non-convex): the best of 9 samples, refined by golden-section search in the
+  bracket around it.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from pfield.geometry._packed import CAPSULE, MESH, SPHERE
+from pfield.geometry._sdf import obstacle_signed_distance
+
+_BISECTIONS = 24
+_MESH_SAMPLES = 9
+_GOLDEN_STEPS = 18
+_INV_PHI = 0.6180339887498949
+
+
+@njit(cache=True, inline="always")
+def closest_segment_points(p1, q1, p2, q2):  # type: ignore[no-untyped-def]
+    """Parameters (s, t) ∈ [0, 1]² of the closest points of segments p1–q1 and p2–q2 (Ericson §5.1.9)."""
+    d1x, d1y, d1z = q1[0] - p1[0], q1[1] - p1[1], q1[2] - p1[2]
+    d2x, d2y, d2z = q2[0] - p2[0], q2[1] - p2[1], q2[2] - p2[2]
+    rx, ry, rz = p1[0] - p2[0], p1[1] - p2[1], p1[2] - p2[2]
+    a = d1x * d1x + d1y * d1y + d1z * d1z
+    e = d2x * d2x + d2y * d2y + d2z * d2z
+    f = d2x * rx + d2y * ry + d2z * rz
+    eps = 1e-14
+    if a <= eps and e <= eps:
+        return 0.0, 0.0
+    if a <= eps:
+        return 0.0, min(max(f / e, 0.0), 1.0)
+    c = d1x * rx + d1y * ry + d1z * rz
+    if e <= eps:
+        return min(max(-c / a, 0.0), 1.0), 0.0
+    b = d1x * d2x + d1y * d2y + d1z * d2z
+    denom = a * e - b * b
+    s = min(max((b * f - c * e) / denom, 0.0), 1.0) if denom > eps else 0.0
+    t = (b * s + f) / e
+    if t < 0.0:
+        t = 0.0
+        s = min(max(-c / a, 0.0), 1.0)
+    elif t > 1.0:
+        t = 1.0
+        s = min(max((b - c) / a, 0.0), 1.0)
+    return s, t
+
+
+@njit(cache=True)
+def segment_segment_distance(p1, q1, p2, q2):  # type: ignore[no-untyped-def]
+    """Euclidean distance (m) between segments p1–q1 and p2–q2."""
+    s, t = closest_segment_points(p1, q1, p2, q2)
+    total = 0.0
+    for k in range(3):
+        diff = (p1[k] + s * (q1[k] - p1[k])) - (p2[k] + t * (q2[k] - p2[k]))
+        total += diff * diff
+    return math.sqrt(total)
+
+
+@njit(cache=True)
+def _point_on(a, b, t, out):  # type: ignore[no-untyped-def]
+    for k in range(3):
+        out[k] = a[k] + t * (b[k] - a[k])
+    return out
+
+
+@njit(cache=True)
+def _slope(packed, i, a, b, t, scratch):  # type: ignore[no-untyped-def]
+    d, nx, ny, nz = obstacle_signed_distance(packed, i, _point_on(a, b, t, scratch))
+    return d, nx * (b[0] - a[0]) + ny * (b[1] - a[1]) + nz * (b[2] - a[2]), nx, ny, nz
+
+
+@njit(cache=True)
+def _convex_minimum(packed, i, a, b, scratch):  # type: ignore[no-untyped-def]
+    d0, g0, nx, ny, nz = _slope(packed, i, a, b, 0.0, scratch)
+    if g0 >= 0.0:
+        return d0, 0.0, nx, ny, nz
+    d1, g1, nx, ny, nz = _slope(packed, i, a, b, 1.0, scratch)
+    if g1 <= 0.0:
+        return d1, 1.0, nx, ny, nz
+    lo, hi = 0.0, 1.0
+    for _ in range(_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        _, g, _, _, _ = _slope(packed, i, a, b, mid, scratch)
+        if g < 0.0:
+            lo = mid
+        else:
+            hi = mid
+    t = 0.5 * (lo + hi)
+    d, nx, ny, nz = obstacle_signed_distance(packed, i, _point_on(a, b, t, scratch))
+    return d, t, nx, ny, nz
+
+
+@njit(cache=True)
+def _sdf_at(packed, i, a, b, t, scratch):  # type: ignore[no-untyped-def]
+    return obstacle_signed_distance(packed, i, _point_on(a, b, t, scratch))[0]
+
+
+@njit(cache=True)
+def _mesh_minimum(packed, i, a, b, scratch):  # type: ignore[no-untyped-def]
+    best_t, best_d = 0.0, math.inf
+    for k in range(_MESH_SAMPLES):
+        t = k / (_MESH_SAMPLES - 1)
+        d = _sdf_at(packed, i, a, b, t, scratch)
+        if d < best_d:
+            best_d, best_t = d, t
+    step = 1.0 / (_MESH_SAMPLES - 1)
+    lo, hi = max(best_t - step, 0.0), min(best_t + step, 1.0)
+    x1 = hi - _INV_PHI * (hi - lo)
+    x2 = lo + _INV_PHI * (hi - lo)
+    f1 = _sdf_at(packed, i, a, b, x1, scratch)
+    f2 = _sdf_at(packed, i, a, b, x2, scratch)
+    for _ in range(_GOLDEN_STEPS):
+        if f1 < f2:
+            hi, x2, f2 = x2, x1, f1
+            x1 = hi - _INV_PHI * (hi - lo)
+            f1 = _sdf_at(packed, i, a, b, x1, scratch)
+        else:
+            lo, x1, f1 = x1, x2, f2
+            x2 = lo + _INV_PHI * (hi - lo)
+            f2 = _sdf_at(packed, i, a, b, x2, scratch)
+    t = x1 if f1 < f2 else x2
+    if best_d < min(f1, f2):  # the sample was better than the refined bracket (flat or noisy f)
+        t = best_t
+    d, nx, ny, nz = obstacle_signed_distance(packed, i, _point_on(a, b, t, scratch))
+    return d, t, nx, ny, nz
+
+
+@njit(cache=True, inline="always")
+def _closest_to_point(a, b, cx, cy, cz):  # type: ignore[no-untyped-def]
+    """Parameter t of the point of segment a–b nearest to c."""
+    dx, dy, dz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    length2 = dx * dx + dy * dy + dz * dz
+    if length2 <= 1e-14:
+        return 0.0
+    return min(max(((cx - a[0]) * dx + (cy - a[1]) * dy + (cz - a[2]) * dz) / length2, 0.0), 1.0)
+
+
+@njit(cache=True, inline="always")
+def round_segment_distance(rows, kinds, i, a, b, scratch):  # type: ignore[no-untyped-def]
+    """Closed-form :func:`segment_obstacle_distance` for a sphere or capsule obstacle (``kinds[i]``).
+
+    Takes the packed ``rows``/``kinds`` arrays rather than the whole :class:`PackedObstacles` so that hot
+    loops can hoist them (numba otherwise reference-counts every member array on each iteration).
+    """
+    row = rows[i]
+    radius = row[12]
+    if kinds[i] == SPHERE:
+        t = _closest_to_point(a, b, row[0], row[1], row[2])
+        qx, qy, qz = row[0], row[1], row[2]
+    else:
+        half = row[13]
+        axis_a, axis_b = scratch[0], scratch[1]
+        for k in range(3):  # local z in the world: third column of the row-major R
+            axis_a[k] = row[k] - half * row[5 + 3 * k]
+            axis_b[k] = row[k] + half * row[5 + 3 * k]
+        t, u = closest_segment_points(a, b, axis_a, axis_b)
+        qx = axis_a[0] + u * (axis_b[0] - axis_a[0])
+        qy = axis_a[1] + u * (axis_b[1] - axis_a[1])
+        qz = axis_a[2] + u * (axis_b[2] - axis_a[2])
+    px, py, pz = a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])
+    dx, dy, dz = px - qx, py - qy, pz - qz
+    norm = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if norm > 1e-12:
+        return norm - radius, t, dx / norm, dy / norm, dz / norm
+    # on the centre/axis: any direction ⟂ the segment is a gradient; take one deterministically
+    ex, ey, ez = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    nx, ny, nz = (-ey, ex, 0.0) if abs(ez) < max(abs(ex), abs(ey)) else (0.0, -ez, ey)
+    scale = math.sqrt(nx * nx + ny * ny + nz * nz)
+    if scale < 1e-12:
+        return -radius, t, 0.0, 0.0, 1.0
+    return -radius, t, nx / scale, ny / scale, nz / scale
+
+
+@njit(cache=True)
+def segment_obstacle_distance(packed, i, a, b, scratch):  # type: ignore[no-untyped-def]
+    """min over t ∈ [0, 1] of the signed distance of a + t(b − a) to obstacle i: ``(d, t, nx, ny, nz)``.
+
+    ``n`` is the obstacle's outward normal (∇d) at the closest segment point; ``scratch`` is a (2, 3)
+    workspace.
+    """
+    kind = packed.kinds[i]
+    if kind == SPHERE or kind == CAPSULE:
+        return round_segment_distance(packed.rows, packed.kinds, i, a, b, scratch)
+    if kind == MESH:
+        return _mesh_minimum(packed, i, a, b, scratch[0])
+    return _convex_minimum(packed, i, a, b, scratch[0])
+
+
+@njit(cache=True, inline="always")
+def point_segment_distance(c, a, b):  # type: ignore[no-untyped-def]
+    """Distance (m) from point c to segment a–b (used for bounding-sphere culling)."""
+    t = _closest_to_point(a, b, c[0], c[1], c[2])
+    total = 0.0
+    for k in range(3):
+        diff = c[k] - (a[k] + t * (b[k] - a[k]))
+        total += diff * diff
+    return math.sqrt(total)

@@ -1,0 +1,147 @@
+"""Whole-body planning: reaches the goal, never collides (checked with coal), respects joint limits."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pfield import errors
+from pfield.field.config import FieldConfig
+from pfield.field.field import PotentialField
+from pfield.geometry import Obstacle, Sphere
+from pfield.planning.result import PlannedPath
+from pfield.planning.scenes import DEFAULT_PARAMS, SEED_GOAL, seed_obstacles, sphere_line_scene
+from pfield.planning.whole_body import joint_velocity_sign_flips, plan_whole_body
+from pfield.robot import RobotModel
+from pfield.robot.collision import CollisionChecker
+from pfield.spatial import Pose
+
+Q0 = np.array([0.0, -0.6, 0.0, 0.9, 0.0, 1.5, 0.0])
+REFERENCE_GOAL = Pose((0.6, 0.3, 0.3), (1.0, 0.0, 0.0, 0.0))
+SEED_Q0 = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0])
+
+
+@pytest.fixture(scope="module")
+def xarm() -> RobotModel:
+    return RobotModel.builtin("xarm7")
+
+
+def _check_plan_invariants(path: PlannedPath, robot: RobotModel, q0: np.ndarray, dt: float) -> None:
+    assert path.joint_names == robot.joint_names
+    assert path.joint_positions is not None and path.joint_velocities is not None
+    np.testing.assert_allclose(path.joint_positions[0], q0, atol=1e-12)  # the start is waypoint 0
+    np.testing.assert_allclose(path.times, np.arange(len(path)) * dt)
+    assert np.all(path.joint_positions >= robot.lower_limits - 1e-12)
+    assert np.all(path.joint_positions <= robot.upper_limits + 1e-12)
+    assert np.all(np.abs(path.joint_velocities) <= robot.velocity_limits + 1e-9)
+    # the recorded end-effector path is the forward kinematics of the joint path
+    np.testing.assert_allclose(robot.end_effector_positions(path.joint_positions), path.positions, atol=1e-12)
+
+
+def _assert_success(path: PlannedPath, goal: Pose, tolerance: float) -> None:
+    assert path.success, path.failure_reason
+    assert np.linalg.norm(path.positions[-1] - goal.position) <= tolerance
+    assert path.final_pose.rotation_distance(goal) <= 0.05
+    # chattering is measured and rare: far fewer sign flips than steps
+    assert joint_velocity_sign_flips(path) <= max(5, 0.02 * len(path))
+
+
+@pytest.mark.parametrize("config", [FieldConfig(), DEFAULT_PARAMS], ids=["rosYaml", "default"])
+def test_reference_scene_without_obstacles_reaches_the_goal(xarm: RobotModel, config: FieldConfig) -> None:
+    field = PotentialField(config, REFERENCE_GOAL)
+    path = field.plan_whole_body(xarm, Q0, dt=0.01, goal_tolerance=0.01, max_iterations=30000)
+    _check_plan_invariants(path, xarm, Q0, 0.01)
+    _assert_success(path, REFERENCE_GOAL, 0.01)
+    assert np.all(np.isinf(path.clearances))
+    assert np.all(path.joint_velocities[-1] == 0.0)
+
+
+def test_seed_whole_body_example_with_all_six_obstacles(xarm: RobotModel, tmp_path: Path) -> None:
+    obstacles = seed_obstacles(tmp_path)
+    field = PotentialField(FieldConfig(), SEED_GOAL, obstacles)
+    path = plan_whole_body(field, xarm, SEED_Q0, dt=0.02, goal_tolerance=0.01, max_iterations=25000)
+    _check_plan_invariants(path, xarm, SEED_Q0, 0.02)
+    _assert_success(path, SEED_GOAL, 0.01)
+    assert path.min_clearance > 0.0
+    checker = CollisionChecker(xarm, obstacles)  # independent: coal on the robot's own collision meshes
+    for q in path.joint_positions:
+        distance, pair, own, own_pair = checker.distances(q)
+        assert distance > 0.0, pair
+        assert own > 0.0, own_pair
+
+
+def test_reference_scene_with_five_spheres_never_collides(xarm: RobotModel) -> None:
+    obstacles = sphere_line_scene(5, lateral_offset=0.15)
+    for config in (FieldConfig(), DEFAULT_PARAMS):
+        path = PotentialField(config, REFERENCE_GOAL, obstacles).plan_whole_body(xarm, Q0, 0.01, 0.01, 30000)
+        _check_plan_invariants(path, xarm, Q0, 0.01)
+        assert path.success or path.failure_reason.startswith(("stagnation", "iteration limit"))
+        assert path.min_clearance >= config.safety_distance - 1e-4  # dampers hold d_s up to linearisation
+        checker = CollisionChecker(xarm, obstacles)
+        assert min(checker.distances(q)[0] for q in path.joint_positions[::5]) > 0.0
+
+
+def test_iteration_limit_is_reported(xarm: RobotModel) -> None:
+    path = PotentialField(FieldConfig(), REFERENCE_GOAL).plan_whole_body(xarm, Q0, 0.01, 0.01, 3)
+    assert not path.success
+    assert path.failure_reason.startswith("iteration limit")
+    assert len(path) == 4 and path.iterations == 3
+
+
+def test_unreachable_goal_stagnates(xarm: RobotModel) -> None:
+    far = Pose((1.5, 0.0, 0.4), (1.0, 0.0, 0.0, 0.0))  # beyond the arm's reach (~0.7 m)
+    config = FieldConfig(stagnation_window=1.0)
+    path = PotentialField(config, far).plan_whole_body(xarm, Q0, 0.01, 0.01, 30000)
+    assert not path.success
+    assert path.failure_reason.startswith("stagnation")
+    _check_plan_invariants(path, xarm, Q0, 0.01)
+
+
+def test_goal_behind_an_obstacle_is_not_reached_through_it(xarm: RobotModel) -> None:
+    goal = Pose((0.5, 0.0, 0.25), (1.0, 0.0, 0.0, 0.0))
+    wall = Obstacle("ball", Sphere(0.12), Pose((0.5, 0.0, 0.25)))  # the goal lies inside the ball
+    path = PotentialField(FieldConfig(stagnation_window=1.0), goal, [wall]).plan_whole_body(xarm, Q0, 0.01, 0.01,
+                                                                                            30000)
+    assert not path.success and path.failure_reason
+    assert path.min_clearance > 0.0
+
+
+def test_start_in_collision_is_reported(xarm: RobotModel) -> None:
+    tip = xarm.forward_kinematics(Q0).position
+    obstacle = Obstacle("ball", Sphere(0.05), Pose(tip))
+    path = PotentialField(FieldConfig(), REFERENCE_GOAL, [obstacle]).plan_whole_body(xarm, Q0, 0.01, 0.01, 100)
+    assert not path.success
+    assert path.failure_reason.startswith("collision") and "ball" in path.failure_reason
+    assert len(path) == 1
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"q0": [0.0] * 6}, "starting_joint_angles"),
+        ({"q0": [0.0, 3.0, 0, 0, 0, 0, 0]}, "starting_joint_angles[1]"),
+        ({"q0": [0.0, float("nan"), 0, 0, 0, 0, 0]}, "starting_joint_angles"),
+        ({"dt": 0.0}, "delta_time"),
+        ({"dt": float("nan")}, "delta_time"),
+        ({"goal_tolerance": -0.01}, "goal_tolerance"),
+        ({"max_iterations": -1}, "max_iterations"),
+        ({"max_iterations": 2.5}, "max_iterations"),
+    ],
+)
+def test_bad_input_names_the_field(xarm: RobotModel, kwargs: dict[str, object], field: str) -> None:
+    arguments: dict[str, object] = {"q0": Q0, "dt": 0.01, "goal_tolerance": 0.01, "max_iterations": 100}
+    arguments.update(kwargs)
+    with pytest.raises(errors.InvalidInput) as info:
+        plan_whole_body(PotentialField(FieldConfig(), REFERENCE_GOAL), xarm, **arguments)  # type: ignore[arg-type]
+    assert info.value.field == field
+
+
+def test_sign_flip_counter() -> None:
+    velocities = np.array([[0.1, 0.0], [-0.1, 0.0], [0.0, 0.2], [0.1, 0.3], [0.2, -0.3]])
+    count = len(velocities)
+    path = PlannedPath(True, "", np.arange(count) * 0.1, np.zeros((count, 3)), np.tile([0, 0, 0, 1.0], (count, 1)),
+                       np.zeros((count, 6)), np.zeros(count), joint_names=("a", "b"),
+                       joint_positions=np.zeros((count, 2)), joint_velocities=velocities)
+    assert joint_velocity_sign_flips(path) == 3  # joint a: + → −, then − → + across a stop; joint b: + → −

@@ -1,0 +1,157 @@
+"""Link capsules, continuous link–obstacle closest points, and the collision checks."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pfield import errors
+from pfield.geometry import (
+    Box,
+    Capsule,
+    Cylinder,
+    Ellipsoid,
+    Mesh,
+    Obstacle,
+    ResourceResolver,
+    Sphere,
+    pack_obstacles,
+)
+from pfield.robot import RobotModel
+from pfield.robot._distance import segment_obstacle_distance, segment_segment_distance
+from pfield.robot.collision import CollisionChecker, capsule_clearances
+from pfield.robot.geometry import fit_capsule
+from pfield.spatial import Pose, quaternion_exp
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+
+
+@pytest.fixture(scope="module")
+def xarm() -> RobotModel:
+    return RobotModel.builtin("xarm7")
+
+
+@pytest.fixture(scope="module")
+def panda() -> RobotModel:
+    return RobotModel.builtin("panda")
+
+
+def _segment_distance_to_points(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    d = b - a
+    t = np.clip((points - a) @ d / (d @ d), 0.0, 1.0)
+    return np.linalg.norm(points - (a + t[:, None] * d), axis=1)
+
+
+@pytest.mark.parametrize("name", ["xarm7", "panda"])
+def test_capsules_cover_every_collision_vertex(name: str, xarm: RobotModel, panda: RobotModel) -> None:
+    robot = xarm if name == "xarm7" else panda
+    model = robot.pinocchio_model
+    capsules = {c.link: c for c in robot.geometry.capsules}
+    for obj in robot.collision_model.geometryObjects:
+        capsule = capsules[model.frames[obj.parentFrame].name]
+        if hasattr(obj.geometry, "vertices"):
+            local = np.asarray(obj.geometry.vertices()).reshape(-1, 3)
+        else:  # panda finger boxes
+            half = np.asarray(obj.geometry.halfSide)
+            local = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * half
+        points = local @ obj.placement.rotation.T + obj.placement.translation
+        assert _segment_distance_to_points(points, capsule.a, capsule.b).max() <= capsule.radius + 1e-9
+        assert capsule.volume_ratio >= 1.0
+        assert 0.0 <= capsule.mean_gap < capsule.radius
+
+
+def test_fit_capsule_of_a_cylinder_is_tight() -> None:
+    angles = np.linspace(0, 2 * np.pi, 64, endpoint=False)
+    ring = np.stack([0.05 * np.cos(angles), 0.05 * np.sin(angles), np.zeros(64)], axis=1)
+    lift = np.array([0.0, 0.0, 0.2])
+    points = np.concatenate([ring + lift, ring - lift])
+    capsule = fit_capsule(points)
+    assert capsule.radius == pytest.approx(0.05, abs=1e-3)
+    # the shortest covering segment stops where the cap sphere still reaches the rim: |t| = 0.2
+    assert np.linalg.norm(capsule.b - capsule.a) == pytest.approx(0.4, abs=2e-3)
+
+
+def test_self_pairs_honour_the_srdf(xarm: RobotModel, panda: RobotModel) -> None:
+    for robot in (xarm, panda):
+        names = robot.geometry.link_names
+        assert robot.disabled_pairs is not None
+        for i, j in robot.geometry.self_pairs:
+            assert frozenset((names[i], names[j])) not in robot.disabled_pairs
+            assert robot.geometry.capsules[i].joint != robot.geometry.capsules[j].joint
+    xarm_pairs = {frozenset((xarm.geometry.link_names[i], xarm.geometry.link_names[j]))
+                  for i, j in xarm.geometry.self_pairs}
+    assert frozenset(("link2", "link6")) in xarm_pairs
+
+
+def _obstacles() -> list[Obstacle]:
+    turn = Pose(orientation=quaternion_exp([0.3, -0.2, 0.5])).orientation
+    cube = Mesh(str(DATA / "meshes" / "unit_cube.stl"), 0.2, 0.1, 0.15,
+                resolver=ResourceResolver(allowed_roots=[DATA / "meshes"]))
+    return [
+        Obstacle("sphere", Sphere(0.1), Pose((0.4, 0.1, 0.2))),
+        Obstacle("box", Box(0.2, 0.1, 0.3), Pose((0.3, -0.2, 0.4), turn)),
+        Obstacle("cylinder", Cylinder(0.08, 0.3), Pose((0.5, 0.2, 0.1), turn)),
+        Obstacle("ellipsoid", Ellipsoid(0.1, 0.05, 0.15), Pose((0.2, 0.3, 0.3), turn)),
+        Obstacle("capsule", Capsule(0.05, 0.2), Pose((0.6, -0.1, 0.3), turn)),
+        Obstacle("mesh", cube, Pose((0.4, 0.0, 0.5), turn)),
+    ]
+
+
+def test_segment_obstacle_distance_is_the_minimum_along_the_segment() -> None:
+    obstacles = _obstacles()
+    packed = pack_obstacles(obstacles)
+    rng = np.random.default_rng(3)
+    scratch = np.zeros((2, 3))
+    samples = np.linspace(0.0, 1.0, 2001)
+    for _ in range(40):
+        a, b = rng.uniform(-0.1, 0.8, 3), rng.uniform(-0.1, 0.8, 3)
+        points = a + samples[:, None] * (b - a)
+        for i, obstacle in enumerate(obstacles):
+            d, t, *normal = segment_obstacle_distance(packed, i, a, b, scratch)
+            dense, _ = obstacle.signed_distance(points)
+            # never above the true minimum by more than the sampling error, never below it
+            assert d <= dense.min() + 1e-6
+            assert d >= dense.min() - np.linalg.norm(b - a) / 2000 - 1e-9
+            at_t, grad = obstacle.signed_distance(a + t * (b - a))
+            assert d == pytest.approx(float(at_t[0]), abs=1e-12)
+            np.testing.assert_allclose(normal, grad[0], atol=1e-9)
+
+
+def test_segment_segment_distance_matches_sampling() -> None:
+    rng = np.random.default_rng(4)
+    s = np.linspace(0, 1, 401)
+    for _ in range(100):
+        p1, q1, p2, q2 = rng.normal(size=(4, 3))
+        first = p1 + s[:, None] * (q1 - p1)
+        second = p2 + s[:, None] * (q2 - p2)
+        dense = np.linalg.norm(first[:, None] - second[None], axis=2).min()
+        exact = segment_segment_distance(p1, q1, p2, q2)
+        assert exact <= dense + 1e-12
+        assert exact >= dense - 0.01
+
+
+def test_capsule_clearances_are_conservative_against_coal(xarm: RobotModel) -> None:
+    obstacles = _obstacles()[:5]
+    checker = CollisionChecker(xarm, obstacles)
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        q = rng.uniform(np.maximum(xarm.lower_limits, -3), np.minimum(xarm.upper_limits, 3))
+        capsule, _ = capsule_clearances(xarm, q, obstacles)
+        exact, _, _, _ = checker.distances(q)
+        assert capsule[1:].min() <= exact + 1e-6  # capsules cover the links (the base link excluded: fixed)
+
+
+def test_collision_checker_detects_contact_and_margin(xarm: RobotModel) -> None:
+    q0 = np.array([0.0, -0.6, 0.0, 0.9, 0.0, 1.5, 0.0])
+    tip = xarm.forward_kinematics(q0).position
+    touching = CollisionChecker(xarm, [Obstacle("ball", Sphere(0.03), Pose(tip))])
+    report = touching.check(q0)
+    assert report.in_collision and "ball" in report.pair
+    far = CollisionChecker(xarm, [Obstacle("ball", Sphere(0.03), Pose(tip + np.array([0.0, 0.0, 0.3])))])
+    clear = far.check(q0)
+    assert not clear.in_collision
+    assert far.check(q0, margin=clear.distance + 0.01).in_collision
+    with pytest.raises(errors.InvalidInput):
+        far.check(q0, margin=-0.1)
