@@ -144,6 +144,7 @@ def test_bad_mesh_files(tmp_path, name, content, error):
     with pytest.raises(error) as info:
         Mesh(str(tmp_path / name), resolver=ResourceResolver(allowed_roots=[tmp_path]))
     assert info.value.field == "mesh_resource"
+    assert info.value.value == str(tmp_path / name)
 
 
 def test_missing_mesh_file(tmp_path):
@@ -158,3 +159,15 @@ def test_bad_mesh_scale(field, value):
     with pytest.raises(InvalidInput) as info:
         Mesh(str(MESHES / "unit_cube.obj"), **scales, resolver=RESOLVER)
     assert info.value.field == field
+
+
+def test_non_convex_torus_sign_matches_the_winding_number(rng):
+    torus = trimesh.creation.torus(major_radius=0.3, minor_radius=0.1, major_sections=24, minor_sections=12)
+    obstacle = Obstacle("t", Mesh.from_arrays(torus.vertices, torus.faces, name="torus"), Pose())
+    triangles = obstacle.shape.data.vertices[obstacle.shape.data.faces]
+    points = rng.uniform(-0.45, 0.45, (200, 3)) * (1.0, 1.0, 0.4)
+    distances, _ = obstacle.signed_distance(points)
+    for point, distance in zip(points, distances, strict=True):
+        sign = -1.0 if winding_number(triangles, point) > 0.5 else 1.0
+        assert distance == pytest.approx(sign * triangle_distance_reference(triangles, point), abs=1e-12)
+    assert np.sum(distances < 0) > 20  # points in the ring, and points in the hole (outside)

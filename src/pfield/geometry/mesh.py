@@ -166,7 +166,10 @@ class Mesh:
                  *, resolver: ResourceResolver | None = None) -> None:
         scale = (positive("scale_x", scale_x), positive("scale_y", scale_y), positive("scale_z", scale_z))
         path = (resolver or ResourceResolver.default()).resolve(mesh_resource)
-        read_mesh_file(path)  # validates suffix, emptiness and content with clear errors
+        try:
+            read_mesh_file(path)  # validates suffix, emptiness and content with clear errors
+        except InvalidInput as exc:
+            raise InvalidInput("mesh_resource", mesh_resource, f"{exc.reason} ({path})") from None
         data = _prepared_file(str(path), path.stat().st_mtime_ns, scale)
         self._set(mesh_resource, scale, data, str(path))
 
