@@ -9,6 +9,8 @@ start pose implied by the joint angles (the request's ``start`` is ignored, as t
 from __future__ import annotations
 
 import importlib
+import importlib.util
+import logging
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,6 +22,8 @@ from numpy.typing import NDArray
 from pfield.field.config import FieldConfig
 from pfield.planning.result import PlannedPath
 from pfield.spatial import Pose, Twist
+
+_log = logging.getLogger(__name__)
 
 __all__ = ["PlanInputs", "make_field", "make_mesh", "make_resolver", "run_plan", "whole_body_twist"]
 
@@ -60,9 +64,11 @@ def run_plan(config: FieldConfig, obstacles: Sequence[Any], robot: Any, inputs: 
     path: PlannedPath = field.plan(start=inputs.start, dt=inputs.delta_time, goal_tolerance=inputs.goal_tolerance,
                                    max_iterations=inputs.max_iterations)
     if inputs.joint_angles is not None:
-        from pfield.planning.joint_trajectory import attach_joint_trajectory
-
-        path = attach_joint_trajectory(path, robot, inputs.joint_angles)
+        if importlib.util.find_spec("pfield.planning.joint_trajectory") is None:
+            _log.warning("joint trajectories of task-space plans need pfield.planning.joint_trajectory")
+            return path
+        attach = importlib.import_module("pfield.planning.joint_trajectory").attach_joint_trajectory
+        path = attach(path, robot, inputs.joint_angles)
     return path
 
 
