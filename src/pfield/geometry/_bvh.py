@@ -2,7 +2,7 @@
 
 The query is exact: it returns the closest point over all triangles of one mesh, found by a
 depth-first traversal of an axis-aligned bounding-box hierarchy (median split, built by
-:func:`pfield.geometry._bvh_build.build_bvh`) that skips every node whose box lies farther than the best
+:func:`pfield.geometry._mesh_build.build_bvh`) that skips every node whose box lies farther than the best
 triangle found so far (the box distance is a lower bound of every triangle distance inside it).
 The nearer child is visited first, so the bound tightens early.
 

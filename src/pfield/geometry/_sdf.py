@@ -1,8 +1,9 @@
 """Compiled signed-distance kernels over :class:`~pfield.geometry._packed.PackedObstacles`.
 
-Every compiled consumer (field, planners, collision checks) calls :func:`obstacle_signed_distance`
-or :func:`min_signed_distance`; they allocate nothing for primitive shapes (mesh queries use one
-small traversal stack).
+Every compiled consumer (field, planners, collision checks) calls :func:`obstacle_signed_distance`,
+:func:`obstacle_signed_distance_within` or :func:`min_signed_distance`. They are inlined into the
+caller, allocate nothing on the heap (the mesh query keeps its traversal stack on the call stack) and,
+for primitives, do no reference counting.
 
 Conventions
 -----------
@@ -16,6 +17,7 @@ several closest points) the normal is chosen by this deterministic rule, in the 
 * a point with no preferred direction (sphere centre) gets local +z; a point on a cylinder's or capsule's
   axis whose closest points form a circle gets local +x;
 * a cylinder point equally near the cap and the side wall gets the cap normal (±z);
+* ellipsoid points on a symmetry plane with mirror-image closest points take the + side;
 * meshes: the first closest triangle in BVH traversal order (see :mod:`._bvh`).
 """
 
