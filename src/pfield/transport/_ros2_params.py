@@ -20,10 +20,11 @@ from typing import Any
 
 from pydantic import ValidationError
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.exceptions import InvalidParameterTypeException
 from rclpy.node import Node as RclpyNode
 from rclpy.parameter import Parameter
 
-from pfield.errors import PfieldError
+from pfield.errors import InvalidInput, PfieldError
 from pfield.node._base import Node
 
 __all__ = ["declare_parameters"]
@@ -57,8 +58,9 @@ def declare_parameters(ros_node: RclpyNode, node: Node) -> list[str]:
     """Declare ``node``'s parameters on ``ros_node`` and install the validation callbacks.
 
     Values given on the rclpy command line (``--ros-args -p name:=value`` or ``--params-file``) override
-    the node's current ones and are applied through ``node.set_parameters``; a bad one raises
-    ``InvalidInput`` here, before the node serves anything. Returns the declared names.
+    the node's current ones and are applied through ``node.set_parameters``; a bad one (or one of another
+    type, ``9`` for a double) raises ``InvalidInput`` here, before the node serves anything. Returns the
+    declared names.
     """
     current = node.get_parameters()
     declared: list[str] = []
@@ -68,7 +70,10 @@ def declare_parameters(ros_node: RclpyNode, node: Node) -> list[str]:
         except TypeError:
             _LOG.warning("parameter %s=%r has no ROS parameter type; not exposed over ROS 2", name, value)
             continue
-        ros_node.declare_parameter(name, ros_value, _descriptor(name, ros_value))
+        try:
+            ros_node.declare_parameter(name, ros_value, _descriptor(name, ros_value))
+        except InvalidParameterTypeException as error:  # a --ros-args/--params-file value of another type
+            raise InvalidInput(name, ros_value, f"the ROS argument for it has the wrong type: {error}") from None
         declared.append(name)
     overrides = {
         name: _plain(ros_node.get_parameter(name).value)

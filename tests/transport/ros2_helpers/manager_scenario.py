@@ -58,6 +58,14 @@ def linear(response: dict[str, Any]) -> list[float]:
     return [vector["x"], vector["y"], vector["z"]]
 
 
+def startup_parameters(client: BlockingClient, results: dict[str, Any]) -> None:
+    """Values the node started with: ``--params`` YAML, then ``--ros-args -p`` on top."""
+    results["startup_parameters"] = {
+        "/pfield_manager": client.get_parameters(NODE, ["dynamic_obstacle_timeout", "influence_distance"]),
+        "/costmap": client.get_parameters("/costmap", ["inflation_radius"]),
+    }
+
+
 def obstacles_and_plans(client: BlockingClient, results: dict[str, Any]) -> None:
     markers = client.subscribe("/pfield/markers", "visualization_msgs/msg/MarkerArray")
     paths = client.subscribe("/pfield/planned_path", "nav_msgs/msg/Path")
@@ -152,13 +160,16 @@ def mobile_and_costmap(client: BlockingClient, results: dict[str, Any]) -> None:
     results["find_valid_pose_bad_costmap"] = client.call(*service, dict(request, costmap=7))["state"]
 
 
+PHASES = (startup_parameters, obstacles_and_plans, autonomy_and_parameters, bad_obstacles, mobile_and_costmap)
+
+
 def main() -> None:
     results: dict[str, Any] = {}
     start = time.perf_counter()
     client = BlockingClient()
     timeline = results["timeline"] = {}
     try:
-        for phase in (obstacles_and_plans, autonomy_and_parameters, bad_obstacles, mobile_and_costmap):
+        for phase in PHASES:
             phase(client, results)
             timeline[phase.__name__] = round(time.perf_counter() - start, 2)
     except Exception:

@@ -39,13 +39,13 @@ def require_ros2_python() -> None:
 
 
 def require_netns() -> None:
-    """A private network namespace can be created (``unshare -n``, root or user namespaces)."""
+    """A private network and mount namespace can be created (``unshare -n -m``: root or user namespaces)."""
     if shutil.which("unshare") is None or shutil.which("ip") is None:
         missing("`unshare`/`ip` not found: the ROS 2 tests need a private network namespace")
-    probe = subprocess.run(["unshare", "-n", "ip", "link", "set", "lo", "up"], capture_output=True, text=True,
-                           check=False, timeout=30)
+    probe = subprocess.run(["unshare", "-n", "-m", "sh", "-c", "ip link set lo up && mount -t tmpfs tmpfs /dev/shm"],
+                           capture_output=True, text=True, check=False, timeout=30)
     if probe.returncode != 0:
-        missing(f"`unshare -n` is not available here ({probe.stderr.strip() or probe.returncode}): "
+        missing(f"`unshare -n -m` is not available here ({probe.stderr.strip() or probe.returncode}): "
                 "the ROS 2 tests need a private network namespace (root or user namespaces)")
 
 
@@ -62,18 +62,10 @@ def ros_environment() -> dict[str, str]:
     return env
 
 
-def dds_shm_entries() -> set[str]:
-    """Fast DDS shared-memory segments and locks in /dev/shm (there must be none after a session)."""
-    shm = Path("/dev/shm")
-    if not shm.is_dir():
-        return set()
-    return {p.name for p in shm.iterdir() if p.name.startswith(("fastrtps_", "fast_datasharing", "sem.fastrtps_"))}
-
-
 def run_session(node_argv: list[str], client_argv: list[str], out_dir: Path, timeout: float = 120.0
                 ) -> subprocess.CompletedProcess[str]:
-    """Run ``netns_session.py`` in a new network namespace: the node process, then the client, then SIGINT."""
-    command = ["unshare", "-n", sys.executable, str(HELPERS / "netns_session.py"), str(out_dir),
+    """Run ``netns_session.py`` in new network and mount namespaces: the node, then the client, then SIGINT."""
+    command = ["unshare", "-n", "-m", sys.executable, str(HELPERS / "netns_session.py"), str(out_dir),
                "--node", *node_argv, "--client", *client_argv]
     return subprocess.run(command, env=ros_environment(), capture_output=True, text=True, timeout=timeout,
                           check=False, cwd=REPO)
