@@ -1,0 +1,65 @@
+"""Joint trajectories for task-space plans: inverse kinematics along the planned end-effector path.
+
+:func:`attach_joint_trajectory` solves the IK of :mod:`pfield.robot.ik` at every waypoint of a
+:class:`PlannedPath` — the start included, so waypoint i's joint angles belong to waypoint i's pose — each
+seeded from the previous solution (the first from the caller's ``q_seed``, e.g. the robot's current
+joints), which keeps the trajectory on one IK branch. Joint velocities are forward differences
+(q_{i+1} − q_i)/dt, zero at the last waypoint.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import replace
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from pfield._validation import positive
+from pfield.errors import InvalidInput
+from pfield.planning.result import PlannedPath
+from pfield.robot.ik import ik_path_kernel
+from pfield.robot.model import RobotModel
+
+__all__ = ["attach_joint_trajectory"]
+
+_LOG = logging.getLogger(__name__)
+
+
+def attach_joint_trajectory(path: PlannedPath, robot: RobotModel, q_seed: ArrayLike, *,
+                            position_tolerance: float = 1e-4, rotation_tolerance: float = 1e-3,
+                            max_iterations: int = 200) -> PlannedPath:
+    """``path`` with ``joint_names``, ``joint_positions`` and ``joint_velocities`` for every waypoint.
+
+    When the IK fails at waypoint k, the result keeps the task-space path, has ``success=False`` and a
+    ``failure_reason`` naming k and the remaining error, and no joint arrays (the robot cannot follow it).
+    Joint speeds above the URDF velocity limits are logged as a warning (the plan's ``dt`` is too short
+    for the robot there), not changed.
+    """
+    if not isinstance(path, PlannedPath):
+        raise InvalidInput("path", path, "expected a pfield PlannedPath")
+    seed = robot.check_joint_angles(q_seed, "q_seed")
+    if int(max_iterations) != max_iterations or max_iterations < 1:
+        raise InvalidInput("max_iterations", max_iterations, "must be an integer >= 1")
+    settings = np.array([max_iterations, positive("position_tolerance", position_tolerance),
+                         positive("rotation_tolerance", rotation_tolerance), 1e-4, 0.3])
+    k = robot.kinematics
+    qs, failed, pos_err, rot_err = ik_path_kernel(
+        seed, np.ascontiguousarray(path.positions), np.ascontiguousarray(path.orientations), k.parents, k.place_rot,
+        k.place_pos, k.axes, k.kinds, k.support, k.ee_joint, k.ee_rot, k.ee_pos, np.array(robot.lower_limits),
+        np.array(robot.upper_limits), settings)
+    if failed >= 0:
+        reason = (f"inverse kinematics failed at waypoint {failed} of {len(path)} (position error {pos_err:.4g} m, "
+                  f"rotation error {rot_err:.4g} rad): the robot cannot follow the planned path")
+        _LOG.info(reason)
+        return replace(path, success=False, failure_reason=reason, joint_names=robot.joint_names,
+                       joint_positions=None, joint_velocities=None)
+    velocities = np.zeros_like(qs)
+    if len(path) > 1:
+        steps = np.diff(path.times)[:, None]
+        velocities[:-1] = np.diff(qs, axis=0) / np.where(steps > 0, steps, 1.0)
+        too_fast = np.abs(velocities) > robot.velocity_limits
+        if too_fast.any():
+            first = int(np.argwhere(too_fast)[0, 0])
+            _LOG.warning("joint trajectory exceeds the velocity limits from waypoint %d on", first)
+    return replace(path, joint_names=robot.joint_names, joint_positions=qs, joint_velocities=velocities)

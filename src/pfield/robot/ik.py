@@ -1,0 +1,155 @@
+"""Inverse kinematics: damped least squares with joint limits, position and orientation (compiled).
+
+Each iteration solves for the joint step (Wampler 1986; Buss, "Introduction to inverse kinematics with
+Jacobian transpose, pseudoinverse and damped least squares methods", 2004, eq. 11)::
+
+    Δq = Jᵀ (J Jᵀ + λ² I)⁻¹ e,     e = [p* − p(q);  log(R* R(q)ᵀ)]   (world frame, m and rad)
+
+then clips ``q + Δq`` to the joint limits; joints that sit on a limit and would be pushed past it are
+frozen (their Jacobian column removed) and the step recomputed, so the remaining joints make the
+progress (a projected DLS). The step is scaled so that no joint moves more than ``max_step`` rad per
+iteration. It stops when ‖p* − p‖ ≤ ``position_tolerance`` and the angle ≤ ``rotation_tolerance``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+from numpy.typing import ArrayLike, NDArray
+
+from pfield._spatial_kernels import matrix_to_quat
+from pfield._validation import positive
+from pfield.errors import InvalidInput
+from pfield.field.forces import rotation_error
+from pfield.planning._qp import cholesky_inplace, cholesky_solve
+from pfield.robot._kinematics import end_effector_kinematics
+from pfield.robot.model import RobotModel
+from pfield.spatial import Pose
+
+__all__ = ["IKResult", "solve_ik"]
+
+
+@dataclass(frozen=True, eq=False)
+class IKResult:
+    """Outcome of :func:`solve_ik`: ``q`` is the last iterate (within limits) even when ``success`` is False."""
+
+    success: bool
+    q: NDArray[np.float64]
+    iterations: int
+    position_error: float
+    rotation_error: float
+
+
+@njit(cache=True)
+def _error(rot, pos, target_p, target_q, e):  # type: ignore[no-untyped-def]
+    quat = matrix_to_quat(rot)
+    for k in range(3):
+        e[k] = target_p[k] - pos[k]
+    rx, ry, rz = rotation_error(quat[0], quat[1], quat[2], quat[3], target_q[0], target_q[1], target_q[2],
+                                target_q[3])
+    e[3], e[4], e[5] = rx, ry, rz
+    return math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2), math.sqrt(rx * rx + ry * ry + rz * rz)
+
+
+@njit(cache=True)
+def _dls_step(jac, e, frozen, damping, step):  # type: ignore[no-untyped-def]
+    """step = J_fᵀ (J_f J_fᵀ + λ² I)⁻¹ e with the columns of frozen joints removed."""
+    n = jac.shape[1]
+    a = np.zeros((6, 6))
+    for r in range(6):
+        for c in range(r + 1):
+            s = 0.0
+            for j in range(n):
+                if not frozen[j]:
+                    s += jac[r, j] * jac[c, j]
+            a[r, c] = s
+            a[c, r] = s
+        a[r, r] += damping
+    cholesky_inplace(a, 6)
+    y = np.empty(6)
+    cholesky_solve(a, e, y, 6)
+    for j in range(n):
+        step[j] = 0.0 if frozen[j] else jac[0, j] * y[0] + jac[1, j] * y[1] + jac[2, j] * y[2] + \
+            jac[3, j] * y[3] + jac[4, j] * y[4] + jac[5, j] * y[5]
+
+
+@njit(cache=True)
+def ik_kernel(q_seed, target_p, target_q, parents, place_rot, place_pos, axes, kinds, support, ee_joint, ee_rot,
+              ee_pos, lower, upper, settings):  # type: ignore[no-untyped-def]
+    """DLS iterations from ``q_seed``; settings = (max_iterations, tol_pos, tol_rot, λ², max_step).
+
+    Returns (q, success, iterations, position error, rotation error).
+    """
+    n = q_seed.shape[0]
+    q = np.minimum(np.maximum(q_seed, lower), upper)
+    rotations, origins, jac = np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((6, n))
+    e, step, frozen = np.empty(6), np.empty(n), np.zeros(n, dtype=np.bool_)
+    pos_err, rot_err = math.inf, math.inf
+    for iteration in range(int(settings[0]) + 1):
+        rot, pos = end_effector_kinematics(q, parents, place_rot, place_pos, axes, kinds, support, ee_joint, ee_rot,
+                                           ee_pos, rotations, origins, jac)
+        pos_err, rot_err = _error(rot, pos, target_p, target_q, e)
+        if pos_err <= settings[1] and rot_err <= settings[2]:
+            return q, True, iteration, pos_err, rot_err
+        if iteration == int(settings[0]):
+            break
+        frozen[:] = False
+        for _ in range(3):  # freeze joints pushed past a limit, then recompute the step
+            _dls_step(jac, e, frozen, settings[3], step)
+            changed = False
+            for j in range(n):
+                if not frozen[j] and ((q[j] <= lower[j] and step[j] < 0.0) or (q[j] >= upper[j] and step[j] > 0.0)):
+                    frozen[j] = True
+                    changed = True
+            if not changed:
+                break
+        largest = np.max(np.abs(step))
+        scale = 1.0 if largest <= settings[4] else settings[4] / largest
+        for j in range(n):
+            q[j] = min(max(q[j] + scale * step[j], lower[j]), upper[j])
+    return q, False, int(settings[0]), pos_err, rot_err
+
+
+def solve_ik(robot: RobotModel, target: Pose, q_seed: ArrayLike, *, max_iterations: int = 200,
+             position_tolerance: float = 1e-4, rotation_tolerance: float = 1e-3, damping: float = 1e-4,
+             max_step: float = 0.3) -> IKResult:
+    """Joint angles putting the end effector at ``target`` (world frame), starting from ``q_seed``.
+
+    ``damping`` is λ² (m²); ``max_step`` (rad or m) bounds each iteration's largest joint move. Returns an
+    :class:`IKResult`; failure (``success=False``) is a result, not an exception.
+    """
+    if not isinstance(target, Pose):
+        raise InvalidInput("target", target, "expected a pfield.Pose")
+    seed = robot.check_joint_angles(q_seed, "q_seed")
+    if int(max_iterations) != max_iterations or max_iterations < 1:
+        raise InvalidInput("max_iterations", max_iterations, "must be an integer >= 1")
+    settings = np.array([max_iterations, positive("position_tolerance", position_tolerance),
+                         positive("rotation_tolerance", rotation_tolerance), positive("damping", damping),
+                         positive("max_step", max_step)], dtype=np.float64)
+    k = robot.kinematics
+    q, success, iterations, pos_err, rot_err = ik_kernel(
+        seed, np.array(target.position), np.array(target.orientation), k.parents, k.place_rot, k.place_pos, k.axes,
+        k.kinds, k.support, k.ee_joint, k.ee_rot, k.ee_pos, np.array(robot.lower_limits),
+        np.array(robot.upper_limits), settings)
+    return IKResult(bool(success), q, int(iterations), float(pos_err), float(rot_err))
+
+
+@njit(cache=True)
+def ik_path_kernel(q_seed, positions, quaternions, parents, place_rot, place_pos, axes, kinds, support, ee_joint,
+                   ee_rot, ee_pos, lower, upper, settings):  # type: ignore[no-untyped-def]
+    """IK of every waypoint, each seeded from the previous solution; returns (qs, index of the first failure
+    or −1, its position error, its rotation error)."""
+    count, n = positions.shape[0], q_seed.shape[0]
+    qs = np.empty((count, n))
+    q = q_seed.copy()
+    for k in range(count):
+        q, success, _, pos_err, rot_err = ik_kernel(q, positions[k], quaternions[k], parents, place_rot, place_pos,
+                                                    axes, kinds, support, ee_joint, ee_rot, ee_pos, lower, upper,
+                                                    settings)
+        qs[k] = q
+        if not success:
+            return qs, k, pos_err, rot_err
+    return qs, -1, 0.0, 0.0

@@ -1,0 +1,102 @@
+"""Inverse kinematics and joint trajectories attached to task-space plans."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pfield import errors
+from pfield.field.config import FieldConfig
+from pfield.field.field import PotentialField
+from pfield.planning.joint_trajectory import attach_joint_trajectory
+from pfield.planning.result import PlannedPath
+from pfield.planning.scenes import SEED_GOAL, SEED_START
+from pfield.robot import RobotModel
+from pfield.robot.ik import solve_ik
+from pfield.spatial import Pose
+
+SEED_Q0 = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0])
+
+
+@pytest.fixture(scope="module")
+def xarm() -> RobotModel:
+    return RobotModel.builtin("xarm7")
+
+
+@pytest.fixture(scope="module")
+def panda() -> RobotModel:
+    return RobotModel.builtin("panda")
+
+
+@pytest.mark.parametrize("name", ["xarm7", "panda"])
+def test_ik_recovers_reachable_poses_within_limits(name: str, xarm: RobotModel, panda: RobotModel) -> None:
+    robot = xarm if name == "xarm7" else panda
+    rng = np.random.default_rng(7)
+    lower, upper = np.maximum(robot.lower_limits, -3.0), np.minimum(robot.upper_limits, 3.0)
+    for _ in range(30):
+        q_true = rng.uniform(lower, upper)
+        target = robot.forward_kinematics(q_true)
+        seed = np.clip(q_true + rng.normal(scale=0.2, size=robot.n_joints), robot.lower_limits, robot.upper_limits)
+        result = solve_ik(robot, target, seed)
+        assert result.success
+        reached = robot.forward_kinematics(result.q)
+        assert np.linalg.norm(reached.position - target.position) <= 1e-4
+        assert reached.rotation_distance(target) <= 1e-3
+        assert np.all(result.q >= robot.lower_limits) and np.all(result.q <= robot.upper_limits)
+
+
+def test_ik_reports_an_unreachable_pose(xarm: RobotModel) -> None:
+    result = solve_ik(xarm, Pose((1.5, 0.0, 0.4)), SEED_Q0, max_iterations=50)
+    assert not result.success
+    assert result.position_error > 0.5
+    assert np.all(result.q >= xarm.lower_limits) and np.all(result.q <= xarm.upper_limits)
+
+
+def test_ik_bad_input(xarm: RobotModel) -> None:
+    with pytest.raises(errors.InvalidInput) as info:
+        solve_ik(xarm, Pose(), [0.0] * 3)
+    assert info.value.field == "q_seed"
+    with pytest.raises(errors.InvalidInput) as info:
+        solve_ik(xarm, Pose(), SEED_Q0, position_tolerance=0.0)
+    assert info.value.field == "position_tolerance"
+    with pytest.raises(errors.InvalidInput):
+        solve_ik(xarm, (0.3, 0.0, 0.4), SEED_Q0)  # type: ignore[arg-type]
+
+
+def test_task_space_plan_gets_joint_angles_for_every_waypoint(xarm: RobotModel) -> None:
+    plan = PotentialField(FieldConfig(), SEED_GOAL).plan(SEED_START, dt=0.02, goal_tolerance=0.01,
+                                                         max_iterations=25000)
+    assert plan.success
+    assert xarm.forward_kinematics(SEED_Q0).isclose(SEED_START, atol=1e-3)
+    path = attach_joint_trajectory(plan, xarm, SEED_Q0)
+    assert path.success and path.joint_names == xarm.joint_names
+    assert path.joint_positions is not None and path.joint_velocities is not None
+    assert path.joint_positions.shape == (len(plan), 7)  # the start included: no off-by-one
+    for i in (0, len(plan) // 2, len(plan) - 1):
+        pose = xarm.forward_kinematics(path.joint_positions[i])
+        assert np.linalg.norm(pose.position - plan.positions[i]) <= 1e-4
+        assert pose.rotation_distance(plan.poses[i]) <= 1e-3
+    np.testing.assert_allclose(path.joint_velocities[0], (path.joint_positions[1] - path.joint_positions[0]) / 0.02)
+    assert np.all(path.joint_velocities[-1] == 0.0)
+    # consecutive waypoints stay on one IK branch: small joint steps
+    assert np.abs(np.diff(path.joint_positions, axis=0)).max() < 0.05
+
+
+def test_ik_failure_names_the_waypoint(xarm: RobotModel) -> None:
+    start = xarm.forward_kinematics(SEED_Q0)
+    positions = np.array([start.position, start.position + np.array([0.01, 0, 0]), (1.5, 0.0, 0.4), start.position])
+    count = len(positions)
+    plan = PlannedPath(True, "", np.arange(count) * 0.1, positions, np.tile(start.orientation, (count, 1)),
+                       np.zeros((count, 6)), np.full(count, np.inf))
+    path = attach_joint_trajectory(plan, xarm, SEED_Q0)
+    assert not path.success
+    assert "waypoint 2 of 4" in path.failure_reason
+    assert path.joint_positions is None
+
+
+def test_attach_joint_trajectory_bad_seed(xarm: RobotModel) -> None:
+    plan = PlannedPath(True, "", np.zeros(1), np.zeros((1, 3)), np.array([[0, 0, 0, 1.0]]), np.zeros((1, 6)),
+                       np.zeros(1))
+    with pytest.raises(errors.InvalidInput) as info:
+        attach_joint_trajectory(plan, xarm, [0.0, 4.0, 0, 0, 0, 0, 0])
+    assert info.value.field == "q_seed[1]"
