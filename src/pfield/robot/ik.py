@@ -77,8 +77,9 @@ def _dls_step(jac, e, frozen, damping, step):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def ik_kernel(q_seed, target_p, target_q, parents, place_rot, place_pos, axes, kinds, support, ee_joint, ee_rot,
-              ee_pos, lower, upper, settings):  # type: ignore[no-untyped-def]
+def ik_kernel(  # type: ignore[no-untyped-def]
+        q_seed, target_p, target_q, parents, place_rot, place_pos, axes, kinds, support, ee_joint, ee_rot, ee_pos,
+        lower, upper, settings):
     """DLS iterations from ``q_seed``; settings = (max_iterations, tol_pos, tol_rot, λ², max_step).
 
     Returns (q, success, iterations, position error, rotation error).
@@ -138,8 +139,9 @@ def solve_ik(robot: RobotModel, target: Pose, q_seed: ArrayLike, *, max_iteratio
 
 
 @njit(cache=True)
-def ik_path_kernel(q_seed, positions, quaternions, parents, place_rot, place_pos, axes, kinds, support, ee_joint,
-                   ee_rot, ee_pos, lower, upper, settings):  # type: ignore[no-untyped-def]
+def ik_path_kernel(  # type: ignore[no-untyped-def]
+        q_seed, positions, quaternions, parents, place_rot, place_pos, axes, kinds, support, ee_joint, ee_rot, ee_pos,
+        lower, upper, settings):
     """IK of every waypoint, each seeded from the previous solution; returns (qs, index of the first failure
     or −1, its position error, its rotation error)."""
     count, n = positions.shape[0], q_seed.shape[0]
