@@ -99,7 +99,7 @@ def _measure(calls: int) -> dict[str, list[float]]:
 
 
 def _unavailable(reason: str) -> list[BenchRow]:
-    return [BenchRow(SECTION, f"rclpy round trip compute_autonomy_vector ({name}) p50", float("nan"), "ms",
+    return [BenchRow(SECTION, f"compute_autonomy_vector rclpy round trip ({name}) p50", float("nan"), "ms",
                      target=TARGET_P50_MS, note=f"not measured: {reason}") for name in REQUESTS]
 
 
@@ -120,6 +120,7 @@ def run(quick: bool) -> list[BenchRow]:
     if process.returncode != 0:
         return _unavailable(f"session failed: {process.stderr.strip().splitlines()[-1:]}")
     samples: dict[str, list[float]] = json.loads(process.stdout.strip().splitlines()[-1])
+    http = _http_figures(repo / "benchmarks" / "results" / "bench_http.json")
     rows = []
     for name, values in samples.items():
         if ":" in name:
@@ -127,11 +128,26 @@ def run(quick: bool) -> list[BenchRow]:
         note = f"{len(values)} calls, seed request, Fast DDS UDPv4 loopback, node in another process"
         if f"{name}:refused" in samples:
             note += "; the node REFUSED this request (error path timed, see node log)"
-        rows.append(BenchRow(SECTION, f"rclpy round trip compute_autonomy_vector ({name}) p50",
-                             1e3 * _percentile(values, 0.5), "ms", target=TARGET_P50_MS, note=note))
-        rows.append(BenchRow(SECTION, f"rclpy round trip compute_autonomy_vector ({name}) p99",
-                             1e3 * _percentile(values, 0.99), "ms", note=note))
+        for quantile, fraction in (("p50", 0.5), ("p99", 0.99)):
+            http_note = f"; HTTP {quantile} {http[quantile]:.3g} ms (bench_http)" if quantile in http else ""
+            rows.append(BenchRow(SECTION, f"compute_autonomy_vector rclpy round trip ({name}) {quantile}",
+                                 1e3 * _percentile(values, fraction), "ms",
+                                 target=TARGET_P50_MS if quantile == "p50" else None, note=note + http_note))
     return rows
+
+
+def _http_figures(path: Path) -> dict[str, float]:
+    """The HTTP round trip of the same ``make bench`` run (bench_http runs first), to show side by side."""
+    try:
+        rows = json.loads(path.read_text())["rows"]
+    except (OSError, ValueError, KeyError):
+        return {}
+    figures = {}
+    for row in rows:
+        for quantile in ("p50", "p99"):
+            if "HTTP round trip" in row.get("name", "") and row["name"].endswith(quantile):
+                figures[quantile] = float(row["value"])
+    return figures
 
 
 def _main(argv: list[str]) -> None:

@@ -27,7 +27,7 @@ def missing(reason: str) -> None:
     """Fail in CI, skip elsewhere, with ``reason``."""
     if os.environ.get("CI"):
         pytest.fail(f"{reason} (CI is set, so this is a failure, not a skip)")
-    pytest.skip(reason)
+    pytest.skip(reason, allow_module_level=True)
 
 
 def require_ros2_python() -> None:
