@@ -150,3 +150,15 @@ def test_bad_config_is_rejected_by_name(field, kwargs):
     with pytest.raises(InvalidInput) as info:
         ControllerConfig(**kwargs)
     assert info.value.field == field
+
+
+def test_update_scan_places_points_with_robot_pose_and_sensor_mount():
+    from pfield.interfaces.sensor_msgs import LaserScan
+
+    controller = BaseController(config=ControllerConfig(sensor_x=0.5, scan_weighting="sum"))
+    scan = LaserScan(angle_min=0.0, angle_increment=0.1, range_min=0.0, range_max=5.0, ranges=[1.0])
+    controller.update_scan(scan, (1.0, 2.0, math.pi / 2))  # laser 0.5 m ahead of a robot facing +y
+    assert controller.obstacles.points == pytest.approx(np.array([[1.0, 3.5]]))
+    with pytest.raises(InvalidInput, match="range_max"):
+        controller.update_scan(scan.model_copy(update={"range_max": -1.0}), (0.0, 0.0, 0.0))
+    assert controller.obstacles.points == pytest.approx(np.array([[1.0, 3.5]]))

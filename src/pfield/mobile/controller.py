@@ -30,12 +30,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from pfield._validation import as_vector, finite
 from pfield.errors import InvalidInput
-from pfield.interfaces.sensor_msgs import LaserScan
 from pfield.mobile.clamping import clamp_norm
 from pfield.mobile.config import ControllerConfig
 from pfield.mobile.field2d import components_at, velocity_at
 from pfield.mobile.params import VectorFieldParams
-from pfield.mobile.scan import ObstaclePoints, compose_pose2d, point_obstacles, scan_obstacles
+from pfield.mobile.scan import LaserScanLike, ObstaclePoints, compose_pose2d, point_obstacles, scan_obstacles
 
 __all__ = ["BaseController", "Command2D", "ControllerState"]
 
@@ -128,7 +127,7 @@ class BaseController:
         """Replace the obstacle points (fixed frame) and weights."""
         self._store(point_obstacles(obstacles.points, obstacles.weights))
 
-    def update_scan(self, scan: LaserScan, robot_pose: ArrayLike) -> None:
+    def update_scan(self, scan: LaserScanLike, robot_pose: ArrayLike) -> None:
         """Replace the obstacles by the points of ``scan`` taken at ``robot_pose`` (x, y, yaw)."""
         sensor = compose_pose2d(robot_pose, self._config.sensor_pose)
         self._store(scan_obstacles(scan, sensor, self._config.scan_weighting, self._config.scan_sector_angle))

@@ -22,7 +22,8 @@ Three weightings are offered (``scan_weighting``):
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from collections.abc import Sequence
+from typing import NamedTuple, Protocol
 
 import numpy as np
 from numba import njit
@@ -30,15 +31,30 @@ from numpy.typing import ArrayLike, NDArray
 
 from pfield._validation import as_vector, finite, nonnegative, positive
 from pfield.errors import InvalidInput
-from pfield.interfaces.sensor_msgs import LaserScan
 from pfield.mobile.field2d import obstacle_arrays
 
-__all__ = ["SCAN_WEIGHTINGS", "ObstaclePoints", "compose_pose2d", "point_obstacles", "scan_obstacles",
+__all__ = ["SCAN_WEIGHTINGS", "LaserScanLike", "ObstaclePoints", "compose_pose2d", "point_obstacles", "scan_obstacles",
            "scan_ranges_obstacles"]
 
 SCAN_WEIGHTINGS = ("sector", "arc_length", "sum")
 _SECTOR, _ARC_LENGTH, _SUM = 0, 1, 2
 _MAX_BEAMS = 1_000_000
+
+
+class LaserScanLike(Protocol):
+    """The fields of ``sensor_msgs/LaserScan`` this module reads (``pfield.interfaces.sensor_msgs.LaserScan``
+    or an rclpy message); a protocol so that the core does not depend on the interface layer."""
+
+    @property
+    def angle_min(self) -> float: ...
+    @property
+    def angle_increment(self) -> float: ...
+    @property
+    def range_min(self) -> float: ...
+    @property
+    def range_max(self) -> float: ...
+    @property
+    def ranges(self) -> Sequence[float]: ...
 
 
 class ObstaclePoints(NamedTuple):
@@ -146,7 +162,7 @@ def scan_ranges_obstacles(ranges: ArrayLike, angle_min: float, angle_increment: 
     return ObstaclePoints(points, weights)
 
 
-def scan_obstacles(scan: LaserScan, sensor_pose: ArrayLike = (0.0, 0.0, 0.0), weighting: str = "sector",
+def scan_obstacles(scan: LaserScanLike, sensor_pose: ArrayLike = (0.0, 0.0, 0.0), weighting: str = "sector",
                    sector_angle: float = math.radians(5.0)) -> ObstaclePoints:
     """Obstacle points from a ``LaserScan`` message; see :func:`scan_ranges_obstacles`."""
     return scan_ranges_obstacles(scan.ranges, scan.angle_min, scan.angle_increment, scan.range_min,
