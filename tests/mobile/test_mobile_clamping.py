@@ -76,3 +76,24 @@ def test_clamped_command_points_along_raw_direction_when_only_one_part_acts():
     command = velocity(points, [0.0, 0.0], None, params)
     cos = np.sum(raw * command, axis=1) / (np.linalg.norm(raw, axis=1) * np.linalg.norm(command, axis=1))
     assert cos == pytest.approx([1.0, 1.0], abs=1e-12)
+
+
+coordinate = st.floats(min_value=-10.0, max_value=10.0, allow_nan=False)
+point = st.tuples(coordinate, coordinate)
+
+
+@settings(max_examples=150, deadline=None)
+@given(ka=st.floats(0.0, 10.0), kr_dist=st.floats(-2.0, 2.0), kr_height=st.floats(0.0, 100.0),
+       kr_slope=st.floats(0.1, 50.0), bounds=st.tuples(st.floats(0.0, 2.0), st.floats(0.01, 2.0)),
+       law=st.sampled_from(["power", "linear"]), clamping=st.sampled_from(["hard", "tanh"]),
+       obstacles=st.lists(point, max_size=6), queries=st.lists(point, min_size=1, max_size=6),
+       goal=st.one_of(st.none(), point))
+def test_command_is_finite_and_bounded_for_any_parameters(ka, kr_dist, kr_height, kr_slope, bounds, law, clamping,
+                                                          obstacles, queries, goal):
+    low, span = bounds
+    params = VectorFieldParams(ka=ka, kr_dist=kr_dist, kr_height=kr_height, kr_slope=kr_slope, min_spd_norm=low,
+                               max_spd_norm=low + span, attraction=law, clamping=clamping)
+    points = np.array(queries + obstacles + ([goal] if goal else []), dtype=float)
+    command = velocity(points, goal, obstacles or None, params)
+    assert np.all(np.isfinite(command))
+    assert np.linalg.norm(command, axis=1).max() <= params.max_spd_norm * (1 + 1e-12)
