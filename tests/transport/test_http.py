@@ -39,7 +39,8 @@ class CounterNode(Node):
                             std_srvs.Trigger_Response, self.slow, long_running=True)]
 
     def subscriptions(self) -> list[SubscriptionSpec]:
-        return [SubscriptionSpec("/counter/pose", "geometry_msgs/msg/PoseStamped", gm.PoseStamped, self.on_pose)]
+        return [SubscriptionSpec("/counter/pose", "geometry_msgs/msg/PoseStamped", gm.PoseStamped, self.on_pose),
+                SubscriptionSpec("/counter/block", "geometry_msgs/msg/Vector3", gm.Vector3, self.on_block)]
 
     def publications(self) -> list[PublicationSpec]:
         return [PublicationSpec("/counter/out", "geometry_msgs/msg/Vector3", gm.Vector3)]
@@ -61,6 +62,10 @@ class CounterNode(Node):
             raise InvalidInput("header.frame_id", message.header.frame_id, "must be 'world'")
         self.pose = message
         self.bus.publish("/counter/out", gm.Vector3(x=message.pose.position.x * self.gain))
+
+    def on_block(self, message: gm.Vector3) -> None:
+        self.slow_started.set()
+        self.release.wait(timeout=30)
 
     def fast(self, request: std_srvs.Trigger_Request) -> std_srvs.Trigger_Response:
         return std_srvs.Trigger_Response(success=True, message=f"gain {self.gain}")
@@ -172,6 +177,7 @@ def test_websocket_streams_latest_then_new_and_accepts_publications(served: tupl
 def test_short_calls_answer_while_a_long_call_runs(served: tuple[CounterNode, str]) -> None:
     node, url = served
     node.release.clear()
+    node.slow_started.clear()
     result: dict[str, Any] = {}
     worker = threading.Thread(target=lambda: result.update(httpx.post(f"{url}/srv/counter/slow", timeout=60).json()))
     worker.start()
@@ -192,3 +198,16 @@ def test_token_is_required_when_set() -> None:
         assert httpx.get(f"{server.url}/nodes", headers={"Authorization": "Bearer s3cret"}).json() == ["/counter"]
         with connect(server.url.replace("http", "ws") + "/ws/topic/counter/out?token=s3cret") as socket:
             socket.close()
+
+
+def test_slow_subscription_handlers_do_not_block_services(served: tuple[CounterNode, str]) -> None:
+    node, url = served
+    node.release.clear()
+    node.slow_started.clear()
+    worker = threading.Thread(target=lambda: httpx.post(f"{url}/topic/counter/block", json={"x": 1}, timeout=60))
+    worker.start()
+    assert node.slow_started.wait(timeout=30)
+    assert httpx.post(f"{url}/srv/counter/fast", json={}).json()["success"]  # answered while the handler waits
+    node.release.set()
+    worker.join(timeout=30)
+    assert httpx.get(f"{url}/topic/counter/block").json()["x"] == 1.0

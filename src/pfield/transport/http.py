@@ -74,6 +74,9 @@ class _Routes:
             for pub in node.publications():
                 self._topic(pub.topic, pub.type_name)["publishers"].append(node.name)
         self.buses: list[Bus] = list({id(node.bus): node.bus for node in nodes}.values())
+        self.topic_worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pfield-topics")
+        """Subscription handlers run here, one message at a time in arrival order, so that slow ones (a mesh
+        obstacle's first load) never block the event loop."""
 
     def _topic(self, name: str, type_name: str) -> dict[str, Any]:
         return self.topics.setdefault(name, {"name": name, "type": type_name, "publishers": [], "subscribers": []})
@@ -97,6 +100,10 @@ class _Routes:
             sub.handler(message)
         for bus in self.buses:
             bus.publish(topic, message)
+
+    async def deliver(self, topic: str, message: RosMessage) -> None:
+        """:meth:`publish` on the topic worker thread."""
+        await asyncio.get_running_loop().run_in_executor(self.topic_worker, self.publish, topic, message)
 
     def model_for(self, topic: str, type_name: str | None) -> type[RosMessage]:
         known = self.topics.get(topic, {}).get("type")
@@ -179,7 +186,7 @@ def _add_topic_routes(app: FastAPI, routes: _Routes) -> None:
         def make(topic: str = topic, model: type[RosMessage] = subs[0].model) -> Any:
             async def publish(body: RosMessage | None = None, type: str | None = None) -> dict[str, str]:
                 routes.model_for(topic, type)
-                routes.publish(topic, body if body is not None else model())
+                await routes.deliver(topic, body if body is not None else model())
                 return {"published": topic}
             return _endpoint(publish, model, with_type=True)
         app.post(f"/topic{topic}", name=f"publish {topic} ({subs[0].type_name})", tags=["topics"])(make())
@@ -192,7 +199,7 @@ def _add_topic_routes(app: FastAPI, routes: _Routes) -> None:
             data = json.loads(await request.body() or b"{}")
         except ValueError as exc:
             raise InvalidInput("body", None, f"malformed JSON: {exc}") from None
-        routes.publish(name, message_from_data(model, data))
+        await routes.deliver(name, message_from_data(model, data))
         return {"published": name}
 
     @app.get("/topic/{topic:path}", tags=["topics"])
@@ -239,7 +246,7 @@ async def _stream(websocket: WebSocket, routes: _Routes, topic: str) -> None:
         while True:
             text = await websocket.receive_text()
             try:
-                routes.publish(topic, message_from_data(routes.model_for(topic, None), json.loads(text)))
+                await routes.deliver(topic, message_from_data(routes.model_for(topic, None), json.loads(text)))
             except (PfieldError, ValueError) as exc:
                 await websocket.send_text(json.dumps({"error": str(exc)}))
     except WebSocketDisconnect:
@@ -282,6 +289,7 @@ def create_app(nodes: Sequence[Node], *, token: str | None = None,
             task.cancel()
         app.state.fanout.close()
         executor.shutdown(wait=False, cancel_futures=True)
+        routes.topic_worker.shutdown(wait=False, cancel_futures=True)
         for node in nodes:
             node.close()
 
