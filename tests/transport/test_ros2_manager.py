@@ -100,6 +100,11 @@ def test_seed_autonomy_vector_points_to_the_goal(session: dict[str, Any], method
     assert cosine > 0.9  # no obstacle within the influence distance of the query pose
 
 
+def test_query_pose_topic_answers_on_autonomy_vector_topic(session: dict[str, Any]) -> None:
+    results = session["results"]
+    assert results["autonomy_topic"] == results["autonomy_task_space"]  # same pose, same answer as the service
+
+
 def test_parameter_change_takes_effect_and_bad_values_are_refused(session: dict[str, Any]) -> None:
     results = session["results"]
     assert results["set_max_linear_velocity"] == [[True, ""]]

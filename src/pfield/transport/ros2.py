@@ -31,6 +31,7 @@ Fast DDS shared-memory segments in ``/dev/shm`` (docs/ros2.md).
 from __future__ import annotations
 
 import logging
+import signal
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -47,7 +48,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profi
 
 from pfield.errors import PfieldError
 from pfield.interfaces._base import RosMessage
-from pfield.node._base import Node, PublicationSpec, ServiceSpec, SubscriptionSpec
+from pfield.node._base import Bus, Node, PublicationSpec, ServiceSpec, SubscriptionSpec
 from pfield.transport._ros2_convert import from_ros, interface_class, to_ros
 from pfield.transport._ros2_params import declare_parameters
 from pfield.transport._ros2_publisher import BusPublisher
@@ -207,10 +208,14 @@ class Ros2Host:
             self._executor.add_node(adapter.ros_node)
         self._spin_thread: threading.Thread | None = None
 
+    def _buses(self) -> list[Bus]:
+        """Each distinct bus once (the nodes of one process usually share one)."""
+        return list({id(node.bus): node.bus for node in self.nodes}.values())
+
     def start(self) -> None:
         """Start publishing and spinning (returns at once)."""
-        for node in self.nodes:
-            node.bus.add_listener(self._publisher.enqueue)
+        for bus in self._buses():
+            bus.add_listener(self._publisher.enqueue)
         self._publisher.start()
         self._spin_thread = threading.Thread(target=self._executor.spin, name="pfield-ros2-executor", daemon=True)
         self._spin_thread.start()
@@ -218,8 +223,8 @@ class Ros2Host:
 
     def shutdown(self, timeout: float = 10.0) -> None:
         """Stop in the order rclpy needs: executor, its thread, running callbacks, nodes, context."""
-        for node in self.nodes:
-            node.bus.remove_listener(self._publisher.enqueue)
+        for bus in self._buses():
+            bus.remove_listener(self._publisher.enqueue)
         self._executor.shutdown(timeout_sec=timeout)
         if self._spin_thread is not None:
             self._spin_thread.join(timeout)
@@ -245,8 +250,6 @@ class Ros2Host:
 
 def run(nodes: Sequence[Node], args: Sequence[str] = (), stop: threading.Event | None = None) -> None:
     """Serve ``nodes`` over ROS 2 until ``stop`` is set (or SIGINT/SIGTERM when ``stop`` is None)."""
-    import signal
-
     event = stop or threading.Event()
     if stop is None:
         for signum in (signal.SIGINT, signal.SIGTERM):

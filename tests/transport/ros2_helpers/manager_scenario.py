@@ -95,6 +95,12 @@ def autonomy_and_parameters(client: BlockingClient, results: dict[str, Any]) -> 
     time.sleep(0.5)  # topic: give the node a moment to take the goal before querying
     results["autonomy_task_space"] = linear(client.call(*AUTONOMY, seed.parse(seed.AUTONOMY_TASK_SPACE)))
     results["autonomy_whole_body"] = linear(client.call(*AUTONOMY, seed.parse(seed.AUTONOMY_WHOLE_BODY)))
+    # the topic form: a pose on /pfield/query_pose is answered on /pfield/autonomy_vector
+    answers = client.subscribe("/pfield/autonomy_vector", "geometry_msgs/msg/TwistStamped")
+    client.publish("/pfield/query_pose", "geometry_msgs/msg/PoseStamped",
+                   seed.parse(seed.AUTONOMY_TASK_SPACE)["query_pose"])
+    answer = answers.wait_for(lambda m: m["header"]["frame_id"] == "world")["twist"]["linear"]
+    results["autonomy_topic"] = [answer["x"], answer["y"], answer["z"]]
     results["set_max_linear_velocity"] = client.set_parameters(NODE, {"max_linear_velocity": 0.01})
     results["autonomy_task_space_slow"] = linear(client.call(*AUTONOMY, seed.parse(seed.AUTONOMY_TASK_SPACE)))
     results["set_bad"] = client.set_parameters(NODE, {"max_linear_velocity": -1.0})
