@@ -33,8 +33,9 @@ def test_parameters_get_set_dump(node_server: NodeServer) -> None:
 
 def test_publish_goal_and_echo_it(node_server: NodeServer) -> None:
     goal = "{header: {frame_id: 'world'}, pose: {position: {x: 0.5, y: 0.2, z: 0.4}}}"
-    assert node_server.cli("topic", "pub", "-1", "/pfield/planning_goal_pose", "geometry_msgs/msg/PoseStamped",
-                           goal).returncode == 0
+    published = node_server.cli("topic", "pub", "--times", "2", "--rate", "50", "/pfield/planning_goal_pose",
+                                "geometry_msgs/msg/PoseStamped", goal)
+    assert published.returncode == 0 and "publishing #2" in published.stderr
     echoed = node_server.cli("topic", "echo", "--once", "/pfield/planning_goal_pose")
     assert echoed.returncode == 0
     message = yaml.safe_load(echoed.stdout.split("---")[0])
@@ -47,7 +48,8 @@ def test_interface_show_prints_the_definition(node_server: NodeServer) -> None:
     shown = node_server.cli("interface", "show", "potential_fields_interfaces/srv/PlanPath")
     assert shown.returncode == 0
     assert 'string PLANNING_METHOD_TASK_SPACE="task_space"' in shown.stdout and "\n---\n" in shown.stdout
-    assert "float32 w 1" not in node_server.cli("interface", "show", "geometry_msgs/msg/Pose").stdout
+    pose = node_server.cli("interface", "show", "geometry_msgs/msg/Pose").stdout.splitlines()
+    assert "Point position" in pose and "Quaternion orientation" in pose
     assert node_server.cli("interface", "show", "nope/msg/Nope").returncode == 1
 
 
