@@ -237,7 +237,8 @@ def min_signed_distance(packed: PackedObstacles, p: np.ndarray) -> tuple[float, 
     px, py, pz = p[0], p[1], p[2]
     best, bx, by, bz, best_i = math.inf, 0.0, 0.0, 0.0, -1
     for i in range(kinds.shape[0]):
-        d, nx, ny, nz = _row_signed_distance(kinds, rows, meshes, i, px, py, pz, math.inf)
+        # Cutoff = best so far: an obstacle that cannot beat it may return a cheap bound (> best).
+        d, nx, ny, nz = _row_signed_distance(kinds, rows, meshes, i, px, py, pz, best)
         if d < best:
             best, bx, by, bz, best_i = d, nx, ny, nz, i
     return best, bx, by, bz, best_i
