@@ -199,3 +199,12 @@ def test_bounded_query_is_exact_within_the_cutoff_and_a_lower_bound_beyond(rng):
                 assert cutoff < bounded[0] <= exact[0] + 1e-12
                 assert abs(np.linalg.norm(bounded[1:]) - 1.0) < 1e-12
     assert beyond > 100  # the cheap bound was actually used
+
+
+def test_inconsistent_hand_built_mesh_row_gives_nan_not_a_crash():
+    from pfield.geometry._packed import MESH
+
+    row = np.zeros((1, 16))
+    row[0, 3:12] = np.eye(3).reshape(-1)
+    packed = empty_packed()._replace(kinds=np.array([MESH]), rows=row)  # mesh 0 does not exist
+    assert all(np.isnan(obstacle_signed_distance(packed, 0, np.zeros(3))))

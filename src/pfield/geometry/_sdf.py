@@ -42,6 +42,9 @@ from pfield.geometry._packed import (
 )
 from pfield.geometry._raw import float_pointer, int_pointer
 
+_MeshAddresses = tuple[int, int, int, int, int, int, int, int, int]
+"""Addresses of triangles, pseudo-normals, BVH lower, upper, nodes, mesh table; triangle, node, mesh counts."""
+
 __all__ = [
     "empty_packed",
     "min_signed_distance",
@@ -123,12 +126,12 @@ def capsule_local(qx: float, qy: float, qz: float, r: float, hh: float) -> tuple
 
 
 @njit(cache=True, inline="always")
-def _mesh_addresses(packed: PackedObstacles) -> tuple[int, int, int, int, int, int, int, int]:
+def _mesh_addresses(packed: PackedObstacles) -> _MeshAddresses:
     """Addresses and sizes of the mesh arrays, so the mesh branch passes no reference-counted arrays."""
     return (
         packed.triangles.ctypes.data, packed.pseudo_normals.ctypes.data, packed.bvh_lower.ctypes.data,
         packed.bvh_upper.ctypes.data, packed.bvh_nodes.ctypes.data, packed.mesh_table.ctypes.data,
-        packed.triangles.shape[0], packed.bvh_nodes.shape[0],
+        packed.triangles.shape[0], packed.bvh_nodes.shape[0], packed.mesh_table.shape[0],
     )
 
 
@@ -143,10 +146,12 @@ def _bounding_sphere(qx: float, qy: float, qz: float, radius: float) -> tuple[fl
 
 @njit(cache=True)
 def _mesh_local(
-    meshes: tuple[int, int, int, int, int, int, int, int], m: int, qx: float, qy: float, qz: float,
+    meshes: _MeshAddresses, m: int, qx: float, qy: float, qz: float,
     cutoff: float,
 ) -> tuple[float, float, float, float]:
-    table = carray(int_pointer(meshes[5]), (m + 1, 5))
+    if not 0 <= m < meshes[8]:  # a hand-built, inconsistent PackedObstacles: no memory access
+        return math.nan, math.nan, math.nan, math.nan
+    table = carray(int_pointer(meshes[5]), (meshes[8], 5))
     if cutoff < math.inf:
         root = table[m, 0]
         lower = carray(float_pointer(meshes[2] + 24 * root), (3,))
@@ -165,7 +170,7 @@ def _mesh_local(
 
 @njit(cache=True, inline="always")
 def _row_signed_distance(
-    kinds: np.ndarray, rows: np.ndarray, meshes: tuple[int, int, int, int, int, int, int, int],
+    kinds: np.ndarray, rows: np.ndarray, meshes: _MeshAddresses,
     i: int, px: float, py: float, pz: float, cutoff: float,
 ) -> tuple[float, float, float, float]:
     # The row is read in one block so numba can prune its reference counting in callers' loops.
