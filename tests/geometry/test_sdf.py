@@ -63,7 +63,7 @@ def test_ellipsoid_distance_matches_numerical_minimisation(rng):
     semi = np.array([0.3, 0.1, 0.2])
     pose = random_pose(rng)
     obstacle = Obstacle("e", Ellipsoid(semi_x=0.3, semi_y=0.1, semi_z=0.2), pose)
-    points = _sample(rng, pose, 0.45, 24)
+    points = _sample(rng, pose, 0.45, 16)
     distances, _ = obstacle.signed_distance(points)
     expected = [ellipsoid_reference(q, semi) for q in to_local(pose, points)]
     assert min(expected) < 0 < max(expected)
