@@ -33,15 +33,21 @@ HARD, TANH = 0, 1
 @njit(cache=True, inline="always")
 def clamp_norm(vx: float, vy: float, lower: float, upper: float, mode: int) -> tuple[float, float]:
     """Rescale (vx, vy) so its norm lies in [lower, upper], keeping the direction; zero stays zero."""
-    norm = math.hypot(vx, vy)  # no underflow to 0 for tiny vectors (they keep their direction)
-    if norm == 0.0:
+    # work on (vx, vy)/max(|vx|, |vy|): exact, and neither the norm nor 1/norm under- or overflows, so even
+    # subnormal vectors keep their direction
+    scale = max(abs(vx), abs(vy))
+    if scale == 0.0:
         return 0.0, 0.0
+    ux = vx / scale
+    uy = vy / scale
+    length = math.hypot(ux, uy)  # in [1, √2]
+    norm = scale * length
     if mode == TANH:
         target = max(lower, upper * math.tanh(norm / upper))
     else:
         target = min(max(norm, lower), upper)
-    # unit direction first: target/norm overflows for subnormal vectors
-    return (vx / norm) * target, (vy / norm) * target
+    factor = target / length
+    return ux * factor, uy * factor
 
 
 @njit(cache=True, inline="always")
