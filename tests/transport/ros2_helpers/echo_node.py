@@ -115,7 +115,9 @@ class EchoNode(Node):
         if request.planning_method not in ("", "task_space", "whole_body"):
             raise InvalidInput("planning_method", request.planning_method, "task_space or whole_body")
         params = self.get_parameters()
-        time.sleep(params["plan_seconds"])
+        if params["plan_seconds"] > 0:  # tells a client that the slow plan has started
+            self.bus.publish("/pfield/planned_path", Path(header=Header(frame_id="planning")))
+            time.sleep(params["plan_seconds"])
         start, goal = request.start.position, request.goal.position
         poses = []
         for s in np.linspace(0.0, 1.0, int(params["path_points"])):

@@ -15,7 +15,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from ros2_helpers.client import BlockingClient
+from ros2_helpers.client import BlockingClient, Inbox
 
 OBSTACLES = "potential_fields_interfaces/msg/ObstacleArray"
 AUTONOMY = ("/pfield/compute_autonomy_vector", "potential_fields_interfaces/srv/ComputeAutonomyVector")
@@ -33,14 +33,16 @@ def remaining(client: BlockingClient) -> list[str]:
     return client.call(*REMOVE, {"frame_ids": []})["remaining"]
 
 
-def plan_while_querying(client: BlockingClient, results: dict[str, Any]) -> None:
-    """A slow plan in one thread; autonomy calls in this one until the plan answers."""
-    client.set_parameters(NODE, {"plan_seconds": 1.5})
+def plan_while_querying(client: BlockingClient, paths: Inbox, results: dict[str, Any]) -> None:
+    """A slow plan in one thread; once the node says it is planning, autonomy calls in this one until the
+    plan answers: each counted answer came while the node was inside the plan handler."""
+    client.set_parameters(NODE, {"plan_seconds": 2.0})
     plan: dict[str, Any] = {}
     request = {"start": {"position": {"x": 0.0}}, "goal": {"position": {"x": 1.0, "y": 0.5}},
                "planning_method": "task_space"}
     thread = threading.Thread(target=lambda: plan.update(client.call(*PLAN, request)))
     thread.start()
+    paths.wait_for(lambda m: m["header"]["frame_id"] == "planning")
     answered = 0
     while thread.is_alive() and answered < 1000:
         client.call(*AUTONOMY, QUERY)
@@ -59,7 +61,7 @@ def run(client: BlockingClient, results: dict[str, Any]) -> None:
     results["dynamic_expired"] = markers.wait_for(lambda m: [k["ns"] for k in m["markers"]] == ["ball"])
     results["autonomy"] = client.call(*AUTONOMY, QUERY)
     results["autonomy_bad_frame"] = client.call(*AUTONOMY, {"query_pose": {"header": {"frame_id": "map"}}})
-    plan_while_querying(client, results)
+    plan_while_querying(client, paths, results)
     results["planned_path"] = paths.wait_for(lambda m: len(m["poses"]) == 20)
     results["plan_bad_method"] = client.call(*PLAN, {"planning_method": "sideways"})
     results["set_ok"] = client.set_parameters(NODE, {"max_linear_velocity": 0.02, "gain": 2, "weights": [3, 4]})

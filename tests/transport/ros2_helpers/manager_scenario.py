@@ -66,6 +66,17 @@ def startup_parameters(client: BlockingClient, results: dict[str, Any]) -> None:
     }
 
 
+def answered(client: BlockingClient, request: dict[str, Any], timeout: float = 30.0) -> dict[str, Any]:
+    """The first autonomy answer the node gives (a refused call, e.g. before the goal topic was handled,
+    answers the default response with an empty frame)."""
+    deadline = time.monotonic() + timeout
+    while not (response := client.call(*AUTONOMY, request))["autonomy_vector"]["header"]["frame_id"]:
+        if time.monotonic() > deadline:
+            break
+        time.sleep(0.05)
+    return response
+
+
 def obstacles_and_plans(client: BlockingClient, results: dict[str, Any]) -> None:
     markers = client.subscribe("/pfield/markers", "visualization_msgs/msg/MarkerArray")
     paths = client.subscribe("/pfield/planned_path", "nav_msgs/msg/Path")
@@ -92,8 +103,7 @@ def autonomy_and_parameters(client: BlockingClient, results: dict[str, Any]) -> 
     goal = {"header": {"frame_id": "world"},
             "pose": seed.parse(seed.PLAN_TASK_SPACE)["goal"]}
     client.publish("/pfield/planning_goal_pose", "geometry_msgs/msg/PoseStamped", goal)
-    time.sleep(0.5)  # topic: give the node a moment to take the goal before querying
-    results["autonomy_task_space"] = linear(client.call(*AUTONOMY, seed.parse(seed.AUTONOMY_TASK_SPACE)))
+    results["autonomy_task_space"] = linear(answered(client, seed.parse(seed.AUTONOMY_TASK_SPACE)))
     results["autonomy_whole_body"] = linear(client.call(*AUTONOMY, seed.parse(seed.AUTONOMY_WHOLE_BODY)))
     # the topic form: a pose on /pfield/query_pose is answered on /pfield/autonomy_vector
     answers = client.subscribe("/pfield/autonomy_vector", "geometry_msgs/msg/TwistStamped")
