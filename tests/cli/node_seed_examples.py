@@ -5,13 +5,6 @@ Only ``ros2`` is replaced by ``pfield`` when they run; the mesh example's packag
 with ``--package-path my_robot_description=tests/data/my_robot_description``.
 """
 
-import pytest
-
-# The whole-body autonomy vector (pfield.autonomy, robot area) is still landing: the check runs and
-# reports XPASS as soon as it is there.
-WHOLE_BODY_PENDING = pytest.mark.xfail(reason="pfield.autonomy (whole-body autonomy vector) not landed yet",
-                                       strict=False)
-
 OBSTACLE_EXAMPLES = {
     "ball": '''ros2 topic pub --once /pfield/obstacles potential_fields_interfaces/msg/ObstacleArray "{
 header: {frame_id: 'world'},
@@ -120,3 +113,5 @@ planning_method: 'whole_body'
 GOAL = (0.5, 0.2, 0.4)
 GOAL_TOLERANCE = 0.01
 QUERY = (0.3, 0.1, 0.35)
+SEED_JOINTS_END_EFFECTOR = (0.227, 0.0, 0.294)
+"""FK of the seed's joint angles (xArm7), the seed's task-space start: whole-body vectors are evaluated there."""

@@ -19,7 +19,7 @@ from node_seed_examples import (
     PLAN_TASK_SPACE,
     PLAN_WHOLE_BODY,
     QUERY,
-    WHOLE_BODY_PENDING,
+    SEED_JOINTS_END_EFFECTOR,
 )
 from pfield_node_server import NodeServer
 
@@ -69,9 +69,11 @@ def test_seed_whole_body_plan_reaches_the_goal_among_all_obstacles(seeded: NodeS
     assert first == pytest.approx([0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0], abs=1e-6)
 
 
-@pytest.mark.parametrize("command", [AUTONOMY_TASK_SPACE, pytest.param(AUTONOMY_WHOLE_BODY, marks=WHOLE_BODY_PENDING)],
+@pytest.mark.parametrize(("command", "where"), [(AUTONOMY_TASK_SPACE, QUERY),
+                                               (AUTONOMY_WHOLE_BODY, SEED_JOINTS_END_EFFECTOR)],
                          ids=["task_space", "whole_body"])
-def test_seed_autonomy_vector_points_toward_the_goal(seeded: NodeServer, command: str) -> None:
+def test_seed_autonomy_vector_points_toward_the_goal(seeded: NodeServer, command: str,
+                                                     where: tuple[float, float, float]) -> None:
     goal = {"header": {"frame_id": "world"}, "pose": {"position": dict(zip("xyz", GOAL, strict=True)),
                                                       "orientation": {"x": 0.707, "z": 0.707, "w": 0.0}}}
     httpx.post(f"{seeded.url}/topic/pfield/planning_goal_pose", json=goal).raise_for_status()  # as plan_path does
@@ -80,7 +82,7 @@ def test_seed_autonomy_vector_points_toward_the_goal(seeded: NodeServer, command
     angular = np.array([twist["twist"]["angular"][k] for k in "xyz"])
     assert np.all(np.isfinite(linear)) and np.all(np.isfinite(angular))
     assert twist["header"]["frame_id"] == "world"
-    assert float(np.dot(linear, np.subtract(GOAL, QUERY))) > 0.0
+    assert float(np.dot(linear, np.subtract(GOAL, where))) > 0.0
 
 
 def test_plans_are_saved_as_csv(seeded: NodeServer) -> None:

@@ -225,3 +225,33 @@ def test_plan_publishes_path_markers_goal_and_csv(robot: Any, tmp_path: Path) ->
     twist = manager.compute_autonomy_vector(message_from_yaml(
         pfi.ComputeAutonomyVector_Request, "{query_pose: {pose: {position: {x: 0.3, y: 0.0, z: 0.35}}}}"))
     assert twist.autonomy_vector.twist.linear.y > 0.0  # toward the goal at y = 0.2
+
+
+def test_task_space_plan_with_joint_angles_carries_a_joint_trajectory(robot: Any) -> None:
+    manager = ManagerNode(Bus(), robot)
+    request = message_from_yaml(pfi.PlanPath_Request, "{start: {position: {x: 0.227, y: 0.0, z: 0.294}, "
+                                "orientation: {x: 0.707, y: 0.0, z: 0.707, w: 0.0}}, goal: {position: {x: 0.3, y: 0.1, "
+                                "z: 0.35}, orientation: {x: 0.707, y: 0.0, z: 0.707, w: 0.0}}, delta_time: 0.02, "
+                                "goal_tolerance: 0.01, starting_joint_angles: [0, 0, 0, 0, 0, -1.5708, 0]}")
+    response = manager.plan_path(request)
+    assert response.success, response.error_message
+    trajectory = response.joint_trajectory
+    assert trajectory.joint_names == list(robot.joint_names)
+    assert len(trajectory.points) == len(response.end_effector_path.poses)
+    last = robot.forward_kinematics(trajectory.points[-1].positions).position
+    end = response.end_effector_path.poses[-1].pose.position
+    assert np.allclose(last, (end.x, end.y, end.z), atol=1e-3)
+
+
+def test_whole_body_autonomy_vector_at_the_seed_joints(robot: Any) -> None:
+    manager = ManagerNode(Bus(), robot)
+    manager.on_goal(message_from_yaml(PoseStamped, "{pose: {position: {x: 0.5, y: 0.2, z: 0.4}}}"))
+    request = message_from_yaml(pfi.ComputeAutonomyVector_Request, "{joint_angles: [0, 0, 0, 0, 0, -1.5708, 0], "
+                                "prev_joint_velocities: [0, 0, 0, 0, 0, 0, 0], delta_time: 0.02, "
+                                "planning_method: 'whole_body'}")
+    linear = manager.compute_autonomy_vector(request).autonomy_vector.twist.linear
+    start = robot.forward_kinematics([0, 0, 0, 0, 0, -1.5708, 0]).position
+    assert np.dot((linear.x, linear.y, linear.z), np.subtract((0.5, 0.2, 0.4), start)) > 0.0
+    with pytest.raises(InvalidInput) as info:
+        manager.compute_autonomy_vector(request.model_copy(update={"prev_joint_velocities": [0.0]}))
+    assert info.value.field == "prev_joint_velocities"

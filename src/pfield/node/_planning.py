@@ -8,9 +8,6 @@ start pose implied by the joint angles (the request's ``start`` is ignored, as t
 
 from __future__ import annotations
 
-import importlib
-import importlib.util
-import logging
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,8 +19,6 @@ from numpy.typing import NDArray
 from pfield.field.config import FieldConfig
 from pfield.planning.result import PlannedPath
 from pfield.spatial import Pose, Twist
-
-_log = logging.getLogger(__name__)
 
 __all__ = ["PlanInputs", "make_field", "make_mesh", "make_resolver", "run_plan", "whole_body_twist"]
 
@@ -64,20 +59,18 @@ def run_plan(config: FieldConfig, obstacles: Sequence[Any], robot: Any, inputs: 
     path: PlannedPath = field.plan(start=inputs.start, dt=inputs.delta_time, goal_tolerance=inputs.goal_tolerance,
                                    max_iterations=inputs.max_iterations)
     if inputs.joint_angles is not None:
-        if importlib.util.find_spec("pfield.planning.joint_trajectory") is None:
-            _log.warning("joint trajectories of task-space plans need pfield.planning.joint_trajectory")
-            return path
-        attach = importlib.import_module("pfield.planning.joint_trajectory").attach_joint_trajectory
-        path = attach(path, robot, inputs.joint_angles)
+        from pfield.planning.joint_trajectory import attach_joint_trajectory
+
+        path = attach_joint_trajectory(path, robot, inputs.joint_angles)
     return path
 
 
 def whole_body_twist(field: Any, robot: Any, q: NDArray[np.float64], qd: NDArray[np.float64] | None,
                      dt: float) -> Twist:
     """End-effector twist of the whole-body autonomy vector at joint angles ``q`` (world frame)."""
-    autonomy = importlib.import_module("pfield.autonomy")
-    twist: Twist = autonomy.whole_body_autonomy_vector(field, robot, q, prev_joint_velocities=qd, dt=dt)
-    return twist
+    from pfield.autonomy import whole_body_autonomy_vector
+
+    return whole_body_autonomy_vector(field, robot, q, prev_joint_velocities=qd, dt=dt)
 
 
 def make_resolver(package_paths: Mapping[str, Path], mesh_roots: Sequence[Path]) -> Any:
