@@ -4,7 +4,8 @@ Start (0.3, 0, 0.5), goal (0.6, 0.3, 0.3), identity orientations, dt 0.01, toler
 30000 iterations; 0, 5 or 20 spheres (r 0.02 m) along the start–goal line with 5 cm lateral offset;
 parameters "default" (the C++ library's) and "rosYaml" (pfield's defaults). Median wall time of the
 whole ``PotentialField.plan`` call after warm-up, the iteration count and whether the goal was reached.
-Also the seed's task-space example through its six obstacles (no C++ figure).
+Also the seed's task-space example through its six obstacles (no C++ figure). Notes add the median
+CPU time of this process (the machine is shared; wall time includes waiting for a core).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks._common import BenchRow, median_time
+from benchmarks.bench_field import cpu_time
 from pfield.field import FieldConfig, PotentialField
 from pfield.planning.scenes import (
     BENCH_GOAL,
@@ -54,17 +56,20 @@ def run(quick: bool) -> list[BenchRow]:
         for count in (0, 5, 20):
             field = PotentialField(config, BENCH_GOAL, sphere_line_scene(count))
             seconds = median_time(lambda field=field: field.plan(BENCH_START), repeat=repeat)  # type: ignore[misc]
+            cpu = cpu_time(lambda field=field: field.plan(BENCH_START), repeat)  # type: ignore[misc]
             path = field.plan(BENCH_START)
             cpp_ms, cpp_iterations, cpp_outcome = CPP[(count, params_name)]
             target = cpp_ms if (count, params_name) in ((0, "default"), (5, "rosYaml")) else None
             rows.append(BenchRow(
                 SECTION, f"{count} spheres / {params_name}", seconds * 1e3, "ms", cpp_ms, target=target,
-                note=f"{_outcome(field, path)}; C++: {cpp_iterations} iterations, {cpp_outcome}",
+                note=f"CPU {cpu * 1e3:.3g} ms; {_outcome(field, path)}; C++: {cpp_iterations} iterations, "
+                     f"{cpp_outcome}",
             ))
     with tempfile.TemporaryDirectory() as directory:
         field = PotentialField(FieldConfig(), SEED_GOAL, seed_obstacles(Path(directory)))
         seconds = median_time(lambda: field.plan(SEED_START, **SEED_PLAN), repeat=repeat)
+        cpu = cpu_time(lambda: field.plan(SEED_START, **SEED_PLAN), repeat)
         path = field.plan(SEED_START, **SEED_PLAN)
         rows.append(BenchRow(SECTION, "seed example, six seed obstacles / rosYaml, dt 0.02", seconds * 1e3, "ms",
-                             note=_outcome(field, path)))
+                             note=f"CPU {cpu * 1e3:.3g} ms; {_outcome(field, path)}"))
     return rows

@@ -68,7 +68,7 @@ class FieldConfig:
     rotation_tolerance: float = 0.05
     """Rotational goal tolerance (rad) of :meth:`PotentialField.plan` when none is given."""
     max_repulsive_force: float = 10.0
-    """F_cap (N): the Khatib magnitude m is saturated smoothly as F_cap·tanh(m/F_cap); F_cap at d ≤ 0."""
+    """F_cap (N): the Khatib magnitude m is saturated smoothly as m/√(1 + (m/F_cap)²); F_cap at d ≤ 0."""
     safety_distance: float = 0.01
     """d_s (m): the velocity dampers stop any approach at distance d_s (must be < ``influence_distance``)."""
     damper_gain: float = 1.0

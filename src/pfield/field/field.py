@@ -150,7 +150,7 @@ class PotentialField:
         """The raw wrench at ``pose`` (world frame, before any limit).
 
         force = attraction (quadratic within Γ, conical beyond) + Σ_i saturated Khatib repulsion
-        F_cap·tanh(η (1/d_i − 1/Q)/d_i² / F_cap) · n_i over obstacles with d_i < Q;
+        m_i/√(1 + (m_i/F_cap)²) · n_i, m_i = η (1/d_i − 1/Q)/d_i², over obstacles with d_i < Q;
         torque = k_rot · log(q_goal ⊗ q⁻¹). Units N and N·m (unit mass and inertia).
         """
         pose = _check_pose("pose", pose)

@@ -11,8 +11,8 @@ Laws (see ``docs/field.md`` for the reasoning):
   F = −k (p − g) for ‖p − g‖ ≤ Γ, F = −k Γ (p − g)/‖p − g‖ beyond — continuous in value and direction;
 * rotational attraction τ = k_rot · log(q_g ⊗ q⁻¹), the world-frame rotation vector of the error
   (Sola et al. 2018, "A micro Lie theory", eq. 26 with the left ⊖);
-* Khatib repulsion magnitude η (1/d − 1/Q)/d² for 0 < d < Q (Khatib 1986, eq. 19), saturated smoothly
-  as F_cap · tanh(m / F_cap), equal to F_cap for d ≤ 0;
+* Khatib repulsion magnitude m = η (1/d − 1/Q)/d² for 0 < d < Q (Khatib 1986, eq. 19), saturated smoothly
+  as m / √(1 + (m/F_cap)²), equal to F_cap for d ≤ 0;
 * velocity damper: the approach speed toward an obstacle is at most ξ (d − d_s)/(Q − d_s)
   (Faverjon & Tournassoud 1987; Haviland & Corke 2021, NEO, eq. 20), and at most √(2 a (d − d_s)) so
   that the acceleration limit can still brake before d_s;
@@ -77,15 +77,18 @@ def rotation_error(
 def khatib_magnitude(distance: float, gain: float, influence: float, cap: float) -> float:
     """Saturated Khatib repulsion magnitude (N) at signed distance ``distance`` (m).
 
-    m = η (1/d − 1/Q)/d² for 0 < d < Q, 0 for d ≥ Q; returned as F_cap · tanh(m/F_cap), which is smooth,
-    ≤ F_cap, equal to m for m ≪ F_cap, and F_cap for d ≤ 0 (inside the obstacle).
+    m = η (1/d − 1/Q)/d² for 0 < d < Q, 0 for d ≥ Q; returned as m / √(1 + (m/F_cap)²), which is smooth,
+    increasing in m, below F_cap, equal to m (1 − ½ (m/F_cap)² + …) for m ≪ F_cap, tends to F_cap as d → 0
+    and is F_cap for d ≤ 0 (inside the obstacle). The algebraic form costs a square root where tanh would
+    cost a libm call; both are smooth saturations.
     """
     if distance >= influence:
         return 0.0
     if distance <= 0.0:
         return cap
     raw = gain * (1.0 / distance - 1.0 / influence) / (distance * distance)
-    return cap * math.tanh(raw / cap)
+    ratio = raw / cap
+    return raw / math.sqrt(1.0 + ratio * ratio)
 
 
 @njit(cache=True)
