@@ -60,3 +60,14 @@ def test_benchmark_scenes_follow_the_reference_layout() -> None:
         assert np.dot(offset, direction) == pytest.approx(0.0, abs=1e-12)
     with pytest.raises(InvalidInput, match="scene"):
         evaluation_scene("pyramids_3")
+
+
+def test_path_plot_rejects_bad_input(tmp_path: Path) -> None:
+    path = PotentialField(FieldConfig(), BENCH_GOAL).plan(BENCH_GOAL)
+    for arguments, name in (({"path": "plan"}, "path"), ({"obstacles": ["ball"]}, "obstacles[0]"),
+                            ({"goal": (1, 2, 3)}, "goal")):
+        values = {"path": path, "file": tmp_path / "x.png", "obstacles": (), "goal": None} | arguments
+        with pytest.raises(InvalidInput) as info:
+            save_path_plot(**values)  # type: ignore[arg-type]
+        assert info.value.field == name
+    assert not (tmp_path / "x.png").exists()

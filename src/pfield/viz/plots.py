@@ -17,6 +17,7 @@ from matplotlib.figure import Figure
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 from numpy.typing import NDArray
 
+from pfield.errors import InvalidInput
 from pfield.geometry import Box, Capsule, Cylinder, Ellipsoid, Mesh, Obstacle, Sphere
 from pfield.planning.result import PlannedPath
 from pfield.spatial import Pose
@@ -97,6 +98,13 @@ def plot_path_3d(
     path: PlannedPath, obstacles: Sequence[Obstacle] = (), goal: Pose | None = None, title: str = ""
 ) -> Figure:
     """A figure with the 3D path among the obstacles (left) and speed and clearance over time (right)."""
+    if not isinstance(path, PlannedPath):
+        raise InvalidInput("path", type(path).__name__, "expected a pfield.PlannedPath")
+    for index, obstacle in enumerate(obstacles):
+        if not isinstance(obstacle, Obstacle):
+            raise InvalidInput(f"obstacles[{index}]", type(obstacle).__name__, "expected a pfield.Obstacle")
+    if goal is not None and not isinstance(goal, Pose):
+        raise InvalidInput("goal", goal, "expected a pfield.Pose or None")
     figure = Figure(figsize=(12, 5.5), layout="constrained")
     FigureCanvasAgg(figure)
     ax = figure.add_subplot(1, 2, 1, projection="3d")
@@ -142,7 +150,8 @@ def save_path_plot(
     title: str = "",
 ) -> Path:
     """Write :func:`plot_path_3d` as a PNG (150 dpi); return the file path."""
+    figure = plot_path_3d(path, obstacles, goal, title)
     target = Path(file)
     target.parent.mkdir(parents=True, exist_ok=True)
-    plot_path_3d(path, obstacles, goal, title).savefig(target, dpi=150)
+    figure.savefig(target, dpi=150)
     return target
