@@ -171,3 +171,31 @@ def test_non_convex_torus_sign_matches_the_winding_number(rng):
         sign = -1.0 if winding_number(triangles, point) > 0.5 else 1.0
         assert distance == pytest.approx(sign * triangle_distance_reference(triangles, point), abs=1e-12)
     assert np.sum(distances < 0) > 20  # points in the ring, and points in the hole (outside)
+
+
+def test_closed_mesh_with_inconsistent_winding_is_repaired(tmp_path):
+    cube = trimesh.load(MESHES / "unit_cube.obj", force="mesh")
+    faces = np.array(cube.faces)
+    faces[:3] = faces[:3, ::-1]  # three triangles wound the wrong way
+    trimesh.Trimesh(cube.vertices, faces, process=False).export(tmp_path / "sloppy.obj")
+    mesh = Mesh(str(tmp_path / "sloppy.obj"), resolver=ResourceResolver(allowed_roots=[tmp_path]))
+    assert mesh.watertight
+    d, _ = Obstacle("o", mesh, Pose()).signed_distance([(0.0, 0.0, 0.3), (0.0, 0.0, 0.8), (0.1, -0.2, 0.0)])
+    np.testing.assert_allclose(d, [-0.2, 0.3, -0.3], atol=1e-12)
+
+
+@pytest.mark.parametrize("scale", [(1.0, 1.0), (1.0, 0.0, 1.0), (1.0, float("nan"), 1.0)])
+def test_load_mesh_arrays_rejects_bad_scales(scale):
+    with pytest.raises(InvalidInput):
+        load_mesh_arrays(str(MESHES / "unit_cube.stl"), RESOLVER, scale=scale)
+
+
+def test_each_body_of_a_multi_body_mesh_faces_outward():
+    left = trimesh.creation.box((1.0, 1.0, 1.0))
+    right = trimesh.creation.box((1.0, 1.0, 1.0))
+    right.apply_translation((3.0, 0.0, 0.0))
+    right.invert()  # this body's triangles face inward
+    both = trimesh.util.concatenate([left, right])
+    mesh = Mesh.from_arrays(both.vertices, both.faces, name="two")
+    d, _ = Obstacle("o", mesh, Pose()).signed_distance([(0.0, 0.0, 0.3), (3.0, 0.0, 0.3), (1.5, 0.0, 0.0)])
+    np.testing.assert_allclose(d, [-0.2, -0.2, 1.0], atol=1e-12)

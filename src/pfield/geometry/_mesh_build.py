@@ -32,6 +32,73 @@ def _unit(vectors: NDArray[np.float64]) -> NDArray[np.float64]:
     return vectors / np.where(norms > 0.0, norms, 1.0)
 
 
+def orient_consistently(faces: NDArray[np.int64]) -> NDArray[np.int64] | None:
+    """Faces re-wound so that every edge shared by two faces is traversed in opposite directions.
+
+    Breadth-first over edge-adjacent faces, flipping a neighbour whose shared edge runs the same way.
+    Returns None for a non-orientable or non-manifold mesh (an edge with more than two faces). The
+    orientation of each connected component is arbitrary: see :func:`orient_components_outward`.
+    """
+    faces = np.array(faces, dtype=np.int64)
+    edge_faces: dict[tuple[int, int], list[int]] = {}
+    for f, (a, b, c) in enumerate(faces.tolist()):
+        for u, v in ((a, b), (b, c), (c, a)):
+            edge_faces.setdefault((min(u, v), max(u, v)), []).append(f)
+    if any(len(owners) > 2 for owners in edge_faces.values()):
+        return None
+    visited = np.zeros(len(faces), dtype=bool)
+    for seed in range(len(faces)):
+        if visited[seed]:
+            continue
+        visited[seed] = True
+        queue = [seed]
+        while queue:
+            f = queue.pop()
+            a, b, c = faces[f].tolist()
+            for u, v in ((a, b), (b, c), (c, a)):
+                for g in edge_faces[(min(u, v), max(u, v))]:
+                    if g == f:
+                        continue
+                    same_direction = _has_directed_edge(faces[g], u, v)
+                    if visited[g]:
+                        if same_direction:
+                            return None  # non-orientable (e.g. a Möbius strip)
+                        continue
+                    if same_direction:
+                        faces[g] = faces[g, ::-1]
+                    visited[g] = True
+                    queue.append(g)
+    return faces
+
+
+def orient_components_outward(
+    vertices: NDArray[np.float64], faces: NDArray[np.int64], adjacency: NDArray[np.int64]
+) -> NDArray[np.int64]:
+    """Flip every edge-connected component whose signed volume is negative (consistent winding assumed).
+
+    ``adjacency`` lists pairs of faces sharing an edge. Volume by the divergence theorem:
+    V = Σ det(a, b, c) / 6 over the component's triangles.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    count = len(faces)
+    graph = coo_matrix((np.ones(len(adjacency)), (adjacency[:, 0], adjacency[:, 1])), shape=(count, count))
+    _, labels = connected_components(graph, directed=False)
+    corners = vertices[faces]
+    volumes = np.einsum("ij,ij->i", corners[:, 0], np.cross(corners[:, 1], corners[:, 2])) / 6.0
+    inverted = np.bincount(labels, weights=volumes) < 0.0
+    out = np.array(faces, dtype=np.int64)
+    flip = inverted[labels]
+    out[flip] = out[flip, ::-1]
+    return out
+
+
+def _has_directed_edge(face: NDArray[np.int64], u: int, v: int) -> bool:
+    a, b, c = face.tolist()
+    return (a, b) == (u, v) or (b, c) == (u, v) or (c, a) == (u, v)
+
+
 def _scatter_sum(indices: NDArray[np.int64], values: NDArray[np.float64], size: int) -> NDArray[np.float64]:
     """Row sums of ``values`` (K, 3) grouped by ``indices`` (K,) into ``size`` rows."""
     return np.stack([np.bincount(indices, weights=values[:, k], minlength=size) for k in range(3)], axis=1)

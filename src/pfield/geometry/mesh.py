@@ -21,9 +21,9 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pfield._validation import positive
+from pfield._validation import as_vector, positive
 from pfield.errors import InvalidInput, ResourceNotFound
-from pfield.geometry._mesh_build import build_bvh, pseudo_normals
+from pfield.geometry._mesh_build import build_bvh, orient_components_outward, orient_consistently, pseudo_normals
 from pfield.geometry.resources import ResourceResolver
 
 __all__ = ["MESH_SUFFIXES", "Mesh", "MeshData", "load_mesh_arrays", "read_mesh_file"]
@@ -64,6 +64,20 @@ def _read_with_trimesh(path: Path) -> Any:
     return loaded
 
 
+def _orient_outward(mesh: Any) -> bool:
+    """Make a closed mesh's winding consistent and outward (pseudo-normals need it); True if watertight."""
+    if not mesh.is_watertight:
+        return False
+    if not mesh.is_winding_consistent:  # closed but sloppily exported: re-wind the faces
+        faces = orient_consistently(mesh.faces)
+        if faces is None:
+            return False
+        mesh.faces = faces
+    # Each closed component must face outward on its own (a mesh may hold several bodies).
+    mesh.faces = orient_components_outward(np.asarray(mesh.vertices), np.asarray(mesh.faces), mesh.face_adjacency)
+    return True
+
+
 @functools.lru_cache(maxsize=64)
 def _read_cached(path: str, mtime_ns: int) -> tuple[NDArray[np.float64], NDArray[np.int64], bool]:
     mesh = _read_with_trimesh(Path(path))
@@ -71,9 +85,7 @@ def _read_cached(path: str, mtime_ns: int) -> tuple[NDArray[np.float64], NDArray
     if not np.all(keep):
         mesh.update_faces(keep)
         mesh.remove_unreferenced_vertices()
-    watertight = bool(mesh.is_watertight and mesh.is_winding_consistent)
-    if watertight and mesh.volume < 0.0:
-        mesh.invert()  # inward-facing triangles: flip so the pseudo-normals point out
+    watertight = _orient_outward(mesh)
     vertices = np.array(mesh.vertices, dtype=np.float64)
     faces = np.array(mesh.faces, dtype=np.int64)
     if not np.all(np.isfinite(vertices)):
@@ -110,11 +122,11 @@ def load_mesh_arrays(
     ``resource`` goes through ``resolver`` (default: :meth:`ResourceResolver.default`). Meant for link
     meshes of robot models and other users that need raw arrays.
     """
+    factors = as_vector("scale", scale, 3)
+    for name, value in zip(("scale_x", "scale_y", "scale_z"), factors, strict=True):
+        positive(name, value)
     path = (resolver or ResourceResolver.default()).resolve(str(resource))
     vertices, faces, _ = read_mesh_file(path)
-    factors = np.array([positive(name, value) for name, value in zip(("scale_x", "scale_y", "scale_z"),
-                                                                      np.asarray(scale, dtype=float).reshape(3),
-                                                                      strict=True)])
     return vertices * factors, np.array(faces)
 
 
@@ -187,9 +199,7 @@ class Mesh:
         mesh.update_faces(mesh.area_faces > _MIN_AREA)
         if len(mesh.faces) == 0 or not np.all(np.isfinite(mesh.vertices)):
             raise InvalidInput("vertices", "array", "the mesh has no valid triangles or non-finite vertices")
-        watertight = bool(mesh.is_watertight and mesh.is_winding_consistent)
-        if watertight and mesh.volume < 0.0:
-            mesh.invert()
+        watertight = _orient_outward(mesh)
         data = _prepare(f"memory://{name}", np.array(mesh.vertices) * np.array(factors),
                         np.array(mesh.faces, dtype=np.int64), watertight)
         instance = cls.__new__(cls)
