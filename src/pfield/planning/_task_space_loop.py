@@ -18,7 +18,7 @@ import math
 import numpy as np
 from numba import njit
 
-from pfield.field._evaluate import constrained_twist
+from pfield.field._evaluate import STAGNATION_PROGRESS, constrained_twist
 from pfield.field._unowned import unowned, unowned_packed
 from pfield.geometry._packed import PackedObstacles
 from pfield.geometry._sdf import min_signed_distance
@@ -132,7 +132,7 @@ def _run(
 
     Every array belongs to the caller for the whole call, so the loop works on unowned views of them.
     """
-    progress = params[15]
+    progress = params[STAGNATION_PROGRESS]
     poses[0, :] = state
     p, q = unowned(state[:3]), unowned(state[3:])
     previous, twist, scratch, point = unowned(work[5]), unowned(work[6]), unowned(work[:5]), unowned(work[7, :3])
@@ -160,15 +160,24 @@ def _run(
             if window_position - best_position < progress and window_rotation - best_rotation < progress:
                 return i + 1, STAGNATION, nearest
             window_position, window_rotation = best_position, best_rotation
-        for j in range(3):
-            p[j] += dt * twist[j]
-        q[0], q[1], q[2], q[3] = left_integrate(q[0], q[1], q[2], q[3], twist[3], twist[4], twist[5], dt)
-        for j in range(6):
-            previous[j] = twist[j]
-        for j in range(3):
-            poses[i + 1, j] = p[j]
-        for j in range(4):
-            poses[i + 1, 3 + j] = q[j]
-        if not (math.isfinite(p[0]) and math.isfinite(p[1]) and math.isfinite(p[2])):
+        if not _advance(p, q, twist, previous, dt, poses, i + 1):
             return i + 2, NOT_FINITE, -1
     return max_iterations + 1, ITERATION_LIMIT, -1
+
+
+@njit(cache=True, inline="always")
+def _advance(
+    p: np.ndarray, q: np.ndarray, twist: np.ndarray, previous: np.ndarray, dt: float, poses: np.ndarray, row: int
+) -> bool:
+    """Apply ``twist`` for ``dt`` (p += dt v, q ← exp(dt ω) ⊗ q), keep it as the previous twist and record
+    the new pose in ``poses[row]``; False when the position is no longer finite."""
+    for j in range(3):
+        p[j] += dt * twist[j]
+    q[0], q[1], q[2], q[3] = left_integrate(q[0], q[1], q[2], q[3], twist[3], twist[4], twist[5], dt)
+    for j in range(6):
+        previous[j] = twist[j]
+    for j in range(3):
+        poses[row, j] = p[j]
+    for j in range(4):
+        poses[row, 3 + j] = q[j]
+    return math.isfinite(p[0]) and math.isfinite(p[1]) and math.isfinite(p[2])
