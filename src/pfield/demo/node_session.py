@@ -19,6 +19,7 @@ from rich.table import Table
 
 TITLE = "Standalone node session (seed CLI examples over HTTP)"
 
+_GOAL_POSITION = (0.5, 0.2, 0.4)
 _ORIENTATION = "orientation: {x: 0.707, y: 0.0, z: 0.707, w: 0.0}"
 _GOAL = f"goal: {{position: {{x: 0.5, y: 0.2, z: 0.4}}, {_ORIENTATION}}}"
 _OBSTACLES = [
@@ -78,7 +79,7 @@ def _post(client: httpx.Client, path: str, model: Any, text: str) -> dict[str, A
 def _plan_row(method: str, response: dict[str, Any], seconds: float) -> list[str]:
     poses = response["end_effector_path"]["poses"]
     end = poses[-1]["pose"]["position"]
-    error = math.dist((end["x"], end["y"], end["z"]), (0.5, 0.2, 0.4))
+    error = math.dist((end["x"], end["y"], end["z"]), _GOAL_POSITION)
     return [method, str(response["success"]), str(len(poses)), f"{error * 1000:.2f}", f"{seconds:.2f}",
             str(len(response["joint_trajectory"]["joint_names"])), response["error_message"] or "-"]
 
@@ -100,13 +101,17 @@ def run(out_dir: Path, console: Console) -> None:
             _post(client, "/topic/pfield/obstacles", pfi.ObstacleArray,
                   "{header: {frame_id: 'world'}, obstacles: [" + text + "]}")
         console.print(f"published {len(_OBSTACLES)} obstacles: {', '.join(o.id for o in node.obstacles())}")
-        failures = _show_plans(client, console) + _show_autonomy(client, console)
+        paths: dict[str, list[list[float]]] = {}
+        failures = _show_plans(client, console, paths) + _show_autonomy(client, console)
+        markers = client.get("/topic/pfield/markers").json()["markers"]
     console.print(f"node stopped; plans saved as CSV in {out_dir / 'plans'}")
+    if paths:
+        console.print(f"paths drawn in {_plot_paths(out_dir / 'node_session_paths.png', paths, markers)}")
     if failures:
         raise RuntimeError("; ".join(failures))
 
 
-def _show_plans(client: httpx.Client, console: Console) -> list[str]:
+def _show_plans(client: httpx.Client, console: Console, paths: dict[str, list[list[float]]]) -> list[str]:
     from pfield.interfaces import potential_fields_interfaces as pfi
 
     failures = []
@@ -121,6 +126,7 @@ def _show_plans(client: httpx.Client, console: Console) -> list[str]:
             plans.add_row(method, "error", "", "", "", "", str(exc))
             continue
         plans.add_row(*_plan_row(method, response, time.perf_counter() - start))
+        paths[method] = [[p["pose"]["position"][k] for k in "xyz"] for p in response["end_effector_path"]["poses"]]
         if not response["success"]:
             failures.append(f"{method} plan: {response['error_message']}")
     console.print(plans)
@@ -143,3 +149,38 @@ def _show_autonomy(client: httpx.Client, console: Console) -> list[str]:
         vectors.add_row(method, *(", ".join(f"{twist[part][k]:+.4f}" for k in "xyz") for part in ("linear", "angular")))
     console.print(vectors)
     return failures
+
+
+def _plot_paths(target: Path, paths: dict[str, list[list[float]]], markers: list[dict[str, Any]]) -> Path:
+    """Top (x–y) and side (x–z) views of the planned paths over the obstacles' marker extents (axis-aligned,
+    as all seed obstacles are)."""
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Ellipse, Rectangle
+
+    figure, axes = plt.subplots(1, 2, figsize=(11, 5))
+    for axis, (i, j), label in zip(axes, ((0, 1), (0, 2)), ("top view (x–y)", "side view (x–z)"), strict=True):
+        for marker in markers:
+            if marker["ns"] not in ("obstacles", "influence") or marker["type"] == 10:  # mesh: its sphere shows
+                continue
+            centre = [marker["pose"]["position"][k] for k in "xyz"]
+            size = [marker["scale"][k] for k in "xyz"]
+            alpha = 0.5 if marker["ns"] == "obstacles" else 0.12
+            boxy = marker["type"] == 1 or (marker["type"] == 3 and j == 2)  # CUBE; CYLINDER seen from the side
+            patch = (Rectangle((centre[i] - size[i] / 2, centre[j] - size[j] / 2), size[i], size[j]) if boxy
+                     else Ellipse((centre[i], centre[j]), size[i], size[j]))
+            patch.set(color="grey", alpha=alpha)
+            axis.add_patch(patch)
+        for method, points in paths.items():
+            xs, ys = [p[i] for p in points], [p[j] for p in points]
+            axis.plot(xs, ys, label=method)
+            axis.plot(xs[0], ys[0], "ko", markersize=4)
+        axis.plot(_GOAL_POSITION[i], _GOAL_POSITION[j], "g*", markersize=12, label="goal")
+        axis.set_title(label)
+        axis.set_aspect("equal")
+        axis.set_xlabel("xyz"[i] + " (m)")
+        axis.set_ylabel("xyz"[j] + " (m)")
+    axes[0].legend()
+    figure.suptitle("Seed plans through the node (obstacles as marker extents, influence zones light)")
+    figure.savefig(target, dpi=110, bbox_inches="tight")
+    plt.close(figure)
+    return target
