@@ -3,6 +3,7 @@
 * Round trip: a persistent HTTP/1.1 client (httpx) posts the seed's task-space ComputeAutonomyVector
   request to ``/srv/pfield/compute_autonomy_vector`` of an in-process uvicorn server (127.0.0.1) whose
   manager holds the seed's five primitive obstacles and goal; p50 and p99 over many calls. Target: p50 ≤ 2 ms.
+* The same with the seed's whole-body request (xArm7 joint angles).
 * WebSocket: the node publishes a burst of TwistStamped messages on its bus; one client on
   ``/ws/topic/pfield/autonomy_vector`` counts them; messages per second from first to last. Target ≥ 1000.
 
@@ -45,16 +46,20 @@ QUERY = {"query_pose": {"header": {"frame_id": "world"}, "pose": {"position": {"
          "delta_time": 0.02, "planning_method": "task_space"}
 
 
-def _round_trip(url: str, calls: int) -> tuple[float, float]:
+WHOLE_BODY_QUERY = QUERY | {"joint_angles": [0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0],
+                            "prev_joint_velocities": [0.0] * 7, "planning_method": "whole_body"}
+
+
+def _round_trip(url: str, calls: int, query: dict[str, object]) -> tuple[float, float]:
     with httpx.Client(base_url=url) as client:
         client.post("/topic/pfield/obstacles", json=OBSTACLES).raise_for_status()
         client.post("/topic/pfield/planning_goal_pose", json=GOAL).raise_for_status()
         for _ in range(50):
-            client.post("/srv/pfield/compute_autonomy_vector", json=QUERY).raise_for_status()
+            client.post("/srv/pfield/compute_autonomy_vector", json=query).raise_for_status()
         samples = np.empty(calls)
         for i in range(calls):
             start = time.perf_counter()
-            client.post("/srv/pfield/compute_autonomy_vector", json=QUERY).raise_for_status()
+            client.post("/srv/pfield/compute_autonomy_vector", json=query).raise_for_status()
             samples[i] = time.perf_counter() - start
     return float(np.percentile(samples, 50)) * 1e3, float(np.percentile(samples, 99)) * 1e3
 
@@ -91,12 +96,15 @@ def run(quick: bool) -> list[BenchRow]:
     bus = Bus()
     node = ManagerNode(bus, RobotModel.builtin("xarm7"))
     with ServerThread(create_app([node], ws_queue_size=burst + 10)) as server:
-        p50, p99 = _round_trip(server.url, calls)
+        p50, p99 = _round_trip(server.url, calls, QUERY)
+        wb50, wb99 = _round_trip(server.url, calls, WHOLE_BODY_QUERY)
         rate = _websocket_rate(server.url, bus, burst)
     return [
         BenchRow(SECTION, "compute_autonomy_vector HTTP round trip p50", p50, "ms", target=2.0,
                  note=f"{calls} calls, 5 obstacles, keep-alive client"),
         BenchRow(SECTION, "compute_autonomy_vector HTTP round trip p99", p99, "ms", note=f"{calls} calls"),
+        BenchRow(SECTION, "whole-body compute_autonomy_vector HTTP round trip p50", wb50, "ms", target=2.0,
+                 note=f"xArm7, {calls} calls; p99 {wb99:.2f} ms"),
         BenchRow(SECTION, "WebSocket TwistStamped stream", rate, "messages/s", target=1000.0,
                  higher_is_better=True, note=f"burst of {burst}, one client"),
     ]
