@@ -50,9 +50,9 @@ DEFAULT_MAX_REQUEST_BYTES = 1_000_000
 class NotFound(PfieldError, LookupError):
     """A service, topic or node name the server does not know."""
 
-    def __init__(self, kind: str, name: str, known: Sequence[str]) -> None:
+    def __init__(self, kind: str, name: str, known: Sequence[str], reason: str = "") -> None:
         self.field = kind
-        super().__init__(f"unknown {kind} {name!r}; known: {', '.join(known) or 'none'}")
+        super().__init__(reason or f"unknown {kind} {name!r}; known: {', '.join(known) or 'none'}")
 
 
 def _error(status: int, error: str, field: str = "", value: object = None) -> JSONResponse:
@@ -206,7 +206,7 @@ def _add_topic_routes(app: FastAPI, routes: _Routes) -> None:
     async def latest(topic: str) -> Response:
         message = routes.latest("/" + topic)
         if message is None:
-            raise NotFound("message on topic", "/" + topic, routes.buses[0].topics() if routes.buses else [])
+            raise NotFound("topic", "/" + topic, [], f"no message on /{topic} yet (GET /topics lists the topics)")
         return _json(message)
 
     @app.get("/topics", tags=["listings"])
