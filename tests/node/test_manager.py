@@ -255,3 +255,14 @@ def test_whole_body_autonomy_vector_at_the_seed_joints(robot: Any) -> None:
     with pytest.raises(InvalidInput) as info:
         manager.compute_autonomy_vector(request.model_copy(update={"prev_joint_velocities": [0.0]}))
     assert info.value.field == "prev_joint_velocities"
+
+
+def test_query_pose_topic_answers_on_autonomy_vector(robot: Any) -> None:
+    manager = ManagerNode(Bus(), robot)
+    manager.on_goal(message_from_yaml(PoseStamped, "{pose: {position: {x: 0.5, y: 0.2, z: 0.4}}}"))
+    manager.on_query_pose(message_from_yaml(PoseStamped, "{header: {frame_id: 'world'}, "
+                                                         "pose: {position: {x: 0.5, y: 0.1, z: 0.4}}}"))
+    answer = manager.bus.latest("/pfield/autonomy_vector")
+    assert answer is not None and answer.header.frame_id == "world"  # type: ignore[attr-defined]
+    linear = answer.twist.linear  # type: ignore[attr-defined]
+    assert linear.y > 0.0 and abs(linear.x) < 1e-9 and abs(linear.z) < 1e-9
