@@ -63,6 +63,7 @@ class ManagerParameters:
             raise InvalidInput("dynamic_obstacle_timeout", timeout, "must be a finite number of seconds >= 0")
         if not isinstance(self.fixed_frame, str) or not self.fixed_frame:
             raise InvalidInput("fixed_frame", self.fixed_frame, "must be a non-empty frame name")
+        object.__setattr__(self, "dynamic_obstacle_timeout", float(timeout))
 
 
 @dataclass(frozen=True)
@@ -72,9 +73,13 @@ class _Held:
 
 
 class ManagerNode(Node):
-    """The ``/pfield_manager`` node (see the module docstring). ``robot`` is a
-    :class:`~pfield.robot.RobotModel`; ``make_mesh(resource, sx, sy, sz)`` builds Mesh shapes through the
-    node's resource resolver; ``csv_dir`` (optional) receives one CSV per plan."""
+    """The ``/pfield_manager`` node (see the module docstring).
+
+    ``robot``: the :class:`~pfield.robot.RobotModel` of whole-body requests; ``config``: initial field
+    parameters; ``resolver``: the :class:`~pfield.geometry.ResourceResolver` Mesh obstacles are loaded through
+    (``package://`` paths and allowed roots; None allows the current directory only); ``csv_dir``: where
+    every plan is saved as CSV (None: not saved).
+    """
 
     name = "/pfield_manager"
     tick_period = 0.1
