@@ -386,23 +386,58 @@ def plan_loop(q0, robot, scene, goal_p, goal_q, params, max_iterations):  # type
 
 
 @njit(cache=True)
-def pair_distances(q, robot, scene):  # type: ignore[no-untyped-def]
-    """Exact capsule clearances (m) at ``q``: link–obstacle pairs (L, M) and self-collision pairs (P,)."""
-    n = q.shape[0]
-    ws = make_workspace(n, robot.cap_joint.shape[0], scene.bounds.shape[0], robot.self_pairs.shape[0])
+def fill_pair_distances(q, robot, scene, ws, obstacle, own, cutoff):  # type: ignore[no-untyped-def]
+    """Capsule clearances (m) at ``q`` into ``obstacle`` (L, M, link–obstacle) and ``own`` (P, self pairs).
+
+    Link–obstacle pairs whose bounding-sphere bound is ≥ ``cutoff`` get that bound instead of the exact value.
+    """
     joint_transforms(q, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds, ws.rotations,
                      ws.origins)
     _segments(robot, ws)
-    obstacle = np.empty((robot.cap_joint.shape[0], scene.bounds.shape[0]))
-    for c in range(robot.cap_joint.shape[0]):
-        for i in range(scene.bounds.shape[0]):
-            d = segment_obstacle_distance(scene.packed, i, ws.seg_a[c], ws.seg_b[c], ws.scratch)[0]
-            obstacle[c, i] = d - robot.cap_r[c]
+    seg_a, seg_b, cap_r, packed, scratch = ws.seg_a, ws.seg_b, robot.cap_r, scene.packed, ws.scratch
+    rows, kinds, centres, bounds = packed.rows, packed.kinds, scene.centres, scene.bounds
+    for c in range(obstacle.shape[0]):
+        a, b = seg_a[c], seg_b[c]
+        for i in range(obstacle.shape[1]):
+            lower = point_segment_distance(centres[i], a, b) - bounds[i] - cap_r[c]
+            if lower >= cutoff:
+                obstacle[c, i] = lower
+            elif kinds[i] == SPHERE or kinds[i] == CAPSULE:
+                obstacle[c, i] = round_segment_distance(rows, kinds, i, a, b, scratch)[0] - cap_r[c]
+            else:
+                obstacle[c, i] = segment_obstacle_distance(packed, i, a, b, scratch)[0] - cap_r[c]
     pairs = robot.self_pairs
-    own = np.empty(pairs.shape[0])
     for k in range(pairs.shape[0]):
         c1, c2 = pairs[k, 0], pairs[k, 1]
-        s, t = closest_segment_points(ws.seg_a[c1], ws.seg_b[c1], ws.seg_a[c2], ws.seg_b[c2])
-        diff = (ws.seg_a[c1] + s * (ws.seg_b[c1] - ws.seg_a[c1])) - (ws.seg_a[c2] + t * (ws.seg_b[c2] - ws.seg_a[c2]))
-        own[k] = math.sqrt(diff @ diff) - robot.cap_r[c1] - robot.cap_r[c2]
+        s, t = closest_segment_points(seg_a[c1], seg_b[c1], seg_a[c2], seg_b[c2])
+        total = 0.0
+        for a in range(3):
+            diff = (seg_a[c1, a] + s * (seg_b[c1, a] - seg_a[c1, a])) - (
+                seg_a[c2, a] + t * (seg_b[c2, a] - seg_a[c2, a]))
+            total += diff * diff
+        own[k] = math.sqrt(total) - cap_r[c1] - cap_r[c2]
+
+
+@njit(cache=True)
+def pair_distances(q, robot, scene):  # type: ignore[no-untyped-def]
+    """Exact capsule clearances (m) at ``q``: link–obstacle pairs (L, M) and self-collision pairs (P,)."""
+    ws = make_workspace(q.shape[0], robot.cap_joint.shape[0], scene.bounds.shape[0], robot.self_pairs.shape[0])
+    obstacle = np.empty((robot.cap_joint.shape[0], scene.bounds.shape[0]))
+    own = np.empty(robot.self_pairs.shape[0])
+    fill_pair_distances(q, robot, scene, ws, obstacle, own, math.inf)
     return obstacle, own
+
+
+@njit(cache=True)
+def autonomy_step(q, previous, has_prev, robot, scene, goal_p, goal_q, params, ws):  # type: ignore[no-untyped-def]
+    """One whole-body field evaluation at ``q`` for shared control: the start offsets are taken at ``q`` itself
+    (pairs already closer than d_s may not approach further), then :func:`joint_velocity_step`."""
+    obstacle, own = scene.obstacle_offsets, scene.self_offsets
+    safety = params[SAFETY]
+    fill_pair_distances(q, robot, scene, ws, obstacle, own, safety)
+    for c in range(obstacle.shape[0]):
+        for i in range(obstacle.shape[1]):
+            obstacle[c, i] = min(obstacle[c, i] - safety, 0.0)
+    for k in range(own.shape[0]):
+        own[k] = min(own[k] - safety, 0.0)
+    return joint_velocity_step(q, previous, has_prev, robot, scene, goal_p, goal_q, params, ws)

@@ -200,3 +200,17 @@ def batch_end_effector_positions(  # type: ignore[no-untyped-def]
         _, p = frame_pose(rotations, origins, ee_joint, ee_rotation, ee_position)
         out[k] = p
     return out
+
+
+@njit(cache=True)
+def check_limits(values, lower, upper, tolerance):  # type: ignore[no-untyped-def]
+    """Clamp ``values`` onto [lower, upper] in place; −1 if fine, else the first bad index i (beyond the limits
+    by more than ``tolerance``) or −2 − i (not finite)."""
+    for i in range(values.shape[0]):
+        v = values[i]
+        if not math.isfinite(v):
+            return -2 - i
+        if v < lower[i] - tolerance or v > upper[i] + tolerance:
+            return i
+        values[i] = min(max(v, lower[i]), upper[i])
+    return -1

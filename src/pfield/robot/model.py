@@ -173,15 +173,21 @@ class RobotModel:
     # ---- validation -------------------------------------------------------------------------------------
     def check_joint_angles(self, q: ArrayLike, field: str = "joint_angles") -> NDArray[np.float64]:
         """Validated copy of ``q`` (see the module docstring for the limits policy)."""
-        values = np.array(as_vector(field, q, self.n_joints))
-        below = values < self._lower - LIMIT_TOLERANCE
-        above = values > self._upper + LIMIT_TOLERANCE
-        if below.any() or above.any():
-            i = int(np.flatnonzero(below | above)[0])
-            raise InvalidInput(f"{field}[{i}]", float(values[i]),
-                               f"outside the limits of {self._joint_names[i]} "
-                               f"[{self._lower[i]:.6g}, {self._upper[i]:.6g}]")
-        return np.clip(values, self._lower, self._upper)
+        try:
+            values = np.array(q, dtype=np.float64)
+        except (TypeError, ValueError):
+            values = np.zeros(0)
+        if values.shape != (self.n_joints,):
+            as_vector(field, q, self.n_joints)  # raises the standard message (count / not numbers)
+            values = np.array(values, dtype=np.float64).reshape(-1)
+        bad = _k.check_limits(values, self._lower, self._upper, LIMIT_TOLERANCE)
+        if bad <= -2:
+            raise InvalidInput(field, q, "must be finite (no NaN or inf)")
+        if bad >= 0:
+            raise InvalidInput(f"{field}[{bad}]", float(values[bad]),
+                               f"outside the limits of {self._joint_names[bad]} "
+                               f"[{self._lower[bad]:.6g}, {self._upper[bad]:.6g}]")
+        return values
 
     def pinocchio_configuration(self, q: ArrayLike) -> NDArray[np.float64]:
         """Pinocchio's configuration vector for angles ``q`` (continuous joints become (cos, sin))."""
