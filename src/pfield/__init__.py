@@ -27,6 +27,16 @@ __all__ = [
     "PlannedPath",
     "PotentialField",
     "ResourceResolver",
+    "RobotModel",
     "Sphere",
     "pack_obstacles",
 ]
+
+
+def __getattr__(name: str) -> object:
+    # RobotModel imports pinocchio (~0.3 s): load it on first use, not at ``import pfield``.
+    if name == "RobotModel":
+        from pfield.robot import RobotModel
+
+        return RobotModel
+    raise AttributeError(f"module 'pfield' has no attribute {name!r}")
