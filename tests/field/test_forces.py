@@ -142,8 +142,8 @@ def test_damper_speed_is_linear_then_braking_limited_and_negative_inside_the_mar
     assert damper_speed(ds, q, ds, xi, 0.05, 1.0) == 0.0
     assert damper_speed(0.0, q, ds, xi, 0.05, 1.0) < 0.0
     assert damper_speed(-5.0, q, ds, xi, 0.05, 1.0) == -0.05
-    # a weak brake (a = 0.001 m/s²) caps the speed at √(2 a (d − d_s))
-    assert math.isclose(damper_speed(0.06, q, ds, xi, 0.05, 0.001), math.sqrt(2 * 0.001 * 0.05))
+    # a weak brake (a = 0.001 m/s²) caps the speed at √(a (d − d_s))
+    assert math.isclose(damper_speed(0.06, q, ds, xi, 0.05, 0.001), math.sqrt(0.001 * 0.05))
 
 
 def test_deflect_leaves_allowed_motion_alone() -> None:

@@ -190,3 +190,32 @@ def test_bad_planning_input_names_the_argument(arguments: dict[str, object], nam
     with pytest.raises(InvalidInput) as info:
         field.plan(**values)  # type: ignore[arg-type]
     assert info.value.field == name
+
+
+@pytest.mark.parametrize("params", ["rosYaml", "default"])
+def test_random_cluttered_plans_never_enter_an_obstacle(params: str) -> None:
+    """Spheres, boxes and capsules scattered along the start–goal line, 40 scenes per parameter set."""
+    from pfield.geometry import Capsule
+    from pfield.planning.scenes import DEFAULT_PARAMS
+
+    config = FieldConfig() if params == "rosYaml" else DEFAULT_PARAMS
+    rng = np.random.default_rng(11)
+    outcomes = set()
+    for _ in range(40):
+        start, goal = rng.uniform(-0.5, 0.5, 3), rng.uniform(-0.5, 0.5, 3)
+        obstacles = []
+        for k in range(int(rng.integers(1, 6))):
+            centre = start + rng.uniform(0.2, 0.8) * (goal - start) + rng.normal(0.0, 0.05, 3)
+            shape = [Sphere(rng.uniform(0.02, 0.12)), Box(*rng.uniform(0.03, 0.25, 3)),
+                     Capsule(rng.uniform(0.02, 0.08), rng.uniform(0.05, 0.3))][k % 3]
+            obstacles.append(Obstacle(f"o{k}", shape, Pose(centre, quaternion_exp(rng.normal(size=3)))))
+        field = PotentialField(config, Pose(goal), obstacles)
+        path = field.plan(Pose(start))
+        reason = path.failure_reason
+        outcomes.add(reason.split(":")[0] if reason else "reached")
+        if reason.startswith(("collision: the start pose", "unreachable goal")):
+            assert len(path) == 1
+            continue
+        assert path.success or reason.startswith("stagnation"), reason
+        assert _dense_clearance(field, path) > 0.0
+    assert "reached" in outcomes

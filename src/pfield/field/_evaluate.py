@@ -26,9 +26,11 @@ from numba import njit
 from pfield.field._unowned import unowned, unowned_arrays
 from pfield.field.forces import (
     attraction,
+    braking_rate_limit,
     damper_speed,
     deflect,
     khatib_magnitude,
+    project_damper,
     rate_limit,
     rotation_error,
     soft_saturate,
@@ -130,30 +132,52 @@ def field_wrench(
 
 @njit(cache=True, inline="always")
 def _avoid(
-    p: np.ndarray, vx: float, vy: float, vz: float,
-    params: np.ndarray, packed: PackedObstacles, aux: np.ndarray,
-) -> tuple[float, float, float, float, int]:
-    """Apply every obstacle's velocity damper (twice when several bind); also the exact clearance."""
+    p: np.ndarray, vx: float, vy: float, vz: float, params: np.ndarray, packed: PackedObstacles,
+    aux: np.ndarray, previous: np.ndarray,
+) -> tuple[float, float, float, float, int, float, float, float]:
+    """Apply every obstacle's velocity damper to v; also the exact clearance and the braking direction.
+
+    Sweep 0 deflects v (:func:`~pfield.field.forces.deflect`); when two or more dampers bind, up to three
+    more sweeps project v onto the dampers' half-spaces until all hold. The previous linear twist is
+    projected alongside: the unit vector from it to its projection is the direction in which the rate
+    limit brakes first (zero when the previous twist obeys every damper). Returns (v, clearance, nearest,
+    brake direction).
+    """
     influence, safety = params[INFLUENCE_DISTANCE], params[SAFETY_DISTANCE]
     vmax = params[MAX_LINEAR_VELOCITY]
     gain = params[DAMPER_GAIN] * vmax
     accel, kappa = params[MAX_LINEAR_ACCELERATION], params[CIRCULATION_GAIN]
-    clearance, nearest, active = math.inf, -1, 0
-    for sweep in range(2):
-        if sweep == 1 and active < 2:
+    clearance, nearest, active, active_previous = math.inf, -1, 0, 0
+    sx, sy, sz = previous[0], previous[1], previous[2]
+    for sweep in range(4):
+        if sweep > 0 and active < 2 and active_previous < 2:
             break
+        changed = False
         for i in range(aux.shape[0]):
             bound, dx, dy, dz, norm = _lower_bound(aux, i, p)
-            if bound >= influence and (sweep == 1 or bound >= clearance):
+            if bound >= influence and (sweep > 0 or bound >= clearance):
                 continue
             d, nx, ny, nz = _signed_distance(packed, aux, i, p, bound, dx, dy, dz, norm)
             if sweep == 0 and d < clearance:
                 clearance, nearest = d, i
-            if d < influence:
-                allowed = damper_speed(d, influence, safety, gain, vmax, accel)
+            if d >= influence:
+                continue
+            allowed = damper_speed(d, influence, safety, gain, vmax, accel)
+            sx, sy, sz, moved = project_damper(sx, sy, sz, nx, ny, nz, allowed)
+            if sweep == 0:
                 vx, vy, vz, hit = deflect(vx, vy, vz, nx, ny, nz, aux[i, 0], aux[i, 1], aux[i, 2], allowed, kappa)
                 active += hit
-    return vx, vy, vz, clearance, nearest
+                active_previous += moved
+            else:
+                vx, vy, vz, hit = project_damper(vx, vy, vz, nx, ny, nz, allowed)
+                changed = changed or hit or moved
+        if sweep > 0 and not changed:
+            break
+    bx, by, bz = sx - previous[0], sy - previous[1], sz - previous[2]
+    brake = math.sqrt(bx * bx + by * by + bz * bz)
+    if brake > 0.0:
+        bx, by, bz = bx / brake, by / brake, bz / brake
+    return vx, vy, vz, clearance, nearest, bx, by, bz
 
 
 @njit(cache=True, inline="always")
@@ -166,8 +190,9 @@ def constrained_twist(
 
     1. v = soft-saturated attraction, ω = soft-saturated k_rot · log(q_g ⊗ q⁻¹);
     2. each obstacle within Q limits the approach speed (velocity damper) and turns the excess into
-       tangential motion (:func:`~pfield.field.forces.deflect`);
-    3. with ``use_previous``, rate limits ‖v − v_prev‖ ≤ a_max dt and ‖ω − ω_prev‖ ≤ α_max dt.
+       tangential motion (:func:`~pfield.field.forces.deflect`), then projections settle several dampers;
+    3. with ``use_previous``, rate limits ‖v − v_prev‖ ≤ a_max dt (braking first,
+       :func:`~pfield.field.forces.braking_rate_limit`) and ‖ω − ω_prev‖ ≤ α_max dt.
     ``clearance`` is the smallest signed distance over all obstacles (inf without any), ``nearest`` its
     index (−1).
     """
@@ -177,10 +202,10 @@ def constrained_twist(
     rx, ry, rz = rotation_error(qx, qy, qz, qw, goal[3], goal[4], goal[5], goal[6])
     k = params[ROTATIONAL_GAIN]
     wx, wy, wz = soft_saturate(k * rx, k * ry, k * rz, params[MAX_ANGULAR_VELOCITY])
-    vx, vy, vz, clearance, nearest = _avoid(p, vx, vy, vz, params, packed, aux)
+    vx, vy, vz, clearance, nearest, bx, by, bz = _avoid(p, vx, vy, vz, params, packed, aux, previous)
     if use_previous:
-        vx, vy, vz = rate_limit(vx, vy, vz, previous[0], previous[1], previous[2],
-                                params[MAX_LINEAR_ACCELERATION] * dt)
+        vx, vy, vz = braking_rate_limit(vx, vy, vz, previous[0], previous[1], previous[2],
+                                        params[MAX_LINEAR_ACCELERATION] * dt, bx, by, bz, params[MAX_LINEAR_VELOCITY])
         wx, wy, wz = rate_limit(wx, wy, wz, previous[3], previous[4], previous[5],
                                 params[MAX_ANGULAR_ACCELERATION] * dt)
     return vx, vy, vz, wx, wy, wz, clearance, nearest

@@ -14,8 +14,8 @@ Laws (see ``docs/field.md`` for the reasoning):
 * Khatib repulsion magnitude m = η (1/d − 1/Q)/d² for 0 < d < Q (Khatib 1986, eq. 19), saturated smoothly
   as m / √(1 + (m/F_cap)²), equal to F_cap for d ≤ 0;
 * velocity damper: the approach speed toward an obstacle is at most ξ (d − d_s)/(Q − d_s)
-  (Faverjon & Tournassoud 1987; Haviland & Corke 2021, NEO, eq. 20), and at most √(2 a (d − d_s)) so
-  that the acceleration limit can still brake before d_s;
+  (Faverjon & Tournassoud 1987; Haviland & Corke 2021, NEO, eq. 20), and at most √(a (d − d_s)) so
+  that half the acceleration limit can still brake before d_s;
 * soft saturation v ← v_max · tanh(‖v‖/v_max) · v/‖v‖, and the rate limit ‖v − v_prev‖ ≤ a_max · dt.
 """
 
@@ -27,9 +27,11 @@ from numba import njit
 
 __all__ = [
     "attraction",
+    "braking_rate_limit",
     "damper_speed",
     "deflect",
     "khatib_magnitude",
+    "project_damper",
     "rate_limit",
     "rotation_error",
     "soft_saturate",
@@ -120,14 +122,15 @@ def damper_speed(
 ) -> float:
     """Largest allowed approach speed (m/s) toward an obstacle at ``distance`` (NEO velocity damper).
 
-    s = ξ (d − d_s)/(Q − d_s) with ξ = ``gain`` (m/s), capped by √(2 a_max (d − d_s)) so a rate-limited
-    twist can still stop before d_s. Negative below d_s (the twist must move away), never below
-    −``max_speed``. Only meaningful for d < Q.
+    s = ξ (d − d_s)/(Q − d_s) with ξ = ``gain`` (m/s), capped by √(a_max (d − d_s)): the speed from which
+    half the acceleration limit stops within the margin, leaving the other half for a second obstacle
+    or for turning, so a rate-limited twist can still stop before d_s. Negative below d_s (the twist must
+    move away), never below −``max_speed``. Only meaningful for d < Q.
     """
     margin = distance - safety
     speed = gain * margin / (influence - safety)
     if margin > 0.0:
-        speed = min(speed, math.sqrt(2.0 * max_acceleration * margin))
+        speed = min(speed, math.sqrt(max_acceleration * margin))
     return max(speed, -max_speed)
 
 
@@ -163,3 +166,59 @@ def deflect(
         scale = tangential / w_norm
         ox, oy, oz = ox + scale * wx, oy + scale * wy, oz + scale * wz
     return ox, oy, oz, True
+
+
+@njit(cache=True)
+def project_damper(
+    vx: float, vy: float, vz: float, nx: float, ny: float, nz: float, allowed: float
+) -> tuple[float, float, float, bool]:
+    """The nearest twist with approach speed −n·v ≤ ``allowed`` (projection onto the damper's half-space).
+
+    Used after :func:`deflect` when several dampers bind: alternating projections onto the half-spaces
+    converge to their intersection (von Neumann / Bregman), and a projection never adds speed along
+    the tangent plane. Returns (v', changed).
+    """
+    excess = -(vx * nx + vy * ny + vz * nz) - allowed
+    if excess <= 0.0:
+        return vx, vy, vz, False
+    return vx + excess * nx, vy + excess * ny, vz + excess * nz, True
+
+
+@njit(cache=True)
+def braking_rate_limit(
+    x: float, y: float, z: float, px: float, py: float, pz: float, max_change: float,
+    nx: float, ny: float, nz: float, limit: float,
+) -> tuple[float, float, float]:
+    """Rate limit ‖v − v_prev‖ ≤ ``max_change`` that spends the budget on braking along n first.
+
+    n is the unit braking direction: from the previous twist toward the nearest twist obeying every
+    damper (zero vector when the previous twist obeys them; then this is :func:`rate_limit`). The
+    change Δ = v − v_prev is split into its part along n and the rest; when Δ·n > 0 (braking) the part
+    along n is served first and the rest gets what is left of the budget, so a turn does not delay the
+    stop. The result is finally projected onto
+    the ball ‖v‖ ≤ ``limit``, which keeps ‖v − v_prev‖ ≤ ``max_change`` (projection is non-expansive
+    and v_prev lies in the ball).
+    """
+    dx, dy, dz = x - px, y - py, z - pz
+    norm = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if norm <= max_change:
+        return x, y, z
+    along = dx * nx + dy * ny + dz * nz
+    if along <= 0.0:
+        scale = max_change / norm
+        dx, dy, dz = scale * dx, scale * dy, scale * dz
+    else:
+        ax, ay, az = along * nx, along * ny, along * nz
+        tx, ty, tz = dx - ax, dy - ay, dz - az
+        if along >= max_change:
+            scale, rest = max_change / along, 0.0
+        else:
+            t_norm = math.sqrt(tx * tx + ty * ty + tz * tz)
+            scale = 1.0
+            rest = math.sqrt(max(max_change * max_change - along * along, 0.0)) / t_norm if t_norm > _TINY else 0.0
+        dx, dy, dz = scale * ax + rest * tx, scale * ay + rest * ty, scale * az + rest * tz
+    vx, vy, vz = px + dx, py + dy, pz + dz
+    speed = math.sqrt(vx * vx + vy * vy + vz * vz)
+    if speed > limit:
+        vx, vy, vz = vx * limit / speed, vy * limit / speed, vz * limit / speed
+    return vx, vy, vz
