@@ -31,9 +31,11 @@ from pfield.field._evaluate import (
 from pfield.field.config import PARAM_NAMES
 from pfield.field.forces import (
     attraction,
+    braking_rate_limit,
     damper_speed,
     deflect,
     khatib_magnitude,
+    project_damper,
     rate_limit,
     rotation_error,
     soft_saturate,
@@ -173,3 +175,41 @@ def test_deflect_is_continuous_where_the_damper_starts_to_act() -> None:
     normal = (1.0, 0.0, 0.0)
     just_active = deflect(*v, *normal, 0.0, 0.0, 1.0, 0.03 - 1e-9, 1.0)[:3]
     np.testing.assert_allclose(just_active, v, atol=1e-6)
+
+
+@settings(max_examples=150, deadline=None)
+@given(vectors, vectors, st.floats(0.001, 0.5), vectors)
+def test_braking_rate_limit_obeys_both_limits_and_brakes_first(
+    v: tuple[float, float, float], previous: tuple[float, float, float], change: float,
+    direction: tuple[float, float, float],
+) -> None:
+    limit = 2.0
+    prior = np.array(previous)
+    prior *= min(1.0, limit / max(np.linalg.norm(prior), 1e-12))
+    desired = np.array(v)
+    desired *= min(1.0, limit / max(np.linalg.norm(desired), 1e-12))
+    n = np.array(direction)
+    n = n / np.linalg.norm(n) if np.linalg.norm(n) > 1e-6 else np.zeros(3)
+    out = np.array(braking_rate_limit(*desired, *prior, change, *n, limit))
+    assert np.linalg.norm(out - prior) <= change * (1 + 1e-9) + 1e-12
+    assert np.linalg.norm(out) <= limit * (1 + 1e-12)
+    along = float(np.dot(desired - prior, n))
+    if along > 0.0 and np.linalg.norm(out) < limit * (1 - 1e-9):  # braking is served first
+        assert np.dot(out - prior, n) >= min(along, change) * (1 - 1e-9) - 1e-12
+
+
+def test_braking_rate_limit_without_a_direction_is_the_plain_rate_limit() -> None:
+    args = (0.3, -0.2, 0.1, 0.0, 0.1, 0.0, 0.05)
+    np.testing.assert_allclose(braking_rate_limit(*args, 0.0, 0.0, 0.0, 1.0), rate_limit(*args), atol=1e-15)
+
+
+@settings(max_examples=100, deadline=None)
+@given(vectors, st.floats(-0.05, 0.1))
+def test_project_damper_is_the_half_space_projection(v: tuple[float, float, float], allowed: float) -> None:
+    normal = np.array([0.6, 0.0, -0.8])
+    out = np.array(project_damper(*v, *normal, allowed)[:3])
+    assert -np.dot(out, normal) <= allowed + 1e-9
+    if -np.dot(v, normal) <= allowed:
+        np.testing.assert_array_equal(out, v)
+    else:
+        np.testing.assert_allclose(np.cross(out - np.array(v), normal), 0.0, atol=1e-12)
