@@ -92,8 +92,7 @@ def _widen(ros_node: RclpyNode, parameters: list[Parameter]) -> list[Parameter]:
     """Integers for double parameters become doubles (pre-set callback; may rewrite the list)."""
     widened = []
     for parameter in parameters:
-        declared_type = ros_node.get_parameter_or(parameter.name).type_ if ros_node.has_parameter(
-            parameter.name) else None
+        declared_type = ros_node.get_parameter(parameter.name).type_ if ros_node.has_parameter(parameter.name) else None
         if declared_type == Parameter.Type.DOUBLE and parameter.type_ == Parameter.Type.INTEGER:
             parameter = Parameter(parameter.name, Parameter.Type.DOUBLE, float(parameter.value))
         elif declared_type == Parameter.Type.DOUBLE_ARRAY and parameter.type_ == Parameter.Type.INTEGER_ARRAY:
