@@ -20,10 +20,8 @@ from ros2_helpers.support import HELPERS, REPO, require_netns, require_ros2_pyth
 pytestmark = [pytest.mark.ros2, pytest.mark.slow]
 
 XARM7_JOINTS = [f"joint{i}" for i in range(1, 8)]
-PLAN_METHODS = ["task_space", "whole_body"]
-AUTONOMY_METHODS = ["task_space"]
-"""The client also calls the seed's whole-body autonomy example; its assertion joins this list when the
-whole-body autonomy vector (``pfield.autonomy``) lands (the node already serves the call)."""
+SEED_JOINTS_END_EFFECTOR = (0.227, 0.0, 0.294)
+"""FK of the seed's joint angles on the xArm7 (the seed's task-space start)."""
 SEED_IDS = sorted(seed.OBSTACLES)
 PARAMS_YAML = """\
 pfield_manager:
@@ -72,7 +70,7 @@ def test_seed_obstacles_are_all_held_and_drawn(session: dict[str, Any]) -> None:
     assert {"obstacles", "influence"} <= set(results["marker_namespaces"])
 
 
-@pytest.mark.parametrize("method", PLAN_METHODS)
+@pytest.mark.parametrize("method", ["task_space", "whole_body"])
 def test_seed_plan_path_reaches_the_goal(session: dict[str, Any], method: str) -> None:
     plan = session["results"][f"plan_{method}"]
     assert plan["success"] is True, plan["error_message"]
@@ -91,13 +89,21 @@ def test_path_marker_published(session: dict[str, Any]) -> None:
     assert session["results"]["path_marker_points"] > 1
 
 
-@pytest.mark.parametrize("method", AUTONOMY_METHODS)
-def test_seed_autonomy_vector_points_to_the_goal(session: dict[str, Any], method: str) -> None:
-    velocity = session["results"][f"autonomy_{method}"]
-    assert all(math.isfinite(v) for v in velocity)
+def test_seed_task_space_autonomy_vector_points_to_the_goal(session: dict[str, Any]) -> None:
+    velocity = session["results"]["autonomy_task_space"]
     to_goal = [g - q for g, q in zip(seed.GOAL_POSITION, seed.QUERY_POSITION, strict=True)]
-    cosine = sum(v * d for v, d in zip(velocity, to_goal, strict=True)) / (math.hypot(*velocity) * math.hypot(*to_goal))
-    assert cosine > 0.9  # no obstacle within the influence distance of the query pose
+    # no obstacle within the influence distance of the query pose: straight at the goal, at the default
+    # max_linear_velocity (0.05 m/s; the attraction 3.0 * 0.229 m is far above it)
+    assert math.hypot(*velocity) == pytest.approx(0.05, rel=1e-6)
+    assert [v / 0.05 for v in velocity] == pytest.approx([d / math.hypot(*to_goal) for d in to_goal], abs=1e-6)
+
+
+def test_seed_whole_body_autonomy_vector_points_to_the_goal(session: dict[str, Any]) -> None:
+    velocity = session["results"]["autonomy_whole_body"]
+    assert all(math.isfinite(v) for v in velocity) and math.hypot(*velocity) > 0.0
+    # evaluated at the end effector of the seed's joint angles (FK = the seed's task-space start)
+    to_goal = [g - q for g, q in zip(seed.GOAL_POSITION, SEED_JOINTS_END_EFFECTOR, strict=True)]
+    assert sum(v * d for v, d in zip(velocity, to_goal, strict=True)) > 0.0
 
 
 def test_query_pose_topic_answers_on_autonomy_vector_topic(session: dict[str, Any]) -> None:
