@@ -11,6 +11,7 @@ from __future__ import annotations
 import asyncio
 import threading
 from collections import defaultdict
+from collections.abc import Sequence
 
 from pfield.interfaces._base import RosMessage
 from pfield.node._base import Bus
@@ -21,13 +22,14 @@ __all__ = ["TopicFanout"]
 class TopicFanout:
     """Bus listener forwarding JSON text of each topic's messages to subscribed asyncio queues."""
 
-    def __init__(self, bus: Bus, loop: asyncio.AbstractEventLoop, queue_size: int = 1000) -> None:
-        self._bus = bus
+    def __init__(self, buses: Sequence[Bus], loop: asyncio.AbstractEventLoop, queue_size: int = 1000) -> None:
+        self._buses = list(buses)
         self._loop = loop
         self._queue_size = queue_size
         self._lock = threading.Lock()
         self._queues: dict[str, list[asyncio.Queue[str]]] = defaultdict(list)
-        bus.add_listener(self._on_publish)
+        for bus in self._buses:
+            bus.add_listener(self._on_publish)
 
     def subscribe(self, topic: str) -> asyncio.Queue[str]:
         queue: asyncio.Queue[str] = asyncio.Queue(self._queue_size)
@@ -41,7 +43,8 @@ class TopicFanout:
                 self._queues[topic].remove(queue)
 
     def close(self) -> None:
-        self._bus.remove_listener(self._on_publish)
+        for bus in self._buses:
+            bus.remove_listener(self._on_publish)
 
     def _on_publish(self, topic: str, message: RosMessage) -> None:
         with self._lock:

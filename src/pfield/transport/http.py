@@ -280,9 +280,7 @@ def create_app(nodes: Sequence[Node], *, token: str | None = None,
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         loop = asyncio.get_running_loop()
-        app.state.fanout = TopicFanout(routes.buses[0] if routes.buses else Bus(), loop, ws_queue_size)
-        for bus in routes.buses[1:]:
-            bus.add_listener(app.state.fanout._on_publish)
+        app.state.fanout = TopicFanout(routes.buses, loop, ws_queue_size)
         ticks = [asyncio.create_task(_tick_forever(n)) for n in nodes if n.tick_period]
         yield
         for task in ticks:
