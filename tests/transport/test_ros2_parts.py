@@ -1,0 +1,86 @@
+"""Parts of the ROS 2 host that need no DDS traffic: failure responses and the bus publisher thread."""
+
+from __future__ import annotations
+
+import threading
+
+from ros2_helpers.support import require_ros2_python
+
+require_ros2_python()
+
+from geometry_msgs.msg import PoseStamped as RosPoseStamped  # noqa: E402
+
+import pfield.interfaces.potential_fields_interfaces as pfi  # noqa: E402
+from pfield.interfaces import std_srvs  # noqa: E402
+from pfield.interfaces.geometry_msgs import PoseStamped  # noqa: E402
+from pfield.interfaces.std_msgs import Header  # noqa: E402
+from pfield.transport._ros2_publisher import BusPublisher  # noqa: E402
+from pfield.transport.ros2 import _failure_response  # noqa: E402
+
+
+def test_failure_responses_carry_the_reason_where_the_type_can() -> None:
+    reason = "planning_method='sideways': expected 'task_space' or 'whole_body'"
+    assert _failure_response(pfi.PlanPath_Response, reason) == pfi.PlanPath_Response(success=False,
+                                                                                      error_message=reason)
+    assert _failure_response(pfi.RemoveObstacles_Response, reason) == pfi.RemoveObstacles_Response(message=reason)
+    assert _failure_response(std_srvs.Trigger_Response, reason) == std_srvs.Trigger_Response(message=reason)
+    # FindValidPose: LETHAL (mbf's "nothing found"), never the default FREE
+    assert _failure_response(pfi.FindValidPose_Response, reason).state == pfi.FindValidPose_Response.LETHAL
+    # no error field: the default response (a zero twist, no autonomy)
+    assert _failure_response(pfi.ComputeAutonomyVector_Response, reason) == pfi.ComputeAutonomyVector_Response()
+
+
+def _stamped(frame: str) -> PoseStamped:
+    return PoseStamped(header=Header(frame_id=frame))
+
+
+def test_bus_publisher_sends_the_newest_message_per_topic() -> None:
+    sent: list[str] = []
+    busy, release = threading.Event(), threading.Event()
+
+    def publish(message: RosPoseStamped) -> None:
+        busy.set()
+        release.wait(5.0)  # hold the thread so that later messages pile up
+        sent.append(message.header.frame_id)
+
+    publisher = BusPublisher()
+    publisher.register("/pose", RosPoseStamped, publish)
+    publisher.start()
+    publisher.enqueue("/pose", _stamped("first"))
+    assert busy.wait(5.0)
+    for frame in ("second", "third"):  # while "first" is being published
+        publisher.enqueue("/pose", _stamped(frame))
+    publisher.enqueue("/not_registered", _stamped("ignored"))
+    release.set()
+    publisher.stop(5.0)
+    assert sent == ["first", "third"]  # "second" was superseded before it was sent
+
+
+def test_bus_publisher_survives_a_failing_publish() -> None:
+    sent: list[str] = []
+    failed = threading.Event()
+
+    def publish(message: RosPoseStamped) -> None:
+        if message.header.frame_id == "boom":
+            failed.set()
+            raise RuntimeError("publisher failed")
+        sent.append(message.header.frame_id)
+
+    publisher = BusPublisher()
+    publisher.register("/pose", RosPoseStamped, publish)
+    publisher.start()
+    publisher.enqueue("/pose", _stamped("boom"))
+    assert failed.wait(5.0)
+    publisher.enqueue("/pose", _stamped("after"))
+    publisher.stop(5.0)
+    assert sent == ["after"]
+
+
+def test_bus_publisher_publishes_what_is_pending_at_stop() -> None:
+    sent: list[str] = []
+    publisher = BusPublisher()
+    publisher.register("/pose", RosPoseStamped, lambda message: sent.append(message.header.frame_id))
+    publisher.enqueue("/pose", _stamped("last words"))
+    publisher.start()
+    publisher.stop(5.0)
+    assert sent == ["last words"]
