@@ -329,7 +329,7 @@ def joint_velocity_step(  # type: ignore[no-untyped-def]
         ws.rhs[j] += params[DAMPING] * ws.free[j]
     cholesky_inplace(ws.h, n)
     cholesky_solve(ws.h, ws.rhs, ws.x, n)
-    hildreth(ws.h, ws.x, ws.rows, ws.b, m, n, ws.hinv, ws.mu, ws.curvature, 20, 1e-7)
+    hildreth(ws.h, ws.x, ws.rows, ws.b, m, n, ws.hinv, ws.mu, ws.curvature, 50, 1e-7)
     _limit_speed(previous, has_prev, robot, params, ws, m)
     for r in range(6):
         s = 0.0
@@ -362,9 +362,10 @@ def plan_loop(q0, robot, scene, goal_p, goal_q, params, max_iterations):  # type
         qs[k], positions[k], quats[k], clear[k] = q, ws.out[6:9], ws.out[9:13], ws.out[13]
         pos_err, rot_err = ws.out[15], ws.out[16]
         if ws.out[19] < 0.0 or ws.out[14] < 0.0:
-            status, count = (COLLISION if ws.out[19] < 0.0 else SELF_COLLISION), k + 1
+            # the last step brought capsules into contact (an infeasible squeeze): stop before it
+            status, count = (COLLISION if ws.out[19] < 0.0 else SELF_COLLISION), max(k, 1)
             culprit[0], culprit[1] = int(ws.out[17]), int(ws.out[18])
-            qds[k], twists[k] = 0.0, 0.0
+            qds[count - 1], twists[count - 1] = 0.0, 0.0
             break
         if pos_err <= params[TOL] and rot_err <= params[ROT_TOL]:
             status, count = SUCCESS, k + 1

@@ -12,8 +12,10 @@ null space to the obstacle repulsion (mapped with each link point's Jacobian tra
 self-collision enter as velocity dampers (NEO), so the arm never gets closer than ``safety_distance`` and a
 goal near obstacles is still reached. See ``docs/robots.md``.
 
-Failure reasons: ``collision`` (a link capsule touches an obstacle — only possible when the start does),
-``self-collision``, ``stagnation`` (no progress in ``stagnation_window`` s) and ``iteration limit``.
+Failure reasons: ``collision`` (the start configuration collides — checked exactly with coal — or the
+dampers could not keep a squeezed link off an obstacle: the plan stops *before* the contact),
+``self-collision`` (likewise between link capsules), ``stagnation`` (no progress in ``stagnation_window``
+s) and ``iteration limit``.
 """
 
 from __future__ import annotations
@@ -151,10 +153,10 @@ def _failure_reason(status: int, count: int, culprit: NDArray[np.int64], robot: 
     if status == _wb.COLLISION:
         link = robot.geometry.capsules[int(culprit[0])].link
         obstacle = names[int(culprit[1])] if names else f"#{int(culprit[1])}"
-        return (f"collision: link {link!r} touches obstacle {obstacle!r} (clearance {clearance:.4f} m) "
-                f"at step {count - 1}")
+        return (f"collision: the next step would bring link {link!r} into contact with obstacle {obstacle!r}; "
+                f"stopped at step {count - 1}")
     if status == _wb.SELF_COLLISION:
-        return f"self-collision: two link capsules touch at step {count - 1}"
+        return f"self-collision: the next step would bring two link capsules into contact; stopped at step {count - 1}"
     if status == _wb.STAGNATION:
         return (f"stagnation: no progress toward the goal within the stagnation window "
                 f"({state}, t = {(count - 1) * dt:.2f} s)")

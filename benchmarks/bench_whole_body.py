@@ -1,0 +1,165 @@
+"""Whole-body planning, the whole-body autonomy vector and the robot kinematics, next to the C++ figures.
+
+REFERENCE.md §2 whole-body scenes: xArm7 from q0 = (0, −0.6, 0, 0.9, 0, 1.5, 0) to (0.6, 0.3, 0.3) with
+orientation Rx(π), dt 0.01, tolerance 0.01 m, at most 30000 steps; no obstacles or 5 spheres (r 0.02 m,
+lateral offset 0.15 m); parameters "default" and "rosYaml". µs per step = median wall time of the whole
+``plan_whole_body`` call / steps taken (pfield needs far fewer steps, so ms per plan is also shown).
+Autonomy vector: ``whole_body_autonomy_vector`` from Python at q0 (previous velocities zero, dt 0.01).
+Kinematics: FK, end-effector Jacobian and one IK solve (+1 cm) — the compiled kernels called from a
+compiled loop (comparable with the C++ library's C++ calls) and the public Python API.
+Notes add the median CPU time (the machine is shared; wall time includes waiting for a core).
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from numba import njit
+
+from benchmarks._common import BenchRow, auto_number, median_time
+from benchmarks.bench_field import cpu_time
+from pfield.autonomy import whole_body_autonomy_vector
+from pfield.field import FieldConfig, PotentialField
+from pfield.planning.scenes import DEFAULT_PARAMS, SEED_GOAL, seed_obstacles, sphere_line_scene
+from pfield.planning.whole_body import joint_velocity_sign_flips
+from pfield.robot import RobotModel
+from pfield.robot import _kinematics as kin
+from pfield.robot.ik import ik_kernel, solve_ik
+from pfield.spatial import Pose
+
+SECTION_PLAN = "whole-body planning (xArm7, µs per step)"
+SECTION_VECTOR = "whole-body autonomy vector (xArm7, µs per call from Python)"
+SECTION_KIN = "robot kinematics (xArm7, µs per call)"
+Q0 = np.array([0.0, -0.6, 0.0, 0.9, 0.0, 1.5, 0.0])
+GOAL = Pose((0.6, 0.3, 0.3), (1.0, 0.0, 0.0, 0.0))
+PARAMS = {"default": DEFAULT_PARAMS, "rosYaml": FieldConfig()}
+# C++ original (REFERENCE §3): ms per plan, steps, µs per step, outcome.
+CPP = {(0, "default"): (386.0, 19770, 19.5, "reached"),
+       (5, "default"): (1826.0, 21232, 86.0, "stagnation, arm thrown outside joint limits"),
+       (0, "rosYaml"): (132.0, 7319, 18.1, "reached"), (5, "rosYaml"): (1047.0, 30000, 35.0, "not reached")}
+TARGET_US = {0: 19.5, 5: 35.0}
+CPP_VECTOR = {(0, "default"): 17.0, (5, "default"): 59.0, (0, "rosYaml"): 19.0, (5, "rosYaml"): 19.0}
+
+
+def _plan_rows(robot: RobotModel, repeat: int) -> list[BenchRow]:
+    rows = []
+    for name, config in PARAMS.items():
+        for count in (0, 5):
+            field = PotentialField(config, GOAL, sphere_line_scene(count, lateral_offset=0.15))
+
+            def plan(field: PotentialField = field) -> object:
+                return field.plan_whole_body(robot, Q0, 0.01, 0.01, 30000)
+
+            seconds = median_time(plan, repeat=repeat)
+            cpu = cpu_time(plan, repeat)
+            path = field.plan_whole_body(robot, Q0, 0.01, 0.01, 30000)
+            steps = max(path.iterations, 1)
+            cpp_ms, cpp_steps, cpp_us, cpp_outcome = CPP[(count, name)]
+            state = "reached" if path.success else path.failure_reason.split(":")[0]
+            distance = float(np.linalg.norm(path.positions[-1] - GOAL.position))
+            rows.append(BenchRow(
+                SECTION_PLAN, f"{count} spheres / {name}", seconds / steps * 1e6, "µs/step", cpp_us,
+                target=TARGET_US[count],
+                note=f"{seconds * 1e3:.3g} ms per plan (C++ {cpp_ms:g} ms), CPU {cpu * 1e3:.3g} ms; {steps} steps, "
+                     f"{state} ({distance * 100:.2f} cm from goal, min clearance {path.min_clearance * 100:.2f} cm, "
+                     f"{joint_velocity_sign_flips(path)} joint-velocity sign flips); C++: {cpp_steps} steps, "
+                     f"{cpp_outcome}"))
+    with tempfile.TemporaryDirectory() as directory:
+        field = PotentialField(FieldConfig(), SEED_GOAL, seed_obstacles(Path(directory)))
+        seed_q = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0])
+        seconds = median_time(lambda: field.plan_whole_body(robot, seed_q, 0.02, 0.01, 25000), repeat=repeat)
+        path = field.plan_whole_body(robot, seed_q, 0.02, 0.01, 25000)
+        state = "reached" if path.success else path.failure_reason
+        rows.append(BenchRow(SECTION_PLAN, "seed whole_body example, six seed obstacles / rosYaml, dt 0.02",
+                             seconds / max(path.iterations, 1) * 1e6, "µs/step",
+                             note=f"{seconds * 1e3:.3g} ms per plan; {path.iterations} steps, {state}, min clearance "
+                                  f"{path.min_clearance * 100:.2f} cm, {joint_velocity_sign_flips(path)} sign flips"))
+    return rows
+
+
+def _vector_rows(robot: RobotModel, repeat: int) -> list[BenchRow]:
+    rows = []
+    previous = np.zeros(7)
+    for name, config in PARAMS.items():
+        for count in (0, 5):
+            field = PotentialField(config, GOAL, sphere_line_scene(count, lateral_offset=0.15))
+
+            def call(field: PotentialField = field) -> object:
+                return whole_body_autonomy_vector(field, robot, Q0, previous, 0.01)
+
+            number = auto_number(call)
+            seconds = median_time(call, repeat=repeat, number=number)
+            cpu = cpu_time(call, repeat, number)
+            rows.append(BenchRow(SECTION_VECTOR, f"{count} spheres / {name}", seconds * 1e6, "µs",
+                                 CPP_VECTOR[(count, name)], target=25.0, note=f"CPU {cpu * 1e6:.3g} µs"))
+    return rows
+
+
+@njit(cache=True)
+def _fk_loop(count, q, k_parents, k_rot, k_pos, k_axes, k_kinds, rotations, origins):  # type: ignore[no-untyped-def]
+    for _ in range(count):
+        q[0] += 1e-9
+        kin.joint_transforms(q, k_parents, k_rot, k_pos, k_axes, k_kinds, rotations, origins)
+    return origins[6, 0]
+
+
+@njit(cache=True)
+def _jacobian_loop(count, q, k_parents, k_rot, k_pos, k_axes, k_kinds, k_support, ee, ee_rot, ee_pos, rotations,
+                   origins, jac):  # type: ignore[no-untyped-def]
+    for _ in range(count):
+        q[0] += 1e-9
+        kin.end_effector_kinematics(q, k_parents, k_rot, k_pos, k_axes, k_kinds, k_support, ee, ee_rot, ee_pos,
+                                    rotations, origins, jac)
+    return jac[0, 0]
+
+
+def _per_call(loop: object, count: int, *args: object) -> float:
+    loop(10, *args)  # type: ignore[operator]
+    best = np.inf
+    for _ in range(5):
+        start = time.perf_counter()
+        loop(count, *args)  # type: ignore[operator]
+        best = min(best, (time.perf_counter() - start) / count)
+    return best
+
+
+def _kinematics_rows(robot: RobotModel, repeat: int) -> list[BenchRow]:
+    k = robot.kinematics
+    n = robot.n_joints
+    rotations, origins, jac = np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((6, n))
+    fk = _per_call(_fk_loop, 200000, Q0.copy(), k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, rotations,
+                   origins)
+    jacobian = _per_call(_jacobian_loop, 200000, Q0.copy(), k.parents, k.place_rot, k.place_pos, k.axes, k.kinds,
+                         k.support, k.ee_joint, k.ee_rot, k.ee_pos, rotations, origins, jac)
+    start = robot.forward_kinematics(Q0)
+    target = Pose(start.position + np.array([0.01, 0.0, 0.0]), start.orientation)
+    settings = np.array([200, 1e-4, 1e-3, 1e-4, 0.3])
+    lower, upper = np.array(robot.lower_limits), np.array(robot.upper_limits)
+    tp, tq = np.array(target.position), np.array(target.orientation)
+
+    def ik_compiled() -> object:
+        return ik_kernel(Q0, tp, tq, k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, k.support, k.ee_joint,
+                         k.ee_rot, k.ee_pos, lower, upper, settings)
+
+    ik = median_time(ik_compiled, repeat=repeat, number=auto_number(ik_compiled))
+    api_fk = median_time(lambda: robot.forward_kinematics(Q0), repeat=repeat, number=2000)
+    api_jac = median_time(lambda: robot.jacobian(Q0), repeat=repeat, number=2000)
+    api_ik = median_time(lambda: solve_ik(robot, target, Q0), repeat=repeat, number=500)
+    iterations = solve_ik(robot, target, Q0).iterations
+    return [
+        BenchRow(SECTION_KIN, "FK (all joints, compiled loop)", fk * 1e6, "µs", 1.0, target=1.0,
+                 note=f"public forward_kinematics() from Python: {api_fk * 1e6:.3g} µs (returns a validated Pose)"),
+        BenchRow(SECTION_KIN, "FK + end-effector Jacobian (compiled loop)", jacobian * 1e6, "µs", 1.0, target=1.0,
+                 note=f"public jacobian() from Python: {api_jac * 1e6:.3g} µs"),
+        BenchRow(SECTION_KIN, "IK solve, +1 cm (kernel called from Python)", ik * 1e6, "µs", 4.2,
+                 note=f"{iterations} DLS iterations; public solve_ik(): {api_ik * 1e6:.3g} µs"),
+    ]
+
+
+def run(quick: bool) -> list[BenchRow]:
+    repeat = 3 if quick else 7
+    robot = RobotModel.builtin("xarm7")
+    return _plan_rows(robot, repeat) + _vector_rows(robot, repeat) + _kinematics_rows(robot, repeat)
