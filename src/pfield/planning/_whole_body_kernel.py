@@ -353,7 +353,7 @@ def plan_loop(q0, robot, scene, goal_p, goal_q, params, max_iterations):  # type
     qs, qds = np.empty((total, n)), np.empty((total, n))
     positions, quats, twists, clear = np.empty((total, 3)), np.empty((total, 4)), np.empty((total, 6)), np.empty(total)
     q, previous = q0.copy(), np.zeros(n)
-    best_pos, best_rot, best_step = math.inf, math.inf, 0
+    errors = np.empty((total, 2))  # goal errors (m, rad) per waypoint, for the stagnation window
     window, progress, dt = int(params[STAG_STEPS]), params[STAG_PROGRESS], params[DT]
     status, count = ITERATION_LIMIT, total
     culprit = np.array((-1, -1))
@@ -374,9 +374,10 @@ def plan_loop(q0, robot, scene, goal_p, goal_q, params, max_iterations):  # type
         qds[k], twists[k] = ws.x, ws.out[0:6]
         if k == total - 1:
             break
-        if pos_err < best_pos - progress or rot_err < best_rot - progress:
-            best_pos, best_rot, best_step = min(pos_err, best_pos), min(rot_err, best_rot), k
-        elif k - best_step > window:
+        # stagnation: neither error fell by ``progress`` over the last window (steady but slow progress, or
+        # trading rotation for position, is not stagnation; a limit cycle or a blocked arm is)
+        errors[k, 0], errors[k, 1] = pos_err, rot_err
+        if k >= window and pos_err > errors[k - window, 0] - progress and rot_err > errors[k - window, 1] - progress:
             status, count = STAGNATION, k + 1
             break
         for j in range(n):
