@@ -190,3 +190,13 @@ def test_uncapped_khatib_sum_reproduces_the_reference_forces(scene: str, force: 
     config = DEFAULT_PARAMS.replace(max_repulsive_force=1e12)
     field = PotentialField(config, BENCH_GOAL, evaluation_scene(scene))
     np.testing.assert_allclose(field.wrench(evaluation_query()).force, force, rtol=1e-9)
+
+
+def test_a_goal_near_a_wall_stays_an_equilibrium_of_the_twist_but_not_of_the_wrench() -> None:
+    """Why the twist uses dampers instead of Khatib repulsion: 8 cm from a face, Khatib pushes off the goal."""
+    wall = Obstacle("wall", Box(0.1, 0.6, 0.6), Pose((0.5, 0.0, 0.3)))
+    goal = Pose((0.37, 0.0, 0.3))
+    field = PotentialField(FieldConfig(influence_distance=0.1), goal, [wall])
+    khatib = 0.3 * (1 / 0.08 - 1 / 0.1) / 0.08**2  # 117 N, bent toward the 10 N cap
+    np.testing.assert_allclose(field.wrench(goal).force, (-khatib / math.sqrt(1 + (khatib / 10) ** 2), 0, 0))
+    np.testing.assert_array_equal(field.twist(goal).linear, (0.0, 0.0, 0.0))
