@@ -219,3 +219,13 @@ def test_random_cluttered_plans_never_enter_an_obstacle(params: str) -> None:
         assert path.success or reason.startswith("stagnation"), reason
         assert _dense_clearance(field, path) > 0.0
     assert "reached" in outcomes
+
+
+def test_a_goal_under_a_wide_table_is_reached_around_its_edge() -> None:
+    """Pressed head-on onto a 60 cm table top, the point slides to the edge instead of settling halfway."""
+    table = Obstacle("table", Box(0.6, 0.6, 0.04), Pose((0.5, 0.0, 0.4)))
+    field = PotentialField(FieldConfig(), Pose((0.5, 0.0, 0.2)), [table])
+    path = field.plan(Pose((0.45, 0.05, 0.6)))
+    assert path.success, path.failure_reason
+    assert _dense_clearance(field, path) > 0.0
+    assert np.max(np.abs(path.positions[:, :2] - (0.5, 0.0)), axis=0).max() > 0.3  # went past the edge

@@ -45,6 +45,7 @@ MAX_LINEAR_ACCELERATION, MAX_ANGULAR_ACCELERATION = 5, 6
 INFLUENCE_DISTANCE, ATTRACTIVE_THRESHOLD, ROTATION_TOLERANCE = 7, 8, 9
 MAX_REPULSIVE_FORCE, SAFETY_DISTANCE, DAMPER_GAIN, CIRCULATION_GAIN = 10, 11, 12, 13
 STAGNATION_WINDOW, STAGNATION_PROGRESS = 14, 15
+_SWEEPS = 16  # damper sweeps: one deflecting, then alternating projections (narrow wedges converge slowly)
 
 
 def obstacle_aux(packed: PackedObstacles, goal_position: np.ndarray) -> np.ndarray:
@@ -137,8 +138,9 @@ def _avoid(
 ) -> tuple[float, float, float, float, int, float, float, float]:
     """Apply every obstacle's velocity damper to v; also the exact clearance and the braking direction.
 
-    Sweep 0 deflects v (:func:`~pfield.field.forces.deflect`); when two or more dampers bind, up to three
-    more sweeps project v onto the dampers' half-spaces until all hold. The previous linear twist is
+    Sweep 0 deflects v (:func:`~pfield.field.forces.deflect`); when two or more dampers bind, up to fifteen
+    more sweeps project v onto the dampers' half-spaces until all hold (if they cannot all hold, the
+    nearest obstacle's damper is enforced last, so the clearance cannot shrink). The previous linear twist is
     projected alongside: the unit vector from it to its projection is the direction in which the rate
     limit brakes first (zero when the previous twist obeys every damper). Returns (v, clearance, nearest,
     brake direction).
@@ -149,7 +151,8 @@ def _avoid(
     accel, kappa = params[MAX_LINEAR_ACCELERATION], params[CIRCULATION_GAIN]
     clearance, nearest, active, active_previous = math.inf, -1, 0, 0
     sx, sy, sz = previous[0], previous[1], previous[2]
-    for sweep in range(4):
+    mx, my, mz = 0.0, 0.0, 0.0
+    for sweep in range(_SWEEPS):
         if sweep > 0 and active < 2 and active_previous < 2:
             break
         changed = False
@@ -159,7 +162,7 @@ def _avoid(
                 continue
             d, nx, ny, nz = _signed_distance(packed, aux, i, p, bound, dx, dy, dz, norm)
             if sweep == 0 and d < clearance:
-                clearance, nearest = d, i
+                clearance, nearest, mx, my, mz = d, i, nx, ny, nz
             if d >= influence:
                 continue
             allowed = damper_speed(d, influence, safety, gain, vmax, accel)
@@ -173,6 +176,11 @@ def _avoid(
                 changed = changed or hit or moved
         if sweep > 0 and not changed:
             break
+    if active + active_previous >= 2 and clearance < influence:
+        # Dampers that cannot all hold (a gap narrower than 2 d_s): the nearest obstacle's wins.
+        allowed = damper_speed(clearance, influence, safety, gain, vmax, accel)
+        vx, vy, vz, _ = project_damper(vx, vy, vz, mx, my, mz, allowed)
+        sx, sy, sz, _ = project_damper(sx, sy, sz, mx, my, mz, allowed)
     bx, by, bz = sx - previous[0], sy - previous[1], sz - previous[2]
     brake = math.sqrt(bx * bx + by * by + bz * bz)
     if brake > 0.0:

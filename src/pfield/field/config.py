@@ -75,7 +75,7 @@ class FieldConfig:
     """ξ (−): approach speed toward an obstacle ≤ ξ·v_max·(d − d_s)/(Q − d_s) (NEO velocity damper)."""
     circulation_gain: float = 1.0
     """κ (−): weight of the consistent circulation direction n × c when a damper redirects motion."""
-    stagnation_window: float = 5.0
+    stagnation_window: float = 10.0
     """(s) a plan fails with "stagnation" when a window this long brings no progress toward the goal."""
     stagnation_progress: float = 0.001
     """(m, and rad for rotation) the least improvement of the goal error that counts as progress."""

@@ -145,21 +145,29 @@ def deflect(
 
     With a = −n·v the approach speed and e = a − s its excess, the twist becomes −s n + t τ: the normal
     part is exactly the allowed approach, t = √(‖v‖² − s²) keeps the speed, and τ is the direction of
-    P_n v + κ e (n × c), i.e. the projection of v on the tangent plane (the short way around) plus a
-    circulation about the obstacle's fixed axis c that decides head-on cases consistently. At e = 0 the
-    result equals v, so the map is continuous. Returns (v', active).
+    P_n v − λ min(0, P_n v·t̂) t̂ + κ e t with t = n × c: the projection of v on the tangent plane (the
+    short way around) plus a circulation about the obstacle's fixed axis c that decides head-on cases
+    consistently. The part of P_n v that pulls against the circulation is dropped in proportion
+    λ = min(1, 2e/‖v‖) to how hard the approach is blocked, so a point pressed onto a wide face keeps
+    sliding to its edge instead of settling where the pull back balances the circulation. At e = 0
+    the result equals v, so the map is continuous. Returns (v', active).
     """
     normal_speed = vx * nx + vy * ny + vz * nz
     excess = -normal_speed - allowed
     if excess <= 0.0:
         return vx, vy, vz, False
     px, py, pz = vx - normal_speed * nx, vy - normal_speed * ny, vz - normal_speed * nz
-    weight = circulation * excess
-    wx = px + weight * (ny * cz - nz * cy)
-    wy = py + weight * (nz * cx - nx * cz)
-    wz = pz + weight * (nx * cy - ny * cx)
-    w_norm = math.sqrt(wx * wx + wy * wy + wz * wz)
+    tx, ty, tz = ny * cz - nz * cy, nz * cx - nx * cz, nx * cy - ny * cx
     speed_sq = vx * vx + vy * vy + vz * vz
+    t_sq = tx * tx + ty * ty + tz * tz
+    against = px * tx + py * ty + pz * tz
+    if against < 0.0 and t_sq > _TINY:
+        share = 1.0 if 2.0 * excess * excess >= 0.5 * speed_sq else 2.0 * excess / math.sqrt(speed_sq)
+        drop = share * against / t_sq
+        px, py, pz = px - drop * tx, py - drop * ty, pz - drop * tz
+    weight = circulation * excess
+    wx, wy, wz = px + weight * tx, py + weight * ty, pz + weight * tz
+    w_norm = math.sqrt(wx * wx + wy * wy + wz * wz)
     tangential = math.sqrt(max(speed_sq - allowed * allowed, 0.0))
     ox, oy, oz = -allowed * nx, -allowed * ny, -allowed * nz
     if w_norm > _TINY:

@@ -113,7 +113,8 @@ def plan_loop(
     (…, 6) and ``clearances`` (…,) and return (waypoint count, status, obstacle index or −1).
 
     Stops at the first waypoint within ``tolerance`` (m) and ``rotation_tolerance`` (rad) of the goal
-    (REACHED), when a waypoint or the segment to it is in collision (COLLISION), when the best goal
+    (REACHED), before a waypoint that is in collision or whose segment is (COLLISION; the count then
+    excludes that waypoint, so the returned path stays free unless the start itself is inside), when the best goal
     errors improved by less than ``params[STAGNATION_PROGRESS]`` over ``window`` steps (STAGNATION), or
     after ``max_iterations`` steps (ITERATION_LIMIT).
     """
@@ -145,10 +146,10 @@ def _run(
         for j in range(6):
             twists[i, j] = twist[j]
         clearances[i] = clearance
-        if clearance <= 0.0:
-            return i + 1, COLLISION, nearest
+        if clearance <= 0.0:  # keep only the collision-free waypoints (the start is always kept)
+            return max(i, 1), COLLISION, nearest
         if i > 0 and not segment_is_free(packed, poses, i - 1, p, clearances[i - 1], clearance, point):
-            return i + 1, COLLISION, min_signed_distance(packed, p)[4]
+            return i, COLLISION, min_signed_distance(packed, p)[4]
         position_error, rotation_error = _goal_errors(p, q, goal)
         if position_error <= tolerance and rotation_error <= rotation_tolerance:
             return i + 1, REACHED, -1

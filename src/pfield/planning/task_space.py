@@ -145,9 +145,9 @@ def _reason(field: PotentialField, status: int, obstacle: int, last: np.ndarray,
         seconds = max(10, round(field.config.stagnation_window / dt)) * dt
         return f"stagnation: no progress toward the goal for {seconds:.3g} s, stopped {where} (nearest: {name})"
     if status == COLLISION:
-        if count == 1:
+        if count == 1 and field.clearances(last[None, :3])[0] <= 0.0:
             return f"collision: the start pose is inside {name}"
-        return f"collision: the path would enter {name} at t = {(count - 1) * dt:.4g} s, {where}"
+        return f"collision: the next step would enter {name} after t = {(count - 1) * dt:.4g} s, {where}"
     if status == ITERATION_LIMIT:
         return f"iteration limit: {count - 1} steps without reaching the goal, stopped {where}"
     if status == NOT_FINITE:
