@@ -72,12 +72,12 @@ def test_seed_whole_body_example_with_all_six_obstacles(xarm: RobotModel, tmp_pa
         assert own > 0.0, own_pair
 
 
-def test_reference_scene_with_five_spheres_never_collides(xarm: RobotModel) -> None:
+def test_reference_scene_with_five_spheres_is_solved_without_collision(xarm: RobotModel) -> None:
     obstacles = sphere_line_scene(5, lateral_offset=0.15)
     for config in (FieldConfig(), DEFAULT_PARAMS):
         path = PotentialField(config, REFERENCE_GOAL, obstacles).plan_whole_body(xarm, Q0, 0.01, 0.01, 30000)
         _check_plan_invariants(path, xarm, Q0, 0.01)
-        assert path.success or path.failure_reason.startswith(("stagnation", "iteration limit"))
+        _assert_success(path, REFERENCE_GOAL, 0.01)  # the C++ original fails both (REFERENCE §3)
         assert path.min_clearance >= config.safety_distance - 1e-4  # dampers hold d_s up to linearisation
         checker = CollisionChecker(xarm, obstacles)
         assert min(checker.distances(q)[0] for q in path.joint_positions[::5]) > 0.0

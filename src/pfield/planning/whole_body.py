@@ -62,7 +62,7 @@ class WholeBodyOptions:
 
     rotation_weight: float = 0.5
     damping: float = 1e-3
-    null_space_gain: float = 1.0
+    null_space_gain: float = 0.3
     joint_influence: float = 0.1
     joint_safety: float = 0.01
     acceleration_limits: tuple[float, ...] | None = None
