@@ -155,3 +155,20 @@ def test_collision_checker_detects_contact_and_margin(xarm: RobotModel) -> None:
     assert far.check(q0, margin=clear.distance + 0.01).in_collision
     with pytest.raises(errors.InvalidInput):
         far.check(q0, margin=-0.1)
+
+
+def test_without_srdf_only_adjacent_links_are_excluded() -> None:
+    from pfield.robot.catalog import example_robot_data_root
+
+    root = example_robot_data_root()
+    robot = RobotModel.from_urdf(root / "robots/xarm_description/urdf/xarm7.urdf", end_effector="link_eef",
+                                 package_paths={"example-robot-data": root})
+    assert robot.disabled_pairs is None
+    names = robot.geometry.link_names
+    pairs = {frozenset((names[i], names[j])) for i, j in robot.geometry.self_pairs}
+    parents = robot.kinematics.parents
+    for i, j in robot.geometry.self_pairs:
+        ji, jj = robot.geometry.capsules[i].joint, robot.geometry.capsules[j].joint
+        assert ji != jj
+        assert not (jj >= 0 and parents[jj] == ji) and not (ji >= 0 and parents[ji] == jj)  # never adjacent
+    assert frozenset(("link1", "link3")) in pairs  # the SRDF disables it ("Never"); without it, it is checked
