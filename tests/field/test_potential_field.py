@@ -120,6 +120,17 @@ def test_limited_twist_obeys_velocity_and_rate_limits(
     assert np.linalg.norm(twist.angular - prior[3:]) <= 0.2 * dt * (1 + 1e-9)
 
 
+@settings(max_examples=100, deadline=None)
+@given(poses)
+def test_twist_without_previous_obeys_the_velocity_limits(pose: tuple[float, float, float, tuple[float, ...]]) -> None:
+    walls = [Obstacle("a", Box(0.1, 0.4, 0.4), Pose((0.3, 0.0, 0.0))),
+             Obstacle("b", Sphere(0.1), Pose((0.45, 0.1, 0.0)))]
+    field = PotentialField(FieldConfig(), Pose((0.8, 0.1, 0.0), (0.0, 1.0, 0.0, 0.0)), walls)
+    twist = field.twist(Pose(pose[:3], pose[3]))
+    assert np.linalg.norm(twist.linear) <= 0.05 * (1 + 1e-12)
+    assert np.linalg.norm(twist.angular) <= 0.4 * (1 + 1e-12)
+
+
 def test_batches_equal_single_evaluations() -> None:
     field = PotentialField(FieldConfig(), Pose((0.8, 0.0, 0.1)), [BALL])
     rng = np.random.default_rng(3)

@@ -211,6 +211,9 @@ def constrained_twist(
     k = params[ROTATIONAL_GAIN]
     wx, wy, wz = soft_saturate(k * rx, k * ry, k * rz, params[MAX_ANGULAR_VELOCITY])
     vx, vy, vz, clearance, nearest, bx, by, bz = _avoid(p, vx, vy, vz, params, packed, aux, previous)
+    speed, vmax = math.sqrt(vx * vx + vy * vy + vz * vz), params[MAX_LINEAR_VELOCITY]
+    if speed > vmax:  # a projection that pushes away from an obstacle can add speed; v_max still holds
+        vx, vy, vz = vx * vmax / speed, vy * vmax / speed, vz * vmax / speed
     if use_previous:
         vx, vy, vz = braking_rate_limit(vx, vy, vz, previous[0], previous[1], previous[2],
                                         params[MAX_LINEAR_ACCELERATION] * dt, bx, by, bz, params[MAX_LINEAR_VELOCITY])
