@@ -229,3 +229,17 @@ def test_a_goal_under_a_wide_table_is_reached_around_its_edge() -> None:
     assert path.success, path.failure_reason
     assert _dense_clearance(field, path) > 0.0
     assert np.max(np.abs(path.positions[:, :2] - (0.5, 0.0)), axis=0).max() > 0.3  # went past the edge
+
+
+def test_a_step_into_an_obstacle_ends_the_plan_before_it() -> None:
+    """Steps too coarse for the dampers (0.2 s at up to 5 m/s toward a 1 cm wall): the plan stops before the
+    step that would enter the wall, and every returned waypoint and segment stays outside it."""
+    from pfield.planning.scenes import DEFAULT_PARAMS
+
+    wall = Obstacle("wall", Box(0.01, 1.0, 1.0), Pose((0.5, 0.0, 0.0)))
+    field = PotentialField(DEFAULT_PARAMS.replace(max_linear_acceleration=100.0), Pose((1.0, 0.0, 0.0)), [wall])
+    path = field.plan(Pose(), dt=0.2)
+    assert not path.success
+    assert path.failure_reason.startswith("collision: the next step would enter 'wall'")
+    assert _dense_clearance(field, path, samples=64) > 0.0
+    assert field.plan(Pose(), dt=0.05).success  # the same scene with a fine step goes around
