@@ -114,7 +114,7 @@ def test_start_in_collision_is_reported(xarm: RobotModel) -> None:
     path = PotentialField(FieldConfig(), REFERENCE_GOAL, [obstacle]).plan_whole_body(xarm, Q0, 0.01, 0.01, 100)
     assert not path.success
     assert path.failure_reason.startswith("collision") and "ball" in path.failure_reason
-    assert len(path) == 1
+    assert len(path) == 1 and path.min_clearance <= 0.0
 
 
 @pytest.mark.parametrize(

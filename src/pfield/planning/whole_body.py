@@ -185,9 +185,9 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
     params = kernel_parameters(config, step, tolerance, rot_tol, opts)
     arrays = pack_robot(robot, config, opts)
     scene = make_scene(packed, arrays, start, config.safety_distance)
-    touching = _start_collision(robot, start, scene, obstacles)
+    touching, distance = _start_collision(robot, start, scene, obstacles)
     if touching:
-        return _single_waypoint(robot, start, f"collision: the start configuration collides ({touching})")
+        return _single_waypoint(robot, start, f"collision: the start configuration collides ({touching})", distance)
     status, count, qs, qds, pos, quats, twists, clear, culprit = _wb.plan_loop(
         start, arrays, scene, np.array(goal.position, dtype=np.float64),
         np.array(goal.orientation, dtype=np.float64), params, iterations)
@@ -202,21 +202,22 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
 
 
 def _start_collision(robot: RobotModel, start: NDArray[np.float64], scene: _wb.Scene,
-                     obstacles: Sequence[Obstacle] | None) -> str:
-    """"" or the touching pair when capsules start too close and coal confirms a real contact."""
+                     obstacles: Sequence[Obstacle] | None) -> tuple[str, float]:
+    """("", ·) or (the touching pair, the exact obstacle distance) when capsules start too close and coal
+    confirms a real contact."""
     if not (np.any(scene.obstacle_offsets < 0.0) or np.any(scene.self_offsets < 0.0)):
-        return ""
+        return "", math.inf
     from pfield.robot.collision import CollisionChecker
 
     report = CollisionChecker(robot, list(obstacles or ())).check(start)
-    return report.pair if report.in_collision else ""
+    return (report.pair if report.in_collision else ""), report.distance
 
 
-def _single_waypoint(robot: RobotModel, start: NDArray[np.float64], reason: str) -> PlannedPath:
+def _single_waypoint(robot: RobotModel, start: NDArray[np.float64], reason: str, clearance: float) -> PlannedPath:
     pose = robot.forward_kinematics(start)
     _LOG.info("whole-body plan failed: %s", reason)
     return PlannedPath(success=False, failure_reason=reason, times=np.zeros(1), positions=pose.position[None],
-                       orientations=pose.orientation[None], twists=np.zeros((1, 6)), clearances=np.full(1, np.nan),
+                       orientations=pose.orientation[None], twists=np.zeros((1, 6)), clearances=np.full(1, clearance),
                        iterations=0, joint_names=robot.joint_names, joint_positions=start[None],
                        joint_velocities=np.zeros((1, robot.n_joints)))
 
