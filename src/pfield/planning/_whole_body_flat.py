@@ -15,6 +15,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from pfield.planning import _whole_body_kernel as _wb
+from pfield.planning._whole_body_loop import autonomy_step
 
 __all__ = ["FlatStep", "flat_step"]
 
@@ -121,12 +122,12 @@ def _workspace_views(work, n, caps, m_max):  # type: ignore[no-untyped-def]
 
 @njit(cache=True)
 def flat_step(q, previous, has_prev, goal_p, goal_q, params, dims, floats, ints, work, packed):  # type: ignore[no-untyped-def]
-    """:func:`~pfield.planning._whole_body_kernel.autonomy_step` on the flat buffers of :class:`FlatStep`.
+    """:func:`~pfield.planning._whole_body_loop.autonomy_step` on the flat buffers of :class:`FlatStep`.
 
     Returns the (20,) output row (twist 0:6, position 6:9, quaternion 9:13, clearance 13, …) followed by q̇.
     """
     robot, scene, ws = _views(dims, floats, ints, work, packed)
-    _wb.autonomy_step(q, previous, has_prev, robot, scene, goal_p, goal_q, params, ws)
+    autonomy_step(q, previous, has_prev, robot, scene, goal_p, goal_q, params, ws)
     result = np.empty(20 + q.shape[0])
     result[:20] = ws.out
     result[20:] = ws.x

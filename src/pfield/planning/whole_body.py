@@ -1,7 +1,8 @@
 """Whole-body planning: the potential field acting on every link of a robot, integrated in joint space.
 
 ``plan_whole_body(field, robot, q0, dt, goal_tolerance, max_iterations)`` starts from joint angles ``q0`` and
-integrates the joint velocity of :mod:`pfield.planning._whole_body_kernel` (one compiled loop) until the end
+integrates the joint velocity of :mod:`pfield.planning._whole_body_kernel` (one compiled loop,
+:mod:`pfield.planning._whole_body_loop`) until the end
 effector is within ``goal_tolerance`` (m) and ``rotation_tolerance`` (rad) of the field's goal pose.
 
 Why a damped least-squares QP rather than the plain transpose map q̇ = Jᵀ F: the transpose map moves the
@@ -36,6 +37,7 @@ from pfield.geometry import Obstacle, pack_obstacles
 from pfield.geometry._packed import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE, PackedObstacles
 from pfield.geometry._sdf import empty_packed
 from pfield.planning import _whole_body_kernel as _wb
+from pfield.planning import _whole_body_loop as _loop
 from pfield.planning.result import PlannedPath
 from pfield.robot.model import RobotModel
 from pfield.spatial import Pose
@@ -141,7 +143,7 @@ def make_scene(packed: PackedObstacles | None, robot: _wb.RobotArrays | None = N
     scene = _wb.Scene(packed, centres, radii, np.zeros((n_caps, len(radii))), np.zeros(n_pairs))
     if robot is None or q0 is None:
         return scene
-    obstacle, own = _wb.pair_distances(q0, robot, scene)
+    obstacle, own = _loop.pair_distances(q0, robot, scene)
     return scene._replace(obstacle_offsets=np.minimum(obstacle - safety_distance, 0.0),
                           self_offsets=np.minimum(own - safety_distance, 0.0))
 
@@ -188,7 +190,7 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
     touching, distance = _start_collision(robot, start, scene, obstacles)
     if touching:
         return _single_waypoint(robot, start, f"collision: the start configuration collides ({touching})", distance)
-    status, count, qs, qds, pos, quats, twists, clear, culprit = _wb.plan_loop(
+    status, count, qs, qds, pos, quats, twists, clear, culprit = _loop.plan_loop(
         start, arrays, scene, np.array(goal.position, dtype=np.float64),
         np.array(goal.orientation, dtype=np.float64), params, iterations)
     errors = (float(np.linalg.norm(goal.position - pos[-1])), float(Pose(pos[-1], quats[-1]).rotation_distance(goal)))

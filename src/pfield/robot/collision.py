@@ -46,13 +46,13 @@ def capsule_clearances(robot: RobotModel, q: ArrayLike,
                        obstacles: Sequence[Obstacle]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Capsule clearances (m): link × obstacle (L, M) and self-collision pairs (P,) at joint angles ``q``."""
     from pfield.field.config import FieldConfig
-    from pfield.planning import _whole_body_kernel as _wb
+    from pfield.planning._whole_body_loop import pair_distances
     from pfield.planning.whole_body import WholeBodyOptions, make_scene, pack_robot
 
     values = robot.check_joint_angles(q)
     arrays = pack_robot(robot, FieldConfig(), WholeBodyOptions())
     scene = make_scene(pack_obstacles(list(obstacles)) if obstacles else None, arrays)
-    obstacle, own = _wb.pair_distances(values, arrays, scene)
+    obstacle, own = pair_distances(values, arrays, scene)
     return obstacle, own
 
 
