@@ -127,7 +127,8 @@ def test_unreadable_urdf(tmp_path: Path) -> None:
         RobotModel.from_urdf(broken, end_effector="a")
 
 
-def test_missing_package_root_is_named(tmp_path: Path) -> None:
+def test_missing_package_root_is_named(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("AMENT_PREFIX_PATH", "")
     root = example_robot_data_root()
     with pytest.raises(errors.ResourceNotFound, match="example-robot-data"):
         RobotModel.from_urdf(root / "robots/xarm_description/urdf/xarm7.urdf", end_effector="link_eef")
@@ -173,3 +174,22 @@ def test_forward_kinematics_returns_pose(xarm: RobotModel) -> None:
     assert isinstance(pose, Pose)
     positions = xarm.end_effector_positions(np.stack([Q0, Q0]))
     np.testing.assert_allclose(positions, [pose.position, pose.position], atol=1e-12)
+
+
+def test_mesh_uris_go_through_the_obstacle_resolver(tmp_path: Path) -> None:
+    from pfield.geometry import ResourceResolver
+
+    root = example_robot_data_root()
+    resolver = ResourceResolver(package_paths={"example-robot-data": root})
+    robot = RobotModel.from_urdf(root / "robots/xarm_description/urdf/xarm7.urdf", end_effector="link_eef",
+                                 resolver=resolver)
+    assert robot.collision_model.geometryObjects[0].meshPath.startswith(str(root))
+    # a mesh outside the allowed places is refused, whatever pinocchio would do with it
+    outside = tmp_path / "arm.urdf"
+    outside.write_text(
+        "<robot name='arm'><link name='base'><collision><geometry><mesh filename='/etc/passwd'/></geometry>"
+        "</collision></link><link name='tool'/><joint name='j1' type='revolute'><parent link='base'/>"
+        "<child link='tool'/><axis xyz='0 0 1'/><limit lower='-1' upper='1' velocity='1' effort='1'/></joint>"
+        "</robot>")
+    with pytest.raises(errors.ResourceNotAllowed):
+        RobotModel.from_urdf(outside, end_effector="tool")

@@ -1,7 +1,8 @@
 """Loading a URDF (+ optional SRDF) into pinocchio models, with ``package://`` URIs resolved first.
 
-Mesh URIs in the URDF are rewritten to absolute paths before pinocchio sees the text, so the package
-roots given by the caller are the only places meshes come from (no ROS environment variables, no network).
+Mesh URIs in the URDF are resolved with the same :class:`~pfield.geometry.ResourceResolver` as obstacle
+meshes and rewritten to absolute paths before pinocchio sees the text, so meshes come only from the places
+the caller allowed (no network).
 """
 
 from __future__ import annotations
@@ -16,11 +17,11 @@ import numpy as np
 import pinocchio as pin
 
 from pfield.errors import InvalidInput, ResourceNotFound
+from pfield.geometry.resources import ResourceResolver
 
 __all__ = ["LoadedRobot", "load_urdf", "read_disabled_pairs"]
 
 _LOG = logging.getLogger(__name__)
-_PACKAGE_URI = re.compile(r"package://([^/\"']+)/")
 _ONE_DOF_JOINTS = ("JointModelR", "JointModelP", "JointModelRevoluteUnaligned", "JointModelPrismaticUnaligned",
                    "JointModelRUB")
 
@@ -42,23 +43,20 @@ def _read_text(field: str, path: Path) -> str:
         raise ResourceNotFound(f"{field}: cannot read {str(path)!r}: {exc}") from exc
 
 
-def _resolve_uris(text: str, urdf_dir: Path, package_paths: dict[str, Path]) -> str:
-    """Replace ``package://pkg/`` and ``file://`` prefixes by absolute directories."""
+def _resolve_uris(text: str, urdf_dir: Path, resolver: ResourceResolver) -> str:
+    """Replace every ``filename="…"`` (mesh URI) by the absolute file ``resolver`` maps it to.
 
-    def package_root(match: re.Match[str]) -> str:
-        package = match.group(1)
-        root = package_paths.get(package)
-        if root is None:
-            raise ResourceNotFound(
-                f"package_paths: the URDF refers to package://{package}/ but no root was given for it "
-                f"(known: {sorted(package_paths) or 'none'}); pass package_paths={{{package!r}: '/path/to/{package}'}}"
-            )
-        return str(root) + "/"
+    ``package://`` URIs go through the resolver's package paths (then the ament index); ``file://`` URIs and
+    paths (relative ones are relative to the URDF's folder) must lie inside its allowed roots.
+    """
 
-    text = _PACKAGE_URI.sub(package_root, text)
-    text = text.replace("file://", "")
-    # relative mesh paths are relative to the URDF's folder
-    return re.sub(r'filename="(?!/)([^"]+)"', lambda m: f'filename="{urdf_dir / m.group(1)}"', text)
+    def absolute(match: re.Match[str]) -> str:
+        uri = match.group(2)
+        if not uri.startswith(("package://", "file://", "/")):
+            uri = str(urdf_dir / uri)
+        return f'filename="{resolver.resolve(uri)}"'
+
+    return re.sub(r"""filename\s*=\s*(["'])(.+?)\1""", absolute, text)
 
 
 def _check_supported(model: pin.Model, field: str) -> None:
@@ -72,11 +70,15 @@ def _check_supported(model: pin.Model, field: str) -> None:
 
 
 def load_urdf(urdf_path: str | Path, package_paths: dict[str, str | Path] | None = None,
-              locked_joints: dict[str, float] | None = None) -> LoadedRobot:
+              locked_joints: dict[str, float] | None = None,
+              resolver: ResourceResolver | None = None) -> LoadedRobot:
     """Build pinocchio's kinematic and collision models from a URDF, locking ``locked_joints``.
 
-    Raises :class:`ResourceNotFound` for an unreadable URDF or mesh and :class:`InvalidInput` for a malformed
-    one, an unknown locked joint or an unsupported joint type.
+    Mesh URIs are resolved by ``resolver`` (the obstacles' :class:`~pfield.geometry.ResourceResolver`), by
+    default one with ``package_paths`` and the URDF's folder and the package roots as allowed roots.
+    Raises :class:`ResourceNotFound` for an unreadable URDF or mesh, :class:`ResourceNotAllowed` for a mesh
+    outside the allowed places, and :class:`InvalidInput` for a malformed URDF, an unknown locked joint or
+    an unsupported joint type.
     """
     path = Path(urdf_path).expanduser().resolve()
     text = _read_text("urdf", path)
@@ -84,7 +86,10 @@ def load_urdf(urdf_path: str | Path, package_paths: dict[str, str | Path] | None
     for name, root in roots.items():
         if not root.is_dir():
             raise ResourceNotFound(f"package_paths[{name!r}]: {str(root)!r} is not a directory")
-    resolved = _resolve_uris(text, path.parent, roots)
+    if resolver is None:
+        resolver = ResourceResolver(package_paths=roots, allowed_roots=[path.parent, *roots.values()],
+                                    use_ament=True)
+    resolved = _resolve_uris(text, path.parent, resolver)
     try:
         model = pin.buildModelFromXML(resolved)
         geometry = pin.buildGeomFromUrdfString(model, resolved, pin.COLLISION)

@@ -29,6 +29,7 @@ from pfield.robot.catalog import builtin_spec, example_robot_data_root
 from pfield.spatial import Pose, quaternion_from_matrix
 
 if TYPE_CHECKING:
+    from pfield.geometry.resources import ResourceResolver
     from pfield.robot.geometry import RobotGeometry
 
 __all__ = ["LIMIT_TOLERANCE", "KinematicArrays", "RobotModel"]
@@ -106,13 +107,15 @@ class RobotModel:
     # ---- construction -------------------------------------------------------------------------------
     @classmethod
     def from_urdf(cls, path: str | Path, end_effector: str, package_paths: dict[str, str | Path] | None = None,
-                  srdf: str | Path | None = None, locked_joints: dict[str, float] | None = None) -> RobotModel:
+                  srdf: str | Path | None = None, locked_joints: dict[str, float] | None = None,
+                  resolver: ResourceResolver | None = None) -> RobotModel:
         """Load a URDF. ``package_paths`` maps package names to their root folders (for ``package://``).
 
         ``srdf`` (optional) supplies the disabled self-collision pairs; without it adjacent links are
-        excluded. ``locked_joints`` maps joint names to fixed values (e.g. gripper fingers).
+        excluded. ``locked_joints`` maps joint names to fixed values (e.g. gripper fingers). ``resolver``
+        (optional) resolves mesh URIs instead, e.g. the node's obstacle resolver.
         """
-        loaded = load_urdf(path, package_paths, locked_joints)
+        loaded = load_urdf(path, package_paths, locked_joints, resolver)
         disabled = read_disabled_pairs(srdf) if srdf is not None else None
         return cls(loaded, end_effector, disabled)
 
