@@ -21,12 +21,13 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
+from pfield._spatial_kernels import matrix_to_quat
 from pfield._validation import as_vector
 from pfield.errors import InvalidInput
 from pfield.robot import _kinematics as _k
 from pfield.robot._loader import LoadedRobot, joint_axis, load_urdf, read_disabled_pairs
 from pfield.robot.catalog import builtin_spec, example_robot_data_root
-from pfield.spatial import Pose, quaternion_from_matrix
+from pfield.spatial import Pose
 
 if TYPE_CHECKING:
     from pfield.geometry.resources import ResourceResolver
@@ -215,7 +216,7 @@ class RobotModel:
     def forward_kinematics(self, q: ArrayLike) -> Pose:
         """End-effector pose in the world (robot root) frame at joint angles ``q``."""
         rotation, position = self._ee_kinematics(self.check_joint_angles(q), np.empty((6, self.n_joints)))
-        return Pose(position, quaternion_from_matrix(rotation))
+        return _trusted_pose(position, matrix_to_quat(rotation))
 
     def jacobian(self, q: ArrayLike) -> NDArray[np.float64]:
         """6×n end-effector Jacobian, world-aligned axes, linear rows first: ``[v; ω] = J(q) q̇``."""
@@ -240,6 +241,16 @@ class RobotModel:
 
     def __repr__(self) -> str:
         return f"RobotModel({self.name!r}, joints={list(self._joint_names)}, end_effector={self.end_effector!r})"
+
+
+def _trusted_pose(position: NDArray[np.float64], quaternion: NDArray[np.float64]) -> Pose:
+    """A Pose from fresh kernel outputs (finite position, unit quaternion), skipping re-validation."""
+    pose = object.__new__(Pose)
+    position.setflags(write=False)
+    quaternion.setflags(write=False)
+    object.__setattr__(pose, "position", position)
+    object.__setattr__(pose, "orientation", quaternion)
+    return pose
 
 
 def _frozen(values: ArrayLike) -> NDArray[np.float64]:
