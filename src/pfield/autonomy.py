@@ -20,6 +20,7 @@ The whole-body evaluation is one compiled call; the packed robot, scene and work
 from __future__ import annotations
 
 import logging
+import math
 import threading
 from dataclasses import dataclass
 from typing import Any
@@ -84,21 +85,34 @@ class _Prepared:
         self.goal_q = np.array(field.goal.orientation, dtype=np.float64)
         self.buffers = FlatStep(self.arrays, self.scene).buffers()
         self.zeros = np.zeros(robot.n_joints)
+        self.last_step, self.step_params = -1.0, self.params
 
     def evaluate(self, q: NDArray[np.float64], previous: ArrayLike | None, dt: float, n: int) -> NDArray[np.float64]:
         """The kernel's (20 + n,) output row at validated ``q`` (see :func:`flat_step`)."""
-        step = finite("delta_time", dt)
-        if step < 0.0:
-            raise InvalidInput("delta_time", dt, "must be >= 0 s")
+        step = dt if type(dt) is float else finite("delta_time", dt)
+        if not 0.0 <= step < math.inf:
+            raise InvalidInput("delta_time", dt, "must be a finite number >= 0 s")
         velocities, has_prev = self.zeros, False
-        if previous is not None and len(np.atleast_1d(previous)) > 0:
-            velocities = np.array(as_vector("prev_joint_velocities", previous, n))
-            has_prev = step > 0.0
-        params = self.params
-        if step > 0.0:
-            params = params.copy()
-            params[_wb.DT] = step
-        return flat_step(q, velocities, has_prev, self.goal_p, self.goal_q, params, *self.buffers)
+        if previous is not None:
+            velocities = np.asarray(previous, dtype=np.float64)
+            if velocities.shape != (n,) or not np.isfinite(velocities).all():
+                if velocities.size == 0:
+                    velocities = self.zeros  # an empty list (the message default) means "no previous"
+                else:
+                    velocities = np.array(as_vector("prev_joint_velocities", previous, n))
+            has_prev = step > 0.0 and velocities is not self.zeros
+        return flat_step(q, velocities, has_prev, self.goal_p, self.goal_q, self._parameters(step),
+                         *self.buffers)
+
+    def _parameters(self, step: float) -> NDArray[np.float64]:
+        """The parameter vector for ``delta_time`` = ``step`` (cached: callers usually keep dt constant)."""
+        if step <= 0.0:
+            return self.params
+        if step != self.last_step:
+            self.step_params = self.params.copy()
+            self.step_params[_wb.DT] = step
+            self.last_step = step
+        return self.step_params
 
 
 def _prepared(field: Any, robot: RobotModel, options: WholeBodyOptions | None) -> _Prepared:

@@ -14,6 +14,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from pfield.geometry._packed import PackedObstacles
 from pfield.planning import _whole_body_kernel as _wb
 from pfield.planning._whole_body_loop import autonomy_step
 
@@ -42,7 +43,9 @@ class FlatStep:
         self.packed = scene.packed
 
     def buffers(self) -> tuple[Any, ...]:
-        return self.dims, self.floats, self.ints, self.work, self.packed
+        """The trailing arguments of :func:`flat_step` (the obstacles' arrays one by one: a named tuple
+        argument costs microseconds of type dispatch per call)."""
+        return (self.dims, self.floats, self.ints, self.work, *self.packed)
 
 
 def _workspace_size(n: int, caps: int, m_max: int) -> int:
@@ -121,11 +124,14 @@ def _workspace_views(work, n, caps, m_max):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def flat_step(q, previous, has_prev, goal_p, goal_q, params, dims, floats, ints, work, packed):  # type: ignore[no-untyped-def]
+def flat_step(  # type: ignore[no-untyped-def]
+        q, previous, has_prev, goal_p, goal_q, params, dims, floats, ints, work, kinds, rows, triangles,
+        pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table):
     """:func:`~pfield.planning._whole_body_loop.autonomy_step` on the flat buffers of :class:`FlatStep`.
 
     Returns the (20,) output row (twist 0:6, position 6:9, quaternion 9:13, clearance 13, …) followed by q̇.
     """
+    packed = PackedObstacles(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table)
     robot, scene, ws = _views(dims, floats, ints, work, packed)
     autonomy_step(q, previous, has_prev, robot, scene, goal_p, goal_q, params, ws)
     result = np.empty(20 + q.shape[0])
