@@ -211,7 +211,9 @@ def _start_collision(robot: RobotModel, start: NDArray[np.float64], scene: _wb.S
         return "", math.inf
     from pfield.robot.collision import CollisionChecker
 
-    report = CollisionChecker(robot, list(obstacles or ())).check(start)
+    # only the kinds of pairs that start too close need the exact check (building obstacle shapes costs ms)
+    near = list(obstacles or ()) if np.any(scene.obstacle_offsets < 0.0) else []
+    report = CollisionChecker(robot, near).check(start)
     return (report.pair if report.in_collision else ""), report.distance
 
 
