@@ -145,3 +145,36 @@ def test_sign_flip_counter() -> None:
                        np.zeros((count, 6)), np.zeros(count), joint_names=("a", "b"),
                        joint_positions=np.zeros((count, 2)), joint_velocities=velocities)
     assert joint_velocity_sign_flips(path) == 3  # joint a: + → −, then − → + across a stop; joint b: + → −
+
+
+def test_velocity_qp_matches_a_reference_solver() -> None:
+    from pfield.planning._qp import cholesky_inplace, cholesky_solve, hildreth
+
+    rng = np.random.default_rng(12)
+    n = 7
+    for _ in range(30):
+        jac = rng.normal(size=(6, n))
+        hessian = jac.T @ jac + 1e-3 * np.eye(n)
+        c = rng.normal(size=n)
+        m = int(rng.integers(1, 6))
+        rows = rng.normal(size=(m, n))
+        bounds = rng.normal(size=m) * 0.5 - 0.2
+        factor = hessian.copy()
+        cholesky_inplace(factor, n)
+        x = np.empty(n)
+        cholesky_solve(factor, c, x, n)
+        np.testing.assert_allclose(hessian @ x, c, atol=1e-9)
+        hildreth(factor, x, rows, bounds, m, n, np.empty((m, n)), np.empty(m), np.empty(m), 100000, 1e-12)
+        reference = _reference_qp(hessian, c, rows, bounds)
+        assert np.all(rows @ x >= bounds - 1e-9)
+        assert 0.5 * x @ hessian @ x - c @ x == pytest.approx(reference, rel=1e-6, abs=1e-6)
+
+
+def _reference_qp(hessian: np.ndarray, c: np.ndarray, rows: np.ndarray, bounds: np.ndarray) -> float:
+    """Optimal value of min ½xᵀHx − cᵀx s.t. rows·x ≥ bounds, by scipy's SLSQP."""
+    from scipy.optimize import minimize
+
+    result = minimize(lambda v: 0.5 * v @ hessian @ v - c @ v, np.zeros(len(c)), jac=lambda v: hessian @ v - c,
+                      constraints=[{"type": "ineq", "fun": lambda v: rows @ v - bounds, "jac": lambda v: rows}],
+                      method="SLSQP", options={"ftol": 1e-12, "maxiter": 500})
+    return float(result.fun)

@@ -329,7 +329,7 @@ def joint_velocity_step(  # type: ignore[no-untyped-def]
         ws.rhs[j] += params[DAMPING] * ws.free[j]
     cholesky_inplace(ws.h, n)
     cholesky_solve(ws.h, ws.rhs, ws.x, n)
-    hildreth(ws.h, ws.x, ws.rows, ws.b, m, n, ws.hinv, ws.mu, ws.curvature, 50, 1e-7)
+    hildreth(ws.h, ws.x, ws.rows, ws.b, m, n, ws.hinv, ws.mu, ws.curvature, 200, 1e-7)
     _limit_speed(previous, has_prev, robot, params, ws, m)
     for r in range(6):
         s = 0.0
