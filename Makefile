@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test bench lint venv clean ros2-interfaces
+.PHONY: demo test bench lint venv clean clean-numba-cache ros2-interfaces
 
 $(STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -44,6 +44,11 @@ test: lint ros2-interfaces
 
 bench: $(STAMP) ros2-interfaces
 	$(PY) -m benchmarks.run
+
+# numba re-checks a cached kernel only against its own file; after editing a kernel that others inline
+# (geometry/_sdf.py, field/forces.py, ...), drop the compiled cache so every dependant recompiles.
+clean-numba-cache:
+	find src -name '*.nbi' -delete -o -name '*.nbc' -delete
 
 clean:
 	rm -rf $(VENV) $(ROS2_BUILD) demo_output .pytest_cache .mypy_cache .ruff_cache

@@ -257,6 +257,22 @@ def test_whole_body_autonomy_vector_at_the_seed_joints(robot: Any) -> None:
     assert info.value.field == "prev_joint_velocities"
 
 
+def test_whole_body_query_pose_far_from_fk_is_reported_and_the_joints_win(
+        robot: Any, caplog: pytest.LogCaptureFixture) -> None:
+    manager = ManagerNode(Bus(), robot)
+    manager.on_goal(message_from_yaml(PoseStamped, "{pose: {position: {x: 0.5, y: 0.2, z: 0.4}}}"))
+    base = "joint_angles: [0, 0, 0, 0, 0, -1.5708, 0], delta_time: 0.02, planning_method: 'whole_body'"
+    without = message_from_yaml(pfi.ComputeAutonomyVector_Request, f"{{{base}}}")
+    with_far_pose = message_from_yaml(pfi.ComputeAutonomyVector_Request,
+                                      f"{{{base}, query_pose: {{pose: {{position: {{x: 0.9, y: -0.4, z: 1.0}}}}}}}}")
+    with caplog.at_level("WARNING"):
+        silent = manager.compute_autonomy_vector(without).autonomy_vector.twist
+        assert not [r for r in caplog.records if "disagrees" in r.getMessage()]
+        reported = manager.compute_autonomy_vector(with_far_pose).autonomy_vector.twist
+    assert [r for r in caplog.records if "disagrees" in r.getMessage()]
+    assert reported == silent
+
+
 def test_query_pose_topic_answers_on_autonomy_vector(robot: Any) -> None:
     manager = ManagerNode(Bus(), robot)
     manager.on_goal(message_from_yaml(PoseStamped, "{pose: {position: {x: 0.5, y: 0.2, z: 0.4}}}"))

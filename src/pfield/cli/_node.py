@@ -10,7 +10,7 @@ from __future__ import annotations
 import ipaddress
 import logging
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any
@@ -82,14 +82,15 @@ def load_ros_parameters(path: Path) -> dict[str, dict[str, Any]]:
     return result
 
 
-def _load_robot(robot: str, end_effector: str | None) -> Any:
+def load_robot(robot: str, end_effector: str | None, package_paths: Mapping[str, Path] | None = None) -> Any:
+    """A built-in robot by name, or a URDF whose ``package://`` mesh URIs resolve through ``package_paths``."""
     from pfield.robot import RobotModel
 
     if robot.lower() in ("xarm7", "panda"):
         return RobotModel.builtin(robot.lower())
     if not end_effector:
         raise InvalidInput("--end-effector", None, "a URDF robot needs --end-effector LINK")
-    return RobotModel.from_urdf(robot, end_effector=end_effector)
+    return RobotModel.from_urdf(robot, end_effector=end_effector, package_paths=dict(package_paths or {}))
 
 
 def build_nodes(context: ServeContext, params: dict[str, dict[str, Any]], csv_dir: Path | None) -> list[Node]:
@@ -147,7 +148,7 @@ def serve(
         _check_host(host, token)
         packages = parse_package_paths(package_path or [])
         parameters = load_ros_parameters(params) if params else {}
-        context = ServeContext(Bus(), _load_robot(robot, end_effector), packages,
+        context = ServeContext(Bus(), load_robot(robot, end_effector, packages), packages,
                                [p.resolve() for p in mesh_root or []], map, footprint)
         nodes = build_nodes(context, parameters, csv_dir)
     except PfieldError as exc:

@@ -56,7 +56,7 @@ def node(
     Example: pfield ros2 node --params pfield.yaml --package-path my_robot_description=./desc
     --ros-args -p influence_distance:=0.15
     """
-    from pfield.cli._node import ServeContext, _load_robot, build_nodes, load_ros_parameters, parse_package_paths
+    from pfield.cli._node import ServeContext, build_nodes, load_robot, load_ros_parameters, parse_package_paths
     from pfield.node._base import Bus
 
     logging.basicConfig(level=log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
@@ -64,7 +64,7 @@ def node(
     try:
         packages = parse_package_paths(package_path or [])
         parameters = load_ros_parameters(params) if params else {}
-        context = ServeContext(Bus(), _load_robot(robot, end_effector), packages,
+        context = ServeContext(Bus(), load_robot(robot, end_effector, packages), packages,
                                [p.resolve() for p in mesh_root or []], map, footprint)
         nodes = build_nodes(context, parameters, csv_dir)
     except PfieldError as exc:

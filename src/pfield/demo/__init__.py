@@ -6,6 +6,7 @@ A section is a module with ``TITLE`` and ``run(out_dir, console) -> None``; it r
 from __future__ import annotations
 
 import importlib
+import sys
 import time
 from pathlib import Path
 
@@ -17,7 +18,8 @@ SECTIONS = ("manipulator", "whole_body", "node_session", "mobile", "costmap")
 
 def run_demo(out_dir: Path, only: list[str] | None = None) -> int:
     """Run the demo sections in order; return a process exit code (0 when all succeeded)."""
-    console = Console()
+    # Rich falls back to 80 columns when output is not a terminal (make, CI logs); tables need more.
+    console = Console(width=None if sys.stdout.isatty() else 120)
     out_dir.mkdir(parents=True, exist_ok=True)
     failures = []
     for name in SECTIONS:

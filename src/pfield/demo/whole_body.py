@@ -89,9 +89,13 @@ def save_arm_plot(path: PlannedPath, robot: RobotModel, obstacles: list[Obstacle
     colours = plt.get_cmap("viridis")(np.linspace(0.0, 0.9, snapshots))
     points = [path.positions]
     for colour, i in zip(colours, np.linspace(0, len(path) - 1, snapshots).round().astype(int), strict=True):
-        for segment, radius in _capsule_lines(robot, path.joint_positions[i]):
-            ax.plot(*segment.T, color=colour, linewidth=radius * 70, alpha=0.5, solid_capstyle="round")
+        q = path.joint_positions[i]
+        for segment, radius in _capsule_lines(robot, q):
+            ax.plot(*segment.T, color=colour, linewidth=radius * 70, alpha=0.35, solid_capstyle="round")
             points.append(segment)
+        # The kinematic chain (base, joint origins, end effector) makes each snapshot read as one arm.
+        chain = np.vstack([np.zeros(3), robot.joint_frames(q)[1], robot.forward_kinematics(q).position])
+        ax.plot(*chain.T, color=colour, linewidth=1.5, marker="o", markersize=2.5)
         ax.plot([], [], color=colour, linewidth=4, label=f"links at t = {path.times[i]:.1f} s")
     ax.plot(*path.positions.T, color="crimson", linewidth=2, label="end-effector path")
     ax.set(xlabel="x (m)", ylabel="y (m)", zlabel="z (m)", title=title)
@@ -99,6 +103,7 @@ def save_arm_plot(path: PlannedPath, robot: RobotModel, obstacles: list[Obstacle
     centre, half = 0.5 * (cloud.min(axis=0) + cloud.max(axis=0)), 0.55 * float(np.ptp(cloud, axis=0).max())
     ax.set(xlim=(centre[0] - half, centre[0] + half), ylim=(centre[1] - half, centre[1] + half),
            zlim=(max(centre[2] - half, 0.0), max(centre[2] - half, 0.0) + 2 * half))
+    ax.set_box_aspect((1, 1, 1))
     ax.view_init(elev=25, azim=-60)
     ax.legend(loc="upper left", fontsize=8)
     figure.tight_layout()

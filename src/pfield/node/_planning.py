@@ -66,11 +66,13 @@ def run_plan(config: FieldConfig, obstacles: Sequence[Any], robot: Any, inputs: 
 
 
 def whole_body_twist(field: Any, robot: Any, q: NDArray[np.float64], qd: NDArray[np.float64] | None,
-                     dt: float) -> Twist:
-    """End-effector twist of the whole-body autonomy vector at joint angles ``q`` (world frame)."""
+                     dt: float, query_pose: Pose | None = None) -> Twist:
+    """End-effector twist of the whole-body autonomy vector at joint angles ``q`` (world frame).
+
+    A ``query_pose`` that disagrees with FK(q) is logged; the joint angles stay the truth."""
     from pfield.autonomy import whole_body_autonomy_vector
 
-    return whole_body_autonomy_vector(field, robot, q, prev_joint_velocities=qd, dt=dt)
+    return whole_body_autonomy_vector(field, robot, q, prev_joint_velocities=qd, dt=dt, query_pose=query_pose)
 
 
 def make_resolver(package_paths: Mapping[str, Path], mesh_roots: Sequence[Path]) -> Any:

@@ -318,14 +318,18 @@ class ManagerNode(Node):
             qd = None
             if request.prev_joint_velocities:
                 qd = as_vector("prev_joint_velocities", request.prev_joint_velocities, len(q))
+            # An all-default query pose means "not given" (the seed's whole_body request may omit it).
+            given = request.query_pose.pose != type(request.query_pose.pose)()
+            pose = pose_from_msg(request.query_pose.pose, "query_pose.pose") if given else None
         else:
             pose = pose_from_msg(request.query_pose.pose, "query_pose.pose")
         field = self._current_field()
         if field is None:
             raise InvalidInput("goal", None, "no goal yet: publish /pfield/planning_goal_pose or call plan_path")
         if method == WHOLE_BODY:
-            twist = _planning.whole_body_twist(field, self.robot, q, qd, request.delta_time)
+            twist = _planning.whole_body_twist(field, self.robot, q, qd, request.delta_time, pose)
         else:
+            assert pose is not None
             twist = field.twist(pose)
         vector = twist_stamped(twist, self._params.fixed_frame, time.time())
         return pfi.ComputeAutonomyVector_Response(autonomy_vector=vector)
