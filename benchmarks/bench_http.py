@@ -51,7 +51,7 @@ WHOLE_BODY_QUERY = QUERY | {"joint_angles": [0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0
 
 
 def _round_trip(url: str, calls: int, query: dict[str, object]) -> tuple[float, float]:
-    with httpx.Client(base_url=url) as client:
+    with httpx.Client(base_url=url, timeout=300.0) as client:  # the first calls may compile kernels
         client.post("/topic/pfield/obstacles", json=OBSTACLES).raise_for_status()
         client.post("/topic/pfield/planning_goal_pose", json=GOAL).raise_for_status()
         for _ in range(50):

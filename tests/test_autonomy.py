@@ -66,7 +66,11 @@ def test_previous_velocities_apply_the_joint_acceleration_limit(xarm: RobotModel
     np.testing.assert_allclose(unlimited.joint_velocities, free, atol=1e-12)
 
 
-def test_query_pose_mismatch_is_flagged(xarm: RobotModel, caplog: pytest.LogCaptureFixture) -> None:
+def test_query_pose_mismatch_is_flagged(xarm: RobotModel, caplog: pytest.LogCaptureFixture,
+                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    import pfield.autonomy
+
+    monkeypatch.setattr(pfield.autonomy, "_last_mismatch_warning", [-np.inf, 0])  # no earlier warning in period
     field = PotentialField(FieldConfig(), GOAL)
     here = xarm.forward_kinematics(Q0)
     assert not whole_body_autonomy(field, xarm, Q0, query_pose=here).pose_mismatch
@@ -78,6 +82,11 @@ def test_query_pose_mismatch_is_flagged(xarm: RobotModel, caplog: pytest.LogCapt
     assert flagged.pose_mismatch and "disagrees" in caplog.text
     # the joints are the truth: same twist with or without the (wrong) query pose
     np.testing.assert_array_equal(flagged.twist.as_array(), whole_body_autonomy(field, xarm, Q0).twist.as_array())
+    # at control rate the warning is not repeated within its period, but every answer is still flagged
+    caplog.clear()
+    with caplog.at_level("WARNING"):
+        assert all(whole_body_autonomy(field, xarm, Q0, query_pose=elsewhere).pose_mismatch for _ in range(50))
+    assert "disagrees" not in caplog.text
 
 
 def test_obstacles_slow_the_approach(xarm: RobotModel) -> None:

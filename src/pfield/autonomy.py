@@ -22,6 +22,7 @@ from __future__ import annotations
 import logging
 import math
 import threading
+import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -125,6 +126,21 @@ def _prepared(field: Any, robot: RobotModel, options: WholeBodyOptions | None) -
     return entry
 
 
+_MISMATCH_WARNING_PERIOD = 5.0  # s; autonomy vectors are asked for at control rate, the log must not flood
+_last_mismatch_warning = [-math.inf, 0]  # [monotonic time of the last warning, calls suppressed since]
+
+
+def _warn_mismatch(query_pose: Pose, pose: Pose) -> None:
+    """Log a query-pose/FK disagreement at most once per ``_MISMATCH_WARNING_PERIOD`` seconds."""
+    now = time.monotonic()
+    if now - _last_mismatch_warning[0] < _MISMATCH_WARNING_PERIOD:
+        _last_mismatch_warning[1] += 1
+        return
+    _LOG.warning("query pose %r disagrees with FK(joint_angles) %r; using the joint angles (%d similar "
+                 "warnings suppressed)", query_pose, pose, _last_mismatch_warning[1])
+    _last_mismatch_warning[:] = [now, 0]
+
+
 def whole_body_autonomy(field: Any, robot: RobotModel, q: ArrayLike, prev_joint_velocities: ArrayLike | None = None,
                         dt: float = 0.0, query_pose: Pose | None = None,
                         pose_tolerance: tuple[float, float] = (0.01, 0.05),
@@ -146,7 +162,7 @@ def whole_body_autonomy(field: Any, robot: RobotModel, q: ArrayLike, prev_joint_
         mismatch = (pose.translation_distance(query_pose) > pose_tolerance[0]
                     or pose.rotation_distance(query_pose) > pose_tolerance[1])
         if mismatch:
-            _LOG.warning("query pose %r disagrees with FK(joint_angles) %r; using the joint angles", query_pose, pose)
+            _warn_mismatch(query_pose, pose)
     return WholeBodyAutonomy(_fast_twist(out[0:6]), out[20:], pose, mismatch, float(out[13]))
 
 
