@@ -14,7 +14,16 @@ from pfield.geometry import (
     Sphere,
     pack_obstacles,
 )
+from pfield.errors import (
+    InvalidInput,
+    PfieldError,
+    PlanningFailed,
+    ResourceNotAllowed,
+    ResourceNotFound,
+    UnknownFrame,
+)
 from pfield.planning import PlannedPath
+from pfield.spatial import Pose, Twist, Wrench
 
 __all__ = [
     "Box",
@@ -22,13 +31,22 @@ __all__ = [
     "Cylinder",
     "Ellipsoid",
     "FieldConfig",
+    "InvalidInput",
     "Mesh",
     "Obstacle",
+    "PfieldError",
     "PlannedPath",
+    "PlanningFailed",
+    "Pose",
     "PotentialField",
+    "ResourceNotAllowed",
+    "ResourceNotFound",
     "ResourceResolver",
     "RobotModel",
     "Sphere",
+    "Twist",
+    "UnknownFrame",
+    "Wrench",
     "pack_obstacles",
 ]
 
