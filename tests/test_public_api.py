@@ -32,7 +32,7 @@ def test_top_level_names_of_the_contract() -> None:
 
 
 def test_design_example_runs_as_written() -> None:
-    from pfield import FieldConfig, Obstacle, PotentialField, Pose, Sphere
+    from pfield import FieldConfig, Obstacle, Pose, PotentialField, Sphere
 
     obs = Obstacle("ball", Sphere(radius=0.1), Pose(position=(0.4, 0, 0.1)), group="Static")
     d, n = obs.signed_distance(np.array([[0.6, 0.0, 0.1]]))

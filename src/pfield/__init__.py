@@ -2,6 +2,14 @@
 
 __version__ = "0.1.0"
 
+from pfield.errors import (
+    InvalidInput,
+    PfieldError,
+    PlanningFailed,
+    ResourceNotAllowed,
+    ResourceNotFound,
+    UnknownFrame,
+)
 from pfield.field import FieldConfig, PotentialField
 from pfield.geometry import (
     Box,
@@ -13,14 +21,6 @@ from pfield.geometry import (
     ResourceResolver,
     Sphere,
     pack_obstacles,
-)
-from pfield.errors import (
-    InvalidInput,
-    PfieldError,
-    PlanningFailed,
-    ResourceNotAllowed,
-    ResourceNotFound,
-    UnknownFrame,
 )
 from pfield.planning import PlannedPath
 from pfield.spatial import Pose, Twist, Wrench
