@@ -9,8 +9,9 @@ from collections.abc import Iterator
 
 import httpx
 import pytest
-from node_seed_examples import OBSTACLE_EXAMPLES
 from pfield_node_server import MESH_PACKAGE, PFIELD, REPO, NodeServer, free_port
+
+from seed_examples import OBSTACLE_COMMANDS
 
 
 @pytest.fixture(scope="session")
@@ -49,7 +50,7 @@ def node_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[NodeServer
 @pytest.fixture(scope="session")
 def seeded(node_server: NodeServer) -> NodeServer:
     """The server after the seed's six obstacle examples, run verbatim through the CLI (``ros2`` → ``pfield``)."""
-    for name, command in OBSTACLE_EXAMPLES.items():
+    for name, command in OBSTACLE_COMMANDS.items():
         argv = shlex.split(command)
         assert argv[0] == "ros2"
         done = node_server.cli(*argv[1:])

@@ -11,14 +11,15 @@ from typing import Any
 import httpx
 import pytest
 import yaml
-from node_seed_examples import (
+from pfield_node_server import NodeServer
+
+from seed_examples import (
     GOAL,
     GOAL_TOLERANCE,
-    OBSTACLE_EXAMPLES,
-    PLAN_TASK_SPACE,
-    PLAN_WHOLE_BODY,
+    OBSTACLE_COMMANDS,
+    PLAN_TASK_SPACE_COMMAND,
+    PLAN_WHOLE_BODY_COMMAND,
 )
-from pfield_node_server import NodeServer
 
 OBSTACLES = "potential_fields_interfaces/msg/ObstacleArray"
 PLAN = "potential_fields_interfaces/srv/PlanPath"
@@ -136,9 +137,10 @@ def test_bad_http_requests(seeded: NodeServer, path: str, body: bytes, params: d
     assert state(seeded) == before
 
 
-@pytest.mark.parametrize("command", [PLAN_TASK_SPACE, PLAN_WHOLE_BODY], ids=["task_space", "whole_body"])
+@pytest.mark.parametrize("command", [PLAN_TASK_SPACE_COMMAND, PLAN_WHOLE_BODY_COMMAND],
+                         ids=["task_space", "whole_body"])
 def test_the_seed_plans_still_succeed_after_all_bad_input(seeded: NodeServer, command: str) -> None:
-    assert sorted(seeded.obstacle_ids()) == sorted(OBSTACLE_EXAMPLES)
+    assert sorted(seeded.obstacle_ids()) == sorted(OBSTACLE_COMMANDS)
     response = seeded.call(*shlex.split(command)[3:])
     assert response["success"] is True, response["error_message"]
     end = response["end_effector_path"]["poses"][-1]["pose"]["position"]

@@ -10,18 +10,19 @@ import httpx
 import numpy as np
 import pytest
 import yaml
-from node_seed_examples import (
-    AUTONOMY_TASK_SPACE,
-    AUTONOMY_WHOLE_BODY,
+from pfield_node_server import NodeServer
+
+from seed_examples import (
+    AUTONOMY_TASK_SPACE_COMMAND,
+    AUTONOMY_WHOLE_BODY_COMMAND,
     GOAL,
     GOAL_TOLERANCE,
-    OBSTACLE_EXAMPLES,
-    PLAN_TASK_SPACE,
-    PLAN_WHOLE_BODY,
+    OBSTACLE_COMMANDS,
+    PLAN_TASK_SPACE_COMMAND,
+    PLAN_WHOLE_BODY_COMMAND,
     QUERY,
     SEED_JOINTS_END_EFFECTOR,
 )
-from pfield_node_server import NodeServer
 
 
 def call_seed(server: NodeServer, command: str) -> dict[str, Any]:
@@ -46,21 +47,21 @@ def check_plan(response: dict[str, Any], dt: float = 0.02) -> None:
 
 
 def test_all_six_seed_obstacles_are_accepted(seeded: NodeServer) -> None:
-    assert sorted(seeded.obstacle_ids()) == sorted(OBSTACLE_EXAMPLES)
+    assert sorted(seeded.obstacle_ids()) == sorted(OBSTACLE_COMMANDS)
     markers = seeded.cli("topic", "echo", "--once", "/pfield/markers")
     assert markers.returncode == 0
     assert "package://my_robot_description/meshes/obstacle.dae" in markers.stdout
 
 
 def test_seed_task_space_plan_reaches_the_goal_among_all_obstacles(seeded: NodeServer) -> None:
-    response = call_seed(seeded, PLAN_TASK_SPACE)
+    response = call_seed(seeded, PLAN_TASK_SPACE_COMMAND)
     check_plan(response)
     start = response["end_effector_path"]["poses"][0]["pose"]["position"]
     assert (start["x"], start["y"], start["z"]) == pytest.approx((0.227, 0.0, 0.294))
 
 
 def test_seed_whole_body_plan_reaches_the_goal_among_all_obstacles(seeded: NodeServer) -> None:
-    response = call_seed(seeded, PLAN_WHOLE_BODY)
+    response = call_seed(seeded, PLAN_WHOLE_BODY_COMMAND)
     check_plan(response)
     trajectory = response["joint_trajectory"]
     assert len(trajectory["joint_names"]) == 7
@@ -69,8 +70,8 @@ def test_seed_whole_body_plan_reaches_the_goal_among_all_obstacles(seeded: NodeS
     assert first == pytest.approx([0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0], abs=1e-6)
 
 
-@pytest.mark.parametrize(("command", "where"), [(AUTONOMY_TASK_SPACE, QUERY),
-                                               (AUTONOMY_WHOLE_BODY, SEED_JOINTS_END_EFFECTOR)],
+@pytest.mark.parametrize(("command", "where"), [(AUTONOMY_TASK_SPACE_COMMAND, QUERY),
+                                               (AUTONOMY_WHOLE_BODY_COMMAND, SEED_JOINTS_END_EFFECTOR)],
                          ids=["task_space", "whole_body"])
 def test_seed_autonomy_vector_points_toward_the_goal(seeded: NodeServer, command: str,
                                                      where: tuple[float, float, float]) -> None:
@@ -86,7 +87,7 @@ def test_seed_autonomy_vector_points_toward_the_goal(seeded: NodeServer, command
 
 
 def test_plans_are_saved_as_csv(seeded: NodeServer) -> None:
-    request = yaml.safe_load(shlex.split(PLAN_TASK_SPACE)[-1])
+    request = yaml.safe_load(shlex.split(PLAN_TASK_SPACE_COMMAND)[-1])
     assert httpx.post(f"{seeded.url}/srv/pfield/plan_path", json=request).json()["success"]
     files = sorted(seeded.csv_dir.glob("plan_*_task_space.csv"))
     assert files

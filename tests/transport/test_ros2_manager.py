@@ -14,14 +14,13 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from ros2_helpers import seed_examples as seed
 from ros2_helpers.support import HELPERS, REPO, require_netns, require_ros2_python, run_session
+
+import seed_examples as seed
 
 pytestmark = [pytest.mark.ros2, pytest.mark.slow]
 
 XARM7_JOINTS = [f"joint{i}" for i in range(1, 8)]
-SEED_JOINTS_END_EFFECTOR = (0.227, 0.0, 0.294)
-"""FK of the seed's joint angles on the xArm7 (the seed's task-space start)."""
 SEED_IDS = sorted(seed.OBSTACLES)
 PARAMS_YAML = """\
 pfield_manager:
@@ -75,7 +74,7 @@ def test_seed_plan_path_reaches_the_goal(session: dict[str, Any], method: str) -
     plan = session["results"][f"plan_{method}"]
     assert plan["success"] is True, plan["error_message"]
     assert plan["error_message"] == ""
-    assert _distance(plan["final_position"], seed.GOAL_POSITION) <= 0.01 + 1e-6  # the request's goal_tolerance
+    assert _distance(plan["final_position"], seed.GOAL) <= 0.01 + 1e-6  # the request's goal_tolerance
     assert plan["path_frame"] == "world"
     assert plan["twists"] == plan["poses"]  # one end-effector twist per step
     if method == "whole_body":
@@ -91,7 +90,7 @@ def test_path_marker_published(session: dict[str, Any]) -> None:
 
 def test_seed_task_space_autonomy_vector_points_to_the_goal(session: dict[str, Any]) -> None:
     velocity = session["results"]["autonomy_task_space"]
-    to_goal = [g - q for g, q in zip(seed.GOAL_POSITION, seed.QUERY_POSITION, strict=True)]
+    to_goal = [g - q for g, q in zip(seed.GOAL, seed.QUERY, strict=True)]
     # no obstacle within the influence distance of the query pose: straight at the goal, at the default
     # max_linear_velocity (0.05 m/s; the attraction 3.0 * 0.229 m is far above it)
     assert math.hypot(*velocity) == pytest.approx(0.05, rel=1e-6)
@@ -102,7 +101,7 @@ def test_seed_whole_body_autonomy_vector_points_to_the_goal(session: dict[str, A
     velocity = session["results"]["autonomy_whole_body"]
     assert all(math.isfinite(v) for v in velocity) and math.hypot(*velocity) > 0.0
     # evaluated at the end effector of the seed's joint angles (FK = the seed's task-space start)
-    to_goal = [g - q for g, q in zip(seed.GOAL_POSITION, SEED_JOINTS_END_EFFECTOR, strict=True)]
+    to_goal = [g - q for g, q in zip(seed.GOAL, seed.SEED_JOINTS_END_EFFECTOR, strict=True)]
     assert sum(v * d for v, d in zip(velocity, to_goal, strict=True)) > 0.0
 
 

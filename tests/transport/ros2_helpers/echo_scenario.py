@@ -5,32 +5,21 @@ Writes ``$ROS2_TEST_OUT/results.json``; ``tests/transport/test_ros2_transport.py
 
 from __future__ import annotations
 
-import json
-import os
 import sys
 import threading
-import traceback
 from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from ros2_helpers.client import BlockingClient, Inbox
+from ros2_helpers.scenario import AUTONOMY, NODE, OBSTACLES, PLAN, REMOVE, remaining, run_phases
 
-OBSTACLES = "potential_fields_interfaces/msg/ObstacleArray"
-AUTONOMY = ("/pfield/compute_autonomy_vector", "potential_fields_interfaces/srv/ComputeAutonomyVector")
-PLAN = ("/pfield/plan_path", "potential_fields_interfaces/srv/PlanPath")
-REMOVE = ("/pfield/remove_obstacles", "potential_fields_interfaces/srv/RemoveObstacles")
-NODE = "/pfield_manager"
 QUERY = {"query_pose": {"header": {"frame_id": "world"},
                         "pose": {"position": {"x": 0.3, "y": 0.1, "z": 0.35}, "orientation": {"w": 1.0}}}}
 BALL = {"frame_id": "ball", "type": "Sphere", "group": "Static",
         "pose": {"position": {"x": 0.4, "y": 0.0, "z": 0.1}, "orientation": {"w": 1.0}}, "radius": 0.1}
 DYN = {"frame_id": "dyn", "type": "Box", "group": "Dynamic", "length": 0.1, "width": 0.1, "height": 0.1}
-
-
-def remaining(client: BlockingClient) -> list[str]:
-    return client.call(*REMOVE, {"frame_ids": []})["remaining"]
 
 
 def plan_while_querying(client: BlockingClient, paths: Inbox, results: dict[str, Any]) -> None:
@@ -83,17 +72,5 @@ def run(client: BlockingClient, results: dict[str, Any]) -> None:
     results["topics"] = sorted(map(list, client.node.get_topic_names_and_types()))
 
 
-def main() -> None:
-    results: dict[str, Any] = {}
-    client = BlockingClient()
-    try:
-        run(client, results)
-    except Exception:
-        results["error"] = traceback.format_exc()
-    finally:
-        client.close()
-        Path(os.environ["ROS2_TEST_OUT"], "results.json").write_text(json.dumps(results, indent=1))
-
-
 if __name__ == "__main__":
-    main()
+    run_phases([run])

@@ -6,37 +6,27 @@ Writes ``$ROS2_TEST_OUT/results.json``; ``tests/transport/test_ros2_manager.py``
 
 from __future__ import annotations
 
-import json
 import math
-import os
 import sys
 import time
-import traceback
 from pathlib import Path
 from typing import Any
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # ros2_helpers
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the seed examples of all tests
 
-from ros2_helpers import seed_examples as seed
+import seed_examples as seed
 from ros2_helpers.client import BlockingClient
+from ros2_helpers.scenario import AUTONOMY, NODE, OBSTACLES, PLAN, REMOVE, remaining, run_phases
 
-OBSTACLES = "potential_fields_interfaces/msg/ObstacleArray"
-PLAN = ("/pfield/plan_path", "potential_fields_interfaces/srv/PlanPath")
-AUTONOMY = ("/pfield/compute_autonomy_vector", "potential_fields_interfaces/srv/ComputeAutonomyVector")
-REMOVE = ("/pfield/remove_obstacles", "potential_fields_interfaces/srv/RemoveObstacles")
-NODE = "/pfield_manager"
 SEED_IDS = sorted(seed.OBSTACLES)
 STARTED = time.perf_counter()
-
-
-def remaining(client: BlockingClient) -> list[str]:
-    return sorted(client.call(*REMOVE, {"frame_ids": []})["remaining"])
 
 
 def wait_remaining(client: BlockingClient, expected: list[str], timeout: float = 30.0) -> list[str]:
     """The held obstacle ids once they equal ``expected`` (topic messages are handled asynchronously)."""
     deadline = time.monotonic() + timeout
-    while (ids := remaining(client)) != expected and time.monotonic() < deadline:
+    while (ids := sorted(remaining(client))) != expected and time.monotonic() < deadline:
         time.sleep(0.05)
     return ids
 
@@ -179,21 +169,5 @@ def mobile_and_costmap(client: BlockingClient, results: dict[str, Any]) -> None:
 PHASES = (startup_parameters, obstacles_and_plans, autonomy_and_parameters, bad_obstacles, mobile_and_costmap)
 
 
-def main() -> None:
-    results: dict[str, Any] = {}
-    start = time.perf_counter()
-    client = BlockingClient()
-    timeline = results["timeline"] = {}
-    try:
-        for phase in PHASES:
-            phase(client, results)
-            timeline[phase.__name__] = round(time.perf_counter() - start, 2)
-    except Exception:
-        results["error"] = traceback.format_exc()
-    finally:
-        client.close()
-        Path(os.environ["ROS2_TEST_OUT"], "results.json").write_text(json.dumps(results, indent=1))
-
-
 if __name__ == "__main__":
-    main()
+    run_phases(PHASES)
