@@ -10,7 +10,8 @@ from __future__ import annotations
 import ipaddress
 import logging
 import sys
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any
@@ -23,9 +24,20 @@ from pfield.errors import InvalidInput, PfieldError
 from pfield.node._base import Bus, Node
 from pfield.transport import DEFAULT_HOST, DEFAULT_PORT
 
-__all__ = ["ServeContext", "register", "register_node_factory"]
+__all__ = ["ServeContext", "cli_errors", "nodes_from_options", "register", "register_node_factory"]
 
 _log = logging.getLogger(__name__)
+
+# The options ``pfield serve`` and ``pfield ros2 node`` share (typer reads their help from these annotations).
+RobotOption = Annotated[str, typer.Option(help="xarm7, panda or a URDF file")]
+EndEffectorOption = Annotated[str | None, typer.Option(help="end-effector link of a URDF robot")]
+ParamsOption = Annotated[Path | None, typer.Option(help="ROS 2 parameters YAML (node: ros__parameters: ...)")]
+PackagePathOption = Annotated[list[str] | None, typer.Option(help="NAME=DIR for package:// URIs (repeatable)")]
+MeshRootOption = Annotated[list[Path] | None, typer.Option(help="directory meshes may be read from (repeatable)")]
+MapOption = Annotated[Path | None, typer.Option(help="map_server YAML for the costmap node")]
+FootprintOption = Annotated[str | None, typer.Option(help="nav2 footprint '[\\[x, y], ...]' for the costmap")]
+CsvDirOption = Annotated[Path | None, typer.Option(help="save every planned path as CSV here")]
+LogLevelOption = Annotated[str, typer.Option(help="debug, info, warning or error")]
 
 
 @dataclass
@@ -122,21 +134,43 @@ def _check_host(host: str, token: str | None) -> None:
         raise InvalidInput("--host", host, "serving beyond this machine needs --token (or PFIELD_TOKEN)")
 
 
+@contextmanager
+def cli_errors() -> Iterator[None]:
+    """Turn a :class:`PfieldError` raised inside into ``error: ...`` on stderr and exit status 2."""
+    try:
+        yield
+    except PfieldError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+
+
+def nodes_from_options(robot: str, end_effector: str | None, params: Path | None, package_path: list[str] | None,
+                       mesh_root: list[Path] | None, map_file: Path | None, footprint: str | None,
+                       csv_dir: Path | None) -> list[Node]:
+    """The nodes of the options ``pfield serve`` and ``pfield ros2 node`` share (one new :class:`Bus`):
+    the robot, ``--package-path``/``--mesh-root`` for mesh URIs, ``--map``/``--footprint`` for the
+    factories' nodes and the ``--params`` YAML applied to them. Bad options raise :class:`InvalidInput`."""
+    packages = parse_package_paths(package_path or [])
+    parameters = load_ros_parameters(params) if params else {}
+    context = ServeContext(Bus(), load_robot(robot, end_effector, packages), packages,
+                           [p.resolve() for p in mesh_root or []], map_file, footprint)
+    return build_nodes(context, parameters, csv_dir)
+
+
 def serve(
-    robot: Annotated[str, typer.Option(help="xarm7, panda or a URDF file")] = "xarm7",
-    end_effector: Annotated[str | None, typer.Option(help="end-effector link of a URDF robot")] = None,
-    params: Annotated[Path | None, typer.Option(help="ROS 2 parameters YAML (node: ros__parameters: ...)")] = None,
-    package_path: Annotated[list[str] | None, typer.Option(help="NAME=DIR for package:// URIs (repeatable)")] = None,
-    mesh_root: Annotated[list[Path] | None, typer.Option(help="directory meshes may be read from (repeatable)")]
-    = None,
-    map: Annotated[Path | None, typer.Option(help="map_server YAML for the costmap node")] = None,
-    footprint: Annotated[str | None, typer.Option(help="nav2 footprint '[[x, y], ...]' for the costmap")] = None,
+    robot: RobotOption = "xarm7",
+    end_effector: EndEffectorOption = None,
+    params: ParamsOption = None,
+    package_path: PackagePathOption = None,
+    mesh_root: MeshRootOption = None,
+    map: MapOption = None,
+    footprint: FootprintOption = None,
     host: Annotated[str, typer.Option(help="address to bind; other than loopback needs --token")] = DEFAULT_HOST,
     port: Annotated[int, typer.Option(help="TCP port")] = DEFAULT_PORT,
     token: Annotated[str | None, typer.Option(envvar="PFIELD_TOKEN", help="bearer token clients must send")]
     = None,
-    csv_dir: Annotated[Path | None, typer.Option(help="save every planned path as CSV here")] = None,
-    log_level: Annotated[str, typer.Option(help="debug, info, warning or error")] = "info",
+    csv_dir: CsvDirOption = None,
+    log_level: LogLevelOption = "info",
 ) -> None:
     """Start the pfield node (HTTP + WebSocket) with the ROS names of the seed's interfaces."""
     import uvicorn
@@ -144,16 +178,9 @@ def serve(
     from pfield.transport.http import create_app
 
     logging.basicConfig(level=log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
-    try:
+    with cli_errors():
         _check_host(host, token)
-        packages = parse_package_paths(package_path or [])
-        parameters = load_ros_parameters(params) if params else {}
-        context = ServeContext(Bus(), load_robot(robot, end_effector, packages), packages,
-                               [p.resolve() for p in mesh_root or []], map, footprint)
-        nodes = build_nodes(context, parameters, csv_dir)
-    except PfieldError as exc:
-        typer.echo(f"error: {exc}", err=True)
-        raise typer.Exit(2) from None
+        nodes = nodes_from_options(robot, end_effector, params, package_path, mesh_root, map, footprint, csv_dir)
     app = create_app(nodes, token=token)
     typer.echo(f"pfield node on http://{host}:{port} ({', '.join(n.name for n in nodes)})", err=True)
     sys.stderr.flush()

@@ -11,12 +11,22 @@ from __future__ import annotations
 
 import importlib.util
 import logging
-from pathlib import Path
-from typing import Annotated
 
 import typer
 
-from pfield.errors import PfieldError
+from pfield.cli._node import (
+    CsvDirOption,
+    EndEffectorOption,
+    FootprintOption,
+    LogLevelOption,
+    MapOption,
+    MeshRootOption,
+    PackagePathOption,
+    ParamsOption,
+    RobotOption,
+    cli_errors,
+    nodes_from_options,
+)
 
 __all__ = ["register"]
 
@@ -40,47 +50,34 @@ def _check_ros2() -> None:
 @ros2_app.command(context_settings={"allow_extra_args": True, "ignore_unknown_options": True})
 def node(
     ctx: typer.Context,
-    robot: Annotated[str, typer.Option(help="xarm7, panda or a URDF file")] = "xarm7",
-    end_effector: Annotated[str | None, typer.Option(help="end-effector link of a URDF robot")] = None,
-    params: Annotated[Path | None, typer.Option(help="ROS 2 parameters YAML (node: ros__parameters: ...)")] = None,
-    package_path: Annotated[list[str] | None, typer.Option(help="NAME=DIR for package:// URIs (repeatable)")] = None,
-    mesh_root: Annotated[list[Path] | None, typer.Option(help="directory meshes may be read from (repeatable)")]
-    = None,
-    map: Annotated[Path | None, typer.Option(help="map_server YAML for the costmap node")] = None,
-    footprint: Annotated[str | None, typer.Option(help="nav2 footprint polygon string for the costmap")] = None,
-    csv_dir: Annotated[Path | None, typer.Option(help="save every planned path as CSV here")] = None,
-    log_level: Annotated[str, typer.Option(help="debug, info, warning or error")] = "info",
+    robot: RobotOption = "xarm7",
+    end_effector: EndEffectorOption = None,
+    params: ParamsOption = None,
+    package_path: PackagePathOption = None,
+    mesh_root: MeshRootOption = None,
+    map: MapOption = None,
+    footprint: FootprintOption = None,
+    csv_dir: CsvDirOption = None,
+    log_level: LogLevelOption = "info",
 ) -> None:
     """Serve /pfield_manager (and the other configured nodes) over ROS 2 until Ctrl-C.
 
     Example: pfield ros2 node --params pfield.yaml --package-path my_robot_description=./desc
     --ros-args -p influence_distance:=0.15
     """
-    from pfield.cli._node import ServeContext, build_nodes, load_robot, load_ros_parameters, parse_package_paths
-    from pfield.node._base import Bus
-
     logging.basicConfig(level=log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
     _check_ros2()
-    try:
-        packages = parse_package_paths(package_path or [])
-        parameters = load_ros_parameters(params) if params else {}
-        context = ServeContext(Bus(), load_robot(robot, end_effector, packages), packages,
-                               [p.resolve() for p in mesh_root or []], map, footprint)
-        nodes = build_nodes(context, parameters, csv_dir)
-    except PfieldError as exc:
-        typer.echo(f"error: {exc}", err=True)
-        raise typer.Exit(2) from None
+    with cli_errors():
+        nodes = nodes_from_options(robot, end_effector, params, package_path, mesh_root, map, footprint, csv_dir)
     from pfield.transport.ros2 import run
 
     typer.echo(f"pfield ROS 2 nodes: {', '.join(n.name for n in nodes)} (Ctrl-C stops)", err=True)
-    try:
-        run(nodes, args=list(ctx.args))
-    except PfieldError as exc:  # a bad --ros-args parameter value
-        typer.echo(f"error: {exc}", err=True)
-        raise typer.Exit(2) from None
-    finally:
-        for pfield_node in nodes:
-            pfield_node.close()
+    with cli_errors():  # a bad --ros-args parameter value
+        try:
+            run(nodes, args=list(ctx.args))
+        finally:
+            for pfield_node in nodes:
+                pfield_node.close()
 
 
 def register(app: typer.Typer) -> None:
