@@ -55,3 +55,9 @@ def test_serve_factory_builds_costmap_node() -> None:
     assert node.costmap is not None and node.costmap.size_x == 200
     bare = _serve_costmap(ServeContext(Bus(), None, {}, []))[0]
     assert isinstance(bare, CostmapServer) and bare.costmap is None
+
+
+def test_find_valid_pose_help_shows_the_footprint_format() -> None:
+    result = CliRunner().invoke(app, ["find-valid-pose", "--help"], env={"COLUMNS": "200", "TERMINAL_WIDTH": "200"})
+    assert result.exit_code == 0
+    assert "nav2 footprint '[[x, y], ...]'" in result.output  # not eaten as rich markup

@@ -67,7 +67,7 @@ def register(app: typer.Typer) -> None:
         angle_tolerance: Annotated[float, typer.Option(help="yaw search range ± (rad)")] = math.pi / 4,
         safety_dist: Annotated[float, typer.Option(help="extra footprint padding (m)")] = 0.0,
         use_padded_fp: Annotated[bool, typer.Option(help="include footprint_padding")] = False,
-        footprint: Annotated[str | None, typer.Option(help="nav2 footprint '[[x, y], ...]'")] = None,
+        footprint: Annotated[str | None, typer.Option(help="nav2 footprint '[\\[x, y], ...]'")] = None,
         params: Annotated[Path | None, typer.Option(help="ROS 2 parameters YAML (section costmap)")] = None,
         output: Annotated[Path, typer.Option("--output", "-o", help="PNG to write")] = Path("find_valid_pose.png"),
     ) -> None:
