@@ -112,11 +112,30 @@ def frame_pose(rotations, origins, joint, local_rotation, local_position):  # ty
     return r, p
 
 
+@njit(cache=True, inline="always")
+def _joint_column(rotations, origins, axes, kinds, j, px, py, pz):  # type: ignore[no-untyped-def]
+    """World axis z_j of joint ``j`` and its linear Jacobian column at the world point (px, py, pz).
+
+    Revolute: v = z_j × (p − o_j); prismatic: v = z_j (Siciliano et al. 2009, §3.1).
+    Returns (zx, zy, zz, vx, vy, vz).
+    """
+    rj = rotations[j]
+    ax, ay, az = axes[j, 0], axes[j, 1], axes[j, 2]
+    zx = rj[0, 0] * ax + rj[0, 1] * ay + rj[0, 2] * az
+    zy = rj[1, 0] * ax + rj[1, 1] * ay + rj[1, 2] * az
+    zz = rj[2, 0] * ax + rj[2, 1] * ay + rj[2, 2] * az
+    if kinds[j] == REVOLUTE:
+        dx, dy, dz = px - origins[j, 0], py - origins[j, 1], pz - origins[j, 2]
+        return zx, zy, zz, zy * dz - zz * dy, zz * dx - zx * dz, zx * dy - zy * dx
+    return zx, zy, zz, zx, zy, zz
+
+
 @njit(cache=True)
 def point_jacobian(rotations, origins, axes, kinds, support, joint, point, out):  # type: ignore[no-untyped-def]
     """World-aligned 6×n Jacobian (linear rows first) of world ``point`` rigidly attached to ``joint``.
 
-    Columns of joints that do not support ``joint`` are zero. ``out`` (6, n) is overwritten.
+    Columns of joints that do not support ``joint`` are zero; a prismatic joint's angular rows are zero.
+    ``out`` (6, n) is overwritten.
     """
     n = axes.shape[0]
     for j in range(n):
@@ -124,27 +143,15 @@ def point_jacobian(rotations, origins, axes, kinds, support, joint, point, out):
             out[r, j] = 0.0
     if joint < 0:
         return
-    px, py, pz = point[0], point[1], point[2]
     for j in range(n):
         if support[joint, j] == 0:
             continue
-        rj = rotations[j]
-        ax, ay, az = axes[j, 0], axes[j, 1], axes[j, 2]
-        zx = rj[0, 0] * ax + rj[0, 1] * ay + rj[0, 2] * az
-        zy = rj[1, 0] * ax + rj[1, 1] * ay + rj[1, 2] * az
-        zz = rj[2, 0] * ax + rj[2, 1] * ay + rj[2, 2] * az
+        zx, zy, zz, out[0, j], out[1, j], out[2, j] = _joint_column(
+            rotations, origins, axes, kinds, j, point[0], point[1], point[2])
         if kinds[j] == REVOLUTE:
-            dx, dy, dz = px - origins[j, 0], py - origins[j, 1], pz - origins[j, 2]
-            out[0, j] = zy * dz - zz * dy
-            out[1, j] = zz * dx - zx * dz
-            out[2, j] = zx * dy - zy * dx
             out[3, j] = zx
             out[4, j] = zy
             out[5, j] = zz
-        else:
-            out[0, j] = zx
-            out[1, j] = zy
-            out[2, j] = zz
 
 
 @njit(cache=True, inline="always")
@@ -160,20 +167,7 @@ def linear_point_jacobian(rotations, origins, axes, kinds, support, joint, px, p
     for j in range(n):
         if support[joint, j] == 0:
             continue
-        rj = rotations[j]
-        ax, ay, az = axes[j, 0], axes[j, 1], axes[j, 2]
-        zx = rj[0, 0] * ax + rj[0, 1] * ay + rj[0, 2] * az
-        zy = rj[1, 0] * ax + rj[1, 1] * ay + rj[1, 2] * az
-        zz = rj[2, 0] * ax + rj[2, 1] * ay + rj[2, 2] * az
-        if kinds[j] == REVOLUTE:
-            dx, dy, dz = px - origins[j, 0], py - origins[j, 1], pz - origins[j, 2]
-            out[0, j] = zy * dz - zz * dy
-            out[1, j] = zz * dx - zx * dz
-            out[2, j] = zx * dy - zy * dx
-        else:
-            out[0, j] = zx
-            out[1, j] = zy
-            out[2, j] = zz
+        _, _, _, out[0, j], out[1, j], out[2, j] = _joint_column(rotations, origins, axes, kinds, j, px, py, pz)
 
 
 @njit(cache=True)
