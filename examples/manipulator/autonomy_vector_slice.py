@@ -25,7 +25,7 @@ from pfield.spatial import Pose
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--output-dir", type=Path, default=Path("demo_output"))
+    parser.add_argument("--output-dir", type=Path, default=Path("demo_output") / "examples")
     parser.add_argument("--resolution", type=int, default=41)
     args = parser.parse_args()
     table = Obstacle("table", Box(length=0.15, width=0.7, height=0.6), Pose((0.66, 0.0, 0.3)))

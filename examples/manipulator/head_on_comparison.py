@@ -23,7 +23,7 @@ from pfield.viz.plots import save_path_plot
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--output-dir", type=Path, default=Path("demo_output"))
+    parser.add_argument("--output-dir", type=Path, default=Path("demo_output") / "examples")
     args = parser.parse_args()
     ball = Obstacle("ball", Sphere(radius=0.1), Pose((0.5, 0.0, 0.3)))
     goal = Pose((0.8, 0.0, 0.3))

@@ -22,7 +22,7 @@ from pfield.robot.collision import CollisionChecker
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--output-dir", type=Path, default=Path("demo_output"))
+    parser.add_argument("--output-dir", type=Path, default=Path("demo_output") / "examples")
     args = parser.parse_args()
     robot = RobotModel.builtin("panda")
     path, start = plan_panda_demo(robot)

@@ -27,7 +27,7 @@ ARGUMENTS = {
     "robot": ("xarm7", "xarm7, panda or a URDF file"),
     "params": ("", "ROS 2 parameters YAML (node: ros__parameters: ...), empty for defaults"),
     "package_path": ("", "NAME=DIR resolving package://NAME/ mesh URIs, empty for none"),
-    "map": ("", "map_server YAML for the costmap node, empty for no costmap"),
+    "map": ("", "map_server YAML for the costmap node, empty: it waits for /map"),
     "rviz": ("false", "also start RViz"),
     "log_level": ("info", "debug, info, warning or error"),
 }
