@@ -136,15 +136,6 @@ def _mesh_addresses(packed: PackedObstacles) -> _MeshAddresses:
 
 
 @njit(cache=True)
-def _bounding_sphere(qx: float, qy: float, qz: float, radius: float) -> tuple[float, float, float, float]:
-    """Distance to a sphere about the origin: a lower bound of the distance to any shape inside it."""
-    norm = math.sqrt(qx * qx + qy * qy + qz * qz)
-    if norm == 0.0:
-        return -radius, 0.0, 0.0, 1.0
-    return norm - radius, qx / norm, qy / norm, qz / norm
-
-
-@njit(cache=True)
 def _mesh_local(
     meshes: _MeshAddresses, m: int, qx: float, qy: float, qz: float,
     cutoff: float,
@@ -195,7 +186,8 @@ def _row_signed_distance(
     elif kind == CAPSULE:
         d, lx, ly, lz = capsule_local(qx, qy, qz, s0, s1)
     elif kind == ELLIPSOID:
-        d, lx, ly, lz = _bounding_sphere(qx, qy, qz, max(s0, s1, s2))
+        # the bounding sphere's distance is a lower bound of the ellipsoid's: exact only within the cutoff
+        d, lx, ly, lz = sphere_local(qx, qy, qz, max(s0, s1, s2))
         if d <= cutoff:
             d, lx, ly, lz = ellipsoid_signed_distance(qx, qy, qz, s0, s1, s2)
     elif kind == MESH:
