@@ -28,6 +28,8 @@ __all__ = ["register"]
 
 Url = Annotated[str, typer.Option(envvar="PFIELD_URL", help="server address")]
 Token = Annotated[str | None, typer.Option(envvar="PFIELD_TOKEN", help="bearer token of the server")]
+ShowTypes = Annotated[bool, typer.Option("--show-types", "-t", help="also print each type")]
+
 topic_app = typer.Typer(help="Publish, echo and list topics.", no_args_is_help=True)
 service_app = typer.Typer(help="Call and list services.", no_args_is_help=True)
 param_app = typer.Typer(help="Get, set and dump node parameters.", no_args_is_help=True)
@@ -116,13 +118,17 @@ def topic_echo(topic: str, type_name: Annotated[str | None, typer.Argument(metav
         _fail(f"cannot stream {topic} from {url}: {exc}")
 
 
-@topic_app.command("list")
-def topic_list(show_types: Annotated[bool, typer.Option("--show-types", "-t")] = False,
-               url: Url = DEFAULT_URL, token: Token = None) -> None:
-    """List the topics the server knows (subscribed, published or seen)."""
+def _echo_names(path: str, show_types: bool, url: str, token: str | None) -> None:
+    """Print the ``name`` (with ``[type]`` when ``show_types``) of each entry the server lists at ``path``."""
     with _client(url, token) as client:
-        for topic in _request(client, "GET", "/topics"):
-            typer.echo(f"{topic['name']} [{topic['type']}]" if show_types else topic["name"])
+        for entry in _request(client, "GET", path):
+            typer.echo(f"{entry['name']} [{entry['type']}]" if show_types else entry["name"])
+
+
+@topic_app.command("list")
+def topic_list(show_types: ShowTypes = False, url: Url = DEFAULT_URL, token: Token = None) -> None:
+    """List the topics the server knows (subscribed, published or seen)."""
+    _echo_names("/topics", show_types, url, token)
 
 
 @service_app.command("call")
@@ -145,12 +151,9 @@ def service_call(service: str, type_name: Annotated[str, typer.Argument(metavar=
 
 
 @service_app.command("list")
-def service_list(show_types: Annotated[bool, typer.Option("--show-types", "-t")] = False,
-                 url: Url = DEFAULT_URL, token: Token = None) -> None:
+def service_list(show_types: ShowTypes = False, url: Url = DEFAULT_URL, token: Token = None) -> None:
     """List the services the server offers."""
-    with _client(url, token) as client:
-        for service in _request(client, "GET", "/services"):
-            typer.echo(f"{service['name']} [{service['type']}]" if show_types else service["name"])
+    _echo_names("/services", show_types, url, token)
 
 
 def _node_path(node: str) -> str:
