@@ -28,16 +28,6 @@ from pfield.spatial import Pose, quaternion_exp
 DATA = Path(__file__).resolve().parents[1] / "data"
 
 
-@pytest.fixture(scope="module")
-def xarm() -> RobotModel:
-    return RobotModel.builtin("xarm7")
-
-
-@pytest.fixture(scope="module")
-def panda() -> RobotModel:
-    return RobotModel.builtin("panda")
-
-
 def _segment_distance_to_points(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     d = b - a
     t = np.clip((points - a) @ d / (d @ d), 0.0, 1.0)

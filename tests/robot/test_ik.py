@@ -18,16 +18,6 @@ from pfield.spatial import Pose
 SEED_Q0 = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0])
 
 
-@pytest.fixture(scope="module")
-def xarm() -> RobotModel:
-    return RobotModel.builtin("xarm7")
-
-
-@pytest.fixture(scope="module")
-def panda() -> RobotModel:
-    return RobotModel.builtin("panda")
-
-
 @pytest.mark.parametrize("name", ["xarm7", "panda"])
 def test_ik_recovers_reachable_poses_within_limits(name: str, xarm: RobotModel, panda: RobotModel) -> None:
     robot = xarm if name == "xarm7" else panda

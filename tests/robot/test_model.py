@@ -18,16 +18,6 @@ from pfield.spatial import Pose
 Q0 = np.array([0.0, -0.6, 0.0, 0.9, 0.0, 1.5, 0.0])
 
 
-@pytest.fixture(scope="module")
-def xarm() -> RobotModel:
-    return RobotModel.builtin("xarm7")
-
-
-@pytest.fixture(scope="module")
-def panda() -> RobotModel:
-    return RobotModel.builtin("panda")
-
-
 def _random_configurations(robot: RobotModel, count: int, seed: int) -> np.ndarray:
     rng = np.random.default_rng(seed)
     lower = np.maximum(robot.lower_limits, -np.pi)
