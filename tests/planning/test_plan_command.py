@@ -1,9 +1,7 @@
-"""``pfield plan``: the seed scene, a scene file, bad scene files; and the manipulator examples run."""
+"""``pfield plan``: the seed scene, a scene file, bad scene files (the examples run in ``tests/test_examples.py``)."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
 from pathlib import Path
 
 from PIL import Image
@@ -56,13 +54,3 @@ def test_bad_scene_files_exit_with_2_naming_the_field(tmp_path: Path) -> None:
         assert name in result.output.replace("\n", ""), (text, result.output)
     assert not (tmp_path / "b.png").exists()
 
-
-def test_the_examples_run_headless(tmp_path: Path) -> None:
-    for script in ("head_on_comparison.py", "autonomy_vector_slice.py"):
-        args = [sys.executable, str(EXAMPLES / script), "--output-dir", str(tmp_path)]
-        if script == "autonomy_vector_slice.py":
-            args += ["--resolution", "11"]
-        done = subprocess.run(args, capture_output=True, text=True, timeout=300, check=False)
-        assert done.returncode == 0, done.stderr
-    assert (tmp_path / "example_head_on.png").exists()
-    assert (tmp_path / "example_autonomy_vector_slice.png").exists()
