@@ -1,8 +1,9 @@
 """Run every ``benchmarks/bench_*.py`` module and print one Markdown table per section.
 
 Usage: ``python -m benchmarks.run [--quick] [--only NAME ...]`` (``make bench``). Each module exposes
-``run(quick: bool) -> list[BenchRow]``. Results go to ``benchmarks/results/<module>.json`` and the whole
-table to ``benchmarks/results/latest.md``. Reference figures: ``../shared/benchmarks/REFERENCE.md``.
+``run(quick: bool) -> list[BenchRow]``. Results go to ``benchmarks/results/<module>.json``;
+``benchmarks/results/latest.md`` is rebuilt from all saved modules.
+Reference figures: ``../shared/benchmarks/REFERENCE.md``.
 """
 
 from __future__ import annotations
@@ -76,9 +77,19 @@ def main() -> None:
                        "rows": [r.as_dict() for r in rows]}
             (RESULTS / f"{name}.json").write_text(json.dumps(payload, indent=2))
             progress.advance(task)
-    table = to_markdown(all_rows)
-    (RESULTS / "latest.md").write_text(table)
-    console.print(table, markup=False, highlight=False)
+    console.print(to_markdown(all_rows), markup=False, highlight=False)
+    # latest.md always covers every module: a partial run (--only, --quick) updates its own rows only.
+    (RESULTS / "latest.md").write_text(to_markdown(_saved_rows()))
+
+
+def _saved_rows() -> list[BenchRow]:
+    """Rows of every saved ``results/bench_*.json``, in module order."""
+    fields = set(BenchRow.__dataclass_fields__)
+    rows = []
+    for path in sorted(RESULTS.glob("bench_*.json")):
+        for row in json.loads(path.read_text())["rows"]:
+            rows.append(BenchRow(**{k: v for k, v in row.items() if k in fields}))
+    return rows
 
 
 if __name__ == "__main__":
