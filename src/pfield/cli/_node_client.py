@@ -178,7 +178,7 @@ def param_get(node: str, name: str, url: Url = DEFAULT_URL, token: Token = None)
     _print_yaml(values[name])
 
 
-@param_app.command("set")
+@param_app.command("set", context_settings={"ignore_unknown_options": True})  # "-1" is a value, as in ros2
 def param_set(node: str, name: str, value: str, url: Url = DEFAULT_URL, token: Token = None) -> None:
     """Set one parameter (value parsed as YAML); the node validates it and keeps the old value on error."""
     try:

@@ -1,0 +1,23 @@
+"""``pfield param set`` against a real HTTP server: values are parsed as YAML, negative numbers included."""
+
+from __future__ import annotations
+
+from typer.testing import CliRunner
+
+from pfield.cli import app
+from pfield.node._base import Bus
+from pfield.node.base_controller import BaseControllerNode
+from pfield.transport.http import ServerThread, create_app
+
+
+def test_param_set_takes_a_negative_value_like_ros2() -> None:
+    node = BaseControllerNode(Bus())
+    runner = CliRunner()
+    with ServerThread(create_app([node])) as server:
+        # the seed's "can go through" set has kr_dist -1; `ros2 param set` reads "-1" as the value
+        result = runner.invoke(app, ["param", "set", "/base_controller", "kr_dist", "-1", "--url", server.url])
+        assert result.exit_code == 0, result.output
+        assert node.get_parameters()["kr_dist"] == -1.0
+        bad = runner.invoke(app, ["param", "set", "/base_controller", "kr_slope", "-2.5", "--url", server.url])
+        assert bad.exit_code == 1 and "kr_slope" in bad.output
+        assert node.get_parameters()["kr_slope"] == 30.0  # refused: unchanged
