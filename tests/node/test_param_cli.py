@@ -18,6 +18,9 @@ def test_param_set_takes_a_negative_value_like_ros2() -> None:
         result = runner.invoke(app, ["param", "set", "/base_controller", "kr_dist", "-1", "--url", server.url])
         assert result.exit_code == 0, result.output
         assert node.get_parameters()["kr_dist"] == -1.0
+        after_dashes = runner.invoke(app, ["param", "set", "/base_controller", "kr_dist", "--url", server.url,
+                                           "--", "-0.5"])
+        assert after_dashes.exit_code == 0 and node.get_parameters()["kr_dist"] == -0.5
         bad = runner.invoke(app, ["param", "set", "/base_controller", "kr_slope", "-2.5", "--url", server.url])
         assert bad.exit_code == 1 and "kr_slope" in bad.output
         assert node.get_parameters()["kr_slope"] == 30.0  # refused: unchanged
