@@ -64,3 +64,18 @@ def test_serve_refuses_other_hosts_without_a_token() -> None:
     done = subprocess.run([str(PFIELD), "serve", "--host", "0.0.0.0", "--port", str(free_port())],
                           capture_output=True, text=True, env=env, check=False, timeout=120)
     assert done.returncode == 2 and "--token" in done.stderr
+
+
+def test_echo_into_a_closed_pipe_stops_quietly(node_server: NodeServer) -> None:
+    goal = "{header: {frame_id: 'world'}, pose: {position: {x: 0.5, y: 0.2, z: 0.4}}}"
+    assert node_server.cli("topic", "pub", "--once", "/pfield/planning_goal_pose",
+                           "geometry_msgs/msg/PoseStamped", goal).returncode == 0
+    echo = subprocess.Popen([str(PFIELD), "topic", "echo", "/pfield/planning_goal_pose", "--url", node_server.url],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert echo.stdout is not None and echo.stderr is not None
+    echo.stdout.readline()  # the latest message arrives first
+    echo.stdout.close()  # what `| head -1` does
+    node_server.cli("topic", "pub", "--times", "3", "--rate", "20", "/pfield/planning_goal_pose",
+                    "geometry_msgs/msg/PoseStamped", goal)
+    assert echo.wait(timeout=60) == 0
+    assert "Broken pipe" not in echo.stderr.read().decode()

@@ -9,6 +9,8 @@ prints ``error: ...`` on stderr and exits with status 1.
 from __future__ import annotations
 
 import json
+import os
+import sys
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -114,6 +116,9 @@ def topic_echo(topic: str, type_name: Annotated[str | None, typer.Argument(metav
                 typer.echo("---")
                 if once:
                     return
+    except BrokenPipeError:
+        # The reader went away (``pfield topic echo ... | head``): stop quietly, as ``ros2 topic echo`` does.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     except (OSError, WebSocketException) as exc:
         _fail(f"cannot stream {topic} from {url}: {exc}")
 
