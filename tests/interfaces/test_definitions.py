@@ -71,3 +71,13 @@ def test_parser_reads_constants_defaults_bounds_and_comments() -> None:
     assert [(c.name, c.value) for c in definition.constants] == [("A", 3), ("S", "x#y")]
     assert [(f.type, f.name, f.default) for f in definition.fields] == [
         ("float64[]", "v", []), ("float32", "w", 1.5), ("pkg/Obstacle[]", "obs", []), ("string", "n", "ab")]
+
+
+def test_fixed_size_arrays_keep_their_size_and_zero_default() -> None:
+    from pfield.interfaces.geometry_msgs import PoseWithCovariance
+
+    definition = parse_definition("float64[36] covariance\nint8[2] pair\n", "pkg")
+    assert [(f.type, f.name, f.default) for f in definition.fields] == [
+        ("float64[36]", "covariance", [0.0] * 36), ("int8[2]", "pair", [0, 0])]
+    model = model_definition(PoseWithCovariance)
+    assert model.fields[1] == definition.fields[0]

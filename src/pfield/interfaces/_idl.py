@@ -73,10 +73,12 @@ def _strip_comment(line: str) -> str:
 
 
 def _base_type(type_name: str) -> tuple[str, str]:
-    """Split ``float32[<=3]`` into (``float32``, ``[]``): bounds are not modelled by the JSON wire format."""
-    base, bracket, _ = type_name.partition("[")
+    """Split ``float32[<=3]`` into (``float32``, ``[]``): bounds are not modelled by the JSON wire format;
+    a fixed size is (``float64[36]`` → ``[36]``)."""
+    base, bracket, size = type_name.partition("[")
     base = base.split("<=")[0]
-    return base, "[]" if bracket else ""
+    size = size.rstrip("]")
+    return base, (f"[{size}]" if size.isdigit() else "[]") if bracket else ""
 
 
 def _normalise_type(type_name: str, package: str) -> str:
@@ -103,7 +105,7 @@ def _literal(type_name: str, text: str) -> Any:
 def _zero(type_name: str) -> Any:
     base, array = _base_type(type_name)
     if array:
-        return []
+        return [_zero(base)] * int(array[1:-1]) if array != "[]" else []
     if base in ("string", "wstring"):
         return ""
     if base == "bool":
@@ -164,7 +166,7 @@ def model_definition(model: type[RosMessage]) -> Definition:
     fields = []
     for name, info in model.model_fields.items():
         ros_type = _annotation_type(info.rebuild_annotation())
-        if ros_type in PRIMITIVES:
+        if ros_type.split("[")[0] in PRIMITIVES:
             default = info.get_default(call_default_factory=True)
         else:
             default = [] if ros_type.endswith("[]") else None
@@ -177,7 +179,8 @@ def _render(definition: Definition) -> str:
     lines = [f"{c.type} {c.name}={c.value!r}" if isinstance(c.value, str) else f"{c.type} {c.name}={c.value}"
              for c in definition.constants]
     for f in definition.fields:
-        default = "" if f.default in (None, [], "", 0, 0.0, False) else f" {f.default!r}"
+        zero = f.default in (None, [], "", 0, 0.0, False) or (isinstance(f.default, list) and not any(f.default))
+        default = "" if zero else f" {f.default!r}"
         lines.append(f"{f.type} {f.name}{default}")
     return "\n".join(lines)
 

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from typing import Annotated
+
 from pydantic import Field
 
-from pfield.interfaces._base import Float64, RosMessage
+from pfield.interfaces._base import Float64, RosMessage, RosType
 from pfield.interfaces.std_msgs import Header
 
 
@@ -50,10 +52,30 @@ class PointStamped(RosMessage):
     point: Point = Field(default_factory=Point)
 
 
+Covariance36 = Annotated[list[Float64], Field(min_length=36, max_length=36), RosType("float64[36]")]
+"""Row-major 6x6 covariance (x, y, z, rotation about x, y, z), ROS's fixed-size ``float64[36]``."""
+
+
+def _zero_covariance() -> list[float]:
+    return [0.0] * 36
+
+
+class PoseWithCovariance(RosMessage):
+    ros_type = "geometry_msgs/msg/PoseWithCovariance"
+    pose: Pose = Field(default_factory=Pose)
+    covariance: Covariance36 = Field(default_factory=_zero_covariance)
+
+
 class Twist(RosMessage):
     ros_type = "geometry_msgs/msg/Twist"
     linear: Vector3 = Field(default_factory=Vector3)
     angular: Vector3 = Field(default_factory=Vector3)
+
+
+class TwistWithCovariance(RosMessage):
+    ros_type = "geometry_msgs/msg/TwistWithCovariance"
+    twist: Twist = Field(default_factory=Twist)
+    covariance: Covariance36 = Field(default_factory=_zero_covariance)
 
 
 class TwistStamped(RosMessage):

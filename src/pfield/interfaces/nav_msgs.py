@@ -1,11 +1,11 @@
-"""``nav_msgs`` messages used by pfield (planned paths, occupancy grids)."""
+"""``nav_msgs`` messages used by pfield (planned paths, occupancy grids, odometry)."""
 
 from __future__ import annotations
 
 from pydantic import Field
 
-from pfield.interfaces._base import Float32, Int8, RosMessage, UInt32
-from pfield.interfaces.geometry_msgs import Pose, PoseStamped
+from pfield.interfaces._base import Float32, Int8, RosMessage, String, UInt32
+from pfield.interfaces.geometry_msgs import Pose, PoseStamped, PoseWithCovariance, TwistWithCovariance
 from pfield.interfaces.std_msgs import Header, Time
 
 
@@ -33,3 +33,14 @@ class OccupancyGrid(RosMessage):
     header: Header = Field(default_factory=Header)
     info: MapMetaData = Field(default_factory=MapMetaData)
     data: list[Int8] = Field(default_factory=list)
+
+
+class Odometry(RosMessage):
+    """Pose in ``header.frame_id`` (e.g. ``odom``) and velocity in ``child_frame_id`` (the robot, e.g.
+    ``base_link``), each with a row-major 6x6 covariance."""
+
+    ros_type = "nav_msgs/msg/Odometry"
+    header: Header = Field(default_factory=Header)
+    child_frame_id: String = ""
+    pose: PoseWithCovariance = Field(default_factory=PoseWithCovariance)
+    twist: TwistWithCovariance = Field(default_factory=TwistWithCovariance)
