@@ -38,6 +38,9 @@ MapOption = Annotated[Path | None, typer.Option(help="map_server YAML for the co
 FootprintOption = Annotated[str | None, typer.Option(help="nav2 footprint '[\\[x, y], ...]' for the costmap")]
 CsvDirOption = Annotated[Path | None, typer.Option(help="save every planned path as CSV here")]
 LogLevelOption = Annotated[str, typer.Option(help="debug, info, warning or error")]
+StaticTransformOption = Annotated[list[str] | None, typer.Option(
+    help="FRAME=x,y,z[,qx,qy,qz,qw]: pose of FRAME in the fixed frame; messages in FRAME are accepted and "
+         "transformed (repeatable; the static_transforms parameter)")]
 
 
 @dataclass
@@ -51,6 +54,8 @@ class ServeContext:
     map_file: Path | None = None
     footprint: str | None = None
     extra: dict[str, Any] = field(default_factory=dict)
+    static_transforms: dict[str, Any] = field(default_factory=dict)
+    """``--static-transform`` values in the ``static_transforms`` parameter form (frame → translation, rotation)."""
 
 
 NodeFactory = Callable[[ServeContext], list[Node]]
@@ -75,6 +80,19 @@ def parse_package_paths(values: list[str]) -> dict[str, Path]:
             raise InvalidInput("--package-path", value, f"{directory} is not a directory")
         paths[name] = Path(directory).resolve()
     return paths
+
+
+def parse_static_transforms(values: list[str]) -> dict[str, Any]:
+    """The ``static_transforms`` parameter of ``--static-transform FRAME=x,y,z[,qx,qy,qz,qw]`` options."""
+    from pfield.node._frames import parse_transform_option
+
+    table: dict[str, Any] = {}
+    for value in values:
+        frame, data = parse_transform_option(value)
+        if frame in table:
+            raise InvalidInput("--static-transform", value, f"frame {frame!r} is given twice")
+        table[frame] = data
+    return table
 
 
 def load_ros_parameters(path: Path) -> dict[str, dict[str, Any]]:
@@ -106,12 +124,15 @@ def load_robot(robot: str, end_effector: str | None, package_paths: Mapping[str,
 
 
 def build_nodes(context: ServeContext, params: dict[str, dict[str, Any]], csv_dir: Path | None) -> list[Node]:
-    """The manager plus every registered factory's nodes, with ``--params`` applied (``/**`` to all)."""
+    """The manager plus every registered factory's nodes, with ``--params`` applied (``/**`` to all);
+    ``context.static_transforms`` is the manager's initial ``static_transforms`` (``--params`` may replace it)."""
     from pfield.node._planning import make_resolver
-    from pfield.node.manager import ManagerNode
+    from pfield.node.manager import ManagerNode, ManagerParameters
 
     resolver = make_resolver(context.package_paths, context.mesh_roots)
-    nodes: list[Node] = [ManagerNode(context.bus, context.robot, resolver=resolver, csv_dir=csv_dir)]
+    manager_params = ManagerParameters(static_transforms=context.static_transforms)
+    nodes: list[Node] = [ManagerNode(context.bus, context.robot, parameters=manager_params, resolver=resolver,
+                                     csv_dir=csv_dir)]
     for factory in _FACTORIES:
         nodes.extend(factory(context))
     by_name = {node.name: node for node in nodes}
@@ -146,14 +167,17 @@ def cli_errors() -> Iterator[None]:
 
 def nodes_from_options(robot: str, end_effector: str | None, params: Path | None, package_path: list[str] | None,
                        mesh_root: list[Path] | None, map_file: Path | None, footprint: str | None,
-                       csv_dir: Path | None) -> list[Node]:
+                       csv_dir: Path | None, static_transform: list[str] | None = None) -> list[Node]:
     """The nodes of the options ``pfield serve`` and ``pfield ros2 node`` share (one new :class:`Bus`):
     the robot, ``--package-path``/``--mesh-root`` for mesh URIs, ``--map``/``--footprint`` for the
-    factories' nodes and the ``--params`` YAML applied to them. Bad options raise :class:`InvalidInput`."""
+    factories' nodes, ``--static-transform`` for the manager's frames and the ``--params`` YAML applied to
+    them. Bad options raise :class:`InvalidInput`."""
     packages = parse_package_paths(package_path or [])
+    transforms = parse_static_transforms(static_transform or [])
     parameters = load_ros_parameters(params) if params else {}
     context = ServeContext(Bus(), load_robot(robot, end_effector, packages), packages,
-                           [p.resolve() for p in mesh_root or []], map_file, footprint)
+                           [p.resolve() for p in mesh_root or []], map_file, footprint,
+                           static_transforms=transforms)
     return build_nodes(context, parameters, csv_dir)
 
 
@@ -165,6 +189,7 @@ def serve(
     mesh_root: MeshRootOption = None,
     map: MapOption = None,
     footprint: FootprintOption = None,
+    static_transform: StaticTransformOption = None,
     host: Annotated[str, typer.Option(help="address to bind; other than loopback needs --token")] = DEFAULT_HOST,
     port: Annotated[int, typer.Option(help="TCP port")] = DEFAULT_PORT,
     token: Annotated[str | None, typer.Option(envvar="PFIELD_TOKEN", help="bearer token clients must send")]
@@ -180,7 +205,8 @@ def serve(
     logging.basicConfig(level=log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
     with cli_errors():
         _check_host(host, token)
-        nodes = nodes_from_options(robot, end_effector, params, package_path, mesh_root, map, footprint, csv_dir)
+        nodes = nodes_from_options(robot, end_effector, params, package_path, mesh_root, map, footprint, csv_dir,
+                                   static_transform)
     app = create_app(nodes, token=token)
     typer.echo(f"pfield node on http://{host}:{port} ({', '.join(n.name for n in nodes)})", err=True)
     sys.stderr.flush()

@@ -24,6 +24,7 @@ from pfield.cli._node import (
     PackagePathOption,
     ParamsOption,
     RobotOption,
+    StaticTransformOption,
     cli_errors,
     nodes_from_options,
 )
@@ -57,6 +58,7 @@ def node(
     mesh_root: MeshRootOption = None,
     map: MapOption = None,
     footprint: FootprintOption = None,
+    static_transform: StaticTransformOption = None,
     csv_dir: CsvDirOption = None,
     log_level: LogLevelOption = "info",
 ) -> None:
@@ -68,7 +70,8 @@ def node(
     logging.basicConfig(level=log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
     _check_ros2()
     with cli_errors():
-        nodes = nodes_from_options(robot, end_effector, params, package_path, mesh_root, map, footprint, csv_dir)
+        nodes = nodes_from_options(robot, end_effector, params, package_path, mesh_root, map, footprint, csv_dir,
+                                   static_transform)
     from pfield.transport.ros2 import run
 
     typer.echo(f"pfield ROS 2 nodes: {', '.join(n.name for n in nodes)} (Ctrl-C stops)", err=True)

@@ -6,7 +6,12 @@ message), ``/pfield/planning_goal_pose`` (PoseStamped), ``/pfield/query_pose`` (
 (MarkerArray). Services: ``/pfield/plan_path``, ``/pfield/compute_autonomy_vector``,
 ``/pfield/remove_obstacles`` and ``/pfield/clear_obstacles`` (std_srvs/Trigger). Parameters: every
 :class:`~pfield.field.FieldConfig` field plus ``dynamic_obstacle_timeout`` (s: ``Dynamic`` obstacles not
-updated for this long are dropped) and ``fixed_frame`` (the one frame messages may be expressed in).
+updated for this long are dropped), ``fixed_frame`` (the frame every pose is used in) and
+``static_transforms`` (``{frame: {translation: [x, y, z], rotation: [qx, qy, qz, qw]}}``: the pose of each
+other frame in the fixed frame). Poses in a message whose ``header.frame_id`` is such a frame are
+transformed into the fixed frame (``T_fixed_x = T_fixed_frame * T_frame_x``); an empty frame_id means the
+fixed frame; any other frame is refused with :class:`~pfield.errors.UnknownFrame`. PlanPath's poses carry no
+header and are in the fixed frame.
 
 State changes are all-or-nothing: every request is validated completely before anything is changed,
 and planning works on a snapshot, so short calls (autonomy vector) keep answering during a long plan.
@@ -16,17 +21,18 @@ Planning behaviour follows the seed's PlanPath.srv: ``planning_method`` empty me
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import threading
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from pfield._validation import as_vector
-from pfield.errors import InvalidInput, PfieldError, UnknownFrame
+from pfield.errors import InvalidInput, PfieldError
 from pfield.field.config import FieldConfig
 from pfield.interfaces import geometry_msgs as gm
 from pfield.interfaces import nav_msgs, std_srvs, visualization_msgs
@@ -34,6 +40,7 @@ from pfield.interfaces import potential_fields_interfaces as pfi
 from pfield.interfaces.convert import obstacle_from_msg, plan_response, pose_from_msg, twist_stamped
 from pfield.node import _planning
 from pfield.node._base import Bus, Node, PublicationSpec, ServiceSpec, SubscriptionSpec
+from pfield.node._frames import StaticTransforms, parse_transforms, transforms_data
 from pfield.node._markers import state_markers
 from pfield.spatial import Pose
 
@@ -54,7 +61,10 @@ class ManagerParameters:
     dynamic_obstacle_timeout: float = 2.0
     """s: a ``Dynamic`` obstacle not re-published for this long is removed (0 disables expiry)."""
     fixed_frame: str = "world"
-    """The frame every pose is expressed in; messages naming another frame are rejected."""
+    """The frame every pose is used in; messages in another frame need a ``static_transforms`` entry."""
+    static_transforms: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    """``{frame: {translation: [x, y, z] (m), rotation: [qx, qy, qz, qw]}}``: each frame's pose in
+    ``fixed_frame`` (entries may also be :class:`~pfield.spatial.Pose`; held as Poses after validation)."""
 
     def __post_init__(self) -> None:
         timeout = self.dynamic_obstacle_timeout
@@ -64,6 +74,7 @@ class ManagerParameters:
         if not isinstance(self.fixed_frame, str) or not self.fixed_frame:
             raise InvalidInput("fixed_frame", self.fixed_frame, "must be a non-empty frame name")
         object.__setattr__(self, "dynamic_obstacle_timeout", float(timeout))
+        object.__setattr__(self, "static_transforms", parse_transforms(self.static_transforms, self.fixed_frame))
 
 
 @dataclass(frozen=True)
@@ -134,14 +145,15 @@ class ManagerNode(Node):
     def get_parameters(self) -> dict[str, Any]:
         with self._lock:
             return self._config.as_dict() | {"dynamic_obstacle_timeout": self._params.dynamic_obstacle_timeout,
-                                             "fixed_frame": self._params.fixed_frame}
+                                             "fixed_frame": self._params.fixed_frame,
+                                             "static_transforms": transforms_data(self._params.static_transforms)}
 
     def set_parameters(self, values: Mapping[str, Any]) -> dict[str, Any]:
         own = {k: v for k, v in values.items() if k in ManagerParameters.__dataclass_fields__}
         field_values = {k: v for k, v in values.items() if k not in own}
         with self._lock:
             config = self._config.replace(**field_values) if field_values else self._config
-            params = ManagerParameters(**(vars(self._params) | own))
+            params = replace(self._params, **own)
             self._config, self._params, self._field = config, params, None
         self._publish_markers()
         return self.get_parameters()
@@ -174,10 +186,9 @@ class ManagerNode(Node):
         with self._lock:
             return [held.obstacle for held in self._obstacles.values()]
 
-    def _check_frame(self, field: str, frame_id: str) -> None:
-        fixed = self._params.fixed_frame
-        if frame_id not in ("", fixed):
-            raise UnknownFrame(field, frame_id, f"poses must be given in the fixed frame {fixed!r}")
+    def _frames(self) -> StaticTransforms:
+        params = self._params
+        return StaticTransforms(params.fixed_frame, params.static_transforms)
 
     def _snapshot(self) -> tuple[FieldConfig, Pose | None, list[Any]]:
         with self._lock:
@@ -199,12 +210,14 @@ class ManagerNode(Node):
     # ---- topic handlers -----------------------------------------------------------------------------
     def on_obstacles(self, message: pfi.ObstacleArray) -> None:
         """Add or replace obstacles by id; validates all of them before changing anything."""
-        self._check_frame("header.frame_id", message.header.frame_id)
+        transform = self._frames().lookup("header.frame_id", message.header.frame_id)
         converted: dict[str, Any] = {}
         for i, item in enumerate(message.obstacles):
             if item.frame_id in converted:
                 raise InvalidInput(f"obstacles[{i}].frame_id", item.frame_id, "duplicate id in one message")
-            converted[item.frame_id] = obstacle_from_msg(item, self._make_mesh, f"obstacles[{i}]")
+            obstacle = obstacle_from_msg(item, self._make_mesh, f"obstacles[{i}]")
+            converted[item.frame_id] = obstacle if transform is None else replace(obstacle,
+                                                                                  pose=transform * obstacle.pose)
         now = time.monotonic()
         with self._lock:
             for key, obstacle in converted.items():
@@ -213,8 +226,9 @@ class ManagerNode(Node):
         self._publish_markers()
 
     def on_goal(self, message: gm.PoseStamped) -> None:
-        self._check_frame("header.frame_id", message.header.frame_id)
-        goal = pose_from_msg(message.pose, "pose")
+        frames = self._frames()
+        frames.lookup("header.frame_id", message.header.frame_id)
+        goal = frames.to_fixed("header.frame_id", message.header.frame_id, pose_from_msg(message.pose, "pose"))
         with self._lock:
             self._goal, self._field = goal, None
         self._publish_markers()
@@ -312,7 +326,8 @@ class ManagerNode(Node):
             raise InvalidInput("planning_method", method, f"expected {TASK_SPACE!r} or {WHOLE_BODY!r}")
         if not (math.isfinite(request.delta_time) and request.delta_time >= 0):
             raise InvalidInput("delta_time", request.delta_time, "must be >= 0 s")
-        self._check_frame("query_pose.header.frame_id", request.query_pose.header.frame_id)
+        frames, frame_id = self._frames(), request.query_pose.header.frame_id
+        frames.lookup("query_pose.header.frame_id", frame_id)
         if method == WHOLE_BODY:
             q = self.robot.check_joint_angles(request.joint_angles, "joint_angles")
             qd = None
@@ -323,6 +338,8 @@ class ManagerNode(Node):
             pose = pose_from_msg(request.query_pose.pose, "query_pose.pose") if given else None
         else:
             pose = pose_from_msg(request.query_pose.pose, "query_pose.pose")
+        if pose is not None:
+            pose = frames.to_fixed("query_pose.header.frame_id", frame_id, pose)
         field = self._current_field()
         if field is None:
             raise InvalidInput("goal", None, "no goal yet: publish /pfield/planning_goal_pose or call plan_path")
