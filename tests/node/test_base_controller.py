@@ -3,15 +3,18 @@
 from __future__ import annotations
 
 import math
+import re
 
 import pytest
 
 from pfield.errors import InvalidInput, UnknownFrame
 from pfield.interfaces import geometry_msgs as gm
 from pfield.interfaces import std_srvs
+from pfield.interfaces.nav_msgs import Odometry
 from pfield.interfaces.sensor_msgs import LaserScan
 from pfield.interfaces.std_msgs import Header
 from pfield.mobile.controller import ControllerState
+from pfield.mobile.sim import integrate_pose
 from pfield.node._base import Bus
 from pfield.node.base_controller import BaseControllerNode
 
@@ -44,11 +47,32 @@ def _goal(x, y, frame="odom"):
     return gm.PointStamped.model_validate({"header": {"frame_id": frame}, "point": {"x": x, "y": y}})
 
 
+def _odom(x, y, yaw, frame="odom", scale=1.0):
+    orientation = {"z": scale * math.sin(yaw / 2), "w": scale * math.cos(yaw / 2)}
+    return Odometry.model_validate({"header": {"frame_id": frame}, "child_frame_id": "base_link",
+                                    "pose": {"pose": {"position": {"x": x, "y": y}, "orientation": orientation}}})
+
+
+def _follow_with_slip(node, goal, slip, seconds, odometry):
+    """A robot that moves ``slip`` times the commanded velocity; its true pose is published on /odom."""
+    true_pose = [0.0, 0.0, 0.0]
+    node.on_goal(_goal(*goal))
+    for _ in range(round(seconds / node.tick_period)):
+        if odometry:
+            node.on_odom(_odom(*true_pose))
+        node.clock.now += node.tick_period
+        node.tick(node.clock.now)
+        twist = node.bus.latest("/cmd_vel")
+        command = (slip * twist.linear.x, slip * twist.linear.y, slip * twist.angular.z)
+        true_pose = integrate_pose(true_pose, command, node.tick_period).tolist()
+    return true_pose
+
+
 def test_contract_names_and_types(node):
     assert node.name == "/base_controller" and node.tick_period == pytest.approx(0.05)
     assert {(s.topic, s.type_name) for s in node.subscriptions()} == {
         ("/goal_point", "geometry_msgs/msg/PointStamped"), ("/scan", "sensor_msgs/msg/LaserScan"),
-        ("/cmd_vel_teleop", "geometry_msgs/msg/Twist")}
+        ("/cmd_vel_teleop", "geometry_msgs/msg/Twist"), ("/odom", "nav_msgs/msg/Odometry")}
     assert [(p.topic, p.type_name) for p in node.publications()] == [("/cmd_vel", "geometry_msgs/msg/Twist")]
 
 
@@ -67,6 +91,52 @@ def test_goal_in_base_frame_is_relative_to_the_robot(node):
     _tick(node, 10.0)
     node.on_goal(_goal(0.0, 2.0, frame="base_link"))
     assert node.goal.tolist() == pytest.approx([node.pose[0], node.pose[1] + 2.0])
+
+
+def test_odometry_drives_the_pose_so_a_slipping_robot_reaches_the_goal(node):
+    true_pose = _follow_with_slip(node, (1.0, 0.5), slip=0.6, seconds=15.0, odometry=True)
+    assert node.state == ControllerState.REACHED
+    assert math.hypot(true_pose[0] - 1.0, true_pose[1] - 0.5) <= 0.1
+    # the last command is zero (the robot did not move after the last odometry), and the node's pose is that
+    # odometry, not its own integration of the commands
+    assert node.bus.latest("/cmd_vel") == gm.Twist()
+    assert node.pose.tolist() == true_pose
+
+
+def test_dead_reckoning_alone_stops_short_of_the_goal_on_a_slipping_robot(node):
+    true_pose = _follow_with_slip(node, (1.0, 0.5), slip=0.6, seconds=15.0, odometry=False)
+    assert node.state == ControllerState.REACHED  # the node believes it arrived …
+    assert math.hypot(true_pose[0] - 1.0, true_pose[1] - 0.5) > 0.3  # … the robot did not
+
+
+def test_odometry_pose_and_yaw_from_the_quaternion(node):
+    node.on_odom(_odom(2.0, -1.0, 0.7, scale=2.0))  # a non-unit quaternion gives the same yaw
+    assert node.pose.tolist() == pytest.approx([2.0, -1.0, 0.7], abs=1e-12)
+    _tick(node, 0.5)
+    assert node.pose.tolist() == pytest.approx([2.0, -1.0, 0.7], abs=1e-12)  # no dead-reckoning on top
+    node.on_goal(_goal(1.0, 0.0, frame="base_link"))
+    assert node.goal.tolist() == pytest.approx([2.0 + math.cos(0.7), -1.0 + math.sin(0.7)])
+    node.on_odom(_odom(0.5, 0.25, -math.pi / 2, frame=""))
+    assert node.pose.tolist() == pytest.approx([0.5, 0.25, -math.pi / 2], abs=1e-12)
+
+
+def test_bad_odometry_is_rejected_and_state_kept(node):
+    node.on_teleop(gm.Twist(linear=gm.Vector3(x=0.2)))
+    for bad, error, field in ((_odom(1.0, 0.0, 0.0, frame="map"), UnknownFrame, "header.frame_id"),
+                              (_odom(math.nan, 0.0, 0.0), InvalidInput, "pose.pose"),
+                              (_odom(0.0, math.inf, 0.0), InvalidInput, "pose.pose"),
+                              (_odom(0.0, 0.0, 0.0, scale=0.0), InvalidInput, "pose.pose.orientation")):
+        before = node.pose
+        with pytest.raises(error, match=re.escape(field)):
+            node.on_odom(bad)
+        assert node.pose.tolist() == before.tolist()
+    _tick(node, 0.5)
+    assert node.pose[0] == pytest.approx(0.2 * 0.45)  # still dead-reckoning (9 periods): no odometry accepted
+    node.set_parameters({"odom_frame": "world"})
+    with pytest.raises(UnknownFrame, match=r"header\.frame_id"):
+        node.on_odom(_odom(3.0, 0.0, 0.0, frame="odom"))
+    node.on_odom(_odom(3.0, 0.0, 0.0, frame="world"))
+    assert node.pose.tolist() == [3.0, 0.0, 0.0]
 
 
 def test_bad_goal_is_rejected_and_goal_kept(node):
@@ -156,3 +226,9 @@ def test_served_over_http_on_loopback():
         assert client.put("/param/base_controller", json={"kr_slope": -1.0}).status_code in (400, 422)
         assert client.put("/param/base_controller", json={"drive": "diff_drive"}).json()["drive"] == "diff_drive"
         assert client.get("/param/base_controller").json()["kr_slope"] == 30.0
+        odom = {"header": {"frame_id": "odom"}, "pose": {"pose": {"position": {"x": 2.0, "y": 0.5}}}}
+        assert client.post("/topic/odom", json=odom).is_success
+        assert node.pose.tolist() == [2.0, 0.5, 0.0]
+        odom["header"]["frame_id"] = "map"
+        assert client.post("/topic/odom", json=odom | {"pose": {}}).status_code in (400, 422)
+        assert node.pose.tolist() == [2.0, 0.5, 0.0]

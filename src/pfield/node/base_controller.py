@@ -4,14 +4,18 @@ Topics in: ``/goal_point`` (geometry_msgs/PointStamped: start point following; f
 fixed frame, ``base_frame`` = relative to the robot), ``/scan`` (sensor_msgs/LaserScan: replaces the
 obstacles; frame ``sensor_frame`` or empty = the laser mounted at ``sensor_x/y/yaw``, ``base_frame`` = at the
 robot's origin), ``/cmd_vel_teleop`` (geometry_msgs/Twist: the operator's velocity in the robot frame; has
-priority while newer than ``teleop_timeout``). Topic out: ``/cmd_vel`` (geometry_msgs/Twist, robot frame),
+priority while newer than ``teleop_timeout``), ``/odom`` (nav_msgs/Odometry: the robot pose; frame
+``odom_frame`` or empty). Topic out: ``/cmd_vel`` (geometry_msgs/Twist, robot frame),
 published on every tick (``tick_period`` = 1/``rate`` s). Service: ``/base_controller/cancel_goal``
 (std_srvs/Trigger). Parameters: the :class:`~pfield.mobile.VectorFieldParams` and
 :class:`~pfield.mobile.config.ControllerConfig` fields plus the three frame names, settable at run time.
 
-The robot pose in the fixed frame is dead-reckoned from the published commands (no odometry input), so a
-goal given in ``base_frame`` and scan points stay consistent with the commanded motion. Handlers validate
-everything before changing state; a rejected message leaves the node as it was.
+The robot pose (x, y, yaw) in the fixed frame ``odom_frame`` is the latest ``/odom`` message's pose once one
+has arrived; before that it is dead-reckoned from the published commands, so a goal given in ``base_frame``
+and scan points stay consistent with the commanded motion. There is no odometry timeout: after the first
+message the last received pose is used until a newer one arrives (a stopped odometry source freezes the pose;
+guard it with a watchdog outside the node). Handlers validate everything before changing state; a rejected
+message leaves the node as it was.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ from numpy.typing import NDArray
 from pfield.errors import InvalidInput, UnknownFrame
 from pfield.interfaces import geometry_msgs as gm
 from pfield.interfaces import std_srvs
+from pfield.interfaces.nav_msgs import Odometry
 from pfield.interfaces.sensor_msgs import LaserScan
 from pfield.mobile.config import ControllerConfig
 from pfield.mobile.controller import BaseController, ControllerState
@@ -52,6 +57,19 @@ def _finite_point(msg: gm.PointStamped) -> NDArray[np.float64]:
     return np.array(values[:2])
 
 
+def _odometry_pose(msg: Odometry) -> NDArray[np.float64]:
+    """(x, y, yaw) of an odometry message; yaw = atan2(2(wz + xy), w² + x² − y² − z²), the rotation about z
+    of the quaternion (x, y, z, w), valid for any non-zero scale of it (rad)."""
+    position, q = msg.pose.pose.position, msg.pose.pose.orientation
+    values = (position.x, position.y, q.x, q.y, q.z, q.w)
+    if not all(math.isfinite(v) for v in values):
+        raise InvalidInput("pose.pose", values, "must be finite (no NaN or inf)")
+    if q.x == q.y == q.z == q.w == 0.0:
+        raise InvalidInput("pose.pose.orientation", (q.x, q.y, q.z, q.w), "must be a non-zero quaternion")
+    yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), q.w**2 + q.x**2 - q.y**2 - q.z**2)
+    return np.array([position.x, position.y, yaw])
+
+
 class BaseControllerNode(Node):
     """The ``/base_controller`` node (see the module docstring); ``clock`` gives monotonic seconds."""
 
@@ -70,6 +88,7 @@ class BaseControllerNode(Node):
         self._pose = np.zeros(3)
         self._command = np.zeros(3)
         self._last_tick: float | None = None
+        self._has_odometry = False
 
     # ---- contract -----------------------------------------------------------------------------------
     def services(self) -> list[ServiceSpec]:
@@ -79,7 +98,8 @@ class BaseControllerNode(Node):
     def subscriptions(self) -> list[SubscriptionSpec]:
         return [SubscriptionSpec("/goal_point", "geometry_msgs/msg/PointStamped", gm.PointStamped, self.on_goal),
                 SubscriptionSpec("/scan", "sensor_msgs/msg/LaserScan", LaserScan, self.on_scan),
-                SubscriptionSpec("/cmd_vel_teleop", "geometry_msgs/msg/Twist", gm.Twist, self.on_teleop)]
+                SubscriptionSpec("/cmd_vel_teleop", "geometry_msgs/msg/Twist", gm.Twist, self.on_teleop),
+                SubscriptionSpec("/odom", "nav_msgs/msg/Odometry", Odometry, self.on_odom)]
 
     def publications(self) -> list[PublicationSpec]:
         return [PublicationSpec("/cmd_vel", "geometry_msgs/msg/Twist", gm.Twist)]
@@ -105,9 +125,10 @@ class BaseControllerNode(Node):
         return self.get_parameters()
 
     def tick(self, now: float) -> None:
-        """Dead-reckon the pose over the last period, run the controller and publish ``/cmd_vel``."""
+        """Dead-reckon the pose over the last period (until odometry arrives), run the controller and publish
+        ``/cmd_vel``."""
         with self._lock:
-            if self._last_tick is not None and now > self._last_tick:
+            if not self._has_odometry and self._last_tick is not None and now > self._last_tick:
                 self._pose = integrate_pose(self._pose, self._command, now - self._last_tick)
             self._last_tick = now
             command = self._controller.step(self._pose, now)
@@ -153,6 +174,17 @@ class BaseControllerNode(Node):
         with self._lock:
             self._controller.set_teleop(msg.linear.x, msg.linear.y, msg.angular.z, self._clock())
 
+    def on_odom(self, msg: Odometry) -> None:
+        """Take the robot pose from odometry (``header.frame_id`` must be ``odom_frame`` or empty); from the
+        first accepted message on, dead-reckoning stops."""
+        pose = _odometry_pose(msg)
+        with self._lock:
+            frame = msg.header.frame_id
+            if frame not in ("", self._frames["odom_frame"]):
+                raise UnknownFrame("header.frame_id", frame, f"expected {self._frames['odom_frame']!r} or empty")
+            self._pose = pose
+            self._has_odometry = True
+
     def on_cancel_goal(self, request: std_srvs.Trigger_Request) -> std_srvs.Trigger_Response:
         """Stop point following."""
         with self._lock:
@@ -169,7 +201,7 @@ class BaseControllerNode(Node):
 
     @property
     def pose(self) -> NDArray[np.float64]:
-        """Dead-reckoned pose (x, y, yaw) in ``odom_frame``."""
+        """Robot pose (x, y, yaw) in ``odom_frame``: the last odometry, or dead-reckoned before any arrived."""
         with self._lock:
             return self._pose.copy()
 
