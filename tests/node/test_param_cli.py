@@ -24,3 +24,14 @@ def test_param_set_takes_a_negative_value_like_ros2() -> None:
         bad = runner.invoke(app, ["param", "set", "/base_controller", "kr_slope", "-2.5", "--url", server.url])
         assert bad.exit_code == 1 and "kr_slope" in bad.output
         assert node.get_parameters()["kr_slope"] == 30.0  # refused: unchanged
+
+
+def test_param_set_nan_is_refused_by_the_node_naming_the_parameter() -> None:
+    node = BaseControllerNode(Bus())
+    runner = CliRunner()
+    with ServerThread(create_app([node])) as server:
+        for value in (".nan", ".inf"):
+            result = runner.invoke(app, ["param", "set", "/base_controller", "kr_slope", value, "--url", server.url])
+            assert result.exit_code == 1, result.output
+            assert "kr_slope" in result.output and "Traceback" not in result.output
+    assert node.get_parameters()["kr_slope"] == 30.0

@@ -190,8 +190,10 @@ def param_set(node: str, name: str, value: str, url: Url = DEFAULT_URL, token: T
         parsed = yaml.safe_load(value)
     except yaml.YAMLError as exc:
         _fail(f"{name}={value!r}: malformed YAML: {exc}")
+    # json.dumps keeps .nan/.inf as NaN/Infinity so the node itself refuses them, naming the parameter.
     with _client(url, token) as client:
-        _request(client, "PUT", _node_path(node), json={name: parsed})
+        _request(client, "PUT", _node_path(node), content=json.dumps({name: parsed}),
+                 headers={"content-type": "application/json"})
     typer.echo("Set parameter successful")
 
 
