@@ -30,6 +30,7 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import NDArray
 
+from pfield._validation import nonnegative, positive
 from pfield.costmap import _kernels as _k
 from pfield.costmap.costmap import Costmap2D
 from pfield.costmap.footprint import Footprint
@@ -132,13 +133,6 @@ def yaw_offsets(angle_tolerance: float, angle_increment: float) -> NDArray[np.fl
     return np.array(offsets)
 
 
-def _check_nonnegative(name: str, value: float) -> float:
-    number = float(value)
-    if not math.isfinite(number) or number < 0.0:
-        raise InvalidInput(name, value, "must be a finite number >= 0")
-    return number
-
-
 def _kernels(costmap: Costmap2D, footprint: Footprint, pose: Pose, yaws: NDArray[np.float64]
              ) -> tuple[int, int, tuple[NDArray[np.int64], ...]]:
     """Base cell of the requested pose and the rasterised footprint per yaw (CSR arrays)."""
@@ -189,17 +183,6 @@ def _prefilter_limit(costmap: Costmap2D, robot: Footprint, pose: Pose, base_m: i
     return robot.inscribed_radius / costmap.resolution + 0.5 - offset - 1e-6
 
 
-def _check_request(safety_dist: float, dist_tolerance: float, angle_tolerance: float, angle_increment: float,
-                   pose: Pose) -> tuple[float, float, float]:
-    values = (_check_nonnegative("safety_dist", safety_dist), _check_nonnegative("dist_tolerance", dist_tolerance),
-              _check_nonnegative("angle_tolerance", angle_tolerance))
-    if not (math.isfinite(angle_increment) and angle_increment > 0.0):
-        raise InvalidInput("angle_increment", angle_increment, "must be a finite number > 0")
-    if not np.all(np.isfinite(pose.position)):
-        raise InvalidInput("pose.position", pose.position.tolist(), "must be finite")
-    return values
-
-
 def find_valid_pose(
     costmap: Costmap2D, footprint: Footprint, pose: Pose, *, safety_dist: float = 0.0,
     dist_tolerance: float = 0.0, angle_tolerance: float = 0.0, angle_increment: float = DEFAULT_ANGLE_INCREMENT,
@@ -209,8 +192,10 @@ def find_valid_pose(
     Distances in m, angles in rad; see the module docstring for the candidate order and the answer rule.
     Raises :class:`~pfield.errors.InvalidInput` for negative or non-finite tolerances or safety distance.
     """
-    safety_dist, dist_tolerance, angle_tolerance = _check_request(safety_dist, dist_tolerance, angle_tolerance,
-                                                                  angle_increment, pose)
+    safety_dist = nonnegative("safety_dist", safety_dist)
+    dist_tolerance = nonnegative("dist_tolerance", dist_tolerance)
+    angle_tolerance = nonnegative("angle_tolerance", angle_tolerance)
+    angle_increment = positive("angle_increment", angle_increment)
     robot = footprint.padded(safety_dist) if safety_dist > 0.0 else footprint
     deltas = yaw_offsets(angle_tolerance, angle_increment)
     base_m, base_n, (k_ptr, k_dm, k_dn, k_box) = _kernels(costmap, robot, pose, pose.yaw + deltas)
