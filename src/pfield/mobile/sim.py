@@ -63,9 +63,7 @@ def integrate_pose(pose: NDArray[np.float64], command: NDArray[np.float64], dt: 
     return np.array([x + dx, y + dy, math.atan2(math.sin(yaw1), math.cos(yaw1))])
 
 
-def _sense(scenario: Scenario, pose: NDArray[np.float64], angles: NDArray[np.float64]) -> ObstaclePoints:
-    if scenario.sensor == "points":
-        return point_obstacles(scenario.world.points)
+def _laser(scenario: Scenario, pose: NDArray[np.float64], angles: NDArray[np.float64]) -> ObstaclePoints:
     config = scenario.config
     sensor = compose_pose2d(pose, config.sensor_pose)
     ranges = scenario.world.raycast(sensor[:2], angles + sensor[2], scenario.laser_range)
@@ -84,9 +82,10 @@ def simulate(scenario: Scenario, progress: Progress | None = None) -> SimResult:
     pose = np.array(scenario.start, dtype=np.float64)
     times, poses, commands, states, sensed = [], [pose], [], [], []
     outcome, min_clearance = "timeout", scenario.world.clearance(pose)
+    known = point_obstacles(scenario.world.points) if scenario.sensor == "points" else None
     for k in range(steps):
         now = k * dt
-        obstacles = _sense(scenario, pose, angles)
+        obstacles = _laser(scenario, pose, angles) if known is None else known
         controller.set_obstacles(obstacles)
         command = controller.step(pose, now)
         vector = np.array([command.linear_x, command.linear_y, command.angular_z])

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from numba import njit
@@ -116,9 +117,9 @@ class World2D:
             polys.append(vertices)
         return cls(pts, circ, tuple(polys))
 
-    @property
+    @cached_property
     def segments(self) -> NDArray[np.float64]:
-        """Polygon edges (E, 4): x1, y1, x2, y2 (each polygon closed)."""
+        """Polygon edges (E, 4): x1, y1, x2, y2 (each polygon closed); packed once per world."""
         return _segments(self.polygons)
 
     def raycast(self, origin: ArrayLike, angles: ArrayLike, range_max: float) -> NDArray[np.float64]:
