@@ -15,9 +15,10 @@ from typing import Any
 
 import numpy as np
 
-from pfield._validation import finite
+from pfield._validation import positive
 from pfield.errors import InvalidInput
 from pfield.field.field import PotentialField
+from pfield.geometry import signed_distances
 from pfield.planning._task_space_loop import (
     COLLISION,
     ITERATION_LIMIT,
@@ -53,10 +54,7 @@ def _check_iterations(value: Any) -> int:
 def _check_positive(name: str, value: Any) -> float:
     if isinstance(value, bool):
         raise InvalidInput(name, value, "must be a number")
-    number = finite(name, value)
-    if number <= 0.0:
-        raise InvalidInput(name, value, "must be > 0")
-    return number
+    return positive(name, value)
 
 
 def plan_task_space(
@@ -98,7 +96,7 @@ def plan_task_space(
     start_array = np.concatenate([start.position, start.orientation])
     count, status, obstacle = plan_loop(start_array, goal, params, packed, aux, step, tolerance, angle, iterations,
                                         window, poses, twists, clearances)
-    reason = "" if status == REACHED else _reason(field, status, obstacle, poses[count - 1], count, step)
+    reason = "" if status == REACHED else _reason(field, status, obstacle, poses[count - 1], count, step, window)
     if reason:
         _log.info("task-space plan failed after %d steps: %s", count - 1, reason)
     return PlannedPath(
@@ -121,8 +119,6 @@ def _goal_blocked(field: PotentialField) -> str:
 
 
 def _all_distances(field: PotentialField, point: np.ndarray) -> np.ndarray:
-    from pfield.geometry import signed_distances
-
     distances, _ = signed_distances(field.arrays.packed, np.ascontiguousarray(point, dtype=np.float64)[None, :])
     return np.asarray(distances[0])
 
@@ -135,15 +131,16 @@ def _single_point(field: PotentialField, start: Pose, reason: str) -> PlannedPat
     )
 
 
-def _reason(field: PotentialField, status: int, obstacle: int, last: np.ndarray, count: int, dt: float) -> str:
+def _reason(
+    field: PotentialField, status: int, obstacle: int, last: np.ndarray, count: int, dt: float, window: int
+) -> str:
     goal = field.goal
     position_error = float(np.linalg.norm(last[:3] - goal.position))
     rotation_error = goal.rotation_distance(Pose(last[:3], last[3:]))
     where = f"{position_error:.4g} m and {rotation_error:.4g} rad from the goal"
     name = f"'{field.obstacles[obstacle].id}'" if 0 <= obstacle < len(field.obstacles) else "an obstacle"
     if status == STAGNATION:
-        seconds = max(10, round(field.config.stagnation_window / dt)) * dt
-        return f"stagnation: no progress toward the goal for {seconds:.3g} s, stopped {where} (nearest: {name})"
+        return f"stagnation: no progress toward the goal for {window * dt:.3g} s, stopped {where} (nearest: {name})"
     if status == COLLISION:
         if count == 1 and field.clearances(last[None, :3])[0] <= 0.0:
             return f"collision: the start pose is inside {name}"
