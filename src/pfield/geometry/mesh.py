@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import functools
 import logging
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
@@ -122,9 +123,7 @@ def load_mesh_arrays(
     ``resource`` goes through ``resolver`` (default: :meth:`ResourceResolver.default`). Meant for link
     meshes of robot models and other users that need raw arrays.
     """
-    factors = as_vector("scale", scale, 3)
-    for name, value in zip(("scale_x", "scale_y", "scale_z"), factors, strict=True):
-        positive(name, value)
+    factors = np.array(_scales(as_vector("scale", scale, 3)))
     path = (resolver or ResourceResolver.default()).resolve(str(resource))
     vertices, faces, _ = read_mesh_file(path)
     return vertices * factors, np.array(faces)
@@ -136,12 +135,17 @@ def _prepare(source: str, vertices: NDArray[np.float64], faces: NDArray[np.int64
     bvh = build_bvh(triangles)
     if not watertight:
         logger.warning("mesh %s is not watertight: its distance is unsigned (never negative)", source)
-    data = MeshData(
+    return MeshData(
         source, _frozen(vertices, np.float64), _frozen(faces, np.int64), watertight,
         _frozen(triangles[bvh.order], np.float64), _frozen(normals[bvh.order], np.float64),
         _frozen(bvh.lower, np.float64), _frozen(bvh.upper, np.float64), _frozen(bvh.nodes, np.int64),
     )
-    return data
+
+
+def _scales(scale: Iterable[Any]) -> tuple[float, float, float]:
+    """``(scale_x, scale_y, scale_z)``, each a finite float > 0."""
+    x, y, z = (positive(name, value) for name, value in zip(("scale_x", "scale_y", "scale_z"), scale, strict=True))
+    return x, y, z
 
 
 def _frozen(array: NDArray[Any], dtype: type) -> NDArray[Any]:
@@ -176,7 +180,7 @@ class Mesh:
 
     def __init__(self, mesh_resource: str, scale_x: float = 1.0, scale_y: float = 1.0, scale_z: float = 1.0,
                  *, resolver: ResourceResolver | None = None) -> None:
-        scale = (positive("scale_x", scale_x), positive("scale_y", scale_y), positive("scale_z", scale_z))
+        scale = _scales((scale_x, scale_y, scale_z))
         path = (resolver or ResourceResolver.default()).resolve(mesh_resource)
         try:
             read_mesh_file(path)  # validates suffix, emptiness and content with clear errors
@@ -191,7 +195,7 @@ class Mesh:
         """A mesh from vertex (V, 3, m) and face (F, 3) arrays; ``mesh_resource`` becomes ``memory://<name>``."""
         import trimesh
 
-        factors = tuple(positive(n, v) for n, v in zip(("scale_x", "scale_y", "scale_z"), scale, strict=True))
+        factors = _scales(scale)
         try:
             mesh = trimesh.Trimesh(np.asarray(vertices, dtype=float), np.asarray(faces, dtype=np.int64), process=True)
         except (ValueError, IndexError) as exc:
@@ -203,7 +207,7 @@ class Mesh:
         data = _prepare(f"memory://{name}", np.array(mesh.vertices) * np.array(factors),
                         np.array(mesh.faces, dtype=np.int64), watertight)
         instance = cls.__new__(cls)
-        instance._set(f"memory://{name}", factors, data, data.source)  # type: ignore[arg-type]
+        instance._set(f"memory://{name}", factors, data, data.source)
         return instance
 
     def _set(self, resource: str, scale: tuple[float, float, float], data: MeshData, source: str) -> None:
