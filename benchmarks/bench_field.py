@@ -29,7 +29,7 @@ from numba import njit
 from benchmarks._common import BenchRow, auto_number, median_time
 from pfield.field import PotentialField
 from pfield.field._unowned import unowned, unowned_packed
-from pfield.geometry import Mesh, Obstacle, PackedObstacles
+from pfield.geometry import Mesh, Obstacle, PackedObstacles, ResourceResolver
 from pfield.planning._task_space_loop import rk4_twist
 from pfield.planning.scenes import BENCH_GOAL, DEFAULT_PARAMS, EVALUATION_SCENES, evaluation_query, evaluation_scene
 from pfield.spatial import Pose, Twist
@@ -82,8 +82,6 @@ def _mesh_scene(name: str, directory: Path) -> list[Obstacle]:
         trimesh.creation.box(extents=(1.0, 1.0, 1.0)).export(path)
     else:
         path = MESH_448
-    from pfield.geometry import ResourceResolver
-
     mesh = Mesh(str(path), resolver=ResourceResolver(allowed_roots=(path.parent,)))
     return [Obstacle(name, mesh, Pose((1.0, 0.0, 0.5)))]
 

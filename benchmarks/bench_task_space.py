@@ -18,6 +18,7 @@ import numpy as np
 from benchmarks._common import BenchRow, median_time
 from benchmarks.bench_field import cpu_time
 from pfield.field import FieldConfig, PotentialField
+from pfield.planning import PlannedPath
 from pfield.planning.scenes import (
     BENCH_GOAL,
     BENCH_START,
@@ -39,10 +40,7 @@ CPP = {
 PARAMS = {"default": DEFAULT_PARAMS, "rosYaml": FieldConfig()}
 
 
-def _outcome(field: PotentialField, path: object) -> str:
-    from pfield.planning import PlannedPath
-
-    assert isinstance(path, PlannedPath)
+def _outcome(field: PotentialField, path: PlannedPath) -> str:
     distance = float(np.linalg.norm(path.positions[-1] - field.goal.position))
     state = "reached" if path.success else path.failure_reason.split(":")[0]
     return f"{path.iterations} iterations, {state} ({distance * 100:.2f} cm from goal, min clearance " \

@@ -57,9 +57,9 @@ def run(out_dir: Path, console: Console) -> None:
     path.to_csv(out_dir / "manipulator_task_space.csv")
     console.print(f"wrote {picture.name} and manipulator_task_space.csv")
 
-    ball = Obstacle("ball", Sphere(radius=0.1), Pose((0.5, 0.0, 0.3)))
-    head_on = PotentialField(FieldConfig(), Pose((0.8, 0.0, 0.3)), [ball]).plan(Pose((0.2, 0.0, 0.3)))
-    console.print(f"head-on sphere (the original drove through it): {_summary(head_on, Pose((0.8, 0.0, 0.3)))}")
-    save_path_plot(head_on, out_dir / "manipulator_head_on.png", [ball], Pose((0.8, 0.0, 0.3)),
+    ball, goal = Obstacle("ball", Sphere(radius=0.1), Pose((0.5, 0.0, 0.3))), Pose((0.8, 0.0, 0.3))
+    head_on = PotentialField(FieldConfig(), goal, [ball]).plan(Pose((0.2, 0.0, 0.3)))
+    console.print(f"head-on sphere (the original drove through it): {_summary(head_on, goal)}")
+    save_path_plot(head_on, out_dir / "manipulator_head_on.png", [ball], goal,
                    "a sphere straight between start and goal is circumvented")
     console.print("wrote manipulator_head_on.png")

@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from pfield._validation import as_points
 from pfield.errors import InvalidInput
 from pfield.geometry._packed import ROW_WIDTH, SHAPE_CODES, PackedObstacles
-from pfield.geometry._sdf import signed_distances
+from pfield.geometry._sdf import empty_packed, signed_distances
 from pfield.geometry.mesh import Mesh, MeshData
 from pfield.geometry.shapes import Box, Capsule, Cylinder, Ellipsoid, Sphere
 from pfield.spatial import Pose
@@ -110,8 +110,6 @@ def pack_obstacles(obstacles: Sequence[Obstacle]) -> PackedObstacles:
     Rows hold the position, the row-major rotation matrix (local → world), the packed sizes and the
     mesh index (see :mod:`pfield.geometry._packed`); obstacles sharing one :class:`Mesh` share its arrays.
     """
-    from pfield.geometry._sdf import empty_packed
-
     rows = np.zeros((len(obstacles), ROW_WIDTH))
     kinds = np.zeros(len(obstacles), dtype=np.int64)
     meshes: list[MeshData] = []
