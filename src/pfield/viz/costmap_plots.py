@@ -1,4 +1,4 @@
-"""Pictures of costmaps and FindValidPose searches (matplotlib, headless).
+"""Pictures of costmaps and FindValidPose searches (matplotlib object API, headless, no pyplot state).
 
 :func:`plot_find_valid_pose` draws the costmap (white free, blue inflation fading out, violet inscribed,
 black lethal, grey unknown), the candidate positions the search tried (coloured by the best state found
@@ -11,13 +11,10 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.colors import ListedColormap
+from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 from matplotlib.patches import Polygon as PolygonPatch
 
@@ -80,7 +77,8 @@ def _tried(result: ValidPoseResult) -> tuple[np.ndarray, list[str]]:
 def plot_find_valid_pose(costmap: Costmap2D, footprint: Footprint, request: Pose, result: ValidPoseResult,
                          path: Path, title: str = "FindValidPose", margin: float = 1.0) -> Path:
     """Write a PNG of one search (see the module docstring); zoomed on the searched area ± ``margin`` m."""
-    fig, ax = plt.subplots(figsize=(7.5, 6.5))
+    fig = Figure(figsize=(7.5, 6.5))
+    ax = fig.subplots()
     plot_costmap(ax, costmap)
     positions, colours = _tried(result)
     if len(positions):
@@ -102,5 +100,4 @@ def plot_find_valid_pose(costmap: Costmap2D, footprint: Footprint, request: Pose
     ax.set_title(f"{title}\n{summary}; {result.trace.evaluated} candidates evaluated", fontsize=10)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110, bbox_inches="tight")
-    plt.close(fig)
     return path
