@@ -32,9 +32,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from pfield._validation import finite, positive
 from pfield.errors import InvalidInput
+from pfield.field._evaluate import _bounding_radius
 from pfield.field.config import FieldConfig
 from pfield.geometry import Obstacle, pack_obstacles
-from pfield.geometry._packed import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE, PackedObstacles
+from pfield.geometry._packed import PackedObstacles
 from pfield.geometry._sdf import empty_packed
 from pfield.planning import _whole_body_kernel as _wb
 from pfield.planning import _whole_body_loop as _loop
@@ -79,22 +80,8 @@ class WholeBodyOptions:
 
 def obstacle_bounds(packed: PackedObstacles) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Bounding sphere (centre (M, 3), radius (M,)) of every packed obstacle, for culling."""
-    rows = packed.rows
-    radii = np.zeros(len(packed.kinds))
-    for i, kind in enumerate(packed.kinds):
-        s = rows[i, 12:15]
-        if kind == SPHERE:
-            radii[i] = s[0]
-        elif kind == BOX:
-            radii[i] = float(np.linalg.norm(s))
-        elif kind in (CYLINDER, CAPSULE):
-            radii[i] = math.hypot(s[0], s[1]) if kind == CYLINDER else s[0] + s[1]
-        elif kind == ELLIPSOID:
-            radii[i] = float(s.max())
-        elif kind == MESH:
-            first, count = packed.mesh_table[int(rows[i, 15]), 2:4]
-            radii[i] = float(np.linalg.norm(packed.triangles[first:first + count], axis=2).max())
-    return np.ascontiguousarray(rows[:, 0:3]), radii
+    radii = np.array([_bounding_radius(packed, i) for i in range(len(packed.kinds))], dtype=np.float64)
+    return np.ascontiguousarray(packed.rows[:, 0:3]), radii
 
 
 def pack_robot(robot: RobotModel, config: FieldConfig, options: WholeBodyOptions) -> _wb.RobotArrays:
@@ -149,7 +136,7 @@ def make_scene(packed: PackedObstacles | None, robot: _wb.RobotArrays | None = N
 
 
 def _failure_reason(status: int, count: int, culprit: NDArray[np.int64], robot: RobotModel,
-                    errors: tuple[float, float], clearance: float, names: list[str] | None, dt: float) -> str:
+                    errors: tuple[float, float], names: list[str] | None, dt: float) -> str:
     pos_err, rot_err = errors
     state = f"position error {pos_err:.4f} m, rotation error {rot_err:.4f} rad"
     if status == _wb.COLLISION:
@@ -195,7 +182,7 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
         np.array(goal.orientation, dtype=np.float64), params, iterations)
     errors = (float(np.linalg.norm(goal.position - pos[-1])), float(Pose(pos[-1], quats[-1]).rotation_distance(goal)))
     reason = "" if status == _wb.SUCCESS else _failure_reason(status, count, culprit, robot, errors,
-                                                              float(clear[-1]), obstacle_names, step)
+                                                              obstacle_names, step)
     if reason:
         _LOG.info("whole-body plan failed: %s", reason)
     return PlannedPath(success=status == _wb.SUCCESS, failure_reason=reason, times=np.arange(count) * step,
