@@ -31,6 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pfield._validation import as_vector, finite
 from pfield.errors import InvalidInput
+from pfield.field.field import _fast_twist
 from pfield.planning import _whole_body_kernel as _wb
 from pfield.planning._whole_body_flat import FlatStep, flat_step
 from pfield.planning.whole_body import WholeBodyOptions, kernel_parameters, make_scene, pack_robot
@@ -63,13 +64,6 @@ class WholeBodyAutonomy:
 def task_space_autonomy_vector(field: Any, pose: Pose, previous: Twist | None = None, dt: float = 0.0) -> Twist:
     """The field's limited twist at ``pose`` (see :meth:`pfield.field.PotentialField.twist`)."""
     twist: Twist = field.twist(pose, previous, dt)
-    return twist
-
-
-def _fast_twist(values: NDArray[np.float64]) -> Twist:
-    twist = object.__new__(Twist)
-    object.__setattr__(twist, "linear", values[:3])
-    object.__setattr__(twist, "angular", values[3:])
     return twist
 
 
@@ -170,9 +164,8 @@ def whole_body_autonomy_vector(field: Any, robot: RobotModel, q: ArrayLike,
                                prev_joint_velocities: ArrayLike | None = None, dt: float = 0.0,
                                query_pose: Pose | None = None) -> Twist:
     """End-effector twist of :func:`whole_body_autonomy` (world frame): the ComputeAutonomyVector answer."""
-    twist_values = _fast_path(field, robot, q, prev_joint_velocities, dt) if query_pose is None else None
-    if twist_values is not None:
-        return _fast_twist(twist_values)
+    if query_pose is None:
+        return _fast_twist(_fast_path(field, robot, q, prev_joint_velocities, dt))
     return whole_body_autonomy(field, robot, q, prev_joint_velocities, dt, query_pose).twist
 
 
