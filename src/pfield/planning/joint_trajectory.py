@@ -15,10 +15,9 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pfield._validation import positive
 from pfield.errors import InvalidInput
 from pfield.planning.result import PlannedPath
-from pfield.robot.ik import ik_path_kernel
+from pfield.robot.ik import ik_path_kernel, ik_settings
 from pfield.robot.model import RobotModel
 
 __all__ = ["attach_joint_trajectory"]
@@ -39,10 +38,7 @@ def attach_joint_trajectory(path: PlannedPath, robot: RobotModel, q_seed: ArrayL
     if not isinstance(path, PlannedPath):
         raise InvalidInput("path", path, "expected a pfield PlannedPath")
     seed = robot.check_joint_angles(q_seed, "q_seed")
-    if int(max_iterations) != max_iterations or max_iterations < 1:
-        raise InvalidInput("max_iterations", max_iterations, "must be an integer >= 1")
-    settings = np.array([max_iterations, positive("position_tolerance", position_tolerance),
-                         positive("rotation_tolerance", rotation_tolerance), 1e-4, 0.3])
+    settings = ik_settings(max_iterations, position_tolerance, rotation_tolerance, damping=1e-4, max_step=0.3)
     k = robot.kinematics
     qs, failed, pos_err, rot_err = ik_path_kernel(
         seed, np.ascontiguousarray(path.positions), np.ascontiguousarray(path.orientations), k.parents, k.place_rot,

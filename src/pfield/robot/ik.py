@@ -114,6 +114,16 @@ def ik_kernel(  # type: ignore[no-untyped-def]
     return q, False, int(settings[0]), pos_err, rot_err
 
 
+def ik_settings(max_iterations: int, position_tolerance: float, rotation_tolerance: float, damping: float,
+                max_step: float) -> NDArray[np.float64]:
+    """Validated settings vector of :func:`ik_kernel`: (max_iterations, tol_pos, tol_rot, λ², max_step)."""
+    if int(max_iterations) != max_iterations or max_iterations < 1:
+        raise InvalidInput("max_iterations", max_iterations, "must be an integer >= 1")
+    return np.array([max_iterations, positive("position_tolerance", position_tolerance),
+                     positive("rotation_tolerance", rotation_tolerance), positive("damping", damping),
+                     positive("max_step", max_step)], dtype=np.float64)
+
+
 def solve_ik(robot: RobotModel, target: Pose, q_seed: ArrayLike, *, max_iterations: int = 200,
              position_tolerance: float = 1e-4, rotation_tolerance: float = 1e-3, damping: float = 1e-4,
              max_step: float = 0.3) -> IKResult:
@@ -125,11 +135,7 @@ def solve_ik(robot: RobotModel, target: Pose, q_seed: ArrayLike, *, max_iteratio
     if not isinstance(target, Pose):
         raise InvalidInput("target", target, "expected a pfield.Pose")
     seed = robot.check_joint_angles(q_seed, "q_seed")
-    if int(max_iterations) != max_iterations or max_iterations < 1:
-        raise InvalidInput("max_iterations", max_iterations, "must be an integer >= 1")
-    settings = np.array([max_iterations, positive("position_tolerance", position_tolerance),
-                         positive("rotation_tolerance", rotation_tolerance), positive("damping", damping),
-                         positive("max_step", max_step)], dtype=np.float64)
+    settings = ik_settings(max_iterations, position_tolerance, rotation_tolerance, damping, max_step)
     k = robot.kinematics
     q, success, iterations, pos_err, rot_err = ik_kernel(
         seed, np.array(target.position), np.array(target.orientation), k.parents, k.place_rot, k.place_pos, k.axes,
