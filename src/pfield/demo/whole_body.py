@@ -20,6 +20,7 @@ from pfield.planning import PlannedPath
 from pfield.planning.scenes import SEED_GOAL, seed_obstacles
 from pfield.planning.whole_body import joint_velocity_sign_flips
 from pfield.robot import RobotModel
+from pfield.robot.geometry import world_segment
 from pfield.robot.ik import solve_ik
 from pfield.spatial import Pose
 
@@ -61,15 +62,8 @@ def _table(path: PlannedPath, robot: RobotModel, rows: int = 7) -> Table:
 
 def _capsule_lines(robot: RobotModel, q: np.ndarray) -> list[tuple[np.ndarray, float]]:
     rotations, origins = robot.joint_frames(q)
-    lines = []
-    for capsule in robot.geometry.capsules:
-        if capsule.joint < 0:
-            a, b = capsule.a, capsule.b
-        else:
-            r, o = rotations[capsule.joint], origins[capsule.joint]
-            a, b = r @ capsule.a + o, r @ capsule.b + o
-        lines.append((np.stack([a, b]), capsule.radius))
-    return lines
+    return [(np.stack(world_segment(capsule, rotations, origins)), capsule.radius)
+            for capsule in robot.geometry.capsules]
 
 
 def save_arm_plot(path: PlannedPath, robot: RobotModel, obstacles: list[Obstacle], target: Path, title: str,

@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pfield._validation import nonnegative
 from pfield.geometry import Box, Capsule, Cylinder, Ellipsoid, Mesh, Obstacle, Sphere, pack_obstacles
+from pfield.robot.geometry import adjacent_joints
 from pfield.robot.model import RobotModel
 
 __all__ = ["CollisionChecker", "CollisionReport", "capsule_clearances"]
@@ -122,7 +123,7 @@ class CollisionChecker:
                 if disabled is not None:
                     if links in disabled:
                         continue
-                elif (jb >= 0 and parents[jb] == ja) or (ja >= 0 and parents[ja] == jb):
+                elif adjacent_joints(parents, ja, jb):
                     continue
                 pairs.append((i, j))
         return pairs

@@ -174,9 +174,8 @@ def _link_groups(robot: RobotModel) -> dict[str, tuple[int, list[NDArray[np.floa
     return groups
 
 
-def _adjacent(robot: RobotModel, first: LinkCapsule, second: LinkCapsule) -> bool:
-    parents = robot.kinematics.parents
-    ja, jb = first.joint, second.joint
+def adjacent_joints(parents: NDArray[np.int64], ja: int, jb: int) -> bool:
+    """Whether links carried by joints ``ja`` and ``jb`` (−1: the base) are on one body or neighbours."""
     return ja == jb or (jb >= 0 and parents[jb] == ja) or (ja >= 0 and parents[ja] == jb)
 
 
@@ -189,7 +188,7 @@ def _self_pairs(robot: RobotModel, capsules: list[LinkCapsule]) -> NDArray[np.in
     reference = np.where(np.isfinite(robot.lower_limits + robot.upper_limits),
                          0.5 * (robot.lower_limits + robot.upper_limits), 0.0)
     rotations, origins = robot.joint_frames(reference)
-    world = [_world_segment(c, rotations, origins) for c in capsules]
+    world = [world_segment(c, rotations, origins) for c in capsules]
     pairs = []
     for i in range(len(capsules)):
         for j in range(i + 1, len(capsules)):
@@ -199,7 +198,7 @@ def _self_pairs(robot: RobotModel, capsules: list[LinkCapsule]) -> NDArray[np.in
             if robot.disabled_pairs is not None:
                 if frozenset((ci.link, cj.link)) in robot.disabled_pairs:
                     continue
-            elif _adjacent(robot, ci, cj):
+            elif adjacent_joints(robot.kinematics.parents, ci.joint, cj.joint):
                 continue
             gap = segment_segment_distance(*world[i], *world[j]) - ci.radius - cj.radius
             if gap <= 0.0:
@@ -209,8 +208,9 @@ def _self_pairs(robot: RobotModel, capsules: list[LinkCapsule]) -> NDArray[np.in
     return np.array(pairs, dtype=np.int64).reshape(-1, 2)
 
 
-def _world_segment(capsule: LinkCapsule, rotations: NDArray[np.float64],
-                   origins: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def world_segment(capsule: LinkCapsule, rotations: NDArray[np.float64],
+                  origins: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """World ends (a, b) of ``capsule``'s segment, given the joint frames of :meth:`RobotModel.joint_frames`."""
     if capsule.joint < 0:
         return capsule.a, capsule.b
     r, o = rotations[capsule.joint], origins[capsule.joint]
