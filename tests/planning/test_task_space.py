@@ -13,7 +13,7 @@ from pfield.field import FieldConfig, PotentialField
 from pfield.geometry import Box, Obstacle, Sphere
 from pfield.planning import PlannedPath
 from pfield.planning.scenes import SEED_GOAL, SEED_PLAN, SEED_START, seed_obstacles
-from pfield.spatial import Pose, geodesic_angle, quaternion_exp
+from pfield.spatial import Pose, geodesic_angle, quaternion_exp, quaternion_multiply
 
 
 def _dense_clearance(field: PotentialField, path: PlannedPath, samples: int = 8) -> float:
@@ -68,16 +68,10 @@ def test_200_random_orientations_up_to_half_a_turn_converge() -> None:
         start_q = quaternion_exp(axis * angle)
         # the start is `angle` away from the goal: rotate the goal by the start offset
         goal_pose = Pose((0.1, 0.0, 0.0), goal)
-        start = Pose((0.1, 0.0, 0.0), _compose(start_q, goal))
+        start = Pose((0.1, 0.0, 0.0), quaternion_multiply(start_q, goal))
         path = field.with_goal(goal_pose).plan(start, dt=0.02, max_iterations=20000)
         assert path.success, path.failure_reason
         assert geodesic_angle(path.orientations[-1], goal) <= 0.05
-
-
-def _compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    from pfield.spatial import quaternion_multiply
-
-    return np.asarray(quaternion_multiply(a, b))
 
 
 def test_a_head_on_sphere_is_avoided_with_positive_clearance() -> None:
