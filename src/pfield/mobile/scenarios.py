@@ -23,7 +23,7 @@ from pfield.mobile.config import ControllerConfig
 from pfield.mobile.params import VectorFieldParams
 from pfield.mobile.world import World2D
 
-__all__ = ["BUILTIN_SCENARIOS", "Scenario", "load_scenario"]
+__all__ = ["BUILTIN_SCENARIOS", "Scenario", "load_scenario", "seed_params"]
 
 
 @dataclass(frozen=True)
@@ -73,7 +73,8 @@ _LASER_FIELD = VectorFieldParams(ka=1.0, kr_dist=0.35, kr_height=1.0, kr_slope=8
                                  max_spd_norm=1.0, goal_tolerance=0.1, attraction="linear")
 
 
-def _seed_params(ka: float, kr_dist: float, kr_height: float, kr_slope: float) -> VectorFieldParams:
+def seed_params(ka: float, kr_dist: float, kr_height: float, kr_slope: float) -> VectorFieldParams:
+    """A parameter set of the seed's plots and simulations (power law, speeds clamped to [0.1, 1] m/s)."""
     return VectorFieldParams(ka=ka, kr_dist=kr_dist, kr_height=kr_height, kr_slope=kr_slope, min_spd_norm=0.1,
                              max_spd_norm=1.0, goal_tolerance=0.1)
 
@@ -93,12 +94,12 @@ def _builtin() -> dict[str, Scenario]:
         "grid_blocked": Scenario(
             "grid_blocked", "seed: 5×5 point grid, cannot go through (kr_dist 0, kr_height 2, kr_slope 1)",
             grid, (-6.0, 0.0, 0.0), (3.0, 3.0),
-            _seed_params(3.0, 0.0, 2.0, 1.0),
+            seed_params(3.0, 0.0, 2.0, 1.0),
             expected="stuck"),
         "grid_pass": Scenario(
             "grid_pass", "seed: 5×5 point grid, can go through (kr_dist -1, kr_height 3, kr_slope 1, ka 3)",
             grid, (-6.0, 0.0, 0.0), (3.0, 3.0),
-            _seed_params(3.0, -1.0, 3.0, 1.0)),
+            seed_params(3.0, -1.0, 3.0, 1.0)),
         "corridor": Scenario(
             "corridor", "L-shaped corridor 2 m wide seen by a 360-beam laser", corridor, (0.0, 0.0, 0.0),
             (6.0, 6.0), _LASER_FIELD, sensor="laser", extent=(-1.5, 7.5, -1.5, 7.5)),

@@ -20,16 +20,11 @@ from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
 from pfield.mobile import VectorFieldParams, field_components, velocity
+from pfield.mobile.scenarios import seed_params
 
 __all__ = ["SEED_PROFILES", "ProfileCase", "plot_field", "plot_profile", "save_field_plot", "save_seed_plots"]
 
 _log = logging.getLogger(__name__)
-
-
-def _seed_params(ka: float, kr_dist: float, kr_height: float, kr_slope: float) -> VectorFieldParams:
-    """A parameter set of the seed's plots (speeds clamped to [0.1, 1] m/s, power law)."""
-    return VectorFieldParams(ka=ka, kr_dist=kr_dist, kr_height=kr_height, kr_slope=kr_slope, min_spd_norm=0.1,
-                             max_spd_norm=1.0)
 
 
 @dataclass(frozen=True)
@@ -46,16 +41,16 @@ class ProfileCase:
 
 SEED_PROFILES = (
     ProfileCase("repulsive", "Repulsive only: f(x) = 2·exp(1·(0 − x))",
-                _seed_params(0.0, 0.0, 2.0, 1.0),
+                seed_params(0.0, 0.0, 2.0, 1.0),
                 None, ((0.0, 0.0),)),
     ProfileCase("attractive", "Attractive only: f(x) = x³",
-                _seed_params(3.0, 0.0, 0.0, 1.0),
+                seed_params(3.0, 0.0, 0.0, 1.0),
                 (0.0, 0.0), (), (0.0, 2.0)),
     ProfileCase("both", "Attractive (x = 0) + repulsive (x = 2)",
-                _seed_params(3.0, 0.0, 2.0, 1.0),
+                seed_params(3.0, 0.0, 2.0, 1.0),
                 (0.0, 0.0), ((2.0, 0.0),), (-1.0, 4.0)),
     ProfileCase("coincident", "Coincident attractive and repulsive point (p_r = p_a)",
-                _seed_params(3.0, 0.0, 2.0, 1.0),
+                seed_params(3.0, 0.0, 2.0, 1.0),
                 (0.0, 0.0), ((0.0, 0.0),), (0.0, 3.0)),
 )
 
