@@ -23,6 +23,7 @@ from pfield.geometry import (
     Mesh,
     Obstacle,
     ResourceResolver,
+    Shape,
     Sphere,
     min_signed_distance,
     obstacle_signed_distance,
@@ -30,6 +31,7 @@ from pfield.geometry import (
     pack_obstacles,
 )
 from pfield.geometry._packed import PackedObstacles
+from pfield.planning.scenes import evaluation_scene
 from pfield.spatial import Pose, quaternion_exp
 
 SECTION = "geometry: signed distance per point (compiled loop)"
@@ -70,15 +72,8 @@ def _points(rng: np.random.Generator, centre: np.ndarray, half_extent: float, co
     return np.ascontiguousarray(centre + rng.uniform(-half_extent, half_extent, (count, 3)))
 
 
-def _scene_positions(count: int) -> np.ndarray:
-    """REFERENCE.md §2 field-evaluation layout: a Fibonacci sphere of radius 0.3 about (0.45, 0.15, 0.4)."""
-    i = np.arange(count)
-    z = 1.0 - (2.0 * i + 1.0) / count
-    rho, theta = np.sqrt(1.0 - z * z), i * 2.399963229728653
-    return np.array([0.45, 0.15, 0.40]) + 0.30 * np.stack([rho * np.cos(theta), rho * np.sin(theta), z], axis=1)
-
-
-SCENES = {  # name: (shape, rotation axis, C++ wrench µs for 10 obstacles)
+# name: (shape, rotation axis of the single obstacle, C++ wrench µs for the 10-obstacle scene)
+SCENES: dict[str, tuple[Shape, tuple[float, float, float], float]] = {
     "spheres": (Sphere(0.03), (0.0, 0.0, 1.0), 0.64),
     "boxes": (Box(0.06, 0.04, 0.08), (0.0, 0.0, 1.0), 0.78),
     "cylinders": (Cylinder(0.03, 0.10), (1.0, 0.0, 0.0), 0.84),
@@ -110,10 +105,7 @@ def _primitive_rows(rng: np.random.Generator, quick: bool) -> list[BenchRow]:
         label = "box" if name == "boxes" else name[:-1]
         rows.append(BenchRow(SECTION, f"one {label}", _per_point_us(_distance_loop, single, points, quick) * 1e3,
                              "ns/point"))
-        ten = pack_obstacles([
-            Obstacle(f"o{i}", shape, Pose(position, quaternion_exp(np.multiply(axis, 0.1 * i))))
-            for i, position in enumerate(_scene_positions(10))
-        ])
+        ten = pack_obstacles(evaluation_scene(f"{name}_10"))  # the REFERENCE §2 scene
         scene_points = _points(rng, np.array([0.45, 0.15, 0.40]), 0.4, count // 5)
         rows.append(BenchRow(SECTION, f"{name}_10: nearest of 10", _per_point_us(_min_loop, ten, scene_points, quick),
                              "µs/point", reference, None, note="C++ figure: whole wrench of the scene"))
