@@ -39,11 +39,9 @@ def attach_joint_trajectory(path: PlannedPath, robot: RobotModel, q_seed: ArrayL
         raise InvalidInput("path", path, "expected a pfield PlannedPath")
     seed = robot.check_joint_angles(q_seed, "q_seed")
     settings = ik_settings(max_iterations, position_tolerance, rotation_tolerance, damping=1e-4, max_step=0.3)
-    k = robot.kinematics
     qs, failed, pos_err, rot_err = ik_path_kernel(
-        seed, np.ascontiguousarray(path.positions), np.ascontiguousarray(path.orientations), k.parents, k.place_rot,
-        k.place_pos, k.axes, k.kinds, k.support, k.ee_joint, k.ee_rot, k.ee_pos, np.array(robot.lower_limits),
-        np.array(robot.upper_limits), settings)
+        seed, np.ascontiguousarray(path.positions), np.ascontiguousarray(path.orientations), *robot.kinematics,
+        np.array(robot.lower_limits), np.array(robot.upper_limits), settings)
     if failed >= 0:
         reason = (f"inverse kinematics failed at waypoint {failed} of {len(path)} (position error {pos_err:.4g} m, "
                   f"rotation error {rot_err:.4g} rad): the robot cannot follow the planned path")

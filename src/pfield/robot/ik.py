@@ -136,11 +136,9 @@ def solve_ik(robot: RobotModel, target: Pose, q_seed: ArrayLike, *, max_iteratio
         raise InvalidInput("target", target, "expected a pfield.Pose")
     seed = robot.check_joint_angles(q_seed, "q_seed")
     settings = ik_settings(max_iterations, position_tolerance, rotation_tolerance, damping, max_step)
-    k = robot.kinematics
     q, success, iterations, pos_err, rot_err = ik_kernel(
-        seed, np.array(target.position), np.array(target.orientation), k.parents, k.place_rot, k.place_pos, k.axes,
-        k.kinds, k.support, k.ee_joint, k.ee_rot, k.ee_pos, np.array(robot.lower_limits),
-        np.array(robot.upper_limits), settings)
+        seed, np.array(target.position), np.array(target.orientation), *robot.kinematics,
+        np.array(robot.lower_limits), np.array(robot.upper_limits), settings)
     return IKResult(bool(success), q, int(iterations), float(pos_err), float(rot_err))
 
 

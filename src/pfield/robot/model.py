@@ -40,7 +40,10 @@ LIMIT_TOLERANCE = 1e-4
 
 
 class KinematicArrays(NamedTuple):
-    """The packed kinematic tree (see :mod:`pfield.robot._kinematics`) and the end-effector frame."""
+    """The packed kinematic tree (see :mod:`pfield.robot._kinematics`) and the end-effector frame.
+
+    The field order is the argument order of the end-effector kernels, so ``*robot.kinematics`` passes them.
+    """
 
     parents: NDArray[np.int64]  # (n,)
     place_rot: NDArray[np.float64]  # (n, 3, 3)
@@ -233,10 +236,7 @@ class RobotModel:
 
     def _ee_kinematics(self, q: NDArray[np.float64],
                        jac: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        k = self.kinematics
-        rotation, position = _k.end_effector_kinematics(
-            q, k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, k.support, k.ee_joint, k.ee_rot, k.ee_pos,
-            self._rotations, self._origins, jac)
+        rotation, position = _k.end_effector_kinematics(q, *self.kinematics, self._rotations, self._origins, jac)
         return rotation, position
 
     def __repr__(self) -> str:
