@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -89,7 +89,6 @@ class OccupancyMap:
     resolution: float
     origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
     frame_id: str = "map"
-    _meta: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         data = np.array(self.data, dtype=np.int8)
@@ -235,7 +234,7 @@ def load_map(path: str | Path, frame_id: str = "map") -> OccupancyMap:
     colour, alpha = _read_pixels(meta.image)
     data = occupancy_from_image(colour, alpha, meta)
     logger.info("loaded map %s: %d x %d cells at %g m", meta.image, data.shape[1], data.shape[0], meta.resolution)
-    return OccupancyMap(data, meta.resolution, meta.origin, frame_id, {"yaml": str(path)})
+    return OccupancyMap(data, meta.resolution, meta.origin, frame_id)
 
 
 def _image_of(occ: OccupancyMap, mode: str, free_int: int, occupied_int: int) -> Image.Image:
