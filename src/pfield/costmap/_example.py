@@ -26,18 +26,23 @@ def example_map_path() -> Path:
     return Path(str(resources.files("pfield") / "data" / "maps" / f"{EXAMPLE_MAP_NAME}.yaml"))
 
 
+def _centres(data: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Cell-centre y (column vector) and x (row vector) of the grid (m, map frame), for broadcasting."""
+    rows = np.arange(data.shape[0]) * _RES + _ORIGIN[1] + 0.5 * _RES
+    cols = np.arange(data.shape[1]) * _RES + _ORIGIN[0] + 0.5 * _RES
+    return rows[:, None], cols[None, :]
+
+
 def _box(data: np.ndarray, x0: float, y0: float, x1: float, y1: float, value: int) -> None:
     """Set the cells whose centres lie in [x0, x1] × [y0, y1] (m, map frame)."""
-    cols = np.arange(data.shape[1]) * _RES + _ORIGIN[0] + 0.5 * _RES
-    rows = np.arange(data.shape[0]) * _RES + _ORIGIN[1] + 0.5 * _RES
-    mask = ((rows[:, None] >= y0) & (rows[:, None] <= y1)) & ((cols[None, :] >= x0) & (cols[None, :] <= x1))
-    data[mask] = value
+    y, x = _centres(data)
+    data[(y >= y0) & (y <= y1) & (x >= x0) & (x <= x1)] = value
 
 
 def _disc(data: np.ndarray, cx: float, cy: float, radius: float) -> None:
-    cols = np.arange(data.shape[1]) * _RES + _ORIGIN[0] + 0.5 * _RES
-    rows = np.arange(data.shape[0]) * _RES + _ORIGIN[1] + 0.5 * _RES
-    data[(rows[:, None] - cy) ** 2 + (cols[None, :] - cx) ** 2 <= radius**2] = 100
+    """Mark occupied the cells whose centres lie within ``radius`` (m) of (cx, cy)."""
+    y, x = _centres(data)
+    data[(y - cy) ** 2 + (x - cx) ** 2 <= radius**2] = 100
 
 
 def draw_example_map() -> OccupancyMap:
