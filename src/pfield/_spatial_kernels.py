@@ -30,24 +30,6 @@ def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
-def quat_conj(q: np.ndarray) -> np.ndarray:
-    """Conjugate, equal to the inverse for a unit quaternion."""
-    out = np.empty(4)
-    out[0] = -q[0]
-    out[1] = -q[1]
-    out[2] = -q[2]
-    out[3] = q[3]
-    return out
-
-
-@njit(cache=True)
-def quat_normalize(q: np.ndarray) -> np.ndarray:
-    """Unit quaternion with the same rotation (caller guarantees ``|q| > 0``)."""
-    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-    return q / n
-
-
-@njit(cache=True)
 def quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate vector ``v`` by unit quaternion ``q``: v' = v + 2w (u × v) + 2 u × (u × v)."""
     ux, uy, uz, w = q[0], q[1], q[2], q[3]

@@ -1,4 +1,4 @@
-"""Compiled whole-body field: one joint-velocity step and the planning loop (numba, ``cache=True``).
+"""Compiled whole-body field: one joint-velocity step (numba, ``cache=True``); the loop is in ``_whole_body_loop``.
 
 Each step solves the small QP (Haviland & Corke, "NEO: A novel expeditious optimisation algorithm for
 reactive motion control of manipulators", RA-L 2021, eqs. 14–20)::
@@ -48,7 +48,7 @@ from pfield.robot._kinematics import (
     transform_point_into,
 )
 
-# indices into the parameter vector (see pfield.planning.whole_body._parameters)
+# indices into the parameter vector (see pfield.planning.whole_body.kernel_parameters)
 K_ATT, K_ROT, GAMMA, V_MAX, W_MAX, INFLUENCE, SAFETY, XI, ETA, F_CAP, DT, TOL, ROT_TOL, STAG_STEPS, \
     STAG_PROGRESS, JOINT_INFLUENCE, JOINT_SAFETY, ROT_WEIGHT, DAMPING, NULL_GAIN = range(20)
 N_PARAMS = 20
@@ -85,7 +85,7 @@ class Scene(NamedTuple):
     Capsules over-approximate the links, so a valid start can have capsules closer than ``safety_distance``
     (or overlapping). ``obstacle_offsets[c, i]`` and ``self_offsets[k]`` (≤ 0, m) are subtracted from those
     pairs' distances: such a pair may not get any closer than it starts, and only that counts as a
-    collision (:func:`initial_offsets`).
+    collision (:func:`pfield.planning.whole_body.make_scene`).
     """
 
     packed: PackedObstacles
