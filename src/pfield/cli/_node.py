@@ -53,7 +53,6 @@ class ServeContext:
     mesh_roots: list[Path]
     map_file: Path | None = None
     footprint: str | None = None
-    extra: dict[str, Any] = field(default_factory=dict)
     static_transforms: dict[str, Any] = field(default_factory=dict)
     """``--static-transform`` values in the ``static_transforms`` parameter form (frame → translation, rotation)."""
 

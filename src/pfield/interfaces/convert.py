@@ -26,8 +26,6 @@ from pfield.planning.result import PlannedPath
 from pfield.spatial import Pose, Twist
 
 __all__ = [
-    "GROUPS",
-    "SHAPE_TYPES",
     "obstacle_from_msg",
     "obstacle_to_msg",
     "plan_response",
@@ -38,14 +36,9 @@ __all__ = [
     "twist_to_msg",
 ]
 
-SHAPE_TYPES = ("Sphere", "Box", "Cylinder", "Ellipsoid", "Capsule", "Mesh")
-GROUPS = ("Static", "Dynamic", "Robot")
-
-
 def prefixed(error: InvalidInput, prefix: str) -> InvalidInput:
     """The same error with its field path under ``prefix`` (``radius`` → ``obstacles[2].radius``)."""
-    new = type(error)(f"{prefix}.{error.field}" if prefix else error.field, error.value, error.reason)
-    return new
+    return type(error)(f"{prefix}.{error.field}" if prefix else error.field, error.value, error.reason)
 
 
 def pose_from_msg(message: gm.Pose, field: str = "pose") -> Pose:
@@ -102,10 +95,12 @@ def obstacle_from_msg(message: ObstacleMsg, make_mesh: Callable[[str, float, flo
 
     if not message.frame_id:
         raise InvalidInput(f"{field}.frame_id", message.frame_id, "every obstacle needs a unique id")
-    if message.type not in SHAPE_TYPES:
-        raise InvalidInput(f"{field}.type", message.type, f"unknown shape; expected one of {', '.join(SHAPE_TYPES)}")
-    if message.group not in GROUPS:
-        raise InvalidInput(f"{field}.group", message.group, f"unknown group; expected one of {', '.join(GROUPS)}")
+    if message.type not in geometry.SHAPE_TYPES:
+        raise InvalidInput(f"{field}.type", message.type,
+                           f"unknown shape; expected one of {', '.join(geometry.SHAPE_TYPES)}")
+    if message.group not in geometry.GROUPS:
+        raise InvalidInput(f"{field}.group", message.group,
+                           f"unknown group; expected one of {', '.join(geometry.GROUPS)}")
     pose = pose_from_msg(message.pose, f"{field}.pose")
     try:
         shape = _shape(message, make_mesh)

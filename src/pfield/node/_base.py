@@ -15,13 +15,13 @@ from __future__ import annotations
 
 import threading
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 from pfield.interfaces._base import RosMessage
 
-__all__ = ["Bus", "Node", "PublicationSpec", "ServiceSpec", "SubscriptionSpec"]
+__all__ = ["Bus", "Node", "PublicationSpec", "ServiceSpec", "SubscriptionSpec", "distinct_buses"]
 
 
 @dataclass(frozen=True)
@@ -130,3 +130,8 @@ class Node(ABC):
 
     def close(self) -> None:
         """Release resources (threads) at shutdown."""
+
+
+def distinct_buses(nodes: Sequence[Node]) -> list[Bus]:
+    """Each distinct bus of ``nodes`` once (the nodes of one process usually share one)."""
+    return list({id(node.bus): node.bus for node in nodes}.values())

@@ -96,16 +96,10 @@ class StaticTransforms:
         self.fixed_frame = fixed_frame
         self.transforms = dict(transforms)
 
-    def to_fixed(self, field: str, frame_id: str, pose: Pose) -> Pose:
-        """``pose`` given in ``frame_id`` as a pose in the fixed frame (``""`` means the fixed frame).
-
-        Raises :class:`UnknownFrame` naming ``field`` for a frame without a configured transform.
-        """
-        transform = self.lookup(field, frame_id)
-        return pose if transform is None else transform * pose
-
     def lookup(self, field: str, frame_id: str) -> Pose | None:
-        """``T_fixed_frame`` of ``frame_id``; None for the fixed frame itself; UnknownFrame otherwise."""
+        """``T_fixed_frame`` of ``frame_id`` (a pose ``p`` in that frame is ``T_fixed_frame * p`` in the fixed
+        frame); None for the fixed frame itself or ``""``. Raises :class:`UnknownFrame` naming ``field`` for a
+        frame without a configured transform."""
         if frame_id in ("", self.fixed_frame):
             return None
         if frame_id in self.transforms:

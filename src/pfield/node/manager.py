@@ -42,13 +42,12 @@ from pfield.node import _planning
 from pfield.node._base import Bus, Node, PublicationSpec, ServiceSpec, SubscriptionSpec
 from pfield.node._frames import StaticTransforms, parse_transforms, transforms_data
 from pfield.node._markers import state_markers
+from pfield.planning.task_space import DEFAULT_MAX_ITERATIONS
 from pfield.spatial import Pose
 
 __all__ = ["DEFAULT_MAX_ITERATIONS", "MAX_ITERATIONS_CAP", "ManagerNode", "ManagerParameters"]
 
 _log = logging.getLogger(__name__)
-DEFAULT_MAX_ITERATIONS = 30000
-"""Steps used when a PlanPath request gives ``max_iterations`` ≤ 0 (the seed's default)."""
 MAX_ITERATIONS_CAP = 200_000
 """Largest accepted ``max_iterations`` (about 4000 s of motion at dt = 0.02 s): bounds a request's cost."""
 TASK_SPACE, WHOLE_BODY = pfi.PLANNING_METHOD_TASK_SPACE, pfi.PLANNING_METHOD_WHOLE_BODY
@@ -75,6 +74,14 @@ class ManagerParameters:
             raise InvalidInput("fixed_frame", self.fixed_frame, "must be a non-empty frame name")
         object.__setattr__(self, "dynamic_obstacle_timeout", float(timeout))
         object.__setattr__(self, "static_transforms", parse_transforms(self.static_transforms, self.fixed_frame))
+
+
+def _planning_method(value: str) -> str:
+    """The request's ``planning_method`` (empty means task_space); anything else is refused."""
+    method = value or TASK_SPACE
+    if method not in (TASK_SPACE, WHOLE_BODY):
+        raise InvalidInput("planning_method", method, f"expected {TASK_SPACE!r} or {WHOLE_BODY!r}")
+    return method
 
 
 @dataclass(frozen=True)
@@ -226,9 +233,9 @@ class ManagerNode(Node):
         self._publish_markers()
 
     def on_goal(self, message: gm.PoseStamped) -> None:
-        frames = self._frames()
-        frames.lookup("header.frame_id", message.header.frame_id)
-        goal = frames.to_fixed("header.frame_id", message.header.frame_id, pose_from_msg(message.pose, "pose"))
+        transform = self._frames().lookup("header.frame_id", message.header.frame_id)
+        goal = pose_from_msg(message.pose, "pose")
+        goal = goal if transform is None else transform * goal
         with self._lock:
             self._goal, self._field = goal, None
         self._publish_markers()
@@ -270,9 +277,7 @@ class ManagerNode(Node):
         return std_srvs.Trigger_Response(success=True, message=f"removed {count} obstacle(s)")
 
     def _plan_inputs(self, request: pfi.PlanPath_Request) -> _planning.PlanInputs:
-        method = request.planning_method or TASK_SPACE
-        if method not in (TASK_SPACE, WHOLE_BODY):
-            raise InvalidInput("planning_method", method, f"expected {TASK_SPACE!r} or {WHOLE_BODY!r}")
+        method = _planning_method(request.planning_method)
         dt, tolerance = request.delta_time, request.goal_tolerance
         if not (math.isfinite(dt) and dt > 0):
             raise InvalidInput("delta_time", dt, "must be > 0 s")
@@ -280,7 +285,8 @@ class ManagerNode(Node):
             raise InvalidInput("goal_tolerance", tolerance, "must be > 0 m")
         iterations = request.max_iterations if request.max_iterations > 0 else DEFAULT_MAX_ITERATIONS
         if iterations > MAX_ITERATIONS_CAP:
-            raise InvalidInput("max_iterations", iterations, f"must be <= {MAX_ITERATIONS_CAP} (0 means 30000)")
+            raise InvalidInput("max_iterations", iterations,
+                               f"must be <= {MAX_ITERATIONS_CAP} (0 means {DEFAULT_MAX_ITERATIONS})")
         goal = pose_from_msg(request.goal, "goal")
         start: Pose | None = None
         joints = None
@@ -321,13 +327,10 @@ class ManagerNode(Node):
     def compute_autonomy_vector(self, request: pfi.ComputeAutonomyVector_Request
                                 ) -> pfi.ComputeAutonomyVector_Response:
         """The field's limited twist at the query pose (task_space) or at ``joint_angles`` (whole_body)."""
-        method = request.planning_method or TASK_SPACE
-        if method not in (TASK_SPACE, WHOLE_BODY):
-            raise InvalidInput("planning_method", method, f"expected {TASK_SPACE!r} or {WHOLE_BODY!r}")
+        method = _planning_method(request.planning_method)
         if not (math.isfinite(request.delta_time) and request.delta_time >= 0):
             raise InvalidInput("delta_time", request.delta_time, "must be >= 0 s")
-        frames, frame_id = self._frames(), request.query_pose.header.frame_id
-        frames.lookup("query_pose.header.frame_id", frame_id)
+        transform = self._frames().lookup("query_pose.header.frame_id", request.query_pose.header.frame_id)
         if method == WHOLE_BODY:
             q = self.robot.check_joint_angles(request.joint_angles, "joint_angles")
             qd = None
@@ -338,8 +341,8 @@ class ManagerNode(Node):
             pose = pose_from_msg(request.query_pose.pose, "query_pose.pose") if given else None
         else:
             pose = pose_from_msg(request.query_pose.pose, "query_pose.pose")
-        if pose is not None:
-            pose = frames.to_fixed("query_pose.header.frame_id", frame_id, pose)
+        if pose is not None and transform is not None:
+            pose = transform * pose
         field = self._current_field()
         if field is None:
             raise InvalidInput("goal", None, "no goal yet: publish /pfield/planning_goal_pose or call plan_path")

@@ -75,11 +75,8 @@ def declare_parameters(ros_node: RclpyNode, node: Node) -> list[str]:
         except InvalidParameterTypeException as error:  # a --ros-args/--params-file value of another type
             raise InvalidInput(name, ros_value, f"the ROS argument for it has the wrong type: {error}") from None
         declared.append(name)
-    overrides = {
-        name: _plain(ros_node.get_parameter(name).value)
-        for name in declared
-        if _plain(ros_node.get_parameter(name).value) != _plain(current[name])
-    }
+    given = {name: _plain(ros_node.get_parameter(name).value) for name in declared}
+    overrides = {name: value for name, value in given.items() if value != _plain(current[name])}
     if overrides:
         node.set_parameters(overrides)
     names = frozenset(declared)

@@ -36,7 +36,7 @@ from pfield.errors import InvalidInput, PfieldError
 from pfield.interfaces import lookup_type, message_from_data
 from pfield.interfaces._base import RosMessage
 from pfield.interfaces._yaml import _path
-from pfield.node._base import Bus, Node, ServiceSpec, SubscriptionSpec
+from pfield.node._base import Bus, Node, ServiceSpec, SubscriptionSpec, distinct_buses
 from pfield.transport._asgi import GuardMiddleware
 from pfield.transport._fanout import TopicFanout
 
@@ -73,7 +73,7 @@ class _Routes:
                 self._topic(sub.topic, sub.type_name)["subscribers"].append(node.name)
             for pub in node.publications():
                 self._topic(pub.topic, pub.type_name)["publishers"].append(node.name)
-        self.buses: list[Bus] = list({id(node.bus): node.bus for node in nodes}.values())
+        self.buses: list[Bus] = distinct_buses(nodes)
         self.topic_worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pfield-topics")
         """Subscription handlers run here, one message at a time in arrival order, so that slow ones (a mesh
         obstacle's first load) never block the event loop."""

@@ -48,7 +48,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profi
 
 from pfield.errors import PfieldError
 from pfield.interfaces._base import RosMessage
-from pfield.node._base import Bus, Node, PublicationSpec, ServiceSpec, SubscriptionSpec
+from pfield.node._base import Node, PublicationSpec, ServiceSpec, SubscriptionSpec, distinct_buses
 from pfield.transport._ros2_convert import from_ros, interface_class, to_ros
 from pfield.transport._ros2_params import declare_parameters
 from pfield.transport._ros2_publisher import BusPublisher
@@ -208,13 +208,9 @@ class Ros2Host:
             self._executor.add_node(adapter.ros_node)
         self._spin_thread: threading.Thread | None = None
 
-    def _buses(self) -> list[Bus]:
-        """Each distinct bus once (the nodes of one process usually share one)."""
-        return list({id(node.bus): node.bus for node in self.nodes}.values())
-
     def start(self) -> None:
         """Start publishing and spinning (returns at once)."""
-        for bus in self._buses():
+        for bus in distinct_buses(self.nodes):
             bus.add_listener(self._publisher.enqueue)
         self._publisher.start()
         self._spin_thread = threading.Thread(target=self._executor.spin, name="pfield-ros2-executor", daemon=True)
@@ -223,7 +219,7 @@ class Ros2Host:
 
     def shutdown(self, timeout: float = 10.0) -> None:
         """Stop in the order rclpy needs: executor, its thread, running callbacks, nodes, context."""
-        for bus in self._buses():
+        for bus in distinct_buses(self.nodes):
             bus.remove_listener(self._publisher.enqueue)
         self._executor.shutdown(timeout_sec=timeout)
         if self._spin_thread is not None:
