@@ -204,7 +204,8 @@ def inflate(costs: NDArray[np.uint8], resolution: float, inscribed_radius: float
     inflated[lethal] = LETHAL_OBSTACLE
     unknown = out == NO_INFORMATION
     out = np.maximum(out, inflated)
-    out[unknown & (inflated >= INSCRIBED_INFLATED_OBSTACLE)] = inflated[unknown & (inflated >= 253)]
+    overrides = unknown & (inflated >= INSCRIBED_INFLATED_OBSTACLE)
+    out[overrides] = inflated[overrides]
     return out
 
 
