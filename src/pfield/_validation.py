@@ -45,7 +45,9 @@ def as_points(field: str, value: Any, dim: int = 3) -> NDArray[np.float64]:
 
 
 def finite(field: str, value: Any) -> float:
-    """Return ``value`` as a finite float."""
+    """Return ``value`` as a finite float; booleans are refused (``float(True)`` would pass as 1.0)."""
+    if isinstance(value, bool | np.bool_):
+        raise InvalidInput(field, value, "must be a number, not a boolean")
     try:
         number = float(value)
     except (TypeError, ValueError) as exc:

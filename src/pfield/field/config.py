@@ -83,8 +83,6 @@ class FieldConfig:
     def __post_init__(self) -> None:
         for spec in fields(self):
             value = getattr(self, spec.name)
-            if isinstance(value, bool):
-                raise InvalidInput(spec.name, value, "must be a number, not a boolean")
             number = finite(spec.name, value)
             if spec.name in _POSITIVE and number <= 0.0:
                 raise InvalidInput(spec.name, value, "must be > 0")

@@ -51,12 +51,6 @@ def _check_iterations(value: Any) -> int:
     return count
 
 
-def _check_positive(name: str, value: Any) -> float:
-    if isinstance(value, bool):
-        raise InvalidInput(name, value, "must be a number")
-    return positive(name, value)
-
-
 def plan_task_space(
     field: PotentialField,
     start: Pose,
@@ -80,11 +74,11 @@ def plan_task_space(
     """
     if not isinstance(start, Pose):
         raise InvalidInput("start", start, "expected a pfield.Pose")
-    step = _check_positive("dt", dt)
-    tolerance = _check_positive("goal_tolerance", goal_tolerance)
+    step = positive("dt", dt)
+    tolerance = positive("goal_tolerance", goal_tolerance)
     iterations = _check_iterations(max_iterations)
     angle = field.config.rotation_tolerance if rotation_tolerance is None else rotation_tolerance
-    angle = _check_positive("rotation_tolerance", angle)
+    angle = positive("rotation_tolerance", angle)
     if angle >= math.pi:
         raise InvalidInput("rotation_tolerance", rotation_tolerance, "must be < pi rad")
     blocked = _goal_blocked(field)

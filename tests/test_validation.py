@@ -1,0 +1,23 @@
+"""The shared validation helpers refuse what ``float()`` would silently accept."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pfield._validation import finite, nonnegative, positive
+from pfield.errors import InvalidInput
+
+
+@pytest.mark.parametrize("helper", [finite, positive, nonnegative])
+@pytest.mark.parametrize("value", [True, False, np.bool_(True), float("nan"), float("inf"), "abc", None])
+def test_booleans_non_finite_and_non_numbers_are_refused_naming_the_field(helper: object, value: object) -> None:
+    with pytest.raises(InvalidInput) as info:
+        helper("gain", value)  # type: ignore[operator]
+    assert info.value.field == "gain"
+
+
+def test_numbers_and_numeric_strings_pass() -> None:
+    assert finite("gain", "0.5") == 0.5
+    assert positive("gain", np.float32(2.0)) == 2.0
+    assert nonnegative("gain", 0) == 0.0
