@@ -60,7 +60,10 @@ def _client(url: str, token: str | None) -> Iterator[httpx.Client]:
         _fail(f"cannot reach the pfield node at {url} ({exc}); start it with `pfield serve`")
 
 
-def _request(client: httpx.Client, method: str, path: str, **kwargs: Any) -> Any:
+def _request(client: httpx.Client, method: str, path: str, json_text: str | None = None, **kwargs: Any) -> Any:
+    """Send ``json_text`` as the body if given; return the decoded answer, or fail with the server's error."""
+    if json_text is not None:
+        kwargs |= {"content": json_text, "headers": {"content-type": "application/json"}}
     response = client.request(method, path, **kwargs)
     if response.status_code >= 400:
         try:
@@ -93,8 +96,8 @@ def topic_pub(topic: str, type_name: Annotated[str, typer.Argument(metavar="TYPE
         while count == 0 or sent < count:
             if sent:
                 time.sleep(1.0 / max(rate, 1e-3))
-            _request(client, "POST", f"/topic/{topic.lstrip('/')}", params={"type": type_name},
-                     content=message.model_dump_json(), headers={"content-type": "application/json"})
+            _request(client, "POST", f"/topic/{topic.lstrip('/')}", message.model_dump_json(),
+                     params={"type": type_name})
             sent += 1
             typer.echo(f"publishing #{sent}: {type(message).ros_type}", err=True)
 
@@ -149,8 +152,7 @@ def service_call(service: str, type_name: Annotated[str, typer.Argument(metavar=
         if name in served and lookup_service(served[name]).name != service_type.name:
             _fail(f"{name} is a {served[name]} service, not {type_name}")
         typer.echo(f"requester: making request: {service_type.request.ros_type}", err=True)
-        response = _request(client, "POST", f"/srv{name}", content=request.model_dump_json(),
-                            headers={"content-type": "application/json"})
+        response = _request(client, "POST", f"/srv{name}", request.model_dump_json())
     typer.echo("response:")
     _print_yaml(response)
 
@@ -192,8 +194,7 @@ def param_set(node: str, name: str, value: str, url: Url = DEFAULT_URL, token: T
         _fail(f"{name}={value!r}: malformed YAML: {exc}")
     # json.dumps keeps .nan/.inf as NaN/Infinity so the node itself refuses them, naming the parameter.
     with _client(url, token) as client:
-        _request(client, "PUT", _node_path(node), content=json.dumps({name: parsed}),
-                 headers={"content-type": "application/json"})
+        _request(client, "PUT", _node_path(node), json.dumps({name: parsed}))
     typer.echo("Set parameter successful")
 
 
