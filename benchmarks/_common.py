@@ -40,18 +40,25 @@ class BenchRow:
         return asdict(self) | {"ratio": self.ratio(), "meets_target": self.meets_target()}
 
 
-def median_time(fn: Callable[[], object], *, repeat: int = 7, number: int = 1, warmup: int = 2) -> float:
-    """Median wall time of ``fn`` in seconds per call, after ``warmup`` untimed calls."""
+def median_time(fn: Callable[[], object], *, repeat: int = 7, number: int = 1, warmup: int = 2,
+                clock: Callable[[], float] = time.perf_counter) -> float:
+    """Median time of ``fn`` in seconds per call on ``clock`` (wall time by default), after ``warmup`` calls."""
     for _ in range(warmup):
         fn()
     samples = []
     for _ in range(repeat):
-        start = time.perf_counter()
+        start = clock()
         for _ in range(number):
             fn()
-        samples.append((time.perf_counter() - start) / number)
+        samples.append((clock() - start) / number)
     samples.sort()
     return samples[len(samples) // 2]
+
+
+def cpu_time(fn: Callable[[], object], repeat: int, number: int = 1) -> float:
+    """Median CPU time of this process per call of ``fn`` (s), after one warm-up call: unlike wall time,
+    it does not grow when other processes share the machine."""
+    return median_time(fn, repeat=repeat, number=number, warmup=1, clock=time.process_time)
 
 
 def auto_number(fn: Callable[[], object], budget_s: float = 0.05) -> int:

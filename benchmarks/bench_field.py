@@ -19,14 +19,13 @@ the process was waiting for a core, not computing.
 from __future__ import annotations
 
 import tempfile
-import time
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 from numba import njit
 
-from benchmarks._common import BenchRow, auto_number, median_time
+from benchmarks._common import BenchRow, auto_number, cpu_time, median_time
 from pfield.field import PotentialField
 from pfield.field._unowned import unowned, unowned_packed
 from pfield.geometry import Mesh, Obstacle, PackedObstacles, ResourceResolver
@@ -59,19 +58,6 @@ def _rk4_steps(
         rk4_twist(p, q, goal, params, packed, aux, previous, 0.01, scratch, out)
         total += out[0]
     return total
-
-
-def cpu_time(fn: Callable[[], object], repeat: int, number: int = 1) -> float:
-    """Median CPU time of this process per call of ``fn`` (s), after one warm-up call."""
-    fn()
-    samples = []
-    for _ in range(repeat):
-        start = time.process_time()
-        for _ in range(number):
-            fn()
-        samples.append((time.process_time() - start) / number)
-    samples.sort()
-    return samples[len(samples) // 2]
 
 
 def _mesh_scene(name: str, directory: Path) -> list[Obstacle]:

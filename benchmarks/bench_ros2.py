@@ -21,6 +21,8 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
+
 from benchmarks._common import BenchRow
 
 SECTION = "ros2"
@@ -37,11 +39,6 @@ REQUESTS = {  # the seed document's two ComputeAutonomyVector examples
 }
 ENVIRONMENT = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST", "ROS_DOMAIN_ID": "58",
                "FASTDDS_BUILTIN_TRANSPORTS": "UDPv4", "RMW_IMPLEMENTATION": "rmw_fastrtps_cpp"}
-
-
-def _percentile(samples: list[float], fraction: float) -> float:
-    ordered = sorted(samples)
-    return ordered[min(len(ordered) - 1, int(fraction * len(ordered)))]
 
 
 def _measure(calls: int) -> dict[str, list[float]]:
@@ -131,7 +128,7 @@ def run(quick: bool) -> list[BenchRow]:
         for quantile, fraction in (("p50", 0.5), ("p99", 0.99)):
             http_note = f"; HTTP {quantile} {http[quantile]:.3g} ms (bench_http)" if quantile in http else ""
             rows.append(BenchRow(SECTION, f"compute_autonomy_vector rclpy round trip ({name}) {quantile}",
-                                 1e3 * _percentile(values, fraction), "ms",
+                                 1e3 * float(np.percentile(values, 100 * fraction)), "ms",
                                  target=TARGET_P50_MS if quantile == "p50" else None, note=note + http_note))
     return rows
 

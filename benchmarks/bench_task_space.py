@@ -15,8 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks._common import BenchRow, median_time
-from benchmarks.bench_field import cpu_time
+from benchmarks._common import BenchRow, cpu_time, median_time
 from pfield.field import FieldConfig, PotentialField
 from pfield.planning import PlannedPath
 from pfield.planning.scenes import (

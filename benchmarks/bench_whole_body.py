@@ -19,8 +19,7 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
-from benchmarks._common import BenchRow, auto_number, median_time
-from benchmarks.bench_field import cpu_time
+from benchmarks._common import BenchRow, auto_number, cpu_time, median_time
 from pfield.autonomy import whole_body_autonomy_vector
 from pfield.field import FieldConfig, PotentialField
 from pfield.planning.scenes import DEFAULT_PARAMS, SEED_GOAL, seed_obstacles, sphere_line_scene

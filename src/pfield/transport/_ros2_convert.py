@@ -15,6 +15,7 @@ copying element by element.
 from __future__ import annotations
 
 import array
+import functools
 import importlib
 import threading
 from collections.abc import Callable
@@ -114,6 +115,7 @@ def _slots(ros_class: type) -> tuple[_Slot, ...]:
     return slots
 
 
+@functools.cache
 def _ros_field_names(model_class: type[RosMessage]) -> dict[str, str]:
     """ROS field name -> pydantic attribute name (the alias is the ROS name where one is set)."""
     return {(info.alias or name): name for name, info in model_class.model_fields.items()}
