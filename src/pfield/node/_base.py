@@ -36,6 +36,9 @@ class ServiceSpec:
     long_running: bool = False
     """True when a call may take long (planning): transports run it off their event loop / in its own
     callback group so that short calls keep answering."""
+    cancellable: bool = False
+    """True when the handler accepts ``cancel=`` a :class:`~pfield.planning.CancelToken`; transports pass
+    one per call and cancel it when the caller goes away (HTTP client disconnected, ROS request dropped)."""
 
 
 @dataclass(frozen=True)
