@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pfield import _spatial_kernels as _k
-from pfield._validation import as_vector
+from pfield._validation import as_vector, scaled_norm
 from pfield.errors import InvalidInput
 
 __all__ = [
@@ -62,9 +62,12 @@ def _unbatch(array: NDArray[np.float64], single: bool) -> NDArray[np.float64]:
 def normalize_quaternion(q: ArrayLike, field_name: str = "orientation") -> Quat:
     """Unit quaternion from ``q`` (x, y, z, w); rejects non-finite and (near) zero quaternions."""
     quat = np.array(as_vector(field_name, q, 4))
-    norm = float(np.linalg.norm(quat))
-    if norm < _MIN_QUAT_NORM:
+    if scaled_norm(quat) < _MIN_QUAT_NORM:
         raise InvalidInput(field_name, q, "zero quaternion: give a unit quaternion, e.g. {w: 1.0}")
+    norm = float(np.linalg.norm(quat))
+    if not math.isfinite(norm):  # components so large that their squares overflow: scale them first
+        quat /= np.max(np.abs(quat))
+        norm = float(np.linalg.norm(quat))
     quat /= norm
     quat.setflags(write=False)
     return quat

@@ -15,7 +15,9 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
+from pfield._validation import as_vector, scaled_norm
 from pfield.errors import InvalidInput
 from pfield.interfaces import geometry_msgs as gm
 from pfield.interfaces.potential_fields_interfaces import Obstacle as ObstacleMsg
@@ -26,12 +28,17 @@ from pfield.planning.result import PlannedPath
 from pfield.spatial import Pose, Twist
 
 __all__ = [
+    "MAX_COORDINATE",
+    "MAX_QUATERNION_NORM",
+    "MIN_QUATERNION_NORM",
     "obstacle_from_msg",
     "obstacle_to_msg",
     "plan_response",
+    "point_from_msg",
     "pose_from_msg",
     "pose_to_msg",
     "prefixed",
+    "quaternion_from_msg",
     "twist_stamped",
     "twist_to_msg",
 ]
@@ -41,13 +48,45 @@ def prefixed(error: InvalidInput, prefix: str) -> InvalidInput:
     return type(error)(f"{prefix}.{error.field}" if prefix else error.field, error.value, error.reason)
 
 
+MAX_COORDINATE = 1.0e6
+"""m: the largest |x|, |y|, |z| of a position a node accepts. 1000 km is beyond any map a robot works in,
+and it keeps sums, squares and products of coordinates (transforms, distances) finite."""
+MIN_QUATERNION_NORM = 1e-9
+MAX_QUATERNION_NORM = 1e6
+"""A message's quaternion (x, y, z, w) is normalised on input (DESIGN §2) when its norm lies in
+[:data:`MIN_QUATERNION_NORM`, :data:`MAX_QUATERNION_NORM`]; outside it (a zero quaternion, ``w = 1e308``)
+it is refused: no sensor or planner produces such a rotation, and the norm is computed scaled, so the
+check itself never overflows."""
+
+
+def point_from_msg(message: gm.Point | gm.Vector3, field: str = "position") -> NDArray[np.float64]:
+    """``(x, y, z)`` of a point message: finite and within :data:`MAX_COORDINATE` m (errors name ``field``)."""
+    values = as_vector(field, (message.x, message.y, message.z), 3)
+    if float(np.max(np.abs(values))) > MAX_COORDINATE:
+        raise InvalidInput(field, values.tolist(), f"coordinates must be within ±{MAX_COORDINATE:g} m")
+    return values
+
+
+def quaternion_from_msg(message: gm.Quaternion, field: str = "orientation") -> NDArray[np.float64]:
+    """``(x, y, z, w)`` of a quaternion message, finite with a norm in the accepted range (not yet unit)."""
+    values = as_vector(field, (message.x, message.y, message.z, message.w), 4)
+    norm = scaled_norm(values)
+    if norm < MIN_QUATERNION_NORM:
+        raise InvalidInput(field, values.tolist(), "zero quaternion: give a unit quaternion, e.g. {w: 1.0}")
+    if norm > MAX_QUATERNION_NORM:
+        raise InvalidInput(field, values.tolist(), f"quaternion norm {norm:.3g} is above {MAX_QUATERNION_NORM:g}: "
+                           "give a unit quaternion (x, y, z, w)")
+    return values
+
+
 def pose_from_msg(message: gm.Pose, field: str = "pose") -> Pose:
-    """:class:`Pose` of a ``geometry_msgs/Pose``; errors name ``<field>.position`` / ``<field>.orientation``."""
-    p, q = message.position, message.orientation
-    try:
-        return Pose((p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
-    except InvalidInput as exc:
-        raise prefixed(exc, field) from None
+    """:class:`Pose` of a ``geometry_msgs/Pose``; errors name ``<field>.position`` / ``<field>.orientation``.
+
+    Positions within :data:`MAX_COORDINATE`, quaternions of a norm in [:data:`MIN_QUATERNION_NORM`,
+    :data:`MAX_QUATERNION_NORM`] (normalised here)."""
+    position = point_from_msg(message.position, f"{field}.position")
+    orientation = quaternion_from_msg(message.orientation, f"{field}.orientation")
+    return Pose(position, orientation)
 
 
 def pose_to_msg(pose: Pose) -> gm.Pose:
