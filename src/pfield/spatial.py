@@ -64,10 +64,9 @@ def normalize_quaternion(q: ArrayLike, field_name: str = "orientation") -> Quat:
     quat = np.array(as_vector(field_name, q, 4))
     if scaled_norm(quat) < _MIN_QUAT_NORM:
         raise InvalidInput(field_name, q, "zero quaternion: give a unit quaternion, e.g. {w: 1.0}")
-    norm = float(np.linalg.norm(quat))
-    if not math.isfinite(norm):  # components so large that their squares overflow: scale them first
+    if np.max(np.abs(quat)) > 1e150:  # components whose squares would overflow: scale them first
         quat /= np.max(np.abs(quat))
-        norm = float(np.linalg.norm(quat))
+    norm = float(np.linalg.norm(quat))
     quat /= norm
     quat.setflags(write=False)
     return quat

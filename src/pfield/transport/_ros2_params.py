@@ -19,7 +19,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from pydantic import ValidationError
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.exceptions import InvalidParameterTypeException
 from rclpy.node import Node as RclpyNode
 from rclpy.parameter import Parameter
@@ -47,11 +47,29 @@ def _ros_value(value: Any) -> Any:
     return value
 
 
-def _descriptor(name: str, value: Any) -> ParameterDescriptor:
+def _descriptor(name: str, value: Any, row: Mapping[str, Any] | None) -> ParameterDescriptor:
+    """The rclpy descriptor of a parameter from its row of the node's table (``ros2 param describe``):
+    description, read-only flag, and a floating-point/integer range or the choices."""
     # A None or empty-list default gives rclpy no type to enforce: let the pfield node judge.
     untyped = value is None or value == []
-    return ParameterDescriptor(name=name, description="pfield parameter (validated by the node)",
-                               dynamic_typing=untyped)
+    if row is None:
+        return ParameterDescriptor(name=name, description="pfield parameter (validated by the node)",
+                                   dynamic_typing=untyped)
+    descriptor = ParameterDescriptor(name=name, description=str(row["description"]), read_only=bool(row["read_only"]),
+                                     dynamic_typing=untyped)
+    value_range = row.get("range")
+    unit = f" ({row['unit']})" if row.get("unit") else ""
+    if row["type"] == "string" and value_range:
+        descriptor.additional_constraints = "one of: " + ", ".join(value_range)
+    elif value_range and row["type"] == "double" and isinstance(value, float):
+        low, high = (float(v) for v in value_range)
+        descriptor.floating_point_range = [FloatingPointRange(from_value=low, to_value=high, step=0.0)]
+        descriptor.additional_constraints = f"range [{low:g}, {high:g}]{unit}"
+    elif value_range and row["type"] == "integer" and isinstance(value, int):
+        low, high = (int(v) for v in value_range)
+        descriptor.integer_range = [IntegerRange(from_value=low, to_value=high, step=0)]
+        descriptor.additional_constraints = f"range [{low}, {high}]{unit}"
+    return descriptor
 
 
 def declare_parameters(ros_node: RclpyNode, node: Node) -> list[str]:
@@ -63,6 +81,7 @@ def declare_parameters(ros_node: RclpyNode, node: Node) -> list[str]:
     declared names.
     """
     current = node.get_parameters()
+    rows = node.describe_parameters()
     declared: list[str] = []
     for name, value in current.items():
         try:
@@ -71,7 +90,7 @@ def declare_parameters(ros_node: RclpyNode, node: Node) -> list[str]:
             _LOG.warning("parameter %s=%r has no ROS parameter type; not exposed over ROS 2", name, value)
             continue
         try:
-            ros_node.declare_parameter(name, ros_value, _descriptor(name, ros_value))
+            ros_node.declare_parameter(name, ros_value, _descriptor(name, ros_value, rows.get(name)))
         except InvalidParameterTypeException as error:  # a --ros-args/--params-file value of another type
             raise InvalidInput(name, ros_value, f"the ROS argument for it has the wrong type: {error}") from None
         declared.append(name)

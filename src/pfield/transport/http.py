@@ -222,8 +222,9 @@ def _add_param_routes(app: FastAPI, routes: _Routes) -> None:
         return sorted(routes.nodes)
 
     @app.get("/param/{node:path}", tags=["parameters"])
-    async def get_params(node: str) -> dict[str, Any]:
-        return routes.node("/" + node).get_parameters()
+    async def get_params(node: str, describe: bool = False) -> dict[str, Any]:
+        target = routes.node("/" + node)
+        return target.describe_parameters() if describe else target.get_parameters()
 
     @app.put("/param/{node:path}", tags=["parameters"])
     async def set_params(node: str, values: dict[str, Any] = Body(...)) -> dict[str, Any]:
