@@ -170,7 +170,7 @@ def test_describe_matches_the_parameters_and_their_defaults(make: Any) -> None:
     rows, values = node.describe_parameters(), node.get_parameters()
     assert list(rows) == list(values)
     for name, row in rows.items():
-        assert set(row) == {"type", "description", "range", "unit", "default", "read_only"}
+        assert set(row) == {"type", "description", "range", "unit", "default", "read_only", "positive"}
         assert row["description"], name
         assert row["default"] == values[name] or name == "static_transforms"
         if row["type"] in ("double", "integer") and row["range"] is not None:

@@ -129,8 +129,8 @@ class Node(ABC):
         bad parameter and change nothing in that case. Returns the new full parameter dict."""
 
     def describe_parameters(self) -> dict[str, dict[str, Any]]:
-        """Each parameter's ``{"type", "description", "range", "unit", "default", "read_only"}`` (its row of the
-        node's :class:`~pfield.node._params.ParameterTable`; ``ros2 param describe``)."""
+        """Each parameter's ``{"type", "description", "range", "unit", "default", "read_only", "positive"}``: its
+        row of the node's :class:`~pfield.node._params.ParameterTable` (``ros2 param describe``)."""
         return {}
 
     def tick(self, now: float) -> None:

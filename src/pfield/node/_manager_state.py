@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from pfield import _validation
 from pfield.errors import InvalidInput
+from pfield.field.config import _POSITIVE as FIELD_POSITIVE
 from pfield.field.config import FieldConfig
 from pfield.node._frames import PARAMETER as TRANSFORMS
 from pfield.node._frames import StaticTransforms, parse_transforms
@@ -95,15 +96,15 @@ _FIELD_RANGES: dict[str, tuple[float, float, str]] = {
 def manager_table(name: str) -> ParameterTable:
     """The parameter table of ``/pfield_manager``: the :class:`FieldConfig` fields, then its own."""
     defaults, docs = FieldConfig(), field_docs(FieldConfig)
-    rows = [ParameterRow(f.name, "double", docs[f.name], getattr(defaults, f.name), *_FIELD_RANGES[f.name])
-            for f in dataclasses.fields(FieldConfig)]
+    rows = [ParameterRow(f.name, "double", docs[f.name], getattr(defaults, f.name), *_FIELD_RANGES[f.name],
+                         positive=f.name in FIELD_POSITIVE) for f in dataclasses.fields(FieldConfig)]
     own, own_docs = ManagerParameters(), field_docs(ManagerParameters)
     rows += [ParameterRow("dynamic_obstacle_timeout", "double", own_docs["dynamic_obstacle_timeout"],
                           own.dynamic_obstacle_timeout, 0.0, 3600.0, "s"),
              ParameterRow("fixed_frame", "string", own_docs["fixed_frame"], own.fixed_frame),
              ParameterRow(TRANSFORMS, "map", own_docs["static_transforms"], {}),
              ParameterRow("max_mesh_file_size", "integer", own_docs["max_mesh_file_size"], own.max_mesh_file_size,
-                          1, 2**31 - 1, "bytes")]
+                          1, 2**31 - 1, "bytes", positive=True)]
     return ParameterTable(name, rows)
 
 

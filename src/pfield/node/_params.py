@@ -50,6 +50,8 @@ class ParameterRow:
     unit: str = ""
     choices: tuple[str, ...] = ()
     read_only: bool = False
+    positive: bool = False
+    """The value must also be strictly above ``low`` (a gain or a period that cannot be 0)."""
 
     def __post_init__(self) -> None:
         if self.type not in _TYPES:
@@ -81,9 +83,11 @@ class ParameterRow:
     def _range(self, number: float) -> float:
         low = -math.inf if self.low is None else self.low
         high = math.inf if self.high is None else self.high
-        if not low <= number <= high:
-            unit = f" {self.unit}" if self.unit else ""
-            raise InvalidInput(self.name, number, f"must be in [{low:g}, {high:g}]{unit}")
+        unit = f" {self.unit}" if self.unit else ""
+        if number < low or (self.positive and number == low):
+            raise InvalidInput(self.name, number, f"must be {'>' if self.positive else '>='} {low:g}{unit}")
+        if number > high:
+            raise InvalidInput(self.name, number, f"must be <= {high:g}{unit}")
         return number
 
     def describe(self) -> dict[str, Any]:
@@ -93,7 +97,7 @@ class ParameterRow:
         elif self.low is not None or self.high is not None:
             value_range = [self.low, self.high]
         return {"type": self.type, "description": self.description, "range": value_range, "unit": self.unit,
-                "default": self.default, "read_only": self.read_only}
+                "default": self.default, "read_only": self.read_only, "positive": self.positive}
 
 
 def _check_map(field: str, value: Any, depth: int = 0) -> Any:

@@ -65,6 +65,8 @@ _RANGES: dict[str, tuple[float, float, str]] = {
     "scan_sector_angle": (0.0, 2 * math.pi, "rad"), "sensor_x": (-50.0, 50.0, "m"), "sensor_y": (-50.0, 50.0, "m"),
     "sensor_yaw": (-2 * math.pi, 2 * math.pi, "rad"),
 }
+_POSITIVE = {"kr_slope", "max_spd_norm", "lookahead", "max_angular_speed", "teleop_timeout", "stuck_window",
+             "scan_sector_angle"}
 _CHOICES = {"attraction": ATTRACTION_LAWS, "clamping": CLAMPING_MODES, "drive": DRIVES,
             "scan_weighting": SCAN_WEIGHTINGS}
 _FRAME_DOCS = {"odom_frame": "fixed frame of odometry, goals and the robot pose",
@@ -82,7 +84,7 @@ def base_controller_table(name: str) -> ParameterTable:
             if key in _CHOICES:
                 rows.append(ParameterRow(key, "string", docs[key], default, choices=tuple(_CHOICES[key])))
             else:
-                rows.append(ParameterRow(key, "double", docs[key], default, *_RANGES[key]))
+                rows.append(ParameterRow(key, "double", docs[key], default, *_RANGES[key], positive=key in _POSITIVE))
     rows += [ParameterRow(key, "string", _FRAME_DOCS[key], default) for key, default in FRAME_PARAMETERS.items()]
     return ParameterTable(name, rows)
 

@@ -78,7 +78,8 @@ def costmap_table(name: str) -> ParameterTable:
         ParameterRow("resolution", "double", "cell size of the local window (m)", d.resolution, MIN_RESOLUTION, 1.0,
                      "m"),
         ParameterRow("local_window_size", "double", "side of the local (rolling) window around the robot (m); "
-                     "at most 1000 cells per side", d.local_window_size, 0.0, MAX_LOCAL_WINDOW_SIZE, "m"),
+                     "at most 1000 cells per side", d.local_window_size, 0.0, MAX_LOCAL_WINDOW_SIZE, "m",
+                     positive=True),
         ParameterRow("global_frame", "string", "frame of the map and of every answer", d.global_frame),
         ParameterRow("angle_increment", "double", "FindValidPose's yaw step (rad; Move Base Flex uses 5°)",
                      d.angle_increment, MIN_ANGLE_INCREMENT, math.pi, "rad"),

@@ -19,7 +19,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from pydantic import ValidationError
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.exceptions import InvalidParameterTypeException
 from rclpy.node import Node as RclpyNode
 from rclpy.parameter import Parameter
@@ -48,28 +48,24 @@ def _ros_value(value: Any) -> Any:
 
 
 def _descriptor(name: str, value: Any, row: Mapping[str, Any] | None) -> ParameterDescriptor:
-    """The rclpy descriptor of a parameter from its row of the node's table (``ros2 param describe``):
-    description, read-only flag, and a floating-point/integer range or the choices."""
+    """The rclpy descriptor of a parameter from its row of the node's table (``ros2 param describe``): the
+    description, the read-only flag and the range (or choices) as ``additional_constraints``. The range is
+    not set as rclpy's ``floating_point_range``: the pfield node stays the one validator, so a refused value
+    gets the node's reason (``max_linear_velocity=-2.0: must be > 0``), here and over HTTP alike."""
     # A None or empty-list default gives rclpy no type to enforce: let the pfield node judge.
     untyped = value is None or value == []
     if row is None:
         return ParameterDescriptor(name=name, description="pfield parameter (validated by the node)",
                                    dynamic_typing=untyped)
-    descriptor = ParameterDescriptor(name=name, description=str(row["description"]), read_only=bool(row["read_only"]),
-                                     dynamic_typing=untyped)
+    constraints = ""
     value_range = row.get("range")
-    unit = f" ({row['unit']})" if row.get("unit") else ""
-    if row["type"] == "string" and value_range:
-        descriptor.additional_constraints = "one of: " + ", ".join(value_range)
-    elif value_range and row["type"] == "double" and isinstance(value, float):
-        low, high = (float(v) for v in value_range)
-        descriptor.floating_point_range = [FloatingPointRange(from_value=low, to_value=high, step=0.0)]
-        descriptor.additional_constraints = f"range [{low:g}, {high:g}]{unit}"
-    elif value_range and row["type"] == "integer" and isinstance(value, int):
-        low, high = (int(v) for v in value_range)
-        descriptor.integer_range = [IntegerRange(from_value=low, to_value=high, step=0)]
-        descriptor.additional_constraints = f"range [{low}, {high}]{unit}"
-    return descriptor
+    if value_range and row["type"] == "string":
+        constraints = "one of: " + ", ".join(str(v) for v in value_range)
+    elif value_range:
+        unit = f" {row['unit']}" if row.get("unit") else ""
+        constraints = f"range [{value_range[0]:g}, {value_range[1]:g}]{unit}"
+    return ParameterDescriptor(name=name, description=str(row["description"]), read_only=bool(row["read_only"]),
+                               additional_constraints=constraints, dynamic_typing=untyped)
 
 
 def declare_parameters(ros_node: RclpyNode, node: Node) -> list[str]:
