@@ -25,7 +25,8 @@ import math
 import threading
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import replace
+from dataclasses import dataclass, field, replace
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -47,7 +48,7 @@ from pfield.node._frames import StaticTransforms
 from pfield.node._params import ParameterRow, ParameterTable, field_docs
 from pfield.spatial import Pose
 
-__all__ = ["FRAME_PARAMETERS", "BaseControllerNode", "base_controller_table"]
+__all__ = ["FRAME_PARAMETERS", "BaseControllerNode", "BaseState", "base_controller_table"]
 
 _log = logging.getLogger(__name__)
 FRAME_PARAMETERS = {"odom_frame": "odom", "base_frame": "base_link", "sensor_frame": "laser"}
@@ -100,6 +101,34 @@ def _odometry_pose(msg: Odometry) -> NDArray[np.float64]:
     return np.array([position[0], position[1], yaw])
 
 
+@dataclass(frozen=True, eq=False)
+class BaseState:
+    """The node's own state as one immutable value (swapped whole under the node's lock): the frame names,
+    the robot pose (x, y, yaw) in ``odom_frame``, the last command, the last tick time and whether odometry
+    has arrived. The controller's dynamics (goal, teleop, rate limits) live in its
+    :class:`~pfield.mobile.controller.BaseController`."""
+
+    frames: Mapping[str, str] = field(default_factory=lambda: MappingProxyType(dict(FRAME_PARAMETERS)))
+    pose: NDArray[np.float64] = field(default_factory=lambda: _frozen(np.zeros(3)))
+    command: NDArray[np.float64] = field(default_factory=lambda: _frozen(np.zeros(3)))
+    last_tick: float | None = None
+    has_odometry: bool = False
+    version: int = 0
+
+    def evolve(self, **changes: Any) -> BaseState:
+        for name in ("pose", "command"):
+            if name in changes:
+                changes[name] = _frozen(np.array(changes[name], dtype=np.float64))
+        if "frames" in changes:
+            changes["frames"] = MappingProxyType(dict(changes["frames"]))
+        return replace(self, **changes, version=self.version + 1)
+
+
+def _frozen(array: NDArray[np.float64]) -> NDArray[np.float64]:
+    array.setflags(write=False)
+    return array
+
+
 class BaseControllerNode(Node):
     """The ``/base_controller`` node (see the module docstring); ``clock`` gives monotonic seconds."""
 
@@ -114,12 +143,8 @@ class BaseControllerNode(Node):
         self._lock = threading.Lock()
         self._controller = BaseController(params, config)
         self.parameter_table = base_controller_table(self.name)
-        self._frames = dict(FRAME_PARAMETERS)
         self._clock = clock
-        self._pose = np.zeros(3)
-        self._command = np.zeros(3)
-        self._last_tick: float | None = None
-        self._has_odometry = False
+        self._state = BaseState()
 
     # ---- contract -----------------------------------------------------------------------------------
     def services(self) -> list[ServiceSpec]:
@@ -137,7 +162,7 @@ class BaseControllerNode(Node):
 
     def get_parameters(self) -> dict[str, Any]:
         with self._lock:
-            return self._controller.params.as_dict() | self._controller.config.as_dict() | dict(self._frames)
+            return self._controller.params.as_dict() | self._controller.config.as_dict() | dict(self._state.frames)
 
     def describe_parameters(self) -> dict[str, dict[str, Any]]:
         return self.parameter_table.describe()
@@ -152,18 +177,21 @@ class BaseControllerNode(Node):
             params = replace(self._controller.params, **{k: v for k, v in values.items() if k in field_names})
             config = replace(self._controller.config, **{k: v for k, v in values.items() if k in config_names})
             self._controller.reconfigure(params, config)
-            self._frames.update({k: str(v) for k, v in values.items() if k in FRAME_PARAMETERS})
+            frames = dict(self._state.frames) | {k: str(v) for k, v in values.items() if k in FRAME_PARAMETERS}
+            self._state = self._state.evolve(frames=frames)
         return self.get_parameters()
 
     def tick(self, now: float) -> None:
         """Dead-reckon the pose over the last period (until odometry arrives), run the controller and publish
         ``/cmd_vel``."""
         with self._lock:
-            if not self._has_odometry and self._last_tick is not None and now > self._last_tick:
-                self._pose = integrate_pose(self._pose, self._command, now - self._last_tick)
-            self._last_tick = now
-            command = self._controller.step(self._pose, now)
-            self._command = np.array([command.linear_x, command.linear_y, command.angular_z])
+            state = self._state
+            pose = state.pose
+            if not state.has_odometry and state.last_tick is not None and now > state.last_tick:
+                pose = integrate_pose(state.pose, state.command, now - state.last_tick)
+            command = self._controller.step(pose, now)
+            self._state = state.evolve(pose=pose, last_tick=now,
+                                       command=[command.linear_x, command.linear_y, command.angular_z])
         twist = gm.Twist(linear=gm.Vector3(x=command.linear_x, y=command.linear_y),
                          angular=gm.Vector3(z=command.angular_z))
         self.bus.publish("/cmd_vel", twist)
@@ -173,9 +201,10 @@ class BaseControllerNode(Node):
         """The frames service of this node: ``odom_frame`` fixed, ``base_frame`` at the robot pose and
         ``sensor_frame`` at the laser's mount on it (their poses in ``odom_frame``, at this instant)."""
         with self._lock:
-            robot = tuple(float(v) for v in self._pose)
-            mount = compose_pose2d(self._pose, self._controller.config.sensor_pose)
-            names = dict(self._frames)
+            state = self._state
+            robot = tuple(float(v) for v in state.pose)
+            mount = compose_pose2d(state.pose, self._controller.config.sensor_pose)
+            names = dict(state.frames)
         return StaticTransforms(names["odom_frame"], {names["base_frame"]: Pose.planar(*robot),
                                                       names["sensor_frame"]: Pose.planar(*mount)})
 
@@ -184,28 +213,28 @@ class BaseControllerNode(Node):
         point = point_from_msg(msg.point, "point")
         frame = msg.header.frame_id
         frames = self.frames()
-        if frame not in ("", frames.fixed_frame, self._frames["base_frame"]):
+        if frame not in ("", frames.fixed_frame, self._state.frames["base_frame"]):
             raise UnknownFrame("header.frame_id", frame, f"expected {frames.fixed_frame!r} or "
-                               f"{self._frames['base_frame']!r}")
+                               f"{self._state.frames['base_frame']!r}")
         transform = frames.lookup("header.frame_id", frame)
         goal = point[:2] if transform is None else (transform * Pose(point)).position[:2]
         with self._lock:
             self._controller.set_goal(np.array(goal))
-        _log.info("goal (%.3f, %.3f) in %s", goal[0], goal[1], self._frames["odom_frame"])
+        _log.info("goal (%.3f, %.3f) in %s", goal[0], goal[1], self._state.frames["odom_frame"])
 
     def on_scan(self, msg: LaserScan) -> None:
         """Replace the obstacles by the scan's points (weighted by ``scan_weighting``)."""
         with self._lock:
             frame = msg.header.frame_id
             config = self._controller.config
-            if frame == self._frames["base_frame"]:
+            if frame == self._state.frames["base_frame"]:
                 mount = (0.0, 0.0, 0.0)
-            elif frame in ("", self._frames["sensor_frame"]):
+            elif frame in ("", self._state.frames["sensor_frame"]):
                 mount = config.sensor_pose
             else:
-                raise UnknownFrame("header.frame_id", frame, f"expected {self._frames['sensor_frame']!r} or "
-                                   f"{self._frames['base_frame']!r}")
-            sensor = compose_pose2d(self._pose, mount)  # the frames service's sensor_frame pose when mounted
+                raise UnknownFrame("header.frame_id", frame, f"expected {self._state.frames['sensor_frame']!r} or "
+                                   f"{self._state.frames['base_frame']!r}")
+            sensor = compose_pose2d(self._state.pose, mount)  # the frames service's sensor_frame pose when mounted
             obstacles = scan_obstacles(msg, sensor, config.scan_weighting, config.scan_sector_angle)
             self._controller.set_obstacles(obstacles)
 
@@ -220,10 +249,9 @@ class BaseControllerNode(Node):
         pose = _odometry_pose(msg)
         with self._lock:
             frame = msg.header.frame_id
-            if frame not in ("", self._frames["odom_frame"]):
-                raise UnknownFrame("header.frame_id", frame, f"expected {self._frames['odom_frame']!r} or empty")
-            self._pose = pose
-            self._has_odometry = True
+            if frame not in ("", self._state.frames["odom_frame"]):
+                raise UnknownFrame("header.frame_id", frame, f"expected {self._state.frames['odom_frame']!r} or empty")
+            self._state = self._state.evolve(pose=pose, has_odometry=True)
 
     def on_cancel_goal(self, request: std_srvs.Trigger_Request) -> std_srvs.Trigger_Response:
         """Stop point following."""
@@ -234,6 +262,11 @@ class BaseControllerNode(Node):
 
     # ---- state ----------------------------------------------------------------------------------------
     @property
+    def snapshot(self) -> BaseState:
+        """The node's current state value (immutable)."""
+        return self._state
+
+    @property
     def state(self) -> ControllerState:
         """State of the last tick (``idle``, ``following``, ``goal_reached``, ``stuck``, ``teleop`` …)."""
         with self._lock:
@@ -243,7 +276,7 @@ class BaseControllerNode(Node):
     def pose(self) -> NDArray[np.float64]:
         """Robot pose (x, y, yaw) in ``odom_frame``: the last odometry, or dead-reckoned before any arrived."""
         with self._lock:
-            return self._pose.copy()
+            return self._state.pose.copy()
 
     @property
     def goal(self) -> NDArray[np.float64] | None:
