@@ -18,6 +18,8 @@ START = {"position": {"x": 0.3, "y": 0.0, "z": 0.3}, "orientation": {"w": 1.0}}
 GOAL = {"position": {"x": 0.45, "y": 0.1, "z": 0.35}, "orientation": {"w": 1.0}}
 PLAN = {"start": START, "goal": GOAL, "delta_time": 0.02, "goal_tolerance": 0.01, "max_iterations": 100,
         "planning_method": "task_space"}
+OTHER = PLAN | {"goal": {"position": {"x": 0.2, "y": -0.3, "z": 0.5}, "orientation": {"w": 1.0}}}
+"""A plan to another goal: a refused one that replaced the goal anyway would show in the markers."""
 
 
 def sphere(key: str, x: float) -> dict[str, Any]:
@@ -28,7 +30,11 @@ def sphere(key: str, x: float) -> dict[str, Any]:
 def state(server: NodeServer) -> tuple[Any, ...]:
     markers = httpx.get(f"{server.url}/topic/pfield/markers")
     params = {node: httpx.get(f"{server.url}/param{node}").json() for node in httpx.get(f"{server.url}/nodes").json()}
-    return server.obstacle_ids(), markers.json() if markers.status_code == 200 else None, params
+    # the goal shows in the autonomy vector at a fixed query pose (the markers lag behind a goal set by a plan)
+    query = {"query_pose": {"pose": {"position": {"x": 0.3, "y": 0.0, "z": 0.3}}}}
+    autonomy = httpx.post(f"{server.url}/srv/pfield/compute_autonomy_vector", json=query)
+    twist = autonomy.json()["autonomy_vector"]["twist"] if autonomy.status_code == 200 else autonomy.status_code
+    return server.obstacle_ids(), markers.json() if markers.status_code == 200 else None, params, twist
 
 
 def send(method: str, url: str, body: Any, timeout: float = 60) -> httpx.Response:
@@ -43,11 +49,12 @@ def rss_kib(server: NodeServer) -> int:
 
 
 CASES = {
-    "delta_time 1e308": ("/srv/pfield/plan_path", PLAN | {"delta_time": 1e308}, "delta_time"),
-    "delta_time 1e-30": ("/srv/pfield/plan_path", PLAN | {"delta_time": 1e-30}, "delta_time"),
-    "delta_time 2^31 s": ("/srv/pfield/plan_path", PLAN | {"delta_time": 2.0**31}, "delta_time"),
-    "start w 1e308": ("/srv/pfield/plan_path", PLAN | {"start": {"orientation": {"w": 1e308}}}, "start.orientation"),
-    "goal w 1e308": ("/srv/pfield/plan_path", PLAN | {"goal": {"orientation": {"w": 1e308}}}, "goal.orientation"),
+    "delta_time 1e308": ("/srv/pfield/plan_path", OTHER | {"delta_time": 1e308}, "delta_time"),
+    "delta_time 1e-30": ("/srv/pfield/plan_path", OTHER | {"delta_time": 1e-30}, "delta_time"),
+    "delta_time 2^31 s": ("/srv/pfield/plan_path", OTHER | {"delta_time": 2.0**31}, "delta_time"),
+    "start w 1e308": ("/srv/pfield/plan_path", OTHER | {"start": {"orientation": {"w": 1e308}}}, "start.orientation"),
+    "goal w 1e308": ("/srv/pfield/plan_path", OTHER | {"goal": {"position": {"x": 0.2}, "orientation": {"w": 1e308}}},
+                     "goal.orientation"),
     "surrogate obstacle id": ("/topic/pfield/obstacles", {"obstacles": [sphere("ok", 9.0), sphere("\ud800", 8.0)]},
                               "obstacles[1].frame_id"),
     "surrogate goal frame": ("/topic/pfield/planning_goal_pose", {"header": {"frame_id": "\ud800"}},
