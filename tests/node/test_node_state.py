@@ -103,6 +103,13 @@ def test_the_field_and_markers_are_memoised_on_the_version(node: ManagerNode) ->
     assert node._current_field() is field and node.markers() is markers
     node.on_obstacles(array(sphere("other", 0.2)))
     assert node._current_field() is not field and node.markers() is not markers
+    field, markers = node._current_field(), node.markers()
+    node.plan_path(plan_request(goal={"position": {"x": 0.1, "y": 0.1, "z": 0.5}}, max_iterations=20))
+    assert node.goal.isclose(Pose((0.1, 0.1, 0.5)))  # a new goal object: a new field
+    assert node._current_field() is not field and node.markers() is not markers
+    field = node._current_field()
+    node.remove_obstacles(pfi.RemoveObstacles_Request(frame_ids=[]))  # no change, no new state
+    assert node._current_field() is field
 
 
 # ---- strings: valid UTF-8 everywhere ---------------------------------------------------------------------

@@ -138,20 +138,33 @@ class ManagerState:
 
 
 class Memo(Generic[T]):
-    """A value derived from a :class:`ManagerState`, computed once per state ``version``."""
+    """A value derived from a :class:`ManagerState`, computed once per state ``version``; with ``depends``
+    (the state's fields it reads), once per identity of those fields, so the field survives a change of the
+    path alone."""
 
-    def __init__(self, build: Callable[[ManagerState], T]) -> None:
+    def __init__(self, build: Callable[[ManagerState], T], depends: tuple[str, ...] = ()) -> None:
         self._build = build
+        self._depends = depends
         self._lock = threading.Lock()
+        self._key: tuple[Any, ...] | None = None
         self._version = -1
         self._value: T | None = None
 
+    def _key_of(self, state: ManagerState) -> tuple[Any, ...]:
+        return tuple(getattr(state, name) for name in self._depends) if self._depends else (state.version,)
+
+    def _hit(self, key: tuple[Any, ...]) -> bool:
+        """Same objects (``is``, not ``==``: the key holds them, so an identity is never reused meanwhile)."""
+        return self._key is not None and len(key) == len(self._key) and all(
+            a is b or (isinstance(a, int) and a == b) for a, b in zip(key, self._key, strict=True))
+
     def get(self, state: ManagerState) -> T:
+        key = self._key_of(state)
         with self._lock:
-            if self._version == state.version:
+            if self._hit(key):
                 return self._value  # type: ignore[return-value]
         value = self._build(state)  # built outside the lock: a slow build never blocks other readers
         with self._lock:
             if state.version >= self._version:
-                self._version, self._value = state.version, value
+                self._key, self._version, self._value = key, state.version, value
         return value

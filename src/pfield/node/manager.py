@@ -115,7 +115,8 @@ class ManagerNode(Node):
         self._lock = threading.Lock()
         self._state = ManagerState(config or FieldConfig(), parameters or ManagerParameters())
         self._field: Memo[Any] = Memo(lambda s: None if s.goal is None else
-                                      _planning.make_field(s.config, s.goal, s.obstacle_list()))
+                                      _planning.make_field(s.config, s.goal, s.obstacle_list()),
+                                      depends=("config", "goal", "obstacles"))
         self._markers: Memo[visualization_msgs.MarkerArray] = Memo(
             lambda s: state_markers(s.params.fixed_frame, s.goal, s.obstacle_list(), s.config.influence_distance,
                                     s.path_positions))
