@@ -232,6 +232,9 @@ def test_find_valid_pose_caps_its_work_before_building_kernels() -> None:
         find_valid_pose(costmap, Footprint.from_radius(0.2), Pose.planar(1.0, 1.0, 0.0), safety_dist=20.0,
                         angle_tolerance=math.pi, angle_increment=math.radians(0.1))
     assert error.value.field == "safety_dist"
+    with pytest.raises(InvalidInput) as error:
+        find_valid_pose(costmap, Footprint.from_radius(0.2), Pose.planar(1.0, 1.0, 0.0), safety_dist=100.0)
+    assert error.value.field == "safety_dist"
     # a huge finite tolerance is clamped by the map, never squared into an overflow
     result = find_valid_pose(costmap, Footprint.from_radius(0.2), Pose.planar(1.0, 1.0, 0.0), dist_tolerance=1e308)
     assert result.state == 0

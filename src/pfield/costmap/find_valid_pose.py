@@ -217,7 +217,10 @@ def find_valid_pose(
     dist_tolerance = nonnegative("dist_tolerance", dist_tolerance)
     angle_tolerance = nonnegative("angle_tolerance", angle_tolerance)
     angle_increment = positive("angle_increment", angle_increment)
-    robot = footprint.padded(safety_dist) if safety_dist > 0.0 else footprint
+    try:
+        robot = footprint.padded(safety_dist) if safety_dist > 0.0 else footprint
+    except InvalidInput as exc:  # the padded polygon is out of the footprint's range: say which input did it
+        raise InvalidInput("safety_dist", safety_dist, f"the padded footprint is refused: {exc.reason}") from None
     deltas = yaw_offsets(angle_tolerance, angle_increment)
     _check_kernel_work(costmap, robot, deltas.size, safety_dist)
     base_m, base_n, (k_ptr, k_dm, k_dn, k_box) = _kernels(costmap, robot, pose, pose.yaw + deltas)
