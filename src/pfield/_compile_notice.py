@@ -18,9 +18,10 @@ from typing import Any
 
 from numba.core import event
 
-__all__ = ["COLD_COMPILE_SECONDS", "install", "quiet"]
+__all__ = ["COLD_COMPILE_SECONDS", "LOGGER_NAME", "install", "quiet"]
 
-_LOG = logging.getLogger("pfield.compile")
+LOGGER_NAME = "pfield.compile"
+_LOG = logging.getLogger(LOGGER_NAME)
 
 COLD_COMPILE_SECONDS = (20, 120)
 """Usual range (s) of compiling every pfield kernel with an empty cache (2-4 cores; ``benchmarks/bench_startup``)."""

@@ -24,7 +24,8 @@ import pkgutil
 import tempfile
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -230,7 +231,8 @@ def warm(progress: Progress | None = None, steps: Sequence[WarmupStep] = STEPS) 
         start = time.perf_counter()
         if progress is not None:
             progress(0, len(steps), steps[0].name if steps else "")
-        with _compile_notice.quiet(), tempfile.TemporaryDirectory(prefix="pfield-warmup-") as scratch:
+        with _compile_notice.quiet(), _own_info_dropped(), \
+                tempfile.TemporaryDirectory(prefix="pfield-warmup-") as scratch:
             for done, step in enumerate(steps, 1):
                 began = time.perf_counter()
                 try:
@@ -246,6 +248,33 @@ def warm(progress: Progress | None = None, steps: Sequence[WarmupStep] = STEPS) 
             _REPORT = report
             _READY.set()
         return report
+
+
+class _OtherThreadsOnly(logging.Filter):
+    """Drops the INFO and DEBUG records of one thread (the warm-up's toy plans "fail" by design)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.thread = threading.get_ident()
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return (record.thread != self.thread or record.levelno >= logging.WARNING
+                or record.name == _compile_notice.LOGGER_NAME)
+
+
+@contextmanager
+def _own_info_dropped() -> Iterator[None]:
+    """Inside, the handlers of the root and ``pfield`` loggers drop this thread's INFO/DEBUG records (other
+    threads log as usual; warnings, errors and the compile notices still show)."""
+    dropped = _OtherThreadsOnly()
+    handlers = [*logging.getLogger().handlers, *logging.getLogger("pfield").handlers]
+    for handler in handlers:
+        handler.addFilter(dropped)
+    try:
+        yield
+    finally:
+        for handler in handlers:
+            handler.removeFilter(dropped)
 
 
 def start_background(on_done: Callable[[WarmupReport], None] | None = None) -> threading.Thread:

@@ -135,10 +135,10 @@ def topic_pub(topic: str, type_name: Annotated[str, typer.Argument(metavar="TYPE
     message = _local(message_from_yaml, _local(lookup_type, type_name), values)
     count = 1 if once else times
     with _client(url, token) as client:
-        sent = 0
+        sent, start = 0, time.monotonic()
         while count == 0 or sent < count:
-            if sent:
-                time.sleep(period)
+            if sent:  # on a fixed schedule, so the time a request takes does not lower the rate
+                time.sleep(max(start + sent * period - time.monotonic(), 0.0))
             _request(client, "POST", f"/topic/{topic.lstrip('/')}", message.model_dump_json(),
                      params={"type": type_name})
             sent += 1

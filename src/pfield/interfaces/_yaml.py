@@ -60,7 +60,7 @@ def load_yaml(text: str, field: str = "yaml") -> Any:
     try:
         return loader.get_single_data()
     except _TooDeep as exc:
-        raise InvalidInput(field, text[:200], f"nested deeper than {MAX_DEPTH} levels (at line {exc.line}, "
+        raise InvalidInput(field, text[:60], f"nested deeper than {MAX_DEPTH} levels (at line {exc.line}, "
                                               f"column {exc.column})") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
