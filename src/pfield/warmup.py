@@ -290,6 +290,9 @@ def start_background(on_done: Callable[[WarmupReport], None] | None = None) -> t
                 if on_done is not None:
                     on_done(report)
 
+            low, high = _compile_notice.COLD_COMPILE_SECONDS
+            _LOG.info("warming the numba kernels in the background (seconds when cached, %d-%d s after an install "
+                      "or an edit)", low, high)
             _THREAD = threading.Thread(target=run, name="pfield-warmup", daemon=True)
             _THREAD.start()
         return _THREAD
