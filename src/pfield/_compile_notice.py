@@ -23,8 +23,9 @@ __all__ = ["COLD_COMPILE_SECONDS", "LOGGER_NAME", "install", "quiet"]
 LOGGER_NAME = "pfield.compile"
 _LOG = logging.getLogger(LOGGER_NAME)
 
-COLD_COMPILE_SECONDS = (20, 120)
-"""Usual range (s) of compiling every pfield kernel with an empty cache (2-4 cores; ``benchmarks/bench_startup``)."""
+COLD_COMPILE_SECONDS = (60, 180)
+"""Usual range (s) of compiling every pfield kernel with an empty cache: about 130 s of CPU on a 2-core x86-64
+machine (numba compiles on one core; ``benchmarks/bench_startup``)."""
 
 
 class _Listener(event.Listener):

@@ -209,6 +209,7 @@ _READY = threading.Event()
 _RUN_LOCK = threading.Lock()
 _REPORT: WarmupReport | None = None
 _THREAD: threading.Thread | None = None
+_THREAD_LOCK = threading.Lock()
 
 
 def ready() -> bool:
@@ -281,7 +282,7 @@ def start_background(on_done: Callable[[WarmupReport], None] | None = None) -> t
     """Start :func:`warm` in a daemon thread (once per process; later calls return the same thread) and
     call ``on_done(report)`` from it when finished (the thread of an earlier call keeps its own callback)."""
     global _THREAD
-    with _RUN_LOCK:
+    with _THREAD_LOCK:
         if _THREAD is None:
             def run() -> None:
                 report = warm()
