@@ -40,6 +40,7 @@ print("SPECIALISATIONS", sorted((len(k.signatures), name) for name, k in kernels
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(1800)  # a cold compile: about 2 minutes of CPU, longer on a loaded machine
 def test_warmup_command_compiles_every_kernel_with_progress(tmp_path: Path) -> None:
     """With an empty cache (every kernel compiles in this process), ``pfield warmup`` reports each area and the
     total time, and afterwards every kernel of pfield has a compiled signature."""
