@@ -32,7 +32,9 @@ $(ROS2_STAMP): $(ROS2_PKG)/CMakeLists.txt $(ROS2_PKG)/package.xml $(ROS2_PKG)/ms
 
 ros2-interfaces: $(ROS2_STAMP)
 
+# warmup first: it compiles every numba kernel once with a progress bar (seconds when cached)
 demo: $(STAMP)
+	$(VENV)/bin/pfield warmup
 	$(VENV)/bin/pfield demo
 
 lint: $(STAMP)

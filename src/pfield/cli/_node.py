@@ -17,10 +17,10 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-import yaml
 
 from pfield.cli import _node_client
 from pfield.errors import InvalidInput, PfieldError
+from pfield.interfaces._yaml import load_yaml
 from pfield.node._base import Bus, Node
 from pfield.transport import DEFAULT_HOST, DEFAULT_PORT
 
@@ -94,14 +94,16 @@ def parse_static_transforms(values: list[str]) -> dict[str, Any]:
     return table
 
 
-def load_ros_parameters(path: Path) -> dict[str, dict[str, Any]]:
-    """``{node name: {parameter: value}}`` of a ROS 2 parameters file (``node: {ros__parameters: {...}}``)."""
+def load_ros_parameters(path: Path, option: str = "--params") -> dict[str, dict[str, Any]]:
+    """``{node name: {parameter: value}}`` of a ROS 2 parameters file (``node: {ros__parameters: {...}}``);
+    errors name ``option``, the command-line argument the file came from."""
     try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except (OSError, yaml.YAMLError) as exc:
-        raise InvalidInput("--params", str(path), f"cannot read parameters: {exc}") from None
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InvalidInput(option, str(path), f"cannot read parameters: {exc}") from None
+    data = load_yaml(text, f"{option} {path}") or {}
     if not isinstance(data, dict):
-        raise InvalidInput("--params", str(path), "expected a mapping of node names")
+        raise InvalidInput(option, str(path), "expected a mapping of node names")
     result = {}
     for node, section in data.items():
         params = section.get("ros__parameters") if isinstance(section, dict) else None
@@ -206,7 +208,10 @@ def serve(
         _check_host(host, token)
         nodes = nodes_from_options(robot, end_effector, params, package_path, mesh_root, map, footprint, csv_dir,
                                    static_transform)
-    app = create_app(nodes, token=token)
+    from pfield import warmup
+
+    warmup.start_background()  # GET /health says "ready" once every kernel is compiled or loaded
+    app = create_app(nodes, token=token, ready=warmup.ready)
     typer.echo(f"pfield node on http://{host}:{port} ({', '.join(n.name for n in nodes)})", err=True)
     sys.stderr.flush()
     uvicorn.run(app, host=host, port=port, log_level="warning" if log_level != "debug" else "debug")

@@ -209,7 +209,7 @@ class PotentialField:
 
     def clearances(self, positions: ArrayLike) -> NDArray[np.float64]:
         """Signed distance (m) of each point (N, 3) to the nearest obstacle (inf without obstacles)."""
-        points = as_points("positions", positions)
+        points = np.require(as_points("positions", positions), requirements=["C", "W"])
         if not self._obstacles:
             return np.full(points.shape[0], math.inf)
         distances, _ = signed_distances(self._arrays.packed, points)

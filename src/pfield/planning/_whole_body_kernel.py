@@ -321,7 +321,8 @@ def joint_velocity_step(  # type: ignore[no-untyped-def]
     _task(robot, goal_p, goal_q, params, ws)
     _segments(robot, ws)
     ws.free[:] = 0.0
-    m = _obstacle_rows(robot, scene, params, ws, 0)
+    # a run-time zero: with the literal 0, type inference also compiles hildreth for m = Literal[int](0)
+    m = _obstacle_rows(robot, scene, params, ws, np.int64(0))
     m = _self_rows(robot, scene, params, ws, m)
     m = _joint_limit_rows(q, robot, params, ws, m)
     n = q.shape[0]

@@ -54,7 +54,8 @@ def plan_loop(q0, robot, scene, goal_p, goal_q, params, max_iterations):  # type
     status, count = ITERATION_LIMIT, total
     culprit = np.array((-1, -1))
     for k in range(total):
-        joint_velocity_step(q, previous, True, robot, scene, goal_p, goal_q, params, ws)
+        # has_prev as a run-time bool (dt > 0 always holds here): the same specialisation as autonomy_step's
+        joint_velocity_step(q, previous, dt > 0.0, robot, scene, goal_p, goal_q, params, ws)
         qs[k], positions[k], quats[k], clear[k] = q, ws.out[6:9], ws.out[9:13], ws.out[13]
         pos_err, rot_err = ws.out[15], ws.out[16]
         if ws.out[19] < 0.0 or ws.out[14] < 0.0:

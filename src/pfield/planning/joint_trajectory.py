@@ -40,7 +40,9 @@ def attach_joint_trajectory(path: PlannedPath, robot: RobotModel, q_seed: ArrayL
     seed = robot.check_joint_angles(q_seed, "q_seed")
     settings = ik_settings(max_iterations, position_tolerance, rotation_tolerance, damping=1e-4, max_step=0.3)
     qs, failed, pos_err, rot_err = ik_path_kernel(
-        seed, np.ascontiguousarray(path.positions), np.ascontiguousarray(path.orientations), *robot.kinematics,
+        # writable copies, as solve_ik passes: one specialisation of ik_kernel for both
+        seed, np.require(path.positions, requirements=["C", "W"]),
+        np.require(path.orientations, requirements=["C", "W"]), *robot.kinematics,
         np.array(robot.lower_limits), np.array(robot.upper_limits), settings)
     if failed >= 0:
         reason = (f"inverse kinematics failed at waypoint {failed} of {len(path)} (position error {pos_err:.4g} m, "

@@ -113,7 +113,8 @@ def _goal_blocked(field: PotentialField) -> str:
 
 
 def _all_distances(field: PotentialField, point: np.ndarray) -> np.ndarray:
-    distances, _ = signed_distances(field.arrays.packed, np.ascontiguousarray(point, dtype=np.float64)[None, :])
+    points = np.array(point, dtype=np.float64).reshape(1, 3)  # a writable copy, as the other callers pass
+    distances, _ = signed_distances(field.arrays.packed, points)
     return np.asarray(distances[0])
 
 

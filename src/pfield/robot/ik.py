@@ -68,9 +68,10 @@ def _dls_step(jac, e, frozen, damping, step):  # type: ignore[no-untyped-def]
             a[r, c] = s
             a[c, r] = s
         a[r, r] += damping
-    cholesky_inplace(a, 6)
-    y = np.empty(6)
-    cholesky_solve(a, e, y, 6)
+    size = a.shape[0]  # a run-time 6, not the literal: the same QP specialisation as the whole-body planner's
+    cholesky_inplace(a, size)
+    y = np.empty(size)
+    cholesky_solve(a, e, y, size)
     for j in range(n):
         step[j] = 0.0 if frozen[j] else jac[0, j] * y[0] + jac[1, j] * y[1] + jac[2, j] * y[2] + \
             jac[3, j] * y[3] + jac[4, j] * y[4] + jac[5, j] * y[5]

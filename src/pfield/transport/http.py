@@ -24,7 +24,7 @@ import json
 import logging
 import threading
 import time
-from collections.abc import AsyncIterator, Sequence
+from collections.abc import AsyncIterator, Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
@@ -65,6 +65,7 @@ class _Routes:
     def __init__(self, nodes: Sequence[Node]) -> None:
         self.nodes = {node.name: node for node in nodes}
         self.services = {spec.name: spec for node in nodes for spec in node.services()}
+        self.service_nodes = {spec.name: node.name for node in nodes for spec in node.services()}
         self.subscriptions: dict[str, list[SubscriptionSpec]] = {}
         self.topics: dict[str, dict[str, Any]] = {}
         for node in nodes:
@@ -178,7 +179,8 @@ def _add_service_routes(app: FastAPI, routes: _Routes, executor: ThreadPoolExecu
 
     @app.get("/services", tags=["listings"])
     async def list_services() -> list[dict[str, str]]:
-        return [{"name": s.name, "type": s.type_name} for s in sorted(routes.services.values(), key=lambda s: s.name)]
+        return [{"name": s.name, "type": s.type_name, "node": routes.service_nodes[s.name]}
+                for s in sorted(routes.services.values(), key=lambda s: s.name)]
 
 
 def _add_topic_routes(app: FastAPI, routes: _Routes) -> None:
@@ -269,7 +271,7 @@ async def _tick_forever(node: Node) -> None:
 
 def create_app(nodes: Sequence[Node], *, token: str | None = None,
                max_request_bytes: int = DEFAULT_MAX_REQUEST_BYTES, workers: int = 2,
-               ws_queue_size: int = 1000) -> FastAPI:
+               ws_queue_size: int = 1000, ready: Callable[[], bool] | None = None) -> FastAPI:
     """The FastAPI app serving ``nodes`` (see the module docstring for the routes).
 
     ``token``: required bearer token (set it whenever binding beyond 127.0.0.1); ``workers``: threads
@@ -298,6 +300,10 @@ def create_app(nodes: Sequence[Node], *, token: str | None = None,
     _add_service_routes(app, routes, executor)
     _add_topic_routes(app, routes)
     _add_param_routes(app, routes)
+
+    @app.get("/health", tags=["listings"])
+    async def health() -> dict[str, Any]:
+        return {"ready": True if ready is None else bool(ready())}
 
     @app.websocket("/ws/topic/{topic:path}")
     async def stream(websocket: WebSocket, topic: str) -> None:
