@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import typer
 
-from pfield.cli import _costmap, _demo, _manipulator, _mobile, _node, _ros2
+from pfield.cli import _costmap, _demo, _manipulator, _mobile, _node, _ros2, _viewer
 
 app = typer.Typer(
     name="pfield",
@@ -17,7 +17,7 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 
-for _module in (_demo, _node, _manipulator, _mobile, _costmap, _ros2):
+for _module in (_demo, _node, _manipulator, _mobile, _costmap, _ros2, _viewer):
     _module.register(app)
 
 __all__ = ["app"]
