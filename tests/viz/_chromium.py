@@ -39,7 +39,7 @@ def chromium_available() -> bool:
 class Browser:
     """One headless chromium with one page; ``screenshot()`` returns an (H, W, 3) uint8 array."""
 
-    def __init__(self, width: int = 1000, height: int = 700) -> None:
+    def __init__(self, width: int = 1280, height: int = 720) -> None:
         self.width, self.height = width, height
         self._profile = tempfile.mkdtemp(prefix="pfield-chromium-")
         self._process = subprocess.Popen([CHROMIUM, *FLAGS, f"--user-data-dir={self._profile}",
@@ -79,6 +79,11 @@ class Browser:
 
     def open(self, url: str) -> None:
         self.send("Page.navigate", url=url)
+
+    def dismiss_notifications(self) -> None:
+        """Close the page's pop-ups (viser warns that WebGL runs in software)."""
+        self.evaluate("document.querySelectorAll('.mantine-Notification-closeButton, "
+                      "[class*=Notification] button').forEach(b => b.click())")
 
     def evaluate(self, expression: str) -> Any:
         return self.send("Runtime.evaluate", expression=expression, returnByValue=True)["result"].get("value")

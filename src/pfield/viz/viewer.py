@@ -45,7 +45,7 @@ LIVE_TOPICS = ("/pfield/markers", "/pfield/obstacles", "/pfield/planned_path", "
 """The node topics a live viewer streams."""
 GOAL_HOLD = 1.0
 """s after a drag during which goals echoed back by the node do not move the gizmo."""
-CAMERA_POSITION, CAMERA_LOOK_AT = (0.75, -1.55, 0.95), (0.35, 0.0, 0.2)
+CAMERA_POSITION, CAMERA_LOOK_AT = (0.75, -0.95, 0.8), (0.62, 0.3, 0.12)
 
 
 def field_slice(field: Any, bounds: tuple[float, float, float, float], height: float, density: int
@@ -103,6 +103,7 @@ class Viewer:
         self._query: Pose | None = None
         self._autonomy: NDArray[np.float64] | None = None
         self._field_dirty = threading.Event()
+        self._message_lock = threading.Lock()
         self._closed = threading.Event()
         self._workers: list[threading.Thread] = []
         self.field_generation = 0
@@ -246,6 +247,10 @@ class Viewer:
         self.scene.set_influence(distance=self.config.influence_distance)
 
     def _on_message(self, topic: str, data: dict[str, Any]) -> None:
+        with self._message_lock:  # one stream at a time: markers and obstacle messages combine
+            self._show_message(topic, data)
+
+    def _show_message(self, topic: str, data: dict[str, Any]) -> None:
         if topic == "/pfield/obstacles" and self._tracker is not None:
             self._tracker.add_message(data)
             if self._markers is not None:
