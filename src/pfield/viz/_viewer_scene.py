@@ -169,7 +169,7 @@ class ViewerScene:
             points = np.asarray(positions, dtype=np.float64)
             segments = np.stack([points[:-1], points[1:]], axis=1)
             self._path_nodes.append(self.server.scene.add_line_segments("/path/line", segments, colors=PATH_COLOUR,
-                                                                        line_width=3.0))
+                                                                        thickness=3.0, thickness_units="screen"))
             if orientations is None:
                 return
             indices = sorted({*range(0, len(points), TRIAD_EVERY), len(points) - 1})

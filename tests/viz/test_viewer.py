@@ -1,0 +1,204 @@
+"""The 3D viewer without a browser: shape meshes, field slice, plan CSV and scene YAML readers, the node's
+markers turned back into obstacles, the offline viewer, the HTML export and ``pfield view``'s bad input."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from pfield import Box, Capsule, Cylinder, Ellipsoid, FieldConfig, Mesh, Obstacle, Pose, PotentialField, Sphere
+from pfield.errors import InvalidInput
+from pfield.geometry import ResourceResolver
+from pfield.planning.result import PlannedPath
+from pfield.viz._viewer_shapes import influence_mesh, shape_mesh
+from pfield.viz._viewer_state import ObstacleTracker
+from pfield.viz.viewer import Viewer, export_html, field_slice, read_plan_csv, read_scene
+
+
+def _extents(shape: object, grow: float | None = None) -> np.ndarray:
+    vertices, _ = shape_mesh(shape) if grow is None else influence_mesh(shape, grow)
+    return vertices.max(axis=0) - vertices.min(axis=0)
+
+
+def test_shape_meshes_have_the_shapes_sizes() -> None:
+    assert _extents(Box(0.1, 0.2, 0.3)) == pytest.approx([0.1, 0.2, 0.3])
+    assert _extents(Box(0.1, 0.2, 0.3), 0.05) == pytest.approx([0.2, 0.3, 0.4])
+    assert _extents(Sphere(0.1)) == pytest.approx([0.2, 0.2, 0.2], abs=1e-3)
+    assert _extents(Ellipsoid(0.1, 0.05, 0.2)) == pytest.approx([0.2, 0.1, 0.4], abs=1e-3)
+    assert _extents(Ellipsoid(0.1, 0.05, 0.2), 0.1) == pytest.approx([0.4, 0.3, 0.6], abs=1e-3)
+    assert _extents(Cylinder(0.05, 0.3))[2] == pytest.approx(0.3)
+    assert _extents(Capsule(0.05, 0.2))[2] == pytest.approx(0.3)  # shaft plus both caps
+    assert _extents(Capsule(0.05, 0.2), 0.1)[2] == pytest.approx(0.5)
+
+
+def test_a_mesh_is_drawn_scaled_and_its_zone_is_its_bounding_sphere_grown(tmp_path: Path) -> None:
+    import trimesh
+
+    trimesh.creation.box(extents=(0.1, 0.1, 0.1)).export(tmp_path / "cube.stl")
+    mesh = Mesh(str(tmp_path / "cube.stl"), 2.0, 1.0, 0.5, resolver=ResourceResolver(allowed_roots=[tmp_path]))
+    assert _extents(mesh) == pytest.approx([0.2, 0.1, 0.05])
+    radius = float(np.linalg.norm([0.1, 0.05, 0.025]))
+    assert _extents(mesh, 0.1) == pytest.approx([2 * (radius + 0.1)] * 3, abs=2e-3)
+
+
+def test_field_slice_arrows_follow_the_fields_twists() -> None:
+    obstacle = Obstacle("ball", Sphere(0.05), Pose((0.4, 0.1, 0.2)))
+    field = PotentialField(FieldConfig(), Pose((0.5, 0.2, 0.3)), [obstacle])
+    starts, vectors = field_slice(field, (0.0, 0.8, -0.4, 0.4), 0.25, 9)
+    assert starts.shape == (81, 3) and np.all(starts[:, 2] == 0.25)
+    assert starts[0] == pytest.approx([0.0, -0.4, 0.25]) and starts[-1] == pytest.approx([0.8, 0.4, 0.25])
+    linear = field.twists(starts)[:, :3]
+    cosine = np.sum(linear * vectors, axis=1) / (np.linalg.norm(linear, axis=1) * np.linalg.norm(vectors, axis=1))
+    assert cosine == pytest.approx(np.ones(81))
+    assert np.max(np.linalg.norm(vectors, axis=1)) == pytest.approx(0.8 * 0.1)  # 0.8 of a 0.1 m cell
+
+
+def _whole_body_plan() -> PlannedPath:
+    times = np.array([0.0, 0.02, 0.04])
+    return PlannedPath(success=True, failure_reason="", times=times,
+                       positions=[[0.3, 0.0, 0.5], [0.31, 0.0, 0.5], [0.32, 0.01, 0.49]],
+                       orientations=[[0, 0, 0, 1.0], [0, 0, 0.1, 0.99498743710662], [1.0, 0, 0, 0]],
+                       twists=np.full((3, 6), 0.125), clearances=[np.inf, 0.1, 1 / 3], iterations=2,
+                       joint_names=("a", "b"), joint_positions=[[0.0, 1.0], [0.1, 0.9], [0.2, 0.8]],
+                       joint_velocities=[[5.0, -5.0], [5.0, -5.0], [0.0, 0.0]])
+
+
+def test_plan_csv_round_trip_is_exact(tmp_path: Path) -> None:
+    plan = _whole_body_plan()
+    back = read_plan_csv(plan.to_csv(tmp_path / "plan.csv"))
+    for name in ("times", "positions", "orientations", "twists", "clearances", "joint_positions",
+                 "joint_velocities"):
+        assert np.array_equal(getattr(back, name), getattr(plan, name)), name
+    assert back.joint_names == ("a", "b") and back.success and back.iterations == 2
+
+
+@pytest.mark.parametrize(("text", "reason"), [
+    ("", "header row"),
+    ("time,x,y\n0,1,2\n", "first columns"),
+    ("time,x,y,z,qx,qy,qz,qw,vx,vy,vz,wx,wy,wz,clearance\n0,0,0,0,0,0,0,1,0,0,0,0,0,0,abc\n", "not a number"),
+    ("time,x,y,z,qx,qy,qz,qw,vx,vy,vz,wx,wy,wz,clearance\n0,0,0\n", "15 values"),
+])
+def test_a_bad_plan_csv_is_refused_naming_the_file(tmp_path: Path, text: str, reason: str) -> None:
+    source = tmp_path / "bad.csv"
+    source.write_text(text)
+    with pytest.raises(InvalidInput, match=reason) as error:
+        read_plan_csv(source)
+    assert error.value.field == "plan"
+    with pytest.raises(InvalidInput, match="cannot read"):
+        read_plan_csv(tmp_path / "missing.csv")
+
+
+def _scene_yaml(tmp_path: Path, kind: str = "Capsule") -> Path:
+    data = {"obstacles": [
+        {"frame_id": "pill", "type": kind, "group": "Dynamic", "radius": 0.05, "height": 0.2,
+         "pose": {"position": {"x": 0.4, "y": 0.1, "z": 0.2}, "orientation": {"w": 1.0}}},
+        {"frame_id": "crate", "type": "Box", "group": "Static", "length": 0.1, "width": 0.2, "height": 0.3,
+         "pose": {"position": {"x": 0.6}, "orientation": {"w": 1.0}}},
+    ]}
+    path = tmp_path / "scene.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def test_read_scene_gives_the_obstacles_of_an_obstacle_array(tmp_path: Path) -> None:
+    pill, crate = read_scene(_scene_yaml(tmp_path))
+    assert pill == Obstacle("pill", Capsule(0.05, 0.2), Pose((0.4, 0.1, 0.2)), group="Dynamic")
+    assert crate.shape == Box(0.1, 0.2, 0.3) and crate.pose == Pose((0.6, 0.0, 0.0))
+    with pytest.raises(InvalidInput, match="unknown shape") as error:
+        read_scene(_scene_yaml(tmp_path, "Blob"))
+    assert error.value.field == "obstacles[0].type"
+
+
+def test_markers_and_obstacle_messages_give_the_nodes_obstacles() -> None:
+    from pfield.interfaces.convert import obstacle_to_msg
+    from pfield.node._markers import state_markers
+
+    pill = Obstacle("pill", Capsule(0.05, 0.2), Pose((0.4, 0.1, 0.2)), group="Dynamic")
+    egg = Obstacle("egg", Ellipsoid(0.1, 0.05, 0.2), Pose((0.2, 0.0, 0.3), (0, 0, 1.0, 0)))
+    markers = state_markers("world", Pose((0.5, 0.2, 0.4)), [pill, egg], 0.1).model_dump()
+    tracker = ObstacleTracker(ResourceResolver.default())
+    shown, goal = tracker.from_markers(markers)
+    assert goal == Pose((0.5, 0.2, 0.4))
+    # Known only from its marker, a capsule is its bounding cylinder; the ellipsoid is exact.
+    assert [o.id for o in shown] == ["pill", "egg"] and isinstance(shown[0].shape, Cylinder)
+    assert (shown[0].shape.radius, shown[0].shape.height) == pytest.approx((0.05, 0.3))
+    assert isinstance(shown[1].shape, Ellipsoid) and shown[1].pose == egg.pose
+    assert (shown[1].shape.semi_x, shown[1].shape.semi_y, shown[1].shape.semi_z) == pytest.approx((0.1, 0.05, 0.2))
+    tracker.add_message({"obstacles": [obstacle_to_msg(pill).model_dump()]})
+    shown, _ = tracker.from_markers(markers)
+    assert shown[0] == pill
+
+
+@pytest.fixture(scope="module")
+def offline_viewer() -> Viewer:
+    from pfield.robot import RobotModel
+
+    viewer = Viewer(RobotModel.builtin("xarm7"), port=0)
+    yield viewer
+    viewer.close()
+
+
+def test_offline_viewer_plays_a_whole_body_plan(offline_viewer: Viewer) -> None:
+    robot = offline_viewer.robot
+    q0 = np.array([0.0, -0.6, 0.0, 0.7, 0.0, 1.3, 0.0])
+    obstacles = [Obstacle("ball", Sphere(0.05), Pose((0.5, 0.3, 0.1)))]
+    field = PotentialField(FieldConfig(), Pose((0.3, -0.25, 0.35), (1.0, 0, 0, 0)), obstacles)
+    plan = field.plan_whole_body(robot, q0, 0.02, 0.01, 3000)
+    offline_viewer.show_plan(plan, obstacles, field.goal)
+    assert [o.id for o in offline_viewer.scene.obstacles] == ["ball"]
+    assert offline_viewer.scene.duration == pytest.approx(plan.duration)
+    assert offline_viewer.time_slider.max == pytest.approx(plan.duration)
+    k = len(plan) // 2
+    offline_viewer.set_time(float(plan.times[k]))
+    assert offline_viewer.scene.configuration == pytest.approx(plan.joint_positions[k])
+    offline_viewer.set_time(1e9)  # clamped to the end
+    assert offline_viewer.scene.configuration == pytest.approx(plan.joint_positions[-1])
+    offline_viewer.refresh_field()
+    # "Plan from current pose" offline plans locally from the shown configuration (the plan's end).
+    replanned = offline_viewer.plan_from_current_pose()
+    assert replanned is not None and replanned.joint_positions is not None
+    assert replanned.joint_positions[0] == pytest.approx(plan.joint_positions[-1])
+    offline_viewer.clear_obstacles()
+    assert offline_viewer.scene.obstacles == []
+
+
+def test_export_html_is_self_contained(tmp_path: Path) -> None:
+    obstacles = [Obstacle("ball", Sphere(0.05), Pose((0.5, 0.3, 0.1)))]
+    plan = PotentialField(FieldConfig(), Pose((0.5, 0.0, 0.3)), obstacles).plan(
+        start=Pose((0.3, 0.0, 0.5)), dt=0.02, goal_tolerance=0.01, max_iterations=2000)
+    target = export_html(tmp_path / "page.html", plan, obstacles)
+    text = target.read_text()
+    assert text.startswith("<!") and "window.__VISER_EMBED_DATA__=" in text
+    assert "<script src=\"http" not in text and "<link href=\"http" not in text
+
+
+def _view(*args: str) -> object:
+    from pfield.cli import app
+
+    return CliRunner().invoke(app, ["view", *args])
+
+
+def test_pfield_view_exports_an_offline_plan(tmp_path: Path) -> None:
+    plan_file = _whole_body_plan().to_csv(tmp_path / "plan.csv")
+    out = tmp_path / "out.html"
+    result = _view("--plan", str(plan_file), "--scene", str(_scene_yaml(tmp_path)), "--robot", "none",
+                   "--export", str(out))
+    assert result.exit_code == 0, result.output
+    assert out.exists() and "__VISER_EMBED_DATA__" in out.read_text()
+
+
+@pytest.mark.parametrize(("args", "field"), [
+    (["--host", "0.0.0.0"], "--host"),
+    (["--plan", "/nonexistent/plan.csv"], "plan"),
+    (["--robot", "/nonexistent/robot.urdf"], "--end-effector"),
+])
+def test_pfield_view_refuses_bad_options(args: list[str], field: str) -> None:
+    result = _view(*args, "--robot", "none", "--export", "/tmp/never.html") if "--robot" not in args else \
+        _view(*args, "--export", "/tmp/never.html")
+    assert result.exit_code == 2
+    assert "error:" in result.output and field in result.output
+    assert not Path("/tmp/never.html").exists()
