@@ -16,7 +16,7 @@ from pfield.geometry import ResourceResolver
 from pfield.planning.result import PlannedPath
 from pfield.viz._viewer_shapes import influence_mesh, shape_mesh
 from pfield.viz._viewer_state import ObstacleTracker
-from pfield.viz.viewer import Viewer, export_html, field_slice, read_plan_csv, read_scene
+from pfield.viz.viewer import Viewer, export_html, field_slice, read_plan_csv
 
 
 def _extents(shape: object, grow: float | None = None) -> np.ndarray:
@@ -92,27 +92,6 @@ def test_a_bad_plan_csv_is_refused_naming_the_file(tmp_path: Path, text: str, re
         read_plan_csv(tmp_path / "missing.csv")
 
 
-def _scene_yaml(tmp_path: Path, kind: str = "Capsule") -> Path:
-    data = {"obstacles": [
-        {"frame_id": "pill", "type": kind, "group": "Dynamic", "radius": 0.05, "height": 0.2,
-         "pose": {"position": {"x": 0.4, "y": 0.1, "z": 0.2}, "orientation": {"w": 1.0}}},
-        {"frame_id": "crate", "type": "Box", "group": "Static", "length": 0.1, "width": 0.2, "height": 0.3,
-         "pose": {"position": {"x": 0.6}, "orientation": {"w": 1.0}}},
-    ]}
-    path = tmp_path / "scene.yaml"
-    path.write_text(yaml.safe_dump(data))
-    return path
-
-
-def test_read_scene_gives_the_obstacles_of_an_obstacle_array(tmp_path: Path) -> None:
-    pill, crate = read_scene(_scene_yaml(tmp_path))
-    assert pill == Obstacle("pill", Capsule(0.05, 0.2), Pose((0.4, 0.1, 0.2)), group="Dynamic")
-    assert crate.shape == Box(0.1, 0.2, 0.3) and crate.pose == Pose((0.6, 0.0, 0.0))
-    with pytest.raises(InvalidInput, match="unknown shape") as error:
-        read_scene(_scene_yaml(tmp_path, "Blob"))
-    assert error.value.field == "obstacles[0].type"
-
-
 def test_markers_and_obstacle_messages_give_the_nodes_obstacles() -> None:
     from pfield.interfaces.convert import obstacle_to_msg
     from pfield.node._markers import state_markers
@@ -176,6 +155,9 @@ def test_export_html_is_self_contained(tmp_path: Path) -> None:
     assert "<script src=\"http" not in text and "<link href=\"http" not in text
 
 
+SCENE = Path(__file__).resolve().parents[2] / "examples" / "manipulator" / "scene.yaml"
+
+
 def _view(*args: str) -> object:
     from pfield.cli import app
 
@@ -185,10 +167,17 @@ def _view(*args: str) -> object:
 def test_pfield_view_exports_an_offline_plan(tmp_path: Path) -> None:
     plan_file = _whole_body_plan().to_csv(tmp_path / "plan.csv")
     out = tmp_path / "out.html"
-    result = _view("--plan", str(plan_file), "--scene", str(_scene_yaml(tmp_path)), "--robot", "none",
-                   "--export", str(out))
+    result = _view("--plan", str(plan_file), "--scene", str(SCENE), "--robot", "none", "--export", str(out))
     assert result.exit_code == 0, result.output
     assert out.exists() and "__VISER_EMBED_DATA__" in out.read_text()
+
+
+def test_pfield_view_refuses_a_bad_scene(tmp_path: Path) -> None:
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(yaml.safe_dump({"obstacles": [{"frame_id": "x", "type": "Blob"}]}))
+    out = tmp_path / "out.html"
+    result = _view("--scene", str(scene), "--robot", "none", "--export", str(out))
+    assert result.exit_code == 2 and "obstacles[0].type" in result.output and not out.exists()
 
 
 @pytest.mark.parametrize(("args", "field"), [

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import tempfile
 import time
 from pathlib import Path
 from typing import Annotated
@@ -39,7 +40,7 @@ def view(
     url: Annotated[str, typer.Option(envvar="PFIELD_URL", help="address of the running node")] = DEFAULT_URL,
     token: Annotated[str | None, typer.Option(envvar="PFIELD_TOKEN", help="bearer token of the node")] = None,
     plan: Annotated[Path | None, typer.Option(help="offline: a plan CSV written by pfield (no node)")] = None,
-    scene: Annotated[Path | None, typer.Option(help="offline: obstacles YAML ({obstacles: [...]})")] = None,
+    scene: Annotated[Path | None, typer.Option(help="offline: a scene YAML as for pfield plan --scene")] = None,
     map: Annotated[Path | None, typer.Option(help="offline: a map_server YAML shown as the ground")] = None,
     export: Annotated[Path | None, typer.Option(help="write a self-contained HTML page here and exit")] = None,
     robot: Annotated[str, typer.Option(help="xarm7, panda, a URDF file, or none")] = "xarm7",
@@ -54,8 +55,9 @@ def view(
     logging.basicConfig(level=log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
     with cli_errors():
         _check_loopback(host)
+        from pfield.cli._manipulator import load_scene
         from pfield.geometry import ResourceResolver
-        from pfield.viz.viewer import Viewer, read_plan_csv, read_scene
+        from pfield.viz.viewer import Viewer, read_plan_csv
 
         packages = parse_package_paths(package_path or [])
         model = None if robot.lower() == "none" else load_robot(robot, end_effector, packages)
@@ -63,7 +65,7 @@ def view(
         resolver = ResourceResolver(package_paths=packages, allowed_roots=[*roots, *packages.values(), Path.cwd()])
         offline = plan is not None or scene is not None or map is not None
         path = read_plan_csv(plan) if plan is not None else None
-        obstacles = read_scene(scene, resolver) if scene is not None else []
+        scene_data = load_scene(scene, Path(tempfile.mkdtemp(prefix="pfield-view-"))) if scene is not None else {}
         grid = None
         if map is not None:
             from pfield.costmap.map_io import load_map
@@ -72,10 +74,13 @@ def view(
     viewer = Viewer(model, packages, host=host, port=0 if export is not None else port)
     try:
         if offline:
+            viewer.config = scene_data.get("config", viewer.config)
+            obstacles = scene_data.get("obstacles", [])
             viewer.set_obstacles(obstacles)
             viewer.scene.set_influence(distance=viewer.config.influence_distance)
+            viewer.set_goal(scene_data.get("goal"))
             if path is not None:
-                viewer.show_plan(path, obstacles)
+                viewer.show_plan(path, obstacles, scene_data.get("goal"))
             if grid is not None:
                 viewer.show_costmap(grid)
         else:

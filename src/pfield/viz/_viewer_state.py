@@ -1,4 +1,4 @@
-"""pfield values of what the viewer shows: a node's messages, plan CSV files and scene YAML files.
+"""pfield values of what the viewer shows: a node's messages and plan CSV files.
 
 Obstacles of a live node: the ``/pfield/markers`` array says which obstacles exist and where (one marker
 per obstacle in namespace ``obstacles``, its ``text`` the id, its pose already in the fixed frame); the
@@ -22,7 +22,7 @@ from pfield.errors import InvalidInput, PfieldError
 from pfield.planning.result import PlannedPath
 from pfield.spatial import Pose
 
-__all__ = ["ObstacleTracker", "path_arrays", "pose_of", "read_plan_csv", "read_scene"]
+__all__ = ["ObstacleTracker", "path_arrays", "pose_of", "read_plan_csv"]
 
 _log = logging.getLogger(__name__)
 _SPHERE, _CUBE, _CYLINDER, _MESH = 2, 1, 3, 10  # visualization_msgs/Marker types
@@ -143,29 +143,3 @@ def read_plan_csv(path: str | Path) -> PlannedPath:
                        orientations=table[:, 4:8], twists=table[:, 8:14], clearances=table[:, 14],
                        iterations=len(table) - 1, joint_names=names, joint_positions=joints,
                        joint_velocities=velocities)
-
-
-def read_scene(path: str | Path, resolver: Any = None) -> list[Any]:
-    """The obstacles of a YAML file holding an ObstacleArray (``obstacles: [...]``, the body of
-    ``pfield topic pub /pfield/obstacles``). Mesh URIs resolve through ``resolver`` (default: the file's
-    folder and the current directory)."""
-    import yaml
-
-    from pfield.geometry import Mesh, ResourceResolver
-    from pfield.interfaces import message_from_data
-    from pfield.interfaces import potential_fields_interfaces as pfi
-    from pfield.interfaces.convert import obstacle_from_msg
-
-    source = Path(path)
-    try:
-        data = yaml.safe_load(source.read_text())
-    except (OSError, yaml.YAMLError) as exc:
-        raise InvalidInput("scene", str(source), f"cannot read: {exc}") from None
-    if resolver is None:
-        resolver = ResourceResolver(allowed_roots=(source.parent.resolve(), Path.cwd()))
-    message = message_from_data(pfi.ObstacleArray, data)
-
-    def mesh(resource: str, sx: float, sy: float, sz: float) -> Any:
-        return Mesh(resource, sx, sy, sz, resolver=resolver)
-
-    return [obstacle_from_msg(item, mesh, f"obstacles[{i}]") for i, item in enumerate(message.obstacles)]

@@ -35,9 +35,9 @@ from pfield.field.config import FieldConfig
 from pfield.planning.result import PlannedPath
 from pfield.spatial import Pose
 from pfield.viz._viewer_scene import ViewerScene
-from pfield.viz._viewer_state import ObstacleTracker, path_arrays, pose_of, read_plan_csv, read_scene
+from pfield.viz._viewer_state import ObstacleTracker, path_arrays, pose_of, read_plan_csv
 
-__all__ = ["LIVE_TOPICS", "Viewer", "export_html", "field_slice", "read_plan_csv", "read_scene", "show_plan"]
+__all__ = ["LIVE_TOPICS", "Viewer", "export_html", "field_slice", "read_plan_csv", "show_plan"]
 
 _log = logging.getLogger(__name__)
 LIVE_TOPICS = ("/pfield/markers", "/pfield/obstacles", "/pfield/planned_path", "/pfield/query_pose",
