@@ -157,12 +157,22 @@ def _shows_colour(image: NDArray[np.uint8], pixel: tuple[int, int], colour: tupl
     return float(chroma @ want / (np.linalg.norm(chroma) * np.linalg.norm(want))) > 0.9
 
 
-def _obstacles_visible(viewer: Any, image: NDArray[np.uint8]) -> dict[str, bool]:
+def _canvas(browser: Browser) -> tuple[float, float, float, float]:
+    """left, top, width, height of the page's 3D canvas (px)."""
+    rect = browser.evaluate("(() => { const c = [...document.querySelectorAll('canvas')].sort((a, b) => "
+                            "b.width * b.height - a.width * a.height)[0]; if (!c) return null; "
+                            "const r = c.getBoundingClientRect(); return [r.left, r.top, r.width, r.height]; })()")
+    return tuple(rect) if rect else (0.0, 0.0, float(browser.width), float(browser.height))
+
+
+def _obstacles_visible(viewer: Any, image: NDArray[np.uint8], browser: Browser | None = None) -> dict[str, bool]:
     camera = _camera(viewer)
-    height, width = image.shape[:2]
+    left, top, width, height = _canvas(browser) if browser is not None else (0, 0, image.shape[1], image.shape[0])
     result = {}
     for obstacle in viewer.scene.obstacles:
-        pixel = _project(camera, np.asarray(obstacle.pose.position), width, height)
+        pixel = _project(camera, np.asarray(obstacle.pose.position), round(width), round(height))
+        if pixel is not None:
+            pixel = (pixel[0] + round(left), pixel[1] + round(top))
         result[obstacle.id] = pixel is not None and _shows_colour(image, pixel, viewer.scene.colour_of(obstacle.id))
     return result
 
@@ -211,25 +221,15 @@ def _drag(browser: Browser, start: tuple[int, int], end: tuple[int, int], steps:
                  clickCount=1, buttons=0)
 
 
-def _gizmo_moved_by_client(viewer: Any, position: NDArray[np.float64], wxyz: tuple[float, ...]) -> None:
-    """Deliver the message the page sends while the gizmo is dragged to the viewer's server (viser's
-    client-to-server TransformControlsUpdateMessage, handled on viser's event loop like a real one)."""
-    import asyncio
-
-    from viser import _messages
-
-    client_id = next(iter(viewer.server.get_clients()))
-    message = _messages.TransformControlsUpdateMessage(name="/goal", wxyz=tuple(float(v) for v in wxyz),
-                                                       position=tuple(float(v) for v in position))
-    handler = viewer.server.scene._handle_transform_controls_updates(client_id, message)
-    asyncio.run_coroutine_threadsafe(handler, viewer.server._event_loop).result(timeout=30)
-
-
 def test_dragging_the_goal_gizmo_publishes_a_goal_the_node_receives(live: Any, browser: Browser) -> None:
     before = live.goal
     assert before is not None and np.allclose(before.position, (0.35, 0.0, 0.45))
-    moved = np.asarray(before.position) + np.array([0.2, 0.0, 0.0])
-    _gizmo_moved_by_client(live, moved, (0.0, 1.0, 0.0, 0.0))
+    camera = _camera(live)
+    # Drag the gizmo's x arrow (the goal's x axis = world x: the goal is turned 180° about x) by 0.2 m.
+    grab = _project(camera, np.asarray(before.position) + np.array([0.075, 0.0, 0.0]), browser.width, browser.height)
+    drop = _project(camera, np.asarray(before.position) + np.array([0.275, 0.0, 0.0]), browser.width, browser.height)
+    assert grab is not None and drop is not None
+    _drag(browser, grab, drop, steps=20)
     browser.screenshot(ARTIFACTS / "viewer_goal_dragged.png")
 
     def node_goal() -> Any:
@@ -239,8 +239,10 @@ def test_dragging_the_goal_gizmo_publishes_a_goal_the_node_receives(live: Any, b
 
     goal = _until(node_goal, "the node never received a goal moved along x")
     position = goal["pose"]["position"]
-    assert (position["x"], position["y"], position["z"]) == pytest.approx(tuple(moved), abs=1e-6)
-    _until(lambda: np.allclose(live.scene._goal_handle.position, moved), "the gizmo did not stay where it was moved")
+    # Dragged along x only: y and z are unchanged, x moved by about the 0.2 m of the drag.
+    assert position["y"] == pytest.approx(0.0, abs=1e-9) and position["z"] == pytest.approx(0.45, abs=1e-9)
+    assert position["x"] == pytest.approx(0.55, abs=0.05)
+    assert np.allclose(live.goal.position, (position["x"], 0.0, 0.45), atol=1e-6)  # the viewer's goal agrees
 
 
 def test_the_robot_is_drawn_and_moves_with_the_time_slider(live: Any, browser: Browser) -> None:
@@ -301,11 +303,13 @@ def test_readme_screenshot_and_html_export(live: Any, browser: Browser, tmp_path
     image = browser.screenshot(README_IMAGE)
     assert image.shape[:2] == (browser.height, browser.width)
 
+    live.arrows_toggle.value = False  # type: ignore[misc]  # arrows at the obstacles' height would hide centres
+    live.refresh_field()
     target = live.export_html(ARTIFACTS / "viewer_export.html")
     text = target.read_text()
     assert "__VISER_EMBED_DATA__" in text and "http://" not in text.split("__VISER_EMBED_DATA__")[1][:200]
     browser.open(target.as_uri())
     # The page opens at the viewer's initial camera, the one the live page started with.
     exported = _screens_until(browser, live, "viewer_export.png",
-                              lambda im: all(_obstacles_visible(live, im).values()))
-    assert all(_obstacles_visible(live, exported).values()), _obstacles_visible(live, exported)
+                              lambda im: all(_obstacles_visible(live, im, browser).values()))
+    assert all(_obstacles_visible(live, exported, browser).values()), _obstacles_visible(live, exported, browser)
