@@ -191,3 +191,48 @@ def test_pfield_view_refuses_bad_options(args: list[str], field: str) -> None:
     assert result.exit_code == 2
     assert "error:" in result.output and field in result.output
     assert not Path("/tmp/never.html").exists()
+
+
+def test_live_costmap_and_find_valid_pose() -> None:
+    """The viewer follows ``pfield serve --map``: the costmap is drawn on the ground, and FindValidPose's
+    answer, asked through the viewer, is the node's own answer, drawn where it says."""
+    import time
+
+    import httpx
+    from _serve import pfield_serve
+
+    map_file = Path(__file__).resolve().parents[2] / "src" / "pfield" / "data" / "maps" / "example.yaml"
+    with pfield_serve("--map", str(map_file), "--footprint", "[[0.2, 0.2], [0.2, -0.2], [-0.2, -0.2], [-0.2, 0.2]]") \
+            as url, Viewer(None, port=0) as viewer:
+        viewer.connect(url)
+        deadline = time.monotonic() + 60
+        while viewer.server.scene.get_handle_by_name("/costmap") is None and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert viewer.server.scene.get_handle_by_name("/costmap") is not None, "no costmap drawn"
+        response = viewer.find_valid_pose(0.0, 0.0, 0.3)
+        direct = httpx.post(f"{url}/srv/pfield/find_valid_pose", trust_env=False, json={
+            "pose": {"pose": {"position": {"x": 0.0, "y": 0.0},
+                              "orientation": {"z": float(np.sin(0.15)), "w": float(np.cos(0.15))}}},
+            "dist_tolerance": 1.0, "angle_tolerance": float(np.pi), "costmap": 2}).json()
+        assert response == direct
+        answer = direct["pose"]["pose"]["position"]
+        frame = viewer.server.scene.get_handle_by_name("/valid_pose")
+        assert frame is not None and frame.position[:2] == pytest.approx([answer["x"], answer["y"]])
+
+
+def test_find_valid_pose_needs_a_node(offline_viewer: Viewer) -> None:
+    with pytest.raises(InvalidInput, match="needs a node"):
+        offline_viewer.find_valid_pose(0.0, 0.0, 0.0)
+
+
+def test_costmap_image_rows_follow_the_occupancy_grid(offline_viewer: Viewer) -> None:
+    from pfield.costmap.map_io import OccupancyMap
+
+    data = np.zeros((4, 6), dtype=np.int8)
+    data[0, 0] = 100  # bottom-left cell (row 0 at the bottom) occupied
+    data[3, 5] = -1   # top-right cell unknown
+    offline_viewer.show_costmap(OccupancyMap(data, 0.5, (-1.0, -2.0, 0.0)), (0.2, 0.3, 0.5))
+    image = offline_viewer.server.scene.get_handle_by_name("/costmap")
+    assert image is not None
+    assert tuple(image.position) == pytest.approx((-1.0 + 1.5, -2.0 + 1.0, -0.001))  # centre of 3 m x 2 m
+    assert (image.render_width, image.render_height) == pytest.approx((3.0, 2.0))

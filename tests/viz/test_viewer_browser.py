@@ -9,10 +9,6 @@ and move with the time slider.
 from __future__ import annotations
 
 import math
-import os
-import socket
-import subprocess
-import sys
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -22,6 +18,7 @@ import httpx
 import numpy as np
 import pytest
 from _chromium import Browser, chromium_available
+from _serve import pfield_serve
 from numpy.typing import NDArray
 
 ARTIFACTS = Path(__file__).resolve().parents[2] / "build" / "test-artifacts"
@@ -30,12 +27,6 @@ WAIT = 120.0
 """s to wait for the page to show something (software WebGL on 2 shared cores is slow)."""
 
 pytestmark = pytest.mark.slow
-
-
-def _free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return int(probe.getsockname()[1])
 
 
 def _obstacle(frame_id: str, kind: str, position: tuple[float, float, float], **sizes: Any) -> dict[str, Any]:
@@ -64,24 +55,8 @@ def node(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, Path]]
 
     folder = tmp_path_factory.mktemp("meshes")
     trimesh.creation.icosphere(subdivisions=2, radius=0.06).export(folder / "rock.stl")
-    port = _free_port()
-    env = dict(os.environ)
-    env["PYTHONPATH"] = str(Path(__file__).resolve().parents[2] / "src")
-    process = subprocess.Popen([sys.executable, "-c", "from pfield.cli import app; app()", "serve", "--port",
-                                str(port), "--mesh-root", str(folder), "--log-level", "warning"], env=env)
-    url = f"http://127.0.0.1:{port}"
-    deadline = time.monotonic() + 120
-    while True:
-        try:
-            if httpx.get(f"{url}/nodes", trust_env=False).status_code == 200:
-                break
-        except httpx.HTTPError:
-            pass
-        assert process.poll() is None and time.monotonic() < deadline, "pfield serve did not start"
-        time.sleep(0.2)
-    yield url, folder
-    process.terminate()
-    process.wait(timeout=20)
+    with pfield_serve("--mesh-root", str(folder)) as url:
+        yield url, folder
 
 
 @pytest.fixture(scope="module")

@@ -22,6 +22,7 @@ the plan without a server.
 from __future__ import annotations
 
 import logging
+import math
 import threading
 import time
 from collections.abc import Mapping, Sequence
@@ -31,6 +32,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
 from pfield.planning.result import PlannedPath
 from pfield.spatial import Pose
@@ -137,12 +139,19 @@ class Viewer:
             self.time_slider = gui.add_slider("Time (s)", min=0.0, max=1.0, step=0.02, initial_value=0.0)
             self.play_toggle = gui.add_checkbox("Play", False)
             self.status = gui.add_markdown("")
+        with gui.add_folder("Costmap", expand_by_default=False):
+            self.valid_x = gui.add_number("x (m)", initial_value=0.0, step=0.05)
+            self.valid_y = gui.add_number("y (m)", initial_value=0.0, step=0.05)
+            self.valid_yaw = gui.add_number("yaw (rad)", initial_value=0.0, step=0.05)
+            self.valid_button = gui.add_button("Find valid pose")
+            self.valid_status = gui.add_markdown("")
         self.influence_toggle.on_update(lambda _: self.scene.set_influence(visible=self.influence_toggle.value))
         for control in (self.arrows_toggle, self.slice_height, self.arrow_density):
             control.on_update(lambda _: self._field_dirty.set())
         self.time_slider.on_update(lambda _: self.scene.set_time(float(self.time_slider.value)))
         self.plan_button.on_click(lambda _: self._start(self.plan_from_current_pose, "pfield-view-plan"))
         self.clear_button.on_click(lambda _: self._start(self.clear_obstacles, "pfield-view-clear"))
+        self.valid_button.on_click(lambda _: self._start(self._find_valid_pose_clicked, "pfield-view-valid"))
 
     def _say(self, text: str) -> None:
         self.status.content = text
@@ -281,12 +290,43 @@ class Viewer:
         if time.monotonic() - self._moved_at > GOAL_HOLD:
             self.set_goal(goal)
 
-    def _on_costmap(self, data: Mapping[str, Any], valid_pose: tuple[float, float, float] | None = None) -> None:
+    def _on_costmap(self, data: Mapping[str, Any]) -> None:
         from pfield.costmap.map_io import OccupancyMap
         from pfield.interfaces.nav_msgs import OccupancyGrid
 
-        grid = OccupancyMap.from_message(OccupancyGrid.model_validate(data))
-        self.show_costmap(grid, valid_pose)
+        self._grid = OccupancyMap.from_message(OccupancyGrid.model_validate(data))
+        self.show_costmap(self._grid, self._valid_pose)
+
+    _grid: Any = None
+    _valid_pose: tuple[float, float, float] | None = None
+
+    def find_valid_pose(self, x: float, y: float, yaw: float, dist_tolerance: float = 1.0,
+                        angle_tolerance: float = math.pi) -> dict[str, Any]:
+        """Ask the node's ``/pfield/find_valid_pose`` (global costmap) for the closest valid pose to
+        ``(x, y, yaw)`` (m, rad, map frame), draw the answer on the costmap and return the response."""
+        if self.link is None:
+            raise InvalidInput("url", None, "FindValidPose needs a node: connect the viewer first")
+        from pfield.interfaces.convert import pose_to_msg
+
+        request = {"pose": {"pose": pose_to_msg(Pose.planar(x, y, yaw)).model_dump()},
+                   "dist_tolerance": dist_tolerance, "angle_tolerance": angle_tolerance, "costmap": 2}
+        response = self.link.call("/pfield/find_valid_pose", request)
+        answer = pose_of(response.get("pose", {}).get("pose", {}))
+        self._valid_pose = (float(answer.position[0]), float(answer.position[1]), answer.yaw)
+        if self._grid is not None:
+            self.show_costmap(self._grid, self._valid_pose)
+        return response
+
+    def _find_valid_pose_clicked(self) -> None:
+        try:
+            response = self.find_valid_pose(float(self.valid_x.value), float(self.valid_y.value),
+                                            float(self.valid_yaw.value))
+        except Exception as exc:
+            self.valid_status.content = f"failed: {exc}"
+            return
+        x, y, yaw = self._valid_pose or (0.0, 0.0, 0.0)
+        self.valid_status.content = f"state {response.get('state')}, cost {response.get('cost')}: " \
+                                    f"({x:.2f}, {y:.2f}, {yaw:.2f})"
 
     def show_costmap(self, grid: Any, valid_pose: tuple[float, float, float] | None = None) -> None:
         """Draw an :class:`~pfield.costmap.map_io.OccupancyMap` on the ground (free white, occupied black,
