@@ -181,7 +181,7 @@ def test_pfield_view_refuses_a_bad_scene(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("args", "field"), [
-    (["--host", "0.0.0.0"], "--host"),
+    (["--host", "0.0.0.0"], "--page-token"),
     (["--plan", "/nonexistent/plan.csv"], "plan"),
     (["--robot", "/nonexistent/robot.urdf"], "--end-effector"),
 ])
@@ -236,3 +236,27 @@ def test_costmap_image_rows_follow_the_occupancy_grid(offline_viewer: Viewer) ->
     assert image is not None
     assert tuple(image.position) == pytest.approx((-1.0 + 1.5, -2.0 + 1.0, -0.001))  # centre of 3 m x 2 m
     assert (image.render_width, image.render_height) == pytest.approx((3.0, 2.0))
+
+
+def test_a_page_served_with_a_token_admits_only_requests_that_carry_it() -> None:
+    import httpx
+
+    with Viewer(None, port=0, token="s3cret") as viewer:
+        base = viewer.url.split("?")[0]
+        assert viewer.url == base + "?token=s3cret"
+        with httpx.Client(trust_env=False, timeout=30) as client:
+            refused = client.get(base)
+            assert refused.status_code == 401
+            assert client.get(base + "?token=wrong").status_code == 401
+            admitted = client.get(viewer.url)
+            assert admitted.status_code == 200 and "<html" in admitted.text.lower()
+            assert "pfield_token=s3cret" in admitted.headers.get("set-cookie", "")
+        with httpx.Client(trust_env=False, timeout=30) as client:  # the cookie alone, or the bearer header
+            assert client.get(base, headers={"Cookie": "pfield_token=s3cret"}).status_code == 200
+            assert client.get(base, headers={"Authorization": "Bearer s3cret"}).status_code == 200
+
+
+def test_a_page_beyond_loopback_needs_a_token() -> None:
+    with pytest.raises(InvalidInput, match="needs a token") as error:
+        Viewer(None, host="0.0.0.0", port=0)
+    assert error.value.field == "host"

@@ -288,3 +288,12 @@ def test_readme_screenshot_and_html_export(live: Any, browser: Browser, tmp_path
     exported = _screens_until(browser, live, "viewer_export.png",
                               lambda im: all(_obstacles_visible(live, im, browser).values()))
     assert all(_obstacles_visible(live, exported, browser).values()), _obstacles_visible(live, exported, browser)
+
+
+def test_a_page_with_a_token_loads_in_the_browser(browser: Browser) -> None:
+    """The token in the URL admits the page, and the cookie it sets admits the page's own WebSocket."""
+    from pfield.viz.viewer import Viewer
+
+    with Viewer(None, port=0, token="s3cret") as viewer:
+        browser.open(viewer.url)
+        _until(lambda: len(viewer.server.get_clients()) == 1, "the page never connected through the gate")

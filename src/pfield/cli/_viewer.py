@@ -24,18 +24,6 @@ from pfield.transport import DEFAULT_URL
 __all__ = ["register", "view"]
 
 
-def _check_loopback(host: str) -> None:
-    import ipaddress
-
-    try:
-        loopback = host == "localhost" or ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        loopback = False
-    if not loopback:
-        raise InvalidInput("--host", host, "the viewer page has no authentication and is served on loopback only; "
-                                           "reach it from elsewhere through an SSH tunnel (ssh -L 8080:127.0.0.1:8080)")
-
-
 def view(
     url: Annotated[str, typer.Option(envvar="PFIELD_URL", help="address of the running node")] = DEFAULT_URL,
     token: Annotated[str | None, typer.Option(envvar="PFIELD_TOKEN", help="bearer token of the node")] = None,
@@ -47,14 +35,16 @@ def view(
     end_effector: EndEffectorOption = None,
     package_path: PackagePathOption = None,
     mesh_root: MeshRootOption = None,
-    host: Annotated[str, typer.Option(help="address the page is served on (loopback only)")] = "127.0.0.1",
+    host: Annotated[str, typer.Option(help="address the page is served on; other than loopback needs "
+                                           "--page-token")] = "127.0.0.1",
+    page_token: Annotated[str | None, typer.Option(envvar="PFIELD_VIEW_TOKEN",
+                                                   help="token the page's visitors must give (?token=...)")] = None,
     port: Annotated[int, typer.Option(help="TCP port of the page")] = 8080,
     log_level: Annotated[str, typer.Option(help="debug, info, warning or error")] = "warning",
 ) -> None:
     """Open the 3D viewer: obstacles, influence zones, goal gizmo, plans, the robot and the field arrows."""
     logging.basicConfig(level=log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
     with cli_errors():
-        _check_loopback(host)
         from pfield.cli._manipulator import load_scene
         from pfield.geometry import ResourceResolver
         from pfield.viz.viewer import Viewer, read_plan_csv
@@ -71,7 +61,11 @@ def view(
             from pfield.costmap.map_io import load_map
 
             grid = load_map(map)
-    viewer = Viewer(model, packages, host=host, port=0 if export is not None else port)
+        try:
+            viewer = Viewer(model, packages, host=host, port=0 if export is not None else port, token=page_token)
+        except InvalidInput as exc:
+            raise InvalidInput("--host", host, "serving the page beyond this machine needs --page-token "
+                                               "(or PFIELD_VIEW_TOKEN)") if exc.field == "host" else exc from None
     try:
         if offline:
             viewer.config = scene_data.get("config", viewer.config)

@@ -84,10 +84,21 @@ class Viewer:
     """
 
     def __init__(self, robot: Any = None, package_paths: Mapping[str, Path] | None = None, *,
-                 host: str = "127.0.0.1", port: int = 8080, config: FieldConfig | None = None) -> None:
+                 host: str = "127.0.0.1", port: int = 8080, config: FieldConfig | None = None,
+                 token: str | None = None) -> None:
         import viser
 
-        self.server = viser.ViserServer(host=host, port=port, label="pfield", verbose=False)
+        if not _is_loopback(host) and not token:
+            raise InvalidInput("host", host, "serving the page beyond this machine needs a token")
+        self._gate: Any = None
+        self.token = token
+        if token:  # viser on loopback behind a token gate on the asked address
+            from pfield.viz._viewer_gate import TokenGate
+
+            self.server = viser.ViserServer(host="127.0.0.1", port=0, label="pfield", verbose=False)
+            self._gate = TokenGate(host, port, self.server.get_port(), token).start()
+        else:
+            self.server = viser.ViserServer(host=host, port=port, label="pfield", verbose=False)
         self.server.scene.set_up_direction("+z")
         self.server.initial_camera.position = CAMERA_POSITION
         self.server.initial_camera.look_at = CAMERA_LOOK_AT
@@ -117,6 +128,9 @@ class Viewer:
 
     @property
     def url(self) -> str:
+        """The page's address (with ``?token=`` when it has one)."""
+        if self._gate is not None:
+            return f"http://{self._gate.host}:{self._gate.port}/?token={self.token}"
         return f"http://{self.server.get_host()}:{self.server.get_port()}"
 
     def _start(self, target: Any, name: str) -> None:
@@ -425,6 +439,8 @@ class Viewer:
             self.link.close()
         for thread in self._workers:
             thread.join(timeout=3.0)
+        if self._gate is not None:
+            self._gate.stop()
         self.server.stop()
 
     def __enter__(self) -> Viewer:
@@ -432,6 +448,15 @@ class Viewer:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _is_loopback(host: str) -> bool:
+    import ipaddress
+
+    try:
+        return host == "localhost" or ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
 
 
 def _package_paths(robot: Any, given: Mapping[str, Path] | None) -> dict[str, Path]:
