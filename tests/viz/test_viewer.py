@@ -260,3 +260,15 @@ def test_a_page_beyond_loopback_needs_a_token() -> None:
     with pytest.raises(InvalidInput, match="needs a token") as error:
         Viewer(None, host="0.0.0.0", port=0)
     assert error.value.field == "host"
+
+
+def test_the_demo_section_writes_the_html_page(tmp_path: Path) -> None:
+    from rich.console import Console
+
+    from pfield.demo import viewer as demo_viewer
+
+    console = Console(record=True, width=200)
+    demo_viewer.run(tmp_path, console)
+    page = tmp_path / "viewer.html"
+    assert page.exists() and "window.__VISER_EMBED_DATA__=" in page.read_text()
+    assert str(page) in console.export_text().replace("\n", "")
