@@ -62,6 +62,8 @@ class ViewerScene:
         self._field_handle: Any = None
         self._query_nodes: list[Any] = []
         self._costmap_nodes: list[Any] = []
+        self.configuration: NDArray[np.float64] | None = None
+        """The joint angles the robot is drawn at (None without a robot)."""
         if robot is not None:
             self._load_robot(robot, package_paths or {})
 
@@ -224,9 +226,6 @@ class ViewerScene:
             cfg = np.where(self._joint_order >= 0, values[np.maximum(self._joint_order, 0)], self._joint_fill)
             self._urdf.update_cfg(cfg)
             self.configuration = values.copy()
-
-    configuration: NDArray[np.float64] | None = None
-    """The joint angles the robot is drawn at (None without a robot)."""
 
     def set_trajectory(self, times: NDArray[np.float64] | None, joint_positions: NDArray[np.float64] | None) -> None:
         """The whole-body trajectory the time slider plays (None: keep the robot where it is)."""

@@ -36,43 +36,18 @@ from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
 from pfield.planning.result import PlannedPath
 from pfield.spatial import Pose
+from pfield.viz._viewer_field import field_slice, scene_bounds
 from pfield.viz._viewer_scene import ViewerScene
 from pfield.viz._viewer_state import ObstacleTracker, path_arrays, pose_of, read_plan_csv
 
 __all__ = ["LIVE_TOPICS", "Viewer", "export_html", "field_slice", "read_plan_csv", "show_plan"]
 
+
 _log = logging.getLogger(__name__)
 LIVE_TOPICS = ("/pfield/markers", "/pfield/obstacles", "/pfield/planned_path", "/pfield/query_pose",
                "/pfield/autonomy_vector", "/costmap/costmap")
 """The node topics a live viewer streams."""
-GOAL_HOLD = 1.0
-"""s after a drag during which goals echoed back by the node do not move the gizmo."""
 CAMERA_POSITION, CAMERA_LOOK_AT = (0.75, -0.95, 0.8), (0.62, 0.3, 0.12)
-
-
-def field_slice(field: Any, bounds: tuple[float, float, float, float], height: float, density: int
-                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Arrow starts (N, 3) on a ``density`` × ``density`` grid over ``bounds`` = (x0, x1, y0, y1) at
-    ``z = height`` (m) and the field's limited linear twist there, scaled so the longest arrow is 0.8 of
-    a grid cell (N = density²). One batched call of :meth:`PotentialField.twists`."""
-    x0, x1, y0, y1 = bounds
-    xs, ys = np.linspace(x0, x1, density), np.linspace(y0, y1, density)
-    gx, gy = np.meshgrid(xs, ys, indexing="xy")
-    starts = np.stack([gx.ravel(), gy.ravel(), np.full(gx.size, float(height))], axis=1)
-    linear = np.asarray(field.twists(starts))[:, :3]
-    longest = float(np.max(np.linalg.norm(linear, axis=1)))
-    cell = min((x1 - x0), (y1 - y0)) / max(density - 1, 1)
-    return starts, linear * (0.8 * cell / longest if longest > 0 else 0.0)
-
-
-def _bounds(points: Sequence[NDArray[np.float64]], margin: float = 0.15, least: float = 0.6
-            ) -> tuple[float, float, float, float]:
-    """x/y extents of ``points`` plus ``margin`` (m), at least ``least`` wide on each axis."""
-    cloud = np.vstack([np.atleast_2d(p)[:, :3] for p in points] or [np.zeros((1, 3))])
-    lo, hi = cloud.min(axis=0)[:2] - margin, cloud.max(axis=0)[:2] + margin
-    grow = np.maximum(least - (hi - lo), 0.0) / 2
-    lo, hi = lo - grow, hi + grow
-    return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
 
 
 class Viewer:
@@ -109,14 +84,15 @@ class Viewer:
         self.config = config or FieldConfig()
         self.goal: Pose | None = None
         self.link: Any = None
-        self._tracker: ObstacleTracker | None = None
-        self._markers: Mapping[str, Any] | None = None
-        self._moved_at = -np.inf
-        self._path: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
-        self._query: Pose | None = None
-        self._autonomy: NDArray[np.float64] | None = None
+        """The :class:`~pfield.viz._viewer_link.NodeLink` to the node (None offline)."""
+        self.live: Any = None
+        """What the node's messages said (:class:`~pfield.viz._viewer_live.LiveState`; None offline)."""
+        self.moved_at = -np.inf
+        """time.monotonic() of the last goal drag."""
+        self.path_arrays: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+        """Positions and orientations of the path shown."""
+        self.valid_pose: tuple[float, float, float] | None = None
         self._field_dirty = threading.Event()
-        self._message_lock = threading.Lock()
         self._closed = threading.Event()
         self._workers: list[threading.Thread] = []
         self.field_generation = 0
@@ -182,7 +158,7 @@ class Viewer:
 
     def set_path(self, path: PlannedPath) -> None:
         """Show ``path``: its end-effector line and triads and, for a whole-body plan, the robot along it."""
-        self._path = (path.positions, path.orientations)
+        self.path_arrays = (path.positions, path.orientations)
         self.scene.set_path(path.positions, path.orientations)
         if path.joint_positions is not None and self.scene.has_robot:
             self._set_trajectory(path.times, path.joint_positions)
@@ -221,9 +197,9 @@ class Viewer:
         else:
             content = [np.asarray(o.pose.position) for o in self.scene.obstacles]
             content += [np.asarray(field.goal.position), np.zeros(3)]
-            if self._path is not None:
-                content.append(self._path[0])
-            bounds = _bounds(content)
+            if self.path_arrays is not None:
+                content.append(self.path_arrays[0])
+            bounds = scene_bounds(content)
             starts, vectors = field_slice(field, bounds, float(self.slice_height.value),
                                           int(self.arrow_density.value))
             self.scene.set_field_arrows(starts, vectors)
@@ -252,67 +228,13 @@ class Viewer:
         """Follow the node at ``url`` (see the module docstring); ``resolver`` reads mesh URIs."""
         from pfield.geometry import ResourceResolver
         from pfield.viz._viewer_link import NodeLink
+        from pfield.viz._viewer_live import LiveState
 
-        self._tracker = ObstacleTracker(resolver or ResourceResolver.default())
-        self.link = NodeLink(url, LIVE_TOPICS, self._on_message, token=token)
-        self._load_parameters()
+        self.live = LiveState(self, ObstacleTracker(resolver or ResourceResolver.default()))
+        self.link = NodeLink(url, LIVE_TOPICS, self.live.on_message, token=token)
+        self.live.load_parameters()
         self.link.start()
         return self
-
-    def _load_parameters(self) -> None:
-        try:
-            values = self.link.get("/param/pfield_manager")
-        except Exception as exc:
-            _log.warning("cannot read the field parameters: %s", exc)
-            return
-        known = set(FieldConfig().as_dict())
-        self.config = self.config.replace(**{k: v for k, v in values.items() if k in known})
-        self.scene.set_influence(distance=self.config.influence_distance)
-
-    def _on_message(self, topic: str, data: dict[str, Any]) -> None:
-        with self._message_lock:  # one stream at a time: markers and obstacle messages combine
-            self._show_message(topic, data)
-
-    def _show_message(self, topic: str, data: dict[str, Any]) -> None:
-        if topic == "/pfield/obstacles" and self._tracker is not None:
-            self._tracker.add_message(data)
-            if self._markers is not None:
-                self._on_markers(self._markers, reload=False)
-        elif topic == "/pfield/markers":
-            self._on_markers(data, reload=True)
-        elif topic == "/pfield/planned_path":
-            positions, orientations = path_arrays(data)
-            self._path = (positions, orientations)
-            self.scene.set_path(positions, orientations)
-        elif topic == "/pfield/query_pose":
-            self._query = pose_of(data.get("pose", {}))
-            self.scene.set_query(self._query, self._autonomy)
-        elif topic == "/pfield/autonomy_vector":
-            linear = data.get("twist", {}).get("linear", {})
-            self._autonomy = np.array([linear.get("x", 0.0), linear.get("y", 0.0), linear.get("z", 0.0)])
-            self.scene.set_query(self._query, self._autonomy)
-        elif topic == "/costmap/costmap":
-            self._on_costmap(data)
-
-    def _on_markers(self, data: Mapping[str, Any], reload: bool) -> None:
-        assert self._tracker is not None
-        self._markers = data
-        if reload:
-            self._load_parameters()
-        obstacles, goal = self._tracker.from_markers(data)
-        self.set_obstacles(obstacles)
-        if time.monotonic() - self._moved_at > GOAL_HOLD:
-            self.set_goal(goal)
-
-    def _on_costmap(self, data: Mapping[str, Any]) -> None:
-        from pfield.costmap.map_io import OccupancyMap
-        from pfield.interfaces.nav_msgs import OccupancyGrid
-
-        self._grid = OccupancyMap.from_message(OccupancyGrid.model_validate(data))
-        self.show_costmap(self._grid, self._valid_pose)
-
-    _grid: Any = None
-    _valid_pose: tuple[float, float, float] | None = None
 
     def find_valid_pose(self, x: float, y: float, yaw: float, dist_tolerance: float = 1.0,
                         angle_tolerance: float = math.pi) -> dict[str, Any]:
@@ -326,9 +248,9 @@ class Viewer:
                    "dist_tolerance": dist_tolerance, "angle_tolerance": angle_tolerance, "costmap": 2}
         response = self.link.call("/pfield/find_valid_pose", request)
         answer = pose_of(response.get("pose", {}).get("pose", {}))
-        self._valid_pose = (float(answer.position[0]), float(answer.position[1]), answer.yaw)
-        if self._grid is not None:
-            self.show_costmap(self._grid, self._valid_pose)
+        self.valid_pose = (float(answer.position[0]), float(answer.position[1]), answer.yaw)
+        if self.live is not None and self.live.grid is not None:
+            self.show_costmap(self.live.grid, self.valid_pose)
         return response
 
     def _find_valid_pose_clicked(self) -> None:
@@ -338,7 +260,7 @@ class Viewer:
         except Exception as exc:
             self.valid_status.content = f"failed: {exc}"
             return
-        x, y, yaw = self._valid_pose or (0.0, 0.0, 0.0)
+        x, y, yaw = self.valid_pose or (0.0, 0.0, 0.0)
         self.valid_status.content = f"state {response.get('state')}, cost {response.get('cost')}: " \
                                     f"({x:.2f}, {y:.2f}, {yaw:.2f})"
 
@@ -352,7 +274,7 @@ class Viewer:
         self.scene.set_costmap(rgb, grid.resolution, grid.origin[:2], valid_pose)
 
     def _on_goal_dragged(self, pose: Pose) -> None:
-        self._moved_at = time.monotonic()
+        self.moved_at = time.monotonic()
         self.goal = pose
         self._field_dirty.set()
         if self.link is not None:
@@ -370,8 +292,10 @@ class Viewer:
             return None
         method = str(self.method.value) if self.scene.has_robot else "task_space"
         q = self.scene.configuration
-        start = self.robot.forward_kinematics(q) if q is not None else Pose(self._path[0][0]) if self._path \
-            else Pose()
+        if q is not None:
+            start = self.robot.forward_kinematics(q)
+        else:
+            start = Pose(self.path_arrays[0][0]) if self.path_arrays is not None else Pose()
         self._say(f"planning ({method}) ...")
         try:
             if self.link is not None:
@@ -405,7 +329,7 @@ class Viewer:
             times = np.array([p["time_from_start"]["sec"] + 1e-9 * p["time_from_start"]["nanosec"] for p in points])
             self._set_trajectory(times, joints)
         positions, orientations = path_arrays(response.get("end_effector_path", {}))
-        self._path = (positions, orientations)
+        self.path_arrays = (positions, orientations)
         self.scene.set_path(positions, orientations)
         self._say(f"{method}: {'reached' if response.get('success') else response.get('error_message')}")
 
