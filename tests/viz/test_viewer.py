@@ -272,3 +272,16 @@ def test_the_demo_section_writes_the_html_page(tmp_path: Path) -> None:
     page = tmp_path / "viewer.html"
     assert page.exists() and "window.__VISER_EMBED_DATA__=" in page.read_text()
     assert str(page) in console.export_text().replace("\n", "")
+
+
+def test_planned_path_show_serves_the_plan() -> None:
+    import httpx
+
+    plan = _whole_body_plan()
+    viewer = plan.show([Obstacle("ball", Sphere(0.05), Pose((0.5, 0.3, 0.1)))], port=0, block=False)
+    try:
+        assert [o.id for o in viewer.scene.obstacles] == ["ball"]
+        assert viewer.goal == plan.final_pose
+        assert httpx.get(viewer.url, trust_env=False, timeout=30).status_code == 200
+    finally:
+        viewer.close()
