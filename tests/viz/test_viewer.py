@@ -57,6 +57,21 @@ def test_field_slice_arrows_follow_the_fields_twists() -> None:
     assert np.max(np.linalg.norm(vectors, axis=1)) == pytest.approx(0.8 * 0.1)  # 0.8 of a 0.1 m cell
 
 
+@pytest.mark.parametrize(("bounds", "height", "density", "field"), [
+    ((0.0, 1.0, 0.0, 1.0), 0.2, 1, "density"),
+    ((0.0, 1.0, 0.0, 1.0), 0.2, 2.5, "density"),
+    ((0.0, 1.0, 0.0, 1.0), float("nan"), 5, "height"),
+    ((1.0, 0.0, 0.0, 1.0), 0.2, 5, "bounds"),
+    ((0.0, float("inf"), 0.0, 1.0), 0.2, 5, "bounds[1]"),
+])
+def test_field_slice_refuses_bad_input(bounds: tuple[float, float, float, float], height: float, density: int,
+                                       field: str) -> None:
+    plain = PotentialField(FieldConfig(), Pose((0.5, 0.2, 0.3)))
+    with pytest.raises(InvalidInput) as error:
+        field_slice(plain, bounds, height, density)
+    assert error.value.field == field
+
+
 def _whole_body_plan() -> PlannedPath:
     times = np.array([0.0, 0.02, 0.04])
     return PlannedPath(success=True, failure_reason="", times=times,

@@ -8,6 +8,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pfield._validation import finite
+from pfield.errors import InvalidInput
+
 __all__ = ["field_slice", "scene_bounds"]
 
 
@@ -16,7 +19,12 @@ def field_slice(field: Any, bounds: tuple[float, float, float, float], height: f
     """Arrow starts (N, 3) on a ``density`` × ``density`` grid over ``bounds`` = (x0, x1, y0, y1) at
     ``z = height`` (m) and the field's limited linear twist there, scaled so the longest arrow is 0.8 of
     a grid cell (N = density²). One batched call of :meth:`PotentialField.twists`."""
-    x0, x1, y0, y1 = bounds
+    if isinstance(density, bool) or not isinstance(density, int | np.integer) or density < 2:
+        raise InvalidInput("density", density, "must be an integer >= 2 (arrows per side)")
+    height = finite("height", height)
+    x0, x1, y0, y1 = (finite(f"bounds[{i}]", v) for i, v in enumerate(bounds))
+    if not (x1 > x0 and y1 > y0):
+        raise InvalidInput("bounds", bounds, "expected (x0, x1, y0, y1) with x1 > x0 and y1 > y0")
     xs, ys = np.linspace(x0, x1, density), np.linspace(y0, y1, density)
     gx, gy = np.meshgrid(xs, ys, indexing="xy")
     starts = np.stack([gx.ravel(), gy.ravel(), np.full(gx.size, float(height))], axis=1)
