@@ -102,7 +102,11 @@ def _until(condition: Callable[[], Any], message: str, timeout: float = WAIT) ->
 
 
 def _camera(viewer: Any) -> Any:
-    return next(iter(viewer.server.get_clients().values())).camera
+    """A snapshot of the page's camera (position, wxyz, vertical fov), as the page last reported it."""
+    from types import SimpleNamespace
+
+    camera = next(iter(viewer.server.get_clients().values())).camera
+    return SimpleNamespace(position=np.array(camera.position), wxyz=np.array(camera.wxyz), fov=float(camera.fov))
 
 
 def _project(camera: Any, point: NDArray[np.float64], width: int, height: int) -> tuple[int, int] | None:
@@ -140,8 +144,9 @@ def _canvas(browser: Browser) -> tuple[float, float, float, float]:
     return tuple(rect) if rect else (0.0, 0.0, float(browser.width), float(browser.height))
 
 
-def _obstacles_visible(viewer: Any, image: NDArray[np.uint8], browser: Browser | None = None) -> dict[str, bool]:
-    camera = _camera(viewer)
+def _obstacles_visible(viewer: Any, image: NDArray[np.uint8], browser: Browser | None = None,
+                       camera: Any = None) -> dict[str, bool]:
+    camera = camera or _camera(viewer)
     left, top, width, height = _canvas(browser) if browser is not None else (0, 0, image.shape[1], image.shape[0])
     result = {}
     for obstacle in viewer.scene.obstacles:
@@ -283,11 +288,15 @@ def test_readme_screenshot_and_html_export(live: Any, browser: Browser, tmp_path
     target = live.export_html(ARTIFACTS / "viewer_export.html")
     text = target.read_text()
     assert "__VISER_EMBED_DATA__" in text and "http://" not in text.split("__VISER_EMBED_DATA__")[1][:200]
+    # The page opens at the viewer's initial camera, the one the live page started with (and leaves now).
+    camera = _camera(live)
     browser.open(target.as_uri())
-    # The page opens at the viewer's initial camera, the one the live page started with.
-    exported = _screens_until(browser, live, "viewer_export.png",
-                              lambda im: all(_obstacles_visible(live, im, browser).values()))
-    assert all(_obstacles_visible(live, exported, browser).values()), _obstacles_visible(live, exported, browser)
+
+    def shown(im: NDArray[np.uint8]) -> dict[str, bool]:
+        return _obstacles_visible(live, im, browser, camera)
+
+    exported = _screens_until(browser, live, "viewer_export.png", lambda im: all(shown(im).values()))
+    assert all(shown(exported).values()), shown(exported)
 
 
 def test_a_page_with_a_token_loads_in_the_browser(browser: Browser) -> None:
