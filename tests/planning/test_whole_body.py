@@ -148,7 +148,7 @@ def test_sign_flip_counter() -> None:
 
 
 def test_velocity_qp_matches_a_reference_solver() -> None:
-    from pfield.planning._qp import cholesky_inplace, cholesky_solve, hildreth
+    from pfield._linalg import cholesky_inplace, cholesky_solve, hildreth
 
     rng = np.random.default_rng(12)
     n = 7

@@ -23,6 +23,7 @@ import math
 import numpy as np
 from numba import njit
 
+from pfield._spatial_kernels import rotation_error
 from pfield.field._unowned import unowned, unowned_arrays
 from pfield.field.forces import (
     attraction,
@@ -32,10 +33,9 @@ from pfield.field.forces import (
     khatib_magnitude,
     project_damper,
     rate_limit,
-    rotation_error,
     soft_saturate,
 )
-from pfield.geometry._packed import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE, PackedObstacles
+from pfield.geometry._packed import SPHERE, PackedObstacles, bounding_radius
 from pfield.geometry._sdf import obstacle_signed_distance
 
 # Positions in FieldConfig.packed() (a test checks them against PARAM_NAMES).
@@ -65,30 +65,10 @@ def obstacle_aux(packed: PackedObstacles, goal_position: np.ndarray) -> np.ndarr
             axis = np.cross(toward_goal, (1.0, 0.0, 0.0))
         norm = float(np.linalg.norm(axis))
         aux[i, :3] = axis / norm if norm > 1e-12 else (1.0, 0.0, 0.0)
-        aux[i, 3] = _bounding_radius(packed, i)
+        aux[i, 3] = bounding_radius(packed, i)
         aux[i, 4:7] = centre
         aux[i, 7] = 1.0 if int(packed.kinds[i]) == SPHERE else 0.0
     return aux
-
-
-def _bounding_radius(packed: PackedObstacles, i: int) -> float:
-    kind = int(packed.kinds[i])
-    s0, s1, s2 = (float(v) for v in packed.rows[i, 12:15])
-    if kind == SPHERE:
-        return s0
-    if kind == BOX:
-        return math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
-    if kind == CYLINDER:
-        return math.sqrt(s0 * s0 + s1 * s1)
-    if kind == ELLIPSOID:
-        return max(s0, s1, s2)
-    if kind == CAPSULE:
-        return s0 + s1
-    if kind == MESH:
-        first, length = (int(v) for v in packed.mesh_table[int(packed.rows[i, 15]), 2:4])
-        vertices = packed.triangles[first:first + length].reshape(-1, 3)
-        return float(np.max(np.linalg.norm(vertices, axis=1))) if length else 0.0
-    return math.inf
 
 
 @njit(cache=True, inline="always")

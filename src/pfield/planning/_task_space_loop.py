@@ -18,6 +18,7 @@ import math
 import numpy as np
 from numba import njit
 
+from pfield._spatial_kernels import left_increment
 from pfield.field._evaluate import STAGNATION_PROGRESS, constrained_twist
 from pfield.field._unowned import unowned, unowned_packed
 from pfield.geometry._packed import PackedObstacles
@@ -25,26 +26,6 @@ from pfield.geometry._sdf import min_signed_distance
 
 REACHED, STAGNATION, ITERATION_LIMIT, COLLISION, NOT_FINITE = 0, 1, 2, 3, 4
 _SEGMENT_SAMPLES = 16
-
-
-@njit(cache=True)
-def left_integrate(
-    qx: float, qy: float, qz: float, qw: float, wx: float, wy: float, wz: float, h: float
-) -> tuple[float, float, float, float]:
-    """exp(h ω) ⊗ q, renormalised: the world-frame (left) SO(3) update of a unit quaternion."""
-    ax, ay, az = h * wx, h * wy, h * wz
-    theta = math.sqrt(ax * ax + ay * ay + az * az)
-    if theta < 1e-8:
-        s, ew = 0.5 - theta * theta / 48.0, 1.0 - theta * theta / 8.0
-    else:
-        s, ew = math.sin(0.5 * theta) / theta, math.cos(0.5 * theta)
-    ex, ey, ez = s * ax, s * ay, s * az
-    x = ew * qx + ex * qw + ey * qz - ez * qy
-    y = ew * qy - ex * qz + ey * qw + ez * qx
-    z = ew * qz + ex * qy - ey * qx + ez * qw
-    w = ew * qw - ex * qx - ey * qy - ez * qz
-    norm = math.sqrt(x * x + y * y + z * z + w * w)
-    return x / norm, y / norm, z / norm, w / norm
 
 
 @njit(cache=True, inline="always")
@@ -64,7 +45,7 @@ def rk4_twist(
         k = max(s - 1, 0)
         for j in range(3):
             stage[j] = p[j] + h * scratch[k, j]
-        sx, sy, sz, sw = left_integrate(q[0], q[1], q[2], q[3], scratch[k, 3], scratch[k, 4], scratch[k, 5], h)
+        sx, sy, sz, sw = left_increment(q[0], q[1], q[2], q[3], scratch[k, 3], scratch[k, 4], scratch[k, 5], h)
         scratch[s, 0], scratch[s, 1], scratch[s, 2], scratch[s, 3], scratch[s, 4], scratch[s, 5], d, i = (
             constrained_twist(stage, sx, sy, sz, sw, goal, params, packed, aux, previous, True, dt))
         if s == 0:
@@ -174,7 +155,7 @@ def _advance(
     the new pose in ``poses[row]``; False when the position is no longer finite."""
     for j in range(3):
         p[j] += dt * twist[j]
-    q[0], q[1], q[2], q[3] = left_integrate(q[0], q[1], q[2], q[3], twist[3], twist[4], twist[5], dt)
+    q[0], q[1], q[2], q[3] = left_increment(q[0], q[1], q[2], q[3], twist[3], twist[4], twist[5], dt)
     for j in range(6):
         previous[j] = twist[j]
     for j in range(3):

@@ -30,10 +30,10 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from pfield._spatial_kernels import matrix_to_quat
-from pfield.field.forces import attraction, khatib_magnitude, rotation_error, soft_saturate
+from pfield._linalg import cholesky_inplace, cholesky_solve, hildreth
+from pfield._spatial_kernels import matrix_to_quat, rotation_error
+from pfield.field.forces import attraction, khatib_magnitude, soft_saturate, stepped_damper_speed
 from pfield.geometry._packed import CAPSULE, SPHERE, PackedObstacles
-from pfield.planning._qp import cholesky_inplace, cholesky_solve, hildreth
 from pfield.robot._distance import (
     closest_segment_points,
     point_segment_distance,
@@ -130,15 +130,6 @@ def make_workspace(n, n_capsules, n_obstacles, n_pairs):  # type: ignore[no-unty
 
 
 @njit(cache=True, inline="always")
-def _allowed_speed(distance, influence, safety, speed, dt):  # type: ignore[no-untyped-def]
-    """Velocity damper: the fastest allowed approach (negative: the required retreat) at ``distance``."""
-    margin = distance - safety
-    if margin <= 0.0:
-        return max(0.5 * margin / dt, -speed)
-    return min(speed * margin / (influence - safety), 0.5 * margin / dt)
-
-
-@njit(cache=True, inline="always")
 def _task(robot, goal_p, goal_q, params, ws):  # type: ignore[no-untyped-def]
     """End-effector pose, Jacobian and the field's desired twist; fills ws.h/ws.rhs with the QP's normal eqs."""
     rot, pos = frame_pose(ws.rotations, ws.origins, robot.ee_joint, robot.ee_rot, robot.ee_pos)
@@ -226,7 +217,7 @@ def _obstacle_rows(robot, scene, params, ws, m):  # type: ignore[no-untyped-def]
                 worst, culprit_c, culprit_o = d, c, i
             if d >= influence or cap_joint[c] < 0:
                 continue
-            bound = -_allowed_speed(d, influence, safety, speed, dt)
+            bound = -stepped_damper_speed(d, influence, safety, speed, dt)
             m = _add_row(kin, jlin, wrows, wb, m, nx, ny, nz, cap_joint[c], a[0] + t * (b[0] - a[0]),
                          a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2]), bound)
             push = null_scale * khatib_magnitude(d, params[ETA], influence, params[F_CAP]) / params[F_CAP]
@@ -258,7 +249,7 @@ def _self_rows(robot, scene, params, ws, m):  # type: ignore[no-untyped-def]
         if d >= influence or dist < 1e-12:
             continue
         nx, ny, nz = dx / dist, dy / dist, dz / dist
-        bound = -_allowed_speed(d, influence, safety, speed, dt)
+        bound = -stepped_damper_speed(d, influence, safety, speed, dt)
         m = _add_row(kin, jlin, wrows, wb, m, nx, ny, nz, cap_joint[c1], p1x, p1y, p1z, bound)
         linear_point_jacobian(kin[0], kin[1], kin[2], kin[3], kin[4], cap_joint[c2], p2x, p2y, p2z, jlin2)
         for j in range(jlin2.shape[1]):
@@ -280,7 +271,7 @@ def _joint_limit_rows(q, robot, params, ws, m):  # type: ignore[no-untyped-def]
                 continue
             ws.rows[m, :] = 0.0
             ws.rows[m, j] = side
-            ws.b[m] = -_allowed_speed(gap, params[JOINT_INFLUENCE], params[JOINT_SAFETY], robot.max_velocity[j],
+            ws.b[m] = -stepped_damper_speed(gap, params[JOINT_INFLUENCE], params[JOINT_SAFETY], robot.max_velocity[j],
                                       params[DT])
             m += 1
     return m

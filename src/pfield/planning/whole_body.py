@@ -32,10 +32,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from pfield._validation import finite, positive
 from pfield.errors import InvalidInput
-from pfield.field._evaluate import _bounding_radius
 from pfield.field.config import FieldConfig
 from pfield.geometry import Obstacle, pack_obstacles
-from pfield.geometry._packed import PackedObstacles
+from pfield.geometry._packed import PackedObstacles, bounding_radius
 from pfield.geometry._sdf import empty_packed
 from pfield.planning import _whole_body_kernel as _wb
 from pfield.planning import _whole_body_loop as _loop
@@ -80,7 +79,7 @@ class WholeBodyOptions:
 
 def obstacle_bounds(packed: PackedObstacles) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Bounding sphere (centre (M, 3), radius (M,)) of every packed obstacle, for culling."""
-    radii = np.array([_bounding_radius(packed, i) for i in range(len(packed.kinds))], dtype=np.float64)
+    radii = np.array([bounding_radius(packed, i) for i in range(len(packed.kinds))], dtype=np.float64)
     return np.ascontiguousarray(packed.rows[:, 0:3]), radii
 
 

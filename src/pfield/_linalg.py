@@ -1,6 +1,10 @@
-"""A tiny compiled solver for the whole-body velocity QP (n ≤ ~10 variables, a few inequality rows).
+"""Dense linear algebra of the compiled kernels (numba): Cholesky factor and solve, and a tiny QP solver.
 
-Problem::
+The bottom layer next to :mod:`pfield._spatial_kernels`: the whole-body velocity QP
+(:mod:`pfield.planning._whole_body_kernel`) and the damped least-squares IK (:mod:`pfield.robot.ik`)
+both solve with these, on n ≤ ~10 variables, so plain loops beat LAPACK calls from compiled code.
+
+QP (:func:`hildreth`)::
 
     minimise   ½ xᵀ H x − cᵀ x      subject to   A x ≥ b        (H symmetric positive definite)
 
