@@ -22,11 +22,12 @@ from pfield.geometry import (
     Sphere,
     pack_obstacles,
 )
-from pfield.planning import PlannedPath
+from pfield.planning import CancelToken, PlannedPath, PlanOptions, PlanStatus
 from pfield.spatial import Pose, Twist, Wrench
 
 __all__ = [
     "Box",
+    "CancelToken",
     "Capsule",
     "Cylinder",
     "Ellipsoid",
@@ -35,6 +36,8 @@ __all__ = [
     "Mesh",
     "Obstacle",
     "PfieldError",
+    "PlanOptions",
+    "PlanStatus",
     "PlannedPath",
     "PlanningFailed",
     "Pose",

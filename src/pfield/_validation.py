@@ -71,3 +71,10 @@ def nonnegative(field: str, value: Any) -> float:
     if number < 0.0:
         raise InvalidInput(field, value, "must be >= 0")
     return number
+
+
+def integer(field: str, value: Any) -> int:
+    """Return ``value`` as an int; booleans, non-integral numbers and non-numbers are refused."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
+        raise InvalidInput(field, value, "must be an integer")
+    return int(value)

@@ -3,7 +3,8 @@
 Inputs shared by every kernel here:
 
 * ``goal`` (7,): goal position (m) then orientation quaternion (x, y, z, w), world frame;
-* ``params`` (16,): :meth:`FieldConfig.packed`, indexed by the constants below;
+* ``params`` (16,): :meth:`FieldConfig.packed` (layout :data:`pfield.field.config.PARAMS`), indexed by the
+  constants below;
 * ``packed``: :class:`~pfield.geometry._packed.PackedObstacles`;
 * ``aux`` (M, 8): per obstacle the unit circulation axis c (3), a bounding radius (m), the shape centre
   (3) and 1.0 for spheres, built by :func:`obstacle_aux`. The bound lets far obstacles be skipped
@@ -25,6 +26,7 @@ from numba import njit
 
 from pfield._spatial_kernels import rotation_error
 from pfield.field._unowned import unowned, unowned_arrays
+from pfield.field.config import PARAMS
 from pfield.field.forces import (
     attraction,
     braking_rate_limit,
@@ -38,13 +40,17 @@ from pfield.field.forces import (
 from pfield.geometry._packed import SPHERE, PackedObstacles, bounding_radius
 from pfield.geometry._sdf import obstacle_signed_distance
 
-# Positions in FieldConfig.packed() (a test checks them against PARAM_NAMES).
-ATTRACTIVE_GAIN, ROTATIONAL_GAIN, REPULSIVE_GAIN = 0, 1, 2
-MAX_LINEAR_VELOCITY, MAX_ANGULAR_VELOCITY = 3, 4
-MAX_LINEAR_ACCELERATION, MAX_ANGULAR_ACCELERATION = 5, 6
-INFLUENCE_DISTANCE, ATTRACTIVE_THRESHOLD, ROTATION_TOLERANCE = 7, 8, 9
-MAX_REPULSIVE_FORCE, SAFETY_DISTANCE, DAMPER_GAIN, CIRCULATION_GAIN = 10, 11, 12, 13
-STAGNATION_WINDOW, STAGNATION_PROGRESS = 14, 15
+# Slots of FieldConfig.packed(), by name from its layout (numba freezes these module constants).
+ATTRACTIVE_GAIN, ROTATIONAL_GAIN = PARAMS.index("attractive_gain"), PARAMS.index("rotational_attractive_gain")
+REPULSIVE_GAIN = PARAMS.index("repulsive_gain")
+MAX_LINEAR_VELOCITY, MAX_ANGULAR_VELOCITY = PARAMS.index("max_linear_velocity"), PARAMS.index("max_angular_velocity")
+MAX_LINEAR_ACCELERATION = PARAMS.index("max_linear_acceleration")
+MAX_ANGULAR_ACCELERATION = PARAMS.index("max_angular_acceleration")
+INFLUENCE_DISTANCE, ATTRACTIVE_THRESHOLD = PARAMS.index("influence_distance"), PARAMS.index("attractive_threshold")
+ROTATION_TOLERANCE, MAX_REPULSIVE_FORCE = PARAMS.index("rotation_tolerance"), PARAMS.index("max_repulsive_force")
+SAFETY_DISTANCE, DAMPER_GAIN = PARAMS.index("safety_distance"), PARAMS.index("damper_gain")
+CIRCULATION_GAIN, STAGNATION_WINDOW = PARAMS.index("circulation_gain"), PARAMS.index("stagnation_window")
+STAGNATION_PROGRESS = PARAMS.index("stagnation_progress")
 _SWEEPS = 16  # damper sweeps: one deflecting, then alternating projections (narrow wedges converge slowly)
 
 

@@ -30,6 +30,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from pfield._layout import Layout, compile_size, compile_views
 from pfield._linalg import cholesky_inplace, cholesky_solve, hildreth
 from pfield._spatial_kernels import matrix_to_quat, rotation_error
 from pfield.field.forces import attraction, khatib_magnitude, soft_saturate, stepped_damper_speed
@@ -48,12 +49,67 @@ from pfield.robot._kinematics import (
     transform_point_into,
 )
 
-# indices into the parameter vector (see pfield.planning.whole_body.kernel_parameters)
-K_ATT, K_ROT, GAMMA, V_MAX, W_MAX, INFLUENCE, SAFETY, XI, ETA, F_CAP, DT, TOL, ROT_TOL, STAG_STEPS, \
-    STAG_PROGRESS, JOINT_INFLUENCE, JOINT_SAFETY, ROT_WEIGHT, DAMPING, NULL_GAIN = range(20)
-N_PARAMS = 20
+PARAMS = Layout("whole-body parameters", [(name, ()) for name in (
+    "attractive_gain", "rotational_attractive_gain", "attractive_threshold", "max_linear_velocity",
+    "max_angular_velocity", "influence_distance", "safety_distance", "damper_gain", "repulsive_gain",
+    "max_repulsive_force", "dt", "goal_tolerance", "rotation_tolerance", "stagnation_steps", "stagnation_progress",
+    "joint_influence", "joint_safety", "rotation_weight", "damping", "null_space_gain")])
+"""The kernel's parameter vector, packed by :func:`pfield.planning.whole_body.kernel_parameters`."""
+K_ATT, K_ROT, GAMMA = PARAMS.index("attractive_gain"), PARAMS.index("rotational_attractive_gain"), \
+    PARAMS.index("attractive_threshold")
+V_MAX, W_MAX = PARAMS.index("max_linear_velocity"), PARAMS.index("max_angular_velocity")
+INFLUENCE, SAFETY, XI = PARAMS.index("influence_distance"), PARAMS.index("safety_distance"), PARAMS.index("damper_gain")
+ETA, F_CAP = PARAMS.index("repulsive_gain"), PARAMS.index("max_repulsive_force")
+DT, TOL, ROT_TOL = PARAMS.index("dt"), PARAMS.index("goal_tolerance"), PARAMS.index("rotation_tolerance")
+STAG_STEPS, STAG_PROGRESS = PARAMS.index("stagnation_steps"), PARAMS.index("stagnation_progress")
+JOINT_INFLUENCE, JOINT_SAFETY = PARAMS.index("joint_influence"), PARAMS.index("joint_safety")
+ROT_WEIGHT, DAMPING, NULL_GAIN = PARAMS.index("rotation_weight"), PARAMS.index("damping"), \
+    PARAMS.index("null_space_gain")
+N_PARAMS = PARAMS.size()
 
-SUCCESS, ITERATION_LIMIT, STAGNATION, COLLISION, SELF_COLLISION = range(5)
+STEP_OUT = Layout("whole-body step result", [
+    ("twist", (6,)),  # end-effector twist J q̇ (m/s, rad/s), world frame
+    ("position", (3,)),  # end-effector position (m)
+    ("orientation", (4,)),  # end-effector quaternion (x, y, z, w)
+    ("clearance", ()),  # smallest link-capsule–obstacle signed distance (m), inf without obstacles
+    ("self_clearance", ()),  # smallest self pair distance less its start offset (m), inf without pairs
+    ("position_error", ()),  # ‖goal − p‖ (m)
+    ("rotation_error", ()),  # ‖log(q_goal ⊗ q⁻¹)‖ (rad)
+    ("nearest_capsule", ()),  # capsule index of the closest link–obstacle pair (less its offset), −1 if none
+    ("nearest_obstacle", ()),  # obstacle index of that pair, −1 if none
+    ("nearest_distance", ()),  # that pair's distance less its start offset (m); < 0 is a contact
+    ("nearest_self_pair", ()),  # index of the closest self pair, −1 if none
+])
+"""The result row of :func:`joint_velocity_step` (``ws.out``). Read it through these offsets in compiled
+code and through :class:`StepResult` in Python, never by number."""
+OUT_TWIST, OUT_POSITION, OUT_ORIENTATION = STEP_OUT.span("twist"), STEP_OUT.span("position"), \
+    STEP_OUT.span("orientation")
+OUT_CLEARANCE, OUT_SELF_CLEARANCE = STEP_OUT.index("clearance"), STEP_OUT.index("self_clearance")
+OUT_POSITION_ERROR, OUT_ROTATION_ERROR = STEP_OUT.index("position_error"), STEP_OUT.index("rotation_error")
+OUT_NEAREST_CAPSULE, OUT_NEAREST_OBSTACLE = STEP_OUT.index("nearest_capsule"), STEP_OUT.index("nearest_obstacle")
+OUT_NEAREST_DISTANCE, OUT_NEAREST_SELF_PAIR = STEP_OUT.index("nearest_distance"), STEP_OUT.index("nearest_self_pair")
+OUT_SIZE = STEP_OUT.size()
+
+
+class StepResult(NamedTuple):
+    """Typed view of one :data:`STEP_OUT` row (fields = the layout's entries, in order; a test checks it)."""
+
+    twist: NDArray[np.float64]
+    position: NDArray[np.float64]
+    orientation: NDArray[np.float64]
+    clearance: float
+    self_clearance: float
+    position_error: float
+    rotation_error: float
+    nearest_capsule: float
+    nearest_obstacle: float
+    nearest_distance: float
+    nearest_self_pair: float
+
+    @classmethod
+    def of(cls, row: NDArray[np.float64]) -> StepResult:
+        """The view of ``row`` (OUT_SIZE,) — arrays are views into it, scalars floats."""
+        return cls(**STEP_OUT.read(row[:OUT_SIZE]))
 
 
 class RobotArrays(NamedTuple):
@@ -79,6 +135,15 @@ class RobotArrays(NamedTuple):
     max_acceleration: NDArray[np.float64]
 
 
+ROBOT_FLOATS = Layout("robot floats", [
+    ("place_rot", ("n", 3, 3)), ("place_pos", ("n", 3)), ("axes", ("n", 3)), ("ee_rot", (3, 3)), ("ee_pos", (3,)),
+    ("cap_a", ("caps", 3)), ("cap_b", ("caps", 3)), ("cap_r", ("caps",)), ("lower", ("n",)), ("upper", ("n",)),
+    ("max_velocity", ("n",)), ("max_acceleration", ("n",))])
+ROBOT_INTS = Layout("robot ints", [("parents", ("n",)), ("kinds", ("n",)), ("support", ("n", "n")),
+                                   ("cap_joint", ("caps",)), ("self_pairs", ("pairs", 2))], dtype=np.int64)
+"""The float and int arrays of :class:`RobotArrays` as two flat buffers (``ee_joint`` is passed as is)."""
+
+
 class Scene(NamedTuple):
     """Obstacles, their bounding spheres (centre, radius) for culling far link–obstacle pairs, and offsets.
 
@@ -95,7 +160,13 @@ class Scene(NamedTuple):
     self_offsets: NDArray[np.float64]  # (P,)
 
 
+SCENE_FLOATS = Layout("scene floats", [("centres", ("obstacles", 3)), ("bounds", ("obstacles",)),
+                                       ("obstacle_offsets", ("caps", "obstacles")), ("self_offsets", ("pairs",))])
+
+
 class Workspace(NamedTuple):
+    """Scratch arrays of one step (fields = :data:`WORKSPACE`'s entries)."""
+
     rotations: NDArray[np.float64]
     origins: NDArray[np.float64]
     jac: NDArray[np.float64]
@@ -115,18 +186,29 @@ class Workspace(NamedTuple):
     limited: NDArray[np.float64]
     scratch: NDArray[np.float64]
     task: NDArray[np.float64]
-    out: NDArray[np.float64]  # [twist(6), position(3), quaternion(4), clearance, self clearance, pos err, rot err,
-    #                            culprit capsule, culprit obstacle]
+    out: NDArray[np.float64]
+
+
+WORKSPACE = Layout("whole-body workspace", [
+    ("rotations", ("n", 3, 3)), ("origins", ("n", 3)), ("jac", (6, "n")), ("jlin", (3, "n")), ("jlin2", (3, "n")),
+    ("rows", ("m", "n")), ("b", ("m",)), ("hinv", ("m", "n")), ("mu", ("m",)), ("curvature", ("m",)),
+    ("h", ("n", "n")), ("rhs", ("n",)), ("x", ("n",)), ("free", ("n",)), ("seg_a", ("caps", 3)),
+    ("seg_b", ("caps", 3)), ("limited", ("n",)), ("scratch", (2, 3)), ("task", (2, 6)), ("out", (OUT_SIZE,))])
+"""One flat float buffer per step; ``m`` = the most QP rows (caps·obstacles + pairs + 2n)."""
+
+robot_views = compile_views("robot_views", RobotArrays, [("floats", ROBOT_FLOATS), ("ints", ROBOT_INTS)],
+                            ("n", "caps", "pairs"), ("ee_joint",))
+scene_views = compile_views("scene_views", Scene, [("floats", SCENE_FLOATS)], ("caps", "obstacles", "pairs"),
+                            ("packed",))
+workspace_views = compile_views("workspace_views", Workspace, [("work", WORKSPACE)], ("n", "caps", "m"))
+workspace_size = compile_size("workspace_size", Workspace, WORKSPACE, ("n", "caps", "m"))
 
 
 @njit(cache=True)
 def make_workspace(n, n_capsules, n_obstacles, n_pairs):  # type: ignore[no-untyped-def]
+    """A fresh :class:`Workspace` for n joints, capsules, obstacles and self pairs."""
     m_max = n_capsules * n_obstacles + n_pairs + 2 * n
-    return Workspace(np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((6, n)), np.empty((3, n)), np.empty((3, n)),
-                     np.empty((m_max, n)), np.empty(m_max), np.empty((m_max, n)), np.empty(m_max), np.empty(m_max),
-                     np.empty((n, n)),
-                     np.empty(n), np.empty(n), np.empty(n), np.empty((n_capsules, 3)), np.empty((n_capsules, 3)),
-                     np.empty(n), np.empty((2, 3)), np.empty((2, 6)), np.empty(20))
+    return workspace_views(np.empty(workspace_size(n, n_capsules, m_max)), n, n_capsules, m_max)
 
 
 @njit(cache=True, inline="always")
@@ -158,10 +240,10 @@ def _task(robot, goal_p, goal_q, params, ws):  # type: ignore[no-untyped-def]
             ws.h[i, j] = s
             ws.h[j, i] = s
         ws.h[i, i] += params[DAMPING]
-    ws.out[6:9] = pos
-    ws.out[9:13] = quat
-    ws.out[15] = math.sqrt(ex * ex + ey * ey + ez * ez)
-    ws.out[16] = math.sqrt(rx * rx + ry * ry + rz * rz)
+    ws.out[OUT_POSITION[0]:OUT_POSITION[1]] = pos
+    ws.out[OUT_ORIENTATION[0]:OUT_ORIENTATION[1]] = quat
+    ws.out[OUT_POSITION_ERROR] = math.sqrt(ex * ex + ey * ey + ez * ez)
+    ws.out[OUT_ROTATION_ERROR] = math.sqrt(rx * rx + ry * ry + rz * rz)
 
 
 @njit(cache=True, inline="always")
@@ -223,7 +305,9 @@ def _obstacle_rows(robot, scene, params, ws, m):  # type: ignore[no-untyped-def]
             push = null_scale * khatib_magnitude(d, params[ETA], influence, params[F_CAP]) / params[F_CAP]
             for j in range(free.shape[0]):
                 free[j] += push * wrows[m - 1, j]
-    ws.out[13], ws.out[17], ws.out[18], ws.out[19] = clearance, culprit_c, culprit_o, worst
+    out = ws.out
+    out[OUT_CLEARANCE], out[OUT_NEAREST_CAPSULE], out[OUT_NEAREST_OBSTACLE] = clearance, culprit_c, culprit_o
+    out[OUT_NEAREST_DISTANCE] = worst
     return m
 
 
@@ -231,7 +315,7 @@ def _obstacle_rows(robot, scene, params, ws, m):  # type: ignore[no-untyped-def]
 def _self_rows(robot, scene, params, ws, m):  # type: ignore[no-untyped-def]
     influence, dt = params[INFLUENCE], params[DT]
     speed, safety = params[XI] * params[V_MAX], params[SAFETY]
-    clearance = math.inf
+    clearance, nearest = math.inf, -1
     kin = (ws.rotations, ws.origins, robot.axes, robot.kinds, robot.support)
     jlin, jlin2, wrows, wb = ws.jlin, ws.jlin2, ws.rows, ws.b
     pairs, seg_a, seg_b, cap_r, cap_joint = robot.self_pairs, ws.seg_a, ws.seg_b, robot.cap_r, robot.cap_joint
@@ -245,7 +329,8 @@ def _self_rows(robot, scene, params, ws, m):  # type: ignore[no-untyped-def]
         dx, dy, dz = p1x - p2x, p1y - p2y, p1z - p2z
         dist = math.sqrt(dx * dx + dy * dy + dz * dz)
         d = dist - cap_r[c1] - cap_r[c2] - offsets[k]
-        clearance = min(clearance, d)
+        if d < clearance:
+            clearance, nearest = d, k
         if d >= influence or dist < 1e-12:
             continue
         nx, ny, nz = dx / dist, dy / dist, dz / dist
@@ -254,7 +339,7 @@ def _self_rows(robot, scene, params, ws, m):  # type: ignore[no-untyped-def]
         linear_point_jacobian(kin[0], kin[1], kin[2], kin[3], kin[4], cap_joint[c2], p2x, p2y, p2z, jlin2)
         for j in range(jlin2.shape[1]):
             wrows[m - 1, j] -= nx * jlin2[0, j] + ny * jlin2[1, j] + nz * jlin2[2, j]
-    ws.out[14] = clearance
+    ws.out[OUT_SELF_CLEARANCE], ws.out[OUT_NEAREST_SELF_PAIR] = clearance, nearest
     return m
 
 
@@ -326,5 +411,5 @@ def joint_velocity_step(  # type: ignore[no-untyped-def]
         s = 0.0
         for j in range(n):
             s += ws.jac[r, j] * ws.x[j]
-        ws.out[r] = s
+        ws.out[OUT_TWIST[0] + r] = s
     return m

@@ -10,22 +10,30 @@ import numpy as np
 from numba import njit
 
 from pfield.geometry._packed import CAPSULE, SPHERE
+from pfield.planning._progress import new_progress, stagnated
 from pfield.planning._whole_body_kernel import (
-    COLLISION,
     DT,
-    ITERATION_LIMIT,
+    OUT_CLEARANCE,
+    OUT_NEAREST_CAPSULE,
+    OUT_NEAREST_DISTANCE,
+    OUT_NEAREST_OBSTACLE,
+    OUT_NEAREST_SELF_PAIR,
+    OUT_ORIENTATION,
+    OUT_POSITION,
+    OUT_POSITION_ERROR,
+    OUT_ROTATION_ERROR,
+    OUT_SELF_CLEARANCE,
+    OUT_TWIST,
     ROT_TOL,
     SAFETY,
-    SELF_COLLISION,
     STAG_PROGRESS,
     STAG_STEPS,
-    STAGNATION,
-    SUCCESS,
     TOL,
     _segments,
     joint_velocity_step,
     make_workspace,
 )
+from pfield.planning.status import PlanStatus
 from pfield.robot._distance import (
     closest_segment_points,
     point_segment_distance,
@@ -35,13 +43,17 @@ from pfield.robot._distance import (
 from pfield.robot._kinematics import joint_transforms
 
 
-@njit(cache=True)
-def plan_loop(q0, robot, scene, goal_p, goal_q, params, max_iterations):  # type: ignore[no-untyped-def]
-    """Integrate q ← clip(q + q̇ dt) from ``q0`` until the goal, a collision, stagnation or the iteration limit.
+@njit(cache=True, nogil=True)  # another thread may cancel the plan while it runs
+def plan_loop(q0, robot, scene, goal_p, goal_q, params, max_iterations, cancel):  # type: ignore[no-untyped-def]
+    """Integrate q ← clip(q + q̇ dt) from ``q0`` until the goal, a collision, stagnation, the iteration limit
+    or ``cancel[0] != 0`` (a :class:`~pfield.planning.CancelToken`'s flag, read every step).
 
     Returns ``(status, count, q, qdot, positions, quaternions, twists, clearances, culprit)`` with ``count``
-    recorded waypoints (the start included). Waypoint k holds the configuration q_k, the velocity applied
-    from it (zero at the last waypoint of a successful plan) and the end-effector twist J(q_k) q̇_k.
+    recorded waypoints (the start included) and ``status`` a :class:`PlanStatus`. Waypoint k holds the
+    configuration q_k, the velocity applied from it (zero at the last waypoint of a successful plan) and
+    the end-effector twist J(q_k) q̇_k. ``culprit`` (5,) describes the last step evaluated: the capsule and
+    obstacle of its closest link–obstacle pair, that pair's distance (m, less its start offset), the
+    closest self pair and its distance (indices −1 when there is none).
     """
     n = q0.shape[0]
     ws = make_workspace(n, robot.cap_joint.shape[0], scene.bounds.shape[0], robot.self_pairs.shape[0])
@@ -49,36 +61,39 @@ def plan_loop(q0, robot, scene, goal_p, goal_q, params, max_iterations):  # type
     qs, qds = np.empty((total, n)), np.empty((total, n))
     positions, quats, twists, clear = np.empty((total, 3)), np.empty((total, 4)), np.empty((total, 6)), np.empty(total)
     q, previous = q0.copy(), np.zeros(n)
-    errors = np.empty((total, 2))  # goal errors (m, rad) per waypoint, for the stagnation window
     window, progress, dt = int(params[STAG_STEPS]), params[STAG_PROGRESS], params[DT]
-    status, count = ITERATION_LIMIT, total
-    culprit = np.array((-1, -1))
+    state = new_progress()
+    status, count = PlanStatus.ITERATION_LIMIT, total
+    out = ws.out
     for k in range(total):
         joint_velocity_step(q, previous, True, robot, scene, goal_p, goal_q, params, ws)
-        qs[k], positions[k], quats[k], clear[k] = q, ws.out[6:9], ws.out[9:13], ws.out[13]
-        pos_err, rot_err = ws.out[15], ws.out[16]
-        if ws.out[19] < 0.0 or ws.out[14] < 0.0:
+        qs[k], positions[k], clear[k] = q, out[OUT_POSITION[0]:OUT_POSITION[1]], out[OUT_CLEARANCE]
+        quats[k] = out[OUT_ORIENTATION[0]:OUT_ORIENTATION[1]]
+        pos_err, rot_err = out[OUT_POSITION_ERROR], out[OUT_ROTATION_ERROR]
+        if out[OUT_NEAREST_DISTANCE] < 0.0 or out[OUT_SELF_CLEARANCE] < 0.0:
             # the last step brought capsules into contact (an infeasible squeeze): stop before it
-            status, count = (COLLISION if ws.out[19] < 0.0 else SELF_COLLISION), max(k, 1)
-            culprit[0], culprit[1] = int(ws.out[17]), int(ws.out[18])
+            status = PlanStatus.COLLISION if out[OUT_NEAREST_DISTANCE] < 0.0 else PlanStatus.SELF_COLLISION
+            count = max(k, 1)
             qds[count - 1], twists[count - 1] = 0.0, 0.0
             break
         if pos_err <= params[TOL] and rot_err <= params[ROT_TOL]:
-            status, count = SUCCESS, k + 1
+            status, count = PlanStatus.REACHED, k + 1
             qds[k], twists[k] = 0.0, 0.0
             break
-        qds[k], twists[k] = ws.x, ws.out[0:6]
+        qds[k], twists[k] = ws.x, out[OUT_TWIST[0]:OUT_TWIST[1]]
         if k == total - 1:
             break
-        # stagnation: neither error fell by ``progress`` over the last window (steady but slow progress, or
-        # trading rotation for position, is not stagnation; a limit cycle or a blocked arm is)
-        errors[k, 0], errors[k, 1] = pos_err, rot_err
-        if k >= window and pos_err > errors[k - window, 0] - progress and rot_err > errors[k - window, 1] - progress:
-            status, count = STAGNATION, k + 1
+        if cancel[0] != 0:
+            status, count = PlanStatus.CANCELLED, k + 1
+            break
+        if stagnated(state, k, window, progress, pos_err, rot_err):
+            status, count = PlanStatus.STAGNATION, k + 1
             break
         for j in range(n):
             q[j] = min(max(q[j] + ws.x[j] * dt, robot.lower[j]), robot.upper[j])
             previous[j] = ws.x[j]
+    culprit = np.array((out[OUT_NEAREST_CAPSULE], out[OUT_NEAREST_OBSTACLE], out[OUT_NEAREST_DISTANCE],
+                        out[OUT_NEAREST_SELF_PAIR], out[OUT_SELF_CLEARANCE]))
     return status, count, qs[:count], qds[:count], positions[:count], quats[:count], twists[:count], \
         clear[:count], culprit
 
