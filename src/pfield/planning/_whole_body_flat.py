@@ -43,9 +43,11 @@ class FlatStep:
 
 
 @njit(cache=True)
-def flat_step(  # type: ignore[no-untyped-def]
-        q, previous, has_prev, goal_p, goal_q, params, dims, floats, ints, scene_floats, work, kinds, rows, triangles,
-        pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table):
+def flat_step(
+        q: np.ndarray, previous: np.ndarray, has_prev: bool, goal_p: np.ndarray, goal_q: np.ndarray, params: np.ndarray,
+        dims: np.ndarray, floats: np.ndarray, ints: np.ndarray, scene_floats: np.ndarray, work: np.ndarray,
+        kinds: np.ndarray, rows: np.ndarray, triangles: np.ndarray, pseudo_normals: np.ndarray, bvh_lower: np.ndarray,
+        bvh_upper: np.ndarray, bvh_nodes: np.ndarray, mesh_table: np.ndarray) -> np.ndarray:
     """:func:`~pfield.planning._whole_body_loop.autonomy_step` on the flat buffers of :class:`FlatStep`.
 
     Returns the step's result row (``_wb.STEP_OUT``, read it with :class:`~._whole_body_kernel.StepResult`)

@@ -205,14 +205,14 @@ workspace_size = compile_size("workspace_size", Workspace, WORKSPACE, ("n", "cap
 
 
 @njit(cache=True)
-def make_workspace(n, n_capsules, n_obstacles, n_pairs):  # type: ignore[no-untyped-def]
+def make_workspace(n: int, n_capsules: int, n_obstacles: int, n_pairs: int) -> Workspace:
     """A fresh :class:`Workspace` for n joints, capsules, obstacles and self pairs."""
     m_max = n_capsules * n_obstacles + n_pairs + 2 * n
     return workspace_views(np.empty(workspace_size(n, n_capsules, m_max)), n, n_capsules, m_max)
 
 
 @njit(cache=True, inline="always")
-def _task(robot, goal_p, goal_q, params, ws):  # type: ignore[no-untyped-def]
+def _task(robot: RobotArrays, goal_p: np.ndarray, goal_q: np.ndarray, params: np.ndarray, ws: Workspace) -> None:
     """End-effector pose, Jacobian and the field's desired twist; fills ws.h/ws.rhs with the QP's normal eqs."""
     rot, pos = frame_pose(ws.rotations, ws.origins, robot.ee_joint, robot.ee_rot, robot.ee_pos)
     point_jacobian(ws.rotations, ws.origins, robot.axes, robot.kinds, robot.support, robot.ee_joint, pos, ws.jac)
@@ -247,7 +247,7 @@ def _task(robot, goal_p, goal_q, params, ws):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, inline="always")
-def _segments(robot, ws):  # type: ignore[no-untyped-def]
+def _segments(robot: RobotArrays, ws: Workspace) -> None:
     for c in range(robot.cap_joint.shape[0]):
         j = robot.cap_joint[c]
         transform_point_into(ws.rotations, ws.origins, j, robot.cap_a[c], ws.seg_a[c])
@@ -255,7 +255,8 @@ def _segments(robot, ws):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, inline="always")
-def _add_row(kin, jlin, rows, bounds, m, nx, ny, nz, joint, px, py, pz, bound):  # type: ignore[no-untyped-def]
+def _add_row(kin: tuple[np.ndarray, ...], jlin: np.ndarray, rows: np.ndarray, bounds: np.ndarray, m: int, nx: float,
+             ny: float, nz: float, joint: int, px: float, py: float, pz: float, bound: float) -> int:
     """Row nᵀ J_p(point) (J of the point carried by ``joint``) with bound −s; returns the new row count.
 
     ``kin`` = (rotations, origins, axes, kinds, support), unpacked by the caller outside its loops.
@@ -268,7 +269,7 @@ def _add_row(kin, jlin, rows, bounds, m, nx, ny, nz, joint, px, py, pz, bound): 
 
 
 @njit(cache=True, inline="always")
-def _obstacle_rows(robot, scene, params, ws, m):  # type: ignore[no-untyped-def]
+def _obstacle_rows(robot: RobotArrays, scene: Scene, params: np.ndarray, ws: Workspace, m: int) -> int:
     """Damper rows and null-space repulsion of every link–obstacle pair within Q; returns the row count."""
     influence, dt = params[INFLUENCE], params[DT]
     clearance, culprit_c, culprit_o = math.inf, -1, -1
@@ -312,7 +313,7 @@ def _obstacle_rows(robot, scene, params, ws, m):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, inline="always")
-def _self_rows(robot, scene, params, ws, m):  # type: ignore[no-untyped-def]
+def _self_rows(robot: RobotArrays, scene: Scene, params: np.ndarray, ws: Workspace, m: int) -> int:
     influence, dt = params[INFLUENCE], params[DT]
     speed, safety = params[XI] * params[V_MAX], params[SAFETY]
     clearance, nearest = math.inf, -1
@@ -344,7 +345,7 @@ def _self_rows(robot, scene, params, ws, m):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, inline="always")
-def _joint_limit_rows(q, robot, params, ws, m):  # type: ignore[no-untyped-def]
+def _joint_limit_rows(q: np.ndarray, robot: RobotArrays, params: np.ndarray, ws: Workspace, m: int) -> int:
     n = q.shape[0]
     for j in range(n):
         for side in (1.0, -1.0):
@@ -363,7 +364,8 @@ def _joint_limit_rows(q, robot, params, ws, m):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, inline="always")
-def _limit_speed(q_prev_velocity, has_prev, robot, params, ws, m):  # type: ignore[no-untyped-def]
+def _limit_speed(q_prev_velocity: np.ndarray, has_prev: bool, robot: RobotArrays, params: np.ndarray, ws: Workspace,
+                 m: int) -> None:
     """Uniform scaling into the velocity limits, then the joint rate limit unless it breaks a damper."""
     x = ws.x
     n = x.shape[0]
@@ -389,8 +391,8 @@ def _limit_speed(q_prev_velocity, has_prev, robot, params, ws, m):  # type: igno
 
 
 @njit(cache=True)
-def joint_velocity_step(  # type: ignore[no-untyped-def]
-        q, previous, has_prev, robot, scene, goal_p, goal_q, params, ws):
+def joint_velocity_step(q: np.ndarray, previous: np.ndarray, has_prev: bool, robot: RobotArrays, scene: Scene,
+                        goal_p: np.ndarray, goal_q: np.ndarray, params: np.ndarray, ws: Workspace) -> int:
     """The whole-body field's joint velocity at ``q`` into ``ws.x``; pose, twist, clearances into ``ws.out``."""
     joint_transforms(q, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds, ws.rotations,
                      ws.origins)

@@ -5,6 +5,7 @@ planning loop, exact capsule pair distances, and the single step of the autonomy
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -29,6 +30,9 @@ from pfield.planning._whole_body_kernel import (
     STAG_PROGRESS,
     STAG_STEPS,
     TOL,
+    RobotArrays,
+    Scene,
+    Workspace,
     _segments,
     joint_velocity_step,
     make_workspace,
@@ -44,7 +48,8 @@ from pfield.robot._kinematics import joint_transforms
 
 
 @njit(cache=True, nogil=True)  # another thread may cancel the plan while it runs
-def plan_loop(q0, robot, scene, goal_p, goal_q, params, max_iterations, cancel):  # type: ignore[no-untyped-def]
+def plan_loop(q0: np.ndarray, robot: RobotArrays, scene: Scene, goal_p: np.ndarray, goal_q: np.ndarray,
+              params: np.ndarray, max_iterations: int, cancel: np.ndarray) -> tuple[Any, ...]:
     """Integrate q ← clip(q + q̇ dt) from ``q0`` until the goal, a collision, stagnation, the iteration limit
     or ``cancel[0] != 0`` (a :class:`~pfield.planning.CancelToken`'s flag, read every step).
 
@@ -99,7 +104,8 @@ def plan_loop(q0, robot, scene, goal_p, goal_q, params, max_iterations, cancel):
 
 
 @njit(cache=True)
-def fill_pair_distances(q, robot, scene, ws, obstacle, own, cutoff):  # type: ignore[no-untyped-def]
+def fill_pair_distances(q: np.ndarray, robot: RobotArrays, scene: Scene, ws: Workspace, obstacle: np.ndarray,
+                        own: np.ndarray, cutoff: float) -> None:
     """Capsule clearances (m) at ``q`` into ``obstacle`` (L, M, link–obstacle) and ``own`` (P, self pairs).
 
     Link–obstacle pairs whose bounding-sphere bound is ≥ ``cutoff`` get that bound instead of the exact value.
@@ -132,7 +138,7 @@ def fill_pair_distances(q, robot, scene, ws, obstacle, own, cutoff):  # type: ig
 
 
 @njit(cache=True)
-def pair_distances(q, robot, scene):  # type: ignore[no-untyped-def]
+def pair_distances(q: np.ndarray, robot: RobotArrays, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     """Exact capsule clearances (m) at ``q``: link–obstacle pairs (L, M) and self-collision pairs (P,)."""
     ws = make_workspace(q.shape[0], robot.cap_joint.shape[0], scene.bounds.shape[0], robot.self_pairs.shape[0])
     obstacle = np.empty((robot.cap_joint.shape[0], scene.bounds.shape[0]))
@@ -142,7 +148,8 @@ def pair_distances(q, robot, scene):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def autonomy_step(q, previous, has_prev, robot, scene, goal_p, goal_q, params, ws):  # type: ignore[no-untyped-def]
+def autonomy_step(q: np.ndarray, previous: np.ndarray, has_prev: bool, robot: RobotArrays, scene: Scene,
+                  goal_p: np.ndarray, goal_q: np.ndarray, params: np.ndarray, ws: Workspace) -> int:
     """One whole-body field evaluation at ``q`` for shared control: the start offsets are taken at ``q`` itself
     (pairs already closer than d_s may not approach further), then :func:`joint_velocity_step`."""
     obstacle, own = scene.obstacle_offsets, scene.self_offsets
