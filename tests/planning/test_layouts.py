@@ -9,7 +9,7 @@ from pfield._layout import Layout
 from pfield.field import FieldConfig
 from pfield.field.config import PARAM_NAMES, PARAMS
 from pfield.planning import PlanOptions
-from pfield.planning import _whole_body_kernel as wb
+from pfield.planning import _whole_body_layout as wb
 from pfield.planning.whole_body import WholeBodyOptions, kernel_parameters
 
 

@@ -2,7 +2,7 @@
 
 Calling a numba function costs about a microsecond per array argument (type dispatch and unboxing), and
 the whole-body step takes ~60 arrays in its named tuples. Here the robot, the scene offsets and the
-workspace live in flat buffers laid out by the specs of :mod:`pfield.planning._whole_body_kernel`
+workspace live in flat buffers laid out by the specs of :mod:`pfield.planning._whole_body_layout`
 (``ROBOT_FLOATS``, ``ROBOT_INTS``, ``SCENE_FLOATS``, ``WORKSPACE``), which :func:`flat_step` re-views as the
 named tuples inside compiled code (views generated from the same specs), so a call from Python unboxes a
 dozen arrays instead.
@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit
 
 from pfield.geometry._packed import PackedObstacles
-from pfield.planning import _whole_body_kernel as _wb
+from pfield.planning import _whole_body_layout as _wb
 from pfield.planning._whole_body_loop import autonomy_step
 
 __all__ = ["FlatStep", "flat_step"]
@@ -50,7 +50,7 @@ def flat_step(
         bvh_upper: np.ndarray, bvh_nodes: np.ndarray, mesh_table: np.ndarray) -> np.ndarray:
     """:func:`~pfield.planning._whole_body_loop.autonomy_step` on the flat buffers of :class:`FlatStep`.
 
-    Returns the step's result row (``_wb.STEP_OUT``, read it with :class:`~._whole_body_kernel.StepResult`)
+    Returns the step's result row (``_wb.STEP_OUT``, read it with :class:`~._whole_body_layout.StepResult`)
     followed by q̇ (n,).
     """
     n, caps, obstacles, pairs, m_max, ee_joint = dims[0], dims[1], dims[2], dims[3], dims[4], dims[5]

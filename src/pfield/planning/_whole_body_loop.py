@@ -12,7 +12,8 @@ from numba import njit
 
 from pfield.geometry._packed import CAPSULE, SPHERE
 from pfield.planning._progress import new_progress, stagnated
-from pfield.planning._whole_body_kernel import (
+from pfield.planning._whole_body_kernel import _segments, joint_velocity_step
+from pfield.planning._whole_body_layout import (
     DT,
     OUT_CLEARANCE,
     OUT_NEAREST_CAPSULE,
@@ -33,8 +34,6 @@ from pfield.planning._whole_body_kernel import (
     RobotArrays,
     Scene,
     Workspace,
-    _segments,
-    joint_velocity_step,
     make_workspace,
 )
 from pfield.planning.status import PlanStatus

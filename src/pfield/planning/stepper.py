@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pfield._validation import as_vector, finite
 from pfield.errors import InvalidInput
-from pfield.planning import _whole_body_kernel as _wb
+from pfield.planning import _whole_body_layout as _wb
 from pfield.planning._whole_body_flat import FlatStep, flat_step
 from pfield.planning.options import PlanOptions
 from pfield.planning.whole_body import WholeBodyOptions, kernel_parameters, make_scene, pack_robot
@@ -36,7 +36,7 @@ class WholeBodyStep(NamedTuple):
     ``joint_velocities`` q̇ (rad/s or m/s, tree order); ``twist`` the end-effector twist J(q) q̇ (world
     frame, linear then angular); ``position``/``orientation`` FK(q) (m; x, y, z, w); ``clearance`` the
     smallest link-capsule clearance to an obstacle (m, ``inf`` without obstacles); ``result`` every named
-    value of the step (:class:`~pfield.planning._whole_body_kernel.StepResult`).
+    value of the step (:class:`~pfield.planning._whole_body_layout.StepResult`).
     """
 
     joint_velocities: NDArray[np.float64]

@@ -37,7 +37,7 @@ from pfield.field.config import FieldConfig
 from pfield.geometry import Obstacle, pack_obstacles
 from pfield.geometry._packed import PackedObstacles, bounding_radius
 from pfield.geometry._sdf import empty_packed
-from pfield.planning import _whole_body_kernel as _wb
+from pfield.planning import _whole_body_layout as _wb
 from pfield.planning import _whole_body_loop as _loop
 from pfield.planning.options import PlanOptions
 from pfield.planning.result import PlannedPath
@@ -102,7 +102,7 @@ def pack_robot(robot: RobotModel, config: FieldConfig, options: WholeBodyOptions
 
 
 def kernel_parameters(config: FieldConfig, plan: PlanOptions, options: WholeBodyOptions) -> NDArray[np.float64]:
-    """The kernel's parameter vector (layout ``PARAMS`` of :mod:`pfield.planning._whole_body_kernel`).
+    """The kernel's parameter vector (layout ``PARAMS`` of :mod:`pfield.planning._whole_body_layout`).
 
     ``plan`` must be resolved against ``config`` (:meth:`PlanOptions.resolved`)."""
     assert plan.rotation_tolerance is not None and plan.stagnation_progress is not None
@@ -122,7 +122,7 @@ def kernel_parameters(config: FieldConfig, plan: PlanOptions, options: WholeBody
 
 def make_scene(packed: PackedObstacles | None, robot: _wb.RobotArrays | None = None,
                q0: NDArray[np.float64] | None = None, safety_distance: float = 0.0) -> _wb.Scene:
-    """Packed obstacles, their bounding spheres and the start offsets of :class:`~._whole_body_kernel.Scene`.
+    """Packed obstacles, their bounding spheres and the start offsets of :class:`~._whole_body_layout.Scene`.
 
     With ``robot`` and ``q0``, capsule pairs that start closer than ``safety_distance`` get the offset
     ``d0 − safety_distance`` (they may not approach further); otherwise all offsets are zero.
