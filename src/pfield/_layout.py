@@ -37,6 +37,8 @@ class Layout:
             raise ValueError(f"layout {name}: duplicate entry names")
         self.name, self.entries, self.dtype = name, tuple((n, tuple(s)) for n, s in entries), dtype
         self._position = {n: k for k, n in enumerate(names)}
+        self._slices: tuple[tuple[int, int, Shape], ...] | None = None
+        self._fixed_size = 0
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -93,10 +95,16 @@ class Layout:
             out[start:stop] = np.ravel(np.asarray(values[name], dtype=self.dtype))
         return out
 
-    def read(self, flat: NDArray[Any], **dims: int) -> dict[str, Any]:
-        """Like :meth:`unpack`, with scalar entries as Python floats (the typed result views use this)."""
-        return {name: (float(view[0]) if shape == () else view)
-                for (name, shape), view in zip(self.entries, self.unpack(flat, **dims).values(), strict=True)}
+    def read(self, flat: NDArray[Any]) -> list[Any]:
+        """The values of a layout without dimensions, in entry order: scalars as Python floats, the rest as
+        views of ``flat`` (the typed result views use this; the slices are computed once)."""
+        if self._slices is None:
+            self._slices = tuple((start, stop, shape) for (_, shape), (start, stop) in
+                                 zip(self.entries, self.offsets().values(), strict=True))
+            self._fixed_size = self.size()
+        scalars = flat[:self._fixed_size].tolist()
+        return [scalars[start] if not shape else flat[start:stop] if len(shape) == 1
+                else flat[start:stop].reshape(shape) for start, stop, shape in self._slices]
 
     def unpack(self, flat: NDArray[Any], **dims: int) -> dict[str, NDArray[Any]]:
         """name → view of ``flat`` reshaped to the entry's shape (writes go through to ``flat``)."""

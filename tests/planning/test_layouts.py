@@ -22,7 +22,11 @@ def test_layout_offsets_pack_and_views_round_trip() -> None:
     views = layout.unpack(flat, n=2, m=4)
     np.testing.assert_array_equal(views["a"], values["a"])
     np.testing.assert_array_equal(views["b"], values["b"])
-    assert layout.read(flat, n=2, m=4)["s"] == 7.5
+    fixed = Layout("fixed", [("v", (3,)), ("s", ()), ("m", (2, 2))])
+    vector, scalar, matrix = fixed.read(np.arange(8.0))
+    assert scalar == 3.0 and isinstance(scalar, float)
+    np.testing.assert_array_equal(vector, [0.0, 1.0, 2.0])
+    np.testing.assert_array_equal(matrix, [[4.0, 5.0], [6.0, 7.0]])
     views["a"][1, 2] = 100.0  # views write through to the flat array
     assert flat[5] == 100.0
     with pytest.raises(KeyError):

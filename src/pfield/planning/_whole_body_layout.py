@@ -83,7 +83,7 @@ class StepResult(NamedTuple):
     @classmethod
     def of(cls, row: NDArray[np.float64]) -> StepResult:
         """The view of ``row`` (OUT_SIZE,) — arrays are views into it, scalars floats."""
-        return cls(**STEP_OUT.read(row[:OUT_SIZE]))
+        return cls._make(STEP_OUT.read(row))
 
 
 class RobotArrays(NamedTuple):

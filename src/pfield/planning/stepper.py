@@ -10,7 +10,7 @@ than ``safety_distance`` at q not allowed to approach further.
 from __future__ import annotations
 
 import math
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -27,24 +27,46 @@ __all__ = ["WholeBodyStep", "WholeBodyStepper"]
 
 NOMINAL_DT = 0.01
 """(s) the dampers' look-ahead when a step is asked for without a ``dt``."""
-_TWIST = slice(*_wb.OUT_TWIST)
+_TWIST, _POSITION, _ORIENTATION = slice(*_wb.OUT_TWIST), slice(*_wb.OUT_POSITION), slice(*_wb.OUT_ORIENTATION)
 
 
-class WholeBodyStep(NamedTuple):
-    """One evaluation of the whole-body field at joint angles q.
+class WholeBodyStep:
+    """One evaluation of the whole-body field at joint angles q, read from the compiled step's row.
 
     ``joint_velocities`` q̇ (rad/s or m/s, tree order); ``twist`` the end-effector twist J(q) q̇ (world
     frame, linear then angular); ``position``/``orientation`` FK(q) (m; x, y, z, w); ``clearance`` the
     smallest link-capsule clearance to an obstacle (m, ``inf`` without obstacles); ``result`` every named
-    value of the step (:class:`~pfield.planning._whole_body_layout.StepResult`).
+    value of the step (:class:`~pfield.planning._whole_body_layout.StepResult`). Arrays are views of the row.
     """
 
-    joint_velocities: NDArray[np.float64]
-    twist: NDArray[np.float64]
-    position: NDArray[np.float64]
-    orientation: NDArray[np.float64]
-    clearance: float
-    result: _wb.StepResult
+    __slots__ = ("_row",)
+
+    def __init__(self, row: NDArray[np.float64]) -> None:
+        self._row = row
+
+    @property
+    def joint_velocities(self) -> NDArray[np.float64]:
+        return self._row[_wb.OUT_SIZE:]
+
+    @property
+    def twist(self) -> NDArray[np.float64]:
+        return self._row[_TWIST]
+
+    @property
+    def position(self) -> NDArray[np.float64]:
+        return self._row[_POSITION]
+
+    @property
+    def orientation(self) -> NDArray[np.float64]:
+        return self._row[_ORIENTATION]
+
+    @property
+    def clearance(self) -> float:
+        return float(self._row[_wb.OUT_CLEARANCE])
+
+    @property
+    def result(self) -> _wb.StepResult:
+        return _wb.StepResult.of(self._row)
 
 
 class WholeBodyStepper:
@@ -72,10 +94,7 @@ class WholeBodyStepper:
         dampers' look-ahead (:data:`NOMINAL_DT` when 0).
         """
         values = self.robot.check_joint_angles(q, "joint_angles")
-        row = self.evaluate(values, prev_joint_velocities, dt)
-        result = _wb.StepResult.of(row)
-        return WholeBodyStep(row[_wb.OUT_SIZE:], result.twist, result.position, result.orientation,
-                             result.clearance, result)
+        return WholeBodyStep(self.evaluate(values, prev_joint_velocities, dt))
 
     def twist(self, q: ArrayLike, prev_joint_velocities: ArrayLike | None = None,
               dt: float = 0.0) -> NDArray[np.float64]:
