@@ -23,7 +23,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["Layout", "compile_size", "compile_views"]
+__all__ = ["Layout", "compile_allocation", "compile_size", "compile_views"]
 
 Shape = tuple[int | str, ...]
 
@@ -37,6 +37,7 @@ class Layout:
             raise ValueError(f"layout {name}: duplicate entry names")
         self.name, self.entries, self.dtype = name, tuple((n, tuple(s)) for n, s in entries), dtype
         self._position = {n: k for k, n in enumerate(names)}
+        self._all_scalars = all(shape == () for _, shape in self.entries)
         self._slices: tuple[tuple[int, int, Shape], ...] | None = None
         self._fixed_size = 0
 
@@ -87,9 +88,11 @@ class Layout:
 
     def pack(self, values: Mapping[str, ArrayLike], **dims: int) -> NDArray[Any]:
         """The flat array of ``values`` (every entry by name, each of its spec's shape)."""
-        missing = set(self.names) - set(values)
+        missing = [name for name in self.names if name not in values]
         if missing:
             raise KeyError(f"layout {self.name}: missing {sorted(missing)}")
+        if self._all_scalars:  # parameter vectors: packed once per plan, keep it cheap
+            return np.array([values[name] for name in self.names], dtype=self.dtype)
         out: NDArray[Any] = np.empty(self.size(**dims), dtype=self.dtype)
         for name, (start, stop) in self.offsets(**dims).items():
             out[start:stop] = np.ravel(np.asarray(values[name], dtype=self.dtype))
@@ -130,6 +133,18 @@ def compile_size(function_name: str, owner: Any, layout: Layout, dims: Sequence[
     terms = [" * ".join(str(d) for d in shape) or "1" for _, shape in layout.entries]
     lines = [f"def {function_name}({', '.join(dims)}):", f"    return {' + '.join(terms) or '0'}"]
     return _compiled(function_name, lines, owner, {})
+
+
+def compile_allocation(function_name: str, target: Any, layout: Layout, dims: Sequence[str]) -> Any:
+    """A compiled ``function_name(*dims) -> target``: a fresh array per entry of ``layout`` (one allocation
+    each, so every array starts aligned), fields in ``target``'s order."""
+    if set(target._fields) != set(layout.names) or not set(layout.dims) <= set(dims):
+        raise ValueError(f"{target.__name__}: fields or dimensions do not match layout {layout.name}")
+    shapes = dict(layout.entries)
+    arrays = [f"_np.empty(({', '.join(str(d) for d in shapes[name])},))" if shapes[name] else "_np.empty(1)"
+              for name in target._fields]
+    lines = [f"def {function_name}({', '.join(dims)}):", f"    return _target({', '.join(arrays)})"]
+    return _compiled(function_name, lines, target, {"_target": target, "_np": np})
 
 
 def compile_views(function_name: str, target: Any, layouts: Sequence[tuple[str, Layout]],

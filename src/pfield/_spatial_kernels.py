@@ -5,7 +5,8 @@ Quaternions are in ROS order ``(x, y, z, w)``. Rotation vectors ("rotvec") are a
 
 The SO(3) maths lives here once, in two forms side by side: *scalar* kernels on plain floats and tuples
 (:func:`so3_exp`, :func:`so3_log`, :func:`hamilton`, :func:`rotation_error`, :func:`left_increment`),
-which the planners' inner loops call without allocating, and *array* kernels on 3- and 4-arrays
+which the planners' inner loops call without allocating (inlined into their callers: a call that
+returns a tuple costs as much as the arithmetic), and *array* kernels on 3- and 4-arrays
 (:func:`quat_exp`, :func:`quat_log`, :func:`quat_mul` …) that wrap them for the batched functions of
 :mod:`pfield.spatial`.
 """
@@ -23,7 +24,7 @@ atan2(‖v‖, w)/‖v‖ ≈ 1/w. The next terms are relative θ⁴/1920 and �
 double precision, so the series equals the closed form there while avoiding its 0/0 at θ = 0."""
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def hamilton(
     ax: float, ay: float, az: float, aw: float, bx: float, by: float, bz: float, bw: float
 ) -> tuple[float, float, float, float]:
@@ -34,7 +35,7 @@ def hamilton(
             aw * bw - ax * bx - ay * by - az * bz)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def so3_exp(ax: float, ay: float, az: float) -> tuple[float, float, float, float]:
     """Exponential map so(3) → S³ of the rotation vector a: (sin(θ/2) a/θ, cos(θ/2)), θ = ‖a‖."""
     theta = math.sqrt(ax * ax + ay * ay + az * az)
@@ -45,7 +46,7 @@ def so3_exp(ax: float, ay: float, az: float) -> tuple[float, float, float, float
     return s * ax, s * ay, s * az, w
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def so3_log(x: float, y: float, z: float, w: float) -> tuple[float, float, float]:
     """Logarithm map S³ → so(3) on the short arc (q and −q alike): the rotation vector, angle in [0, π]."""
     if w < 0.0:
@@ -58,7 +59,7 @@ def so3_log(x: float, y: float, z: float, w: float) -> tuple[float, float, float
     return scale * x, scale * y, scale * z
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def rotation_error(
     qx: float, qy: float, qz: float, qw: float, gx: float, gy: float, gz: float, gw: float
 ) -> tuple[float, float, float]:
@@ -72,7 +73,7 @@ def rotation_error(
     return so3_log(ex, ey, ez, ew)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def left_increment(
     qx: float, qy: float, qz: float, qw: float, wx: float, wy: float, wz: float, h: float
 ) -> tuple[float, float, float, float]:

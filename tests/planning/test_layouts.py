@@ -71,16 +71,22 @@ def test_step_result_reads_the_slots_by_name() -> None:
     assert result.clearance == row[wb.OUT_CLEARANCE] and result.nearest_self_pair == row[wb.OUT_SIZE - 1]
 
 
-def test_the_compiled_workspace_is_the_layout_over_one_buffer() -> None:
+def test_the_compiled_workspaces_follow_the_layout() -> None:
     n, caps, obstacles, pairs = 7, 8, 3, 5
     m = caps * obstacles + pairs + 2 * n
-    ws = wb.make_workspace(n, caps, obstacles, pairs)
-    offsets = wb.WORKSPACE.offsets(n=n, caps=caps, m=m)
+    dims = {"n": n, "caps": caps, "m": m}
+    shapes = {name: tuple(dims[d] if isinstance(d, str) else d for d in shape) for name, shape in wb.WORKSPACE.entries}
+    allocated = wb.make_workspace(n, caps, obstacles, pairs)  # one array per entry (the planning loop)
+    for name, view in allocated._asdict().items():
+        assert view.shape == (shapes[name] or (1,)), name
     assert wb.workspace_size(n, caps, m) == wb.WORKSPACE.size(n=n, caps=caps, m=m)
-    base = ws.rotations.__array_interface__["data"][0]
-    for name, view in ws._asdict().items():
-        start, stop = offsets[name]
-        assert view.size == stop - start, name
+    work = np.zeros(wb.WORKSPACE.size(n=n, caps=caps, m=m))
+    viewed = wb.workspace_views(work, n, caps, m)  # views of one buffer (the autonomy step)
+    offsets = wb.WORKSPACE.offsets(n=n, caps=caps, m=m)
+    base = work.__array_interface__["data"][0]
+    for name, view in viewed._asdict().items():
+        start, _ = offsets[name]
+        assert view.shape == (shapes[name] or (1,)), name
         assert view.__array_interface__["data"][0] - base == 8 * start, name
 
 

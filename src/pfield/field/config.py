@@ -113,7 +113,7 @@ class FieldConfig:
 
     def packed(self) -> NDArray[np.float64]:
         """The parameters as the float64 array the compiled kernels take (layout :data:`PARAMS`)."""
-        return PARAMS.pack(self.as_dict())
+        return PARAMS.pack({name: getattr(self, name) for name in PARAM_NAMES})
 
 
 PARAM_NAMES: tuple[str, ...] = tuple(spec.name for spec in fields(FieldConfig))

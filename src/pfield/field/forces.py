@@ -112,7 +112,7 @@ def damper_speed(
     return max(speed, -max_speed)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def stepped_damper_speed(distance: float, influence: float, safety: float, max_speed: float, dt: float) -> float:
     """Largest allowed approach speed (m/s or rad/s) at ``distance`` for a step of ``dt`` s (whole body).
 

@@ -6,31 +6,28 @@ one window earlier. When neither improved by ``progress`` (m, and rad for the ro
 stagnates. Using the best errors rather than the current ones makes a limit cycle (errors oscillating
 about a blocked configuration) stagnate as surely as a standstill, while steady slow progress, or trading
 rotation for position, does not.
+
+The state is four floats passed through the loop (best position and rotation errors, and their values at
+the last window boundary, all ``inf`` at the start): as a returned tuple it stays in registers.
 """
 
 from __future__ import annotations
 
-import math
-
-import numpy as np
 from numba import njit
 
 
-@njit(cache=True)
-def new_progress() -> np.ndarray:
-    """The (4,) state of :func:`stagnated`: best position and rotation errors, and their window values."""
-    return np.full(4, math.inf)
-
-
 @njit(cache=True, inline="always")
-def stagnated(state: np.ndarray, step: int, window: int, progress: float, position_error: float,
-              rotation_error: float) -> bool:
-    """Record step ``step``'s goal errors (m, rad) in ``state``; True when the window brought no progress."""
-    state[0] = min(state[0], position_error)
-    state[1] = min(state[1], rotation_error)
+def track_progress(
+    state: tuple[float, float, float, float], step: int, window: int, progress: float, position_error: float,
+    rotation_error: float,
+) -> tuple[tuple[float, float, float, float], bool]:
+    """Record step ``step``'s goal errors (m, rad); returns (the new state, True when the window brought no
+    progress)."""
+    best_position, best_rotation, window_position, window_rotation = state
+    best_position = min(best_position, position_error)
+    best_rotation = min(best_rotation, rotation_error)
     if step % window != 0:
-        return False
-    if state[2] - state[0] < progress and state[3] - state[1] < progress:
-        return True
-    state[2], state[3] = state[0], state[1]
-    return False
+        return (best_position, best_rotation, window_position, window_rotation), False
+    if window_position - best_position < progress and window_rotation - best_rotation < progress:
+        return (best_position, best_rotation, window_position, window_rotation), True
+    return (best_position, best_rotation, best_position, best_rotation), False

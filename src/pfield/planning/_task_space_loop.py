@@ -23,7 +23,7 @@ from pfield.field._evaluate import constrained_twist
 from pfield.field._unowned import unowned, unowned_packed
 from pfield.geometry._packed import PackedObstacles
 from pfield.geometry._sdf import min_signed_distance
-from pfield.planning._progress import new_progress, stagnated
+from pfield.planning._progress import track_progress
 from pfield.planning.status import PlanStatus
 
 _SEGMENT_SAMPLES = 16
@@ -121,7 +121,7 @@ def _run(
     previous, twist, scratch, point = unowned(work[5]), unowned(work[6]), unowned(work[:5]), unowned(work[7, :3])
     goal, params, aux, packed = unowned(goal), unowned(params), unowned(aux), unowned_packed(packed)
     poses, twists, clearances = unowned(poses), unowned(twists), unowned(clearances)
-    errors = new_progress()
+    errors = (math.inf, math.inf, math.inf, math.inf)
     for i in range(max_iterations + 1):
         clearance, nearest = rk4_twist(p, q, goal, params, packed, aux, previous, dt, scratch, twist)
         for j in range(6):
@@ -138,7 +138,8 @@ def _run(
             return i + 1, PlanStatus.ITERATION_LIMIT, nearest
         if cancel[0] != 0:
             return i + 1, PlanStatus.CANCELLED, nearest
-        if stagnated(errors, i, window, progress, position_error, rotation_error):
+        errors, stuck = track_progress(errors, i, window, progress, position_error, rotation_error)
+        if stuck:
             return i + 1, PlanStatus.STAGNATION, nearest
         if not _advance(p, q, twist, previous, dt, poses, i + 1):
             return i + 2, PlanStatus.NOT_FINITE, -1

@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from pfield._layout import Layout, compile_size, compile_views
+from pfield._layout import Layout, compile_allocation, compile_size, compile_views
 from pfield.geometry._packed import PackedObstacles
 
 PARAMS = Layout("whole-body parameters", [(name, ()) for name in (
@@ -178,10 +178,10 @@ workspace_views = compile_views("workspace_views", Workspace, [("work", WORKSPAC
 workspace_size = compile_size("workspace_size", Workspace, WORKSPACE, ("n", "caps", "m"))
 
 
+_allocate_workspace = compile_allocation("_allocate_workspace", Workspace, WORKSPACE, ("n", "caps", "m"))
+
+
 @njit(cache=True)
 def make_workspace(n: int, n_capsules: int, n_obstacles: int, n_pairs: int) -> Workspace:
     """A fresh :class:`Workspace` for n joints, capsules, obstacles and self pairs."""
-    m_max = n_capsules * n_obstacles + n_pairs + 2 * n
-    return workspace_views(np.empty(workspace_size(n, n_capsules, m_max)), n, n_capsules, m_max)
-
-
+    return _allocate_workspace(n, n_capsules, n_capsules * n_obstacles + n_pairs + 2 * n)

@@ -11,7 +11,7 @@ import numpy as np
 from numba import njit
 
 from pfield.geometry._packed import CAPSULE, SPHERE
-from pfield.planning._progress import new_progress, stagnated
+from pfield.planning._progress import track_progress
 from pfield.planning._whole_body_kernel import _segments, joint_velocity_step
 from pfield.planning._whole_body_layout import (
     DT,
@@ -66,7 +66,7 @@ def plan_loop(q0: np.ndarray, robot: RobotArrays, scene: Scene, goal_p: np.ndarr
     positions, quats, twists, clear = np.empty((total, 3)), np.empty((total, 4)), np.empty((total, 6)), np.empty(total)
     q, previous = q0.copy(), np.zeros(n)
     window, progress, dt = int(params[STAG_STEPS]), params[STAG_PROGRESS], params[DT]
-    state = new_progress()
+    state = (math.inf, math.inf, math.inf, math.inf)
     status, count = PlanStatus.ITERATION_LIMIT, total
     out = ws.out
     for k in range(total):
@@ -90,7 +90,8 @@ def plan_loop(q0: np.ndarray, robot: RobotArrays, scene: Scene, goal_p: np.ndarr
         if cancel[0] != 0:
             status, count = PlanStatus.CANCELLED, k + 1
             break
-        if stagnated(state, k, window, progress, pos_err, rot_err):
+        state, stuck = track_progress(state, k, window, progress, pos_err, rot_err)
+        if stuck:
             status, count = PlanStatus.STAGNATION, k + 1
             break
         for j in range(n):

@@ -24,6 +24,7 @@ MAX_ITERATIONS_LIMIT = 2_000_000
 """The library's upper bound of ``max_iterations``, for every planner: a plan keeps every waypoint, and
 at this bound the buffers take ~0.25 GB (task space, 112 B per step) or ~0.5 GB (a 7-joint whole-body
 plan). Services may cap lower as their own policy (the node's ``MAX_ITERATIONS_CAP``)."""
+_FROM_CONFIG = ("rotation_tolerance", "stagnation_window", "stagnation_progress")
 MIN_STAGNATION_STEPS = 10
 """The stagnation window is never shorter than this many steps, whatever ``stagnation_window / dt``."""
 
@@ -86,20 +87,23 @@ class PlanOptions:
         """
         if options is not None and not isinstance(options, PlanOptions):
             raise InvalidInput("options", options, "expected a pfield.PlanOptions or None")
-        known = {spec.name for spec in fields(cls)}
         for name in overrides:
-            if name not in known:
-                raise InvalidInput(name, overrides[name], f"unknown PlanOptions field; known: {sorted(known)}")
+            if name not in _FIELD_NAMES:
+                raise InvalidInput(name, overrides[name], f"unknown PlanOptions field; known: {sorted(_FIELD_NAMES)}")
         changes = {name: value for name, value in overrides.items() if value is not None}
-        base = options if options is not None else None
-        if base is None:
+        if options is None:
             return cls(**changes)
-        return replace(base, **changes) if changes else base
+        return replace(options, **changes) if changes else options
 
     def resolved(self, config: Any) -> PlanOptions:
-        """These options with the None fields taken from ``config`` (a :class:`~pfield.field.FieldConfig`)."""
-        names = ("rotation_tolerance", "stagnation_window", "stagnation_progress")
-        return replace(self, **{name: getattr(config, name) for name in names if getattr(self, name) is None})
+        """These options with the None fields taken from ``config`` (a :class:`~pfield.field.FieldConfig`,
+        whose values are already validated: they are copied, not checked again)."""
+        missing = [name for name in _FROM_CONFIG if getattr(self, name) is None]
+        if not missing:
+            return self
+        out = object.__new__(PlanOptions)
+        out.__dict__.update(self.__dict__, **{name: getattr(config, name) for name in missing})
+        return out
 
     @property
     def stagnation_steps(self) -> int:
@@ -109,3 +113,6 @@ class PlanOptions:
         if self.stagnation_window is None:
             raise InvalidInput("stagnation_window", None, "resolve the options against a FieldConfig first")
         return max(MIN_STAGNATION_STEPS, round(self.stagnation_window / self.dt))
+
+
+_FIELD_NAMES = frozenset(spec.name for spec in fields(PlanOptions))
