@@ -25,11 +25,12 @@ from pfield.geometry import (
     Sphere,
     pack_obstacles,
 )
-from pfield.planning import PlannedPath
+from pfield.planning import CancelToken, PlannedPath, PlanOptions, PlanStatus
 from pfield.spatial import Pose, Twist, Wrench
 
 __all__ = [
     "Box",
+    "CancelToken",
     "Capsule",
     "Cylinder",
     "Ellipsoid",
@@ -38,6 +39,8 @@ __all__ = [
     "Mesh",
     "Obstacle",
     "PfieldError",
+    "PlanOptions",
+    "PlanStatus",
     "PlannedPath",
     "PlanningFailed",
     "Pose",

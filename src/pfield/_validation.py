@@ -102,3 +102,10 @@ def scaled_norm(values: NDArray[np.float64]) -> float:
     if largest == 0.0:
         return 0.0
     return largest * float(np.sqrt(np.sum(np.square(values / largest))))
+
+
+def integer(field: str, value: Any) -> int:
+    """Return ``value`` as an int; booleans, non-integral numbers and non-numbers are refused."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
+        raise InvalidInput(field, value, "must be an integer")
+    return int(value)

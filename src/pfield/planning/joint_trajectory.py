@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike
 
 from pfield.errors import InvalidInput
 from pfield.planning.result import PlannedPath
+from pfield.planning.status import PlanStatus
 from pfield.robot.ik import ik_path_kernel, ik_settings
 from pfield.robot.model import RobotModel
 
@@ -48,7 +49,8 @@ def attach_joint_trajectory(path: PlannedPath, robot: RobotModel, q_seed: ArrayL
         reason = (f"inverse kinematics failed at waypoint {failed} of {len(path)} (position error {pos_err:.4g} m, "
                   f"rotation error {rot_err:.4g} rad): the robot cannot follow the planned path")
         _LOG.info(reason)
-        return replace(path, success=False, failure_reason=reason, joint_names=robot.joint_names,
+        return replace(path, success=False, failure_reason=reason, status=PlanStatus.IK_FAILED,
+                       joint_names=robot.joint_names,
                        joint_positions=None, joint_velocities=None)
     velocities = np.zeros_like(qs)
     if len(path) > 1:

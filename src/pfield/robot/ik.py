@@ -20,11 +20,10 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from pfield._spatial_kernels import matrix_to_quat
+from pfield._linalg import cholesky_inplace, cholesky_solve
+from pfield._spatial_kernels import matrix_to_quat, rotation_error
 from pfield._validation import positive
 from pfield.errors import InvalidInput
-from pfield.field.forces import rotation_error
-from pfield.planning._qp import cholesky_inplace, cholesky_solve
 from pfield.robot._kinematics import end_effector_kinematics
 from pfield.robot.model import RobotModel
 from pfield.spatial import Pose
