@@ -180,7 +180,8 @@ def test_short_calls_answer_while_a_long_call_runs(served: tuple[CounterNode, st
     node.release.clear()
     node.slow_started.clear()
     result: dict[str, Any] = {}
-    worker = threading.Thread(target=lambda: result.update(httpx.post(f"{url}/srv/counter/slow", json={}, timeout=60).json()))
+    worker = threading.Thread(target=lambda: result.update(httpx.post(f"{url}/srv/counter/slow", json={},
+                                                                      timeout=60).json()))
     worker.start()
     assert node.slow_started.wait(timeout=30)
     assert httpx.post(f"{url}/srv/counter/fast", json={}).json()["success"]  # answered while slow is blocked

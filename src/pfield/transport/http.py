@@ -41,7 +41,7 @@ from typing import Any
 
 from fastapi import Body, FastAPI, Query, Request, WebSocket, WebSocketDisconnect
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import Response
+from fastapi.responses import Response, StreamingResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from pfield.errors import InvalidInput, PfieldError
@@ -194,6 +194,11 @@ def _endpoint(handler: Any, model: type[RosMessage], with_type: bool = False) ->
 
 
 def _json(message: RosMessage) -> Response:
+    """The message as a JSON response; messages that write their JSON in pieces (plan responses) are streamed,
+    the pieces written on a worker thread, so a 100 MB plan is neither held twice nor written on the loop."""
+    chunks = getattr(message, "json_chunks", None)
+    if chunks is not None:
+        return StreamingResponse((piece.encode() for piece in chunks()), media_type="application/json")
     return Response(message.model_dump_json(), media_type="application/json")
 
 
