@@ -163,7 +163,7 @@ class GuardMiddleware:
         if websocket:
             await self._run(scope, receive, send)
             return
-        if scope["method"] in ("POST", "PUT", "PATCH", "DELETE"):
+        if scope["method"] in ("POST", "PUT", "PATCH"):
             checked = await self._checked_body(scope, headers, receive, send)
             if checked is None:
                 return

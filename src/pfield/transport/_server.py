@@ -89,6 +89,19 @@ def _guarded_protocol(server_limits: ServerLimits) -> type[asyncio.Protocol]:
             if not self.transport.is_closing():
                 self._arm_head_timer()
 
+        def send_400_response(self, msg: str) -> None:
+            """A request h11 cannot parse (malformed, head over the size cap): pfield's JSON error, then close."""
+            body = error_body(f"{msg} (malformed request, or a request head over "
+                              f"{self.limits.max_header_bytes} bytes)", "request")
+            headers = [(b"content-type", b"application/json"), (b"connection", b"close")]
+            try:
+                self.transport.write(self.conn.send(h11.Response(status_code=400, headers=headers)) or b"")
+                self.transport.write(self.conn.send(h11.Data(data=body)) or b"")
+                self.transport.write(self.conn.send(h11.EndOfMessage()) or b"")
+            except h11.LocalProtocolError:  # h11 cannot answer in this state: just close
+                pass
+            self.transport.close()
+
         def connection_lost(self, exc: Exception | None) -> None:
             self._cancel_head_timer()
             super().connection_lost(exc)

@@ -176,7 +176,7 @@ def _install_error_handlers(app: FastAPI) -> None:
         if first.get("type") == "json_invalid":
             return _error(400, f"malformed JSON: {first.get('msg')}", "body")
         reason = "unknown field" if first.get("type") == "extra_forbidden" else first.get("msg", "")
-        field = _path(location) or str(next(iter(first.get("loc", ("body",)))))
+        field = _path(location) if location else "body"
         return _error(400, f"{field}={first.get('input')!r:.200}: {reason}", field, first.get("input"))
 
 
@@ -260,7 +260,7 @@ def _add_topic_routes(app: FastAPI, routes: _Routes) -> None:
             data = json.loads(await request.body())  # the guard checked type, presence, size and depth
         except ValueError as exc:
             raise InvalidInput("body", None, f"malformed JSON: {exc}") from None
-        await routes.deliver(name, message_from_data(model, data))
+        await routes.deliver(name, _message(model, data, "body"))
         return {"published": name}
 
     @app.get("/topic/{topic:path}", tags=["topics"])
@@ -291,6 +291,14 @@ def _add_param_routes(app: FastAPI, routes: _Routes) -> None:
         return await routes.call(routes.node("/" + node).set_parameters, values)
 
 
+def _message(model: type[RosMessage], data: Any, field: str) -> RosMessage:
+    """``data`` (decoded JSON) as a ``model`` message; anything but an object is refused (``null`` is not a
+    message of defaults: send ``{}`` for that)."""
+    if not isinstance(data, dict):
+        raise InvalidInput(field, data, f"expected a JSON object with the fields of {model.ros_type}")
+    return message_from_data(model, data)
+
+
 def _frame_error(error: str, field: str = "", value: object = None) -> str:
     return error_body(error, field, value).decode()
 
@@ -312,7 +320,7 @@ async def _receive_messages(websocket: WebSocket, routes: _Routes, topic: str) -
                 data = json.loads(text)
             except ValueError as exc:
                 raise InvalidInput("frame", None, f"malformed JSON: {exc}") from None
-            await routes.deliver(topic, message_from_data(routes.model_for(topic, None), data))
+            await routes.deliver(topic, _message(routes.model_for(topic, None), data, "frame"))
         except InvalidInput as exc:
             await websocket.send_text(_frame_error(str(exc), exc.field, exc.value))
         except PfieldError as exc:
