@@ -44,6 +44,7 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import Response, StreamingResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
+import pfield.interfaces.all  # noqa: F401 - the generic topic route knows every message type
 from pfield.errors import InvalidInput, PfieldError
 from pfield.interfaces import lookup_type, message_from_data
 from pfield.interfaces._base import RosMessage
