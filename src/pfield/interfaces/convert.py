@@ -266,8 +266,9 @@ class _Lazy:
         if missing:
             base: Any = type(self).__mro__[2]  # the message model (this class, _Lazy, model)
             full = base.model_validate_json(self.model_dump_json())
-            for name in missing:
-                self.__dict__[name] = getattr(full, name)
+            values = self.__dict__ | {name: getattr(full, name) for name in missing}
+            self.__dict__.clear()  # in field order, as pydantic writes them
+            self.__dict__.update({name: values[name] for name in type(self).model_fields})
         for value in list(self.__dict__.values()):
             if isinstance(value, _Lazy):
                 value._materialise()
