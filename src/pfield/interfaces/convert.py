@@ -143,7 +143,7 @@ def _stamps(times: NDArray[np.float64], field: str = "times") -> NDArray[np.int6
 
 
 _MAX_STAMP_S = 2.0**31 - 1.0
-CHUNK_ROWS = 2048
+CHUNK_ROWS = 256
 """Waypoints written per step: each step holds the GIL for about a millisecond, so other requests keep
 answering while a long plan's answer is written (and the answer can be streamed)."""
 
