@@ -130,7 +130,9 @@ class ManagerNode(Node):
                         pfi.PlanPath_Response, self.plan_path, long_running=True, cancellable=True),
             ServiceSpec("/pfield/compute_autonomy_vector", "potential_fields_interfaces/srv/ComputeAutonomyVector",
                         pfi.ComputeAutonomyVector_Request, pfi.ComputeAutonomyVector_Response,
-                        self.compute_autonomy_vector, long_running=True),
+                        # not long_running: the transports already run it off their event loop, and it must
+                        # not queue behind plans in the long-running pool (a control loop calls it at rate)
+                        self.compute_autonomy_vector),
             ServiceSpec("/pfield/remove_obstacles", "potential_fields_interfaces/srv/RemoveObstacles",
                         pfi.RemoveObstacles_Request, pfi.RemoveObstacles_Response, self.remove_obstacles,
                         long_running=True),
