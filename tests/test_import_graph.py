@@ -19,6 +19,7 @@ ROOT = Path(pfield.__file__).resolve().parent
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("cli",),
     ("demo",),  # the built-in demonstration: drives a real node through its transport
+    ("warmup",),  # compiles every kernel once: uses every computational package below
     ("transport",),
     ("node",),
     ("viz",),  # plots and viewer: may use every computational package below
@@ -31,7 +32,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("geometry",),
     ("mobile", "costmap"),  # 2D packages: spatial and the bottom layer only
     ("spatial",),
-    ("_spatial_kernels", "_linalg", "_layout", "_validation"),
+    ("_spatial_kernels", "_linalg", "_layout", "_validation", "_compile_notice"),
     ("errors",),
 )
 """DESIGN §1, top to bottom; a module may import its own layer's package and anything in a lower layer."""
@@ -41,6 +42,8 @@ ALLOWED_UPWARD = {
     # PotentialField.plan / plan_whole_body delegate lazily to the planners (DESIGN §7: the one exception)
     ("pfield.field.field", "pfield.planning.task_space"),
     ("pfield.field.field", "pfield.planning.whole_body"),
+    # PlannedPath.show() opens the 3D viewer on the plan: a lazy delegation upward of the same kind
+    ("pfield.planning.result", "pfield.viz.viewer"),
 }
 KNOWN_VIOLATIONS = {
     # capsule_clearances packs the robot's capsules with planning's whole-body packing and pair distances;

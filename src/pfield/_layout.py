@@ -23,7 +23,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["Layout", "compile_allocation", "compile_size", "compile_views"]
+__all__ = ["Layout", "compile_allocation", "compile_views"]
 
 Shape = tuple[int | str, ...]
 
@@ -124,15 +124,6 @@ def _compiled(function_name: str, lines: list[str], owner: Any, namespace: dict[
     namespace["__name__"] = module.__name__
     exec(compile("\n".join(lines), str(module.__file__), "exec"), namespace)
     return njit(cache=True)(namespace[function_name])
-
-
-def compile_size(function_name: str, owner: Any, layout: Layout, dims: Sequence[str]) -> Any:
-    """A compiled ``function_name(*dims) -> int``: the flat length of ``layout`` (:meth:`Layout.size`)."""
-    if set(dims) != set(layout.dims):
-        raise ValueError(f"layout {layout.name}: dimensions {sorted(layout.dims)}, not {sorted(dims)}")
-    terms = [" * ".join(str(d) for d in shape) or "1" for _, shape in layout.entries]
-    lines = [f"def {function_name}({', '.join(dims)}):", f"    return {' + '.join(terms) or '0'}"]
-    return _compiled(function_name, lines, owner, {})
 
 
 def compile_allocation(function_name: str, target: Any, layout: Layout, dims: Sequence[str]) -> Any:

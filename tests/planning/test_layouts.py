@@ -79,7 +79,6 @@ def test_the_compiled_workspaces_follow_the_layout() -> None:
     allocated = wb.make_workspace(n, caps, obstacles, pairs)  # one array per entry (the planning loop)
     for name, view in allocated._asdict().items():
         assert view.shape == (shapes[name] or (1,)), name
-    assert wb.workspace_size(n, caps, m) == wb.WORKSPACE.size(n=n, caps=caps, m=m)
     work = np.zeros(wb.WORKSPACE.size(n=n, caps=caps, m=m))
     viewed = wb.workspace_views(work, n, caps, m)  # views of one buffer (the autonomy step)
     offsets = wb.WORKSPACE.offsets(n=n, caps=caps, m=m)

@@ -89,8 +89,9 @@ def served() -> Iterator[tuple[CounterNode, str]]:
 def test_listings_and_openapi(served: tuple[CounterNode, str]) -> None:
     _, url = served
     assert httpx.get(f"{url}/nodes").json() == ["/counter"]
-    assert httpx.get(f"{url}/services").json() == [{"name": "/counter/fast", "type": "std_srvs/srv/Trigger"},
-                                                   {"name": "/counter/slow", "type": "std_srvs/srv/Trigger"}]
+    assert httpx.get(f"{url}/services").json() == [
+        {"name": "/counter/fast", "type": "std_srvs/srv/Trigger", "node": "/counter"},
+        {"name": "/counter/slow", "type": "std_srvs/srv/Trigger", "node": "/counter"}]
     topics = {t["name"]: t for t in httpx.get(f"{url}/topics").json()}
     assert topics["/counter/pose"]["subscribers"] == ["/counter"]
     assert topics["/counter/out"]["publishers"] == ["/counter"]

@@ -214,7 +214,7 @@ def test_live_costmap_and_find_valid_pose() -> None:
     import time
 
     import httpx
-    from _serve import pfield_serve
+    from _viewer_serve import pfield_serve
 
     map_file = Path(__file__).resolve().parents[2] / "src" / "pfield" / "data" / "maps" / "example.yaml"
     with pfield_serve("--map", str(map_file), "--footprint", "[[0.2, 0.2], [0.2, -0.2], [-0.2, -0.2], [-0.2, 0.2]]") \

@@ -18,7 +18,7 @@ import httpx
 import numpy as np
 import pytest
 from _chromium import Browser, chromium_available
-from _serve import pfield_serve
+from _viewer_serve import pfield_serve
 from numpy.typing import NDArray
 
 ARTIFACTS = Path(__file__).resolve().parents[2] / "build" / "test-artifacts"

@@ -61,15 +61,16 @@ def run_plan(config: FieldConfig, obstacles: Sequence[Any], robot: Any, inputs: 
              cancel: CancelToken | None = None) -> PlannedPath:
     """The plan of ``inputs`` among ``obstacles``; ``cancel`` (checked here before planning, and passed to the
     planner, which checks it between iterations) ends it early with the status ``cancelled``."""
+    from pfield.planning import PlanOptions
+
     field = make_field(config, inputs.goal, obstacles)
-    extra: dict[str, Any] = {} if cancel is None else {"cancel": cancel}
+    options = PlanOptions(dt=inputs.delta_time, goal_tolerance=inputs.goal_tolerance,
+                          max_iterations=inputs.max_iterations, cancel=cancel)
     if inputs.method == "whole_body":
         assert inputs.joint_angles is not None
-        return field.plan_whole_body(robot, inputs.joint_angles, inputs.delta_time, inputs.goal_tolerance,
-                                     inputs.max_iterations, **extra)
+        return field.plan_whole_body(robot, inputs.joint_angles, options=options)
     assert inputs.start is not None
-    path: PlannedPath = field.plan(start=inputs.start, dt=inputs.delta_time, goal_tolerance=inputs.goal_tolerance,
-                                   max_iterations=inputs.max_iterations, **extra)
+    path: PlannedPath = field.plan(start=inputs.start, options=options)
     if inputs.joint_angles is not None:
         from pfield.planning.joint_trajectory import attach_joint_trajectory
 

@@ -7,8 +7,8 @@
   — the robot and the scene as flat buffers for the low-overhead entry of :mod:`._whole_body_flat`;
 * :class:`Workspace` with :data:`WORKSPACE` — the scratch arrays of a step, carved from one buffer.
 
-The compiled views (:func:`robot_views`, :func:`scene_views`, :func:`workspace_views`) and
-:func:`workspace_size` are generated from these specs (:func:`pfield._layout.compile_views`), and tests check
+The compiled views (:func:`robot_views`, :func:`scene_views`, :func:`workspace_views`)
+are generated from these specs (:func:`pfield._layout.compile_views`), and tests check
 that every named tuple has exactly its layout's entries.
 """
 
@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from pfield._layout import Layout, compile_allocation, compile_size, compile_views
+from pfield._layout import Layout, compile_allocation, compile_views
 from pfield.geometry._packed import PackedObstacles
 
 PARAMS = Layout("whole-body parameters", [(name, ()) for name in (
@@ -175,7 +175,6 @@ robot_views = compile_views("robot_views", RobotArrays, [("floats", ROBOT_FLOATS
 scene_views = compile_views("scene_views", Scene, [("floats", SCENE_FLOATS)], ("caps", "obstacles", "pairs"),
                             ("packed",))
 workspace_views = compile_views("workspace_views", Workspace, [("work", WORKSPACE)], ("n", "caps", "m"))
-workspace_size = compile_size("workspace_size", Workspace, WORKSPACE, ("n", "caps", "m"))
 
 
 _allocate_workspace = compile_allocation("_allocate_workspace", Workspace, WORKSPACE, ("n", "caps", "m"))
