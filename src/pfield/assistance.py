@@ -31,9 +31,9 @@ time to collision use them; the autonomy vector and plans treat every obstacle a
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
-import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -51,6 +51,7 @@ from pfield.geometry import Obstacle, pack_obstacles
 from pfield.geometry._sdf import empty_packed
 from pfield.robot import _kinematics as _kin
 from pfield.robot._distance import segment_obstacle_distance
+from pfield.robot.geometry import world_segment
 from pfield.robot.model import RobotModel
 from pfield.spatial import Pose, Twist
 
@@ -183,10 +184,11 @@ class Assistance:
 
 
 def _mode(scene: AssistanceScene, arbitration: str) -> int:
+    """The mode of ``arbitration`` (empty: the default); without a goal always safety_only (u_auto = 0)."""
     name = arbitration or scene.options.arbitration
     if name not in _MODES:
         raise InvalidInput("arbitration", arbitration, f"expected one of {list(ARBITRATIONS)} or empty")
-    return _MODES[name]
+    return _MODES["safety_only"] if scene.field is None else _MODES[name]
 
 
 def _user_twist(user_command: Twist | None) -> NDArray[np.float64]:
@@ -277,10 +279,7 @@ def _nearest_link(scene: AssistanceScene, robot: RobotModel, rotations: NDArray[
     best = (-1, -1, math.inf, np.zeros(3), np.zeros(3))
     scratch = np.empty((2, 3))
     for c, capsule in enumerate(robot.geometry.capsules):
-        a, b = capsule.a, capsule.b
-        if capsule.joint >= 0:
-            a, b = rotations[capsule.joint] @ a + origins[capsule.joint], rotations[capsule.joint] @ b + origins[capsule.joint]
-        a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
+        a, b = (np.ascontiguousarray(end, dtype=np.float64) for end in world_segment(capsule, rotations, origins))
         for i in range(packed.kinds.shape[0]):
             d, t, nx, ny, nz = segment_obstacle_distance(packed, i, a, b, scratch)
             clearance = d - capsule.radius
