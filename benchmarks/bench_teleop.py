@@ -53,9 +53,9 @@ def scenes() -> dict[str, tuple[list[Obstacle], np.ndarray, np.ndarray, dict[str
              for i, (f, off) in enumerate(((0.3, 0.01), (0.55, -0.02), (0.8, 0.0)))]
     m3, f3 = _mover(0.45, _ALONG, 0.08, 0.5)  # moves along the line, toward and away from the operator
     return {"seed": (seed, SEED_START.position, SEED_GOAL.position, {}),
-            "spheres": (spheres + [m1], _S, _G, {"mover": f1}),
-            "pillars": (pillars + [m2], _S, _G, {"mover": f2}),
-            "boxes": (boxes + [m3], _S, _G, {"mover": f3})}
+            "spheres": ([*spheres, m1], _S, _G, {"mover": f1}),
+            "pillars": ([*pillars, m2], _S, _G, {"mover": f2}),
+            "boxes": ([*boxes, m3], _S, _G, {"mover": f3})}
 
 
 def teleop_table(runs: int) -> tuple[list[BenchRow], str]:
@@ -91,6 +91,10 @@ def teleop_table(runs: int) -> tuple[list[BenchRow], str]:
     return rows, "\n".join(lines)
 
 
+def _xyz(values: np.ndarray) -> dict[str, float]:
+    return {"x": float(values[0]), "y": float(values[1]), "z": float(values[2])}
+
+
 def speed_rows(quick: bool) -> list[BenchRow]:
     import httpx
 
@@ -110,11 +114,11 @@ def speed_rows(quick: bool) -> list[BenchRow]:
     q = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0])
     whole = median_time(lambda: whole_body_assistance(scene, robot, q, command), repeat=7, number=repeat // 70 + 1)
     node = ManagerNode(Bus(), robot)
-    body = {"query_pose": {"header": {"frame_id": "world"}, "pose": {"position": dict(zip("xyz", start.tolist()))}},
+    body = {"query_pose": {"header": {"frame_id": "world"}, "pose": {"position": _xyz(start)}},
             "user_command": {"twist": {"linear": {"x": 0.02}}}}
     with ServerThread(create_app([node])) as server, httpx.Client() as client:
         client.post(f"{server.url}/topic/pfield/planning_goal_pose",
-                    json={"pose": {"position": dict(zip("xyz", goal.tolist()))}})
+                    json={"pose": {"position": _xyz(goal)}})
         url = f"{server.url}/srv/pfield/compute_assistance"
         client.post(url, json=body).raise_for_status()
         samples = []
@@ -123,7 +127,8 @@ def speed_rows(quick: bool) -> list[BenchRow]:
             client.post(url, json=body)
             samples.append(time.perf_counter() - begin)
     samples.sort()
-    return [BenchRow(SECTION, "compute_assistance task space (Python)", task * 1e6, "µs", note="seed scene, 5 obstacles"),
+    return [BenchRow(SECTION, "compute_assistance task space (Python)", task * 1e6, "µs",
+                     note="seed scene, 5 obstacles"),
             BenchRow(SECTION, "compute_assistance whole body (Python)", whole * 1e6, "µs", target=25.0,
                      note="xArm7, seed scene"),
             BenchRow(SECTION, "compute_assistance over HTTP, p50", samples[len(samples) // 2] * 1e3, "ms", target=1.0,

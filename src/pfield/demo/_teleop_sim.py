@@ -78,8 +78,8 @@ def simulate(obstacles: Sequence[Obstacle], start: NDArray[np.float64], goal: ND
     rng = np.random.default_rng(seed)
     direction = rng.normal(size=3)
     bias = op.bias * direction / np.linalg.norm(direction)
-    delay_steps = int(round(op.delay / dt))
-    steps = int(round(time_limit / dt))
+    delay_steps = round(op.delay / dt)
+    steps = round(time_limit / dt)
     goal_pose = Pose(goal)
     motion = motion or {}
     held: dict[str, Held] = {}
