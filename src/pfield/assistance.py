@@ -46,12 +46,9 @@ from pfield.autonomy import whole_body_autonomy
 from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
 from pfield.field.field import _fast_twist
-from pfield.field.forces import damper_speed
 from pfield.geometry import Obstacle, pack_obstacles
 from pfield.geometry._sdf import empty_packed
-from pfield.robot import _kinematics as _kin
-from pfield.robot._distance import segment_obstacle_distance
-from pfield.robot.geometry import world_segment
+from pfield.planning.whole_body import obstacle_bounds
 from pfield.robot.model import RobotModel
 from pfield.spatial import Pose, Twist
 
@@ -153,6 +150,7 @@ class AssistanceScene:
         params[_k.MAX_ACCELERATION] = config.max_linear_acceleration
         params[_k.SCALE_THRESHOLD] = self.options.scene_threshold
         object.__setattr__(self, "_packed", packed)
+        object.__setattr__(self, "_bounds", obstacle_bounds(packed))
         object.__setattr__(self, "_table", table)
         object.__setattr__(self, "_params", params)
         object.__setattr__(self, "_ids", ids)
@@ -272,21 +270,27 @@ def _answer(scene: AssistanceScene, out: NDArray[np.float64], autonomy: Twist, j
 # ---------------------------------------------------------------------------------------------- whole body
 
 
-def _nearest_link(scene: AssistanceScene, robot: RobotModel, rotations: NDArray[np.float64],
-                  origins: NDArray[np.float64]) -> tuple[int, int, float, NDArray[np.float64], NDArray[np.float64]]:
-    """(capsule, obstacle, clearance, normal, robot witness point) of the closest link–obstacle pair."""
-    packed = scene._packed  # type: ignore[attr-defined]
-    best = (-1, -1, math.inf, np.zeros(3), np.zeros(3))
-    scratch = np.empty((2, 3))
-    for c, capsule in enumerate(robot.geometry.capsules):
-        a, b = (np.ascontiguousarray(end, dtype=np.float64) for end in world_segment(capsule, rotations, origins))
-        for i in range(packed.kinds.shape[0]):
-            d, t, nx, ny, nz = segment_obstacle_distance(packed, i, a, b, scratch)
-            clearance = d - capsule.radius
-            if clearance < best[2]:
-                normal = np.array([nx, ny, nz])
-                best = (c, i, clearance, normal, a + t * (b - a) - capsule.radius * normal)
-    return best
+class _Workspace:
+    """Per-robot arrays of :func:`pfield._assistance_kernel.assist_joints` (allocated once per robot)."""
+
+    def __init__(self, robot: RobotModel) -> None:
+        n, g = robot.n_joints, robot.geometry
+        self.robot = robot
+        self.capsules = (g.joints, np.ascontiguousarray(g.a), np.ascontiguousarray(g.b), np.ascontiguousarray(g.radii))
+        self.rotations, self.origins = np.empty((n, 3, 3)), np.empty((n, 3))
+        self.jac, self.point_jac = np.empty((6, n)), np.empty((3, n))
+        self.scratch, self.ends = np.empty((2, 3)), np.empty((2, 3))
+        self.zeros = np.zeros(n)
+
+
+_WORKSPACES: dict[int, _Workspace] = {}
+
+
+def _workspace(robot: RobotModel) -> _Workspace:
+    entry = _WORKSPACES.get(id(robot))
+    if entry is None or entry.robot is not robot:
+        entry = _WORKSPACES[id(robot)] = _Workspace(robot)
+    return entry
 
 
 def whole_body_assistance(scene: AssistanceScene, robot: RobotModel, joint_angles: ArrayLike,
@@ -300,59 +304,30 @@ def whole_body_assistance(scene: AssistanceScene, robot: RobotModel, joint_angle
     link clearance; then the nearest link point's relative approach speed −n̂ᵀ(J_p q̇ − v_obs) is held below
     the damper by the minimum-norm correction Δq̇ = J_pᵀ n̂ e / ‖J_pᵀ n̂‖² (e the excess).
     ``blended_command`` = J q̇; ``time_to_collision`` is that of the nearest link point under q̇_user.
+    Evaluated in one compiled call after the autonomy's (:func:`pfield._assistance_kernel.assist_joints`).
     """
     q = robot.check_joint_angles(joint_angles, "joint_angles")
     mode = _mode(scene, arbitration)
-    options, config = scene.options, scene.config
-    assert config is not None
+    options = scene.options
     step = in_range("delta_time", dt, 0.0, math.inf, "s") if dt else 0.0
     user = _user_twist(user_command)
     flags = _input_flags(input_age, options)
-    jacobian = robot.jacobian(q)
+    work = _workspace(robot)
     if scene.field is None:
-        qd_auto, autonomy, pose = np.zeros(robot.n_joints), Twist(), robot.forward_kinematics(q)
+        qd_auto, autonomy, pose = work.zeros, Twist(), robot.forward_kinematics(q)
     else:
         result = whole_body_autonomy(scene.field, robot, q, prev_joint_velocities, step)
         qd_auto, autonomy, pose = result.joint_velocities, result.twist, result.pose
     goal_flags, goal_share = _goal_flags(scene, pose, autonomy.as_array())
-    flags |= goal_flags
-    gram = jacobian @ jacobian.T + options.damping ** 2 * np.eye(6)
-    qd_user = jacobian.T @ np.linalg.solve(gram, user)
-    if np.linalg.svd(jacobian, compute_uv=False)[-1] < options.singularity_threshold:
-        flags |= Flag.NEAR_SINGULARITY
-    if np.any(q - robot.lower_limits < options.joint_limit_margin) or \
-            np.any(robot.upper_limits - q < options.joint_limit_margin):
-        flags |= Flag.AT_JOINT_LIMIT
-    rotations, origins = robot.joint_frames(q)
-    capsule, obstacle, clearance, normal, point = _nearest_link(scene, robot, rotations, origins)
-    if mode == _MODES["safety_only"] or capsule < 0:
-        alpha = 0.0
-    else:
-        alpha = _k.obstacle_share(clearance, config.influence_distance, config.safety_distance)
-        alpha = max(alpha, goal_share) if mode == _MODES["linear_goal"] else alpha
-    qd = alpha * qd_auto + (1.0 - alpha) * qd_user
-    ttc, limited = math.inf, False
-    if capsule >= 0:
-        k = robot.kinematics
-        point_jac = np.empty((3, robot.n_joints))
-        _kin.linear_point_jacobian(rotations, origins, k.axes, k.kinds, k.support,
-                                   robot.geometry.capsules[capsule].joint, point[0], point[1], point[2], point_jac)
-        v_obs = scene.velocity_table[obstacle]
-        approach_user = -normal @ (point_jac @ qd_user - v_obs)
-        ttc = 0.0 if clearance <= 0.0 else (clearance / approach_user if approach_user > 0.0 else math.inf)
-        if clearance < config.influence_distance:
-            allowed = damper_speed(clearance, config.influence_distance, config.safety_distance, config.damper_gain,
-                                   config.max_linear_velocity, config.max_linear_acceleration)
-            excess = -normal @ (point_jac @ qd - v_obs) - allowed
-            direction = point_jac.T @ normal
-            norm2 = float(direction @ direction)
-            if excess > 0.0 and norm2 > 1e-12:
-                qd = qd + direction * (excess / norm2)
-                limited = True
-    twist = jacobian @ qd
-    out = np.zeros(_k.N_OUT)
-    out[0:6] = twist
-    out[_k.ALPHA], out[_k.NEAREST], out[_k.DISTANCE] = alpha, obstacle, clearance
-    out[_k.SCALE] = _k.servo_scale(clearance, options.scene_threshold)
-    out[_k.NORMAL:_k.NORMAL + 3], out[_k.TTC], out[_k.LIMITED] = normal, ttc, float(limited)
-    return _answer(scene, out, autonomy, qd, point, flags)
+    params = np.empty(_k.N_PARAMS_WHOLE_BODY)
+    params[:_k.N_PARAMS] = scene._params  # type: ignore[attr-defined]
+    params[_k.MODE], params[_k.GOAL_SHARE] = mode, goal_share
+    params[_k.DAMPING], params[_k.LIMIT_MARGIN] = options.damping, options.joint_limit_margin
+    params[_k.SINGULARITY] = options.singularity_threshold
+    qd, out = np.empty(robot.n_joints), np.empty(_k.N_OUT_WHOLE_BODY)
+    _k.assist_joints(q, robot.lower_limits, robot.upper_limits, robot.kinematics, work.capsules,
+                     scene._packed, *scene._bounds, scene.velocity_table, np.ascontiguousarray(qd_auto), user, params,  # type: ignore[attr-defined]
+                     work.rotations, work.origins, work.jac, work.point_jac, work.scratch, work.ends, qd, out)
+    flags |= goal_flags | (Flag.AT_JOINT_LIMIT if out[_k.AT_LIMIT] else 0) | \
+        (Flag.NEAR_SINGULARITY if out[_k.SINGULAR] else 0)
+    return _answer(scene, out, autonomy, qd, out[_k.POINT:_k.POINT + 3].copy(), flags)
