@@ -325,8 +325,10 @@ def whole_body_assistance(scene: AssistanceScene, robot: RobotModel, joint_angle
     params[_k.DAMPING], params[_k.LIMIT_MARGIN] = options.damping, options.joint_limit_margin
     params[_k.SINGULARITY] = options.singularity_threshold
     qd, out = np.empty(robot.n_joints), np.empty(_k.N_OUT_WHOLE_BODY)
+    centres, bounds = scene._bounds  # type: ignore[attr-defined]
     _k.assist_joints(q, robot.lower_limits, robot.upper_limits, robot.kinematics, work.capsules,
-                     scene._packed, *scene._bounds, scene.velocity_table, np.ascontiguousarray(qd_auto), user, params,  # type: ignore[attr-defined]
+                     scene._packed, centres, bounds, scene.velocity_table,  # type: ignore[attr-defined]
+                     np.ascontiguousarray(qd_auto), user, params,
                      work.rotations, work.origins, work.jac, work.point_jac, work.scratch, work.ends, qd, out)
     flags |= goal_flags | (Flag.AT_JOINT_LIMIT if out[_k.AT_LIMIT] else 0) | \
         (Flag.NEAR_SINGULARITY if out[_k.SINGULAR] else 0)

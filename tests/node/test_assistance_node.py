@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Iterator
 from typing import Any
 
@@ -16,7 +17,7 @@ from pfield.interfaces import potential_fields_interfaces as pfi
 from pfield.interfaces.geometry_msgs import PoseStamped
 from pfield.node._base import Bus
 from pfield.node._manager_state import Held
-from pfield.node._obstacle_motion import MAX_OBSTACLE_JUMP, VELOCITY_SMOOTHING, updated_held
+from pfield.node._obstacle_motion import MAX_OBSTACLE_JUMP, MIN_UPDATE_INTERVAL, VELOCITY_SMOOTHING, updated_held
 from pfield.node.manager import ManagerNode
 from pfield.transport.http import ServerThread, create_app
 
@@ -102,15 +103,18 @@ def test_velocity_filter_estimates_and_resets_on_a_jump() -> None:
                       group="Dynamic")
     assert updated_held(second, jumped, 10.2, 2.0).velocity == (0.0, 0.0, 0.0)
     assert updated_held(second, moved, 13.0, 2.0).velocity == (0.0, 0.0, 0.0)  # older than the timeout
+    assert updated_held(second, jumped, 10.1 + MIN_UPDATE_INTERVAL / 2, 2.0).velocity == (0.0, 0.0, 0.0)
+    assert updated_held(second, moved, 10.1 + MIN_UPDATE_INTERVAL / 2, 2.0).velocity == second.velocity
     static = Obstacle("ball", Sphere(radius=0.05), Pose(position=(0.6, 0.0, 0.3)), group="Static")
     assert updated_held(Held(ball, 10.0), static, 10.1, 2.0).velocity == (0.0, 0.0, 0.0)
 
 
 def test_node_estimates_dynamic_velocity_from_successive_poses(node: ManagerNode) -> None:
+    time.sleep(2 * MIN_UPDATE_INTERVAL)  # successive updates must be further apart than this to count
     publish_ball(node, 0.49)  # the ball moves toward the end effector
     held = node.state.obstacles["ball"]
     assert held.velocity[0] < 0.0 and held.velocity[1:] == (0.0, 0.0)
-    publish_ball(node, 3.0)  # a jump: the estimate starts again
+    publish_ball(node, 3.0)  # a jump (even within MIN_UPDATE_INTERVAL): the estimate starts again
     assert node.state.obstacles["ball"].velocity == (0.0, 0.0, 0.0)
 
 

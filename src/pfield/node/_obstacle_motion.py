@@ -34,13 +34,13 @@ def updated_held(previous: Held | None, obstacle: Any, now: float, timeout: floa
     if previous.explicit:
         return Held(obstacle, now, previous.velocity, True)
     elapsed = now - previous.updated
-    if elapsed < MIN_UPDATE_INTERVAL:
-        return Held(obstacle, previous.updated, previous.velocity)
     old, new = previous.obstacle.pose.position, obstacle.pose.position
     delta = [float(new[k] - old[k]) for k in range(3)]
     jump = math.sqrt(sum(x * x for x in delta)) > MAX_OBSTACLE_JUMP
     if jump or (timeout > 0 and elapsed > timeout) or previous.obstacle.shape != obstacle.shape:
         return Held(obstacle, now)
+    if elapsed < MIN_UPDATE_INTERVAL:
+        return Held(obstacle, now, previous.velocity)
     v = previous.velocity
     smoothed = tuple(v[k] + VELOCITY_SMOOTHING * (delta[k] / elapsed - v[k]) for k in range(3))
     return Held(obstacle, now, (smoothed[0], smoothed[1], smoothed[2]))
