@@ -155,3 +155,30 @@ def test_http_route_answers_and_refuses(served: tuple[ManagerNode, str]) -> None
                      json={"query_pose": {"pose": {"position": {"x": 0.0, "y": 1.0, "z": 0.3}}}}).json()
     assert far["time_to_collision"] == math.inf and far["speed_scale"] == 1.0
     assert manager.state is before
+
+
+@pytest.mark.ros2
+@pytest.mark.slow
+def test_rclpy_node_answers_compute_assistance(tmp_path: Any) -> None:
+    import json
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "transport"))
+    from ros2_helpers.support import require_netns, require_ros2_python, run_session
+
+    require_ros2_python()
+    require_netns()
+    node = [str(Path(sys.executable).with_name("pfield")), "ros2", "node", "--robot", "xarm7"]
+    client = [sys.executable, str(Path(__file__).with_name("assistance_ros2_client.py"))]
+    process = run_session(node, client, tmp_path, timeout=600)
+    assert process.returncode == 0, process.stderr
+    results = json.loads((tmp_path / "results.json").read_text())
+    assert "error" not in results, results["error"] + (tmp_path / "node.log").read_text()
+    static, moving, refused = results["static"], results["moving"], results["refused"]
+    assert static["nearest_obstacle_id"] == "ball"
+    assert static["nearest_distance"] == pytest.approx(0.05, abs=1e-6)
+    assert static["time_to_collision"] == pytest.approx(2.5, rel=1e-5)
+    assert static["obstacle_point"]["x"] == pytest.approx(0.45, abs=1e-6)
+    assert moving["time_to_collision"] == pytest.approx(1.0, rel=1e-5)
+    assert "arbitration" in refused["message"] and refused["nearest_obstacle_id"] == ""
