@@ -10,6 +10,8 @@ goal), and three cluttered scenes on the benchmark start–goal line (0.3, 0, 0.
 Figures per scene and mode: runs with a collision, minimum clearance over all runs (m), success rate,
 median time to goal of the successful runs (s), agreement (mean cosine between the operator's and the
 executed command). Targets (pfield): no collision, success ≥ Servo's, median time ≤ 0.8 × Servo's.
+Whole body: ``xarm7 whole body`` (the xArm7 past two static spheres, 20 runs per mode, exact coal distances,
+:func:`pfield.demo._teleop_sim.simulate_arm`).
 Speed: ``compute_assistance`` from Python (task space, whole body) and over HTTP (p50).
 """
 
@@ -25,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks._common import BenchRow, median_time
-from pfield.demo._teleop_sim import MODES, simulate
+from pfield.demo._teleop_sim import MODES, TeleopRun, simulate, simulate_arm
 from pfield.geometry import Box, Cylinder, Obstacle, Sphere
 from pfield.planning.scenes import BENCH_GOAL, BENCH_START, SEED_GOAL, SEED_START, seed_obstacles, sphere_line_scene
 from pfield.spatial import Pose
@@ -58,13 +60,33 @@ def scenes() -> dict[str, tuple[list[Obstacle], np.ndarray, np.ndarray, dict[str
             "boxes": ([*boxes, m3], _S, _G, {"mover": f3})}
 
 
-def teleop_table(runs: int) -> tuple[list[BenchRow], str]:
+def _arm_runs(mode: str, runs: int) -> list[TeleopRun]:
+    """xArm7 whole body: the end effector 0.3 m along +y past two spheres (static; exact coal checks)."""
+    from pfield.robot import RobotModel
+    from pfield.robot.collision import CollisionChecker
+
+    robot = RobotModel.builtin("xarm7")
+    q0 = np.array([0.0, -0.3, 0.0, 0.6, 0.0, 0.9, 0.0])
+    p0 = robot.forward_kinematics(q0).position
+    obstacles = [Obstacle("s0", Sphere(0.04), Pose(p0 + np.array([0.0, 0.15, 0.0]))),
+                 Obstacle("s1", Sphere(0.03), Pose(p0 + np.array([0.02, 0.25, 0.05])))]
+    checker = CollisionChecker(robot, obstacles)
+    goal = p0 + np.array([0.0, 0.3, 0.0])
+    return [simulate_arm(robot, obstacles, q0, goal, mode, seed, checker=checker) for seed in range(runs)]
+
+
+def teleop_table(runs: int, arm_runs: int = 0) -> tuple[list[BenchRow], str]:
     rows, lines = [], ["| scene | mode | collisions | min clearance (m) | success | median time (s) | agreement |",
                        "|---|---|---:|---:|---:|---:|---:|"]
-    for name, (obstacles, start, goal, motion) in scenes().items():
+    cases = [(name, runs, lambda mode, o=o, s=s, g=g, m=m: [simulate(o, s, g, mode, seed, motion=m)
+                                                           for seed in range(runs)])
+             for name, (o, s, g, m) in scenes().items()]
+    if arm_runs:
+        cases.append(("xarm7 whole body", arm_runs, lambda mode: _arm_runs(mode, arm_runs)))
+    for name, runs, simulate_all in cases:
         summary: dict[str, dict[str, float]] = {}
         for mode in MODES:
-            results = [simulate(obstacles, start, goal, mode, seed, motion=motion) for seed in range(runs)]
+            results = simulate_all(mode)
             times = [r.time_to_goal for r in results if r.success]
             summary[mode] = {"collisions": sum(r.collided for r in results),
                              "clearance": min(float(r.clearance.min()) for r in results),
@@ -136,7 +158,7 @@ def speed_rows(quick: bool) -> list[BenchRow]:
 
 
 def run(quick: bool) -> list[BenchRow]:
-    rows, table = teleop_table(10 if quick else 50)
+    rows, table = teleop_table(10 if quick else 50, 5 if quick else 20)
     (Path(__file__).resolve().parent / "results").mkdir(exist_ok=True)
     (Path(__file__).resolve().parent / "results" / "teleop_table.md").write_text(table + "\n")
     return rows + speed_rows(quick)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -116,6 +117,68 @@ def simulate(obstacles: Sequence[Obstacle], start: NDArray[np.float64], goal: ND
         if np.linalg.norm(goal - p) <= goal_tolerance:
             success, reached = True, t + dt
             break
+    return _outcome(rows, history, collided, success, reached)
+
+
+def simulate_arm(robot: Any, obstacles: Sequence[Obstacle], q0: NDArray[np.float64], goal: NDArray[np.float64],
+                 mode: str, seed: int, *, operator: Operator | None = None, config: FieldConfig | None = None,
+                 dt: float = 0.05, time_limit: float = 30.0, goal_tolerance: float = 0.02,
+                 checker: Any = None) -> TeleopRun:
+    """The same operator driving a whole robot's end effector (static obstacles).
+
+    The operator's end-effector twist (linear part; angular 0) becomes joint velocities by damped least
+    squares (λ = 0.01) for ``none`` and ``servo``; ``servo`` scales them by MoveIt Servo's law at the exact
+    scene (0.02 m) and self (0.01 m) distances; ``pfield`` executes
+    :func:`pfield.assistance.whole_body_assistance`'s ``joint_velocities``. Joints are integrated and clipped
+    to their limits. Collisions and clearances: exact URDF-geometry distances (coal,
+    :class:`pfield.robot.collision.CollisionChecker`); a self-collision counts too.
+    """
+    from pfield.assistance import whole_body_assistance
+    from pfield.robot.collision import CollisionChecker
+
+    op, config = operator or Operator(), config or FieldConfig(max_linear_velocity=0.08)
+    checker = checker or CollisionChecker(robot, obstacles)
+    rng = np.random.default_rng(seed)
+    direction = rng.normal(size=3)
+    bias = op.bias * direction / np.linalg.norm(direction)
+    delay_steps, steps = round(op.delay / dt), round(time_limit / dt)
+    scene = AssistanceScene(field=PotentialField(config, Pose(goal, robot.forward_kinematics(q0).orientation),
+                                                 list(obstacles)))
+    q = np.array(q0, dtype=float)
+    history = [robot.forward_kinematics(q).position]
+    rows: list[tuple[float, NDArray[np.float64], NDArray[np.float64], float, float]] = []
+    collided, success, reached = False, False, math.inf
+    for k in range(steps):
+        seen = history[max(0, len(history) - 1 - delay_steps)]
+        command = op.gain * (goal - seen) + bias + rng.normal(scale=op.noise, size=3)
+        speed = np.linalg.norm(command)
+        if speed > op.top_speed:
+            command *= op.top_speed / speed
+        scene_distance, _, self_distance, _ = checker.distances(q)
+        alpha = 0.0
+        jac = robot.jacobian(q)
+        twist = np.concatenate([command, np.zeros(3)])
+        if mode == "pfield":
+            answer = whole_body_assistance(scene, robot, q, Twist(command), "linear")
+            qd, alpha = answer.joint_velocities, answer.alpha
+        else:
+            qd = jac.T @ np.linalg.solve(jac @ jac.T + 1e-4 * np.eye(6), twist)
+            if mode == "servo":
+                qd = qd * min(servo_scale(scene_distance, SERVO_SCENE_THRESHOLD), servo_scale(self_distance, 0.01))
+        executed = (jac @ qd)[:3]
+        rows.append((k * dt, command, executed, alpha, min(scene_distance, self_distance)))
+        collided = collided or scene_distance <= 0.0 or self_distance <= 0.0
+        q = np.clip(q + qd * dt, robot.lower_limits, robot.upper_limits)
+        position = robot.forward_kinematics(q).position
+        history.append(position)
+        if np.linalg.norm(goal - position) <= goal_tolerance:
+            success, reached = True, (k + 1) * dt
+            break
+    return _outcome(rows, history, collided, success, reached)
+
+
+def _outcome(rows: list[tuple[float, NDArray[np.float64], NDArray[np.float64], float, float]],
+             history: list[NDArray[np.float64]], collided: bool, success: bool, reached: float) -> TeleopRun:
     times = np.array([r[0] for r in rows])
     ops, exe = np.array([r[1] for r in rows]), np.array([r[2] for r in rows])
     norms = np.linalg.norm(ops, axis=1) * np.linalg.norm(exe, axis=1)
