@@ -208,3 +208,20 @@ def test_whole_body_flags(xarm: Any) -> None:
     assert not whole_body_assistance(arm, xarm, Q).flags & (Flag.AT_JOINT_LIMIT | Flag.NEAR_SINGULARITY)
     with pytest.raises(InvalidInput, match="joint_angles"):
         whole_body_assistance(arm, xarm, np.zeros(3))
+
+
+def test_assisted_teleop_demo_run_avoids_what_the_operator_alone_hits(tmp_path: Any) -> None:
+    from rich.console import Console
+
+    from pfield.demo import assisted
+    from pfield.demo._teleop_sim import simulate
+
+    obstacles, motion = assisted._scene()
+    alone = simulate(obstacles, assisted.START, assisted.GOAL, "none", seed=0, motion=motion)  # type: ignore[arg-type]
+    helped = simulate(obstacles, assisted.START, assisted.GOAL, "pfield", seed=0, motion=motion)  # type: ignore[arg-type]
+    again = simulate(obstacles, assisted.START, assisted.GOAL, "pfield", seed=0, motion=motion)  # type: ignore[arg-type]
+    assert alone.collided and not helped.collided and helped.success
+    np.testing.assert_array_equal(helped.executed, again.executed)  # seeded: the same run twice
+    assert np.all((helped.alpha >= 0.0) & (helped.alpha <= 1.0))
+    assisted.run(tmp_path, Console(quiet=True))
+    assert (tmp_path / "assisted_teleop.png").stat().st_size > 0
