@@ -165,10 +165,14 @@ def test_rclpy_node_answers_compute_assistance(tmp_path: Any) -> None:
     from pathlib import Path
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "transport"))
-    from ros2_helpers.support import require_netns, require_ros2_python, run_session
+    from ros2_helpers.support import missing, require_netns, require_ros2_python, run_session
 
     require_ros2_python()
     require_netns()
+    import potential_fields_interfaces.srv as built
+
+    if not hasattr(built, "ComputeAssistance"):
+        missing("the installed potential_fields_interfaces predates ComputeAssistance: run `make ros2-interfaces`")
     node = [str(Path(sys.executable).with_name("pfield")), "ros2", "node", "--robot", "xarm7"]
     client = [sys.executable, str(Path(__file__).with_name("assistance_ros2_client.py"))]
     process = run_session(node, client, tmp_path, timeout=600)
