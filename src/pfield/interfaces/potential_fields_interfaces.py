@@ -2,7 +2,8 @@
 
 Field for field as the seed document's ``.msg``/``.srv`` files (``Obstacle``, ``ObstacleArray``,
 ``PlanPath``, ``ComputeAutonomyVector``), ``FindValidPose`` as mbf_msgs, plus the services this package
-adds (``RemoveObstacles``). ``tests/interfaces`` proves the models equal the files.
+adds (``RemoveObstacles``; shared control: ``ComputeAssistance``, ``ObstacleVelocity``,
+``ObstacleVelocityArray``). ``tests/interfaces`` proves the models equal the files.
 """
 
 from __future__ import annotations
@@ -11,8 +12,8 @@ from typing import Any, ClassVar
 
 from pydantic import Field
 
-from pfield.interfaces._base import Bool, Float32, Int32, RosMessage, String, UInt8, UInt32
-from pfield.interfaces.geometry_msgs import Pose, PoseStamped, TwistStamped
+from pfield.interfaces._base import Bool, Float32, Float64, Int32, RosMessage, String, UInt8, UInt32
+from pfield.interfaces.geometry_msgs import Point, Pose, PoseStamped, TwistStamped, Vector3
 from pfield.interfaces.nav_msgs import Path
 from pfield.interfaces.std_msgs import Header
 from pfield.interfaces.trajectory_msgs import JointTrajectory
@@ -145,3 +146,77 @@ class RemoveObstacles_Response(RosMessage):
     success: Bool = False
     message: String = ""
     remaining: list[String] = Field(default_factory=list)
+
+
+ARBITRATION_LINEAR = "linear"
+ARBITRATION_LINEAR_GOAL = "linear_goal"
+ARBITRATION_SAFETY_ONLY = "safety_only"
+ASSISTANCE_FLAGS: dict[str, int] = {
+    "FLAG_IN_COLLISION": 1, "FLAG_NEAR_OBSTACLE": 2, "FLAG_AT_GOAL": 4, "FLAG_STALLED": 8,
+    "FLAG_AT_JOINT_LIMIT": 16, "FLAG_NEAR_SINGULARITY": 32, "FLAG_STALE_INPUT": 64, "FLAG_NO_GOAL": 128,
+}
+
+
+class ObstacleVelocity(RosMessage):
+    """The velocity (m/s, world frame) of the obstacle whose ``Obstacle.frame_id`` is ``frame_id``."""
+
+    ros_type = "potential_fields_interfaces/msg/ObstacleVelocity"
+    frame_id: String = ""
+    linear: Vector3 = Field(default_factory=Vector3)
+
+
+class ObstacleVelocityArray(RosMessage):
+    ros_type = "potential_fields_interfaces/msg/ObstacleVelocityArray"
+    header: Header = Field(default_factory=Header)
+    velocities: list[ObstacleVelocity] = Field(default_factory=list)
+
+
+class ComputeAssistance_Request(RosMessage):
+    """ComputeAutonomyVector's fields plus the operator's ``user_command`` and the ``arbitration`` mode."""
+
+    ros_type = "potential_fields_interfaces/srv/ComputeAssistance_Request"
+    ros_constants: ClassVar[dict[str, tuple[str, Any]]] = _PLANNING_CONSTANTS | {
+        "ARBITRATION_LINEAR": ("string", ARBITRATION_LINEAR),
+        "ARBITRATION_LINEAR_GOAL": ("string", ARBITRATION_LINEAR_GOAL),
+        "ARBITRATION_SAFETY_ONLY": ("string", ARBITRATION_SAFETY_ONLY),
+    }
+    PLANNING_METHOD_TASK_SPACE: ClassVar[str] = PLANNING_METHOD_TASK_SPACE
+    PLANNING_METHOD_WHOLE_BODY: ClassVar[str] = PLANNING_METHOD_WHOLE_BODY
+    ARBITRATION_LINEAR: ClassVar[str] = ARBITRATION_LINEAR
+    ARBITRATION_LINEAR_GOAL: ClassVar[str] = ARBITRATION_LINEAR_GOAL
+    ARBITRATION_SAFETY_ONLY: ClassVar[str] = ARBITRATION_SAFETY_ONLY
+    query_pose: PoseStamped = Field(default_factory=PoseStamped)
+    joint_angles: list[Float32] = Field(default_factory=list)
+    prev_joint_velocities: list[Float32] = Field(default_factory=list)
+    delta_time: Float32 = 0.0
+    planning_method: String = ""
+    user_command: TwistStamped = Field(default_factory=TwistStamped)
+    arbitration: String = ""
+
+
+class ComputeAssistance_Response(RosMessage):
+    """See ``ComputeAssistance.srv`` and ``docs/assistance.md`` for every field's unit and law."""
+
+    ros_type = "potential_fields_interfaces/srv/ComputeAssistance_Response"
+    ros_constants: ClassVar[dict[str, tuple[str, Any]]] = {k: ("uint32", v) for k, v in ASSISTANCE_FLAGS.items()}
+    FLAG_IN_COLLISION: ClassVar[int] = 1
+    FLAG_NEAR_OBSTACLE: ClassVar[int] = 2
+    FLAG_AT_GOAL: ClassVar[int] = 4
+    FLAG_STALLED: ClassVar[int] = 8
+    FLAG_AT_JOINT_LIMIT: ClassVar[int] = 16
+    FLAG_NEAR_SINGULARITY: ClassVar[int] = 32
+    FLAG_STALE_INPUT: ClassVar[int] = 64
+    FLAG_NO_GOAL: ClassVar[int] = 128
+    autonomy_vector: TwistStamped = Field(default_factory=TwistStamped)
+    joint_velocities: list[Float64] = Field(default_factory=list)
+    blended_command: TwistStamped = Field(default_factory=TwistStamped)
+    alpha: Float64 = 0.0
+    speed_scale: Float64 = 0.0
+    nearest_obstacle_id: String = ""
+    nearest_distance: Float64 = 0.0
+    nearest_normal: Vector3 = Field(default_factory=Vector3)
+    robot_point: Point = Field(default_factory=Point)
+    obstacle_point: Point = Field(default_factory=Point)
+    time_to_collision: Float64 = 0.0
+    flags: UInt32 = 0
+    message: String = ""

@@ -110,10 +110,16 @@ def manager_table(name: str) -> ParameterTable:
 
 @dataclass(frozen=True)
 class Held:
-    """An obstacle with the monotonic time (s) of its last update."""
+    """An obstacle with the monotonic time (s) of its last update and its world velocity (m/s).
+
+    ``velocity`` is estimated from successive poses of a ``Dynamic`` obstacle, or ``explicit`` (given on
+    ``/pfield/obstacle_velocities``); static obstacles keep (0, 0, 0).
+    """
 
     obstacle: Any
     updated: float
+    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    explicit: bool = False
 
 
 @dataclass(frozen=True, eq=False)

@@ -4,7 +4,10 @@ Topics in: ``/pfield/obstacles`` (ObstacleArray: add or replace by id; one bad o
 message), ``/pfield/planning_goal_pose`` (PoseStamped), ``/pfield/query_pose`` (PoseStamped: answers on
 ``/pfield/autonomy_vector``). Topics out: ``/pfield/planned_path`` (nav_msgs/Path), ``/pfield/markers``
 (MarkerArray). Services: ``/pfield/plan_path``, ``/pfield/compute_autonomy_vector``,
-``/pfield/remove_obstacles`` and ``/pfield/clear_obstacles`` (std_srvs/Trigger). Parameters: every
+``/pfield/compute_assistance`` (shared control, :mod:`pfield.assistance`), ``/pfield/remove_obstacles`` and
+``/pfield/clear_obstacles`` (std_srvs/Trigger). ``Dynamic`` obstacles get a velocity estimated from successive
+poses (:mod:`pfield.node._obstacle_motion`) or given on ``/pfield/obstacle_velocities``
+(ObstacleVelocityArray: every id must be held, or nothing changes); only the assistance uses it. Parameters: every
 :class:`~pfield.field.FieldConfig` field plus ``dynamic_obstacle_timeout`` (s: ``Dynamic`` obstacles not
 updated for this long are dropped), ``fixed_frame`` (the frame every pose is used in) and
 ``static_transforms`` (``{frame: {translation: [x, y, z], rotation: [qx, qy, qz, qw]}}``: the pose of each
@@ -42,21 +45,30 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from pfield._validation import as_vector, in_range
+from pfield._validation import as_vector, finite, in_range
+from pfield.assistance import (
+    ARBITRATIONS,
+    AssistanceOptions,
+    AssistanceScene,
+    task_space_assistance,
+    whole_body_assistance,
+)
 from pfield.errors import InvalidInput, PfieldError
 from pfield.field.config import FieldConfig
 from pfield.interfaces import geometry_msgs as gm
 from pfield.interfaces import nav_msgs, std_srvs, visualization_msgs
 from pfield.interfaces import potential_fields_interfaces as pfi
 from pfield.interfaces.convert import obstacle_from_msg, plan_response, pose_from_msg, twist_stamped
+from pfield.interfaces.geometry_msgs import Point, Vector3
 from pfield.node import _planning
 from pfield.node._base import Bus, Node, PublicationSpec, ServiceSpec, SubscriptionSpec
 from pfield.node._frames import transforms_data
-from pfield.node._manager_state import MAX_OBSTACLES, Held, ManagerParameters, ManagerState, Memo, manager_table
+from pfield.node._manager_state import MAX_OBSTACLES, ManagerParameters, ManagerState, Memo, manager_table
 from pfield.node._markers import state_markers
+from pfield.node._obstacle_motion import updated_held
 from pfield.planning.cancel import CancelToken
 from pfield.planning.task_space import DEFAULT_MAX_ITERATIONS
-from pfield.spatial import Pose
+from pfield.spatial import Pose, Twist, rotate_vectors
 
 __all__ = ["DEFAULT_MAX_ITERATIONS", "MAX_DELTA_TIME", "MAX_ITERATIONS_CAP", "MAX_OBSTACLES", "MAX_PLAN_WORK",
            "MIN_DELTA_TIME", "ManagerNode", "ManagerParameters"]
@@ -99,7 +111,8 @@ class ManagerNode(Node):
     ``robot``: the :class:`~pfield.robot.RobotModel` of whole-body requests; ``config``: initial field
     parameters; ``resolver``: the :class:`~pfield.geometry.ResourceResolver` Mesh obstacles are loaded through
     (``package://`` paths and allowed roots; None allows the current directory only); ``csv_dir``: where
-    every plan is saved as CSV (None: not saved).
+    every plan is saved as CSV (None: not saved); ``assistance``: the laws' options of ``compute_assistance``
+    (its ``arbitration`` is the default of an empty request field).
     """
 
     name = "/pfield_manager"
@@ -107,7 +120,7 @@ class ManagerNode(Node):
 
     def __init__(self, bus: Bus, robot: Any, *, config: FieldConfig | None = None,
                  parameters: ManagerParameters | None = None, resolver: Any = None,
-                 csv_dir: Path | None = None) -> None:
+                 csv_dir: Path | None = None, assistance: AssistanceOptions | None = None) -> None:
         super().__init__(bus)
         self.robot = robot
         self.resolver = resolver
@@ -121,6 +134,8 @@ class ManagerNode(Node):
         self._markers: Memo[visualization_msgs.MarkerArray] = Memo(
             lambda s: state_markers(s.params.fixed_frame, s.goal, s.obstacle_list(), s.config.influence_distance,
                                     s.path_positions))
+        self.assistance_options = assistance or AssistanceOptions()
+        self._scene: Memo[AssistanceScene] = Memo(self._make_scene, depends=("config", "goal", "obstacles"))
         self._plan_count = 0
 
     # ---- node contract ------------------------------------------------------------------------------
@@ -130,9 +145,11 @@ class ManagerNode(Node):
                         pfi.PlanPath_Response, self.plan_path, long_running=True, cancellable=True),
             ServiceSpec("/pfield/compute_autonomy_vector", "potential_fields_interfaces/srv/ComputeAutonomyVector",
                         pfi.ComputeAutonomyVector_Request, pfi.ComputeAutonomyVector_Response,
-                        # not long_running: the transports already run it off their event loop, and it must
-                        # not queue behind plans in the long-running pool (a control loop calls it at rate)
+                        # not long_running (nor is compute_assistance): the transports already run them off
+                        # their event loop, and a control loop calling them at rate must not queue behind plans
                         self.compute_autonomy_vector),
+            ServiceSpec("/pfield/compute_assistance", "potential_fields_interfaces/srv/ComputeAssistance",
+                        pfi.ComputeAssistance_Request, pfi.ComputeAssistance_Response, self.compute_assistance),
             ServiceSpec("/pfield/remove_obstacles", "potential_fields_interfaces/srv/RemoveObstacles",
                         pfi.RemoveObstacles_Request, pfi.RemoveObstacles_Response, self.remove_obstacles,
                         long_running=True),
@@ -148,6 +165,8 @@ class ManagerNode(Node):
                              self.on_goal),
             SubscriptionSpec("/pfield/query_pose", "geometry_msgs/msg/PoseStamped", gm.PoseStamped,
                              self.on_query_pose),
+            SubscriptionSpec("/pfield/obstacle_velocities", "potential_fields_interfaces/msg/ObstacleVelocityArray",
+                             pfi.ObstacleVelocityArray, self.on_obstacle_velocities),
         ]
 
     def publications(self) -> list[PublicationSpec]:
@@ -240,9 +259,34 @@ class ManagerNode(Node):
         with self._lock:
             state = self._state
             self._check_count(state, ids)  # again: another message may have added obstacles meanwhile
-            held = dict(state.obstacles) | {key: Held(obstacle, now) for key, obstacle in converted.items()}
+            timeout = state.params.dynamic_obstacle_timeout
+            held = dict(state.obstacles) | {key: updated_held(state.obstacles.get(key), obstacle, now, timeout)
+                                            for key, obstacle in converted.items()}
             self._state = state.evolve(obstacles=held)
         self._publish_markers()
+
+    def on_obstacle_velocities(self, message: pfi.ObstacleVelocityArray) -> None:
+        """Explicit obstacle velocities (m/s): every id must be held and every value finite, else nothing changes."""
+        state = self._state
+        transform = state.params.frames().lookup("header.frame_id", message.header.frame_id)
+        given: dict[str, tuple[float, float, float]] = {}
+        for i, item in enumerate(message.velocities):
+            if item.frame_id not in state.obstacles:
+                raise InvalidInput(f"velocities[{i}].frame_id", item.frame_id, "no obstacle with this id is held")
+            if item.frame_id in given:
+                raise InvalidInput(f"velocities[{i}].frame_id", item.frame_id, "duplicate id in one message")
+            linear = [finite(f"velocities[{i}].linear.{axis}", getattr(item.linear, axis)) for axis in "xyz"]
+            if transform is not None:
+                linear = [float(x) for x in rotate_vectors(transform.orientation, linear)]
+            given[item.frame_id] = (linear[0], linear[1], linear[2])
+        with self._lock:
+            state = self._state
+            missing = [key for key in given if key not in state.obstacles]
+            if missing:
+                raise InvalidInput("velocities", missing, "obstacles removed meanwhile; nothing changed")
+            held = dict(state.obstacles) | {key: replace(state.obstacles[key], velocity=v, explicit=True)
+                                            for key, v in given.items()}
+            self._state = state.evolve(obstacles=held)
 
     @staticmethod
     def _check_count(state: ManagerState, ids: list[str]) -> None:
@@ -358,9 +402,24 @@ class ManagerNode(Node):
     def compute_autonomy_vector(self, request: pfi.ComputeAutonomyVector_Request
                                 ) -> pfi.ComputeAutonomyVector_Response:
         """The field's limited twist at the query pose (task_space) or at ``joint_angles`` (whole_body)."""
+        state = self._state
+        method, dt, q, qd, pose = self._query(request, state)
+        field = self._field.get(state)
+        if field is None:
+            raise InvalidInput("goal", None, "no goal yet: publish /pfield/planning_goal_pose or call plan_path")
+        if method == WHOLE_BODY:
+            twist = _planning.whole_body_twist(field, self.robot, q, qd, dt, pose)
+        else:
+            assert pose is not None
+            twist = field.twist(pose)
+        vector = twist_stamped(twist, state.params.fixed_frame, time.time())
+        return pfi.ComputeAutonomyVector_Response(autonomy_vector=vector)
+
+    def _query(self, request: Any, state: ManagerState) -> tuple[str, float, Any, Any, Pose | None]:
+        """The ComputeAutonomyVector fields of ``request`` validated: (method, dt, q, q̇_prev, pose)."""
         method = _planning_method(request.planning_method)
         dt = in_range("delta_time", request.delta_time, 0.0, MAX_DELTA_TIME, "s")
-        state = self._state
+        q = qd = None
         frames = state.params.frames()
         transform = frames.lookup("query_pose.header.frame_id", request.query_pose.header.frame_id)
         if method == WHOLE_BODY:
@@ -375,13 +434,52 @@ class ManagerNode(Node):
             pose = pose_from_msg(request.query_pose.pose, "query_pose.pose")
         if pose is not None and transform is not None:
             pose = transform * pose
+        return method, dt, q, qd, pose
+
+    def _make_scene(self, state: ManagerState) -> AssistanceScene:
+        velocities = {key: held.velocity for key, held in state.obstacles.items() if any(held.velocity)}
         field = self._field.get(state)
-        if field is None:
-            raise InvalidInput("goal", None, "no goal yet: publish /pfield/planning_goal_pose or call plan_path")
+        return AssistanceScene(field=field, config=state.config, obstacles=state.obstacle_list(),
+                               velocities=velocities, options=self.assistance_options)
+
+    def compute_assistance(self, request: pfi.ComputeAssistance_Request) -> pfi.ComputeAssistance_Response:
+        """Shared control at the query pose or joint angles: see ComputeAssistance.srv and :mod:`pfield.assistance`.
+
+        Works without a goal (``FLAG_NO_GOAL``: zero autonomy vector, α = 0, the operator's command with its
+        approach limited). ``user_command`` in another frame is rotated into the fixed frame; its stamp (when
+        non-zero) dates it for ``FLAG_STALE_INPUT``.
+        """
+        state = self._state
+        method, dt, q, qd, pose = self._query(request, state)
+        if request.arbitration and request.arbitration not in ARBITRATIONS:
+            raise InvalidInput("arbitration", request.arbitration, f"expected one of {list(ARBITRATIONS)} or empty")
+        user = request.user_command
+        transform = state.params.frames().lookup("user_command.header.frame_id", user.header.frame_id)
+        values = [finite(f"user_command.twist.{part}.{axis}", getattr(getattr(user.twist, part), axis))
+                  for part in ("linear", "angular") for axis in "xyz"]
+        command = Twist(values[:3], values[3:])
+        if transform is not None:
+            command = Twist(rotate_vectors(transform.orientation, command.linear),
+                            rotate_vectors(transform.orientation, command.angular))
+        stamp = user.header.stamp.sec + 1e-9 * user.header.stamp.nanosec
+        age = time.time() - stamp if stamp > 0 else None
+        scene = self._scene.get(state)
         if method == WHOLE_BODY:
-            twist = _planning.whole_body_twist(field, self.robot, q, qd, dt, pose)
+            answer = whole_body_assistance(scene, self.robot, q, command, request.arbitration,
+                                           prev_joint_velocities=qd, dt=dt, input_age=age)
         else:
             assert pose is not None
-            twist = field.twist(pose)
-        vector = twist_stamped(twist, state.params.fixed_frame, time.time())
-        return pfi.ComputeAutonomyVector_Response(autonomy_vector=vector)
+            answer = task_space_assistance(scene, pose, command, request.arbitration, input_age=age)
+        frame, now = state.params.fixed_frame, time.time()
+        return pfi.ComputeAssistance_Response(
+            autonomy_vector=twist_stamped(answer.autonomy_vector, frame, now),
+            joint_velocities=[float(x) for x in answer.joint_velocities],
+            blended_command=twist_stamped(answer.blended_command, frame, now),
+            alpha=answer.alpha, speed_scale=answer.speed_scale, nearest_obstacle_id=answer.nearest_obstacle_id,
+            nearest_distance=answer.nearest_distance, nearest_normal=Vector3(**_xyz(answer.nearest_normal)),
+            robot_point=Point(**_xyz(answer.robot_point)), obstacle_point=Point(**_xyz(answer.obstacle_point)),
+            time_to_collision=answer.time_to_collision, flags=answer.flags, message=answer.message)
+
+
+def _xyz(values: Any) -> dict[str, float]:
+    return {"x": float(values[0]), "y": float(values[1]), "z": float(values[2])}

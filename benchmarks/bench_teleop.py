@@ -1,0 +1,169 @@
+"""Assisted teleoperation: a simulated operator under no assistance, MoveIt Servo's scaling and pfield's assistance.
+
+Scenes (task space, the end effector as a point; :mod:`pfield.demo._teleop_sim` explains the operator, the
+modes and the exact collision check): ``seed`` (the seed's five primitive obstacles, its task-space start and
+goal), and three cluttered scenes on the benchmark start–goal line (0.3, 0, 0.5) → (0.6, 0.3, 0.3), each with a
+``Dynamic`` sphere (r 0.04 m) moving across or along the line: ``spheres`` (5 spheres r 0.03 m on the line),
+``pillars`` (3 vertical cylinders r 0.03 m), ``boxes`` (3 boxes 6 cm). Seeded runs (50 per scene and mode,
+10 with ``--quick``), dt 0.05 s, time limit 30 s, success within 0.02 m of the target.
+
+Figures per scene and mode: runs with a collision, minimum clearance over all runs (m), success rate,
+median time to goal of the successful runs (s), agreement (mean cosine between the operator's and the
+executed command). Targets (pfield): no collision, success ≥ Servo's, median time ≤ 0.8 × Servo's.
+Whole body: ``xarm7 whole body`` (the xArm7 past two static spheres, 20 runs per mode, exact coal distances,
+:func:`pfield.demo._teleop_sim.simulate_arm`).
+Speed: ``compute_assistance`` from Python (task space, whole body) and over HTTP (p50).
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from benchmarks._common import BenchRow, median_time
+from pfield.demo._teleop_sim import MODES, TeleopRun, simulate, simulate_arm
+from pfield.geometry import Box, Cylinder, Obstacle, Sphere
+from pfield.planning.scenes import BENCH_GOAL, BENCH_START, SEED_GOAL, SEED_START, seed_obstacles, sphere_line_scene
+from pfield.spatial import Pose
+
+SECTION = "assisted teleop"
+_S, _G = BENCH_START.position, BENCH_GOAL.position
+_D = _G - _S
+_PERP = np.cross(_D, [0.0, 0.0, 1.0]) / np.linalg.norm(np.cross(_D, [0.0, 0.0, 1.0]))
+_ALONG = _D / np.linalg.norm(_D)
+
+
+def _mover(at: float, axis: np.ndarray, amplitude: float, rate: float) -> tuple[Obstacle, Callable[[float], Any]]:
+    centre = _S + at * _D
+    return (Obstacle("mover", Sphere(0.04), Pose(centre), group="Dynamic"),
+            lambda t: centre + amplitude * math.sin(rate * t) * axis)
+
+
+def scenes() -> dict[str, tuple[list[Obstacle], np.ndarray, np.ndarray, dict[str, Callable[[float], Any]]]]:
+    seed = [o for o in seed_obstacles(Path(tempfile.mkdtemp())) if o.type != "Mesh"]
+    spheres, (m1, f1) = sphere_line_scene(5, 0.0, 0.03), _mover(0.5, _PERP, 0.12, 0.6)
+    pillars = [Obstacle(f"pillar_{i}", Cylinder(0.03, 0.4), Pose(_S + f * _D + off * _PERP))
+               for i, (f, off) in enumerate(((0.25, 0.0), (0.5, 0.03), (0.75, -0.03)))]
+    m2, f2 = _mover(0.6, _PERP, 0.1, 0.8)
+    boxes = [Obstacle(f"box_{i}", Box(0.06, 0.06, 0.06), Pose(_S + f * _D + off * _PERP))
+             for i, (f, off) in enumerate(((0.3, 0.01), (0.55, -0.02), (0.8, 0.0)))]
+    m3, f3 = _mover(0.45, _ALONG, 0.08, 0.5)  # moves along the line, toward and away from the operator
+    return {"seed": (seed, SEED_START.position, SEED_GOAL.position, {}),
+            "spheres": ([*spheres, m1], _S, _G, {"mover": f1}),
+            "pillars": ([*pillars, m2], _S, _G, {"mover": f2}),
+            "boxes": ([*boxes, m3], _S, _G, {"mover": f3})}
+
+
+def _arm_runs(mode: str, runs: int) -> list[TeleopRun]:
+    """xArm7 whole body: the end effector 0.3 m along +y past two spheres (static; exact coal checks)."""
+    from pfield.robot import RobotModel
+    from pfield.robot.collision import CollisionChecker
+
+    robot = RobotModel.builtin("xarm7")
+    q0 = np.array([0.0, -0.3, 0.0, 0.6, 0.0, 0.9, 0.0])
+    p0 = robot.forward_kinematics(q0).position
+    obstacles = [Obstacle("s0", Sphere(0.04), Pose(p0 + np.array([0.0, 0.15, 0.0]))),
+                 Obstacle("s1", Sphere(0.03), Pose(p0 + np.array([0.02, 0.25, 0.05])))]
+    checker = CollisionChecker(robot, obstacles)
+    goal = p0 + np.array([0.0, 0.3, 0.0])
+    return [simulate_arm(robot, obstacles, q0, goal, mode, seed, checker=checker) for seed in range(runs)]
+
+
+def teleop_table(runs: int, arm_runs: int = 0) -> tuple[list[BenchRow], str]:
+    rows, lines = [], ["| scene | mode | collisions | min clearance (m) | success | median time (s) | agreement |",
+                       "|---|---|---:|---:|---:|---:|---:|"]
+    cases = [(name, runs, lambda mode, o=o, s=s, g=g, m=m: [simulate(o, s, g, mode, seed, motion=m)
+                                                           for seed in range(runs)])
+             for name, (o, s, g, m) in scenes().items()]
+    if arm_runs:
+        cases.append(("xarm7 whole body", arm_runs, lambda mode: _arm_runs(mode, arm_runs)))
+    for name, runs, simulate_all in cases:
+        summary: dict[str, dict[str, float]] = {}
+        for mode in MODES:
+            results = simulate_all(mode)
+            times = [r.time_to_goal for r in results if r.success]
+            summary[mode] = {"collisions": sum(r.collided for r in results),
+                             "clearance": min(float(r.clearance.min()) for r in results),
+                             "success": sum(r.success for r in results) / runs,
+                             "time": float(np.median(times)) if times else math.inf,
+                             "agreement": float(np.mean([r.agreement for r in results]))}
+            s = summary[mode]
+            lines.append(f"| {name} | {mode} | {s['collisions']:.0f}/{runs} | {s['clearance']:.4f} | "
+                         f"{s['success']:.2f} | {s['time']:.2f} | {s['agreement']:.3f} |")
+        servo, ours = summary["servo"], summary["pfield"]
+        for mode in MODES:
+            s, mine = summary[mode], mode == "pfield"
+            rows += [
+                BenchRow(SECTION, f"{name} / {mode}: runs with a collision", s["collisions"], f"of {runs}",
+                         target=0.0 if mine else None),
+                BenchRow(SECTION, f"{name} / {mode}: min clearance", s["clearance"], "m", higher_is_better=True),
+                BenchRow(SECTION, f"{name} / {mode}: success", s["success"], "share",
+                         target=servo["success"] if mine else None, higher_is_better=True),
+                BenchRow(SECTION, f"{name} / {mode}: median time to goal", s["time"], "s",
+                         target=0.8 * servo["time"] if mine and math.isfinite(servo["time"]) else None),
+                BenchRow(SECTION, f"{name} / {mode}: agreement", s["agreement"], "cos", higher_is_better=True),
+            ]
+        del ours
+    return rows, "\n".join(lines)
+
+
+def _xyz(values: np.ndarray) -> dict[str, float]:
+    return {"x": float(values[0]), "y": float(values[1]), "z": float(values[2])}
+
+
+def speed_rows(quick: bool) -> list[BenchRow]:
+    import httpx
+
+    from pfield import FieldConfig, PotentialField, RobotModel, Twist
+    from pfield.assistance import AssistanceScene, task_space_assistance, whole_body_assistance
+    from pfield.node._base import Bus
+    from pfield.node.manager import ManagerNode
+    from pfield.transport.http import ServerThread, create_app
+
+    obstacles, start, goal, _ = scenes()["seed"]
+    field = PotentialField(FieldConfig(), Pose(goal), obstacles)
+    scene = AssistanceScene(field=field)
+    pose, command = Pose(start), Twist((0.02, 0.0, 0.0))
+    repeat = 200 if quick else 2000
+    task = median_time(lambda: task_space_assistance(scene, pose, command), repeat=7, number=repeat // 7)
+    robot = RobotModel.builtin("xarm7")
+    q = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0])
+    whole = median_time(lambda: whole_body_assistance(scene, robot, q, command), repeat=7, number=repeat // 70 + 1)
+    node = ManagerNode(Bus(), robot)
+    body = {"query_pose": {"header": {"frame_id": "world"}, "pose": {"position": _xyz(start)}},
+            "user_command": {"twist": {"linear": {"x": 0.02}}}}
+    with ServerThread(create_app([node])) as server, httpx.Client() as client:
+        client.post(f"{server.url}/topic/pfield/planning_goal_pose",
+                    json={"pose": {"position": _xyz(goal)}})
+        url = f"{server.url}/srv/pfield/compute_assistance"
+        client.post(url, json=body).raise_for_status()
+        samples = []
+        for _ in range(repeat // 4):
+            begin = time.perf_counter()
+            client.post(url, json=body)
+            samples.append(time.perf_counter() - begin)
+    samples.sort()
+    return [BenchRow(SECTION, "compute_assistance task space (Python)", task * 1e6, "µs",
+                     note="seed scene, 5 obstacles"),
+            BenchRow(SECTION, "compute_assistance whole body (Python)", whole * 1e6, "µs", target=25.0,
+                     note="xArm7, seed scene"),
+            BenchRow(SECTION, "compute_assistance over HTTP, p50", samples[len(samples) // 2] * 1e3, "ms", target=1.0,
+                     note="no obstacles in the node")]
+
+
+def run(quick: bool) -> list[BenchRow]:
+    rows, table = teleop_table(10 if quick else 50, 5 if quick else 20)
+    (Path(__file__).resolve().parent / "results").mkdir(exist_ok=True)
+    (Path(__file__).resolve().parent / "results" / "teleop_table.md").write_text(table + "\n")
+    return rows + speed_rows(quick)
+
+
+if __name__ == "__main__":
+    rows, table = teleop_table(10)
+    print(table)

@@ -1,0 +1,228 @@
+"""Compiled core of shared-control assistance at one robot point (see :mod:`pfield.assistance` for the laws).
+
+One call, arrays in and out: the nearest obstacle (exact signed distance), the arbitration weight α, the
+blend u = α u_auto + (1 − α) u_user, the relative velocity dampers applied to it, MoveIt Servo's speed scale
+and the time to collision of the operator's command. No allocation; obstacle velocities are an (M, 3) array.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from pfield.field.forces import damper_speed, project_damper
+from pfield.geometry._sdf import obstacle_signed_distance
+from pfield.robot._distance import point_segment_distance, segment_obstacle_distance
+from pfield.robot._kinematics import end_effector_kinematics, linear_point_jacobian
+
+# parameter vector layout
+INFLUENCE, SAFETY, GAIN, MAX_SPEED, MAX_ACCELERATION, MODE, GOAL_SHARE, SCALE_THRESHOLD = range(8)
+N_PARAMS = 8
+# arbitration modes (MODE)
+MODE_LINEAR, MODE_LINEAR_GOAL, MODE_SAFETY_ONLY = 0, 1, 2
+# output layout
+BLENDED, ALPHA, SCALE, NEAREST, DISTANCE, NORMAL, TTC, LIMITED = 0, 6, 7, 8, 9, 10, 13, 14
+N_OUT = 15
+_SWEEPS = 8  # alternating projections over the active dampers (von Neumann); 1–2 suffice in practice
+
+
+@njit(cache=True)
+def obstacle_share(distance: float, influence: float, safety: float) -> float:
+    """α_obs = clip((Q − d)/(Q − d_s), 0, 1): 0 beyond the influence distance Q, 1 at the safety distance."""
+    return min(max((influence - distance) / (influence - safety), 0.0), 1.0)
+
+
+@njit(cache=True)
+def servo_scale(distance: float, threshold: float) -> float:
+    """MoveIt Servo's collision velocity scale: exp(k (d − d_t)) for 0 < d < d_t, k = −ln(0.001)/d_t.
+
+    1 beyond the threshold d_t, 0.001 at contact, 0 in collision (d ≤ 0) as Servo halts there.
+    """
+    if distance >= threshold:
+        return 1.0
+    if distance <= 0.0:
+        return 0.0
+    k = -math.log(0.001) / threshold
+    return math.exp(k * (distance - threshold))
+
+
+@njit(cache=True)
+def limit_approach(p, packed, velocities, vx, vy, vz, params):  # type: ignore[no-untyped-def]
+    """The nearest velocity whose approach speed −n̂ᵀ(v − v_obs) to every obstacle within Q obeys its damper.
+
+    Alternating projections onto the half-spaces −n̂ᵀ(v − v_obs,i) ≤ s_i(d_i) (s_i = NEO damper speed,
+    :func:`pfield.field.forces.damper_speed`); each projection only adds velocity along n̂_i (away from
+    obstacle i), so motion away from an obstacle is never slowed. Returns (vx, vy, vz, changed).
+    """
+    changed = False
+    count = packed.kinds.shape[0]
+    for _ in range(_SWEEPS):
+        moved = False
+        for i in range(count):
+            d, nx, ny, nz = obstacle_signed_distance(packed, i, p)
+            if d >= params[INFLUENCE]:
+                continue
+            allowed = damper_speed(d, params[INFLUENCE], params[SAFETY], params[GAIN], params[MAX_SPEED],
+                                   params[MAX_ACCELERATION])
+            ox, oy, oz = velocities[i, 0], velocities[i, 1], velocities[i, 2]
+            wx, wy, wz, hit = project_damper(vx - ox, vy - oy, vz - oz, nx, ny, nz, allowed)
+            if hit:
+                vx, vy, vz = wx + ox, wy + oy, wz + oz
+                moved = changed = True
+        if not moved:
+            break
+    return vx, vy, vz, changed
+
+
+@njit(cache=True)
+def assist_point(p, packed, velocities, user, auto, params, out):  # type: ignore[no-untyped-def]
+    """Fill ``out`` (:data:`N_OUT`,) for robot point ``p``, operator twist ``user`` (6,), autonomy ``auto`` (6,)."""
+    best, nearest = math.inf, -1
+    bx, by, bz = 0.0, 0.0, 0.0
+    ttc = math.inf
+    for i in range(packed.kinds.shape[0]):
+        d, nx, ny, nz = obstacle_signed_distance(packed, i, p)
+        if d < best:
+            best, nearest, bx, by, bz = d, i, nx, ny, nz
+        # first-order time to collision: d / (relative approach speed), for the operator's command held
+        approach = -(nx * (user[0] - velocities[i, 0]) + ny * (user[1] - velocities[i, 1])
+                     + nz * (user[2] - velocities[i, 2]))
+        if d <= 0.0:
+            ttc = 0.0
+        elif approach > 0.0:
+            ttc = min(ttc, d / approach)
+    mode = int(params[MODE])
+    if mode == MODE_SAFETY_ONLY:
+        alpha = 0.0
+    else:
+        alpha = obstacle_share(best, params[INFLUENCE], params[SAFETY]) if nearest >= 0 else 0.0
+        if mode == MODE_LINEAR_GOAL:
+            alpha = max(alpha, params[GOAL_SHARE])
+    for k in range(6):
+        out[BLENDED + k] = alpha * auto[k] + (1.0 - alpha) * user[k]
+    vx, vy, vz, changed = limit_approach(p, packed, velocities, out[0], out[1], out[2], params)
+    out[0], out[1], out[2] = vx, vy, vz
+    out[ALPHA] = alpha
+    out[SCALE] = servo_scale(best, params[SCALE_THRESHOLD])
+    out[NEAREST] = nearest
+    out[DISTANCE] = best
+    out[NORMAL], out[NORMAL + 1], out[NORMAL + 2] = bx, by, bz
+    out[TTC] = ttc
+    out[LIMITED] = 1.0 if changed else 0.0
+
+
+def empty_output() -> np.ndarray:
+    return np.zeros(N_OUT)
+
+
+@njit(cache=True)
+def nearest_link(rotations, origins, cap_joints, cap_a, cap_b, cap_r, packed, centres, bounds, scratch,  # type: ignore[no-untyped-def]
+                 ends):
+    """Closest link capsule–obstacle pair: (capsule, obstacle, clearance, nx, ny, nz, px, py, pz).
+
+    ``n`` is the obstacle's outward normal at the closest segment point, ``p`` the robot's witness point
+    (segment point − r n); ``ends`` is a (2, 3) workspace for the capsule's world segment. A pair whose
+    bounding-sphere lower bound |c_i − segment| − R_i − r is no better than the best so far is skipped.
+    """
+    best, best_c, best_i = math.inf, -1, -1
+    bn = np.zeros(3)
+    bp = np.zeros(3)
+    a, b = ends[0], ends[1]
+    for c in range(cap_joints.shape[0]):
+        j = cap_joints[c]
+        for k in range(3):
+            if j < 0:
+                a[k], b[k] = cap_a[c, k], cap_b[c, k]
+            else:
+                a[k] = origins[j, k] + rotations[j, k, 0] * cap_a[c, 0] + rotations[j, k, 1] * cap_a[c, 1] \
+                    + rotations[j, k, 2] * cap_a[c, 2]
+                b[k] = origins[j, k] + rotations[j, k, 0] * cap_b[c, 0] + rotations[j, k, 1] * cap_b[c, 1] \
+                    + rotations[j, k, 2] * cap_b[c, 2]
+        for i in range(packed.kinds.shape[0]):
+            if point_segment_distance(centres[i], a, b) - bounds[i] - cap_r[c] >= best:
+                continue
+            d, t, nx, ny, nz = segment_obstacle_distance(packed, i, a, b, scratch)
+            clearance = d - cap_r[c]
+            if clearance < best:
+                best, best_c, best_i = clearance, c, i
+                bn[0], bn[1], bn[2] = nx, ny, nz
+                for k in range(3):
+                    bp[k] = a[k] + t * (b[k] - a[k]) - cap_r[c] * bn[k]
+    return best_c, best_i, best, bn[0], bn[1], bn[2], bp[0], bp[1], bp[2]
+
+
+# whole-body extras: parameter slots after N_PARAMS, output slots after N_OUT
+DAMPING, LIMIT_MARGIN, SINGULARITY = N_PARAMS, N_PARAMS + 1, N_PARAMS + 2
+N_PARAMS_WHOLE_BODY = N_PARAMS + 3
+AT_LIMIT, SINGULAR, POINT = N_OUT, N_OUT + 1, N_OUT + 2
+N_OUT_WHOLE_BODY = N_OUT + 5
+
+
+@njit(cache=True)
+def assist_joints(q, lower, upper, kin, capsules, packed, centres, bounds, velocities, qd_auto, user,  # type: ignore[no-untyped-def]
+                  params,
+                  rotations, origins, jac, point_jac, scratch, ends, qd, out):
+    """Whole-body assistance in one call (see :func:`pfield.assistance.whole_body_assistance` for the laws).
+
+    ``kin``: the robot's packed kinematics (``RobotModel.kinematics``); ``capsules``: (joints, a, b, radii);
+    ``qd`` receives the blended joint velocities, ``out`` (:data:`N_OUT_WHOLE_BODY`,) everything else.
+    """
+    n = q.shape[0]
+    parents, place_rot, place_pos, axes, kinds, support, ee_joint, ee_rot, ee_pos = kin
+    end_effector_kinematics(q, parents, place_rot, place_pos, axes, kinds, support, ee_joint, ee_rot, ee_pos,
+                            rotations, origins, jac)
+    gram = jac @ jac.T
+    for k in range(6):
+        gram[k, k] += params[DAMPING] * params[DAMPING]
+    qd_user = jac.T @ np.linalg.solve(gram, user)
+    smallest = math.sqrt(max(np.linalg.eigvalsh(jac @ jac.T)[0], 0.0))
+    out[SINGULAR] = 1.0 if smallest < params[SINGULARITY] else 0.0
+    out[AT_LIMIT] = 0.0
+    for j in range(n):
+        if q[j] - lower[j] < params[LIMIT_MARGIN] or upper[j] - q[j] < params[LIMIT_MARGIN]:
+            out[AT_LIMIT] = 1.0
+    cap_joints, cap_a, cap_b, cap_r = capsules
+    c, i, clearance, nx, ny, nz, px, py, pz = nearest_link(rotations, origins, cap_joints, cap_a, cap_b, cap_r,
+                                                           packed, centres, bounds, scratch, ends)
+    mode = int(params[MODE])
+    alpha = 0.0
+    if mode != MODE_SAFETY_ONLY and c >= 0:
+        alpha = obstacle_share(clearance, params[INFLUENCE], params[SAFETY])
+        if mode == MODE_LINEAR_GOAL:
+            alpha = max(alpha, params[GOAL_SHARE])
+    for j in range(n):
+        qd[j] = alpha * qd_auto[j] + (1.0 - alpha) * qd_user[j]
+    ttc, limited = math.inf, False
+    if c >= 0:
+        linear_point_jacobian(rotations, origins, axes, kinds, support, cap_joints[c], px, py, pz, point_jac)
+        ox, oy, oz = velocities[i, 0], velocities[i, 1], velocities[i, 2]
+        vu = point_jac @ qd_user
+        approach_user = -(nx * (vu[0] - ox) + ny * (vu[1] - oy) + nz * (vu[2] - oz))
+        if clearance <= 0.0:
+            ttc = 0.0
+        elif approach_user > 0.0:
+            ttc = clearance / approach_user
+        if clearance < params[INFLUENCE]:
+            allowed = damper_speed(clearance, params[INFLUENCE], params[SAFETY], params[GAIN], params[MAX_SPEED],
+                                   params[MAX_ACCELERATION])
+            v = point_jac @ qd
+            excess = -(nx * (v[0] - ox) + ny * (v[1] - oy) + nz * (v[2] - oz)) - allowed
+            norm2 = 0.0
+            for j in range(n):
+                direction = point_jac[0, j] * nx + point_jac[1, j] * ny + point_jac[2, j] * nz
+                norm2 += direction * direction
+            if excess > 0.0 and norm2 > 1e-12:
+                for j in range(n):
+                    direction = point_jac[0, j] * nx + point_jac[1, j] * ny + point_jac[2, j] * nz
+                    qd[j] += direction * excess / norm2
+                limited = True
+    twist = jac @ qd
+    for k in range(6):
+        out[BLENDED + k] = twist[k]
+    out[ALPHA], out[NEAREST], out[DISTANCE] = alpha, i, clearance
+    out[SCALE] = servo_scale(clearance, params[SCALE_THRESHOLD])
+    out[NORMAL], out[NORMAL + 1], out[NORMAL + 2] = nx, ny, nz
+    out[TTC], out[LIMITED] = ttc, 1.0 if limited else 0.0
+    out[POINT], out[POINT + 1], out[POINT + 2] = px, py, pz

@@ -1,0 +1,227 @@
+"""Shared-control assistance: nearest obstacle, time to collision, arbitration, dampers, speed scale, flags."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import pytest
+
+from pfield import FieldConfig, Obstacle, Pose, PotentialField, Sphere, Twist
+from pfield.assistance import AssistanceOptions, AssistanceScene, Flag, task_space_assistance, whole_body_assistance
+from pfield.errors import InvalidInput
+from pfield.field.forces import damper_speed
+
+BALL = Obstacle("ball", Sphere(radius=0.05), Pose(position=(0.5, 0.0, 0.3)), group="Dynamic")
+GOAL = Pose(position=(0.8, 0.0, 0.3))
+CONFIG = FieldConfig()  # influence 0.1 m, safety 0.01 m, damper gain 1, a_max 1 m/s²
+
+
+def scene(position: tuple[float, float, float] = (0.5, 0.0, 0.3), velocity: Any = None, **options: Any
+          ) -> AssistanceScene:
+    ball = Obstacle("ball", Sphere(radius=0.05), Pose(position=position), group="Dynamic")
+    field = PotentialField(CONFIG, goal=GOAL, obstacles=[ball])
+    velocities = {} if velocity is None else {"ball": velocity}
+    return AssistanceScene(field=field, velocities=velocities, options=AssistanceOptions(**options))
+
+
+AHEAD = Pose(position=(0.4, 0.0, 0.3))  # 0.1 m from the centre, 0.05 m from the surface
+
+
+def test_sphere_ahead_gives_nearest_id_distance_normal_and_witness_points() -> None:
+    answer = task_space_assistance(scene(), AHEAD, Twist((0.02, 0.0, 0.0)))
+    assert answer.nearest_obstacle_id == "ball"
+    assert answer.nearest_distance == pytest.approx(0.05, abs=1e-12)
+    np.testing.assert_allclose(answer.nearest_normal, [-1.0, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(answer.robot_point, [0.4, 0.0, 0.3], atol=1e-12)
+    np.testing.assert_allclose(answer.obstacle_point, [0.45, 0.0, 0.3], atol=1e-12)
+    assert answer.joint_velocities.shape == (0,)
+
+
+def test_time_to_collision_is_distance_over_relative_approach_speed() -> None:
+    assert task_space_assistance(scene(), AHEAD, Twist((0.02, 0.0, 0.0))).time_to_collision == pytest.approx(2.5)
+    # the obstacle comes toward the robot at 0.03 m/s: relative approach 0.05 m/s
+    moving = scene(velocity=(-0.03, 0.0, 0.0))
+    assert task_space_assistance(moving, AHEAD, Twist((0.02, 0.0, 0.0))).time_to_collision == pytest.approx(1.0)
+    # a command away, a lateral one, or none: no collision ahead with a static obstacle
+    for command in (Twist((-0.02, 0.0, 0.0)), Twist((0.0, 0.02, 0.0)), None):
+        assert task_space_assistance(scene(), AHEAD, command).time_to_collision == math.inf
+    # no command, but the obstacle approaches: d / v_obs
+    assert task_space_assistance(moving, AHEAD, None).time_to_collision == pytest.approx(0.05 / 0.03)
+    inside = task_space_assistance(scene(), Pose(position=(0.48, 0.0, 0.3)), Twist((-0.02, 0.0, 0.0)))
+    assert inside.time_to_collision == 0.0
+
+
+def test_alpha_and_blend_follow_the_linear_law() -> None:
+    user = Twist((0.02, 0.01, 0.0), (0.0, 0.0, 0.1))
+    answer = task_space_assistance(scene(), AHEAD, user, "linear")
+    expected_alpha = (0.1 - 0.05) / (0.1 - 0.01)
+    assert answer.alpha == pytest.approx(expected_alpha, abs=1e-12)
+    blend = expected_alpha * answer.autonomy_vector.as_array() + (1 - expected_alpha) * user.as_array()
+    np.testing.assert_allclose(answer.blended_command.as_array(), blend, atol=1e-12)  # no damper binds here
+    far = task_space_assistance(scene(position=(0.5, 0.0, 0.9)), AHEAD, user, "linear")
+    assert far.alpha == 0.0 and far.blended_command == user
+    at_margin = task_space_assistance(scene(position=(0.46, 0.0, 0.3)), AHEAD, user, "linear")
+    assert at_margin.alpha == 1.0
+
+
+def test_goal_share_of_linear_goal() -> None:
+    near_goal = Pose(position=(0.7, 0.0, 0.3))  # 0.1 m from the goal, obstacle 0.15 m away (α_obs = 0)
+    answer = task_space_assistance(scene(position=(0.5, 0.0, 0.6)), near_goal, Twist((0.0, 0.02, 0.0)),
+                                   "linear_goal")
+    assert answer.alpha == pytest.approx(1.0 - 0.1 / 0.2)
+    assert task_space_assistance(scene(position=(0.5, 0.0, 0.6)), near_goal, None, "linear").alpha == 0.0
+
+
+def test_servo_speed_scale() -> None:
+    k = -math.log(0.001) / 0.02
+    close = task_space_assistance(scene(position=(0.46, 0.0, 0.3)), AHEAD, None)  # d = 0.01 m
+    assert close.speed_scale == pytest.approx(math.exp(k * (0.01 - 0.02)), rel=1e-12)
+    assert close.speed_scale == pytest.approx(1000 ** -0.5)
+    assert task_space_assistance(scene(), AHEAD, None).speed_scale == 1.0  # beyond 0.02 m
+    assert task_space_assistance(scene(position=(0.42, 0.0, 0.3)), AHEAD, None).speed_scale == 0.0  # inside
+
+
+def test_safety_only_passes_motion_away_and_limits_the_approach() -> None:
+    near = scene(position=(0.462, 0.0, 0.3))  # d = 0.012 m
+    away = Twist((-0.05, 0.03, 0.01), (0.1, 0.0, 0.0))
+    answer = task_space_assistance(near, AHEAD, away, "safety_only")
+    assert answer.alpha == 0.0 and answer.blended_command == away
+    allowed = damper_speed(0.012, 0.1, 0.01, 1.0, 0.05, 1.0)
+    assert allowed == pytest.approx(0.002 / 0.09)
+    toward = task_space_assistance(near, AHEAD, Twist((0.05, 0.03, 0.0)), "safety_only")
+    np.testing.assert_allclose(toward.blended_command.linear, [allowed, 0.03, 0.0], atol=1e-12)
+    assert "limited" in toward.message
+
+
+def test_moving_obstacle_pushes_the_robot_back_by_the_relative_excess() -> None:
+    near = scene(position=(0.462, 0.0, 0.3), velocity=(-0.03, 0.0, 0.0))
+    answer = task_space_assistance(near, AHEAD, None, "safety_only")
+    allowed = 0.002 / 0.09
+    np.testing.assert_allclose(answer.blended_command.linear, [-(0.03 - allowed), 0.0, 0.0], atol=1e-12)
+
+
+def test_blend_never_approaches_faster_than_the_dampers_allow() -> None:
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        centre = np.array([0.5, 0.0, 0.3]) + rng.uniform(-0.08, 0.08, 3)
+        velocity = rng.uniform(-0.05, 0.05, 3)
+        answer = task_space_assistance(scene(tuple(centre), velocity), AHEAD, Twist(rng.uniform(-0.1, 0.1, 3)),
+                                       str(rng.choice(["linear", "linear_goal", "safety_only"])))
+        d = answer.nearest_distance
+        if d < 0.1:
+            approach = -answer.nearest_normal @ (answer.blended_command.linear - velocity)
+            assert approach <= damper_speed(d, 0.1, 0.01, 1.0, 0.05, 1.0) + 1e-9
+
+
+def test_flags_fire_in_constructed_cases() -> None:
+    def flags(answer: Any) -> int:
+        return int(answer.flags)
+
+    assert flags(task_space_assistance(scene(), Pose(position=(0.48, 0.0, 0.3)))) & Flag.IN_COLLISION
+    assert flags(task_space_assistance(scene(), AHEAD)) & Flag.NEAR_OBSTACLE
+    assert not flags(task_space_assistance(scene(position=(0.5, 0.0, 0.9)), AHEAD)) & Flag.NEAR_OBSTACLE
+    assert flags(task_space_assistance(scene(), GOAL)) & Flag.AT_GOAL
+    assert flags(task_space_assistance(scene(stall_speed=1.0), AHEAD)) & Flag.STALLED
+    assert not flags(task_space_assistance(scene(), AHEAD)) & Flag.STALLED
+    assert flags(task_space_assistance(scene(), AHEAD, input_age=1.0)) & Flag.STALE_INPUT
+    assert not flags(task_space_assistance(scene(), AHEAD, input_age=0.1)) & Flag.STALE_INPUT
+    goalless = AssistanceScene(config=CONFIG, obstacles=[BALL])
+    answer = task_space_assistance(goalless, AHEAD, Twist((0.02, 0.0, 0.0)))
+    assert answer.flags & Flag.NO_GOAL and answer.autonomy_vector == Twist() and answer.alpha == 0.0
+
+
+def test_bad_input_is_refused_naming_the_field() -> None:
+    with pytest.raises(InvalidInput, match="arbitration"):
+        task_space_assistance(scene(), AHEAD, None, "boss")
+    with pytest.raises(InvalidInput, match="arbitration"):
+        AssistanceOptions(arbitration="boss")
+    with pytest.raises(InvalidInput, match="goal_radius"):
+        AssistanceOptions(goal_radius=-1.0)
+    with pytest.raises(InvalidInput, match="velocities"):
+        AssistanceScene(field=PotentialField(CONFIG, GOAL, [BALL]), velocities={"ghost": (0, 0, 0)})
+    with pytest.raises(InvalidInput, match="velocities"):
+        AssistanceScene(field=PotentialField(CONFIG, GOAL, [BALL]), velocities={"ball": (0, math.nan, 0)})
+    with pytest.raises(InvalidInput, match="user_command"):
+        task_space_assistance(scene(), AHEAD, (0.1, 0, 0))  # type: ignore[arg-type]
+    with pytest.raises(InvalidInput, match="config"):
+        AssistanceScene()
+
+
+# ---------------------------------------------------------------------------------------------- whole body
+
+
+@pytest.fixture(scope="module")
+def xarm() -> Any:
+    from pfield.robot import RobotModel
+
+    return RobotModel.builtin("xarm7")
+
+
+Q = np.array([0.0, -0.3, 0.0, 0.6, 0.0, 0.9, 0.0])
+
+
+def arm_scene(robot: Any, velocity: Any = None) -> tuple[AssistanceScene, Obstacle]:
+    ee = robot.forward_kinematics(Q)
+    ball = Obstacle("ball", Sphere(radius=0.04), Pose(position=ee.position + np.array([0.09, 0.0, 0.0])),
+                    group="Dynamic")
+    field = PotentialField(CONFIG, Pose(position=ee.position + np.array([0.0, 0.15, 0.05]),
+                                        orientation=ee.orientation), [ball])
+    return AssistanceScene(field=field, velocities={} if velocity is None else {"ball": velocity}), ball
+
+
+def test_whole_body_nearest_matches_the_capsule_clearances(xarm: Any) -> None:
+    from pfield.robot.collision import capsule_clearances
+
+    arm, ball = arm_scene(xarm)
+    answer = whole_body_assistance(arm, xarm, Q, Twist((0.02, 0.0, 0.0)))
+    clearances, _ = capsule_clearances(xarm, Q, [ball])
+    assert answer.nearest_obstacle_id == "ball"
+    assert answer.nearest_distance == pytest.approx(float(clearances.min()), abs=1e-6)
+    # witness points: on the ball's surface, and the normal points from it to the robot
+    assert np.linalg.norm(answer.obstacle_point - ball.pose.position) == pytest.approx(0.04, abs=1e-9)
+    np.testing.assert_allclose(answer.robot_point - answer.obstacle_point,
+                               answer.nearest_distance * answer.nearest_normal, atol=1e-9)
+    assert answer.joint_velocities.shape == (7,)
+    np.testing.assert_allclose(answer.blended_command.as_array(), xarm.jacobian(Q) @ answer.joint_velocities,
+                               atol=1e-12)
+
+
+def test_whole_body_command_away_unchanged_and_approach_limited(xarm: Any) -> None:
+    arm, _ = arm_scene(xarm)
+    away = whole_body_assistance(arm, xarm, Q, Twist((-0.02, 0.0, 0.0)), "safety_only")
+    jac = xarm.jacobian(Q)
+    damped = jac.T @ np.linalg.solve(jac @ jac.T + 1e-4 * np.eye(6), np.array([-0.02, 0, 0, 0, 0, 0]))
+    np.testing.assert_allclose(away.joint_velocities, damped, atol=1e-12)
+    toward = whole_body_assistance(arm, xarm, Q, Twist((0.3, 0.0, 0.0)), "safety_only")
+    assert "limited" in toward.message
+    assert toward.time_to_collision < away.time_to_collision == math.inf
+
+
+def test_whole_body_flags(xarm: Any) -> None:
+    arm, _ = arm_scene(xarm)
+    assert whole_body_assistance(arm, xarm, np.zeros(7)).flags & Flag.NEAR_SINGULARITY
+    at_limit = Q.copy()
+    at_limit[1] = xarm.lower_limits[1]
+    assert whole_body_assistance(arm, xarm, at_limit).flags & Flag.AT_JOINT_LIMIT
+    assert not whole_body_assistance(arm, xarm, Q).flags & (Flag.AT_JOINT_LIMIT | Flag.NEAR_SINGULARITY)
+    with pytest.raises(InvalidInput, match="joint_angles"):
+        whole_body_assistance(arm, xarm, np.zeros(3))
+
+
+def test_assisted_teleop_demo_run_avoids_what_the_operator_alone_hits(tmp_path: Any) -> None:
+    from rich.console import Console
+
+    from pfield.demo import assisted
+    from pfield.demo._teleop_sim import simulate
+
+    obstacles, motion = assisted._scene()
+    alone = simulate(obstacles, assisted.START, assisted.GOAL, "none", seed=0, motion=motion)  # type: ignore[arg-type]
+    helped = simulate(obstacles, assisted.START, assisted.GOAL, "pfield", seed=0, motion=motion)  # type: ignore[arg-type]
+    again = simulate(obstacles, assisted.START, assisted.GOAL, "pfield", seed=0, motion=motion)  # type: ignore[arg-type]
+    assert alone.collided and not helped.collided and helped.success
+    np.testing.assert_array_equal(helped.executed, again.executed)  # seeded: the same run twice
+    assert np.all((helped.alpha >= 0.0) & (helped.alpha <= 1.0))
+    assisted.run(tmp_path, Console(quiet=True))
+    assert (tmp_path / "assisted_teleop.png").stat().st_size > 0
