@@ -176,9 +176,9 @@ def test_whole_body_nearest_matches_the_capsule_clearances(xarm: Any) -> None:
 
     arm, ball = arm_scene(xarm)
     answer = whole_body_assistance(arm, xarm, Q, Twist((0.02, 0.0, 0.0)))
-    clearances, _ = capsule_clearances(xarm, Q, [ball])
-    assert answer.nearest_obstacle_id == "ball"
-    assert answer.nearest_distance == pytest.approx(float(clearances.min()), abs=1e-6)
+    _, nearest_id, nearest = capsule_clearances(xarm, Q, [ball]).nearest()
+    assert answer.nearest_obstacle_id == nearest_id == "ball"
+    assert answer.nearest_distance == pytest.approx(nearest, abs=1e-6)
     # witness points: on the ball's surface, and the normal points from it to the robot
     assert np.linalg.norm(answer.obstacle_point - ball.pose.position) == pytest.approx(0.04, abs=1e-9)
     np.testing.assert_allclose(answer.robot_point - answer.obstacle_point,

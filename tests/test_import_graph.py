@@ -25,7 +25,9 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("viz",),  # plots and viewer: may use every computational package below
     ("interfaces",),
     ("pfield",),  # the package's public face (pfield/__init__.py) re-exports the packages below
+    ("assistance",),  # shared control: arbitration on top of the autonomy vector
     ("autonomy",),
+    ("_assistance_kernel",),  # assistance's compiled core: robot kinematics and the field's damper law
     ("planning",),
     ("robot",),
     ("field",),

@@ -146,6 +146,12 @@ def _autonomy(scratch: Path) -> None:
     whole_body_autonomy_vector(field, robot, q)
     whole_body_autonomy_vector(field, robot, q, np.zeros(7), 0.01)
     whole_body_autonomy(field, robot, q, np.zeros(7), 0.01, query_pose=SEED_START)
+    from pfield.assistance import AssistanceScene, task_space_assistance, whole_body_assistance
+    from pfield.spatial import Twist
+
+    assistance = AssistanceScene(field=field)
+    task_space_assistance(assistance, SEED_START, Twist((0.02, 0.0, 0.0)))
+    whole_body_assistance(assistance, robot, q, Twist((0.02, 0.0, 0.0)))
 
 
 def _mobile(scratch: Path) -> None:
@@ -197,7 +203,7 @@ STEPS: tuple[WarmupStep, ...] = (
     WarmupStep("whole-body planner (xarm7)", _whole_body("xarm7")),
     WarmupStep("whole-body planner (panda)", _whole_body("panda")),
     WarmupStep("inverse kinematics", _inverse_kinematics),
-    WarmupStep("autonomy vector", _autonomy),
+    WarmupStep("autonomy vector and assistance", _autonomy),
     WarmupStep("mobile field and controller", _mobile),
     WarmupStep("costmap and find_valid_pose", _costmap),
 )
