@@ -43,9 +43,14 @@ def make_field(config: FieldConfig, goal: Pose, obstacles: Sequence[Any]) -> Any
 
 
 def make_mesh(resource: str, scale: tuple[float, float, float], resolver: Any) -> Any:
-    """A Mesh shape of ``resource`` resolved through ``resolver`` (a :class:`~pfield.geometry.ResourceResolver`)."""
-    from pfield.geometry import Mesh
+    """A Mesh shape of ``resource`` resolved through ``resolver`` (a :class:`~pfield.geometry.ResourceResolver`).
 
+    The node's clients are not trusted: without a resolver only files under the current directory are read
+    (the library's own default resolver would read any file)."""
+    from pfield.geometry import Mesh, ResourceResolver
+
+    if resolver is None:
+        resolver = ResourceResolver(allowed_roots=(Path.cwd(),))
     return Mesh(resource, *scale, resolver=resolver)
 
 
