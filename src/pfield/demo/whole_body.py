@@ -26,7 +26,6 @@ from pfield.spatial import Pose
 
 TITLE = "robots: whole-body planning"
 
-PANDA_READY = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
 TOOL_DOWN = (1.0, 0.0, 0.0, 0.0)
 PANDA_OBSTACLES = [
     Obstacle("table", Box(length=0.6, width=1.2, height=0.05), Pose((0.55, 0.0, 0.1))),
@@ -41,7 +40,7 @@ PANDA_CONFIG = FieldConfig(max_linear_velocity=0.2, max_angular_velocity=0.8, ro
 
 def plan_panda_demo(robot: RobotModel) -> tuple[PlannedPath, np.ndarray]:
     """The Panda scene: IK of the start pose from the ready pose, then a whole-body plan to the goal."""
-    start = solve_ik(robot, PANDA_START, PANDA_READY)
+    start = solve_ik(robot, PANDA_START, robot.named_configuration("ready"))
     if not start.success:
         raise RuntimeError("no IK solution for the demo's start pose")
     field = PotentialField(PANDA_CONFIG, PANDA_GOAL, PANDA_OBSTACLES)
