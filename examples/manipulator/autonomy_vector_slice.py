@@ -1,11 +1,12 @@
 """The task-space autonomy vector on a grid: a batch evaluation of the constrained twist around a table.
 
 Run: ``python examples/manipulator/autonomy_vector_slice.py [--output-dir DIR] [--resolution N]``. What to
-look at: the quiver plot of the twist in the plane z = 0.4 through the seed's goal, which lies 8.5 cm in
-front of the table face. Arrow length and colour give the speed (the key: 0.05 m/s; the colour bar). Far
-away the arrows are the saturated attraction (≤ 0.05 m/s); within the influence distance (0.1 m, dashed) the component toward the table shrinks to zero at the safety distance
-and the arrows turn to run along the face, yet at the goal itself nothing pushes it away from the table,
-so the goal stays an equilibrium. The printed timing is one batch call for the whole grid.
+look at: the quiver plot of the twist in the plane z = 0.4 through the seed's goal, which lies 8.5 cm in front
+of the table face. Arrow length and colour give the speed (the key: 0.05 m/s; the colour bar). Far away the
+arrows are the saturated attraction (≤ 0.05 m/s); within the influence distance (0.1 m, dashed) the component
+toward the table shrinks to zero at the safety distance and the arrows turn to run along the face, yet at the
+goal itself nothing pushes it away from the table, so the goal stays an equilibrium. The printed timing is one
+batch call for the whole grid.
 """
 
 from __future__ import annotations

@@ -51,7 +51,7 @@ def test_seed_obstacle_ids_are_in_the_legend_not_on_top_of_each_other(seed_figur
 
 
 def test_path_plot_shows_orientation_triads_and_holds_every_obstacle(seed_figure) -> None:
-    figure, obstacles, path = seed_figure
+    figure, obstacles, _ = seed_figure
     ax = figure.axes[0]
     triads = [c for c in ax.collections if isinstance(c, Line3DCollection)]
     assert len(triads) == 6  # x, y, z along the path and at the goal

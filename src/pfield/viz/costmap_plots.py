@@ -1,10 +1,10 @@
 """Pictures of costmaps and FindValidPose searches (matplotlib object API, headless, no pyplot state).
 
-:func:`plot_find_valid_pose` draws the costmap (white free, blue inflation fading out with distance, whose cost
-values the colour bar gives, violet inscribed, black lethal, grey unknown, and red hatching where the map
-ends, so cells outside the map never look like free space), the candidate positions the search tried (coloured by the best state found
-there; pink: ruled out once a fallback answer was known), the requested footprint (dashed red) and the
-answer's footprint (green) with heading arrows.
+:func:`plot_find_valid_pose` draws the costmap (white free, blue inflation fading out with distance, whose
+cost values the colour bar gives, violet inscribed, black lethal, grey unknown, and red hatching where the map
+ends, so cells outside the map never look like free space), the candidate positions the search tried (coloured
+by the best state found there; pink: ruled out once a fallback answer was known), the requested footprint
+(dashed red) and the answer's footprint (green) with heading arrows.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.cm import ScalarMappable
-from matplotlib.colors import ListedColormap, Normalize
+from matplotlib.colors import ListedColormap, Normalize, to_hex
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch, Rectangle
 from matplotlib.patches import Polygon as PolygonPatch
@@ -26,7 +26,7 @@ from pfield.spatial import Pose
 __all__ = ["add_cost_colorbar", "cost_legend_handles", "costmap_colormap", "plot_costmap", "plot_find_valid_pose",
            "plot_footprint"]
 
-_OUTSIDE_STYLE = {"facecolor": "#fbe3e3", "edgecolor": "#d62728", "hatch": "///", "linewidth": 0.0}
+_OUTSIDE_FACE, _OUTSIDE_HATCH = "#fbe3e3", "#d62728"
 """Cells outside the map: the axes' background, hatched in red."""
 
 _STATE_COLOURS = {PoseState.FREE: "#2ca02c", PoseState.INSCRIBED: "#bcbd22", PoseState.UNKNOWN: "#17becf",
@@ -52,7 +52,8 @@ def plot_costmap(ax: Axes, costmap: Costmap2D) -> None:
               costmap.origin_y, costmap.origin_y + costmap.size_y * costmap.resolution)
     # A huge hatched rectangle behind the image: whatever of it shows is outside the map.
     ax.add_patch(Rectangle((extent[0] - 1e4, extent[2] - 1e4), 2e4 + extent[1] - extent[0], 2e4 + extent[3] - extent[2],
-                           zorder=-10, **_OUTSIDE_STYLE))
+                           zorder=-10, facecolor=_OUTSIDE_FACE, edgecolor=_OUTSIDE_HATCH, hatch="///",
+                           linewidth=0.0))
     ax.imshow(costmap.costs, origin="lower", extent=extent, cmap=costmap_colormap(), vmin=0, vmax=255,
               interpolation="nearest", zorder=0)
     ax.set_xlim(extent[0], extent[1])
@@ -64,12 +65,13 @@ def plot_costmap(ax: Axes, costmap: Costmap2D) -> None:
 
 def cost_legend_handles() -> list[Patch]:
     """Legend entries of the special cost values (nav2's) and of the cells outside the map."""
-    colours = costmap_colormap().colors
+    colours = [to_hex(row) for row in np.asarray(costmap_colormap().colors)]
     return [Patch(facecolor=colours[0], edgecolor="0.5", label="FREE (0)"),
             Patch(facecolor=colours[253], label="INSCRIBED (253)"),
             Patch(facecolor=colours[254], label="LETHAL (254)"),
             Patch(facecolor=colours[255], label="NO_INFORMATION (255)"),
-            Patch(label="outside the map", **_OUTSIDE_STYLE)]
+            Patch(facecolor=_OUTSIDE_FACE, edgecolor=_OUTSIDE_HATCH, hatch="///", linewidth=0.0,
+                  label="outside the map")]
 
 
 def add_cost_colorbar(figure: Figure, ax: Axes) -> None:
