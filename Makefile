@@ -4,12 +4,12 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test bench lint venv clean clean-numba-cache ros2-interfaces
+.PHONY: demo test bench lint venv clean clean-numba-cache ros2-interfaces chromium
 
 $(STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[dev,ros2]'
+	$(PY) -m pip install --quiet -e '.[dev,ros2,viewer]'
 	@touch $(STAMP)
 
 venv: $(STAMP)
@@ -32,14 +32,22 @@ $(ROS2_STAMP): $(ROS2_PKG)/CMakeLists.txt $(ROS2_PKG)/package.xml $(ROS2_PKG)/ms
 
 ros2-interfaces: $(ROS2_STAMP)
 
+# warmup first: it compiles every numba kernel once with a progress bar (seconds when cached)
 demo: $(STAMP)
+	$(VENV)/bin/pfield warmup
 	$(VENV)/bin/pfield demo
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check src tests benchmarks examples
 	$(VENV)/bin/mypy
 
-test: lint ros2-interfaces
+# Debian's chromium for the 3D viewer's browser tests (tests/viz), installed when missing; elsewhere the
+# browser tests fail with a message saying what to install.
+chromium:
+	@command -v chromium > /dev/null || ! command -v apt-get > /dev/null || \
+		{ apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium > /dev/null; }
+
+test: lint ros2-interfaces chromium
 	$(VENV)/bin/pytest -q
 
 bench: $(STAMP) ros2-interfaces

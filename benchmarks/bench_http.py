@@ -6,14 +6,26 @@
 * The same with the seed's whole-body request (xArm7 joint angles).
 * WebSocket: the node publishes a burst of TwistStamped messages on its bus; one client on
   ``/ws/topic/pfield/autonomy_vector`` counts them; messages per second from first to last. Target ≥ 1000.
+* Handlers off the event loop: the task-space round trip again with short services run on the event loop
+  (as before) instead of the calls thread, to show what moving them costs.
+* Under load: 8 keep-alive clients post the autonomy request while one client repeatedly asks for plans at
+  the iteration cap (200 000 iterations, a slow approach that uses them all); p50/p99 of the autonomy calls
+  (target p99 ≤ 5 ms) and the plans' wall time.
+* Plan response: time to write the JSON of a 200 000-waypoint whole-body-sized response from the plan's arrays,
+  and (before) through one validated pydantic object per waypoint (``model_validate`` + ``model_dump_json``).
+* Memory: RSS growth of the server process under 300 junk topic names of 300 kB messages, and under a
+  WebSocket client that never reads 200 such messages.
 
 The C++ original has no HTTP interface (no reference figure).
 """
 
 from __future__ import annotations
 
+import json
 import threading
 import time
+from pathlib import Path
+from typing import Any
 
 import httpx
 import numpy as np
@@ -87,18 +99,140 @@ def _websocket_rate(url: str, bus: Bus, count: int) -> float:
     return count / elapsed
 
 
+SLOW_APPROACH = {"max_linear_velocity": 0.0002, "stagnation_progress": 1e-6}
+CAPPED_PLAN = {"start": {"position": {"x": 0.227, "y": 0.0, "z": 0.294}},
+               "goal": {"position": {"x": 0.3, "y": 0.3, "z": 0.45}},
+               "delta_time": 0.02, "goal_tolerance": 0.001, "max_iterations": 200_000, "planning_method": "task_space"}
+
+
+def _percentiles(samples: list[float]) -> tuple[float, float]:
+    data = np.asarray(samples) * 1e3
+    return float(np.percentile(data, 50)), float(np.percentile(data, 99))
+
+
+def _autonomy_while_planning(url: str, plans: int, clients: int = 8) -> tuple[float, float, float, int]:
+    """p50, p99 (ms) of autonomy calls from ``clients`` connections while ``plans`` capped plans run one after
+    another; also the mean plan wall time (s) and the number of autonomy calls."""
+    done = threading.Event()
+    latencies: list[list[float]] = [[] for _ in range(clients)]
+    plan_times: list[float] = []
+
+    def planner() -> None:
+        with httpx.Client(base_url=url, timeout=600) as client:
+            for _ in range(plans):
+                start = time.perf_counter()
+                answer = client.post("/srv/pfield/plan_path", json=CAPPED_PLAN)
+                answer.raise_for_status()
+                plan_times.append(time.perf_counter() - start)
+        done.set()
+
+    def caller(samples: list[float]) -> None:
+        with httpx.Client(base_url=url, timeout=600) as client:
+            while not done.is_set():
+                start = time.perf_counter()
+                client.post("/srv/pfield/compute_autonomy_vector", json=QUERY).raise_for_status()
+                samples.append(time.perf_counter() - start)
+
+    threads = [threading.Thread(target=caller, args=(latencies[i],)) for i in range(clients)]
+    plan_thread = threading.Thread(target=planner)
+    for thread in threads:
+        thread.start()
+    plan_thread.start()
+    plan_thread.join()
+    for thread in threads:
+        thread.join()
+    samples = [s for per_client in latencies for s in per_client]
+    p50, p99 = _percentiles(samples)
+    return p50, p99, float(np.mean(plan_times)), len(samples)
+
+
+def _plan_response_times(waypoints: int) -> tuple[float, float, float]:
+    """Seconds to write a plan response's JSON from the arrays (now), through validated pydantic objects
+    (before), and its size in MB; a whole-body-sized plan (7 joints) of ``waypoints`` waypoints."""
+    from pfield.interfaces.convert import plan_response
+    from pfield.interfaces.potential_fields_interfaces import PlanPath_Response
+    from pfield.planning.result import PlannedPath
+
+    rng = np.random.default_rng(0)
+    quaternions = rng.normal(size=(waypoints, 4))
+    quaternions /= np.linalg.norm(quaternions, axis=1, keepdims=True)
+    path = PlannedPath(True, "", np.arange(waypoints) * 0.02, rng.normal(size=(waypoints, 3)), quaternions,
+                       rng.normal(size=(waypoints, 6)), np.full(waypoints, np.inf), waypoints - 1,
+                       tuple(f"joint{i}" for i in range(7)), rng.normal(size=(waypoints, 7)),
+                       rng.normal(size=(waypoints, 7)))
+    start = time.perf_counter()
+    text = plan_response(path, "world").model_dump_json()
+    fast = time.perf_counter() - start
+    data = json.loads(text)
+    start = time.perf_counter()
+    PlanPath_Response.model_validate(data).model_dump_json()  # one pydantic object per waypoint, as before
+    slow = time.perf_counter() - start
+    return fast, slow, len(text) / 1e6
+
+
+def _rss() -> int:
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) * 1024
+    return 0
+
+
+def _memory_under_floods(url: str) -> tuple[float, float]:
+    """RSS growth (MB) of this process (the server's) under 300 junk topics and under a never-reading socket."""
+    scan = json.dumps({"ranges": [1.25] * 60_000}).encode()
+    headers = {"content-type": "application/json"}
+    params = {"type": "sensor_msgs/msg/LaserScan"}
+    with httpx.Client(base_url=url, timeout=120, headers=headers) as client:
+        for i in range(20):
+            client.post(f"/topic/warmup/{i}", params=params, content=scan).raise_for_status()
+        before = _rss()
+        for i in range(300):
+            client.post(f"/topic/junk/{i}", params=params, content=scan).raise_for_status()
+        junk = (_rss() - before) / 1e6
+        before = _rss()
+        with connect(url.replace("http", "ws", 1) + "/ws/topic/slow/reader", open_timeout=30, max_size=None):
+            for _ in range(200):
+                client.post("/topic/slow/reader", params=params, content=scan).raise_for_status()
+            reader = (_rss() - before) / 1e6
+    return junk, reader
+
+
+def _on_the_event_loop() -> Any:
+    """Patch the transport so that short services run on the event loop (the previous behaviour)."""
+    from pfield.transport import http
+
+    original = http._Routes.call
+
+    async def inline(self: Any, fn: Any, *args: Any) -> Any:
+        return fn(*args)
+
+    http._Routes.call = inline  # type: ignore[method-assign]
+    return original
+
+
 def run(quick: bool) -> list[BenchRow]:
     from pfield.node.manager import ManagerNode
     from pfield.robot import RobotModel
+    from pfield.transport import http
     from pfield.transport.http import ServerThread, create_app
 
-    calls, burst = (300, 2000) if quick else (2000, 20000)
+    calls, burst, plans, waypoints = (300, 2000, 1, 20_000) if quick else (2000, 20000, 3, 200_000)
     bus = Bus()
     node = ManagerNode(bus, RobotModel.builtin("xarm7"))
     with ServerThread(create_app([node], ws_queue_size=burst + 10)) as server:
         p50, p99 = _round_trip(server.url, calls, QUERY)
         wb50, wb99 = _round_trip(server.url, calls, WHOLE_BODY_QUERY)
         rate = _websocket_rate(server.url, bus, burst)
+        httpx.put(f"{server.url}/param/pfield_manager", json=SLOW_APPROACH).raise_for_status()
+        load50, load99, plan_s, load_calls = _autonomy_while_planning(server.url, plans)
+        junk_mb, reader_mb = _memory_under_floods(server.url)
+    original = _on_the_event_loop()
+    try:
+        with ServerThread(create_app([ManagerNode(Bus(), RobotModel.builtin("xarm7"))])) as server:
+            loop50, loop99 = _round_trip(server.url, calls, QUERY)
+    finally:
+        http._Routes.call = original  # type: ignore[method-assign]
+    fast_s, slow_s, megabytes = _plan_response_times(waypoints)
     return [
         BenchRow(SECTION, "compute_autonomy_vector HTTP round trip p50", p50, "ms", target=2.0,
                  note=f"{calls} calls, 5 obstacles, keep-alive client"),
@@ -107,4 +241,17 @@ def run(quick: bool) -> list[BenchRow]:
                  note=f"xArm7, {calls} calls; p99 {wb99:.2f} ms"),
         BenchRow(SECTION, "WebSocket TwistStamped stream", rate, "messages/s", target=1000.0,
                  higher_is_better=True, note=f"burst of {burst}, one client"),
+        BenchRow(SECTION, "compute_autonomy_vector round trip p50, handler on the event loop", loop50, "ms",
+                 note=f"for comparison with the calls thread above; p99 {loop99:.2f} ms"),
+        BenchRow(SECTION, "autonomy round trip p99 while capped plans run", load99, "ms", target=5.0,
+                 note=f"8 connections, {load_calls} calls, p50 {load50:.2f} ms; {plans} plan(s) of 200 000 "
+                      f"iterations, {plan_s:.1f} s each"),
+        BenchRow(SECTION, "plan response JSON from the arrays", fast_s, "s",
+                 note=f"{waypoints} waypoints with 7 joints, {megabytes:.0f} MB"),
+        BenchRow(SECTION, "plan response JSON through per-waypoint pydantic objects (before)", slow_s, "s",
+                 note=f"same plan; {slow_s / fast_s:.1f}x the time of the array path"),
+        BenchRow(SECTION, "RSS growth under 300 junk topics", junk_mb, "MB", target=150.0,
+                 note="300 kB LaserScan each; 16 undeclared topics keep a latest message"),
+        BenchRow(SECTION, "RSS growth under a WebSocket client that never reads", reader_mb, "MB", target=150.0,
+                 note="200 messages of 300 kB; the outbox keeps at most 16 MB, oldest dropped"),
     ]

@@ -2,6 +2,9 @@
 
 __version__ = "0.1.0"
 
+# First, before any kernel can compile: a first compile says so (and how long; `pfield warmup`).
+from pfield import _compile_notice  # noqa: F401, I001
+
 from pfield.errors import (
     InvalidInput,
     PfieldError,
@@ -22,11 +25,12 @@ from pfield.geometry import (
     Sphere,
     pack_obstacles,
 )
-from pfield.planning import PlannedPath
+from pfield.planning import CancelToken, PlannedPath, PlanOptions, PlanStatus
 from pfield.spatial import Pose, Twist, Wrench
 
 __all__ = [
     "Box",
+    "CancelToken",
     "Capsule",
     "Cylinder",
     "Ellipsoid",
@@ -35,6 +39,8 @@ __all__ = [
     "Mesh",
     "Obstacle",
     "PfieldError",
+    "PlanOptions",
+    "PlanStatus",
     "PlannedPath",
     "PlanningFailed",
     "Pose",

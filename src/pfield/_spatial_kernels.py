@@ -1,9 +1,14 @@
 """Compiled quaternion and SO(3) kernels (numba), the functional core under :mod:`pfield.spatial`.
 
-Quaternions are 4-arrays in ROS order ``(x, y, z, w)``. Every kernel here works on one quaternion or
-vector and is meant to be called from other compiled code; :mod:`pfield.spatial` wraps batched versions
-for Python callers. Rotation vectors ("rotvec") are axis * angle in radians (the so(3) exponential
-coordinates, Sola et al. 2018, "A micro Lie theory", eqs. 101-102).
+Quaternions are in ROS order ``(x, y, z, w)``. Rotation vectors ("rotvec") are axis * angle in radians
+(the so(3) exponential coordinates, Sola et al. 2018, "A micro Lie theory", eqs. 101-102).
+
+The SO(3) maths lives here once, in two forms side by side: *scalar* kernels on plain floats and tuples
+(:func:`so3_exp`, :func:`so3_log`, :func:`hamilton`, :func:`rotation_error`, :func:`left_increment`),
+which the planners' inner loops call without allocating (inlined into their callers: a call that
+returns a tuple costs as much as the arithmetic), and *array* kernels on 3- and 4-arrays
+(:func:`quat_exp`, :func:`quat_log`, :func:`quat_mul` …) that wrap them for the batched functions of
+:mod:`pfield.spatial`.
 """
 
 from __future__ import annotations
@@ -14,18 +19,76 @@ import numpy as np
 from numba import njit
 
 _SMALL_ANGLE = 1e-8
+"""Below this angle (rad) exp and log use their Taylor series: sin(θ/2)/θ ≈ ½ − θ²/48 and
+atan2(‖v‖, w)/‖v‖ ≈ 1/w. The next terms are relative θ⁴/1920 and ‖v‖²/3 ≤ 3.4e-17, under half an ulp of
+double precision, so the series equals the closed form there while avoiding its 0/0 at θ = 0."""
+
+
+@njit(cache=True, inline="always")
+def hamilton(
+    ax: float, ay: float, az: float, aw: float, bx: float, by: float, bz: float, bw: float
+) -> tuple[float, float, float, float]:
+    """Hamilton product ``a ⊗ b`` of two quaternions given by their components (apply b first, then a)."""
+    return (aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz)
+
+
+@njit(cache=True, inline="always")
+def so3_exp(ax: float, ay: float, az: float) -> tuple[float, float, float, float]:
+    """Exponential map so(3) → S³ of the rotation vector a: (sin(θ/2) a/θ, cos(θ/2)), θ = ‖a‖."""
+    theta = math.sqrt(ax * ax + ay * ay + az * az)
+    if theta < _SMALL_ANGLE:
+        s, w = 0.5 - theta * theta / 48.0, 1.0 - theta * theta / 8.0
+    else:
+        s, w = math.sin(0.5 * theta) / theta, math.cos(0.5 * theta)
+    return s * ax, s * ay, s * az, w
+
+
+@njit(cache=True, inline="always")
+def so3_log(x: float, y: float, z: float, w: float) -> tuple[float, float, float]:
+    """Logarithm map S³ → so(3) on the short arc (q and −q alike): the rotation vector, angle in [0, π]."""
+    if w < 0.0:
+        x, y, z, w = -x, -y, -z, -w
+    vnorm = math.sqrt(x * x + y * y + z * z)
+    if vnorm < _SMALL_ANGLE:
+        scale = 2.0 / w  # w ≈ 1 here: the unit quaternion is almost the identity
+    else:
+        scale = 2.0 * math.atan2(vnorm, w) / vnorm
+    return scale * x, scale * y, scale * z
+
+
+@njit(cache=True, inline="always")
+def rotation_error(
+    qx: float, qy: float, qz: float, qw: float, gx: float, gy: float, gz: float, gw: float
+) -> tuple[float, float, float]:
+    """World-frame rotation error log(q_g ⊗ q⁻¹) (rad, axis·angle, angle in [0, π]) of unit quaternions.
+
+    Integrating ω = k · error on the left, q ← exp(ω dt) ⊗ q (:func:`left_increment`), shrinks the error
+    along its own axis, so every start rotation up to 180° converges (Sola et al. 2018, eq. 26, left ⊖).
+    q and −q give the same (short-arc) error.
+    """
+    ex, ey, ez, ew = hamilton(gx, gy, gz, gw, -qx, -qy, -qz, qw)
+    return so3_log(ex, ey, ez, ew)
+
+
+@njit(cache=True, inline="always")
+def left_increment(
+    qx: float, qy: float, qz: float, qw: float, wx: float, wy: float, wz: float, h: float
+) -> tuple[float, float, float, float]:
+    """exp(h ω) ⊗ q, renormalised: the world-frame (left) SO(3) update of a unit quaternion by ω (rad/s)."""
+    ex, ey, ez, ew = so3_exp(h * wx, h * wy, h * wz)
+    x, y, z, w = hamilton(ex, ey, ez, ew, qx, qy, qz, qw)
+    norm = math.sqrt(x * x + y * y + z * z + w * w)
+    return x / norm, y / norm, z / norm, w / norm
 
 
 @njit(cache=True)
 def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Hamilton product ``a ⊗ b`` (apply ``b`` first, then ``a``)."""
-    ax, ay, az, aw = a[0], a[1], a[2], a[3]
-    bx, by, bz, bw = b[0], b[1], b[2], b[3]
+    """Hamilton product ``a ⊗ b`` (apply ``b`` first, then ``a``); array form of :func:`hamilton`."""
     out = np.empty(4)
-    out[0] = aw * bx + ax * bw + ay * bz - az * by
-    out[1] = aw * by - ax * bz + ay * bw + az * bx
-    out[2] = aw * bz + ax * by - ay * bx + az * bw
-    out[3] = aw * bw - ax * bx - ay * by - az * bz
+    out[0], out[1], out[2], out[3] = hamilton(a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3])
     return out
 
 
@@ -45,38 +108,17 @@ def quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 @njit(cache=True)
 def quat_exp(rotvec: np.ndarray) -> np.ndarray:
-    """Exponential map so(3) -> S3: q = (sin(θ/2) ω/θ, cos(θ/2)), θ = |ω|."""
-    theta = math.sqrt(rotvec[0] ** 2 + rotvec[1] ** 2 + rotvec[2] ** 2)
+    """Exponential map so(3) -> S3; array form of :func:`so3_exp`."""
     out = np.empty(4)
-    if theta < _SMALL_ANGLE:
-        # sin(θ/2)/θ ≈ 1/2 − θ²/48
-        s = 0.5 - theta * theta / 48.0
-        out[3] = 1.0 - theta * theta / 8.0
-    else:
-        s = math.sin(0.5 * theta) / theta
-        out[3] = math.cos(0.5 * theta)
-    out[0] = s * rotvec[0]
-    out[1] = s * rotvec[1]
-    out[2] = s * rotvec[2]
+    out[0], out[1], out[2], out[3] = so3_exp(rotvec[0], rotvec[1], rotvec[2])
     return out
 
 
 @njit(cache=True)
 def quat_log(q: np.ndarray) -> np.ndarray:
-    """Logarithm map S3 -> so(3) on the short arc: the rotation vector with angle in [0, π]."""
-    x, y, z, w = q[0], q[1], q[2], q[3]
-    if w < 0.0:
-        x, y, z, w = -x, -y, -z, -w
-    vnorm = math.sqrt(x * x + y * y + z * z)
+    """Logarithm map S3 -> so(3) on the short arc; array form of :func:`so3_log`."""
     out = np.empty(3)
-    if vnorm < _SMALL_ANGLE:
-        # θ ≈ 2|v|/w  ->  rotvec ≈ 2 v / w
-        scale = 2.0 / w
-    else:
-        scale = 2.0 * math.atan2(vnorm, w) / vnorm
-    out[0] = scale * x
-    out[1] = scale * y
-    out[2] = scale * z
+    out[0], out[1], out[2] = so3_log(q[0], q[1], q[2], q[3])
     return out
 
 

@@ -71,3 +71,41 @@ def nonnegative(field: str, value: Any) -> float:
     if number < 0.0:
         raise InvalidInput(field, value, "must be >= 0")
     return number
+
+
+def text(field: str, value: Any) -> str:
+    """Return ``value`` as a string that is valid UTF-8 (JSON can carry lone surrogates such as ``"\\ud800"``,
+    which no encoder, log line or ROS string can hold)."""
+    if not isinstance(value, str):
+        raise InvalidInput(field, value, "must be a string")
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError as exc:
+        raise InvalidInput(field, value.encode("utf-8", "backslashreplace").decode("ascii"),
+                           f"is not valid UTF-8 ({exc.reason} at position {exc.start})") from None
+    return value
+
+
+def in_range(field: str, value: Any, low: float, high: float, unit: str = "") -> float:
+    """Return ``value`` as a finite float in ``[low, high]`` (the range documented for the field)."""
+    number = finite(field, value)
+    if not low <= number <= high:
+        suffix = f" {unit}" if unit else ""
+        raise InvalidInput(field, value, f"must be in [{low:g}, {high:g}]{suffix}")
+    return number
+
+
+def scaled_norm(values: NDArray[np.float64]) -> float:
+    """Euclidean norm of finite ``values`` without overflow or underflow: scale by the largest magnitude
+    before squaring (‖v‖ = m·‖v/m‖, m = max|vᵢ|), so 1e308 components give 1e308·‖·‖, not inf."""
+    largest = float(np.max(np.abs(values))) if values.size else 0.0
+    if largest == 0.0:
+        return 0.0
+    return largest * float(np.sqrt(np.sum(np.square(values / largest))))
+
+
+def integer(field: str, value: Any) -> int:
+    """Return ``value`` as an int; booleans, non-integral numbers and non-numbers are refused."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
+        raise InvalidInput(field, value, "must be an integer")
+    return int(value)

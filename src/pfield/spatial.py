@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pfield import _spatial_kernels as _k
-from pfield._validation import as_vector
+from pfield._validation import as_vector, scaled_norm
 from pfield.errors import InvalidInput
 
 __all__ = [
@@ -51,8 +51,13 @@ _MIN_QUAT_NORM = 1e-9
 def _batched(value: ArrayLike, width: int) -> tuple[NDArray[np.float64], bool]:
     array = np.ascontiguousarray(value, dtype=np.float64)
     single = array.ndim == 1
-    array = array.reshape(-1, width)
-    return np.ascontiguousarray(array), single
+    return _kernel_input(array.reshape(-1, width)), single
+
+
+def _kernel_input(array: NDArray[np.float64]) -> NDArray[np.float64]:
+    """A writable C-contiguous array (copied only when needed: a Pose's arrays are read-only), so that each
+    kernel sees one array type whatever the caller passes, and compiles once."""
+    return np.require(array, dtype=np.float64, requirements=["C", "W"])
 
 
 def _unbatch(array: NDArray[np.float64], single: bool) -> NDArray[np.float64]:
@@ -62,9 +67,11 @@ def _unbatch(array: NDArray[np.float64], single: bool) -> NDArray[np.float64]:
 def normalize_quaternion(q: ArrayLike, field_name: str = "orientation") -> Quat:
     """Unit quaternion from ``q`` (x, y, z, w); rejects non-finite and (near) zero quaternions."""
     quat = np.array(as_vector(field_name, q, 4))
-    norm = float(np.linalg.norm(quat))
-    if norm < _MIN_QUAT_NORM:
+    if scaled_norm(quat) < _MIN_QUAT_NORM:
         raise InvalidInput(field_name, q, "zero quaternion: give a unit quaternion, e.g. {w: 1.0}")
+    if np.max(np.abs(quat)) > 1e150:  # components whose squares would overflow: scale them first
+        quat /= np.max(np.abs(quat))
+    norm = float(np.linalg.norm(quat))
     quat /= norm
     quat.setflags(write=False)
     return quat
@@ -75,7 +82,7 @@ def quaternion_multiply(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
     qa, single_a = _batched(a, 4)
     qb, single_b = _batched(b, 4)
     qa, qb = np.broadcast_arrays(qa, qb)
-    return _unbatch(_k.batch_mul(np.ascontiguousarray(qa), np.ascontiguousarray(qb)), single_a and single_b)
+    return _unbatch(_k.batch_mul(_kernel_input(qa), _kernel_input(qb)), single_a and single_b)
 
 
 def quaternion_inverse(q: ArrayLike) -> NDArray[np.float64]:
@@ -91,7 +98,7 @@ def rotate_vectors(q: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
     vec, single_v = _batched(v, 3)
     quat, _ = np.broadcast_arrays(quat, np.empty((vec.shape[0], 4)))
     vec, _ = np.broadcast_arrays(vec, np.empty((quat.shape[0], 3)))
-    out = _k.batch_rotate(np.ascontiguousarray(quat), np.ascontiguousarray(vec))
+    out = _k.batch_rotate(_kernel_input(quat), _kernel_input(vec))
     return _unbatch(out, single_q and single_v)
 
 
@@ -112,7 +119,7 @@ def geodesic_angle(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64] | float:
     qa, single_a = _batched(a, 4)
     qb, single_b = _batched(b, 4)
     qa, qb = np.broadcast_arrays(qa, qb)
-    out = _k.batch_angle(np.ascontiguousarray(qa), np.ascontiguousarray(qb))
+    out = _k.batch_angle(_kernel_input(qa), _kernel_input(qb))
     return float(out[0]) if single_a and single_b else out
 
 
@@ -126,7 +133,7 @@ def quaternion_from_matrix(r: ArrayLike) -> NDArray[np.float64]:
     """Unit quaternion(s) (w ≥ 0) of rotation matrix (matrices), Shepperd's method."""
     mat = np.ascontiguousarray(r, dtype=np.float64)
     single = mat.ndim == 2
-    out = _k.batch_from_matrix(np.ascontiguousarray(mat.reshape(-1, 3, 3)))
+    out = _k.batch_from_matrix(_kernel_input(mat.reshape(-1, 3, 3)))
     return _unbatch(out, single)
 
 

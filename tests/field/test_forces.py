@@ -10,6 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from pfield._spatial_kernels import rotation_error
 from pfield.field._evaluate import (
     ATTRACTIVE_GAIN,
     ATTRACTIVE_THRESHOLD,
@@ -37,7 +38,6 @@ from pfield.field.forces import (
     khatib_magnitude,
     project_damper,
     rate_limit,
-    rotation_error,
     soft_saturate,
 )
 from pfield.spatial import quaternion_exp, quaternion_inverse, quaternion_log, quaternion_multiply

@@ -13,6 +13,7 @@ from pfield.interfaces import geometry_msgs as gm
 from pfield.interfaces import message_from_yaml
 from pfield.interfaces.convert import obstacle_from_msg, obstacle_to_msg, plan_response, pose_from_msg, pose_to_msg
 from pfield.interfaces.potential_fields_interfaces import Obstacle as ObstacleMsg
+from pfield.planning import PlanStatus
 from pfield.planning.result import PlannedPath
 from pfield.spatial import Pose
 
@@ -63,7 +64,7 @@ def test_plan_response_layout() -> None:
     joints = np.arange(n * 2, dtype=float).reshape(n, 2)
     path = PlannedPath(False, "stagnation near 'ball'", times, positions, orientations, twists, np.full(n, 0.3),
                        iterations=n - 1, joint_names=("j1", "j2"), joint_positions=joints,
-                       joint_velocities=joints * 0.5)
+                       joint_velocities=joints * 0.5, status=PlanStatus.STAGNATION)
     response = plan_response(path, "world")
     assert not response.success and response.error_message == "stagnation near 'ball'"
     poses = response.end_effector_path.poses

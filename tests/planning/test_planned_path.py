@@ -74,3 +74,19 @@ def test_csv_round_trip_with_joints(tmp_path: Path) -> None:
 def test_joint_arrays_must_match_the_names() -> None:
     with pytest.raises(InvalidInput, match="joint_positions"):
         _path(joint_names=("a",), joint_positions=np.zeros((3, 2)))
+
+
+def test_status_and_planner() -> None:
+    from pfield.planning import PlanStatus
+
+    assert _path().status == PlanStatus.REACHED and _path().planner == "field"
+    failed = _path(success=False, failure_reason="stagnation", status=PlanStatus.STAGNATION, planner="field+global")
+    assert failed.status is PlanStatus.STAGNATION and failed.planner == "field+global"
+    assert _path(success=False, failure_reason="x", status=1).status is PlanStatus.STAGNATION
+    for changes, name in (({"success": False, "failure_reason": "x"}, "status"),
+                          ({"status": PlanStatus.COLLISION}, "status"),
+                          ({"success": False, "failure_reason": "x", "status": 99}, "status"),
+                          ({"planner": "rrt"}, "planner")):
+        with pytest.raises(InvalidInput) as info:
+            _path(**changes)
+        assert info.value.field == name

@@ -11,7 +11,7 @@ import pytest
 from pfield.errors import InvalidInput
 from pfield.field import FieldConfig, PotentialField
 from pfield.geometry import Box, Obstacle, Sphere
-from pfield.planning import PlannedPath
+from pfield.planning import CancelToken, PlannedPath, PlanOptions, PlanStatus
 from pfield.planning.scenes import SEED_GOAL, SEED_PLAN, SEED_START, seed_obstacles
 from pfield.spatial import Pose, geodesic_angle, quaternion_exp, quaternion_multiply
 
@@ -109,10 +109,10 @@ def _trap(closed: bool) -> list[Obstacle]:
 def test_a_u_shaped_trap_ends_in_stagnation_or_the_goal_never_inside(closed: bool) -> None:
     field = PotentialField(FieldConfig(), Pose((0.9, 0.0, 0.3)), _trap(closed))
     path = field.plan(Pose((0.45, 0.0, 0.3)))
-    assert path.success or path.failure_reason.startswith("stagnation"), path.failure_reason
+    assert path.status in (PlanStatus.REACHED, PlanStatus.STAGNATION), path.failure_reason
     assert _dense_clearance(field, path) > 0.0
     if closed:  # a box open only toward the start cannot be left toward the goal
-        assert not path.success and "stagnation" in path.failure_reason
+        assert not path.success and path.status == PlanStatus.STAGNATION
 
 
 def test_a_goal_8_cm_in_front_of_a_box_face_is_reached() -> None:
@@ -138,7 +138,7 @@ def test_the_iteration_limit_is_reported() -> None:
     field = PotentialField(FieldConfig(), Pose((1.0, 0.0, 0.0)))
     path = field.plan(Pose(), max_iterations=5)
     assert not path.success and len(path) == 6 and path.iterations == 5
-    assert path.failure_reason.startswith("iteration limit")
+    assert path.status == PlanStatus.ITERATION_LIMIT
 
 
 def test_zero_max_iterations_means_the_default() -> None:
@@ -151,6 +151,7 @@ def test_a_start_inside_an_obstacle_is_a_collision() -> None:
     ball = Obstacle("ball", Sphere(radius=0.1), Pose((0.0, 0.0, 0.0)))
     path = PotentialField(FieldConfig(), Pose((1.0, 0.0, 0.0)), [ball]).plan(Pose((0.02, 0.0, 0.0)))
     assert not path.success and len(path) == 1
+    assert path.status == PlanStatus.START_INVALID
     assert path.failure_reason == "collision: the start pose is inside 'ball'"
 
 
@@ -158,7 +159,7 @@ def test_a_goal_inside_an_obstacle_is_unreachable() -> None:
     ball = Obstacle("ball", Sphere(radius=0.1), Pose((1.0, 0.0, 0.0)))
     path = PotentialField(FieldConfig(), Pose((1.05, 0.0, 0.0)), [ball]).plan(Pose())
     assert not path.success and len(path) == 1
-    assert "unreachable goal" in path.failure_reason and "'ball'" in path.failure_reason
+    assert path.status == PlanStatus.GOAL_INVALID and "'ball'" in path.failure_reason
 
 
 @pytest.mark.parametrize(
@@ -205,14 +206,13 @@ def test_random_cluttered_plans_never_enter_an_obstacle(params: str) -> None:
             obstacles.append(Obstacle(f"o{k}", shape, Pose(centre, quaternion_exp(rng.normal(size=3)))))
         field = PotentialField(config, Pose(goal), obstacles)
         path = field.plan(Pose(start))
-        reason = path.failure_reason
-        outcomes.add(reason.split(":")[0] if reason else "reached")
-        if reason.startswith(("collision: the start pose", "unreachable goal")):
+        outcomes.add(path.status)
+        if path.status in (PlanStatus.START_INVALID, PlanStatus.GOAL_INVALID):
             assert len(path) == 1
             continue
-        assert path.success or reason.startswith("stagnation"), reason
+        assert path.status in (PlanStatus.REACHED, PlanStatus.STAGNATION), path.failure_reason
         assert _dense_clearance(field, path) > 0.0
-    assert "reached" in outcomes
+    assert PlanStatus.REACHED in outcomes
 
 
 def test_a_goal_under_a_wide_table_is_reached_around_its_edge() -> None:
@@ -234,6 +234,57 @@ def test_a_step_into_an_obstacle_ends_the_plan_before_it() -> None:
     field = PotentialField(DEFAULT_PARAMS.replace(max_linear_acceleration=100.0), Pose((1.0, 0.0, 0.0)), [wall])
     path = field.plan(Pose(), dt=0.2)
     assert not path.success
-    assert path.failure_reason.startswith("collision: the next step would enter 'wall'")
+    assert path.status == PlanStatus.COLLISION and "'wall'" in path.failure_reason
     assert _dense_clearance(field, path, samples=64) > 0.0
     assert field.plan(Pose(), dt=0.05).success  # the same scene with a fine step goes around
+
+
+def test_a_cancelled_token_ends_the_plan_with_cancelled() -> None:
+    token = CancelToken()
+    token.cancel()
+    field = PotentialField(FieldConfig(), Pose((1.0, 0.0, 0.0)))
+    path = field.plan(Pose(), options=PlanOptions(cancel=token))
+    assert path.status == PlanStatus.CANCELLED and not path.success and len(path) == 1
+    assert field.plan(Pose(), options=PlanOptions(cancel=CancelToken())).status == PlanStatus.REACHED
+
+
+def test_a_plan_is_cancelled_from_another_thread() -> None:
+    """The compiled loop releases the GIL, so a token cancelled while it runs stops it."""
+    import threading
+
+    token = CancelToken()
+    field = PotentialField(FieldConfig(stagnation_window=1e6), Pose((1.0, 0.0, 0.0)), _trap(closed=True))
+    started = threading.Event()
+    result: list[PlannedPath] = []
+
+    def plan() -> None:
+        started.set()
+        result.append(field.plan(Pose((0.45, 0.0, 0.3)), options=PlanOptions(max_iterations=2_000_000, cancel=token)))
+
+    worker = threading.Thread(target=plan)
+    worker.start()
+    started.wait()
+    token.cancel()
+    worker.join()
+    # trapped and never stagnating: only the token (or, had it come too late, the limit) ends this plan
+    assert result[0].status == PlanStatus.CANCELLED
+    assert len(result[0]) < 2_000_001
+
+
+def test_keyword_arguments_equal_the_options_they_build() -> None:
+    field = PotentialField(FieldConfig(), Pose((0.6, 0.3, 0.3)))
+    by_keywords = field.plan(Pose((0.3, 0.0, 0.5)), dt=0.02, goal_tolerance=0.005, max_iterations=5000)
+    options = PlanOptions(dt=0.02, goal_tolerance=0.005, max_iterations=5000)
+    by_options = field.plan(Pose((0.3, 0.0, 0.5)), options=options)
+    assert by_keywords.status == by_options.status == PlanStatus.REACHED
+    np.testing.assert_array_equal(by_keywords.positions, by_options.positions)
+    # keywords override the options they are given with
+    assert field.plan(Pose((0.3, 0.0, 0.5)), max_iterations=3, options=options).status == PlanStatus.ITERATION_LIMIT
+
+
+def test_stagnation_names_the_nearest_obstacle_and_its_distance() -> None:
+    walls = _trap(closed=True)
+    path = PotentialField(FieldConfig(), Pose((0.9, 0.0, 0.3)), walls).plan(Pose((0.45, 0.0, 0.3)))
+    assert path.status == PlanStatus.STAGNATION
+    assert any(f"nearest: '{wall.id}', " in path.failure_reason for wall in walls)
+    assert f"{path.clearances[-1]:.4g} m away" in path.failure_reason

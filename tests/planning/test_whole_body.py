@@ -11,6 +11,7 @@ from pfield import errors
 from pfield.field.config import FieldConfig
 from pfield.field.field import PotentialField
 from pfield.geometry import Obstacle, Sphere
+from pfield.planning import CancelToken, PlanOptions, PlanStatus
 from pfield.planning.result import PlannedPath
 from pfield.planning.scenes import DEFAULT_PARAMS, SEED_GOAL, seed_obstacles, sphere_line_scene
 from pfield.planning.whole_body import joint_velocity_sign_flips, plan_whole_body
@@ -86,7 +87,7 @@ def test_reference_scene_with_five_spheres_is_solved_without_collision(xarm: Rob
 def test_iteration_limit_is_reported(xarm: RobotModel) -> None:
     path = PotentialField(FieldConfig(), REFERENCE_GOAL).plan_whole_body(xarm, Q0, 0.01, 0.01, 3)
     assert not path.success
-    assert path.failure_reason.startswith("iteration limit")
+    assert path.status == PlanStatus.ITERATION_LIMIT
     assert len(path) == 4 and path.iterations == 3
 
 
@@ -95,7 +96,7 @@ def test_unreachable_goal_stagnates(xarm: RobotModel) -> None:
     config = FieldConfig(stagnation_window=1.0)
     path = PotentialField(config, far).plan_whole_body(xarm, Q0, 0.01, 0.01, 30000)
     assert not path.success
-    assert path.failure_reason.startswith("stagnation")
+    assert path.status == PlanStatus.STAGNATION
     _check_plan_invariants(path, xarm, Q0, 0.01)
 
 
@@ -113,7 +114,7 @@ def test_start_in_collision_is_reported(xarm: RobotModel) -> None:
     obstacle = Obstacle("ball", Sphere(0.05), Pose(tip))
     path = PotentialField(FieldConfig(), REFERENCE_GOAL, [obstacle]).plan_whole_body(xarm, Q0, 0.01, 0.01, 100)
     assert not path.success
-    assert path.failure_reason.startswith("collision") and "ball" in path.failure_reason
+    assert path.status == PlanStatus.START_INVALID and "ball" in path.failure_reason
     assert len(path) == 1 and path.min_clearance <= 0.0
 
 
@@ -123,11 +124,14 @@ def test_start_in_collision_is_reported(xarm: RobotModel) -> None:
         ({"q0": [0.0] * 6}, "starting_joint_angles"),
         ({"q0": [0.0, 3.0, 0, 0, 0, 0, 0]}, "starting_joint_angles[1]"),
         ({"q0": [0.0, float("nan"), 0, 0, 0, 0, 0]}, "starting_joint_angles"),
-        ({"dt": 0.0}, "delta_time"),
-        ({"dt": float("nan")}, "delta_time"),
+        ({"dt": 0.0}, "dt"),
+        ({"dt": float("nan")}, "dt"),
+        ({"dt": True}, "dt"),
         ({"goal_tolerance": -0.01}, "goal_tolerance"),
-        ({"max_iterations": -1}, "max_iterations"),
+        ({"max_iterations": True}, "max_iterations"),
         ({"max_iterations": 2.5}, "max_iterations"),
+        ({"max_iterations": 10**9}, "max_iterations"),
+        ({"rotation_tolerance": 3.5}, "rotation_tolerance"),
     ],
 )
 def test_bad_input_names_the_field(xarm: RobotModel, kwargs: dict[str, object], field: str) -> None:
@@ -148,7 +152,7 @@ def test_sign_flip_counter() -> None:
 
 
 def test_velocity_qp_matches_a_reference_solver() -> None:
-    from pfield.planning._qp import cholesky_inplace, cholesky_solve, hildreth
+    from pfield._linalg import cholesky_inplace, cholesky_solve, hildreth
 
     rng = np.random.default_rng(12)
     n = 7
@@ -178,3 +182,33 @@ def _reference_qp(hessian: np.ndarray, c: np.ndarray, rows: np.ndarray, bounds: 
                       constraints=[{"type": "ineq", "fun": lambda v: rows @ v - bounds, "jac": lambda v: rows}],
                       method="SLSQP", options={"ftol": 1e-12, "maxiter": 500})
     return float(result.fun)
+
+
+def test_goal_behind_an_obstacle_names_the_blocking_link_and_obstacle(xarm: RobotModel) -> None:
+    goal = Pose((0.5, 0.0, 0.25), (1.0, 0.0, 0.0, 0.0))
+    wall = Obstacle("ball", Sphere(0.12), Pose((0.5, 0.0, 0.25)))
+    path = PotentialField(FieldConfig(stagnation_window=1.0), goal, [wall]).plan_whole_body(xarm, Q0, 0.01, 0.01,
+                                                                                            30000)
+    assert path.status == PlanStatus.STAGNATION
+    links = {capsule.link for capsule in xarm.geometry.capsules}
+    named = [link for link in links if f"link {link!r} is " in path.failure_reason]
+    assert named and "from obstacle 'ball'" in path.failure_reason
+
+
+def test_a_cancelled_token_ends_the_plan_with_cancelled(xarm: RobotModel) -> None:
+    token = CancelToken()
+    token.cancel()
+    field = PotentialField(FieldConfig(), REFERENCE_GOAL)
+    path = field.plan_whole_body(xarm, Q0, options=PlanOptions(max_iterations=1000, cancel=token))
+    assert path.status == PlanStatus.CANCELLED and not path.success and len(path) == 1
+    free = field.plan_whole_body(xarm, Q0, options=PlanOptions(max_iterations=1000, cancel=CancelToken()))
+    assert free.status == PlanStatus.REACHED
+
+
+def test_keyword_arguments_equal_the_options_they_build(xarm: RobotModel) -> None:
+    field = PotentialField(FieldConfig(), REFERENCE_GOAL)
+    by_keywords = field.plan_whole_body(xarm, Q0, dt=0.02, goal_tolerance=0.005, max_iterations=400)
+    by_options = field.plan_whole_body(xarm, Q0, options=PlanOptions(dt=0.02, goal_tolerance=0.005,
+                                                                      max_iterations=400))
+    assert by_keywords.status == by_options.status
+    np.testing.assert_array_equal(by_keywords.joint_positions, by_options.joint_positions)

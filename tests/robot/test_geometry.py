@@ -128,9 +128,21 @@ def test_capsule_clearances_are_conservative_against_coal(xarm: RobotModel) -> N
     rng = np.random.default_rng(5)
     for _ in range(20):
         q = rng.uniform(np.maximum(xarm.lower_limits, -3), np.minimum(xarm.upper_limits, 3))
-        capsule, _ = capsule_clearances(xarm, q, obstacles)
+        capsule = capsule_clearances(xarm, q, obstacles).obstacle
         exact, _, _, _ = checker.distances(q)
         assert capsule[1:].min() <= exact + 1e-6  # capsules cover the links (the base link excluded: fixed)
+
+
+def test_capsule_clearances_are_named(xarm: RobotModel) -> None:
+    obstacles = _obstacles()[:3]
+    q = np.array([0.0, -0.6, 0.0, 0.9, 0.0, 1.5, 0.0])
+    result = capsule_clearances(xarm, q, obstacles)
+    assert result.links == xarm.geometry.link_names
+    assert result.obstacle_ids == tuple(o.id for o in obstacles)
+    assert result.obstacle.shape == (len(result.links), len(obstacles))
+    assert len(result.pair_links) == len(result.self_pairs) == len(xarm.geometry.self_pairs)
+    link, obstacle_id, distance = result.nearest()
+    assert distance == result.obstacle.min() == result.between(link, obstacle_id)
 
 
 def test_collision_checker_detects_contact_and_margin(xarm: RobotModel) -> None:

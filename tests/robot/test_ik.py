@@ -8,6 +8,7 @@ import pytest
 from pfield import errors
 from pfield.field.config import FieldConfig
 from pfield.field.field import PotentialField
+from pfield.planning import PlanStatus
 from pfield.planning.joint_trajectory import attach_joint_trajectory
 from pfield.planning.result import PlannedPath
 from pfield.planning.scenes import SEED_GOAL, SEED_START
@@ -79,7 +80,7 @@ def test_ik_failure_names_the_waypoint(xarm: RobotModel) -> None:
     plan = PlannedPath(True, "", np.arange(count) * 0.1, positions, np.tile(start.orientation, (count, 1)),
                        np.zeros((count, 6)), np.full(count, np.inf))
     path = attach_joint_trajectory(plan, xarm, SEED_Q0)
-    assert not path.success
+    assert not path.success and path.status == PlanStatus.IK_FAILED
     assert "waypoint 2 of 4" in path.failure_reason
     assert path.joint_positions is None
 

@@ -101,7 +101,8 @@ def test_listings_and_openapi(served: tuple[CounterNode, str]) -> None:
 def test_service_call_and_errors(served: tuple[CounterNode, str]) -> None:
     _, url = served
     assert httpx.post(f"{url}/srv/counter/fast", json={}).json() == {"success": True, "message": "gain 1.0"}
-    assert httpx.post(f"{url}/srv/counter/fast").json()["success"] is True
+    empty = httpx.post(f"{url}/srv/counter/fast", headers={"content-type": "application/json"})
+    assert empty.status_code == 400 and empty.json()["field"] == "body"  # refused, no longer a default message
     missing = httpx.post(f"{url}/srv/counter/nope", json={})
     assert missing.status_code == 404 and "/counter/fast" in missing.json()["error"]
     unknown_field = httpx.post(f"{url}/srv/counter/fast", json={"x": 1})
@@ -179,7 +180,8 @@ def test_short_calls_answer_while_a_long_call_runs(served: tuple[CounterNode, st
     node.release.clear()
     node.slow_started.clear()
     result: dict[str, Any] = {}
-    worker = threading.Thread(target=lambda: result.update(httpx.post(f"{url}/srv/counter/slow", timeout=60).json()))
+    worker = threading.Thread(target=lambda: result.update(httpx.post(f"{url}/srv/counter/slow", json={},
+                                                                      timeout=60).json()))
     worker.start()
     assert node.slow_started.wait(timeout=30)
     assert httpx.post(f"{url}/srv/counter/fast", json={}).json()["success"]  # answered while slow is blocked

@@ -5,19 +5,36 @@ Each area registers its commands from its own module; library code never imports
 
 from __future__ import annotations
 
+from typing import Annotated
+
 import typer
 
-from pfield.cli import _costmap, _demo, _manipulator, _mobile, _node, _ros2
+from pfield.cli import _costmap, _demo, _introspection, _manipulator, _mobile, _node, _ros2, _viewer, _warmup
 
 app = typer.Typer(
     name="pfield",
     help="Potential-field motion planning and shared control (standalone node, tools and demos).",
     no_args_is_help=True,
-    add_completion=False,
+    add_completion=True,  # --install-completion / --show-completion (bash, zsh, fish, PowerShell)
     pretty_exceptions_enable=False,
 )
 
-for _module in (_demo, _node, _manipulator, _mobile, _costmap, _ros2):
+
+def _print_version(value: bool) -> None:
+    if value:
+        from pfield import __version__
+
+        typer.echo(f"pfield {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _main(version: Annotated[bool, typer.Option("--version", callback=_print_version, is_eager=True,
+                                                help="print the version and exit")] = False) -> None:
+    """Potential-field motion planning and shared control (standalone node, tools and demos)."""
+
+
+for _module in (_demo, _warmup, _node, _manipulator, _mobile, _costmap, _ros2, _introspection, _viewer):
     _module.register(app)
 
 __all__ = ["app"]

@@ -4,16 +4,17 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
 import typer
 import yaml
 
 from pfield.cli._node import ServeContext, load_ros_parameters, register_node_factory
+from pfield.demo.tools import run_find_valid_pose
 from pfield.errors import PfieldError
-from pfield.node._base import Bus, Node
+from pfield.node._base import Node
 
-__all__ = ["register", "run_find_valid_pose"]
+__all__ = ["register"]
 
 
 def _serve_costmap(context: ServeContext) -> list[Node]:
@@ -21,35 +22,6 @@ def _serve_costmap(context: ServeContext) -> list[Node]:
     from pfield.node.costmap_server import costmap_node_from_options
 
     return [costmap_node_from_options(context.bus, context.map_file, context.footprint)]
-
-
-def run_find_valid_pose(map_path: Path, pose: tuple[float, float, float], request: dict[str, Any],
-                        parameters: dict[str, Any], output: Path | None) -> tuple[dict[str, Any], Path | None]:
-    """Answer one request on a map with a fresh ``/costmap`` node; return (response as data, PNG path)."""
-    from pfield.costmap import PoseState
-    from pfield.interfaces.potential_fields_interfaces import FindValidPose_Request
-    from pfield.node.costmap_server import costmap_node_from_options
-    from pfield.spatial import Pose
-    from pfield.viz.costmap_plots import plot_find_valid_pose
-
-    node = costmap_node_from_options(Bus(), map_path, None, parameters)
-    x, y, yaw = pose
-    body = {"pose": {"header": {"frame_id": node.params.global_frame},
-                     "pose": {"position": {"x": x, "y": y},
-                              "orientation": {"z": math.sin(0.5 * yaw), "w": math.cos(0.5 * yaw)}}},
-            "costmap": 2} | request
-    response = node.on_find_valid_pose(FindValidPose_Request.model_validate(body))
-    result, costmap = node.last_result, node.costmap
-    png = None
-    if output is not None and result is not None and costmap is not None:
-        params = node.params
-        footprint = params.padded_footprint() if request.get("use_padded_fp") else params.robot_footprint()
-        footprint = footprint.padded(float(request.get("safety_dist", 0.0)))
-        png = plot_find_valid_pose(costmap, footprint, Pose.planar(x, y, yaw), result, output,
-                                   title=f"FindValidPose on {map_path.name}")
-    answer = response.model_dump(mode="json")
-    answer["state_name"] = PoseState(response.state).name
-    return answer, png
 
 
 def register(app: typer.Typer) -> None:

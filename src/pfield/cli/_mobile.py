@@ -6,17 +6,12 @@ from pathlib import Path
 
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from pfield.cli._node import ServeContext, register_node_factory
+from pfield.demo.tools import run_sim2d
 from pfield.errors import PfieldError
 from pfield.node._base import Node
-
-
-def _progress(console: Console) -> Progress:
-    return Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-                    TextColumn("{task.fields[note]}"), TimeElapsedColumn(), console=console, transient=True)
 
 
 def _list_scenarios(console: Console) -> None:
@@ -26,35 +21,6 @@ def _list_scenarios(console: Console) -> None:
     for name, scenario in BUILTIN_SCENARIOS.items():
         table.add_row(name, scenario.sensor, scenario.expected, scenario.description)
     console.print(table)
-
-
-def run_sim2d(scenario_name: str, output_dir: Path, drive: str | None, gif: bool, console: Console) -> str:
-    """Simulate one scenario with a progress bar, write its PNG (and GIF); return the outcome."""
-    from pfield.mobile.scenarios import load_scenario
-    from pfield.mobile.sim import simulate
-    from pfield.viz.plots2d_sim import render_gif, render_png
-
-    scenario = load_scenario(scenario_name)
-    if drive is not None:
-        scenario = scenario.with_drive(drive)
-    output_dir.mkdir(parents=True, exist_ok=True)
-    stem = output_dir / f"sim2d_{scenario.name}_{scenario.config.drive}"
-    steps = round(scenario.duration * scenario.rate)
-    with _progress(console) as progress:
-        task = progress.add_task(f"simulating {scenario.name}", total=steps, note="")
-        result = simulate(scenario, lambda t, _: progress.update(
-            task, completed=round(t * scenario.rate) + 1, note=f"t = {t:5.1f} s"))
-        progress.update(task, completed=steps)
-        png = render_png(result, stem.with_suffix(".png"))
-        if gif:
-            frames = progress.add_task("rendering GIF", total=None, note="")
-            render_gif(result, stem.with_suffix(".gif"),
-                       progress=lambda n, total: progress.update(frames, completed=n, total=total))
-    console.print(f"[bold]{scenario.name}[/bold] ({scenario.config.drive}): [bold]{result.outcome}[/bold] after "
-                  f"{result.times[-1]:.1f} s, {result.final_distance_to_goal:.2f} m from the goal, min clearance "
-                  f"{result.min_clearance:.2f} m (expected: {scenario.expected})")
-    console.print(f"wrote {png}" + (f" and {stem.with_suffix('.gif')}" if gif else ""))
-    return result.outcome
 
 
 def _serve_base_controller(context: ServeContext) -> list[Node]:

@@ -17,12 +17,13 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-import yaml
 
 from pfield.cli import _node_client
 from pfield.errors import InvalidInput, PfieldError
+from pfield.interfaces._yaml import load_yaml
 from pfield.node._base import Bus, Node
 from pfield.transport import DEFAULT_HOST, DEFAULT_PORT
+from pfield.transport._server import ServerLimits
 
 __all__ = ["ServeContext", "cli_errors", "nodes_from_options", "register", "register_node_factory"]
 
@@ -94,14 +95,16 @@ def parse_static_transforms(values: list[str]) -> dict[str, Any]:
     return table
 
 
-def load_ros_parameters(path: Path) -> dict[str, dict[str, Any]]:
-    """``{node name: {parameter: value}}`` of a ROS 2 parameters file (``node: {ros__parameters: {...}}``)."""
+def load_ros_parameters(path: Path, option: str = "--params") -> dict[str, dict[str, Any]]:
+    """``{node name: {parameter: value}}`` of a ROS 2 parameters file (``node: {ros__parameters: {...}}``);
+    errors name ``option``, the command-line argument the file came from."""
     try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except (OSError, yaml.YAMLError) as exc:
-        raise InvalidInput("--params", str(path), f"cannot read parameters: {exc}") from None
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InvalidInput(option, str(path), f"cannot read parameters: {exc}") from None
+    data = load_yaml(text, f"{option} {path}") or {}
     if not isinstance(data, dict):
-        raise InvalidInput("--params", str(path), "expected a mapping of node names")
+        raise InvalidInput(option, str(path), "expected a mapping of node names")
     result = {}
     for node, section in data.items():
         params = section.get("ros__parameters") if isinstance(section, dict) else None
@@ -195,21 +198,30 @@ def serve(
     = None,
     csv_dir: CsvDirOption = None,
     log_level: LogLevelOption = "info",
+    allow_origin: Annotated[list[str] | None, typer.Option(
+        help="ORIGIN (scheme://host:port) of a web page allowed to change state and open WebSockets "
+             "(repeatable; the server's own loopback origin is always allowed)")] = None,
+    max_connections: Annotated[int, typer.Option(help="open connections at most; more are answered 429")]
+    = ServerLimits.max_connections,
+    header_timeout: Annotated[float, typer.Option(help="s a client may take to send a request head")]
+    = ServerLimits.header_timeout,
 ) -> None:
     """Start the pfield node (HTTP + WebSocket) with the ROS names of the seed's interfaces."""
-    import uvicorn
-
-    from pfield.transport.http import create_app
+    from pfield.transport.http import create_app, run_server
 
     logging.basicConfig(level=log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
     with cli_errors():
         _check_host(host, token)
+        limits = ServerLimits(max_connections=max_connections, header_timeout=header_timeout)
         nodes = nodes_from_options(robot, end_effector, params, package_path, mesh_root, map, footprint, csv_dir,
                                    static_transform)
-    app = create_app(nodes, token=token)
+    from pfield import warmup
+
+    warmup.start_background()  # GET /health says "ready" once every kernel is compiled or loaded
+    app = create_app(nodes, token=token, ready=warmup.ready, allowed_origins=allow_origin or ())
     typer.echo(f"pfield node on http://{host}:{port} ({', '.join(n.name for n in nodes)})", err=True)
     sys.stderr.flush()
-    uvicorn.run(app, host=host, port=port, log_level="warning" if log_level != "debug" else "debug")
+    run_server(app, host, port, limits=limits, log_level="warning" if log_level != "debug" else "debug")
 
 
 def register(app: typer.Typer) -> None:

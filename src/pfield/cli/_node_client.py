@@ -21,10 +21,12 @@ import typer
 import yaml
 
 import pfield.interfaces.all  # noqa: F401 - registers every message type
+from pfield._validation import positive
 from pfield.cli._message_view import MessageView, format_yaml, outcome_line
 from pfield.errors import PfieldError
 from pfield.interfaces import interface_text, lookup_service, lookup_type, message_from_yaml, registered_types
 from pfield.interfaces._base import registered_services
+from pfield.interfaces._yaml import load_yaml
 from pfield.transport import DEFAULT_URL
 
 __all__ = ["register"]
@@ -85,6 +87,46 @@ def _local(parse: Any, *args: Any) -> Any:
         _fail(str(exc))
 
 
+TimeoutOption = Annotated[float | None, typer.Option(
+    "--timeout", help="give up (exit status 1) when no message arrives for this many seconds")]
+
+_WAITING_AFTER = 0.5
+"""s without a message after connecting before ``topic echo``/``hz`` say that they are waiting."""
+
+
+@contextmanager
+def _topic_socket(topic: str, url: str, token: str | None) -> Iterator[Any]:
+    """The WebSocket stream of ``topic`` (the server sends its latest message first, if it has one)."""
+    from websockets.sync.client import connect
+
+    ws_url = url.rstrip("/").replace("http", "ws", 1) + f"/ws/topic/{topic.lstrip('/')}"
+    headers = {"Authorization": f"Bearer {token}"} if token else None
+    with connect(ws_url, additional_headers=headers, max_size=None) as socket:
+        yield socket
+
+
+def _messages(socket: Any, topic: str, timeout: float | None) -> Iterator[str]:
+    """The frames of ``socket``. Says on stderr that it waits when the first one does not come at once, and
+    fails when ``timeout`` (s) passes without a frame."""
+    limit = None if timeout is None else _local(positive, "--timeout", timeout)
+    text = _receive(socket, _WAITING_AFTER if limit is None else min(_WAITING_AFTER, limit))
+    if text is None:
+        typer.echo(f"waiting for the first message on /{topic.lstrip('/')} (Ctrl-C to stop)", err=True)
+        text = _receive(socket, None if limit is None else max(limit - _WAITING_AFTER, 0.0))
+    while text is not None:
+        yield text
+        text = _receive(socket, limit)
+    _fail(f"no message on /{topic.lstrip('/')} within {limit:g} s")
+
+
+def _receive(socket: Any, timeout: float | None) -> str | None:
+    """The next text frame, or None after ``timeout`` s (None: wait for ever)."""
+    try:
+        return str(socket.recv(timeout=timeout))
+    except TimeoutError:
+        return None
+
+
 @topic_app.command("pub")
 def topic_pub(topic: str, type_name: Annotated[str, typer.Argument(metavar="TYPE")],
               values: Annotated[str, typer.Argument(metavar="YAML")] = "",
@@ -93,13 +135,14 @@ def topic_pub(topic: str, type_name: Annotated[str, typer.Argument(metavar="TYPE
               rate: Annotated[float, typer.Option("--rate", "-r", help="messages per second")] = 1.0,
               url: Url = DEFAULT_URL, token: Token = None) -> None:
     """Publish a message given as YAML (ROS flow syntax), once or repeatedly at --rate."""
+    period = 1.0 / _local(positive, "--rate", rate)
     message = _local(message_from_yaml, _local(lookup_type, type_name), values)
     count = 1 if once else times
     with _client(url, token) as client:
-        sent = 0
+        sent, start = 0, time.monotonic()
         while count == 0 or sent < count:
-            if sent:
-                time.sleep(1.0 / max(rate, 1e-3))
+            if sent:  # on a fixed schedule, so the time a request takes does not lower the rate
+                time.sleep(max(start + sent * period - time.monotonic(), 0.0))
             _request(client, "POST", f"/topic/{topic.lstrip('/')}", message.model_dump_json(),
                      params={"type": type_name})
             sent += 1
@@ -109,11 +152,10 @@ def topic_pub(topic: str, type_name: Annotated[str, typer.Argument(metavar="TYPE
 @topic_app.command("echo")
 def topic_echo(topic: str, type_name: Annotated[str | None, typer.Argument(metavar="[TYPE]")] = None,
                once: Annotated[bool, typer.Option("--once", help="print one message and exit")] = False,
-               field: FieldOption = None, no_arr: NoArrOption = False,
+               timeout: TimeoutOption = None, field: FieldOption = None, no_arr: NoArrOption = False,
                url: Url = DEFAULT_URL, token: Token = None) -> None:
     """Print the messages of a topic as YAML (the latest one first), separated by ``---``."""
     from websockets.exceptions import WebSocketException
-    from websockets.sync.client import connect
 
     view = MessageView(_local(lookup_type, type_name).ros_type if type_name else None)
     if type_name is None and (field or no_arr):  # the array types come from the topic's type
@@ -121,11 +163,9 @@ def topic_echo(topic: str, type_name: Annotated[str | None, typer.Argument(metav
             listed = {t["name"]: t["type"] for t in _request(client, "GET", "/topics")}
         known = listed.get("/" + topic.lstrip("/"))
         view = MessageView(known if known in registered_types() else None)
-    ws_url = url.rstrip("/").replace("http", "ws", 1) + f"/ws/topic/{topic.lstrip('/')}"
-    headers = {"Authorization": f"Bearer {token}"} if token else None
     try:
-        with connect(ws_url, additional_headers=headers, max_size=None) as socket:
-            for text in socket:
+        with _topic_socket(topic, url, token) as socket:
+            for text in _messages(socket, topic, timeout):
                 typer.echo(format_yaml(_local(view.show, json.loads(text), field, no_arr)))
                 typer.echo("---")
                 if once:
@@ -209,10 +249,7 @@ def param_get(node: str, name: str, url: Url = DEFAULT_URL, token: Token = None)
 @param_app.command("set", context_settings={"ignore_unknown_options": True})  # "-1" is a value, as in ros2
 def param_set(node: str, name: str, value: str, url: Url = DEFAULT_URL, token: Token = None) -> None:
     """Set one parameter (value parsed as YAML); the node validates it and keeps the old value on error."""
-    try:
-        parsed = yaml.safe_load(value)
-    except yaml.YAMLError as exc:
-        _fail(f"{name}={value!r}: malformed YAML: {exc}")
+    parsed = _local(load_yaml, value, name)
     # json.dumps keeps .nan/.inf as NaN/Infinity so the node itself refuses them, naming the parameter.
     with _client(url, token) as client:
         _request(client, "PUT", _node_path(node), json.dumps({name: parsed}))

@@ -72,8 +72,10 @@ def node(
     with cli_errors():
         nodes = nodes_from_options(robot, end_effector, params, package_path, mesh_root, map, footprint, csv_dir,
                                    static_transform)
+    from pfield import warmup
     from pfield.transport.ros2 import run
 
+    warmup.start_background()  # logs "kernels ready" (pfield.warmup, INFO) when every kernel is compiled
     typer.echo(f"pfield ROS 2 nodes: {', '.join(n.name for n in nodes)} (Ctrl-C stops)", err=True)
     with cli_errors():  # a bad --ros-args parameter value
         try:

@@ -40,6 +40,10 @@ __all__ = [
     "FREE_SPACE",
     "INSCRIBED_INFLATED_OBSTACLE",
     "LETHAL_OBSTACLE",
+    "MAX_LOCAL_WINDOW_CELLS",
+    "MAX_LOCAL_WINDOW_SIZE",
+    "MIN_ANGLE_INCREMENT",
+    "MIN_RESOLUTION",
     "NO_INFORMATION",
     "Costmap2D",
     "CostmapParams",
@@ -57,6 +61,17 @@ LETHAL_OBSTACLE = _k.LETHAL_OBSTACLE
 NO_INFORMATION = _k.NO_INFORMATION
 
 
+MIN_ANGLE_INCREMENT = math.radians(0.1)
+"""rad: the finest FindValidPose yaw step (0.1°; Move Base Flex uses 5°): finer steps multiply the yaws of a
+search (3600 per turn at 0.1°) without a pose a real controller could track."""
+MIN_RESOLUTION = 0.005
+"""m: the finest local-window resolution (5 mm; nav2 local costmaps use 2.5–10 cm)."""
+MAX_LOCAL_WINDOW_SIZE = 50.0
+"""m: the largest local window side (nav2's rolling windows are 3–10 m; a 300 m one costs seconds per request)."""
+MAX_LOCAL_WINDOW_CELLS = 1000
+"""Cells per side of the local window at most (``local_window_size / resolution``): 10⁶ cells, ~0.1 s to build."""
+
+
 @dataclass(frozen=True)
 class CostmapParams:
     """Parameters of the ``/costmap`` node, named as nav2's (DESIGN §3.4); lengths in m, angles in rad.
@@ -65,6 +80,8 @@ class CostmapParams:
     ``"[]"`` means a circle of ``robot_radius``.
     ``resolution`` and ``local_window_size`` shape the local (rolling) window around the robot;
     ``angle_increment`` is FindValidPose's yaw step (Move Base Flex uses 5°).
+    Bounds: ``angle_increment`` ≥ :data:`MIN_ANGLE_INCREMENT`, ``resolution`` ≥ :data:`MIN_RESOLUTION`,
+    ``local_window_size`` ≤ :data:`MAX_LOCAL_WINDOW_SIZE` and ≤ :data:`MAX_LOCAL_WINDOW_CELLS` cells.
     """
 
     footprint: str = "[]"
@@ -89,6 +106,17 @@ class CostmapParams:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value) or value <= 0:
                 raise InvalidInput(name, value, "must be a finite number > 0")
+        if self.angle_increment < MIN_ANGLE_INCREMENT:
+            raise InvalidInput("angle_increment", self.angle_increment,
+                               f"must be >= {MIN_ANGLE_INCREMENT:.6g} rad (0.1°)")
+        if self.resolution < MIN_RESOLUTION:
+            raise InvalidInput("resolution", self.resolution, f"must be >= {MIN_RESOLUTION:g} m")
+        if self.local_window_size > MAX_LOCAL_WINDOW_SIZE:
+            raise InvalidInput("local_window_size", self.local_window_size, f"must be <= {MAX_LOCAL_WINDOW_SIZE:g} m")
+        if self.local_window_size / self.resolution > MAX_LOCAL_WINDOW_CELLS:
+            raise InvalidInput("local_window_size", self.local_window_size,
+                               f"local_window_size / resolution ({self.resolution:g} m) must be <= "
+                               f"{MAX_LOCAL_WINDOW_CELLS} cells")
         if isinstance(self.footprint, list | tuple):  # a YAML-parsed "[[x, y], ...]" (pfield param set)
             object.__setattr__(self, "footprint", "[]" if not self.footprint
                                else Footprint.from_points(self.footprint).to_string())

@@ -39,7 +39,9 @@ from pfield.spatial import Pose, quaternion_multiply
 
 __all__ = [
     "DEFAULT_ANGLE_INCREMENT",
+    "MAX_CANDIDATES",
     "MAX_CANDIDATE_POSITIONS",
+    "MAX_KERNEL_CELLS",
     "PoseState",
     "SearchTrace",
     "ValidPoseResult",
@@ -51,6 +53,12 @@ __all__ = [
 
 DEFAULT_ANGLE_INCREMENT = math.radians(5.0)
 MAX_CANDIDATE_POSITIONS = 4_000_000
+"""Most lattice positions one search considers (``π·(dist_tolerance/res)²``)."""
+MAX_CANDIDATES = 20_000_000
+"""Most candidates (positions × yaws) one search may hold: its state table is one byte per candidate."""
+MAX_KERNEL_CELLS = 4_000_000
+"""Most rasterised footprint cells over all yaws (footprint cells × yaws, 16 bytes each): a 1 m robot at
+5 cm and 5° is ~3·10⁴; a 20 m ``safety_dist`` at 0.1° would be ~10⁹ (gigabytes)."""
 _SLACK = 1e-9
 _FAR_CELLS = 2.0**40
 
@@ -160,12 +168,25 @@ def _max_ring(costmap: Costmap2D, base_m: int, base_n: int, k_box: NDArray[np.in
     (a position that far out is OUTSIDE and nearer to the request than anything beyond it)."""
     reach = int(np.abs(k_box).max()) + 2
     corner = max(abs(base_m), abs(base_n), abs(base_m - costmap.size_x), abs(base_n - costmap.size_y))
-    max_ring = math.floor((dist_tolerance / costmap.resolution) ** 2 * (1.0 + _SLACK) + _SLACK)
-    max_ring = min(max_ring, 2 * (corner + reach) ** 2)
+    limit = 2 * (corner + reach) ** 2
+    ratio = dist_tolerance / costmap.resolution  # compared before squaring: 1e308 must not overflow
+    max_ring = limit if ratio > math.sqrt(limit) + 1.0 else math.floor(ratio**2 * (1.0 + _SLACK) + _SLACK)
+    max_ring = min(max_ring, limit)
     if math.pi * max_ring > MAX_CANDIDATE_POSITIONS:
         raise InvalidInput("dist_tolerance", dist_tolerance,
                            f"too large for resolution {costmap.resolution} (over {MAX_CANDIDATE_POSITIONS} positions)")
     return max_ring
+
+
+def _check_kernel_work(costmap: Costmap2D, robot: Footprint, yaws: int, safety_dist: float) -> None:
+    """Refuse a search whose rasterised footprints (cells of the bounding square of the footprint's reach,
+    times the yaws) exceed :data:`MAX_KERNEL_CELLS`, before any is built."""
+    reach = float(np.max(np.hypot(robot.points[:, 0], robot.points[:, 1]))) / costmap.resolution
+    cells = (2.0 * reach + 3.0) ** 2 * yaws
+    if cells > MAX_KERNEL_CELLS:
+        field, value = ("safety_dist", safety_dist) if safety_dist > 0.0 else ("angle_increment", yaws)
+        raise InvalidInput(field, value, f"the footprint (reach {reach * costmap.resolution:.3g} m) at {yaws} "
+                           f"yaws covers ~{cells:.3g} cells, above the cap of {MAX_KERNEL_CELLS}")
 
 
 def _prefilter_limit(costmap: Costmap2D, robot: Footprint, pose: Pose, base_m: int, base_n: int) -> float:
@@ -196,10 +217,19 @@ def find_valid_pose(
     dist_tolerance = nonnegative("dist_tolerance", dist_tolerance)
     angle_tolerance = nonnegative("angle_tolerance", angle_tolerance)
     angle_increment = positive("angle_increment", angle_increment)
-    robot = footprint.padded(safety_dist) if safety_dist > 0.0 else footprint
+    try:
+        robot = footprint.padded(safety_dist) if safety_dist > 0.0 else footprint
+    except InvalidInput as exc:  # the padded polygon is out of the footprint's range: say which input did it
+        raise InvalidInput("safety_dist", safety_dist, f"the padded footprint is refused: {exc.reason}") from None
     deltas = yaw_offsets(angle_tolerance, angle_increment)
+    _check_kernel_work(costmap, robot, deltas.size, safety_dist)
     base_m, base_n, (k_ptr, k_dm, k_dn, k_box) = _kernels(costmap, robot, pose, pose.yaw + deltas)
-    pos_i, pos_j, ring_ptr = candidate_offsets(_max_ring(costmap, base_m, base_n, k_box, dist_tolerance))
+    max_ring = _max_ring(costmap, base_m, base_n, k_box, dist_tolerance)
+    if (math.pi * max_ring + 4 * math.sqrt(max_ring) + 1) * deltas.size > MAX_CANDIDATES:
+        raise InvalidInput("dist_tolerance", dist_tolerance, f"with {deltas.size} yaws (angle_tolerance "
+                           f"{angle_tolerance:g}, angle_increment {angle_increment:g}) the search exceeds "
+                           f"{MAX_CANDIDATES} candidates")
+    pos_i, pos_j, ring_ptr = candidate_offsets(max_ring)
     states = np.full((pos_i.size, deltas.size), _k.NOT_EVALUATED, dtype=np.uint8)
     found = _k.search_rings(costmap.costs, base_m, base_n, ring_ptr, pos_i, pos_j, k_ptr, k_dm, k_dn, k_box,
                             costmap.lethal_distance, _prefilter_limit(costmap, robot, pose, base_m, base_n), states)

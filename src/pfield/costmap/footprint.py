@@ -39,6 +39,11 @@ def _segment_distance(ax: float, ay: float, bx: float, by: float) -> float:
     return math.hypot(ax + t * dx, ay + t * dy)
 
 
+MAX_FOOTPRINT_EXTENT = 50.0
+"""m: footprint vertices lie within ±50 m of the robot's centre (the largest mobile machines are ~20 m)."""
+MAX_FOOTPRINT_POINTS = 1000
+
+
 @dataclass(frozen=True, eq=False)
 class Footprint:
     """A simple polygon in the robot frame: ``points`` (N, 2) in metres, N ≥ 3, counter-clockwise or not.
@@ -60,6 +65,9 @@ class Footprint:
             raise InvalidInput("footprint", pts.tolist(), "needs at least three points (or use robot_radius)")
         if not np.all(np.isfinite(pts)):
             raise InvalidInput("footprint", pts.tolist(), "must be finite (no NaN or inf)")
+        if pts.shape[0] > MAX_FOOTPRINT_POINTS or float(np.max(np.abs(pts))) > MAX_FOOTPRINT_EXTENT:
+            raise InvalidInput("footprint", f"{pts.shape[0]} points", f"at most {MAX_FOOTPRINT_POINTS} points "
+                               f"within ±{MAX_FOOTPRINT_EXTENT:g} m of the robot's centre")
         ring = LinearRing(pts)
         if not ring.is_simple:
             raise InvalidInput("footprint", pts.tolist(), "polygon is self-intersecting")
@@ -70,7 +78,12 @@ class Footprint:
 
     @classmethod
     def from_points(cls, points: ArrayLike) -> Footprint:
-        return cls(np.asarray(points, dtype=np.float64))
+        try:
+            return cls(np.asarray(points, dtype=np.float64))
+        except (TypeError, ValueError) as exc:  # ragged or nested lists
+            if isinstance(exc, InvalidInput):
+                raise
+            raise InvalidInput("footprint", points, "expected a list of [x, y] points") from None
 
     @classmethod
     def from_radius(cls, radius: float) -> Footprint:

@@ -13,7 +13,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.rule import Rule
 
-SECTIONS = ("manipulator", "whole_body", "node_session", "mobile", "costmap")
+SECTIONS = ("manipulator", "whole_body", "node_session", "mobile", "costmap", "viewer")
 
 
 def run_demo(out_dir: Path, only: list[str] | None = None) -> int:

@@ -22,8 +22,8 @@ QUERIES = (
 
 def run(out_dir: Path, console: Console) -> None:
     """Answer four requests with a fresh ``/costmap`` node and write one PNG per search."""
-    from pfield.cli._costmap import run_find_valid_pose
     from pfield.costmap._example import example_map_path
+    from pfield.demo.tools import run_find_valid_pose
 
     target = out_dir / "costmap"
     table = Table("request", "state", "cost", "answer (x, y, yaw)", "picture")

@@ -11,7 +11,7 @@ TITLE = "mobile base: 2D vector field, plots and simulation"
 
 def run(out_dir: Path, console: Console) -> None:
     """Write the seed's profile and field plots and simulate the doorway scenario (diff drive)."""
-    from pfield.cli._mobile import run_sim2d
+    from pfield.demo.tools import run_sim2d
     from pfield.viz.plots2d import save_seed_plots
 
     target = out_dir / "mobile"

@@ -3,7 +3,8 @@
 Inputs shared by every kernel here:
 
 * ``goal`` (7,): goal position (m) then orientation quaternion (x, y, z, w), world frame;
-* ``params`` (16,): :meth:`FieldConfig.packed`, indexed by the constants below;
+* ``params`` (16,): :meth:`FieldConfig.packed` (layout :data:`pfield.field.config.PARAMS`), indexed by the
+  constants below;
 * ``packed``: :class:`~pfield.geometry._packed.PackedObstacles`;
 * ``aux`` (M, 8): per obstacle the unit circulation axis c (3), a bounding radius (m), the shape centre
   (3) and 1.0 for spheres, built by :func:`obstacle_aux`. The bound lets far obstacles be skipped
@@ -23,7 +24,9 @@ import math
 import numpy as np
 from numba import njit
 
+from pfield._spatial_kernels import rotation_error
 from pfield.field._unowned import unowned, unowned_arrays
+from pfield.field.config import PARAMS
 from pfield.field.forces import (
     attraction,
     braking_rate_limit,
@@ -32,19 +35,22 @@ from pfield.field.forces import (
     khatib_magnitude,
     project_damper,
     rate_limit,
-    rotation_error,
     soft_saturate,
 )
-from pfield.geometry._packed import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE, PackedObstacles
+from pfield.geometry._packed import SPHERE, PackedObstacles, bounding_radius
 from pfield.geometry._sdf import obstacle_signed_distance
 
-# Positions in FieldConfig.packed() (a test checks them against PARAM_NAMES).
-ATTRACTIVE_GAIN, ROTATIONAL_GAIN, REPULSIVE_GAIN = 0, 1, 2
-MAX_LINEAR_VELOCITY, MAX_ANGULAR_VELOCITY = 3, 4
-MAX_LINEAR_ACCELERATION, MAX_ANGULAR_ACCELERATION = 5, 6
-INFLUENCE_DISTANCE, ATTRACTIVE_THRESHOLD, ROTATION_TOLERANCE = 7, 8, 9
-MAX_REPULSIVE_FORCE, SAFETY_DISTANCE, DAMPER_GAIN, CIRCULATION_GAIN = 10, 11, 12, 13
-STAGNATION_WINDOW, STAGNATION_PROGRESS = 14, 15
+# Slots of FieldConfig.packed(), by name from its layout (numba freezes these module constants).
+ATTRACTIVE_GAIN, ROTATIONAL_GAIN = PARAMS.index("attractive_gain"), PARAMS.index("rotational_attractive_gain")
+REPULSIVE_GAIN = PARAMS.index("repulsive_gain")
+MAX_LINEAR_VELOCITY, MAX_ANGULAR_VELOCITY = PARAMS.index("max_linear_velocity"), PARAMS.index("max_angular_velocity")
+MAX_LINEAR_ACCELERATION = PARAMS.index("max_linear_acceleration")
+MAX_ANGULAR_ACCELERATION = PARAMS.index("max_angular_acceleration")
+INFLUENCE_DISTANCE, ATTRACTIVE_THRESHOLD = PARAMS.index("influence_distance"), PARAMS.index("attractive_threshold")
+ROTATION_TOLERANCE, MAX_REPULSIVE_FORCE = PARAMS.index("rotation_tolerance"), PARAMS.index("max_repulsive_force")
+SAFETY_DISTANCE, DAMPER_GAIN = PARAMS.index("safety_distance"), PARAMS.index("damper_gain")
+CIRCULATION_GAIN, STAGNATION_WINDOW = PARAMS.index("circulation_gain"), PARAMS.index("stagnation_window")
+STAGNATION_PROGRESS = PARAMS.index("stagnation_progress")
 _SWEEPS = 16  # damper sweeps: one deflecting, then alternating projections (narrow wedges converge slowly)
 
 
@@ -65,30 +71,10 @@ def obstacle_aux(packed: PackedObstacles, goal_position: np.ndarray) -> np.ndarr
             axis = np.cross(toward_goal, (1.0, 0.0, 0.0))
         norm = float(np.linalg.norm(axis))
         aux[i, :3] = axis / norm if norm > 1e-12 else (1.0, 0.0, 0.0)
-        aux[i, 3] = _bounding_radius(packed, i)
+        aux[i, 3] = bounding_radius(packed, i)
         aux[i, 4:7] = centre
         aux[i, 7] = 1.0 if int(packed.kinds[i]) == SPHERE else 0.0
     return aux
-
-
-def _bounding_radius(packed: PackedObstacles, i: int) -> float:
-    kind = int(packed.kinds[i])
-    s0, s1, s2 = (float(v) for v in packed.rows[i, 12:15])
-    if kind == SPHERE:
-        return s0
-    if kind == BOX:
-        return math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
-    if kind == CYLINDER:
-        return math.sqrt(s0 * s0 + s1 * s1)
-    if kind == ELLIPSOID:
-        return max(s0, s1, s2)
-    if kind == CAPSULE:
-        return s0 + s1
-    if kind == MESH:
-        first, length = (int(v) for v in packed.mesh_table[int(packed.rows[i, 15]), 2:4])
-        vertices = packed.triangles[first:first + length].reshape(-1, 3)
-        return float(np.max(np.linalg.norm(vertices, axis=1))) if length else 0.0
-    return math.inf
 
 
 @njit(cache=True, inline="always")

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pfield._layout import Layout
 from pfield._validation import finite
 from pfield.errors import InvalidInput
 
@@ -115,9 +116,12 @@ class FieldConfig:
         return asdict(self)
 
     def packed(self) -> NDArray[np.float64]:
-        """The parameters as the float64 array the compiled kernels take (order of :data:`PARAM_NAMES`)."""
-        return np.array([getattr(self, name) for name in PARAM_NAMES], dtype=np.float64)
+        """The parameters as the float64 array the compiled kernels take (layout :data:`PARAMS`)."""
+        return PARAMS.pack({name: getattr(self, name) for name in PARAM_NAMES})
 
 
 PARAM_NAMES: tuple[str, ...] = tuple(spec.name for spec in fields(FieldConfig))
-"""Field order of :meth:`FieldConfig.packed`; ``pfield.field._kernels`` indexes it by these positions."""
+"""Field order of :meth:`FieldConfig.packed`."""
+PARAMS = Layout("field parameters", [(name, ()) for name in PARAM_NAMES])
+"""The packed parameter vector: one scalar slot per field, in declaration order; :mod:`pfield.field._evaluate`
+takes its slot constants from here by name."""

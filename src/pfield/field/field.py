@@ -22,6 +22,7 @@ from pfield.geometry import Obstacle, PackedObstacles, pack_obstacles, signed_di
 from pfield.spatial import Pose, Twist, Wrench
 
 if TYPE_CHECKING:
+    from pfield.planning.options import PlanOptions
     from pfield.planning.result import PlannedPath
 
 __all__ = ["FieldArrays", "PotentialField"]
@@ -209,7 +210,7 @@ class PotentialField:
 
     def clearances(self, positions: ArrayLike) -> NDArray[np.float64]:
         """Signed distance (m) of each point (N, 3) to the nearest obstacle (inf without obstacles)."""
-        points = as_points("positions", positions)
+        points = np.require(as_points("positions", positions), requirements=["C", "W"])
         if not self._obstacles:
             return np.full(points.shape[0], math.inf)
         distances, _ = signed_distances(self._arrays.packed, points)
@@ -220,21 +221,35 @@ class PotentialField:
     def plan(
         self,
         start: Pose,
-        dt: float = 0.01,
-        goal_tolerance: float = 0.01,
-        max_iterations: int = 30000,
+        dt: float | None = None,
+        goal_tolerance: float | None = None,
+        max_iterations: int | None = None,
         rotation_tolerance: float | None = None,
+        *,
+        options: PlanOptions | None = None,
     ) -> PlannedPath:
-        """Task-space plan from ``start`` to the goal (see :func:`pfield.planning.task_space.plan_task_space`)."""
+        """Task-space plan from ``start`` to the goal (:func:`pfield.planning.task_space.plan_task_space`).
+
+        The keyword arguments are shorthands for the :class:`~pfield.planning.PlanOptions` fields of the
+        same names and override ``options``'s.
+        """
+        # planning sits above field (DESIGN §1): the one sanctioned lazy delegation upward
         from pfield.planning.task_space import plan_task_space
 
         return plan_task_space(self, start, dt=dt, goal_tolerance=goal_tolerance, max_iterations=max_iterations,
-                               rotation_tolerance=rotation_tolerance)
+                               rotation_tolerance=rotation_tolerance, options=options)
 
     def plan_whole_body(
-        self, robot: Any, q0: ArrayLike, dt: float = 0.01, goal_tolerance: float = 0.01, max_iterations: int = 30000
+        self, robot: Any, q0: ArrayLike, dt: float | None = None, goal_tolerance: float | None = None,
+        max_iterations: int | None = None, rotation_tolerance: float | None = None, *,
+        options: PlanOptions | None = None,
     ) -> PlannedPath:
-        """Whole-body plan of ``robot`` from joint positions ``q0`` (:mod:`pfield.planning.whole_body`)."""
+        """Whole-body plan of ``robot`` from joint positions ``q0`` (:mod:`pfield.planning.whole_body`).
+
+        The keyword arguments are shorthands for the :class:`~pfield.planning.PlanOptions` fields of the
+        same names and override ``options``'s.
+        """
         from pfield.planning.whole_body import plan_whole_body
 
-        return plan_whole_body(self, robot, q0, dt=dt, goal_tolerance=goal_tolerance, max_iterations=max_iterations)
+        return plan_whole_body(self, robot, q0, dt=dt, goal_tolerance=goal_tolerance, max_iterations=max_iterations,
+                               rotation_tolerance=rotation_tolerance, plan_options=options)

@@ -10,12 +10,12 @@ Laws (see ``docs/field.md`` for the reasoning):
 * attraction, quadratic within Γ and conical beyond (Choset et al. 2005, §4.1, eqs. 4.2–4.3):
   F = −k (p − g) for ‖p − g‖ ≤ Γ, F = −k Γ (p − g)/‖p − g‖ beyond — continuous in value and direction;
 * rotational attraction τ = k_rot · log(q_g ⊗ q⁻¹), the world-frame rotation vector of the error
-  (Sola et al. 2018, "A micro Lie theory", eq. 26 with the left ⊖);
+  (:func:`pfield._spatial_kernels.rotation_error`; Sola et al. 2018, "A micro Lie theory", eq. 26);
 * Khatib repulsion magnitude m = η (1/d − 1/Q)/d² for 0 < d < Q (Khatib 1986, eq. 19), saturated smoothly
   as m / √(1 + (m/F_cap)²), equal to F_cap for d ≤ 0;
-* velocity damper: the approach speed toward an obstacle is at most ξ (d − d_s)/(Q − d_s)
-  (Faverjon & Tournassoud 1987; Haviland & Corke 2021, NEO, eq. 20), and at most √(a (d − d_s)) so
-  that half the acceleration limit can still brake before d_s;
+* velocity dampers (Faverjon & Tournassoud 1987; Haviland & Corke 2021, NEO, eq. 20): the approach speed
+  toward an obstacle is at most ξ v_max (d − d_s)/(Q − d_s), capped in one of two ways — this module
+  is their one home, and :func:`damper_speed` / :func:`stepped_damper_speed` say why there are two;
 * soft saturation v ← v_max · tanh(‖v‖/v_max) · v/‖v‖, and the rate limit ‖v − v_prev‖ ≤ a_max · dt.
 """
 
@@ -33,8 +33,8 @@ __all__ = [
     "khatib_magnitude",
     "project_damper",
     "rate_limit",
-    "rotation_error",
     "soft_saturate",
+    "stepped_damper_speed",
 ]
 
 _TINY = 1e-12
@@ -48,30 +48,6 @@ def attraction(ex: float, ey: float, ez: float, gain: float, threshold: float) -
     """
     distance = math.sqrt(ex * ex + ey * ey + ez * ez)
     scale = gain if distance <= threshold else gain * threshold / distance
-    return scale * ex, scale * ey, scale * ez
-
-
-@njit(cache=True)
-def rotation_error(
-    qx: float, qy: float, qz: float, qw: float, gx: float, gy: float, gz: float, gw: float
-) -> tuple[float, float, float]:
-    """World-frame rotation error log(q_g ⊗ q⁻¹) (rad, axis·angle, angle in [0, π]) of unit quaternions.
-
-    Integrating ω = k · error on the left, q ← exp(ω dt) ⊗ q, shrinks the error along its own axis,
-    so every start rotation up to 180° converges. q and −q give the same (short-arc) error.
-    """
-    # e = g ⊗ conj(q)
-    ex = gw * -qx + gx * qw + gy * -qz - gz * -qy
-    ey = gw * -qy - gx * -qz + gy * qw + gz * -qx
-    ez = gw * -qz + gx * -qy - gy * -qx + gz * qw
-    ew = gw * qw + gx * qx + gy * qy + gz * qz
-    if ew < 0.0:
-        ex, ey, ez, ew = -ex, -ey, -ez, -ew
-    vnorm = math.sqrt(ex * ex + ey * ey + ez * ez)
-    if vnorm < 1e-12:
-        scale = 2.0 / max(ew, _TINY)
-    else:
-        scale = 2.0 * math.atan2(vnorm, ew) / vnorm
     return scale * ex, scale * ey, scale * ez
 
 
@@ -120,18 +96,39 @@ def rate_limit(
 def damper_speed(
     distance: float, influence: float, safety: float, gain: float, max_speed: float, max_acceleration: float
 ) -> float:
-    """Largest allowed approach speed (m/s) toward an obstacle at ``distance`` (NEO velocity damper).
+    """Largest allowed approach speed (m/s) toward an obstacle at ``distance`` (task space).
 
     s = ξ (d − d_s)/(Q − d_s) with ξ = ``gain`` (m/s), capped by √(a_max (d − d_s)): the speed from which
     half the acceleration limit stops within the margin, leaving the other half for a second obstacle
     or for turning, so a rate-limited twist can still stop before d_s. Negative below d_s (the twist must
-    move away), never below −``max_speed``. Only meaningful for d < Q.
+    move away), never below −``max_speed``. Only meaningful for d < Q. The acceleration cap is what a
+    rate-limited twist needs (:func:`braking_rate_limit` can only brake at a_max); for velocities that are
+    not rate-limited near obstacles see :func:`stepped_damper_speed`.
     """
     margin = distance - safety
     speed = gain * margin / (influence - safety)
     if margin > 0.0:
         speed = min(speed, math.sqrt(max_acceleration * margin))
     return max(speed, -max_speed)
+
+
+@njit(cache=True, inline="always")
+def stepped_damper_speed(distance: float, influence: float, safety: float, max_speed: float, dt: float) -> float:
+    """Largest allowed approach speed (m/s or rad/s) at ``distance`` for a step of ``dt`` s (whole body).
+
+    s = min(v (d − d_s)/(Q − d_s), (d − d_s)/(2 dt)) with v = ``max_speed`` (ξ v_max for link points, the
+    joint's velocity limit for joint-limit dampers); below d_s the required retreat
+    max((d − d_s)/(2 dt), −v). Why not :func:`damper_speed`: the whole-body QP's rows constrain joint
+    velocities that are applied for one step and whose rate limit is *dropped* when it would break a
+    damper (safety first), so no braking distance is needed; what must hold is the discrete step — a link
+    moving at s for dt covers at most half of its margin, so d_s is approached geometrically and never
+    crossed by a step. The twist of the task-space field keeps its rate limit, so it needs the braking cap.
+    Only meaningful for d < Q.
+    """
+    margin = distance - safety
+    if margin <= 0.0:
+        return max(0.5 * margin / dt, -max_speed)
+    return min(max_speed * margin / (influence - safety), 0.5 * margin / dt)
 
 
 @njit(cache=True)

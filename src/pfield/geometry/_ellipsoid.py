@@ -120,7 +120,7 @@ def _closest_sorted(e0: float, e1: float, e2: float, y0: float, y1: float, y2: f
     return x0, x1, 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # inlined: no separate compile per literal axis index (0, 1, 2, int)
 def _pick(k: int, a: float, b: float, c: float) -> float:
     if k == 0:
         return a

@@ -21,6 +21,7 @@ Build it with :func:`pfield.geometry.pack_obstacles`; query it with the kernels 
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -41,3 +42,28 @@ class PackedObstacles(NamedTuple):
     bvh_upper: NDArray[np.float64]  # (K, 3) node AABB upper corners
     bvh_nodes: NDArray[np.int64]  # (K, 3): [left child or first triangle, right child or count, is_leaf]
     mesh_table: NDArray[np.int64]  # (n_meshes, 5): [root node, node count, first triangle, triangle count, watertight]
+
+
+def bounding_radius(packed: PackedObstacles, i: int) -> float:
+    """Radius (m) of a sphere about obstacle i's centre (``rows[i, 0:3]``) that contains the whole shape.
+
+    The signed distance at p is then at least ‖p − centre‖ − radius, which lets compiled consumers skip far
+    obstacles exactly (the field's influence test, the whole-body link–obstacle culling).
+    """
+    kind = int(packed.kinds[i])
+    s0, s1, s2 = (float(v) for v in packed.rows[i, 12:15])
+    if kind == SPHERE:
+        return s0
+    if kind == BOX:
+        return math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+    if kind == CYLINDER:
+        return math.sqrt(s0 * s0 + s1 * s1)
+    if kind == ELLIPSOID:
+        return max(s0, s1, s2)
+    if kind == CAPSULE:
+        return s0 + s1
+    if kind == MESH:
+        first, length = (int(v) for v in packed.mesh_table[int(packed.rows[i, 15]), 2:4])
+        vertices = packed.triangles[first:first + length].reshape(-1, 3)
+        return float(np.max(np.linalg.norm(vertices, axis=1))) if length else 0.0
+    return math.inf

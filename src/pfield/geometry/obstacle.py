@@ -72,7 +72,8 @@ class Obstacle:
         ``points`` is (N, 3) or one (3,) point in the world frame (then N = 1). Exact for every shape;
         see ``docs/geometry.md`` for the normal on ties (medial axis).
         """
-        array = as_points("points", points)
+        # writable, as every other caller passes: one compiled specialisation of signed_distances
+        array = np.require(as_points("points", points), requirements=["C", "W"])
         distances, normals = signed_distances(self.packed, array)
         return distances[:, 0], normals[:, 0, :]
 

@@ -12,8 +12,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Annotated, Any, ClassVar
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
+from pfield import _validation
 from pfield.errors import InvalidInput
 
 __all__ = [
@@ -46,9 +47,28 @@ class RosType:
     name: str
 
 
+FLOAT32_MAX = 3.4028234663852886e38
+"""Largest finite float32: a finite value beyond it is refused, as rclpy's generated setters refuse it
+(``inf`` and ``NaN`` pass, as in ROS, and are judged by the node)."""
+
+
+def _utf8(value: str) -> str:
+    try:
+        return _validation.text("string", value)
+    except InvalidInput as exc:  # pydantic names the field; the reason says what is wrong
+        raise ValueError(f"{exc.value}: {exc.reason}") from None
+
+
+def _float32(value: float) -> float:
+    if abs(value) > FLOAT32_MAX and value not in (float("inf"), float("-inf")):
+        raise ValueError(f"{value!r} is outside the float32 range (|x| <= {FLOAT32_MAX:.7g})")
+    return value
+
+
 Bool = Annotated[bool, RosType("bool")]
-String = Annotated[str, RosType("string")]
-Float32 = Annotated[float, RosType("float32")]
+String = Annotated[str, AfterValidator(_utf8), RosType("string")]
+"""A ROS string: valid UTF-8 (a lone surrogate such as ``"\\ud800"`` is refused naming the field)."""
+Float32 = Annotated[float, AfterValidator(_float32), RosType("float32")]
 Float64 = Annotated[float, RosType("float64")]
 Int8 = Annotated[int, Field(ge=-(2**7), lt=2**7), RosType("int8")]
 Int16 = Annotated[int, Field(ge=-(2**15), lt=2**15), RosType("int16")]

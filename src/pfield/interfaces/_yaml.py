@@ -4,6 +4,9 @@ ROS's rules (rosidl_runtime_py ``set_message_fields``): the argument is YAML (``
 works too) describing a mapping; missing fields keep their defaults, unknown fields are errors, integers
 are accepted for floating-point fields. An empty argument means the default message. Errors become
 :class:`~pfield.errors.InvalidInput` naming the dotted field path (``obstacles[0].radius``).
+
+Nesting is bounded (:data:`MAX_DEPTH` levels of mappings and sequences, far more than any ROS message
+needs): a deeper document is refused with an error instead of exhausting Python's recursion limit.
 """
 
 from __future__ import annotations
@@ -18,9 +21,55 @@ from pydantic import ValidationError
 from pfield.errors import InvalidInput
 from pfield.interfaces._base import RosMessage
 
-__all__ = ["message_from_data", "message_from_yaml", "message_to_data", "message_to_yaml", "validation_error"]
+__all__ = ["MAX_DEPTH", "load_yaml", "message_from_data", "message_from_yaml", "message_to_data", "message_to_yaml",
+           "validation_error"]
 
 M = TypeVar("M", bound=RosMessage)
+
+MAX_DEPTH = 100
+"""Deepest nesting of mappings and sequences a YAML/JSON argument may have (a MarkerArray needs 6)."""
+
+
+class _TooDeep(Exception):
+    def __init__(self, line: int, column: int) -> None:
+        super().__init__(line, column)
+        self.line, self.column = line, column
+
+
+class _BoundedLoader(yaml.SafeLoader):
+    """``yaml.SafeLoader`` that stops composing beyond :data:`MAX_DEPTH` nested collections."""
+
+    def __init__(self, stream: str) -> None:
+        super().__init__(stream)
+        self._depth = 0
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        self._depth += 1
+        try:
+            if self._depth > MAX_DEPTH:
+                mark = self.peek_event().start_mark
+                raise _TooDeep(mark.line + 1, mark.column + 1)
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+
+def load_yaml(text: str, field: str = "yaml") -> Any:
+    """``yaml.safe_load(text)`` with nesting bounded by :data:`MAX_DEPTH`; malformed or too deep text raises
+    :class:`~pfield.errors.InvalidInput` naming ``field`` (the argument, option or file it came from)."""
+    loader = _BoundedLoader(text)
+    try:
+        return loader.get_single_data()
+    except _TooDeep as exc:
+        raise InvalidInput(field, text[:60], f"nested deeper than {MAX_DEPTH} levels (at line {exc.line}, "
+                                              f"column {exc.column})") from None
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise InvalidInput(field, text[:200], f"malformed YAML: {problem}{where}") from None
+    finally:
+        loader.dispose()
 
 
 def _path(location: tuple[int | str, ...]) -> str:
@@ -81,14 +130,7 @@ def message_from_data(model: type[M], data: Any) -> M:
 
 def message_from_yaml(model: type[M], text: str) -> M:
     """Parse the YAML (or JSON) flow text of a message, e.g. ``"{radius: 0.1}"``."""
-    try:
-        data = yaml.safe_load(text) if text.strip() else None
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise InvalidInput("yaml", text[:200], f"malformed YAML: {problem}{where}") from None
-    return message_from_data(model, data)
+    return message_from_data(model, load_yaml(text) if text.strip() else None)
 
 
 def message_to_data(message: RosMessage) -> dict[str, Any]:

@@ -6,32 +6,45 @@
   Sphere radius, Box length/width/height full extents, Cylinder radius/height, Ellipsoid semi-axes,
   Capsule radius/shaft height, Mesh resource + scale);
 * :class:`~pfield.planning.result.PlannedPath` → ``PlanPath`` response: ``nav_msgs/Path`` and one
-  ``TwistStamped`` per waypoint stamped ``i·dt`` s, a ``JointTrajectory`` with joint names.
+  ``TwistStamped`` per waypoint stamped ``i·dt`` s, a ``JointTrajectory`` with joint names (its JSON
+  written from the plan's arrays, its per-waypoint models built only when read).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Any
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import Any, ClassVar
 
 import numpy as np
+from numpy.typing import NDArray
+from pydantic import PrivateAttr
+from pydantic_core import to_json
 
+from pfield._validation import as_vector, scaled_norm
 from pfield.errors import InvalidInput
 from pfield.interfaces import geometry_msgs as gm
+from pfield.interfaces._base import RosMessage
+from pfield.interfaces.nav_msgs import Path
 from pfield.interfaces.potential_fields_interfaces import Obstacle as ObstacleMsg
 from pfield.interfaces.potential_fields_interfaces import PlanPath_Response
-from pfield.interfaces.std_msgs import Duration, Header, Time
-from pfield.interfaces.trajectory_msgs import JointTrajectory, JointTrajectoryPoint
+from pfield.interfaces.std_msgs import Header, Time
+from pfield.interfaces.trajectory_msgs import JointTrajectory
 from pfield.planning.result import PlannedPath
 from pfield.spatial import Pose, Twist
 
 __all__ = [
+    "MAX_COORDINATE",
+    "MAX_QUATERNION_NORM",
+    "MIN_QUATERNION_NORM",
     "obstacle_from_msg",
     "obstacle_to_msg",
     "plan_response",
+    "point_from_msg",
     "pose_from_msg",
     "pose_to_msg",
     "prefixed",
+    "quaternion_from_msg",
     "twist_stamped",
     "twist_to_msg",
 ]
@@ -41,13 +54,45 @@ def prefixed(error: InvalidInput, prefix: str) -> InvalidInput:
     return type(error)(f"{prefix}.{error.field}" if prefix else error.field, error.value, error.reason)
 
 
+MAX_COORDINATE = 1.0e6
+"""m: the largest |x|, |y|, |z| of a position a node accepts. 1000 km is beyond any map a robot works in,
+and it keeps sums, squares and products of coordinates (transforms, distances) finite."""
+MIN_QUATERNION_NORM = 1e-9
+MAX_QUATERNION_NORM = 1e6
+"""A message's quaternion (x, y, z, w) is normalised on input (DESIGN §2) when its norm lies in
+[:data:`MIN_QUATERNION_NORM`, :data:`MAX_QUATERNION_NORM`]; outside it (a zero quaternion, ``w = 1e308``)
+it is refused: no sensor or planner produces such a rotation, and the norm is computed scaled, so the
+check itself never overflows."""
+
+
+def point_from_msg(message: gm.Point | gm.Vector3, field: str = "position") -> NDArray[np.float64]:
+    """``(x, y, z)`` of a point message: finite and within :data:`MAX_COORDINATE` m (errors name ``field``)."""
+    values = as_vector(field, (message.x, message.y, message.z), 3)
+    if float(np.max(np.abs(values))) > MAX_COORDINATE:
+        raise InvalidInput(field, values.tolist(), f"coordinates must be within ±{MAX_COORDINATE:g} m")
+    return values
+
+
+def quaternion_from_msg(message: gm.Quaternion, field: str = "orientation") -> NDArray[np.float64]:
+    """``(x, y, z, w)`` of a quaternion message, finite with a norm in the accepted range (not yet unit)."""
+    values = as_vector(field, (message.x, message.y, message.z, message.w), 4)
+    norm = scaled_norm(values)
+    if norm < MIN_QUATERNION_NORM:
+        raise InvalidInput(field, values.tolist(), "zero quaternion: give a unit quaternion, e.g. {w: 1.0}")
+    if norm > MAX_QUATERNION_NORM:
+        raise InvalidInput(field, values.tolist(), f"quaternion norm {norm:.3g} is above {MAX_QUATERNION_NORM:g}: "
+                           "give a unit quaternion (x, y, z, w)")
+    return values
+
+
 def pose_from_msg(message: gm.Pose, field: str = "pose") -> Pose:
-    """:class:`Pose` of a ``geometry_msgs/Pose``; errors name ``<field>.position`` / ``<field>.orientation``."""
-    p, q = message.position, message.orientation
-    try:
-        return Pose((p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
-    except InvalidInput as exc:
-        raise prefixed(exc, field) from None
+    """:class:`Pose` of a ``geometry_msgs/Pose``; errors name ``<field>.position`` / ``<field>.orientation``.
+
+    Positions within :data:`MAX_COORDINATE`, quaternions of a norm in [:data:`MIN_QUATERNION_NORM`,
+    :data:`MAX_QUATERNION_NORM`] (normalised here)."""
+    position = point_from_msg(message.position, f"{field}.position")
+    orientation = quaternion_from_msg(message.orientation, f"{field}.orientation")
+    return Pose(position, orientation)
 
 
 def pose_to_msg(pose: Pose) -> gm.Pose:
@@ -123,30 +168,230 @@ def obstacle_to_msg(obstacle: Any) -> ObstacleMsg:
     return ObstacleMsg.model_validate(data)
 
 
-def _joint_trajectory(path: PlannedPath, header: Header) -> JointTrajectory:
-    if path.joint_positions is None:
-        return JointTrajectory()
-    velocities = path.joint_velocities if path.joint_velocities is not None else np.zeros_like(path.joint_positions)
-    points = [JointTrajectoryPoint(positions=q.tolist(), velocities=v.tolist(),
-                                   time_from_start=Duration.from_seconds(t))
-              for q, v, t in zip(path.joint_positions, velocities, path.times.tolist(), strict=True)]
-    return JointTrajectory(header=header, joint_names=list(path.joint_names), points=points)
+def _stamps(times: NDArray[np.float64], field: str = "times") -> NDArray[np.int64]:
+    """``(N, 2)`` ``sec``, ``nanosec`` of ``times`` (s) as :meth:`Time.from_seconds` rounds them (half to even).
+
+    Raises :class:`InvalidInput` when a time does not fit ``builtin_interfaces/Time`` (``sec`` is an int32).
+    """
+    if times.size and not (np.all(np.isfinite(times)) and times.min() >= 0 and times.max() < _MAX_STAMP_S):
+        raise InvalidInput(field, float(np.max(times)), f"a plan's times must lie in [0, {_MAX_STAMP_S:.0f}) s "
+                           "(builtin_interfaces/Time holds int32 seconds)")
+    total_ns = np.rint(times * 1e9).astype(np.int64)
+    return np.column_stack([total_ns // 1_000_000_000, total_ns % 1_000_000_000])
+
+
+_MAX_STAMP_S = 2.0**31 - 1.0
+CHUNK_ROWS = 256
+"""Waypoints written per step: each step holds the GIL for about a millisecond, so other requests keep
+answering while a long plan's answer is written (and the answer can be streamed)."""
+
+
+def _text(value: str) -> str:
+    """JSON string of ``value`` as pydantic writes it."""
+    return to_json(value).decode()
+
+
+def _texts(block: NDArray[Any]) -> list[str]:
+    """The JSON text of every value of ``block`` in row-major order, written by pydantic's own number
+    formatter (so each number is spelled as ``model_dump_json`` spells it)."""
+    if block.size == 0:
+        return []
+    return to_json(block.ravel().tolist()).decode()[1:-1].split(",")
+
+
+def _rows(template: str, frame: str, blocks: Callable[[slice], tuple[NDArray[Any], ...]],
+          count: int) -> Iterator[str]:
+    """``template`` filled for each of ``count`` rows, comma-separated, :data:`CHUNK_ROWS` rows at a time.
+
+    In ``template`` ``{}`` marks a value (taken in order from the row of ``blocks(rows)``, each ``(rows, k)``)
+    and ``{frame}`` the JSON text ``frame``. The pieces are interleaved by slice assignment: no per-row Python.
+    """
+    fragments = [piece.replace("{frame}", frame) for piece in template.split("{}")]
+    slots = len(fragments) - 1
+    width = 2 * slots + 1
+    for start in range(0, count, CHUNK_ROWS):
+        parts = blocks(slice(start, start + CHUNK_ROWS))
+        rows = parts[0].shape[0]
+        out: list[str] = [""] * (rows * width)
+        for i, fragment in enumerate(fragments):
+            out[2 * i::width] = [fragment + ","] * rows if i == slots else [fragment] * rows
+        slot = 0
+        for part in parts:
+            texts = _texts(part)
+            for i in range(part.shape[1]):
+                out[2 * slot + 1::width] = texts[i::part.shape[1]]
+                slot += 1
+        out[0] = fragments[0] if start == 0 else "," + fragments[0]
+        out[-1] = fragments[-1]
+        yield "".join(out)
+
+
+@dataclass(frozen=True, eq=False)
+class _PlanJson:
+    """A plan's arrays and the JSON of its ``PlanPath`` response parts, written from the arrays directly.
+
+    The text equals what pydantic writes for the same models, byte for byte (numbers go through pydantic's
+    formatter), but no per-waypoint object is built, and it comes in chunks of :data:`CHUNK_ROWS` waypoints.
+    """
+
+    path: PlannedPath
+    frame_id: str
+
+    def header(self, frame_id: str | None = None) -> str:
+        name = to_json(self.frame_id if frame_id is None else frame_id).decode()
+        return '{"stamp":{"sec":0,"nanosec":0},"frame_id":' + name + "}"
+
+    _STAMPED = '{"header":{"stamp":{"sec":{},"nanosec":{}},"frame_id":{frame}},'
+
+    def poses(self) -> Iterator[str]:
+        path, stamps = self.path, _stamps(self.path.times)
+        template = (self._STAMPED + '"pose":{"position":{"x":{},"y":{},"z":{}},'
+                    '"orientation":{"x":{},"y":{},"z":{},"w":{}}}}')
+        yield "["
+        yield from _rows(template, _text(self.frame_id),
+                         lambda rows: (stamps[rows], path.positions[rows], path.orientations[rows]), len(path.times))
+        yield "]"
+
+    def twists(self) -> Iterator[str]:
+        path, stamps = self.path, _stamps(self.path.times)
+        template = self._STAMPED + '"twist":{"linear":{"x":{},"y":{},"z":{}},"angular":{"x":{},"y":{},"z":{}}}}'
+        yield "["
+        yield from _rows(template, _text(self.frame_id), lambda rows: (stamps[rows], path.twists[rows]),
+                         len(path.times))
+        yield "]"
+
+    def joint_trajectory(self) -> Iterator[str]:
+        path = self.path
+        if path.joint_positions is None:
+            yield '{"header":' + self.header("") + ',"joint_names":[],"points":[]}'
+            return
+        positions = path.joint_positions
+        velocities = path.joint_velocities if path.joint_velocities is not None else np.zeros_like(positions)
+        stamps = _stamps(path.times)
+        values = ",".join(["{}"] * positions.shape[1])
+        template = ('{"positions":[' + values + '],"velocities":[' + values + '],"accelerations":[],"effort":[],'
+                    '"time_from_start":{"sec":{},"nanosec":{}}}')
+        yield '{"header":' + self.header() + ',"joint_names":' + to_json(list(path.joint_names)).decode() + \
+            ',"points":['
+        yield from _rows(template, "", lambda rows: (positions[rows], velocities[rows], stamps[rows]),
+                         len(path.times))
+        yield "]}"
+
+    def end_effector_path(self) -> Iterator[str]:
+        yield '{"header":' + self.header() + ',"poses":'
+        yield from self.poses()
+        yield "}"
+
+    def response(self) -> Iterator[str]:
+        yield '{"success":' + ("true" if self.path.success else "false") + ',"end_effector_path":'
+        yield from self.end_effector_path()
+        yield ',"joint_trajectory":'
+        yield from self.joint_trajectory()
+        yield ',"end_effector_velocity_trajectory":'
+        yield from self.twists()
+        yield ',"error_message":' + to_json(self.path.failure_reason).decode() + "}"
+
+
+class _Lazy:
+    """Mixin of the plan-response models whose large lists (``_lazy_fields``) are held as arrays: their JSON
+    is written from the arrays (:class:`_PlanJson`), and the pydantic objects are built only when a field is
+    read (then exactly what validating the JSON gives)."""
+
+    _lazy_fields: ClassVar[tuple[str, ...]] = ()
+
+    def _materialise(self: Any) -> None:
+        missing = [name for name in self._lazy_fields if name not in self.__dict__]
+        if missing:
+            base: Any = type(self).__mro__[2]  # the message model (this class, _Lazy, model)
+            full = base.model_validate_json(self.model_dump_json())
+            values = self.__dict__ | {name: getattr(full, name) for name in missing}
+            self.__dict__.clear()  # in field order, as pydantic writes them
+            self.__dict__.update({name: values[name] for name in type(self).model_fields})
+        for value in list(self.__dict__.values()):
+            if isinstance(value, _Lazy):
+                value._materialise()
+
+    def __getattr__(self, name: str) -> Any:
+        if name in type(self)._lazy_fields:
+            self._materialise()
+            return self.__dict__[name]
+        return super().__getattr__(name)  # type: ignore[misc]
+
+    def json_chunks(self) -> Iterator[str]:
+        """The JSON of :meth:`model_dump_json` in pieces (a transport may stream them)."""
+        return self._plan_chunks()  # type: ignore[attr-defined, no-any-return]
+
+    def model_dump_json(self, **kwargs: Any) -> str:
+        if not kwargs:
+            return "".join(self.json_chunks())
+        self._materialise()
+        return super().model_dump_json(**kwargs)  # type: ignore[misc, no-any-return]
+
+    def model_dump(self, **kwargs: Any) -> dict[str, Any]:
+        self._materialise()
+        return super().model_dump(**kwargs)  # type: ignore[misc, no-any-return]
+
+    def __iter__(self) -> Any:
+        self._materialise()
+        return super().__iter__()  # type: ignore[misc]
+
+    def __repr_args__(self) -> Any:
+        self._materialise()
+        return super().__repr_args__()  # type: ignore[misc]
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, RosMessage) or other.ros_type != type(self).ros_type:  # type: ignore[attr-defined]
+            return NotImplemented
+        return self.model_dump() == other.model_dump()
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+class _ArrayPath(_Lazy, Path):
+    _lazy_fields: ClassVar[tuple[str, ...]] = ("poses",)
+    _plan: _PlanJson = PrivateAttr()
+
+    def _plan_chunks(self) -> Iterator[str]:
+        return self._plan.end_effector_path()
+
+
+class _ArrayJointTrajectory(_Lazy, JointTrajectory):
+    _lazy_fields: ClassVar[tuple[str, ...]] = ("points",)
+    _plan: _PlanJson = PrivateAttr()
+
+    def _plan_chunks(self) -> Iterator[str]:
+        return self._plan.joint_trajectory()
+
+
+class _ArrayPlanResponse(_Lazy, PlanPath_Response):
+    _lazy_fields: ClassVar[tuple[str, ...]] = ("end_effector_velocity_trajectory",)
+    _plan: _PlanJson = PrivateAttr()
+
+    def _plan_chunks(self) -> Iterator[str]:
+        return self._plan.response()
+
+
+def _lazy(model: type[Any], plan: _PlanJson, **values: Any) -> Any:
+    message = model.model_construct(**values)
+    for name in model._lazy_fields:
+        message.__dict__.pop(name, None)
+    message._plan = plan
+    return message
 
 
 def plan_response(path: PlannedPath, frame_id: str) -> PlanPath_Response:
-    """``PlanPath`` response of a plan: poses and twists stamped ``times[i]`` (= i·dt, s) in ``frame_id``."""
-    header = Header(frame_id=frame_id)
-    poses, twists = [], []
-    for t, p, q, v in zip(path.times.tolist(), path.positions.tolist(), path.orientations.tolist(),
-                          path.twists.tolist(), strict=True):
-        stamped_header = Header(stamp=Time.from_seconds(t), frame_id=frame_id)
-        pose = gm.Pose(position=gm.Point(x=p[0], y=p[1], z=p[2]),
-                       orientation=gm.Quaternion(x=q[0], y=q[1], z=q[2], w=q[3]))
-        poses.append(gm.PoseStamped(header=stamped_header, pose=pose))
-        twists.append(gm.TwistStamped(header=stamped_header,
-                                      twist=gm.Twist(linear=_vector3(v[:3]), angular=_vector3(v[3:]))))
-    from pfield.interfaces.nav_msgs import Path
+    """``PlanPath`` response of a plan: poses and twists stamped ``times[i]`` (= i·dt, s) in ``frame_id``.
 
-    return PlanPath_Response(success=path.success, end_effector_path=Path(header=header, poses=poses),
-                             joint_trajectory=_joint_trajectory(path, header),
-                             end_effector_velocity_trajectory=twists, error_message=path.failure_reason)
+    Built without one pydantic object per waypoint: the response (and its ``end_effector_path``, which the
+    node publishes) write their JSON straight from the plan's arrays, and build the per-waypoint models only
+    if a field is read (the ROS 2 transport does). A plan time beyond ``builtin_interfaces/Time`` (2^31 s)
+    raises :class:`InvalidInput` naming ``times``.
+    """
+    _stamps(path.times)  # refuse unrepresentable times before anything is built
+    plan = _PlanJson(path, frame_id)
+    header = Header(frame_id=frame_id)
+    trajectory = (JointTrajectory() if path.joint_positions is None else
+                  _lazy(_ArrayJointTrajectory, plan, header=header, joint_names=list(path.joint_names)))
+    return _lazy(_ArrayPlanResponse, plan, success=path.success,  # type: ignore[no-any-return]
+                 end_effector_path=_lazy(_ArrayPath, plan, header=header), joint_trajectory=trajectory,
+                 error_message=path.failure_reason)

@@ -66,16 +66,40 @@ Listener = Callable[[str, RosMessage], None]
 class Bus:
     """In-process topic bus: the latest message per topic plus listeners called on every publish.
 
-    Thread-safe. Listeners must not block (transports enqueue and return).
+    Topics published with ``declare=True`` (the default: what nodes publish, and the topics they subscribe to)
+    keep their latest message. Topics published with ``declare=False`` (a transport relaying a client's
+    message on a topic no node declared) reach the listeners, and only the ``max_undeclared`` most recently
+    published of them keep a latest message; older ones are forgotten, so junk topic names cost bounded
+    memory. Thread-safe. Listeners must not block (transports enqueue and return).
     """
 
-    def __init__(self) -> None:
+    def __init__(self, max_undeclared: int = 16) -> None:
+        self.max_undeclared = max_undeclared
         self._lock = threading.Lock()
         self._latest: dict[str, RosMessage] = {}
+        self._declared: set[str] = set()
+        self._undeclared: dict[str, None] = {}  # insertion order = publication order (oldest first)
         self._listeners: list[Listener] = []
 
-    def publish(self, topic: str, message: RosMessage) -> None:
+    def declare(self, *topics: str) -> None:
+        """Keep the latest message of ``topics`` whoever publishes on them."""
         with self._lock:
+            self._declared.update(topics)
+            for topic in topics:
+                self._undeclared.pop(topic, None)
+
+    def publish(self, topic: str, message: RosMessage, *, declare: bool = True) -> None:
+        with self._lock:
+            if declare:
+                self._declared.add(topic)
+                self._undeclared.pop(topic, None)
+            elif topic not in self._declared:
+                self._undeclared.pop(topic, None)
+                self._undeclared[topic] = None
+                while len(self._undeclared) > self.max_undeclared:
+                    oldest = next(iter(self._undeclared))
+                    del self._undeclared[oldest]
+                    self._latest.pop(oldest, None)
             self._latest[topic] = message
             listeners = list(self._listeners)
         for listener in listeners:
@@ -127,6 +151,11 @@ class Node(ABC):
     def set_parameters(self, values: Mapping[str, Any]) -> dict[str, Any]:
         """Validate all ``values`` first, then apply them together; raise ``InvalidInput`` naming the first
         bad parameter and change nothing in that case. Returns the new full parameter dict."""
+
+    def describe_parameters(self) -> dict[str, dict[str, Any]]:
+        """Each parameter's ``{"type", "description", "range", "unit", "default", "read_only", "positive"}``: its
+        row of the node's :class:`~pfield.node._params.ParameterTable` (``ros2 param describe``)."""
+        return {}
 
     def tick(self, now: float) -> None:
         """Periodic work (expiring obstacles, controller output); ``now`` is monotonic seconds."""

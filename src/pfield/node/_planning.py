@@ -16,7 +16,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
+from pfield.planning.cancel import CancelToken
 from pfield.planning.result import PlannedPath
 from pfield.spatial import Pose, Twist
 
@@ -42,8 +44,9 @@ def make_field(config: FieldConfig, goal: Pose, obstacles: Sequence[Any]) -> Any
     return PotentialField(config, goal=goal, obstacles=list(obstacles))
 
 
-def make_mesh(resource: str, scale: tuple[float, float, float], resolver: Any) -> Any:
-    """A Mesh shape of ``resource`` resolved through ``resolver`` (a :class:`~pfield.geometry.ResourceResolver`).
+def make_mesh(resource: str, scale: tuple[float, float, float], resolver: Any, max_bytes: int) -> Any:
+    """A Mesh shape of ``resource`` resolved through ``resolver`` (a :class:`~pfield.geometry.ResourceResolver`);
+    a resolved file over ``max_bytes`` is refused before it is read.
 
     The node's clients are not trusted: without a resolver only files under the current directory are read
     (the library's own default resolver would read any file)."""
@@ -51,18 +54,26 @@ def make_mesh(resource: str, scale: tuple[float, float, float], resolver: Any) -
 
     if resolver is None:
         resolver = ResourceResolver(allowed_roots=(Path.cwd(),))
+    size = resolver.resolve(resource).stat().st_size
+    if size > max_bytes:
+        raise InvalidInput("mesh_resource", resource, f"the file has {size} bytes, above max_mesh_file_size "
+                           f"({max_bytes} bytes)")
     return Mesh(resource, *scale, resolver=resolver)
 
 
-def run_plan(config: FieldConfig, obstacles: Sequence[Any], robot: Any, inputs: PlanInputs) -> PlannedPath:
+def run_plan(config: FieldConfig, obstacles: Sequence[Any], robot: Any, inputs: PlanInputs,
+             cancel: CancelToken | None = None) -> PlannedPath:
+    """The plan of ``inputs`` among ``obstacles``; ``cancel`` (checked here before planning, and passed to the
+    planner, which checks it between iterations) ends it early with the status ``cancelled``."""
     field = make_field(config, inputs.goal, obstacles)
+    extra: dict[str, Any] = {} if cancel is None else {"cancel": cancel}
     if inputs.method == "whole_body":
         assert inputs.joint_angles is not None
         return field.plan_whole_body(robot, inputs.joint_angles, inputs.delta_time, inputs.goal_tolerance,
-                                     inputs.max_iterations)
+                                     inputs.max_iterations, **extra)
     assert inputs.start is not None
     path: PlannedPath = field.plan(start=inputs.start, dt=inputs.delta_time, goal_tolerance=inputs.goal_tolerance,
-                                   max_iterations=inputs.max_iterations)
+                                   max_iterations=inputs.max_iterations, **extra)
     if inputs.joint_angles is not None:
         from pfield.planning.joint_trajectory import attach_joint_trajectory
 

@@ -17,21 +17,32 @@ State changes are all-or-nothing: every request is validated completely before a
 and planning works on a snapshot, so short calls (autonomy vector) keep answering during a long plan.
 Planning behaviour follows the seed's PlanPath.srv: ``planning_method`` empty means task_space,
 ``max_iterations`` ≤ 0 means :data:`DEFAULT_MAX_ITERATIONS`; above :data:`MAX_ITERATIONS_CAP` is refused.
+
+Bounded work (each limit refused with ``InvalidInput`` naming the field, the value and the limit, before
+anything runs or changes): at most :data:`MAX_OBSTACLES` obstacles; Mesh files up to the
+``max_mesh_file_size`` parameter; ``delta_time`` in [:data:`MIN_DELTA_TIME`, :data:`MAX_DELTA_TIME`] s with
+``max_iterations · delta_time`` representable as a ``builtin_interfaces/Time`` (int32 seconds); a plan's
+estimated work ``max_iterations × max(1, obstacles)`` ≤ :data:`MAX_PLAN_WORK`; poses within
+:data:`~pfield.interfaces.convert.MAX_COORDINATE` m with a normalisable quaternion.
+
+State: one immutable :class:`~pfield.node._manager_state.ManagerState` swapped under the node's lock; the
+potential field and the markers are memoised on its version. A plan changes the goal (and the path shown
+in the markers) only when it completes: a refused, failing with an exception, or cancelled plan leaves the
+node as it was.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 import threading
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from pfield._validation import as_vector
+from pfield._validation import as_vector, in_range
 from pfield.errors import InvalidInput, PfieldError
 from pfield.field.config import FieldConfig
 from pfield.interfaces import geometry_msgs as gm
@@ -40,40 +51,29 @@ from pfield.interfaces import potential_fields_interfaces as pfi
 from pfield.interfaces.convert import obstacle_from_msg, plan_response, pose_from_msg, twist_stamped
 from pfield.node import _planning
 from pfield.node._base import Bus, Node, PublicationSpec, ServiceSpec, SubscriptionSpec
-from pfield.node._frames import StaticTransforms, parse_transforms, transforms_data
+from pfield.node._frames import transforms_data
+from pfield.node._manager_state import MAX_OBSTACLES, Held, ManagerParameters, ManagerState, Memo, manager_table
 from pfield.node._markers import state_markers
+from pfield.planning.cancel import CancelToken
 from pfield.planning.task_space import DEFAULT_MAX_ITERATIONS
 from pfield.spatial import Pose
 
-__all__ = ["DEFAULT_MAX_ITERATIONS", "MAX_ITERATIONS_CAP", "ManagerNode", "ManagerParameters"]
+__all__ = ["DEFAULT_MAX_ITERATIONS", "MAX_DELTA_TIME", "MAX_ITERATIONS_CAP", "MAX_OBSTACLES", "MAX_PLAN_WORK",
+           "MIN_DELTA_TIME", "ManagerNode", "ManagerParameters"]
 
 _log = logging.getLogger(__name__)
 MAX_ITERATIONS_CAP = 200_000
 """Largest accepted ``max_iterations`` (about 4000 s of motion at dt = 0.02 s): bounds a request's cost."""
+MIN_DELTA_TIME, MAX_DELTA_TIME = 1e-6, 10.0
+"""s: the accepted ``delta_time`` of a plan (a 1 MHz to 0.1 Hz control rate covers every real controller;
+below 1 µs the waypoints' nanosecond stamps would no longer be distinct)."""
+MAX_PLAN_WORK = 50_000_000
+"""Largest ``max_iterations × max(1, obstacles)`` of one plan (obstacle-steps): e.g. 200 000 iterations
+among 250 obstacles or 30 000 among 1666. Measured ~0.6 µs per obstacle-step (task space, spheres), so
+the obstacles cost a capped plan at most ~30 s."""
+_INT32_SECONDS = 2**31 - 1
+_CANCELLED = pfi.PlanPath_Response(success=False, error_message="cancelled: the caller went away")
 TASK_SPACE, WHOLE_BODY = pfi.PLANNING_METHOD_TASK_SPACE, pfi.PLANNING_METHOD_WHOLE_BODY
-
-
-@dataclass(frozen=True)
-class ManagerParameters:
-    """Node parameters that are not field parameters."""
-
-    dynamic_obstacle_timeout: float = 2.0
-    """s: a ``Dynamic`` obstacle not re-published for this long is removed (0 disables expiry)."""
-    fixed_frame: str = "world"
-    """The frame every pose is used in; messages in another frame need a ``static_transforms`` entry."""
-    static_transforms: Mapping[str, Any] = dataclasses.field(default_factory=dict)
-    """``{frame: {translation: [x, y, z] (m), rotation: [qx, qy, qz, qw]}}``: each frame's pose in
-    ``fixed_frame`` (entries may also be :class:`~pfield.spatial.Pose`; held as Poses after validation)."""
-
-    def __post_init__(self) -> None:
-        timeout = self.dynamic_obstacle_timeout
-        if isinstance(timeout, bool) or not isinstance(timeout, int | float) or not math.isfinite(timeout) \
-                or timeout < 0:
-            raise InvalidInput("dynamic_obstacle_timeout", timeout, "must be a finite number of seconds >= 0")
-        if not isinstance(self.fixed_frame, str) or not self.fixed_frame:
-            raise InvalidInput("fixed_frame", self.fixed_frame, "must be a non-empty frame name")
-        object.__setattr__(self, "dynamic_obstacle_timeout", float(timeout))
-        object.__setattr__(self, "static_transforms", parse_transforms(self.static_transforms, self.fixed_frame))
 
 
 def _planning_method(value: str) -> str:
@@ -84,10 +84,13 @@ def _planning_method(value: str) -> str:
     return method
 
 
-@dataclass(frozen=True)
-class _Held:
-    obstacle: Any
-    updated: float
+def _plan_duration(delta_time: float, iterations: int) -> float:
+    """``delta_time`` checked: in range, and ``iterations · delta_time`` fits a Time's int32 seconds."""
+    dt = in_range("delta_time", delta_time, MIN_DELTA_TIME, MAX_DELTA_TIME, "s")
+    if iterations * dt > _INT32_SECONDS:
+        raise InvalidInput("delta_time", delta_time, f"{iterations} steps of it exceed a builtin_interfaces/Time "
+                           f"(int32 seconds, {_INT32_SECONDS} s)")
+    return dt
 
 
 class ManagerNode(Node):
@@ -109,27 +112,32 @@ class ManagerNode(Node):
         self.robot = robot
         self.resolver = resolver
         self.csv_dir = csv_dir
+        self.parameter_table = manager_table(self.name)
         self._lock = threading.Lock()
-        self._config = config or FieldConfig()
-        self._params = parameters or ManagerParameters()
-        self._obstacles: dict[str, _Held] = {}
-        self._goal: Pose | None = None
-        self._path_positions: Any = None
-        self._field: Any = None
+        self._state = ManagerState(config or FieldConfig(), parameters or ManagerParameters())
+        self._field: Memo[Any] = Memo(lambda s: None if s.goal is None else
+                                      _planning.make_field(s.config, s.goal, s.obstacle_list()),
+                                      depends=("config", "goal", "obstacles"))
+        self._markers: Memo[visualization_msgs.MarkerArray] = Memo(
+            lambda s: state_markers(s.params.fixed_frame, s.goal, s.obstacle_list(), s.config.influence_distance,
+                                    s.path_positions))
         self._plan_count = 0
 
     # ---- node contract ------------------------------------------------------------------------------
     def services(self) -> list[ServiceSpec]:
         return [
             ServiceSpec("/pfield/plan_path", "potential_fields_interfaces/srv/PlanPath", pfi.PlanPath_Request,
-                        pfi.PlanPath_Response, self.plan_path, long_running=True),
+                        pfi.PlanPath_Response, self.plan_path, long_running=True, cancellable=True),
             ServiceSpec("/pfield/compute_autonomy_vector", "potential_fields_interfaces/srv/ComputeAutonomyVector",
                         pfi.ComputeAutonomyVector_Request, pfi.ComputeAutonomyVector_Response,
+                        # not long_running: the transports already run it off their event loop, and it must
+                        # not queue behind plans in the long-running pool (a control loop calls it at rate)
                         self.compute_autonomy_vector),
             ServiceSpec("/pfield/remove_obstacles", "potential_fields_interfaces/srv/RemoveObstacles",
-                        pfi.RemoveObstacles_Request, pfi.RemoveObstacles_Response, self.remove_obstacles),
+                        pfi.RemoveObstacles_Request, pfi.RemoveObstacles_Response, self.remove_obstacles,
+                        long_running=True),
             ServiceSpec("/pfield/clear_obstacles", "std_srvs/srv/Trigger", std_srvs.Trigger_Request,
-                        std_srvs.Trigger_Response, self.clear_obstacles),
+                        std_srvs.Trigger_Response, self.clear_obstacles, long_running=True),
         ]
 
     def subscriptions(self) -> list[SubscriptionSpec]:
@@ -150,74 +158,77 @@ class ManagerNode(Node):
         ]
 
     def get_parameters(self) -> dict[str, Any]:
-        with self._lock:
-            return self._config.as_dict() | {"dynamic_obstacle_timeout": self._params.dynamic_obstacle_timeout,
-                                             "fixed_frame": self._params.fixed_frame,
-                                             "static_transforms": transforms_data(self._params.static_transforms)}
+        state = self._state
+        params = state.params
+        return state.config.as_dict() | {"dynamic_obstacle_timeout": params.dynamic_obstacle_timeout,
+                                         "fixed_frame": params.fixed_frame,
+                                         "static_transforms": transforms_data(params.static_transforms),
+                                         "max_mesh_file_size": params.max_mesh_file_size}
+
+    def describe_parameters(self) -> dict[str, dict[str, Any]]:
+        return self.parameter_table.describe()
 
     def set_parameters(self, values: Mapping[str, Any]) -> dict[str, Any]:
-        own = {k: v for k, v in values.items() if k in ManagerParameters.__dataclass_fields__}
-        field_values = {k: v for k, v in values.items() if k not in own}
+        checked = self.parameter_table.check(values)
+        own = {k: v for k, v in checked.items() if k in ManagerParameters.__dataclass_fields__}
+        field_values = {k: v for k, v in checked.items() if k not in own}
         with self._lock:
-            config = self._config.replace(**field_values) if field_values else self._config
-            params = replace(self._params, **own)
-            self._config, self._params, self._field = config, params, None
+            state = self._state
+            config = state.config.replace(**field_values) if field_values else state.config
+            params = replace(state.params, **own)
+            self._state = state.evolve(config=config, params=params)
         self._publish_markers()
         return self.get_parameters()
 
     def tick(self, now: float) -> None:
         """Drop ``Dynamic`` obstacles older than ``dynamic_obstacle_timeout`` (monotonic seconds)."""
         with self._lock:
-            timeout = self._params.dynamic_obstacle_timeout
-            stale = [key for key, held in self._obstacles.items()
+            state = self._state
+            timeout = state.params.dynamic_obstacle_timeout
+            stale = [key for key, held in state.obstacles.items()
                      if timeout > 0 and held.obstacle.group == "Dynamic" and now - held.updated > timeout]
-            for key in stale:
-                del self._obstacles[key]
             if stale:
-                self._field = None
+                self._state = state.evolve(obstacles={k: v for k, v in state.obstacles.items() if k not in stale})
         if stale:
             _log.info("dynamic obstacles expired: %s", ", ".join(stale))
             self._publish_markers()
 
     # ---- state --------------------------------------------------------------------------------------
     @property
+    def state(self) -> ManagerState:
+        """The current state snapshot (immutable)."""
+        return self._state
+
+    @property
     def config(self) -> FieldConfig:
-        return self._config
+        return self._state.config
 
     @property
     def goal(self) -> Pose | None:
-        return self._goal
+        return self._state.goal
 
     def obstacles(self) -> list[Any]:
         """The obstacles held, in insertion order."""
-        with self._lock:
-            return [held.obstacle for held in self._obstacles.values()]
+        return self._state.obstacle_list()
 
-    def _frames(self) -> StaticTransforms:
-        params = self._params
-        return StaticTransforms(params.fixed_frame, params.static_transforms)
-
-    def _snapshot(self) -> tuple[FieldConfig, Pose | None, list[Any]]:
-        with self._lock:
-            return self._config, self._goal, [held.obstacle for held in self._obstacles.values()]
+    def markers(self) -> visualization_msgs.MarkerArray:
+        """The markers of the current state (memoised on its version)."""
+        return self._markers.get(self._state)
 
     def _current_field(self) -> Any:
         """The field of the current state, rebuilt only after a change (None without a goal)."""
-        with self._lock:
-            if self._field is None and self._goal is not None:
-                obstacles = [held.obstacle for held in self._obstacles.values()]
-                self._field = _planning.make_field(self._config, self._goal, obstacles)
-            return self._field
+        return self._field.get(self._state)
 
     def _publish_markers(self) -> None:
-        config, goal, obstacles = self._snapshot()
-        self.bus.publish("/pfield/markers", state_markers(self._params.fixed_frame, goal, obstacles,
-                                                          config.influence_distance, self._path_positions))
+        self.bus.publish("/pfield/markers", self.markers())
 
     # ---- topic handlers -----------------------------------------------------------------------------
     def on_obstacles(self, message: pfi.ObstacleArray) -> None:
-        """Add or replace obstacles by id; validates all of them before changing anything."""
-        transform = self._frames().lookup("header.frame_id", message.header.frame_id)
+        """Add or replace obstacles by id; validates all of them (and the count cap) before changing anything."""
+        state = self._state
+        transform = state.params.frames().lookup("header.frame_id", message.header.frame_id)
+        ids = [item.frame_id for item in message.obstacles]
+        self._check_count(state, ids)
         converted: dict[str, Any] = {}
         for i, item in enumerate(message.obstacles):
             if item.frame_id in converted:
@@ -227,17 +238,26 @@ class ManagerNode(Node):
                                                                                   pose=transform * obstacle.pose)
         now = time.monotonic()
         with self._lock:
-            for key, obstacle in converted.items():
-                self._obstacles[key] = _Held(obstacle, now)
-            self._field = None
+            state = self._state
+            self._check_count(state, ids)  # again: another message may have added obstacles meanwhile
+            held = dict(state.obstacles) | {key: Held(obstacle, now) for key, obstacle in converted.items()}
+            self._state = state.evolve(obstacles=held)
         self._publish_markers()
 
+    @staticmethod
+    def _check_count(state: ManagerState, ids: list[str]) -> None:
+        total = len(state.obstacles) + len(set(ids) - set(state.obstacles))
+        if len(ids) > MAX_OBSTACLES or total > MAX_OBSTACLES:
+            raise InvalidInput("obstacles", f"{len(ids)} obstacles", f"would hold {max(total, len(ids))} obstacles, "
+                               f"above the cap of {MAX_OBSTACLES} (the node holds {len(state.obstacles)}); "
+                               "remove some first")
+
     def on_goal(self, message: gm.PoseStamped) -> None:
-        transform = self._frames().lookup("header.frame_id", message.header.frame_id)
+        transform = self._state.params.frames().lookup("header.frame_id", message.header.frame_id)
         goal = pose_from_msg(message.pose, "pose")
         goal = goal if transform is None else transform * goal
         with self._lock:
-            self._goal, self._field = goal, None
+            self._state = self._state.evolve(goal=goal)
         self._publish_markers()
 
     def on_query_pose(self, message: gm.PoseStamped) -> None:
@@ -246,7 +266,8 @@ class ManagerNode(Node):
 
     def _make_mesh(self, resource: str, scale_x: float, scale_y: float, scale_z: float) -> Any:
         try:
-            return _planning.make_mesh(resource, (scale_x, scale_y, scale_z), self.resolver)
+            return _planning.make_mesh(resource, (scale_x, scale_y, scale_z), self.resolver,
+                                       self._state.params.max_mesh_file_size)
         except InvalidInput:
             raise
         except (PfieldError, OSError, ValueError) as exc:
@@ -255,38 +276,43 @@ class ManagerNode(Node):
     # ---- services -----------------------------------------------------------------------------------
     def remove_obstacles(self, request: pfi.RemoveObstacles_Request) -> pfi.RemoveObstacles_Response:
         with self._lock:
-            unknown = [key for key in request.frame_ids if key not in self._obstacles]
-            if not unknown:
-                for key in request.frame_ids:
-                    self._obstacles.pop(key, None)
-                self._field = None
-            remaining = list(self._obstacles)
+            state = self._state
+            unknown = [key for key in request.frame_ids if key not in state.obstacles]
+            if not unknown and request.frame_ids:
+                gone = set(request.frame_ids)
+                state = self._state = state.evolve(obstacles={k: v for k, v in state.obstacles.items()
+                                                              if k not in gone})
+            remaining = list(state.obstacles)
         if unknown:
             return pfi.RemoveObstacles_Response(success=False, remaining=remaining,
                                                 message=f"unknown obstacle ids {unknown}; nothing removed")
-        self._publish_markers()
+        if request.frame_ids:
+            self._publish_markers()
         return pfi.RemoveObstacles_Response(success=True, remaining=remaining,
                                             message=f"removed {len(set(request.frame_ids))} obstacle(s)")
 
     def clear_obstacles(self, request: std_srvs.Trigger_Request) -> std_srvs.Trigger_Response:
         with self._lock:
-            count = len(self._obstacles)
-            self._obstacles.clear()
-            self._field = None
+            state = self._state
+            count = len(state.obstacles)
+            self._state = state.evolve(obstacles={})
         self._publish_markers()
         return std_srvs.Trigger_Response(success=True, message=f"removed {count} obstacle(s)")
 
-    def _plan_inputs(self, request: pfi.PlanPath_Request) -> _planning.PlanInputs:
+    def _plan_inputs(self, request: pfi.PlanPath_Request, obstacle_count: int) -> _planning.PlanInputs:
+        """The whole request validated (nothing is changed before this returns)."""
         method = _planning_method(request.planning_method)
-        dt, tolerance = request.delta_time, request.goal_tolerance
-        if not (math.isfinite(dt) and dt > 0):
-            raise InvalidInput("delta_time", dt, "must be > 0 s")
-        if not (math.isfinite(tolerance) and tolerance > 0):
-            raise InvalidInput("goal_tolerance", tolerance, "must be > 0 m")
         iterations = request.max_iterations if request.max_iterations > 0 else DEFAULT_MAX_ITERATIONS
         if iterations > MAX_ITERATIONS_CAP:
             raise InvalidInput("max_iterations", iterations,
                                f"must be <= {MAX_ITERATIONS_CAP} (0 means {DEFAULT_MAX_ITERATIONS})")
+        if iterations * max(1, obstacle_count) > MAX_PLAN_WORK:
+            raise InvalidInput("max_iterations", iterations, f"{iterations} iterations among {obstacle_count} "
+                               f"obstacles exceed the work cap of {MAX_PLAN_WORK} obstacle-steps")
+        dt = _plan_duration(request.delta_time, iterations)
+        tolerance = request.goal_tolerance
+        if not (math.isfinite(tolerance) and tolerance > 0):
+            raise InvalidInput("goal_tolerance", tolerance, "must be > 0 m")
         goal = pose_from_msg(request.goal, "goal")
         start: Pose | None = None
         joints = None
@@ -298,16 +324,21 @@ class ManagerNode(Node):
                 joints = self.robot.check_joint_angles(request.starting_joint_angles, "starting_joint_angles")
         return _planning.PlanInputs(method, goal, start, joints, dt, tolerance, iterations)
 
-    def plan_path(self, request: pfi.PlanPath_Request) -> pfi.PlanPath_Response:
-        """Plan to ``request.goal`` (also the node's goal from now on); see PlanPath.srv for the fields."""
-        inputs = self._plan_inputs(request)
+    def plan_path(self, request: pfi.PlanPath_Request, cancel: CancelToken | None = None) -> pfi.PlanPath_Response:
+        """Plan to ``request.goal`` (also the node's goal from now on); see PlanPath.srv for the fields.
+
+        The goal and the markers' path change only when the plan completes: a refused request, a plan that
+        raises or one ``cancel``\\ led (the caller went away) leaves the node's state as it was."""
+        state = self._state
+        inputs = self._plan_inputs(request, len(state.obstacles))
+        if cancel is not None and cancel.cancelled:
+            return _CANCELLED.model_copy()
+        path = _planning.run_plan(state.config, state.obstacle_list(), self.robot, inputs, cancel=cancel)
+        if cancel is not None and cancel.cancelled:
+            return _CANCELLED.model_copy()
+        response = plan_response(path, state.params.fixed_frame)
         with self._lock:
-            self._goal, self._field = inputs.goal, None
-            config = self._config
-            obstacles = [held.obstacle for held in self._obstacles.values()]
-        path = _planning.run_plan(config, obstacles, self.robot, inputs)
-        response = plan_response(path, self._params.fixed_frame)
-        self._path_positions = path.positions
+            self._state = self._state.evolve(goal=inputs.goal, path_positions=path.positions)
         self.bus.publish("/pfield/planned_path", response.end_effector_path)
         self._publish_markers()
         self._save_csv(path, inputs.method)
@@ -328,9 +359,10 @@ class ManagerNode(Node):
                                 ) -> pfi.ComputeAutonomyVector_Response:
         """The field's limited twist at the query pose (task_space) or at ``joint_angles`` (whole_body)."""
         method = _planning_method(request.planning_method)
-        if not (math.isfinite(request.delta_time) and request.delta_time >= 0):
-            raise InvalidInput("delta_time", request.delta_time, "must be >= 0 s")
-        transform = self._frames().lookup("query_pose.header.frame_id", request.query_pose.header.frame_id)
+        dt = in_range("delta_time", request.delta_time, 0.0, MAX_DELTA_TIME, "s")
+        state = self._state
+        frames = state.params.frames()
+        transform = frames.lookup("query_pose.header.frame_id", request.query_pose.header.frame_id)
         if method == WHOLE_BODY:
             q = self.robot.check_joint_angles(request.joint_angles, "joint_angles")
             qd = None
@@ -343,13 +375,13 @@ class ManagerNode(Node):
             pose = pose_from_msg(request.query_pose.pose, "query_pose.pose")
         if pose is not None and transform is not None:
             pose = transform * pose
-        field = self._current_field()
+        field = self._field.get(state)
         if field is None:
             raise InvalidInput("goal", None, "no goal yet: publish /pfield/planning_goal_pose or call plan_path")
         if method == WHOLE_BODY:
-            twist = _planning.whole_body_twist(field, self.robot, q, qd, request.delta_time, pose)
+            twist = _planning.whole_body_twist(field, self.robot, q, qd, dt, pose)
         else:
             assert pose is not None
             twist = field.twist(pose)
-        vector = twist_stamped(twist, self._params.fixed_frame, time.time())
+        vector = twist_stamped(twist, state.params.fixed_frame, time.time())
         return pfi.ComputeAutonomyVector_Response(autonomy_vector=vector)

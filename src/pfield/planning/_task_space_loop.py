@@ -18,33 +18,15 @@ import math
 import numpy as np
 from numba import njit
 
-from pfield.field._evaluate import STAGNATION_PROGRESS, constrained_twist
+from pfield._spatial_kernels import left_increment
+from pfield.field._evaluate import constrained_twist
 from pfield.field._unowned import unowned, unowned_packed
 from pfield.geometry._packed import PackedObstacles
 from pfield.geometry._sdf import min_signed_distance
+from pfield.planning._progress import track_progress
+from pfield.planning.status import PlanStatus
 
-REACHED, STAGNATION, ITERATION_LIMIT, COLLISION, NOT_FINITE = 0, 1, 2, 3, 4
 _SEGMENT_SAMPLES = 16
-
-
-@njit(cache=True)
-def left_integrate(
-    qx: float, qy: float, qz: float, qw: float, wx: float, wy: float, wz: float, h: float
-) -> tuple[float, float, float, float]:
-    """exp(h ω) ⊗ q, renormalised: the world-frame (left) SO(3) update of a unit quaternion."""
-    ax, ay, az = h * wx, h * wy, h * wz
-    theta = math.sqrt(ax * ax + ay * ay + az * az)
-    if theta < 1e-8:
-        s, ew = 0.5 - theta * theta / 48.0, 1.0 - theta * theta / 8.0
-    else:
-        s, ew = math.sin(0.5 * theta) / theta, math.cos(0.5 * theta)
-    ex, ey, ez = s * ax, s * ay, s * az
-    x = ew * qx + ex * qw + ey * qz - ez * qy
-    y = ew * qy - ex * qz + ey * qw + ez * qx
-    z = ew * qz + ex * qy - ey * qx + ez * qw
-    w = ew * qw - ex * qx - ey * qy - ez * qz
-    norm = math.sqrt(x * x + y * y + z * z + w * w)
-    return x / norm, y / norm, z / norm, w / norm
 
 
 @njit(cache=True, inline="always")
@@ -64,7 +46,7 @@ def rk4_twist(
         k = max(s - 1, 0)
         for j in range(3):
             stage[j] = p[j] + h * scratch[k, j]
-        sx, sy, sz, sw = left_integrate(q[0], q[1], q[2], q[3], scratch[k, 3], scratch[k, 4], scratch[k, 5], h)
+        sx, sy, sz, sw = left_increment(q[0], q[1], q[2], q[3], scratch[k, 3], scratch[k, 4], scratch[k, 5], h)
         scratch[s, 0], scratch[s, 1], scratch[s, 2], scratch[s, 3], scratch[s, 4], scratch[s, 5], d, i = (
             constrained_twist(stage, sx, sy, sz, sw, goal, params, packed, aux, previous, True, dt))
         if s == 0:
@@ -103,67 +85,65 @@ def _goal_errors(p: np.ndarray, q: np.ndarray, goal: np.ndarray) -> tuple[float,
     return distance, 2.0 * math.acos(min(dot, 1.0))
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # another thread may cancel the plan while it runs
 def plan_loop(
     start: np.ndarray, goal: np.ndarray, params: np.ndarray, packed: PackedObstacles, aux: np.ndarray,
-    dt: float, tolerance: float, rotation_tolerance: float, max_iterations: int, window: int,
-    poses: np.ndarray, twists: np.ndarray, clearances: np.ndarray,
-) -> tuple[int, int, int]:
+    dt: float, tolerance: float, rotation_tolerance: float, max_iterations: int, window: int, progress: float,
+    cancel: np.ndarray, poses: np.ndarray, twists: np.ndarray, clearances: np.ndarray,
+) -> tuple[int, PlanStatus, int]:
     """Plan from ``start`` (7,) toward ``goal`` (7,); fill ``poses`` (max_iterations + 1, 7), ``twists``
-    (…, 6) and ``clearances`` (…,) and return (waypoint count, status, obstacle index or −1).
+    (…, 6) and ``clearances`` (…,) and return (waypoint count, :class:`PlanStatus`, obstacle index or −1).
 
     Stops at the first waypoint within ``tolerance`` (m) and ``rotation_tolerance`` (rad) of the goal
     (REACHED), before a waypoint that is in collision or whose segment is (COLLISION; the count then
-    excludes that waypoint, so the returned path stays free unless the start itself is inside), when the best goal
-    errors improved by less than ``params[STAGNATION_PROGRESS]`` over ``window`` steps (STAGNATION), or
-    after ``max_iterations`` steps (ITERATION_LIMIT).
+    excludes that waypoint, so the returned path stays free unless the start itself is inside), when the
+    stagnation rule of :mod:`pfield.planning._progress` fires for ``window`` steps and ``progress``
+    (STAGNATION), when ``cancel[0]`` is set (CANCELLED, read every step) or after ``max_iterations``
+    steps (ITERATION_LIMIT).
     """
     state, work = start.copy(), np.zeros((8, 6))
     return _run(state, work, goal, params, packed, aux, dt, tolerance, rotation_tolerance, max_iterations, window,
-                poses, twists, clearances)
+                progress, cancel, poses, twists, clearances)
 
 
 @njit(cache=True)
 def _run(
     state: np.ndarray, work: np.ndarray, goal: np.ndarray, params: np.ndarray, packed: PackedObstacles,
     aux: np.ndarray, dt: float, tolerance: float, rotation_tolerance: float, max_iterations: int, window: int,
-    poses: np.ndarray, twists: np.ndarray, clearances: np.ndarray,
-) -> tuple[int, int, int]:
+    progress: float, cancel: np.ndarray, poses: np.ndarray, twists: np.ndarray, clearances: np.ndarray,
+) -> tuple[int, PlanStatus, int]:
     """The loop of :func:`plan_loop`; ``state`` (7,) is the start pose, ``work`` an (8, 6) scratch array.
 
     Every array belongs to the caller for the whole call, so the loop works on unowned views of them.
     """
-    progress = params[STAGNATION_PROGRESS]
     poses[0, :] = state
     p, q = unowned(state[:3]), unowned(state[3:])
     previous, twist, scratch, point = unowned(work[5]), unowned(work[6]), unowned(work[:5]), unowned(work[7, :3])
     goal, params, aux, packed = unowned(goal), unowned(params), unowned(aux), unowned_packed(packed)
     poses, twists, clearances = unowned(poses), unowned(twists), unowned(clearances)
-    best_position, best_rotation = math.inf, math.inf
-    window_position, window_rotation = math.inf, math.inf
+    errors = (math.inf, math.inf, math.inf, math.inf)
     for i in range(max_iterations + 1):
         clearance, nearest = rk4_twist(p, q, goal, params, packed, aux, previous, dt, scratch, twist)
         for j in range(6):
             twists[i, j] = twist[j]
         clearances[i] = clearance
         if clearance <= 0.0:  # keep only the collision-free waypoints (the start is always kept)
-            return max(i, 1), COLLISION, nearest
+            return max(i, 1), PlanStatus.COLLISION, nearest
         if i > 0 and not segment_is_free(packed, poses, i - 1, p, clearances[i - 1], clearance, point):
-            return i, COLLISION, min_signed_distance(packed, p)[4]
+            return i, PlanStatus.COLLISION, min_signed_distance(packed, p)[4]
         position_error, rotation_error = _goal_errors(p, q, goal)
         if position_error <= tolerance and rotation_error <= rotation_tolerance:
-            return i + 1, REACHED, -1
+            return i + 1, PlanStatus.REACHED, -1
         if i == max_iterations:
-            return i + 1, ITERATION_LIMIT, -1
-        best_position = min(best_position, position_error)
-        best_rotation = min(best_rotation, rotation_error)
-        if i % window == 0:
-            if window_position - best_position < progress and window_rotation - best_rotation < progress:
-                return i + 1, STAGNATION, nearest
-            window_position, window_rotation = best_position, best_rotation
+            return i + 1, PlanStatus.ITERATION_LIMIT, nearest
+        if cancel[0] != 0:
+            return i + 1, PlanStatus.CANCELLED, nearest
+        errors, stuck = track_progress(errors, i, window, progress, position_error, rotation_error)
+        if stuck:
+            return i + 1, PlanStatus.STAGNATION, nearest
         if not _advance(p, q, twist, previous, dt, poses, i + 1):
-            return i + 2, NOT_FINITE, -1
-    return max_iterations + 1, ITERATION_LIMIT, -1
+            return i + 2, PlanStatus.NOT_FINITE, -1
+    return max_iterations + 1, PlanStatus.ITERATION_LIMIT, -1
 
 
 @njit(cache=True, inline="always")
@@ -174,7 +154,7 @@ def _advance(
     the new pose in ``poses[row]``; False when the position is no longer finite."""
     for j in range(3):
         p[j] += dt * twist[j]
-    q[0], q[1], q[2], q[3] = left_integrate(q[0], q[1], q[2], q[3], twist[3], twist[4], twist[5], dt)
+    q[0], q[1], q[2], q[3] = left_increment(q[0], q[1], q[2], q[3], twist[3], twist[4], twist[5], dt)
     for j in range(6):
         previous[j] = twist[j]
     for j in range(3):

@@ -24,16 +24,46 @@ rate limit would break a damper row: safety first).
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
 
 import numpy as np
 from numba import njit
-from numpy.typing import NDArray
 
-from pfield._spatial_kernels import matrix_to_quat
-from pfield.field.forces import attraction, khatib_magnitude, rotation_error, soft_saturate
-from pfield.geometry._packed import CAPSULE, SPHERE, PackedObstacles
-from pfield.planning._qp import cholesky_inplace, cholesky_solve, hildreth
+from pfield._linalg import cholesky_inplace, cholesky_solve, hildreth
+from pfield._spatial_kernels import matrix_to_quat, rotation_error
+from pfield.field.forces import attraction, khatib_magnitude, soft_saturate, stepped_damper_speed
+from pfield.geometry._packed import CAPSULE, SPHERE
+from pfield.planning._whole_body_layout import (
+    DAMPING,
+    DT,
+    ETA,
+    F_CAP,
+    GAMMA,
+    INFLUENCE,
+    JOINT_INFLUENCE,
+    JOINT_SAFETY,
+    K_ATT,
+    K_ROT,
+    NULL_GAIN,
+    OUT_CLEARANCE,
+    OUT_NEAREST_CAPSULE,
+    OUT_NEAREST_DISTANCE,
+    OUT_NEAREST_OBSTACLE,
+    OUT_NEAREST_SELF_PAIR,
+    OUT_ORIENTATION,
+    OUT_POSITION,
+    OUT_POSITION_ERROR,
+    OUT_ROTATION_ERROR,
+    OUT_SELF_CLEARANCE,
+    OUT_TWIST,
+    ROT_WEIGHT,
+    SAFETY,
+    V_MAX,
+    W_MAX,
+    XI,
+    RobotArrays,
+    Scene,
+    Workspace,
+)
 from pfield.robot._distance import (
     closest_segment_points,
     point_segment_distance,
@@ -48,98 +78,9 @@ from pfield.robot._kinematics import (
     transform_point_into,
 )
 
-# indices into the parameter vector (see pfield.planning.whole_body.kernel_parameters)
-K_ATT, K_ROT, GAMMA, V_MAX, W_MAX, INFLUENCE, SAFETY, XI, ETA, F_CAP, DT, TOL, ROT_TOL, STAG_STEPS, \
-    STAG_PROGRESS, JOINT_INFLUENCE, JOINT_SAFETY, ROT_WEIGHT, DAMPING, NULL_GAIN = range(20)
-N_PARAMS = 20
-
-SUCCESS, ITERATION_LIMIT, STAGNATION, COLLISION, SELF_COLLISION = range(5)
-
-
-class RobotArrays(NamedTuple):
-    """Kinematics (see :mod:`pfield.robot._kinematics`), link capsules and limits, packed for the kernel."""
-
-    parents: NDArray[np.int64]
-    place_rot: NDArray[np.float64]
-    place_pos: NDArray[np.float64]
-    axes: NDArray[np.float64]
-    kinds: NDArray[np.int64]
-    support: NDArray[np.int64]
-    ee_joint: int
-    ee_rot: NDArray[np.float64]
-    ee_pos: NDArray[np.float64]
-    cap_joint: NDArray[np.int64]
-    cap_a: NDArray[np.float64]
-    cap_b: NDArray[np.float64]
-    cap_r: NDArray[np.float64]
-    self_pairs: NDArray[np.int64]
-    lower: NDArray[np.float64]
-    upper: NDArray[np.float64]
-    max_velocity: NDArray[np.float64]
-    max_acceleration: NDArray[np.float64]
-
-
-class Scene(NamedTuple):
-    """Obstacles, their bounding spheres (centre, radius) for culling far link–obstacle pairs, and offsets.
-
-    Capsules over-approximate the links, so a valid start can have capsules closer than ``safety_distance``
-    (or overlapping). ``obstacle_offsets[c, i]`` and ``self_offsets[k]`` (≤ 0, m) are subtracted from those
-    pairs' distances: such a pair may not get any closer than it starts, and only that counts as a
-    collision (:func:`pfield.planning.whole_body.make_scene`).
-    """
-
-    packed: PackedObstacles
-    centres: NDArray[np.float64]  # (M, 3)
-    bounds: NDArray[np.float64]  # (M,)
-    obstacle_offsets: NDArray[np.float64]  # (L, M)
-    self_offsets: NDArray[np.float64]  # (P,)
-
-
-class Workspace(NamedTuple):
-    rotations: NDArray[np.float64]
-    origins: NDArray[np.float64]
-    jac: NDArray[np.float64]
-    jlin: NDArray[np.float64]
-    jlin2: NDArray[np.float64]
-    rows: NDArray[np.float64]
-    b: NDArray[np.float64]
-    hinv: NDArray[np.float64]
-    mu: NDArray[np.float64]
-    curvature: NDArray[np.float64]
-    h: NDArray[np.float64]
-    rhs: NDArray[np.float64]
-    x: NDArray[np.float64]
-    free: NDArray[np.float64]
-    seg_a: NDArray[np.float64]
-    seg_b: NDArray[np.float64]
-    limited: NDArray[np.float64]
-    scratch: NDArray[np.float64]
-    task: NDArray[np.float64]
-    out: NDArray[np.float64]  # [twist(6), position(3), quaternion(4), clearance, self clearance, pos err, rot err,
-    #                            culprit capsule, culprit obstacle]
-
-
-@njit(cache=True)
-def make_workspace(n, n_capsules, n_obstacles, n_pairs):  # type: ignore[no-untyped-def]
-    m_max = n_capsules * n_obstacles + n_pairs + 2 * n
-    return Workspace(np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((6, n)), np.empty((3, n)), np.empty((3, n)),
-                     np.empty((m_max, n)), np.empty(m_max), np.empty((m_max, n)), np.empty(m_max), np.empty(m_max),
-                     np.empty((n, n)),
-                     np.empty(n), np.empty(n), np.empty(n), np.empty((n_capsules, 3)), np.empty((n_capsules, 3)),
-                     np.empty(n), np.empty((2, 3)), np.empty((2, 6)), np.empty(20))
-
 
 @njit(cache=True, inline="always")
-def _allowed_speed(distance, influence, safety, speed, dt):  # type: ignore[no-untyped-def]
-    """Velocity damper: the fastest allowed approach (negative: the required retreat) at ``distance``."""
-    margin = distance - safety
-    if margin <= 0.0:
-        return max(0.5 * margin / dt, -speed)
-    return min(speed * margin / (influence - safety), 0.5 * margin / dt)
-
-
-@njit(cache=True, inline="always")
-def _task(robot, goal_p, goal_q, params, ws):  # type: ignore[no-untyped-def]
+def _task(robot: RobotArrays, goal_p: np.ndarray, goal_q: np.ndarray, params: np.ndarray, ws: Workspace) -> None:
     """End-effector pose, Jacobian and the field's desired twist; fills ws.h/ws.rhs with the QP's normal eqs."""
     rot, pos = frame_pose(ws.rotations, ws.origins, robot.ee_joint, robot.ee_rot, robot.ee_pos)
     point_jacobian(ws.rotations, ws.origins, robot.axes, robot.kinds, robot.support, robot.ee_joint, pos, ws.jac)
@@ -167,14 +108,14 @@ def _task(robot, goal_p, goal_q, params, ws):  # type: ignore[no-untyped-def]
             ws.h[i, j] = s
             ws.h[j, i] = s
         ws.h[i, i] += params[DAMPING]
-    ws.out[6:9] = pos
-    ws.out[9:13] = quat
-    ws.out[15] = math.sqrt(ex * ex + ey * ey + ez * ez)
-    ws.out[16] = math.sqrt(rx * rx + ry * ry + rz * rz)
+    ws.out[OUT_POSITION[0]:OUT_POSITION[1]] = pos
+    ws.out[OUT_ORIENTATION[0]:OUT_ORIENTATION[1]] = quat
+    ws.out[OUT_POSITION_ERROR] = math.sqrt(ex * ex + ey * ey + ez * ez)
+    ws.out[OUT_ROTATION_ERROR] = math.sqrt(rx * rx + ry * ry + rz * rz)
 
 
 @njit(cache=True, inline="always")
-def _segments(robot, ws):  # type: ignore[no-untyped-def]
+def _segments(robot: RobotArrays, ws: Workspace) -> None:
     for c in range(robot.cap_joint.shape[0]):
         j = robot.cap_joint[c]
         transform_point_into(ws.rotations, ws.origins, j, robot.cap_a[c], ws.seg_a[c])
@@ -182,7 +123,8 @@ def _segments(robot, ws):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, inline="always")
-def _add_row(kin, jlin, rows, bounds, m, nx, ny, nz, joint, px, py, pz, bound):  # type: ignore[no-untyped-def]
+def _add_row(kin: tuple[np.ndarray, ...], jlin: np.ndarray, rows: np.ndarray, bounds: np.ndarray, m: int, nx: float,
+             ny: float, nz: float, joint: int, px: float, py: float, pz: float, bound: float) -> int:
     """Row nᵀ J_p(point) (J of the point carried by ``joint``) with bound −s; returns the new row count.
 
     ``kin`` = (rotations, origins, axes, kinds, support), unpacked by the caller outside its loops.
@@ -195,7 +137,7 @@ def _add_row(kin, jlin, rows, bounds, m, nx, ny, nz, joint, px, py, pz, bound): 
 
 
 @njit(cache=True, inline="always")
-def _obstacle_rows(robot, scene, params, ws, m):  # type: ignore[no-untyped-def]
+def _obstacle_rows(robot: RobotArrays, scene: Scene, params: np.ndarray, ws: Workspace, m: int) -> int:
     """Damper rows and null-space repulsion of every link–obstacle pair within Q; returns the row count."""
     influence, dt = params[INFLUENCE], params[DT]
     clearance, culprit_c, culprit_o = math.inf, -1, -1
@@ -226,21 +168,23 @@ def _obstacle_rows(robot, scene, params, ws, m):  # type: ignore[no-untyped-def]
                 worst, culprit_c, culprit_o = d, c, i
             if d >= influence or cap_joint[c] < 0:
                 continue
-            bound = -_allowed_speed(d, influence, safety, speed, dt)
+            bound = -stepped_damper_speed(d, influence, safety, speed, dt)
             m = _add_row(kin, jlin, wrows, wb, m, nx, ny, nz, cap_joint[c], a[0] + t * (b[0] - a[0]),
                          a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2]), bound)
             push = null_scale * khatib_magnitude(d, params[ETA], influence, params[F_CAP]) / params[F_CAP]
             for j in range(free.shape[0]):
                 free[j] += push * wrows[m - 1, j]
-    ws.out[13], ws.out[17], ws.out[18], ws.out[19] = clearance, culprit_c, culprit_o, worst
+    out = ws.out
+    out[OUT_CLEARANCE], out[OUT_NEAREST_CAPSULE], out[OUT_NEAREST_OBSTACLE] = clearance, culprit_c, culprit_o
+    out[OUT_NEAREST_DISTANCE] = worst
     return m
 
 
 @njit(cache=True, inline="always")
-def _self_rows(robot, scene, params, ws, m):  # type: ignore[no-untyped-def]
+def _self_rows(robot: RobotArrays, scene: Scene, params: np.ndarray, ws: Workspace, m: int) -> int:
     influence, dt = params[INFLUENCE], params[DT]
     speed, safety = params[XI] * params[V_MAX], params[SAFETY]
-    clearance = math.inf
+    clearance, nearest = math.inf, -1
     kin = (ws.rotations, ws.origins, robot.axes, robot.kinds, robot.support)
     jlin, jlin2, wrows, wb = ws.jlin, ws.jlin2, ws.rows, ws.b
     pairs, seg_a, seg_b, cap_r, cap_joint = robot.self_pairs, ws.seg_a, ws.seg_b, robot.cap_r, robot.cap_joint
@@ -254,21 +198,22 @@ def _self_rows(robot, scene, params, ws, m):  # type: ignore[no-untyped-def]
         dx, dy, dz = p1x - p2x, p1y - p2y, p1z - p2z
         dist = math.sqrt(dx * dx + dy * dy + dz * dz)
         d = dist - cap_r[c1] - cap_r[c2] - offsets[k]
-        clearance = min(clearance, d)
+        if d < clearance:
+            clearance, nearest = d, k
         if d >= influence or dist < 1e-12:
             continue
         nx, ny, nz = dx / dist, dy / dist, dz / dist
-        bound = -_allowed_speed(d, influence, safety, speed, dt)
+        bound = -stepped_damper_speed(d, influence, safety, speed, dt)
         m = _add_row(kin, jlin, wrows, wb, m, nx, ny, nz, cap_joint[c1], p1x, p1y, p1z, bound)
         linear_point_jacobian(kin[0], kin[1], kin[2], kin[3], kin[4], cap_joint[c2], p2x, p2y, p2z, jlin2)
         for j in range(jlin2.shape[1]):
             wrows[m - 1, j] -= nx * jlin2[0, j] + ny * jlin2[1, j] + nz * jlin2[2, j]
-    ws.out[14] = clearance
+    ws.out[OUT_SELF_CLEARANCE], ws.out[OUT_NEAREST_SELF_PAIR] = clearance, nearest
     return m
 
 
 @njit(cache=True, inline="always")
-def _joint_limit_rows(q, robot, params, ws, m):  # type: ignore[no-untyped-def]
+def _joint_limit_rows(q: np.ndarray, robot: RobotArrays, params: np.ndarray, ws: Workspace, m: int) -> int:
     n = q.shape[0]
     for j in range(n):
         for side in (1.0, -1.0):
@@ -280,14 +225,15 @@ def _joint_limit_rows(q, robot, params, ws, m):  # type: ignore[no-untyped-def]
                 continue
             ws.rows[m, :] = 0.0
             ws.rows[m, j] = side
-            ws.b[m] = -_allowed_speed(gap, params[JOINT_INFLUENCE], params[JOINT_SAFETY], robot.max_velocity[j],
+            ws.b[m] = -stepped_damper_speed(gap, params[JOINT_INFLUENCE], params[JOINT_SAFETY], robot.max_velocity[j],
                                       params[DT])
             m += 1
     return m
 
 
 @njit(cache=True, inline="always")
-def _limit_speed(q_prev_velocity, has_prev, robot, params, ws, m):  # type: ignore[no-untyped-def]
+def _limit_speed(q_prev_velocity: np.ndarray, has_prev: bool, robot: RobotArrays, params: np.ndarray, ws: Workspace,
+                 m: int) -> None:
     """Uniform scaling into the velocity limits, then the joint rate limit unless it breaks a damper."""
     x = ws.x
     n = x.shape[0]
@@ -313,15 +259,16 @@ def _limit_speed(q_prev_velocity, has_prev, robot, params, ws, m):  # type: igno
 
 
 @njit(cache=True)
-def joint_velocity_step(  # type: ignore[no-untyped-def]
-        q, previous, has_prev, robot, scene, goal_p, goal_q, params, ws):
+def joint_velocity_step(q: np.ndarray, previous: np.ndarray, has_prev: bool, robot: RobotArrays, scene: Scene,
+                        goal_p: np.ndarray, goal_q: np.ndarray, params: np.ndarray, ws: Workspace) -> int:
     """The whole-body field's joint velocity at ``q`` into ``ws.x``; pose, twist, clearances into ``ws.out``."""
     joint_transforms(q, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds, ws.rotations,
                      ws.origins)
     _task(robot, goal_p, goal_q, params, ws)
     _segments(robot, ws)
     ws.free[:] = 0.0
-    m = _obstacle_rows(robot, scene, params, ws, 0)
+    # a run-time zero: with the literal 0, type inference also compiles hildreth for m = Literal[int](0)
+    m = _obstacle_rows(robot, scene, params, ws, np.int64(0))  # type: ignore[arg-type]
     m = _self_rows(robot, scene, params, ws, m)
     m = _joint_limit_rows(q, robot, params, ws, m)
     n = q.shape[0]
@@ -335,5 +282,5 @@ def joint_velocity_step(  # type: ignore[no-untyped-def]
         s = 0.0
         for j in range(n):
             s += ws.jac[r, j] * ws.x[j]
-        ws.out[r] = s
+        ws.out[OUT_TWIST[0] + r] = s
     return m

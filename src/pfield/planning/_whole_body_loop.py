@@ -5,27 +5,38 @@ planning loop, exact capsule pair distances, and the single step of the autonomy
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numba import njit
 
 from pfield.geometry._packed import CAPSULE, SPHERE
-from pfield.planning._whole_body_kernel import (
-    COLLISION,
+from pfield.planning._progress import track_progress
+from pfield.planning._whole_body_kernel import _segments, joint_velocity_step
+from pfield.planning._whole_body_layout import (
     DT,
-    ITERATION_LIMIT,
+    OUT_CLEARANCE,
+    OUT_NEAREST_CAPSULE,
+    OUT_NEAREST_DISTANCE,
+    OUT_NEAREST_OBSTACLE,
+    OUT_NEAREST_SELF_PAIR,
+    OUT_ORIENTATION,
+    OUT_POSITION,
+    OUT_POSITION_ERROR,
+    OUT_ROTATION_ERROR,
+    OUT_SELF_CLEARANCE,
+    OUT_TWIST,
     ROT_TOL,
     SAFETY,
-    SELF_COLLISION,
     STAG_PROGRESS,
     STAG_STEPS,
-    STAGNATION,
-    SUCCESS,
     TOL,
-    _segments,
-    joint_velocity_step,
+    RobotArrays,
+    Scene,
+    Workspace,
     make_workspace,
 )
+from pfield.planning.status import PlanStatus
 from pfield.robot._distance import (
     closest_segment_points,
     point_segment_distance,
@@ -35,13 +46,18 @@ from pfield.robot._distance import (
 from pfield.robot._kinematics import joint_transforms
 
 
-@njit(cache=True)
-def plan_loop(q0, robot, scene, goal_p, goal_q, params, max_iterations):  # type: ignore[no-untyped-def]
-    """Integrate q ← clip(q + q̇ dt) from ``q0`` until the goal, a collision, stagnation or the iteration limit.
+@njit(cache=True, nogil=True)  # another thread may cancel the plan while it runs
+def plan_loop(q0: np.ndarray, robot: RobotArrays, scene: Scene, goal_p: np.ndarray, goal_q: np.ndarray,
+              params: np.ndarray, max_iterations: int, cancel: np.ndarray) -> tuple[Any, ...]:
+    """Integrate q ← clip(q + q̇ dt) from ``q0`` until the goal, a collision, stagnation, the iteration limit
+    or ``cancel[0] != 0`` (a :class:`~pfield.planning.CancelToken`'s flag, read every step).
 
     Returns ``(status, count, q, qdot, positions, quaternions, twists, clearances, culprit)`` with ``count``
-    recorded waypoints (the start included). Waypoint k holds the configuration q_k, the velocity applied
-    from it (zero at the last waypoint of a successful plan) and the end-effector twist J(q_k) q̇_k.
+    recorded waypoints (the start included) and ``status`` a :class:`PlanStatus`. Waypoint k holds the
+    configuration q_k, the velocity applied from it (zero at the last waypoint of a successful plan) and
+    the end-effector twist J(q_k) q̇_k. ``culprit`` (5,) describes the last step evaluated: the capsule and
+    obstacle of its closest link–obstacle pair, that pair's distance (m, less its start offset), the
+    closest self pair and its distance (indices −1 when there is none).
     """
     n = q0.shape[0]
     ws = make_workspace(n, robot.cap_joint.shape[0], scene.bounds.shape[0], robot.self_pairs.shape[0])
@@ -49,42 +65,48 @@ def plan_loop(q0, robot, scene, goal_p, goal_q, params, max_iterations):  # type
     qs, qds = np.empty((total, n)), np.empty((total, n))
     positions, quats, twists, clear = np.empty((total, 3)), np.empty((total, 4)), np.empty((total, 6)), np.empty(total)
     q, previous = q0.copy(), np.zeros(n)
-    errors = np.empty((total, 2))  # goal errors (m, rad) per waypoint, for the stagnation window
     window, progress, dt = int(params[STAG_STEPS]), params[STAG_PROGRESS], params[DT]
-    status, count = ITERATION_LIMIT, total
-    culprit = np.array((-1, -1))
+    state = (math.inf, math.inf, math.inf, math.inf)
+    status, count = PlanStatus.ITERATION_LIMIT, total
+    out = ws.out
     for k in range(total):
-        joint_velocity_step(q, previous, True, robot, scene, goal_p, goal_q, params, ws)
-        qs[k], positions[k], quats[k], clear[k] = q, ws.out[6:9], ws.out[9:13], ws.out[13]
-        pos_err, rot_err = ws.out[15], ws.out[16]
-        if ws.out[19] < 0.0 or ws.out[14] < 0.0:
+        # has_prev as a run-time bool (dt > 0 always holds here): the same specialisation as autonomy_step's
+        joint_velocity_step(q, previous, dt > 0.0, robot, scene, goal_p, goal_q, params, ws)
+        qs[k], positions[k], clear[k] = q, out[OUT_POSITION[0]:OUT_POSITION[1]], out[OUT_CLEARANCE]
+        quats[k] = out[OUT_ORIENTATION[0]:OUT_ORIENTATION[1]]
+        pos_err, rot_err = out[OUT_POSITION_ERROR], out[OUT_ROTATION_ERROR]
+        if out[OUT_NEAREST_DISTANCE] < 0.0 or out[OUT_SELF_CLEARANCE] < 0.0:
             # the last step brought capsules into contact (an infeasible squeeze): stop before it
-            status, count = (COLLISION if ws.out[19] < 0.0 else SELF_COLLISION), max(k, 1)
-            culprit[0], culprit[1] = int(ws.out[17]), int(ws.out[18])
+            status = PlanStatus.COLLISION if out[OUT_NEAREST_DISTANCE] < 0.0 else PlanStatus.SELF_COLLISION
+            count = max(k, 1)
             qds[count - 1], twists[count - 1] = 0.0, 0.0
             break
         if pos_err <= params[TOL] and rot_err <= params[ROT_TOL]:
-            status, count = SUCCESS, k + 1
+            status, count = PlanStatus.REACHED, k + 1
             qds[k], twists[k] = 0.0, 0.0
             break
-        qds[k], twists[k] = ws.x, ws.out[0:6]
+        qds[k], twists[k] = ws.x, out[OUT_TWIST[0]:OUT_TWIST[1]]
         if k == total - 1:
             break
-        # stagnation: neither error fell by ``progress`` over the last window (steady but slow progress, or
-        # trading rotation for position, is not stagnation; a limit cycle or a blocked arm is)
-        errors[k, 0], errors[k, 1] = pos_err, rot_err
-        if k >= window and pos_err > errors[k - window, 0] - progress and rot_err > errors[k - window, 1] - progress:
-            status, count = STAGNATION, k + 1
+        if cancel[0] != 0:
+            status, count = PlanStatus.CANCELLED, k + 1
+            break
+        state, stuck = track_progress(state, k, window, progress, pos_err, rot_err)
+        if stuck:
+            status, count = PlanStatus.STAGNATION, k + 1
             break
         for j in range(n):
             q[j] = min(max(q[j] + ws.x[j] * dt, robot.lower[j]), robot.upper[j])
             previous[j] = ws.x[j]
+    culprit = np.array((out[OUT_NEAREST_CAPSULE], out[OUT_NEAREST_OBSTACLE], out[OUT_NEAREST_DISTANCE],
+                        out[OUT_NEAREST_SELF_PAIR], out[OUT_SELF_CLEARANCE]))
     return status, count, qs[:count], qds[:count], positions[:count], quats[:count], twists[:count], \
         clear[:count], culprit
 
 
 @njit(cache=True)
-def fill_pair_distances(q, robot, scene, ws, obstacle, own, cutoff):  # type: ignore[no-untyped-def]
+def fill_pair_distances(q: np.ndarray, robot: RobotArrays, scene: Scene, ws: Workspace, obstacle: np.ndarray,
+                        own: np.ndarray, cutoff: float) -> None:
     """Capsule clearances (m) at ``q`` into ``obstacle`` (L, M, link–obstacle) and ``own`` (P, self pairs).
 
     Link–obstacle pairs whose bounding-sphere bound is ≥ ``cutoff`` get that bound instead of the exact value.
@@ -117,7 +139,7 @@ def fill_pair_distances(q, robot, scene, ws, obstacle, own, cutoff):  # type: ig
 
 
 @njit(cache=True)
-def pair_distances(q, robot, scene):  # type: ignore[no-untyped-def]
+def pair_distances(q: np.ndarray, robot: RobotArrays, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     """Exact capsule clearances (m) at ``q``: link–obstacle pairs (L, M) and self-collision pairs (P,)."""
     ws = make_workspace(q.shape[0], robot.cap_joint.shape[0], scene.bounds.shape[0], robot.self_pairs.shape[0])
     obstacle = np.empty((robot.cap_joint.shape[0], scene.bounds.shape[0]))
@@ -127,7 +149,8 @@ def pair_distances(q, robot, scene):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def autonomy_step(q, previous, has_prev, robot, scene, goal_p, goal_q, params, ws):  # type: ignore[no-untyped-def]
+def autonomy_step(q: np.ndarray, previous: np.ndarray, has_prev: bool, robot: RobotArrays, scene: Scene,
+                  goal_p: np.ndarray, goal_q: np.ndarray, params: np.ndarray, ws: Workspace) -> int:
     """One whole-body field evaluation at ``q`` for shared control: the start offsets are taken at ``q`` itself
     (pairs already closer than d_s may not approach further), then :func:`joint_velocity_step`."""
     obstacle, own = scene.obstacle_offsets, scene.self_offsets

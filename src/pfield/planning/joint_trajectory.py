@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike
 
 from pfield.errors import InvalidInput
 from pfield.planning.result import PlannedPath
+from pfield.planning.status import PlanStatus
 from pfield.robot.ik import ik_path_kernel, ik_settings
 from pfield.robot.model import RobotModel
 
@@ -40,13 +41,16 @@ def attach_joint_trajectory(path: PlannedPath, robot: RobotModel, q_seed: ArrayL
     seed = robot.check_joint_angles(q_seed, "q_seed")
     settings = ik_settings(max_iterations, position_tolerance, rotation_tolerance, damping=1e-4, max_step=0.3)
     qs, failed, pos_err, rot_err = ik_path_kernel(
-        seed, np.ascontiguousarray(path.positions), np.ascontiguousarray(path.orientations), *robot.kinematics,
+        # writable copies, as solve_ik passes: one specialisation of ik_kernel for both
+        seed, np.require(path.positions, requirements=["C", "W"]),
+        np.require(path.orientations, requirements=["C", "W"]), *robot.kinematics,
         np.array(robot.lower_limits), np.array(robot.upper_limits), settings)
     if failed >= 0:
         reason = (f"inverse kinematics failed at waypoint {failed} of {len(path)} (position error {pos_err:.4g} m, "
                   f"rotation error {rot_err:.4g} rad): the robot cannot follow the planned path")
         _LOG.info(reason)
-        return replace(path, success=False, failure_reason=reason, joint_names=robot.joint_names,
+        return replace(path, success=False, failure_reason=reason, status=PlanStatus.IK_FAILED,
+                       joint_names=robot.joint_names,
                        joint_positions=None, joint_velocities=None)
     velocities = np.zeros_like(qs)
     if len(path) > 1:

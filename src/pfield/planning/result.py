@@ -9,13 +9,16 @@ from __future__ import annotations
 
 import csv
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pfield.errors import InvalidInput
+from pfield.planning.status import PlanStatus
 from pfield.spatial import Pose, Twist
 
 __all__ = ["PlannedPath"]
@@ -37,8 +40,9 @@ class PlannedPath:
     """A planned trajectory with its status (DESIGN §3.3).
 
     Attributes:
-        success: True when the last waypoint is within the goal tolerances.
-        failure_reason: empty on success, else a sentence saying why (stagnation, collision, limit).
+        success: True when the last waypoint is within the goal tolerances (``status`` is REACHED).
+        failure_reason: empty on success, else a sentence saying why and what blocks (the obstacle, or the
+            link and obstacle, their distance and where).
         times: (N,) s, ``i·dt`` from the start.
         positions: (N, 3) m, end-effector positions in the world frame.
         orientations: (N, 4) unit quaternions (x, y, z, w), world frame.
@@ -48,6 +52,10 @@ class PlannedPath:
         joint_names: joint names in tree order (empty for task-space plans).
         joint_positions: (N, n) rad or m, or None for task-space plans.
         joint_velocities: (N, n) rad/s or m/s, or None.
+        status: why the plan ended (:class:`PlanStatus`); compare this, not ``failure_reason``. May be
+            omitted only for a successful path (then REACHED).
+        planner: what produced the path: ``"field"`` (the potential field alone) or ``"field+global"``
+            (with a global fallback).
     """
 
     success: bool
@@ -61,8 +69,11 @@ class PlannedPath:
     joint_names: tuple[str, ...] = ()
     joint_positions: NDArray[np.float64] | None = field(default=None)
     joint_velocities: NDArray[np.float64] | None = field(default=None)
+    status: PlanStatus = field(default=None)  # type: ignore[assignment]  # None → REACHED for a success
+    planner: str = "field"
 
     def __post_init__(self) -> None:
+        self._check_status()
         times = _frozen("times", self.times, (None,))
         count = times.shape[0]
         if count == 0:
@@ -82,6 +93,22 @@ class PlannedPath:
             raise InvalidInput("failure_reason", self.failure_reason, "must be empty when success is True")
         object.__setattr__(self, "success", bool(self.success))
         object.__setattr__(self, "iterations", int(self.iterations))
+
+    def _check_status(self) -> None:
+        status = self.status
+        if status is None:
+            if not self.success:
+                raise InvalidInput("status", None, "a failed plan needs its PlanStatus")
+            status = PlanStatus.REACHED
+        try:
+            status = PlanStatus(status)
+        except ValueError:
+            raise InvalidInput("status", self.status, "expected a pfield.PlanStatus") from None
+        if bool(self.success) != status.success:
+            raise InvalidInput("status", status.name, f"contradicts success={bool(self.success)}")
+        object.__setattr__(self, "status", status)
+        if self.planner not in ("field", "field+global"):
+            raise InvalidInput("planner", self.planner, "expected 'field' or 'field+global'")
 
     def __len__(self) -> int:
         return int(self.times.shape[0])
@@ -138,3 +165,13 @@ class PlannedPath:
             for row in table:
                 writer.writerow([repr(float(v)) if math.isfinite(v) else str(float(v)) for v in row])
         return target
+
+    def show(self, obstacles: Sequence[Any] = (), robot: Any = None, *, port: int = 8080,
+             block: bool = True) -> Any:
+        """Open the plan in the 3D web viewer (needs the ``viewer`` extra) at http://127.0.0.1:``port``:
+        its path with orientation triads, ``obstacles`` and, for a whole-body plan, ``robot`` (a
+        :class:`~pfield.robot.RobotModel`) along it. With ``block`` serve until Ctrl-C; return the viewer."""
+        from pfield.viz.viewer import show_plan
+
+        return show_plan(self, obstacles, robot, port=port, block=block)
+

@@ -10,93 +10,75 @@ that stops short says why in ``failure_reason``: stagnation (no progress toward 
 from __future__ import annotations
 
 import logging
-import math
-from typing import Any
 
 import numpy as np
 
-from pfield._validation import positive
 from pfield.errors import InvalidInput
 from pfield.field.field import PotentialField
 from pfield.geometry import signed_distances
-from pfield.planning._task_space_loop import (
-    COLLISION,
-    ITERATION_LIMIT,
-    NOT_FINITE,
-    REACHED,
-    STAGNATION,
-    plan_loop,
-)
+from pfield.planning._task_space_loop import plan_loop
+from pfield.planning.options import DEFAULT_MAX_ITERATIONS, MAX_ITERATIONS_LIMIT, PlanOptions
 from pfield.planning.result import PlannedPath
+from pfield.planning.status import PlanStatus
 from pfield.spatial import Pose
 
 __all__ = ["DEFAULT_MAX_ITERATIONS", "MAX_ITERATIONS_LIMIT", "plan_task_space"]
 
-DEFAULT_MAX_ITERATIONS = 30000
-"""Used when ``max_iterations`` is 0 or negative (the PlanPath service's "0 or missing")."""
-MAX_ITERATIONS_LIMIT = 2_000_000
-"""Upper bound of ``max_iterations`` (the path buffers take 112 bytes per iteration)."""
-
 _log = logging.getLogger(__name__)
-
-
-def _check_iterations(value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise InvalidInput("max_iterations", value, "must be an integer")
-    count = int(value)
-    if count <= 0:
-        return DEFAULT_MAX_ITERATIONS
-    if count > MAX_ITERATIONS_LIMIT:
-        raise InvalidInput("max_iterations", value, f"must be <= {MAX_ITERATIONS_LIMIT}")
-    return count
+_NEVER_CANCELLED = np.zeros(1, dtype=np.uint8)
+_NEVER_CANCELLED.setflags(write=False)
 
 
 def plan_task_space(
     field: PotentialField,
     start: Pose,
-    dt: float = 0.01,
-    goal_tolerance: float = 0.01,
-    max_iterations: int = DEFAULT_MAX_ITERATIONS,
+    dt: float | None = None,
+    goal_tolerance: float | None = None,
+    max_iterations: int | None = None,
     rotation_tolerance: float | None = None,
+    *,
+    options: PlanOptions | None = None,
 ) -> PlannedPath:
     """Plan from ``start`` to ``field.goal`` by integrating the constrained twist.
 
     Args:
         field: the potential field (goal, obstacles, parameters).
         start: start pose of the end effector (world frame).
-        dt: integration step (s), > 0; waypoint i is at time i·dt.
-        goal_tolerance: position tolerance (m), > 0.
-        max_iterations: step limit; 0 or negative means 30000.
-        rotation_tolerance: orientation tolerance (rad) in (0, π); None uses the config's.
+        dt, goal_tolerance, max_iterations, rotation_tolerance: shorthands for the :class:`PlanOptions`
+            fields of those names; given, they override ``options``'s.
+        options: every planning setting (default ``PlanOptions()``: dt 0.01 s, tolerance 0.01 m, 30000
+            steps, the config's rotation tolerance and stagnation window), and the cancel token.
 
-    Returns a :class:`PlannedPath`; ``success`` is True when the last waypoint is within both
-    tolerances. Bad arguments raise :class:`~pfield.errors.InvalidInput` naming the argument.
+    Returns a :class:`PlannedPath` whose ``status`` says how it ended; ``success`` is True when the last
+    waypoint is within both tolerances. Bad arguments raise :class:`~pfield.errors.InvalidInput` naming the
+    argument.
     """
     if not isinstance(start, Pose):
         raise InvalidInput("start", start, "expected a pfield.Pose")
-    step = positive("dt", dt)
-    tolerance = positive("goal_tolerance", goal_tolerance)
-    iterations = _check_iterations(max_iterations)
-    angle = field.config.rotation_tolerance if rotation_tolerance is None else rotation_tolerance
-    angle = positive("rotation_tolerance", angle)
-    if angle >= math.pi:
-        raise InvalidInput("rotation_tolerance", rotation_tolerance, "must be < pi rad")
+    settings = PlanOptions.build(options, dt=dt, goal_tolerance=goal_tolerance, max_iterations=max_iterations,
+                                 rotation_tolerance=rotation_tolerance).resolved(field.config)
+    assert settings.rotation_tolerance is not None and settings.stagnation_progress is not None
     blocked = _goal_blocked(field)
     if blocked:
-        return _single_point(field, start, blocked)
+        return _single_point(field, start, blocked, PlanStatus.GOAL_INVALID)
     goal, params, packed, aux = field.arrays
-    window = max(10, round(field.config.stagnation_window / step))
+    iterations, step, window = settings.max_iterations, settings.dt, settings.stagnation_steps
     poses, twists, clearances = np.empty((iterations + 1, 7)), np.empty((iterations + 1, 6)), np.empty(iterations + 1)
     start_array = np.concatenate([start.position, start.orientation])
-    count, status, obstacle = plan_loop(start_array, goal, params, packed, aux, step, tolerance, angle, iterations,
-                                        window, poses, twists, clearances)
-    reason = "" if status == REACHED else _reason(field, status, obstacle, poses[count - 1], count, step, window)
+    cancel = settings.cancel.flag if settings.cancel is not None else _NEVER_CANCELLED
+    count, status, obstacle = plan_loop(start_array, goal, params, packed, aux, step, settings.goal_tolerance,
+                                        settings.rotation_tolerance, iterations, window,
+                                        settings.stagnation_progress, cancel, poses, twists, clearances)
+    if status == PlanStatus.COLLISION and count == 1 and field.clearances(poses[:1, :3])[0] <= 0.0:
+        status = PlanStatus.START_INVALID
+    reason = "" if status == PlanStatus.REACHED else _reason(field, status, obstacle, poses[count - 1],
+                                                             clearances[count - 1], count, step, window)
     if reason:
         _log.info("task-space plan failed after %d steps: %s", count - 1, reason)
     return PlannedPath(
-        success=status == REACHED, failure_reason=reason, times=np.arange(count, dtype=np.float64) * step,
+        success=status == PlanStatus.REACHED, failure_reason=reason, times=np.arange(count, dtype=np.float64) * step,
         positions=poses[:count, :3], orientations=poses[:count, 3:], twists=twists[:count],
-        clearances=clearances[:count], iterations=count - 1,
+        clearances=clearances[:count], iterations=count - 1, status=status,
     )
 
 
@@ -113,34 +95,41 @@ def _goal_blocked(field: PotentialField) -> str:
 
 
 def _all_distances(field: PotentialField, point: np.ndarray) -> np.ndarray:
-    distances, _ = signed_distances(field.arrays.packed, np.ascontiguousarray(point, dtype=np.float64)[None, :])
+    points = np.array(point, dtype=np.float64).reshape(1, 3)  # a writable copy, as the other callers pass
+    distances, _ = signed_distances(field.arrays.packed, points)
     return np.asarray(distances[0])
 
 
-def _single_point(field: PotentialField, start: Pose, reason: str) -> PlannedPath:
+def _single_point(field: PotentialField, start: Pose, reason: str, status: PlanStatus) -> PlannedPath:
     clearance = field.clearances(start.position[None, :])
     return PlannedPath(
         success=False, failure_reason=reason, times=np.zeros(1), positions=start.position[None, :],
         orientations=start.orientation[None, :], twists=np.zeros((1, 6)), clearances=clearance, iterations=0,
+        status=status,
     )
 
 
-def _reason(
-    field: PotentialField, status: int, obstacle: int, last: np.ndarray, count: int, dt: float, window: int
-) -> str:
+def _reason(field: PotentialField, status: PlanStatus, obstacle: int, last: np.ndarray, clearance: float,
+            count: int, dt: float, window: int) -> str:
+    """The sentence beside ``status``: what blocks (the nearest obstacle's id and distance) and where."""
     goal = field.goal
     position_error = float(np.linalg.norm(last[:3] - goal.position))
     rotation_error = goal.rotation_distance(Pose(last[:3], last[3:]))
-    where = f"{position_error:.4g} m and {rotation_error:.4g} rad from the goal"
-    name = f"'{field.obstacles[obstacle].id}'" if 0 <= obstacle < len(field.obstacles) else "an obstacle"
-    if status == STAGNATION:
-        return f"stagnation: no progress toward the goal for {window * dt:.3g} s, stopped {where} (nearest: {name})"
-    if status == COLLISION:
-        if count == 1 and field.clearances(last[None, :3])[0] <= 0.0:
-            return f"collision: the start pose is inside {name}"
+    where = (f"{position_error:.4g} m and {rotation_error:.4g} rad from the goal at "
+             f"({last[0]:.3f}, {last[1]:.3f}, {last[2]:.3f}) m")
+    known = 0 <= obstacle < len(field.obstacles)
+    name = f"'{field.obstacles[obstacle].id}'" if known else "an obstacle"
+    nearest = f"nearest: {name}, {clearance:.4g} m away" if known else "no obstacle within reach"
+    if status == PlanStatus.STAGNATION:
+        return f"stagnation: no progress toward the goal for {window * dt:.3g} s, stopped {where} ({nearest})"
+    if status == PlanStatus.START_INVALID:
+        return f"collision: the start pose is inside {name}"
+    if status == PlanStatus.COLLISION:
         return f"collision: the next step would enter {name} after t = {(count - 1) * dt:.4g} s, {where}"
-    if status == ITERATION_LIMIT:
+    if status == PlanStatus.ITERATION_LIMIT:
         return f"iteration limit: {count - 1} steps without reaching the goal, stopped {where}"
-    if status == NOT_FINITE:
+    if status == PlanStatus.CANCELLED:
+        return f"cancelled after {count - 1} steps, stopped {where}"
+    if status == PlanStatus.NOT_FINITE:
         return "numerical failure: the state became non-finite"
-    return f"unknown planner status {status}"
+    return f"unknown planner status {status!r}"

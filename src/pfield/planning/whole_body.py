@@ -13,10 +13,11 @@ null space to the obstacle repulsion (mapped with each link point's Jacobian tra
 self-collision enter as velocity dampers (NEO), so the arm never gets closer than ``safety_distance`` and a
 goal near obstacles is still reached. See ``docs/robots.md``.
 
-Failure reasons: ``collision`` (the start configuration collides — checked exactly with coal — or the
-dampers could not keep a squeezed link off an obstacle: the plan stops *before* the contact),
-``self-collision`` (likewise between link capsules), ``stagnation`` (no progress in ``stagnation_window``
-s) and ``iteration limit``.
+Outcomes (:class:`~pfield.planning.PlanStatus` on the path, the sentence in ``failure_reason`` naming the
+blocking link and obstacle or the two links, their distance and where): START_INVALID (the start
+configuration collides — checked exactly with coal), COLLISION (the dampers could not keep a squeezed link
+off an obstacle: the plan stops *before* the contact), SELF_COLLISION (likewise between link capsules),
+STAGNATION (the rule of :class:`~pfield.planning.PlanOptions`), ITERATION_LIMIT and CANCELLED.
 """
 
 from __future__ import annotations
@@ -32,21 +33,23 @@ from numpy.typing import ArrayLike, NDArray
 
 from pfield._validation import finite, positive
 from pfield.errors import InvalidInput
-from pfield.field._evaluate import _bounding_radius
 from pfield.field.config import FieldConfig
 from pfield.geometry import Obstacle, pack_obstacles
-from pfield.geometry._packed import PackedObstacles
+from pfield.geometry._packed import PackedObstacles, bounding_radius
 from pfield.geometry._sdf import empty_packed
-from pfield.planning import _whole_body_kernel as _wb
+from pfield.planning import _whole_body_layout as _wb
 from pfield.planning import _whole_body_loop as _loop
+from pfield.planning.options import PlanOptions
 from pfield.planning.result import PlannedPath
+from pfield.planning.status import PlanStatus
 from pfield.robot.model import RobotModel
 from pfield.spatial import Pose
 
 __all__ = ["WholeBodyOptions", "joint_velocity_sign_flips", "plan_whole_body", "plan_whole_body_packed"]
 
 _LOG = logging.getLogger(__name__)
-DEFAULT_MAX_ITERATIONS = 30000
+_NEVER_CANCELLED = np.zeros(1, dtype=np.uint8)
+_NEVER_CANCELLED.setflags(write=False)
 
 
 @dataclass(frozen=True)
@@ -80,7 +83,7 @@ class WholeBodyOptions:
 
 def obstacle_bounds(packed: PackedObstacles) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Bounding sphere (centre (M, 3), radius (M,)) of every packed obstacle, for culling."""
-    radii = np.array([_bounding_radius(packed, i) for i in range(len(packed.kinds))], dtype=np.float64)
+    radii = np.array([bounding_radius(packed, i) for i in range(len(packed.kinds))], dtype=np.float64)
     return np.ascontiguousarray(packed.rows[:, 0:3]), radii
 
 
@@ -98,27 +101,28 @@ def pack_robot(robot: RobotModel, config: FieldConfig, options: WholeBodyOptions
                            np.array(robot.upper_limits), np.array(robot.velocity_limits), accel.astype(np.float64))
 
 
-def kernel_parameters(config: FieldConfig, dt: float, goal_tolerance: float, rotation_tolerance: float,
-                      options: WholeBodyOptions) -> NDArray[np.float64]:
-    """The kernel's parameter vector (indices in :mod:`pfield.planning._whole_body_kernel`)."""
-    params = np.zeros(_wb.N_PARAMS)
-    params[_wb.K_ATT], params[_wb.K_ROT] = config.attractive_gain, config.rotational_attractive_gain
-    params[_wb.GAMMA], params[_wb.V_MAX] = config.attractive_threshold, config.max_linear_velocity
-    params[_wb.W_MAX], params[_wb.INFLUENCE] = config.max_angular_velocity, config.influence_distance
-    params[_wb.SAFETY], params[_wb.XI] = config.safety_distance, config.damper_gain
-    params[_wb.ETA], params[_wb.F_CAP] = config.repulsive_gain, config.max_repulsive_force
-    params[_wb.DT], params[_wb.TOL], params[_wb.ROT_TOL] = dt, goal_tolerance, rotation_tolerance
-    params[_wb.STAG_STEPS] = max(1.0, math.ceil(config.stagnation_window / dt))
-    params[_wb.STAG_PROGRESS] = config.stagnation_progress
-    params[_wb.JOINT_INFLUENCE], params[_wb.JOINT_SAFETY] = options.joint_influence, options.joint_safety
-    params[_wb.ROT_WEIGHT], params[_wb.DAMPING] = options.rotation_weight, options.damping
-    params[_wb.NULL_GAIN] = options.null_space_gain
-    return params
+def kernel_parameters(config: FieldConfig, plan: PlanOptions, options: WholeBodyOptions) -> NDArray[np.float64]:
+    """The kernel's parameter vector (layout ``PARAMS`` of :mod:`pfield.planning._whole_body_layout`).
+
+    ``plan`` must be resolved against ``config`` (:meth:`PlanOptions.resolved`)."""
+    assert plan.rotation_tolerance is not None and plan.stagnation_progress is not None
+    return _wb.PARAMS.pack({
+        "attractive_gain": config.attractive_gain, "rotational_attractive_gain": config.rotational_attractive_gain,
+        "attractive_threshold": config.attractive_threshold, "max_linear_velocity": config.max_linear_velocity,
+        "max_angular_velocity": config.max_angular_velocity, "influence_distance": config.influence_distance,
+        "safety_distance": config.safety_distance, "damper_gain": config.damper_gain,
+        "repulsive_gain": config.repulsive_gain, "max_repulsive_force": config.max_repulsive_force,
+        "dt": plan.dt, "goal_tolerance": plan.goal_tolerance, "rotation_tolerance": plan.rotation_tolerance,
+        "stagnation_steps": plan.stagnation_steps, "stagnation_progress": plan.stagnation_progress,
+        "joint_influence": options.joint_influence, "joint_safety": options.joint_safety,
+        "rotation_weight": options.rotation_weight, "damping": options.damping,
+        "null_space_gain": options.null_space_gain,
+    })
 
 
 def make_scene(packed: PackedObstacles | None, robot: _wb.RobotArrays | None = None,
                q0: NDArray[np.float64] | None = None, safety_distance: float = 0.0) -> _wb.Scene:
-    """Packed obstacles, their bounding spheres and the start offsets of :class:`~._whole_body_kernel.Scene`.
+    """Packed obstacles, their bounding spheres and the start offsets of :class:`~._whole_body_layout.Scene`.
 
     With ``robot`` and ``q0``, capsule pairs that start closer than ``safety_distance`` get the offset
     ``d0 − safety_distance`` (they may not approach further); otherwise all offsets are zero.
@@ -135,59 +139,71 @@ def make_scene(packed: PackedObstacles | None, robot: _wb.RobotArrays | None = N
                           self_offsets=np.minimum(own - safety_distance, 0.0))
 
 
-def _failure_reason(status: int, count: int, culprit: NDArray[np.int64], robot: RobotModel,
+def _failure_reason(status: PlanStatus, count: int, culprit: NDArray[np.float64], robot: RobotModel,
                     errors: tuple[float, float], names: list[str] | None, dt: float) -> str:
+    """The sentence beside ``status``: the blocking link and obstacle (or the two links), their distance
+    and where (the time and the end effector's remaining errors)."""
     pos_err, rot_err = errors
-    state = f"position error {pos_err:.4f} m, rotation error {rot_err:.4f} rad"
-    if status == _wb.COLLISION:
-        link = robot.geometry.capsules[int(culprit[0])].link
-        obstacle = names[int(culprit[1])] if names else f"#{int(culprit[1])}"
-        return (f"collision: the next step would bring link {link!r} into contact with obstacle {obstacle!r}; "
+    capsules = robot.geometry.capsules
+    where = f"at t = {(count - 1) * dt:.2f} s, position error {pos_err:.4f} m, rotation error {rot_err:.4f} rad"
+    capsule, obstacle, distance, pair, self_distance = (float(v) for v in culprit)
+    blocking = ""
+    if capsule >= 0 and obstacle >= 0:
+        obstacle_name = names[int(obstacle)] if names else f"#{int(obstacle)}"
+        blocking = f"link {capsules[int(capsule)].link!r} is {distance:.4f} m from obstacle {obstacle_name!r}"
+    self_links = ""
+    if pair >= 0:
+        first, second = (int(c) for c in robot.geometry.self_pairs[int(pair)])
+        self_links = f"links {capsules[first].link!r} and {capsules[second].link!r} are {self_distance:.4f} m apart"
+    if status == PlanStatus.COLLISION:
+        return f"collision: the next step would bring {blocking or 'a link'} into contact; stopped at step {count - 1}"
+    if status == PlanStatus.SELF_COLLISION:
+        return (f"self-collision: the next step would bring {self_links or 'two links'} into contact; "
                 f"stopped at step {count - 1}")
-    if status == _wb.SELF_COLLISION:
-        return f"self-collision: the next step would bring two link capsules into contact; stopped at step {count - 1}"
-    if status == _wb.STAGNATION:
-        return (f"stagnation: no progress toward the goal within the stagnation window "
-                f"({state}, t = {(count - 1) * dt:.2f} s)")
-    return f"iteration limit: {count - 1} steps without reaching the goal ({state})"
+    nearest = "; ".join(part for part in (blocking, self_links) if part) or "no obstacle or link pair within reach"
+    if status == PlanStatus.STAGNATION:
+        return f"stagnation: no progress toward the goal within the stagnation window ({where}; nearest: {nearest})"
+    if status == PlanStatus.CANCELLED:
+        return f"cancelled after {count - 1} steps ({where})"
+    return f"iteration limit: {count - 1} steps without reaching the goal ({where}; nearest: {nearest})"
 
 
 def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstacles | None, robot: RobotModel,
-                           q0: ArrayLike, dt: float = 0.01, goal_tolerance: float = 0.01,
-                           max_iterations: int = DEFAULT_MAX_ITERATIONS, rotation_tolerance: float | None = None,
+                           q0: ArrayLike, dt: float | None = None, goal_tolerance: float | None = None,
+                           max_iterations: int | None = None, rotation_tolerance: float | None = None,
                            options: WholeBodyOptions | None = None,
-                           obstacles: Sequence[Obstacle] | None = None) -> PlannedPath:
+                           obstacles: Sequence[Obstacle] | None = None, *,
+                           plan_options: PlanOptions | None = None) -> PlannedPath:
     """Whole-body plan against already packed obstacles (see :func:`plan_whole_body`).
 
     ``obstacles`` (the objects ``packed`` was made from) name obstacles in failure reasons and allow the
     exact start check: a start whose capsules are already within ``safety_distance`` of something is
-    checked with coal on the robot's meshes, and a real contact fails the plan at once.
+    checked with coal on the robot's meshes, and a real contact fails the plan at once (START_INVALID).
     """
+    settings = PlanOptions.build(plan_options, dt=dt, goal_tolerance=goal_tolerance, max_iterations=max_iterations,
+                                 rotation_tolerance=rotation_tolerance).resolved(config)
     obstacle_names = [o.id for o in obstacles] if obstacles else None
-    step = positive("delta_time", dt)
-    tolerance = positive("goal_tolerance", goal_tolerance)
-    rot_tol = config.rotation_tolerance if rotation_tolerance is None else positive("rotation_tolerance",
-                                                                                   rotation_tolerance)
-    iterations = _iterations(max_iterations)
     start = robot.check_joint_angles(q0, "starting_joint_angles")
     opts = options or WholeBodyOptions()
-    params = kernel_parameters(config, step, tolerance, rot_tol, opts)
+    params = kernel_parameters(config, settings, opts)
     arrays = pack_robot(robot, config, opts)
     scene = make_scene(packed, arrays, start, config.safety_distance)
     touching, distance = _start_collision(robot, start, scene, obstacles)
     if touching:
         return _single_waypoint(robot, start, f"collision: the start configuration collides ({touching})", distance)
+    cancel = settings.cancel.flag if settings.cancel is not None else _NEVER_CANCELLED
     status, count, qs, qds, pos, quats, twists, clear, culprit = _loop.plan_loop(
         start, arrays, scene, np.array(goal.position, dtype=np.float64),
-        np.array(goal.orientation, dtype=np.float64), params, iterations)
+        np.array(goal.orientation, dtype=np.float64), params, settings.max_iterations, cancel)
     errors = (float(np.linalg.norm(goal.position - pos[-1])), float(Pose(pos[-1], quats[-1]).rotation_distance(goal)))
-    reason = "" if status == _wb.SUCCESS else _failure_reason(status, count, culprit, robot, errors,
-                                                              obstacle_names, step)
+    reason = "" if status == PlanStatus.REACHED else _failure_reason(status, count, culprit, robot, errors,
+                                                                     obstacle_names, settings.dt)
     if reason:
         _LOG.info("whole-body plan failed: %s", reason)
-    return PlannedPath(success=status == _wb.SUCCESS, failure_reason=reason, times=np.arange(count) * step,
-                       positions=pos, orientations=quats, twists=twists, clearances=clear, iterations=count - 1,
-                       joint_names=robot.joint_names, joint_positions=qs, joint_velocities=qds)
+    return PlannedPath(success=status == PlanStatus.REACHED, failure_reason=reason,
+                       times=np.arange(count) * settings.dt, positions=pos, orientations=quats, twists=twists,
+                       clearances=clear, iterations=count - 1, joint_names=robot.joint_names, joint_positions=qs,
+                       joint_velocities=qds, status=status)
 
 
 def _start_collision(robot: RobotModel, start: NDArray[np.float64], scene: _wb.Scene,
@@ -210,17 +226,7 @@ def _single_waypoint(robot: RobotModel, start: NDArray[np.float64], reason: str,
     return PlannedPath(success=False, failure_reason=reason, times=np.zeros(1), positions=pose.position[None],
                        orientations=pose.orientation[None], twists=np.zeros((1, 6)), clearances=np.full(1, clearance),
                        iterations=0, joint_names=robot.joint_names, joint_positions=start[None],
-                       joint_velocities=np.zeros((1, robot.n_joints)))
-
-
-def _iterations(value: Any) -> int:
-    try:
-        number = int(value)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInput("max_iterations", value, "must be an integer") from exc
-    if number != value or number < 0:
-        raise InvalidInput("max_iterations", value, "must be an integer >= 0 (0 means 30000)")
-    return number or DEFAULT_MAX_ITERATIONS
+                       joint_velocities=np.zeros((1, robot.n_joints)), status=PlanStatus.START_INVALID)
 
 
 def _field_parts(field: Any) -> tuple[FieldConfig, Pose, PackedObstacles | None, list[Obstacle]]:
@@ -234,26 +240,30 @@ def _field_parts(field: Any) -> tuple[FieldConfig, Pose, PackedObstacles | None,
     return config, goal, packed, obstacles
 
 
-def plan_whole_body(field: Any, robot: RobotModel, q0: ArrayLike, dt: float = 0.01, goal_tolerance: float = 0.01,
-                    max_iterations: int = DEFAULT_MAX_ITERATIONS, rotation_tolerance: float | None = None,
-                    options: WholeBodyOptions | None = None) -> PlannedPath:
+def plan_whole_body(field: Any, robot: RobotModel, q0: ArrayLike, dt: float | None = None,
+                    goal_tolerance: float | None = None, max_iterations: int | None = None,
+                    rotation_tolerance: float | None = None, options: WholeBodyOptions | None = None, *,
+                    plan_options: PlanOptions | None = None) -> PlannedPath:
     """Plan in joint space from ``q0`` to the field's goal pose, every link repelled by its obstacles.
 
     Args:
         field: a :class:`~pfield.field.PotentialField` (config, goal and obstacles are read from it).
         robot: the robot; its joint limits, velocity limits and link capsules are used.
         q0: starting joint angles (rad / m), tree order; outside the limits → ``InvalidInput``.
-        dt: integration step (s); goal_tolerance: position tolerance (m); rotation_tolerance: (rad),
-            default ``config.rotation_tolerance``; max_iterations: steps, 0 means 30000.
+        dt, goal_tolerance, max_iterations, rotation_tolerance: shorthands for the :class:`PlanOptions`
+            fields of those names (dt 0.01 s, 0.01 m, 30000 steps, the config's rotation tolerance).
+        options: the whole-body QP's own settings (:class:`WholeBodyOptions`).
+        plan_options: every planning setting and the cancel token (:class:`PlanOptions`).
 
     Returns:
         A :class:`PlannedPath` with joint names, positions and velocities for every waypoint (the start
         included), the end-effector poses (FK of each waypoint), twists J q̇ and link clearances (exact
-        signed distance of the nearest link capsule within the influence distance, a lower bound beyond).
+        signed distance of the nearest link capsule within the influence distance, a lower bound beyond),
+        and its ``status``.
     """
     config, goal, packed, obstacles = _field_parts(field)
     return plan_whole_body_packed(config, goal, packed, robot, q0, dt, goal_tolerance, max_iterations,
-                                  rotation_tolerance, options, obstacles)
+                                  rotation_tolerance, options, obstacles, plan_options=plan_options)
 
 
 def joint_velocity_sign_flips(path: PlannedPath, threshold: float = 1e-3) -> int:

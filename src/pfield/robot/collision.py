@@ -26,7 +26,7 @@ from pfield.geometry import Box, Capsule, Cylinder, Ellipsoid, Mesh, Obstacle, S
 from pfield.robot.geometry import adjacent_joints
 from pfield.robot.model import RobotModel
 
-__all__ = ["CollisionChecker", "CollisionReport", "capsule_clearances"]
+__all__ = ["CapsuleClearances", "CollisionChecker", "CollisionReport", "capsule_clearances"]
 
 
 @dataclass(frozen=True)
@@ -43,9 +43,34 @@ class CollisionReport:
     pair: str
 
 
-def capsule_clearances(robot: RobotModel, q: ArrayLike,
-                       obstacles: Sequence[Obstacle]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Capsule clearances (m): link × obstacle (L, M) and self-collision pairs (P,) at joint angles ``q``."""
+@dataclass(frozen=True, eq=False)
+class CapsuleClearances:
+    """Capsule clearances (m) at one configuration, with the names of what they are between.
+
+    ``obstacle[c, i]`` is the signed clearance of link capsule c (``links[c]``) to obstacle i
+    (``obstacle_ids[i]``); ``self_pairs[k]`` that of the self-collision pair ``pair_links[k]``.
+    """
+
+    obstacle: NDArray[np.float64]  # (L, M)
+    self_pairs: NDArray[np.float64]  # (P,)
+    links: tuple[str, ...]
+    obstacle_ids: tuple[str, ...]
+    pair_links: tuple[tuple[str, str], ...]
+
+    def between(self, link: str, obstacle_id: str) -> float:
+        """Clearance (m) of ``link``'s capsule to obstacle ``obstacle_id``."""
+        return float(self.obstacle[self.links.index(link), self.obstacle_ids.index(obstacle_id)])
+
+    def nearest(self) -> tuple[str, str, float]:
+        """(link, obstacle id, clearance in m) of the closest link–obstacle pair (("", "", inf) without)."""
+        if self.obstacle.size == 0:
+            return "", "", float("inf")
+        c, i = np.unravel_index(int(np.argmin(self.obstacle)), self.obstacle.shape)
+        return self.links[int(c)], self.obstacle_ids[int(i)], float(self.obstacle[c, i])
+
+
+def capsule_clearances(robot: RobotModel, q: ArrayLike, obstacles: Sequence[Obstacle]) -> CapsuleClearances:
+    """Capsule clearances (m) at joint angles ``q``: every link × obstacle and every self-collision pair."""
     from pfield.field.config import FieldConfig
     from pfield.planning._whole_body_loop import pair_distances
     from pfield.planning.whole_body import WholeBodyOptions, make_scene, pack_robot
@@ -54,7 +79,9 @@ def capsule_clearances(robot: RobotModel, q: ArrayLike,
     arrays = pack_robot(robot, FieldConfig(), WholeBodyOptions())
     scene = make_scene(pack_obstacles(list(obstacles)) if obstacles else None, arrays)
     obstacle, own = pair_distances(values, arrays, scene)
-    return obstacle, own
+    links = robot.geometry.link_names
+    pairs = tuple((links[int(a)], links[int(b)]) for a, b in robot.geometry.self_pairs)
+    return CapsuleClearances(obstacle, own, links, tuple(o.id for o in obstacles), pairs)
 
 
 def _coal_geometry(obstacle: Obstacle) -> coal.CollisionGeometry:

@@ -20,11 +20,10 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from pfield._spatial_kernels import matrix_to_quat
+from pfield._linalg import cholesky_inplace, cholesky_solve
+from pfield._spatial_kernels import matrix_to_quat, rotation_error
 from pfield._validation import positive
 from pfield.errors import InvalidInput
-from pfield.field.forces import rotation_error
-from pfield.planning._qp import cholesky_inplace, cholesky_solve
 from pfield.robot._kinematics import end_effector_kinematics
 from pfield.robot.model import RobotModel
 from pfield.spatial import Pose
@@ -68,9 +67,10 @@ def _dls_step(jac, e, frozen, damping, step):  # type: ignore[no-untyped-def]
             a[r, c] = s
             a[c, r] = s
         a[r, r] += damping
-    cholesky_inplace(a, 6)
-    y = np.empty(6)
-    cholesky_solve(a, e, y, 6)
+    size = a.shape[0]  # a run-time 6, not the literal: the same QP specialisation as the whole-body planner's
+    cholesky_inplace(a, size)
+    y = np.empty(size)
+    cholesky_solve(a, e, y, size)
     for j in range(n):
         step[j] = 0.0 if frozen[j] else jac[0, j] * y[0] + jac[1, j] * y[1] + jac[2, j] * y[2] + \
             jac[3, j] * y[3] + jac[4, j] * y[4] + jac[5, j] * y[5]

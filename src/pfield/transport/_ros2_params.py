@@ -47,11 +47,25 @@ def _ros_value(value: Any) -> Any:
     return value
 
 
-def _descriptor(name: str, value: Any) -> ParameterDescriptor:
+def _descriptor(name: str, value: Any, row: Mapping[str, Any] | None) -> ParameterDescriptor:
+    """The rclpy descriptor of a parameter from its row of the node's table (``ros2 param describe``): the
+    description, the read-only flag and the range (or choices) as ``additional_constraints``. The range is
+    not set as rclpy's ``floating_point_range``: the pfield node stays the one validator, so a refused value
+    gets the node's reason (``max_linear_velocity=-2.0: must be > 0``), here and over HTTP alike."""
     # A None or empty-list default gives rclpy no type to enforce: let the pfield node judge.
     untyped = value is None or value == []
-    return ParameterDescriptor(name=name, description="pfield parameter (validated by the node)",
-                               dynamic_typing=untyped)
+    if row is None:
+        return ParameterDescriptor(name=name, description="pfield parameter (validated by the node)",
+                                   dynamic_typing=untyped)
+    constraints = ""
+    value_range = row.get("range")
+    if value_range and row["type"] == "string":
+        constraints = "one of: " + ", ".join(str(v) for v in value_range)
+    elif value_range:
+        unit = f" {row['unit']}" if row.get("unit") else ""
+        constraints = f"range [{value_range[0]:g}, {value_range[1]:g}]{unit}"
+    return ParameterDescriptor(name=name, description=str(row["description"]), read_only=bool(row["read_only"]),
+                               additional_constraints=constraints, dynamic_typing=untyped)
 
 
 def declare_parameters(ros_node: RclpyNode, node: Node) -> list[str]:
@@ -63,6 +77,7 @@ def declare_parameters(ros_node: RclpyNode, node: Node) -> list[str]:
     declared names.
     """
     current = node.get_parameters()
+    rows = node.describe_parameters()
     declared: list[str] = []
     for name, value in current.items():
         try:
@@ -71,7 +86,7 @@ def declare_parameters(ros_node: RclpyNode, node: Node) -> list[str]:
             _LOG.warning("parameter %s=%r has no ROS parameter type; not exposed over ROS 2", name, value)
             continue
         try:
-            ros_node.declare_parameter(name, ros_value, _descriptor(name, ros_value))
+            ros_node.declare_parameter(name, ros_value, _descriptor(name, ros_value, rows.get(name)))
         except InvalidParameterTypeException as error:  # a --ros-args/--params-file value of another type
             raise InvalidInput(name, ros_value, f"the ROS argument for it has the wrong type: {error}") from None
         declared.append(name)

@@ -9,42 +9,58 @@ Routes (DESIGN §3.2; a ROS name ``/pfield/plan_path`` appears without its leadi
 * ``GET /param/<node>`` / ``PUT /param/<node>``: all parameters / set some (all-or-nothing).
 * ``GET /topics``, ``GET /services``, ``GET /nodes``: listings for ``pfield topic list`` etc.
 
+* ``GET /health``: ``{"ready": bool, "kernels": "warm" | "compiling", ...}`` plus the caps' counters.
+
+Browser protections and body checks run first, for every route (:mod:`pfield.transport._asgi`): a ``Host``
+other than this server is refused (421), a state-changing request or WebSocket from another page's
+``Origin`` is refused (403), bodies must be non-empty ``application/json`` (415, 400) and at most
+``max_request_bytes`` (413). No CORS headers are sent unless ``allowed_origins`` names pages.
+
 Errors are JSON ``{"error", "field", "value"}``: 400 for bad input (the field path named), 404 for
-unknown names, 401 without the token, 413 for bodies over the cap. Services flagged ``long_running``
-(planning) run in a worker thread so short calls keep answering; nodes with a ``tick_period`` are
-ticked from a background task.
+unknown names, 405 for a wrong method, 401 without the token, 500 (connection kept) for a server fault.
+No handler runs on the event loop: short services and parameter changes run one at a time on a calls
+thread, subscription handlers on a topics thread, ``long_running`` services (planning) on a pool of
+``workers`` threads so that short calls keep answering; ``cancellable`` ones get a
+:class:`~pfield.planning.CancelToken` that is cancelled when the client disconnects. Nodes with a
+``tick_period`` are ticked from a background task.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import inspect
 import json
 import logging
 import threading
 import time
-from collections.abc import AsyncIterator, Sequence
+from collections.abc import AsyncIterator, Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 from fastapi import Body, FastAPI, Query, Request, WebSocket, WebSocketDisconnect
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse, Response
+from fastapi.responses import Response, StreamingResponse
+from starlette.exceptions import HTTPException as StarletteHTTPException
 
+import pfield.interfaces.all  # noqa: F401 - the generic topic route knows every message type
 from pfield.errors import InvalidInput, PfieldError
 from pfield.interfaces import lookup_type, message_from_data
 from pfield.interfaces._base import RosMessage
 from pfield.interfaces._yaml import _path
 from pfield.node._base import Bus, Node, ServiceSpec, SubscriptionSpec, distinct_buses
-from pfield.transport._asgi import GuardMiddleware
+from pfield.transport._asgi import MAX_JSON_DEPTH, GuardMiddleware, error_body, json_depth
 from pfield.transport._fanout import TopicFanout
+from pfield.transport._server import ServerLimits, uvicorn_config
 
-__all__ = ["DEFAULT_MAX_REQUEST_BYTES", "NotFound", "ServerThread", "create_app"]
+__all__ = ["DEFAULT_MAX_REQUEST_BYTES", "NotFound", "ServerLimits", "ServerThread", "create_app", "run_server"]
 
 _log = logging.getLogger(__name__)
 DEFAULT_MAX_REQUEST_BYTES = 1_000_000
 """Request bodies above this many bytes are refused with 413 (a seed request is < 1 kB)."""
+DISCONNECT_POLL_S = 0.05
+"""s between checks of whether the client of a cancellable call has gone away."""
 
 
 class NotFound(PfieldError, LookupError):
@@ -55,16 +71,19 @@ class NotFound(PfieldError, LookupError):
         super().__init__(reason or f"unknown {kind} {name!r}; known: {', '.join(known) or 'none'}")
 
 
-def _error(status: int, error: str, field: str = "", value: object = None) -> JSONResponse:
-    return JSONResponse({"error": error, "field": field, "value": None if value is None else repr(value)}, status)
+def _error(status: int, error: str, field: str = "", value: object = None,
+           headers: dict[str, str] | None = None) -> Response:
+    return Response(error_body(error, field, value), status, headers=headers, media_type="application/json")
 
 
 class _Routes:
-    """Routing tables built once from the nodes (names are ROS names with a leading slash)."""
+    """Routing tables built once from the nodes (names are ROS names with a leading slash), and the threads
+    handlers run on."""
 
-    def __init__(self, nodes: Sequence[Node]) -> None:
+    def __init__(self, nodes: Sequence[Node], workers: int) -> None:
         self.nodes = {node.name: node for node in nodes}
         self.services = {spec.name: spec for node in nodes for spec in node.services()}
+        self.service_nodes = {spec.name: node.name for node in nodes for spec in node.services()}
         self.subscriptions: dict[str, list[SubscriptionSpec]] = {}
         self.topics: dict[str, dict[str, Any]] = {}
         for node in nodes:
@@ -74,9 +93,16 @@ class _Routes:
             for pub in node.publications():
                 self._topic(pub.topic, pub.type_name)["publishers"].append(node.name)
         self.buses: list[Bus] = distinct_buses(nodes)
+        for bus in self.buses:
+            bus.declare(*self.topics)
         self.topic_worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pfield-topics")
         """Subscription handlers run here, one message at a time in arrival order, so that slow ones (a mesh
         obstacle's first load) never block the event loop."""
+        self.call_worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pfield-calls")
+        """Short services and parameter changes run here, one at a time in arrival order (as the nodes
+        expect), off the event loop."""
+        self.long_workers = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="pfield-service")
+        """``long_running`` services (planning)."""
 
     def _topic(self, name: str, type_name: str) -> dict[str, Any]:
         return self.topics.setdefault(name, {"name": name, "type": type_name, "publishers": [], "subscribers": []})
@@ -95,15 +121,20 @@ class _Routes:
         return next((m for bus in self.buses if (m := bus.latest(topic)) is not None), None)
 
     def publish(self, topic: str, message: RosMessage) -> None:
-        """Deliver to the subscribers (which validate and may raise), then to the bus (echo, WebSocket)."""
+        """Deliver to the subscribers (which validate and may raise), then to the bus (echo, WebSocket).
+        A topic no node declared keeps its latest message only within the bus's ``max_undeclared``."""
         for sub in self.subscriptions.get(topic, []):
             sub.handler(message)
         for bus in self.buses:
-            bus.publish(topic, message)
+            bus.publish(topic, message, declare=topic in self.topics)
 
     async def deliver(self, topic: str, message: RosMessage) -> None:
         """:meth:`publish` on the topic worker thread."""
         await asyncio.get_running_loop().run_in_executor(self.topic_worker, self.publish, topic, message)
+
+    async def call(self, fn: Callable[..., Any], *args: Any) -> Any:
+        """``fn(*args)`` on the calls thread."""
+        return await asyncio.get_running_loop().run_in_executor(self.call_worker, fn, *args)
 
     def model_for(self, topic: str, type_name: str | None) -> type[RosMessage]:
         known = self.topics.get(topic, {}).get("type")
@@ -113,41 +144,50 @@ class _Routes:
             raise InvalidInput("type", None, f"topic {topic} is not known to the server: give ?type=pkg/msg/Name")
         return lookup_type(str(type_name or known))
 
+    def shutdown(self) -> None:
+        for executor in (self.long_workers, self.call_worker, self.topic_worker):
+            executor.shutdown(wait=False, cancel_futures=True)
+
 
 def _install_error_handlers(app: FastAPI) -> None:
+    """Every error in pfield's format (unexpected exceptions: :class:`GuardMiddleware` answers the 500)."""
+
     @app.exception_handler(NotFound)
-    async def not_found(_: Request, exc: NotFound) -> JSONResponse:
+    async def not_found(_: Request, exc: NotFound) -> Response:
         return _error(404, str(exc), exc.field)
 
     @app.exception_handler(InvalidInput)
-    async def invalid(_: Request, exc: InvalidInput) -> JSONResponse:
+    async def invalid(_: Request, exc: InvalidInput) -> Response:
         return _error(400, str(exc), exc.field, exc.value)
 
     @app.exception_handler(PfieldError)
-    async def pfield_error(_: Request, exc: PfieldError) -> JSONResponse:
+    async def pfield_error(_: Request, exc: PfieldError) -> Response:
         return _error(400, str(exc))
 
-    @app.exception_handler(Exception)
-    async def internal(request: Request, exc: Exception) -> JSONResponse:
-        _log.error("%s %s failed", request.method, request.url.path, exc_info=exc)
-        return _error(500, f"internal error: {type(exc).__name__}: {exc}")
+    @app.exception_handler(StarletteHTTPException)
+    async def http_error(request: Request, exc: StarletteHTTPException) -> Response:
+        reason = {404: f"no route {request.method} {request.url.path} (GET /openapi.json lists the routes)",
+                  405: f"{request.method} is not allowed on {request.url.path}"}.get(exc.status_code, str(exc.detail))
+        return _error(exc.status_code, reason, "path" if exc.status_code in (404, 405) else "",
+                      headers=dict(exc.headers or {}))
 
     @app.exception_handler(RequestValidationError)
-    async def validation(_: Request, exc: RequestValidationError) -> JSONResponse:
+    async def validation(_: Request, exc: RequestValidationError) -> Response:
         first = exc.errors()[0]
         location = tuple(first.get("loc", ()))[1:]
         if first.get("type") == "json_invalid":
             return _error(400, f"malformed JSON: {first.get('msg')}", "body")
         reason = "unknown field" if first.get("type") == "extra_forbidden" else first.get("msg", "")
-        field = _path(location)
-        return _error(400, f"{field}={first.get('input')!r}: {reason}", field, first.get("input"))
+        field = _path(location) if location else "body"
+        return _error(400, f"{field}={first.get('input')!r:.200}: {reason}", field, first.get("input"))
 
 
 def _endpoint(handler: Any, model: type[RosMessage], with_type: bool = False) -> Any:
-    """Give a generic handler the signature ``(body: model = default[, type: str])`` so that FastAPI
+    """Give a generic handler the signature ``(request, body: model[, type: str])`` so that FastAPI
     validates and documents the body (and the optional ``?type=`` of topics)."""
-    parameters = [inspect.Parameter("body", inspect.Parameter.POSITIONAL_OR_KEYWORD, annotation=model | None,
-                                    default=Body(None))]
+    parameters = [inspect.Parameter("request", inspect.Parameter.POSITIONAL_OR_KEYWORD, annotation=Request),
+                  inspect.Parameter("body", inspect.Parameter.POSITIONAL_OR_KEYWORD, annotation=model,
+                                    default=Body(...))]
     if with_type:
         parameters.append(inspect.Parameter("type", inspect.Parameter.POSITIONAL_OR_KEYWORD,
                                             annotation=str | None, default=Query(None)))
@@ -156,18 +196,41 @@ def _endpoint(handler: Any, model: type[RosMessage], with_type: bool = False) ->
 
 
 def _json(message: RosMessage) -> Response:
+    """The message as a JSON response; messages that write their JSON in pieces (plan responses) are streamed,
+    the pieces written on a worker thread, so a 100 MB plan is neither held twice nor written on the loop."""
+    chunks = getattr(message, "json_chunks", None)
+    if chunks is not None:
+        return StreamingResponse((piece.encode() for piece in chunks()), media_type="application/json")
     return Response(message.model_dump_json(), media_type="application/json")
 
 
-def _add_service_routes(app: FastAPI, routes: _Routes, executor: ThreadPoolExecutor) -> None:
+async def _until_done_or_gone(future: asyncio.Future[Any], request: Request, cancel: Any) -> Any:
+    """Await ``future``; cancel the plan's token as soon as the client disconnects (then wait for the end)."""
+    while True:
+        done, _ = await asyncio.wait({future}, timeout=DISCONNECT_POLL_S)
+        if done:
+            return future.result()
+        if await request.is_disconnected():
+            cancel.cancel()
+            _log.info("client of %s went away: its call is cancelled", request.url.path)
+            return await future
+
+
+def _add_service_routes(app: FastAPI, routes: _Routes) -> None:
+    from pfield.planning.cancel import CancelToken
+
     for spec in routes.services.values():
         def make(spec: ServiceSpec = spec) -> Any:
-            async def call(body: RosMessage | None = None) -> Response:
-                request = body if body is not None else spec.request()
-                if spec.long_running:
-                    loop = asyncio.get_running_loop()
-                    return _json(await loop.run_in_executor(executor, spec.handler, request))
-                return _json(spec.handler(request))
+            async def call(request: Request, body: RosMessage) -> Response:
+                if not spec.long_running:
+                    return _json(await routes.call(spec.handler, body))
+                loop = asyncio.get_running_loop()
+                if not spec.cancellable:
+                    return _json(await loop.run_in_executor(routes.long_workers, spec.handler, body))
+                token = CancelToken()
+                handler: Callable[..., RosMessage] = spec.handler
+                future = loop.run_in_executor(routes.long_workers, functools.partial(handler, body, cancel=token))
+                return _json(await _until_done_or_gone(future, request, token))
             return _endpoint(call, spec.request)
         app.post(f"/srv{spec.name}", response_class=Response, name=f"service {spec.name} ({spec.type_name})",
                  responses={200: {"model": spec.response}}, tags=["services"])(make())
@@ -178,15 +241,16 @@ def _add_service_routes(app: FastAPI, routes: _Routes, executor: ThreadPoolExecu
 
     @app.get("/services", tags=["listings"])
     async def list_services() -> list[dict[str, str]]:
-        return [{"name": s.name, "type": s.type_name} for s in sorted(routes.services.values(), key=lambda s: s.name)]
+        return [{"name": s.name, "type": s.type_name, "node": routes.service_nodes[s.name]}
+                for s in sorted(routes.services.values(), key=lambda s: s.name)]
 
 
 def _add_topic_routes(app: FastAPI, routes: _Routes) -> None:
     for topic, subs in routes.subscriptions.items():
         def make(topic: str = topic, model: type[RosMessage] = subs[0].model) -> Any:
-            async def publish(body: RosMessage | None = None, type: str | None = None) -> dict[str, str]:
+            async def publish(request: Request, body: RosMessage, type: str | None = None) -> dict[str, str]:
                 routes.model_for(topic, type)
-                await routes.deliver(topic, body if body is not None else model())
+                await routes.deliver(topic, body)
                 return {"published": topic}
             return _endpoint(publish, model, with_type=True)
         app.post(f"/topic{topic}", name=f"publish {topic} ({subs[0].type_name})", tags=["topics"])(make())
@@ -196,10 +260,10 @@ def _add_topic_routes(app: FastAPI, routes: _Routes) -> None:
         name = "/" + topic
         model = routes.model_for(name, type)
         try:
-            data = json.loads(await request.body() or b"{}")
+            data = json.loads(await request.body())  # the guard checked type, presence, size and depth
         except ValueError as exc:
             raise InvalidInput("body", None, f"malformed JSON: {exc}") from None
-        await routes.deliver(name, message_from_data(model, data))
+        await routes.deliver(name, _message(model, data, "body"))
         return {"published": name}
 
     @app.get("/topic/{topic:path}", tags=["topics"])
@@ -222,38 +286,75 @@ def _add_param_routes(app: FastAPI, routes: _Routes) -> None:
         return sorted(routes.nodes)
 
     @app.get("/param/{node:path}", tags=["parameters"])
-    async def get_params(node: str) -> dict[str, Any]:
-        return routes.node("/" + node).get_parameters()
+    async def get_params(node: str, describe: bool = False) -> dict[str, Any]:
+        target = routes.node("/" + node)
+        return await routes.call(target.describe_parameters if describe else target.get_parameters)
 
     @app.put("/param/{node:path}", tags=["parameters"])
     async def set_params(node: str, values: dict[str, Any] = Body(...)) -> dict[str, Any]:
-        return routes.node("/" + node).set_parameters(values)
+        return await routes.call(routes.node("/" + node).set_parameters, values)
+
+
+def _message(model: type[RosMessage], data: Any, field: str) -> RosMessage:
+    """``data`` (decoded JSON) as a ``model`` message; anything but an object is refused (``null`` is not a
+    message of defaults: send ``{}`` for that)."""
+    if not isinstance(data, dict):
+        raise InvalidInput(field, data, f"expected a JSON object with the fields of {model.ros_type}")
+    return message_from_data(model, data)
+
+
+def _frame_error(error: str, field: str = "", value: object = None) -> str:
+    return error_body(error, field, value).decode()
+
+
+async def _receive_messages(websocket: WebSocket, routes: _Routes, topic: str) -> None:
+    """Publish each JSON text frame the client sends; answer an error frame for each bad one."""
+    while True:
+        frame = await websocket.receive()
+        if frame["type"] == "websocket.disconnect":
+            return
+        text = frame.get("text")
+        if text is None:
+            await websocket.send_text(_frame_error("binary frames are not accepted: send JSON text", "frame"))
+            continue
+        try:
+            if json_depth(text) > MAX_JSON_DEPTH:
+                raise InvalidInput("frame", None, f"JSON nested more than {MAX_JSON_DEPTH} levels deep")
+            try:
+                data = json.loads(text)
+            except ValueError as exc:
+                raise InvalidInput("frame", None, f"malformed JSON: {exc}") from None
+            await routes.deliver(topic, _message(routes.model_for(topic, None), data, "frame"))
+        except InvalidInput as exc:
+            await websocket.send_text(_frame_error(str(exc), exc.field, exc.value))
+        except PfieldError as exc:
+            await websocket.send_text(_frame_error(str(exc)))
+        except Exception as exc:  # a server fault: logged once, the client gets an error frame, the socket stays
+            _log.error("WebSocket %s: publishing failed", topic, exc_info=exc)
+            await websocket.send_text(_frame_error(f"internal error: {type(exc).__name__}: {exc}"))
 
 
 async def _stream(websocket: WebSocket, routes: _Routes, topic: str) -> None:
     fanout: TopicFanout = websocket.app.state.fanout
-    queue = fanout.subscribe(topic)
+    outbox = fanout.subscribe(topic)
     latest = routes.latest(topic)
     if latest is not None:
-        queue.put_nowait(latest.model_dump_json())
+        outbox.offer(latest.model_dump_json())
 
     async def sender() -> None:
         while True:
-            await websocket.send_text(await queue.get())
+            await websocket.send_text(await outbox.get())
 
     sending = asyncio.create_task(sender())
     try:
-        while True:
-            text = await websocket.receive_text()
-            try:
-                await routes.deliver(topic, message_from_data(routes.model_for(topic, None), json.loads(text)))
-            except (PfieldError, ValueError) as exc:
-                await websocket.send_text(json.dumps({"error": str(exc)}))
+        await _receive_messages(websocket, routes, topic)
     except WebSocketDisconnect:
         pass
     finally:
         sending.cancel()
-        fanout.unsubscribe(topic, queue)
+        with contextlib.suppress(asyncio.CancelledError, Exception):
+            await sending  # a send to a client that went away ends here, quietly
+        fanout.unsubscribe(topic, outbox)
 
 
 async def _tick_forever(node: Node) -> None:
@@ -266,54 +367,95 @@ async def _tick_forever(node: Node) -> None:
             _log.exception("tick of %s failed", node.name)
 
 
+def _add_health_route(app: FastAPI, routes: _Routes, ready: Callable[[], bool] | None,
+                      limits: dict[str, Any]) -> None:
+    started = time.monotonic()
+
+    @app.get("/health", tags=["listings"])
+    async def health() -> dict[str, Any]:
+        """Whether the node is warm (``ready``: its kernels are compiled), and the caps' counters."""
+        warm = True if ready is None else bool(ready())
+        fanout: TopicFanout = app.state.fanout
+        return {"ready": warm, "kernels": "warm" if warm else "compiling",
+                "nodes": sorted(routes.nodes), "uptime_s": round(time.monotonic() - started, 3),
+                "websocket": {"connections": fanout.connections, "dropped_messages": fanout.dropped},
+                "topics_kept": sum(len(bus.topics()) for bus in routes.buses),
+                "limits": limits}
+
+
 def create_app(nodes: Sequence[Node], *, token: str | None = None,
                max_request_bytes: int = DEFAULT_MAX_REQUEST_BYTES, workers: int = 2,
-               ws_queue_size: int = 1000) -> FastAPI:
+               ws_queue_size: int = 1000, ws_queue_bytes: int = 16_000_000,
+               allowed_origins: Sequence[str] = (), allowed_hosts: Sequence[str] = (),
+               ready: Callable[[], bool] | None = None) -> FastAPI:
     """The FastAPI app serving ``nodes`` (see the module docstring for the routes).
 
     ``token``: required bearer token (set it whenever binding beyond 127.0.0.1); ``workers``: threads
-    for ``long_running`` services; ``ws_queue_size``: messages buffered per WebSocket before the oldest drop.
+    for ``long_running`` services; ``ws_queue_size`` / ``ws_queue_bytes``: messages / bytes of JSON buffered
+    per WebSocket before the oldest drop; ``allowed_origins``: pages (``http://host:port``) besides this
+    server's own loopback origins that may change state and open WebSockets (they also get CORS headers);
+    ``allowed_hosts``: ``Host`` names accepted besides the loopback names and the bound address;
+    ``ready``: says whether the kernels are warm (``GET /health``; None: always ready).
     """
-    routes = _Routes(nodes)
-    executor = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="pfield-service")
+    routes = _Routes(nodes, workers)
 
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         loop = asyncio.get_running_loop()
-        app.state.fanout = TopicFanout(routes.buses, loop, ws_queue_size)
+        app.state.fanout = TopicFanout(routes.buses, loop, ws_queue_size, ws_queue_bytes)
         ticks = [asyncio.create_task(_tick_forever(n)) for n in nodes if n.tick_period]
         yield
         for task in ticks:
             task.cancel()
         app.state.fanout.close()
-        executor.shutdown(wait=False, cancel_futures=True)
-        routes.topic_worker.shutdown(wait=False, cancel_futures=True)
+        routes.shutdown()
         for node in nodes:
             node.close()
 
     app = FastAPI(title="pfield node", version="0.1.0", lifespan=lifespan,
                   description="pfield's nodes over HTTP: ROS services, topics and parameters by their ROS names.")
     _install_error_handlers(app)
-    _add_service_routes(app, routes, executor)
+    _add_service_routes(app, routes)
     _add_topic_routes(app, routes)
     _add_param_routes(app, routes)
+    limits = {"max_request_bytes": max_request_bytes, "max_json_depth": MAX_JSON_DEPTH,
+              "ws_queue_messages": ws_queue_size, "ws_queue_bytes": ws_queue_bytes,
+              "undeclared_topics_kept": min((bus.max_undeclared for bus in routes.buses), default=0)}
+    _add_health_route(app, routes, ready, limits)
 
     @app.websocket("/ws/topic/{topic:path}")
     async def stream(websocket: WebSocket, topic: str) -> None:
         await websocket.accept()
         await _stream(websocket, routes, "/" + topic)
 
-    app.add_middleware(GuardMiddleware, token=token, max_bytes=max_request_bytes)  # type: ignore[arg-type]
+    if allowed_origins:
+        from starlette.middleware.cors import CORSMiddleware
+
+        app.add_middleware(CORSMiddleware, allow_origins=list(allowed_origins),  # type: ignore[arg-type]
+                           allow_methods=["GET", "POST", "PUT"], allow_headers=["authorization", "content-type"])
+    app.add_middleware(GuardMiddleware, token=token, max_bytes=max_request_bytes,  # type: ignore[arg-type]
+                       allowed_origins=allowed_origins, allowed_hosts=allowed_hosts)
     return app
+
+
+def run_server(app: FastAPI, host: str, port: int, *, limits: ServerLimits | None = None,
+               log_level: str = "warning") -> None:
+    """Serve ``app`` on ``host:port`` until interrupted (``pfield serve``), with ``limits`` applied."""
+    import uvicorn
+
+    uvicorn.Server(uvicorn_config(app, limits or ServerLimits(), host=host, port=port,
+                                  log_level=log_level)).run()
 
 
 class ServerThread:
     """Run an app with uvicorn in a background thread (demo, benchmarks, in-process tests).
 
-    ``with ServerThread(app) as server: httpx.get(server.url + "/nodes")``; port 0 picks a free port.
+    ``with ServerThread(app) as server: httpx.get(server.url + "/nodes")``; port 0 picks a free port;
+    ``limits`` are the connection caps of ``pfield serve``.
     """
 
-    def __init__(self, app: FastAPI, host: str = "127.0.0.1", port: int = 0) -> None:
+    def __init__(self, app: FastAPI, host: str = "127.0.0.1", port: int = 0,
+                 limits: ServerLimits | None = None) -> None:
         import socket
 
         import uvicorn
@@ -323,8 +465,7 @@ class ServerThread:
         self._socket.bind((host, port))
         self.host, self.port = self._socket.getsockname()[:2]
         self.url = f"http://{self.host}:{self.port}"
-        config = uvicorn.Config(app, log_level="warning", lifespan="on")
-        self._server = uvicorn.Server(config)
+        self._server = uvicorn.Server(uvicorn_config(app, limits or ServerLimits(), log_level="warning"))
         self._thread: threading.Thread | None = None
 
     def start(self) -> ServerThread:

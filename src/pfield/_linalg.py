@@ -1,6 +1,10 @@
-"""A tiny compiled solver for the whole-body velocity QP (n ≤ ~10 variables, a few inequality rows).
+"""Dense linear algebra of the compiled kernels (numba): Cholesky factor and solve, and a tiny QP solver.
 
-Problem::
+The bottom layer next to :mod:`pfield._spatial_kernels`: the whole-body velocity QP
+(:mod:`pfield.planning._whole_body_kernel`) and the damped least-squares IK (:mod:`pfield.robot.ik`)
+both solve with these, on n ≤ ~10 variables, so plain loops beat LAPACK calls from compiled code.
+
+QP (:func:`hildreth`)::
 
     minimise   ½ xᵀ H x − cᵀ x      subject to   A x ≥ b        (H symmetric positive definite)
 
@@ -14,11 +18,12 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 
 @njit(cache=True)
-def cholesky_inplace(h, n):  # type: ignore[no-untyped-def]
+def cholesky_inplace(h: np.ndarray, n: int) -> None:
     """Lower Cholesky factor of the leading n×n block of ``h`` written into its lower triangle."""
     for j in range(n):
         s = h[j, j]
@@ -33,7 +38,7 @@ def cholesky_inplace(h, n):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def cholesky_solve(factor, rhs, out, n):  # type: ignore[no-untyped-def]
+def cholesky_solve(factor: np.ndarray, rhs: np.ndarray, out: np.ndarray, n: int) -> None:
     """Solve L Lᵀ x = rhs with the factor of :func:`cholesky_inplace`; x into ``out``."""
     for i in range(n):
         s = rhs[i]
@@ -48,7 +53,8 @@ def cholesky_solve(factor, rhs, out, n):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def hildreth(factor, x, rows, b, m, n, hinv_rows, mu, curvature, max_sweeps, tolerance):  # type: ignore[no-untyped-def]
+def hildreth(factor: np.ndarray, x: np.ndarray, rows: np.ndarray, b: np.ndarray, m: int, n: int, hinv_rows: np.ndarray,
+             mu: np.ndarray, curvature: np.ndarray, max_sweeps: int, tolerance: float) -> float:
     """Enforce ``rows[:m] @ x ≥ b[:m]`` on the unconstrained optimum ``x`` (updated in place).
 
     ``factor`` is the Cholesky factor of H; ``hinv_rows`` (m, n), ``mu`` and ``curvature`` (m,) are

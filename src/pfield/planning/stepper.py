@@ -1,0 +1,130 @@
+"""One step of the whole-body field, as a public API: :class:`WholeBodyStepper`.
+
+The whole-body planner integrates this step; shared control (:mod:`pfield.autonomy`) evaluates it once per
+control cycle at the robot's measured joints. The stepper packs the robot, the field's obstacles and a
+workspace once, and each :meth:`~WholeBodyStepper.step` is one compiled call: the joint velocities of the
+velocity QP (:mod:`pfield.planning._whole_body_kernel`), with link–obstacle and self pairs already closer
+than ``safety_distance`` at q not allowed to approach further.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from pfield._validation import as_vector, finite
+from pfield.errors import InvalidInput
+from pfield.planning import _whole_body_layout as _wb
+from pfield.planning._whole_body_flat import FlatStep, flat_step
+from pfield.planning.options import PlanOptions
+from pfield.planning.whole_body import WholeBodyOptions, kernel_parameters, make_scene, pack_robot
+from pfield.robot.model import RobotModel
+
+__all__ = ["WholeBodyStep", "WholeBodyStepper"]
+
+NOMINAL_DT = 0.01
+"""(s) the dampers' look-ahead when a step is asked for without a ``dt``."""
+_TWIST, _POSITION, _ORIENTATION = slice(*_wb.OUT_TWIST), slice(*_wb.OUT_POSITION), slice(*_wb.OUT_ORIENTATION)
+
+
+class WholeBodyStep:
+    """One evaluation of the whole-body field at joint angles q, read from the compiled step's row.
+
+    ``joint_velocities`` q̇ (rad/s or m/s, tree order); ``twist`` the end-effector twist J(q) q̇ (world
+    frame, linear then angular); ``position``/``orientation`` FK(q) (m; x, y, z, w); ``clearance`` the
+    smallest link-capsule clearance to an obstacle (m, ``inf`` without obstacles); ``result`` every named
+    value of the step (:class:`~pfield.planning._whole_body_layout.StepResult`). Arrays are views of the row.
+    """
+
+    __slots__ = ("_row",)
+
+    def __init__(self, row: NDArray[np.float64]) -> None:
+        self._row = row
+
+    @property
+    def joint_velocities(self) -> NDArray[np.float64]:
+        return self._row[_wb.OUT_SIZE:]
+
+    @property
+    def twist(self) -> NDArray[np.float64]:
+        return self._row[_TWIST]
+
+    @property
+    def position(self) -> NDArray[np.float64]:
+        return self._row[_POSITION]
+
+    @property
+    def orientation(self) -> NDArray[np.float64]:
+        return self._row[_ORIENTATION]
+
+    @property
+    def clearance(self) -> float:
+        return float(self._row[_wb.OUT_CLEARANCE])
+
+    @property
+    def result(self) -> _wb.StepResult:
+        return _wb.StepResult.of(self._row)
+
+
+class WholeBodyStepper:
+    """The whole-body field of ``field`` (goal, obstacles, parameters) for ``robot``, one step at a time."""
+
+    def __init__(self, field: Any, robot: RobotModel, options: WholeBodyOptions | None = None) -> None:
+        if field.goal is None:
+            raise InvalidInput("goal", None, "the field has no goal pose")
+        config = field.config
+        self.field, self.robot, self.options = field, robot, options or WholeBodyOptions()
+        arrays = pack_robot(robot, config, self.options)
+        scene = make_scene(field.arrays.packed, arrays)
+        self._params = kernel_parameters(config, PlanOptions(dt=NOMINAL_DT).resolved(config), self.options)
+        self._goal_p = np.array(field.goal.position, dtype=np.float64)
+        self._goal_q = np.array(field.goal.orientation, dtype=np.float64)
+        self._buffers = FlatStep(arrays, scene).buffers()
+        self._zeros = np.zeros(robot.n_joints)
+        self._last_dt, self._dt_params = -1.0, self._params
+
+    def step(self, q: ArrayLike, prev_joint_velocities: ArrayLike | None = None, dt: float = 0.0) -> WholeBodyStep:
+        """The field's joint velocities at ``q`` (validated against the robot's joints and limits).
+
+        ``prev_joint_velocities`` with ``dt`` > 0 (s) apply the joint acceleration limits
+        |q̇_j − q̇_prev,j| ≤ a_j·dt unless that would break an obstacle damper; ``dt`` also sets the
+        dampers' look-ahead (:data:`NOMINAL_DT` when 0).
+        """
+        values = self.robot.check_joint_angles(q, "joint_angles")
+        return WholeBodyStep(self.evaluate(values, prev_joint_velocities, dt))
+
+    def twist(self, q: ArrayLike, prev_joint_velocities: ArrayLike | None = None,
+              dt: float = 0.0) -> NDArray[np.float64]:
+        """The end-effector twist (6,) of :meth:`step` alone (the shared-control service's hot path)."""
+        values = self.robot.check_joint_angles(q, "joint_angles")
+        return self.evaluate(values, prev_joint_velocities, dt)[_TWIST]
+
+    def evaluate(self, q: NDArray[np.float64], previous: ArrayLike | None, dt: float) -> NDArray[np.float64]:
+        """The compiled step's raw row at already validated ``q``: ``STEP_OUT`` then q̇."""
+        step = dt if type(dt) is float else finite("delta_time", dt)
+        if not 0.0 <= step < math.inf:
+            raise InvalidInput("delta_time", dt, "must be a finite number >= 0 s")
+        n = self.robot.n_joints
+        velocities, has_prev = self._zeros, False
+        if previous is not None:
+            velocities = np.asarray(previous, dtype=np.float64)
+            if velocities.shape != (n,) or not np.isfinite(velocities).all():
+                if velocities.size == 0:
+                    velocities = self._zeros  # an empty list (the message default) means "no previous"
+                else:
+                    velocities = np.array(as_vector("prev_joint_velocities", previous, n))
+            has_prev = step > 0.0 and velocities is not self._zeros
+        return flat_step(q, velocities, has_prev, self._goal_p, self._goal_q, self._parameters(step), *self._buffers)
+
+    def _parameters(self, step: float) -> NDArray[np.float64]:
+        """The parameter vector for ``delta_time`` = ``step`` (cached: callers usually keep dt constant)."""
+        if step <= 0.0:
+            return self._params
+        if step != self._last_dt:
+            self._dt_params = self._params.copy()
+            self._dt_params[_wb.DT] = step
+            self._last_dt = step
+        return self._dt_params

@@ -1,0 +1,119 @@
+"""The uvicorn server of the HTTP transport with pfield's connection caps (``pfield serve`` and ServerThread).
+
+uvicorn bounds idle keep-alive connections (``timeout_keep_alive``) and the size of a request head
+(h11's ``max_incomplete_event_size``), but not the time a client may take to send a request head (a
+"slowloris" client holds its connection open by sending one header byte at a time) nor the number of open
+connections (``limit_concurrency`` counts only requests whose head has arrived). :func:`_guarded_protocol`
+adds both: a connection whose request head is not complete :attr:`ServerLimits.header_timeout` seconds after
+it opened (or after the previous answer) is closed, and a connection beyond
+:attr:`ServerLimits.max_connections` is answered 429 and closed at once.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from dataclasses import dataclass
+from typing import Any
+
+from pfield.transport._asgi import error_body
+
+__all__ = ["ServerLimits", "uvicorn_config"]
+
+
+@dataclass(frozen=True)
+class ServerLimits:
+    """Connection-level caps (each documented in docs/node.md)."""
+
+    max_connections: int = 200
+    """Open HTTP + WebSocket connections; one more is answered 429 and closed (a file descriptor each)."""
+    header_timeout: float = 10.0
+    """s a client may take to send a complete request head; then the connection is closed."""
+    keep_alive_timeout: int = 5
+    """s an idle keep-alive connection stays open between requests."""
+    max_header_bytes: int = 16_384
+    """Largest request head (request line + headers); a larger one is answered 400."""
+    ws_max_message_bytes: int = 1_000_000
+    """Largest WebSocket message a client may send (larger: the socket is closed with code 1009)."""
+
+    def __post_init__(self) -> None:
+        from pfield._validation import positive
+
+        for name in ("max_connections", "header_timeout", "keep_alive_timeout", "max_header_bytes",
+                     "ws_max_message_bytes"):
+            positive(name, getattr(self, name))
+
+
+def _guarded_protocol(server_limits: ServerLimits) -> type[asyncio.Protocol]:
+    """uvicorn's h11 protocol with a request-head timeout and a connection cap (see the module docstring)."""
+    import h11
+    from uvicorn.protocols.http.h11_impl import H11Protocol
+
+    class GuardedH11Protocol(H11Protocol):
+        limits = server_limits
+
+        def connection_made(self, transport: asyncio.Transport) -> None:  # type: ignore[override]
+            super().connection_made(transport)
+            self._head_timer: asyncio.TimerHandle | None = None
+            if len(self.connections) > self.limits.max_connections:
+                body = error_body(f"too many connections (at most {self.limits.max_connections}); retry later",
+                                  "connections")
+                transport.write(b"HTTP/1.1 429 Too Many Requests\r\ncontent-type: application/json\r\n"
+                                b"retry-after: 1\r\nconnection: close\r\ncontent-length: " + str(len(body)).encode()
+                                + b"\r\n\r\n" + body)
+                transport.close()
+                return
+            self._arm_head_timer()
+
+        def _arm_head_timer(self) -> None:
+            self._cancel_head_timer()
+            self._head_timer = self.loop.call_later(self.limits.header_timeout, self._head_timed_out)
+
+        def _cancel_head_timer(self) -> None:
+            timer = getattr(self, "_head_timer", None)
+            if timer is not None:
+                timer.cancel()
+                self._head_timer = None
+
+        def _head_timed_out(self) -> None:
+            self._head_timer = None
+            if self.conn.their_state is h11.IDLE and not self.transport.is_closing():
+                self.transport.close()
+
+        def data_received(self, data: bytes) -> None:
+            super().data_received(data)
+            if self.conn.their_state is not h11.IDLE:
+                self._cancel_head_timer()  # the head arrived; the request runs as long as it needs
+
+        def on_response_complete(self) -> None:
+            super().on_response_complete()
+            if not self.transport.is_closing():
+                self._arm_head_timer()
+
+        def send_400_response(self, msg: str) -> None:
+            """A request h11 cannot parse (malformed, head over the size cap): pfield's JSON error, then close."""
+            body = error_body(f"{msg} (malformed request, or a request head over "
+                              f"{self.limits.max_header_bytes} bytes)", "request")
+            headers = [(b"content-type", b"application/json"), (b"connection", b"close")]
+            try:
+                self.transport.write(self.conn.send(h11.Response(status_code=400, headers=headers)) or b"")
+                self.transport.write(self.conn.send(h11.Data(data=body)) or b"")
+                self.transport.write(self.conn.send(h11.EndOfMessage()) or b"")
+            except h11.LocalProtocolError:  # h11 cannot answer in this state: just close
+                pass
+            self.transport.close()
+
+        def connection_lost(self, exc: Exception | None) -> None:
+            self._cancel_head_timer()
+            super().connection_lost(exc)
+
+    return GuardedH11Protocol
+
+
+def uvicorn_config(app: Any, limits: ServerLimits, **options: Any) -> Any:
+    """A ``uvicorn.Config`` for ``app`` with ``limits`` applied (``options``: host, port, log_level ...)."""
+    import uvicorn
+
+    return uvicorn.Config(app, http=_guarded_protocol(limits), timeout_keep_alive=limits.keep_alive_timeout,
+                          h11_max_incomplete_event_size=limits.max_header_bytes,
+                          ws_max_size=limits.ws_max_message_bytes, proxy_headers=False, server_header=False,
+                          lifespan="on", **options)

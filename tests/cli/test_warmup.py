@@ -1,0 +1,120 @@
+"""``pfield warmup``, the first-compile notice, ``pfield.warmup.ready()`` and ``GET /health``."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import httpx
+import pytest
+from pfield_node_server import REPO, NodeServer
+
+from pfield import warmup
+
+
+def _python(code: str, cache: Path | None = None) -> subprocess.CompletedProcess[str]:
+    env = dict(os.environ)
+    if cache is not None:
+        env["NUMBA_CACHE_DIR"] = str(cache)
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=REPO,
+                          timeout=3000, check=False)
+
+
+WARMUP_COMMAND = """
+import sys
+from pfield.cli import app
+from pfield import warmup
+sys.argv = ["pfield", "warmup"]
+try:
+    app()
+except SystemExit as exit:
+    print("EXIT", exit.code)
+kernels = warmup.kernels()
+print("KERNELS", len(kernels))
+print("UNCOMPILED", sorted(name for name, kernel in kernels.items() if not kernel.signatures))
+print("SPECIALISATIONS", sorted((len(k.signatures), name) for name, k in kernels.items() if len(k.signatures) > 1))
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(1800)  # a cold compile: about 2 minutes of CPU, longer on a loaded machine
+def test_warmup_command_compiles_every_kernel_with_progress(tmp_path: Path) -> None:
+    """With an empty cache (every kernel compiles in this process), ``pfield warmup`` reports each area and the
+    total time, and afterwards every kernel of pfield has a compiled signature."""
+    done = _python(WARMUP_COMMAND, tmp_path / "numba-cache")
+    assert done.returncode == 0, done.stderr
+    lines = dict(line.split(" ", 1) for line in done.stdout.splitlines() if " " in line)
+    assert lines["EXIT"] in ("0", "None")
+    assert int(lines["KERNELS"]) > 80
+    assert lines["UNCOMPILED"] == "[]"
+    assert "compiling kernels" in done.stderr and f"{len(warmup.STEPS)}/{len(warmup.STEPS)}" in done.stderr
+    assert "warm-up done in" in done.stderr and "Traceback" not in done.stderr
+    assert "compiling numba kernels (first use" not in done.stderr  # warmup reports progress itself
+    # each kernel compiles once: every caller passes the same array types (see docs/node.md)
+    assert lines["SPECIALISATIONS"] == "[]", lines["SPECIALISATIONS"]
+
+
+def test_first_compile_says_so_once(tmp_path: Path) -> None:
+    code = "from pfield.spatial import quaternion_exp; quaternion_exp([0.0, 0.0, 0.1]); quaternion_exp([0.1, 0, 0])"
+    cache = tmp_path / "numba-cache"
+    first = _python(code, cache)
+    assert first.returncode == 0, first.stderr
+    assert first.stderr.count("compiling numba kernels (first use of pfield._spatial_kernels.batch_exp") == 1
+    assert "`pfield warmup` compiles them ahead of time" in first.stderr
+    cached = _python(code, cache)
+    assert cached.returncode == 0 and "compiling" not in cached.stderr
+
+
+READY = """
+import threading
+from pfield import warmup
+assert not warmup.ready()
+thread = warmup.start_background()
+assert warmup.start_background() is thread and thread.daemon
+reports = []
+others = [threading.Thread(target=lambda: reports.append(warmup.warm())) for _ in range(2)]
+for other in others:
+    other.start()
+thread.join()
+for other in others:
+    other.join()
+assert warmup.ready()
+assert reports[0] is reports[1] is warmup.warm(), "warm() runs once per process"
+assert not reports[0].failures, reports[0].failures
+assert list(reports[0].seconds) == [step.name for step in warmup.STEPS]
+print("OK")
+"""
+
+
+def test_ready_turns_true_once_and_warm_runs_once() -> None:
+    done = _python(READY)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "OK"
+
+
+def test_a_failing_step_is_reported_and_the_others_run() -> None:
+    ran: list[str] = []
+
+    def fail(_: Path) -> None:
+        raise RuntimeError("broken area")
+
+    steps = (warmup.WarmupStep("broken", fail), warmup.WarmupStep("fine", lambda _: ran.append("fine")))
+    progress: list[tuple[int, int, str]] = []
+    report = warmup.warm(lambda *args: progress.append(args), steps=steps)
+    assert report.failures == {"broken": "RuntimeError: broken area"}
+    assert ran == ["fine"] and list(report.seconds) == ["broken", "fine"]
+    assert progress == [(0, 2, "broken"), (1, 2, "fine"), (2, 2, "fine")]
+
+
+def test_health_says_ready_once_the_node_is_warm(node_server: NodeServer) -> None:
+    deadline = time.monotonic() + 1200
+    health = httpx.get(f"{node_server.url}/health").json()
+    assert health["ready"] in (True, False)
+    while not health["ready"]:
+        assert time.monotonic() < deadline, "the node never became ready"
+        time.sleep(0.5)
+        health = httpx.get(f"{node_server.url}/health").json()
+    assert "kernels ready" in node_server.log.read_text()

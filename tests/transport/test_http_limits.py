@@ -1,0 +1,215 @@
+"""Robustness and caps of the HTTP transport on a real uvicorn server (127.0.0.1) with small real nodes:
+a server fault keeps the connection, abandoned plans are cancelled, connection / queue / topic caps hold."""
+
+from __future__ import annotations
+
+import json
+import socket
+import threading
+import time
+from collections.abc import Iterator, Mapping
+from typing import Any
+
+import httpx
+import pytest
+from websockets.sync.client import connect
+
+from pfield.interfaces import geometry_msgs as gm
+from pfield.interfaces import std_srvs
+from pfield.node._base import Bus, Node, PublicationSpec, ServiceSpec, SubscriptionSpec
+from pfield.planning.cancel import CancelToken
+from pfield.transport.http import ServerLimits, ServerThread, create_app
+
+
+class FaultyNode(Node):
+    """A service that fails unexpectedly, a cancellable one that runs until cancelled, a publisher."""
+
+    name = "/faulty"
+
+    def __init__(self, bus: Bus) -> None:
+        super().__init__(bus)
+        self.cancelled = threading.Event()
+        self.running = threading.Event()
+        self.tokens: list[CancelToken] = []
+
+    def services(self) -> list[ServiceSpec]:
+        return [ServiceSpec("/faulty/boom", "std_srvs/srv/Trigger", std_srvs.Trigger_Request,
+                            std_srvs.Trigger_Response, self.boom),
+                ServiceSpec("/faulty/ok", "std_srvs/srv/Trigger", std_srvs.Trigger_Request,
+                            std_srvs.Trigger_Response, lambda _: std_srvs.Trigger_Response(success=True)),
+                ServiceSpec("/faulty/until_cancelled", "std_srvs/srv/Trigger", std_srvs.Trigger_Request,
+                            std_srvs.Trigger_Response, self.until_cancelled, long_running=True, cancellable=True)]
+
+    def subscriptions(self) -> list[SubscriptionSpec]:
+        return [SubscriptionSpec("/faulty/in", "geometry_msgs/msg/Vector3", gm.Vector3, self.on_in)]
+
+    def publications(self) -> list[PublicationSpec]:
+        return [PublicationSpec("/faulty/out", "geometry_msgs/msg/Vector3", gm.Vector3)]
+
+    def get_parameters(self) -> dict[str, Any]:
+        return {}
+
+    def set_parameters(self, values: Mapping[str, Any]) -> dict[str, Any]:
+        return {}
+
+    def boom(self, request: std_srvs.Trigger_Request) -> std_srvs.Trigger_Response:
+        raise RuntimeError("a bug in the node")
+
+    def on_in(self, message: gm.Vector3) -> None:
+        if message.x < 0:
+            raise ZeroDivisionError("a bug in a subscription handler")
+
+    def until_cancelled(self, request: std_srvs.Trigger_Request, cancel: CancelToken) -> std_srvs.Trigger_Response:
+        self.tokens.append(cancel)
+        self.running.set()
+        deadline = time.monotonic() + 120
+        while not cancel.cancelled and time.monotonic() < deadline:
+            time.sleep(0.01)
+        if cancel.cancelled:
+            self.cancelled.set()
+        return std_srvs.Trigger_Response(success=not cancel.cancelled, message="cancelled")
+
+
+@pytest.fixture(scope="module")
+def served() -> Iterator[tuple[FaultyNode, ServerThread]]:
+    node = FaultyNode(Bus())
+    limits = ServerLimits(max_connections=20, header_timeout=1.0)
+    with ServerThread(create_app([node], ws_queue_size=5, ws_queue_bytes=10_000), limits=limits) as server:
+        yield node, server
+
+
+def _raw_request(conn: socket.socket, method: str, path: str, body: bytes = b"") -> tuple[int, bytes]:
+    """Send one HTTP/1.1 request on ``conn`` (kept alive) and read its answer (status, body)."""
+    head = (f"{method} {path} HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n"
+            f"Content-Length: {len(body)}\r\n\r\n").encode()
+    conn.sendall(head + body)
+    data = b""
+    while b"\r\n\r\n" not in data:
+        chunk = conn.recv(65536)
+        assert chunk, "the server closed the connection"
+        data += chunk
+    header, _, rest = data.partition(b"\r\n\r\n")
+    length = int(next(line.split(b":")[1] for line in header.split(b"\r\n")
+                      if line.lower().startswith(b"content-length")))
+    while len(rest) < length:
+        chunk = conn.recv(65536)
+        assert chunk, "the server closed the connection"
+        rest += chunk
+    return int(header.split(b" ")[1]), rest[:length]
+
+
+def test_a_server_fault_answers_json_500_and_keeps_the_connection(served: tuple[FaultyNode, ServerThread]) -> None:
+    _, server = served
+    with socket.create_connection((server.host, server.port), timeout=30) as conn:
+        status, body = _raw_request(conn, "POST", "/srv/faulty/boom", b"{}")
+        assert status == 500
+        error = json.loads(body)
+        assert set(error) == {"error", "field", "value"} and "RuntimeError: a bug in the node" in error["error"]
+        assert _raw_request(conn, "POST", "/srv/faulty/ok", b"{}")[0] == 200  # the same connection still works
+        status, body = _raw_request(conn, "POST", "/topic/faulty/in", b'{"x": -1}')
+        assert status == 500 and "ZeroDivisionError" in json.loads(body)["error"]
+        assert _raw_request(conn, "GET", "/nodes")[0] == 200
+    with httpx.Client(base_url=server.url) as client:
+        assert client.post("/srv/faulty/boom", json={}).status_code == 500
+        assert client.post("/srv/faulty/ok", json={}).json()["success"] is True
+
+
+def test_a_call_is_cancelled_when_its_client_goes_away(served: tuple[FaultyNode, ServerThread]) -> None:
+    node, server = served
+    with pytest.raises(httpx.ReadTimeout):
+        httpx.post(f"{server.url}/srv/faulty/until_cancelled", json={}, timeout=httpx.Timeout(30, read=1.0))
+    assert node.running.is_set()
+    assert node.cancelled.wait(timeout=60)  # the client closed its connection: the handler's token was cancelled
+    assert node.tokens[-1].cancelled
+    assert httpx.post(f"{server.url}/srv/faulty/ok", json={}).json()["success"] is True
+
+
+def test_connections_beyond_the_cap_are_refused_with_429(served: tuple[FaultyNode, ServerThread]) -> None:
+    _, server = served
+    idle = [socket.create_connection((server.host, server.port), timeout=30) for _ in range(20)]
+    try:
+        with socket.create_connection((server.host, server.port), timeout=30) as extra:
+            answer = extra.recv(4096)
+            assert answer.startswith(b"HTTP/1.1 429 ")
+            assert json.loads(answer.partition(b"\r\n\r\n")[2])["field"] == "connections"
+    finally:
+        for conn in idle:
+            conn.close()
+    deadline = time.monotonic() + 30
+    while True:  # the closed sockets leave the server's table as it notices them
+        try:
+            if httpx.get(f"{server.url}/nodes", timeout=5).status_code == 200:
+                break
+        except httpx.TransportError:
+            pass
+        assert time.monotonic() < deadline
+        time.sleep(0.1)
+
+
+def test_half_sent_request_heads_are_closed(served: tuple[FaultyNode, ServerThread]) -> None:
+    _, server = served
+    with socket.create_connection((server.host, server.port), timeout=30) as slow:
+        slow.sendall(b"POST /srv/faulty/ok HTTP/1.1\r\nHost: 127.0.0.1\r\n")
+        assert slow.recv(100) == b""
+    with socket.create_connection((server.host, server.port), timeout=30) as keep:
+        assert _raw_request(keep, "GET", "/nodes")[0] == 200
+        keep.sendall(b"GET /nodes HTTP/1.1\r\n")  # a second head, never finished
+        assert keep.recv(100) == b""
+
+
+def test_a_websocket_that_never_reads_drops_the_oldest_and_counts(served: tuple[FaultyNode, ServerThread]) -> None:
+    node, server = served
+    with connect(server.url.replace("http", "ws") + "/ws/topic/faulty/out", open_timeout=10) as ws:
+        deadline = time.monotonic() + 30
+        while httpx.get(f"{server.url}/health").json()["websocket"]["connections"] < 1:
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+        big = gm.Vector3(x=1.0)
+        for i in range(20_000):
+            node.bus.publish("/faulty/out", big.model_copy(update={"y": float(i)}))
+        deadline = time.monotonic() + 30
+        while (health := httpx.get(f"{server.url}/health").json())["websocket"]["dropped_messages"] == 0:
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+        assert health["limits"]["ws_queue_messages"] == 5
+        last = None
+        while last is None or last["y"] != 19_999.0:  # the newest message always arrives
+            last = json.loads(ws.recv(timeout=30))
+
+
+def test_undeclared_topics_keep_a_bounded_number_of_latest_messages(served: tuple[FaultyNode, ServerThread]) -> None:
+    node, server = served
+    declared = {t["name"] for t in httpx.get(f"{server.url}/topics").json()}
+    with connect(server.url.replace("http", "ws") + "/ws/topic/junk/live", open_timeout=10) as live:
+        assert httpx.post(f"{server.url}/topic/junk/live", params={"type": "geometry_msgs/msg/Vector3"},
+                          json={"x": 5}).status_code == 200
+        assert json.loads(live.recv(timeout=30))["x"] == 5.0  # live listeners get every topic
+    for i in range(300):
+        answer = httpx.post(f"{server.url}/topic/junk/{i}", params={"type": "geometry_msgs/msg/Vector3"},
+                            json={"x": i})
+        assert answer.status_code == 200
+    listed = {t["name"] for t in httpx.get(f"{server.url}/topics").json()} - declared
+    assert listed == {f"/junk/{i}" for i in range(300 - node.bus.max_undeclared, 300)}
+    assert httpx.get(f"{server.url}/topic/junk/299").json()["x"] == 299.0
+    assert httpx.get(f"{server.url}/topic/junk/0").status_code == 404
+    httpx.post(f"{server.url}/topic/faulty/in", json={"x": 3})  # declared topics always keep their latest
+    for i in range(100):
+        httpx.post(f"{server.url}/topic/junk/more{i}", params={"type": "geometry_msgs/msg/Vector3"}, json={"x": i})
+    assert httpx.get(f"{server.url}/topic/faulty/in").json()["x"] == 3.0
+
+
+def test_health_reports_readiness_from_the_callable() -> None:
+    warm = threading.Event()
+    with ServerThread(create_app([FaultyNode(Bus())], ready=warm.is_set)) as server:
+        health = httpx.get(f"{server.url}/health").json()
+        assert health["ready"] is False and health["kernels"] == "compiling"
+        warm.set()
+        health = httpx.get(f"{server.url}/health").json()
+        assert health["ready"] is True and health["kernels"] == "warm" and health["nodes"] == ["/faulty"]
+
+
+def test_json_null_is_not_a_message_of_defaults(served: tuple[FaultyNode, ServerThread]) -> None:
+    _, server = served
+    for path in ("/topic/faulty/in", "/topic/other?type=geometry_msgs/msg/Vector3", "/srv/faulty/ok"):
+        answer = httpx.post(server.url + path, content=b"null", headers={"content-type": "application/json"})
+        assert answer.status_code == 400 and answer.json()["field"] == "body", answer.text

@@ -1,0 +1,72 @@
+"""Memory of a real ``pfield serve`` stays bounded under floods of legal input (RSS read from /proc):
+300 junk topic names of 300 kB messages each, and a WebSocket client that never reads."""
+
+from __future__ import annotations
+
+import base64
+import json
+import os
+import socket
+from collections.abc import Iterator
+
+import httpx
+import pytest
+from _serve import pfield_serve, rss_bytes
+
+SCAN = json.dumps({"ranges": [1.25] * 60_000}).encode()  # 300 kB of JSON, about 2 MB as a message
+CEILING = 150_000_000
+"""Growth of the node's RSS allowed under each flood (docs/node.md): 16 kept undeclared topics of 2 MB each,
+the WebSocket outbox cap (16 MB) and the allocator's slack. Without the caps the junk topics alone kept
+300 messages (over 600 MB)."""
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, int]]:
+    log = tmp_path_factory.mktemp("serve") / "serve.log"
+    with pfield_serve(log=log) as (url, process):
+        yield url, process.pid
+
+
+def _flood(url: str, names: range, prefix: str) -> None:
+    with httpx.Client(base_url=url, timeout=120, headers={"content-type": "application/json"}) as client:
+        for i in names:
+            answer = client.post(f"/topic/{prefix}/{i}", params={"type": "sensor_msgs/msg/LaserScan"}, content=SCAN)
+            assert answer.status_code == 200, answer.text
+
+
+def test_junk_topic_names_do_not_grow_memory_without_bound(served: tuple[str, int]) -> None:
+    url, pid = served
+    _flood(url, range(20), "warmup")  # the allocator's first arenas and the kept set are filled
+    before = rss_bytes(pid)
+    _flood(url, range(300), "junk")
+    grown = rss_bytes(pid) - before
+    assert grown < CEILING, f"RSS grew {grown / 1e6:.0f} MB under 300 junk topics"
+    kept = [t["name"] for t in httpx.get(f"{url}/topics").json() if t["name"].startswith("/junk/")]
+    assert len(kept) == 16
+
+
+def _never_reading_websocket(url: str, path: str) -> socket.socket:
+    """A WebSocket handshake on a raw socket (small receive buffer) that then never reads."""
+    host, port = url.removeprefix("http://").split(":")
+    raw = socket.create_connection((host, int(port)), timeout=30)
+    raw.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    key = base64.b64encode(os.urandom(16)).decode()
+    raw.sendall(f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n".encode())
+    assert raw.recv(12) == b"HTTP/1.1 101"
+    return raw
+
+
+def test_a_websocket_client_that_never_reads_costs_bounded_memory(served: tuple[str, int]) -> None:
+    url, pid = served
+    before = rss_bytes(pid)
+    with _never_reading_websocket(url, "/ws/topic/slow/reader"):
+        with httpx.Client(base_url=url, timeout=120, headers={"content-type": "application/json"}) as client:
+            for _ in range(300):  # 90 MB of JSON for a client that reads none of it
+                answer = client.post("/topic/slow/reader", params={"type": "sensor_msgs/msg/LaserScan"},
+                                     content=SCAN)
+                assert answer.status_code == 200
+            health = client.get("/health").json()
+        grown = rss_bytes(pid) - before
+        assert grown < CEILING, f"RSS grew {grown / 1e6:.0f} MB with a WebSocket client that never reads"
+        assert health["websocket"]["dropped_messages"] > 0
