@@ -1,8 +1,10 @@
 """Run every ``benchmarks/bench_*.py`` module and print one Markdown table per section.
 
-Usage: ``python -m benchmarks.run [--quick] [--only NAME ...]`` (``make bench``). Each module exposes
-``run(quick: bool) -> list[BenchRow]``. Results go to ``benchmarks/results/<module>.json``;
-``benchmarks/results/latest.md`` is rebuilt from all saved modules.
+Usage: ``python -m benchmarks.run [--quick] [--only NAME ...] [--out DIR]`` (``make bench``). Each module
+exposes ``run(quick: bool) -> list[BenchRow]``. A full run writes ``benchmarks/results/<module>.json`` (the
+tracked figures) and rebuilds ``benchmarks/results/latest.md`` from all saved modules. A partial run
+(``--only`` or ``--quick``) leaves those files alone: its JSON files and a ``latest.md`` of its own rows go
+to ``--out`` (default ``benchmarks/results/partial/``, not tracked).
 Reference figures: ``../shared/benchmarks/REFERENCE.md``.
 """
 
@@ -23,6 +25,8 @@ from benchmarks._common import BenchRow
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results"
+PARTIAL = "partial"
+"""Folder under :data:`RESULTS` of partial runs (ignored by git)."""
 
 
 def _fmt(value: float | None) -> str:
@@ -58,12 +62,16 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="fewer repetitions (smoke run)")
     parser.add_argument("--only", nargs="*", default=[], help="module names without bench_ prefix")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="where a partial run writes (default: benchmarks/results/partial)")
     args = parser.parse_args()
+    partial = bool(args.only or args.quick)
+    out = RESULTS if not partial and args.out is None else (args.out or RESULTS / PARTIAL)
     console = Console(width=None if sys.stdout.isatty() else 200)  # tables, not 80-column wraps, in logs
     modules = sorted(p.stem for p in HERE.glob("bench_*.py"))
     if args.only:
         modules = [m for m in modules if m.removeprefix("bench_") in args.only]
-    RESULTS.mkdir(exist_ok=True)
+    out.mkdir(parents=True, exist_ok=True)
     all_rows: list[BenchRow] = []
     with Progress(console=console, transient=True) as progress:
         task = progress.add_task("benchmarks", total=len(modules))
@@ -75,18 +83,18 @@ def main() -> None:
             payload = {"module": name, "seconds": time.perf_counter() - start, "machine": platform.processor()
                        or platform.machine(), "python": platform.python_version(),
                        "rows": [r.as_dict() for r in rows]}
-            (RESULTS / f"{name}.json").write_text(json.dumps(payload, indent=2))
+            (out / f"{name}.json").write_text(json.dumps(payload, indent=2))
             progress.advance(task)
     console.print(to_markdown(all_rows), markup=False, highlight=False)
-    # latest.md always covers every module: a partial run (--only, --quick) updates its own rows only.
-    (RESULTS / "latest.md").write_text(to_markdown(_saved_rows()))
+    # The tracked latest.md covers every module; a partial run's latest.md only its own rows.
+    (out / "latest.md").write_text(to_markdown(all_rows if partial else _saved_rows(out)))
 
 
-def _saved_rows() -> list[BenchRow]:
-    """Rows of every saved ``results/bench_*.json``, in module order."""
+def _saved_rows(folder: Path) -> list[BenchRow]:
+    """Rows of every saved ``bench_*.json`` in ``folder``, in module order."""
     fields = set(BenchRow.__dataclass_fields__)
     rows = []
-    for path in sorted(RESULTS.glob("bench_*.json")):
+    for path in sorted(folder.glob("bench_*.json")):
         for row in json.loads(path.read_text())["rows"]:
             rows.append(BenchRow(**{k: v for k, v in row.items() if k in fields}))
     return rows

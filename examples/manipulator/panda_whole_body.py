@@ -16,8 +16,9 @@ from pathlib import Path
 import numpy as np
 
 from pfield import RobotModel
-from pfield.demo.whole_body import PANDA_GOAL, PANDA_OBSTACLES, plan_panda_demo, save_arm_plot
+from pfield.demo.whole_body import PANDA_GOAL, PANDA_OBSTACLES, plan_panda_demo
 from pfield.robot.collision import CollisionChecker
+from pfield.viz import save_arm_plot
 
 
 def main() -> None:

@@ -2,8 +2,10 @@
 
 Run: ``python examples/mobile/assisted_teleop.py [--output-dir DIR] [--seconds S]``. What to look at: the
 printed table — the commanded speed never exceeds the operator's 0.5 m/s and falls to zero while the gap
-to the wall settles where the clamped repulsion equals the operator's speed (kr_dist + ln(kr_height/0.5)/kr_slope
-from the nearest sector point) — and the PNG of the speed and the gap over time, for both drive types.
+to the wall settles at 0.70 m, where the summed repulsion of the wall's scan points (the nearest return of
+each 5° sector) equals the operator's speed. One obstacle point alone would stop the robot at
+kr_dist + ln(kr_height/0.5)/kr_slope = 0.47 m; the neighbouring sectors of the wall push too, so it stops
+farther away. The PNG shows the speed and the gap over time, for both drive types.
 """
 
 from __future__ import annotations

@@ -34,11 +34,18 @@ def test_bad_values_name_the_field(name: str, value: object) -> None:
 @pytest.mark.parametrize(
     "name",
     [n for n in PARAM_NAMES if n not in ("rotational_attractive_gain", "repulsive_gain", "safety_distance",
-                                         "circulation_gain")],
+                                         "circulation_gain", "attractive_gain", "damper_gain")],
 )
 def test_zero_is_rejected_where_a_positive_value_is_needed(name: str) -> None:
-    with pytest.raises(InvalidInput, match=name):
+    with pytest.raises(InvalidInput, match=name) as info:
         FieldConfig(**{name: 0.0})
+    assert "must be > 0 (" in str(info.value)  # the message says why zero makes no sense
+
+
+@pytest.mark.parametrize("name", ["attractive_gain", "rotational_attractive_gain", "repulsive_gain",
+                                  "damper_gain", "circulation_gain"])
+def test_every_gain_may_be_zero(name: str) -> None:
+    assert getattr(FieldConfig(**{name: 0.0}), name) == 0.0
 
 
 def test_zero_repulsion_and_rotation_gains_are_allowed() -> None:

@@ -1,4 +1,4 @@
-"""Resource URIs resolve only inside configured packages and allowed roots."""
+"""Resource URIs: any file for the library's caller; only configured packages and allowed roots when confined."""
 
 from __future__ import annotations
 
@@ -97,9 +97,36 @@ def test_relative_paths_and_the_default_root(tree, monkeypatch):
     monkeypatch.chdir(tree / "root")
     resolver = ResourceResolver.default()
     assert resolver.resolve("sub/cube.obj") == tree / "root" / "sub" / "cube.obj"
-    with pytest.raises(ResourceNotAllowed):
-        resolver.resolve("../outside/cube.obj")
     assert Mesh("cube.obj").watertight  # Mesh uses the default resolver when none is given
+
+
+def test_the_library_reads_any_file_its_caller_names(tree, monkeypatch):
+    """The caller of the library is trusted: ``..``, absolute paths and file:// URIs all resolve."""
+    monkeypatch.chdir(tree / "root" / "sub")
+    outside = tree / "outside" / "cube.obj"
+    assert ResourceResolver.default().resolve("../../outside/cube.obj") == outside
+    for resource in ("../../outside/cube.obj", str(outside), f"file://{outside}", f"file://localhost{outside}",
+                     outside):
+        mesh = Mesh(resource)
+        assert mesh.source == str(outside) and mesh.watertight
+
+
+def test_relative_paths_follow_the_base_directory(tree, monkeypatch):
+    monkeypatch.chdir(tree / "outside")
+    resolver = ResourceResolver(base_directory=tree / "root" / "sub")
+    assert resolver.resolve("cube.obj") == tree / "root" / "sub" / "cube.obj"
+    assert resolver.resolve("../cube.obj") == tree / "root" / "cube.obj"
+
+
+def test_an_empty_root_list_allows_no_file(tree):
+    with pytest.raises(ResourceNotAllowed, match="none configured"):
+        ResourceResolver(allowed_roots=[]).resolve(str(tree / "root" / "cube.obj"))
+
+
+def test_other_schemes_stay_refused_by_the_default_resolver():
+    for uri in ("http://example.com/cube.obj", "file://remotehost/cube.obj"):
+        with pytest.raises(ResourceNotAllowed):
+            ResourceResolver.default().resolve(uri)
 
 
 @pytest.mark.parametrize("uri", ["", "   ", "package://", "package://my_robot_description", "package:///x.dae"])

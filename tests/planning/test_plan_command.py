@@ -54,3 +54,48 @@ def test_bad_scene_files_exit_with_2_naming_the_field(tmp_path: Path) -> None:
         assert name in result.output.replace("\n", ""), (text, result.output)
     assert not (tmp_path / "b.png").exists()
 
+
+
+def _plan_scene(tmp_path: Path, text: str, name: str = "scene.yaml") -> tuple[int, str]:
+    scene = tmp_path / name
+    scene.parent.mkdir(parents=True, exist_ok=True)
+    scene.write_text(text)
+    result = CliRunner().invoke(app, ["plan", "-s", str(scene), "-o", str(tmp_path / "u.png")])
+    return result.exit_code, " ".join(result.output.split())
+
+
+def test_unknown_scene_keys_are_refused_naming_the_known_ones(tmp_path: Path) -> None:
+    """A misspelled key used to be ignored, and the seed example planned instead (exit 0)."""
+    cases = {
+        "param: {attractive_gain: 1.0}": ("param", "known: obstacles, start, goal, params, delta_time"),
+        "strat: {position: {x: 0.3}}": ("strat", "known: obstacles, start, goal"),
+        "params: {atractive_gain: 1.0}": ("params.atractive_gain", "attractive_gain"),
+        "goal: {positon: {x: 0.3}}": ("goal.positon", "known: position, orientation"),
+        "goal: {position: {x: 0.3, w: 1}}": ("goal.position.w", "known: x, y, z"),
+        "obstacles: [{frame_id: b, type: Sphere, radus: 0.1}]": ("obstacles[0].radus", "known: frame_id, type"),
+        "obstacles: [{frame_id: b, type: Sphere, radius: 0.1, pose: {orientaton: {w: 1}}}]":
+            ("obstacles[0].pose.orientaton", "known: position, orientation"),
+    }
+    for text, (field, known) in cases.items():
+        code, output = _plan_scene(tmp_path, text)
+        assert code == 2, (text, output)
+        assert field in output and known in output, (text, output)
+    assert not (tmp_path / "u.png").exists()
+
+
+def test_relative_mesh_paths_are_relative_to_the_scene_file(tmp_path: Path, monkeypatch) -> None:
+    import shutil
+
+    (tmp_path / "models").mkdir()
+    shutil.copy(REPO / "tests" / "data" / "meshes" / "unit_cube.obj", tmp_path / "models" / "wedge.obj")
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    text = ("obstacles: [{frame_id: m, type: Mesh, mesh_resource: ../models/wedge.obj, scale_x: 0.1, "
+            "scale_y: 0.1, scale_z: 0.1, pose: {position: {x: 0.5, y: 0.4, z: 0.3}, orientation: {w: 1}}}]\n"
+            "start: {position: {x: 0.3, y: 0.0, z: 0.3}, orientation: {w: 1.0}}\n"
+            "goal: {position: {x: 0.4, y: 0.0, z: 0.3}, orientation: {w: 1.0}}\n")
+    code, output = _plan_scene(tmp_path, text, "scenes/scene.yaml")
+    assert code == 0, output
+    (tmp_path / "sub").mkdir()
+    code, output = _plan_scene(tmp_path, text.replace("../models/wedge.obj", "wedge.obj"), "sub/scene.yaml")
+    assert code == 2 and "no such file" in output and str(tmp_path / "sub" / "wedge.obj") in output, output

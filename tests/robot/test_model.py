@@ -183,3 +183,42 @@ def test_mesh_uris_go_through_the_obstacle_resolver(tmp_path: Path) -> None:
         "</robot>")
     with pytest.raises(errors.ResourceNotAllowed):
         RobotModel.from_urdf(outside, end_effector="tool")
+
+
+def test_named_configurations_come_from_the_srdf_group_states() -> None:
+    """MoveIt-style named targets: the SRDF's group states, plus the Panda's ``ready`` alias."""
+    from pfield.robot import RobotModel
+
+    panda = RobotModel.builtin("panda")
+    ready = (0.0, -0.785398, 0.0, -2.35619, 0.0, 1.5707, 0.785398)  # panda.srdf, group state "default"
+    np.testing.assert_array_equal(panda.named_configuration("ready"), ready)
+    np.testing.assert_array_equal(panda.named_configuration("default"), ready)
+    assert sorted(panda.named_configurations()) == ["default", "ready"]
+    xarm = RobotModel.builtin("xarm7")
+    np.testing.assert_array_equal(xarm.named_configuration("hold-up"), (0, 0, 0, 0, 0, -1.5708, 0))
+    np.testing.assert_array_equal(xarm.named_configuration("home"), np.zeros(7))
+    with pytest.raises(errors.InvalidInput, match="known: hold-up, home") as info:
+        xarm.named_configuration("ready")
+    assert info.value.field == "name"
+
+
+def test_named_configurations_of_a_urdf_with_an_srdf(tmp_path) -> None:
+    from pfield.robot import RobotModel
+    from pfield.robot.catalog import example_robot_data_root
+
+    root = example_robot_data_root()
+    srdf = tmp_path / "arm.srdf"
+    srdf.write_text(
+        '<robot name="xarm7"><group_state name="bent" group="xarm7">'
+        + "".join(f'<joint name="joint{i}" value="{0.1 * i}"/>' for i in range(1, 8))
+        + '</group_state><group_state name="partial" group="wrist"><joint name="joint7" value="1"/></group_state>'
+        + '<group_state name="odd" group="xarm7"><joint name="joint1" value="x"/></group_state></robot>')
+    robot = RobotModel.from_urdf(root / "robots/xarm_description/urdf/xarm7.urdf", "link_eef",
+                                 {"example-robot-data": root}, srdf=srdf)
+    assert list(robot.named_configurations()) == ["bent"]  # states of other groups / bad values are skipped
+    np.testing.assert_allclose(robot.named_configuration("bent"), 0.1 * np.arange(1, 8))
+    no_srdf = RobotModel.from_urdf(root / "robots/xarm_description/urdf/xarm7.urdf", "link_eef",
+                                   {"example-robot-data": root})
+    assert no_srdf.named_configurations() == {}
+    with pytest.raises(errors.InvalidInput, match="known: none"):
+        no_srdf.named_configuration("home")

@@ -15,5 +15,11 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Run the built-in demo: plans, plots and a scripted node session, on built-in defaults."""
         from pfield.demo import run_demo
+        from pfield.errors import InvalidInput
 
-        raise typer.Exit(run_demo(output_dir, only))
+        try:
+            code = run_demo(output_dir, only)
+        except InvalidInput as exc:
+            typer.echo(f"error: {exc}", err=True)
+            raise typer.Exit(2) from None
+        raise typer.Exit(code)

@@ -1,6 +1,6 @@
 """``pfield plan``: a task-space plan in the built-in seed scene or a scene YAML, written as a PNG (and CSV).
 
-Scene file (YAML; every key optional, the seed's example fills what is missing)::
+Scene file (YAML mapping; the schema is documented in docs/field.md, "Scene files")::
 
     obstacles:        # potential_fields_interfaces/msg/Obstacle entries, the seed's fields
       - {frame_id: ball, type: Sphere, group: Static, radius: 0.1,
@@ -12,8 +12,10 @@ Scene file (YAML; every key optional, the seed's example fills what is missing):
     goal_tolerance: 0.01
     max_iterations: 25000
 
-Obstacles without a ``group`` are ``Static``. Mesh resources may be plain or ``file://`` paths inside the
-scene file's folder or the current folder.
+Every key is optional (the seed's example fills what is missing; without ``obstacles`` there are none);
+an unknown key at any level is refused naming the known ones. Obstacles without a ``group`` are
+``Static``. Relative mesh paths are relative to the scene file's folder; absolute paths, ``file://`` and
+``package://`` URIs (through the ament index) work too.
 """
 
 from __future__ import annotations
@@ -31,6 +33,10 @@ from pfield.errors import InvalidInput, PfieldError
 __all__ = ["load_scene", "register"]
 
 
+SCENE_KEYS = ("obstacles", "start", "goal", "params", "delta_time", "goal_tolerance", "max_iterations")
+"""The top-level keys of a scene file."""
+
+
 def _mapping(data: Any, name: str) -> dict[str, Any]:
     if data is None:
         return {}
@@ -40,7 +46,12 @@ def _mapping(data: Any, name: str) -> dict[str, Any]:
 
 
 def load_scene(path: Path | None, mesh_directory: Path) -> dict[str, Any]:
-    """Obstacles, start, goal, FieldConfig and planning arguments of a scene file (None: the seed scene)."""
+    """Obstacles, start, goal, FieldConfig and planning arguments of a scene file (None: the seed scene).
+
+    ``mesh_directory`` receives the seed scene's mesh. Raises ``InvalidInput`` naming the key for an unknown
+    key (listing the known ones), a bad value or an unreadable file; relative mesh paths are resolved
+    against the scene file's folder.
+    """
     from pfield.field import FieldConfig
     from pfield.geometry import Mesh, ResourceResolver
     from pfield.interfaces import geometry_msgs as gm
@@ -56,7 +67,10 @@ def load_scene(path: Path | None, mesh_directory: Path) -> dict[str, Any]:
         data = _mapping(yaml.safe_load(path.read_text()), "scene")
     except (OSError, yaml.YAMLError) as exc:
         raise InvalidInput("scene", str(path), f"cannot read the scene file ({exc})") from None
-    resolver = ResourceResolver(allowed_roots=(path.resolve().parent, Path.cwd()))
+    for key in data:
+        if key not in SCENE_KEYS:
+            raise InvalidInput(str(key), data[key], f"unknown scene key in {path}; known: {', '.join(SCENE_KEYS)}")
+    resolver = ResourceResolver(base_directory=path.resolve().parent)
 
     def make_mesh(resource: str, sx: float, sy: float, sz: float) -> Mesh:
         return Mesh(resource, sx, sy, sz, resolver=resolver)
@@ -65,18 +79,33 @@ def load_scene(path: Path | None, mesh_directory: Path) -> dict[str, Any]:
     if not isinstance(entries, list):
         raise InvalidInput("obstacles", entries, "expected a list of Obstacle messages")
     scene["obstacles"] = [
-        obstacle_from_msg(message_from_data(ObstacleMsg, {"group": "Static"} | _mapping(entry, f"obstacles[{i}]")),
+        obstacle_from_msg(_obstacle_message(message_from_data, ObstacleMsg, entry, f"obstacles[{i}]"),
                           make_mesh, f"obstacles[{i}]")
         for i, entry in enumerate(entries)
     ]
     for key in ("start", "goal"):
         if key in data:
-            scene[key] = pose_from_msg(message_from_data(gm.Pose, data[key]), key)
-    scene["config"] = FieldConfig().replace(**_mapping(data.get("params"), "params"))
+            scene[key] = pose_from_msg(_prefixed(key, message_from_data, gm.Pose, data[key]), key)
+    params = _mapping(data.get("params"), "params")
+    scene["config"] = _prefixed("params", FieldConfig().replace, **params)
     for key, name in (("delta_time", "dt"), ("goal_tolerance", "goal_tolerance"), ("max_iterations", "max_iterations")):
         if key in data:
             scene[name] = data[key]
     return scene
+
+
+def _prefixed(prefix: str, call: Any, *args: Any, **kwargs: Any) -> Any:
+    """``call(...)``, with the field of an ``InvalidInput`` it raises placed under ``prefix``."""
+    from pfield.interfaces.convert import prefixed
+
+    try:
+        return call(*args, **kwargs)
+    except InvalidInput as exc:
+        raise prefixed(exc, prefix) from None
+
+
+def _obstacle_message(parse: Any, model: Any, entry: Any, where: str) -> Any:
+    return _prefixed(where, parse, model, {"group": "Static"} | _mapping(entry, where))
 
 
 def _plan(scene_file: Path | None, output: Path, csv: Path | None, console: Console) -> int:

@@ -22,6 +22,7 @@ import yaml
 
 import pfield.interfaces.all  # noqa: F401 - registers every message type
 from pfield._validation import positive
+from pfield.cli._message_view import MessageView, format_yaml, outcome_line
 from pfield.errors import PfieldError
 from pfield.interfaces import interface_text, lookup_service, lookup_type, message_from_yaml, registered_types
 from pfield.interfaces._base import registered_services
@@ -33,6 +34,9 @@ __all__ = ["register"]
 Url = Annotated[str, typer.Option(envvar="PFIELD_URL", help="server address")]
 Token = Annotated[str | None, typer.Option(envvar="PFIELD_TOKEN", help="bearer token of the server")]
 ShowTypes = Annotated[bool, typer.Option("--show-types", "-t", help="also print each type")]
+FieldOption = Annotated[str | None, typer.Option("--field", help="print only this field (dotted path, e.g. "
+                                                 "pose.position; an integer indexes an array)")]
+NoArrOption = Annotated[bool, typer.Option("--no-arr", help="show arrays as '<sequence type: T, length: N>'")]
 
 topic_app = typer.Typer(help="Publish, echo and list topics.", no_args_is_help=True)
 service_app = typer.Typer(help="Call and list services.", no_args_is_help=True)
@@ -148,15 +152,21 @@ def topic_pub(topic: str, type_name: Annotated[str, typer.Argument(metavar="TYPE
 @topic_app.command("echo")
 def topic_echo(topic: str, type_name: Annotated[str | None, typer.Argument(metavar="[TYPE]")] = None,
                once: Annotated[bool, typer.Option("--once", help="print one message and exit")] = False,
-               timeout: TimeoutOption = None,
+               timeout: TimeoutOption = None, field: FieldOption = None, no_arr: NoArrOption = False,
                url: Url = DEFAULT_URL, token: Token = None) -> None:
     """Print the messages of a topic as YAML (the latest one first), separated by ``---``."""
     from websockets.exceptions import WebSocketException
 
+    view = MessageView(_local(lookup_type, type_name).ros_type if type_name else None)
+    if type_name is None and (field or no_arr):  # the array types come from the topic's type
+        with _client(url, token) as client:
+            listed = {t["name"]: t["type"] for t in _request(client, "GET", "/topics")}
+        known = listed.get("/" + topic.lstrip("/"))
+        view = MessageView(known if known in registered_types() else None)
     try:
         with _topic_socket(topic, url, token) as socket:
             for text in _messages(socket, topic, timeout):
-                _print_yaml(json.loads(text))
+                typer.echo(format_yaml(_local(view.show, json.loads(text), field, no_arr)))
                 typer.echo("---")
                 if once:
                     return
@@ -183,8 +193,13 @@ def topic_list(show_types: ShowTypes = False, url: Url = DEFAULT_URL, token: Tok
 @service_app.command("call")
 def service_call(service: str, type_name: Annotated[str, typer.Argument(metavar="TYPE")],
                  values: Annotated[str, typer.Argument(metavar="YAML")] = "",
+                 field: FieldOption = None, no_arr: NoArrOption = False,
                  url: Url = DEFAULT_URL, token: Token = None) -> None:
-    """Call a service with a request given as YAML; print the response as YAML."""
+    """Call a service with a request given as YAML; print the response as YAML (stdout).
+
+    A response with a ``success`` field is followed by one line on stderr, ``success: false
+    (error_message: ...)``, so the outcome of a long answer is the last line on the terminal.
+    """
     service_type = _local(lookup_service, type_name)
     request = _local(message_from_yaml, service_type.request, values)
     name = "/" + service.lstrip("/")
@@ -194,8 +209,13 @@ def service_call(service: str, type_name: Annotated[str, typer.Argument(metavar=
             _fail(f"{name} is a {served[name]} service, not {type_name}")
         typer.echo(f"requester: making request: {service_type.request.ros_type}", err=True)
         response = _request(client, "POST", f"/srv{name}", request.model_dump_json())
-    typer.echo("response:")
-    _print_yaml(response)
+    shown = _local(MessageView(service_type.response.ros_type).show, response, field, no_arr)
+    if not field:
+        typer.echo("response:")
+    typer.echo(format_yaml(shown))
+    outcome = outcome_line(response)
+    if outcome is not None:
+        typer.echo(outcome, err=True)
 
 
 @service_app.command("list")

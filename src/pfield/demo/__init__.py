@@ -17,7 +17,15 @@ SECTIONS = ("manipulator", "whole_body", "assisted", "node_session", "mobile", "
 
 
 def run_demo(out_dir: Path, only: list[str] | None = None) -> int:
-    """Run the demo sections in order; return a process exit code (0 when all succeeded)."""
+    """Run the demo sections in order; return a process exit code (0 when all succeeded).
+
+    ``only`` names the sections to run; an unknown name raises ``InvalidInput`` listing the known ones.
+    """
+    from pfield.errors import InvalidInput
+
+    for name in only or []:
+        if name not in SECTIONS:
+            raise InvalidInput("--only", name, f"unknown demo section; known: {', '.join(SECTIONS)}")
     # Rich falls back to 80 columns when output is not a terminal (make, CI logs); tables need more.
     console = Console(width=None if sys.stdout.isatty() else 120)
     out_dir.mkdir(parents=True, exist_ok=True)

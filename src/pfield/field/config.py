@@ -22,34 +22,37 @@ from pfield.errors import InvalidInput
 
 __all__ = ["FieldConfig"]
 
-# Fields that must be > 0; every other field must be >= 0 (checked in ``__post_init__``).
-_POSITIVE = (
-    "attractive_gain",
-    "max_linear_velocity",
-    "max_angular_velocity",
-    "max_linear_acceleration",
-    "max_angular_acceleration",
-    "influence_distance",
-    "attractive_threshold",
-    "rotation_tolerance",
-    "max_repulsive_force",
-    "damper_gain",
-    "stagnation_window",
-    "stagnation_progress",
-)
+# Fields that must be > 0, with the reason zero makes no sense; every other field must be >= 0. The
+# gains (attractive, rotational, repulsive, damper, circulation) may be 0: a zero gain switches its term
+# off (attractive_gain 0 is the "repulsive only" field of the seed's plots).
+_POSITIVE = {
+    "max_linear_velocity": "a speed limit of 0 would forbid all motion",
+    "max_angular_velocity": "a speed limit of 0 would forbid all rotation",
+    "max_linear_acceleration": "an acceleration limit of 0 would keep the twist at its first value",
+    "max_angular_acceleration": "an acceleration limit of 0 would keep the twist at its first value",
+    "influence_distance": "it is the reach of the repulsion; switch repulsion off with repulsive_gain 0",
+    "attractive_threshold": "a zero threshold makes the attraction conical everywhere, which chatters at "
+                            "the goal; switch attraction off with attractive_gain 0",
+    "rotation_tolerance": "a rotation is never exactly reached in floating point",
+    "max_repulsive_force": "it is the repulsion's saturation bound (divides m/F_cap); switch repulsion off "
+                           "with repulsive_gain 0",
+    "stagnation_window": "a window of 0 s would report stagnation at once",
+    "stagnation_progress": "every step would count as progress, so stagnation could never be reported",
+}
 
 
 @dataclass(frozen=True)
 class FieldConfig:
     """Gains, limits and avoidance parameters of :class:`~pfield.field.PotentialField` (SI units).
 
-    Every field is a ROS parameter of ``/pfield_manager`` with the same name. Invalid values (NaN, inf,
-    negative, zero where a positive value is needed, inconsistent distances, non-numbers) raise
+    Every field is a ROS parameter of ``/pfield_manager`` with the same name. Gains may be 0 (the term is
+    off); speed and acceleration limits, distances, tolerances and the stagnation test must be > 0. Invalid
+    values (NaN, inf, negative, zero where a positive value is needed, inconsistent distances, non-numbers) raise
     :class:`~pfield.errors.InvalidInput` naming the field; the object is never half-built.
     """
 
     attractive_gain: float = 3.0
-    """k_att (1/s): attraction F = −k_att (p − p_goal) within ``attractive_threshold``."""
+    """k_att (1/s): attraction F = −k_att (p − p_goal) within ``attractive_threshold``; 0 switches it off."""
     rotational_attractive_gain: float = 0.15
     """k_rot (1/s): torque τ = k_rot · log(q_goal ⊗ q⁻¹), the world-frame rotation error."""
     repulsive_gain: float = 0.3
@@ -73,7 +76,8 @@ class FieldConfig:
     safety_distance: float = 0.01
     """d_s (m): the velocity dampers stop any approach at distance d_s (must be < ``influence_distance``)."""
     damper_gain: float = 1.0
-    """ξ (−): approach speed toward an obstacle ≤ ξ·v_max·(d − d_s)/(Q − d_s) (NEO velocity damper)."""
+    """ξ (−): approach speed toward an obstacle ≤ ξ·v_max·(d − d_s)/(Q − d_s) (NEO velocity damper); 0 allows
+    no approach at all within Q."""
     circulation_gain: float = 1.0
     """κ (−): weight of the consistent circulation direction n × c when a damper redirects motion."""
     stagnation_window: float = 10.0
@@ -86,7 +90,7 @@ class FieldConfig:
             value = getattr(self, spec.name)
             number = finite(spec.name, value)
             if spec.name in _POSITIVE and number <= 0.0:
-                raise InvalidInput(spec.name, value, "must be > 0")
+                raise InvalidInput(spec.name, value, f"must be > 0 ({_POSITIVE[spec.name]})")
             if number < 0.0:
                 raise InvalidInput(spec.name, value, "must be >= 0")
             object.__setattr__(self, spec.name, number)

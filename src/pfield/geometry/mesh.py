@@ -1,9 +1,10 @@
 """Triangle-mesh obstacles: loading (.obj, .stl, .dae), scaling, caching and distance preprocessing.
 
 A :class:`Mesh` is always loaded and valid: its constructor resolves ``mesh_resource`` through a
-:class:`~pfield.geometry.resources.ResourceResolver` (the default one allows files under the current
-directory only), reads the file with trimesh (pycollada for COLLADA), applies ``scale_x/y/z`` and builds
-the BVH and pseudo-normals the compiled distance query needs. Bad input raises before any Mesh exists.
+:class:`~pfield.geometry.resources.ResourceResolver` (the default one reads any local file the caller
+names: a path relative to the current directory, an absolute path or a ``file://`` URI), reads the file
+with trimesh (pycollada for COLLADA), applies ``scale_x/y/z`` and builds the BVH and pseudo-normals the compiled
+distance query needs. Bad input raises before any Mesh exists.
 
 Files are cached by (resolved path, modification time); prepared meshes additionally by scale.
 Distances are signed only for watertight meshes (every edge shared by exactly two consistently
@@ -14,6 +15,7 @@ from __future__ import annotations
 
 import functools
 import logging
+import os
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -164,9 +166,11 @@ def _prepared_file(path: str, mtime_ns: int, scale: tuple[float, float, float]) 
 class Mesh:
     """A triangle-mesh shape: ``mesh_resource`` URI and per-axis ``scale_x/y/z`` (> 0), loaded on construction.
 
+    ``Mesh("../models/wedge.obj")``, ``Mesh("/abs/wedge.stl")``, ``Mesh("file:///abs/wedge.stl")`` or
     ``Mesh("package://my_robot_description/meshes/obstacle.dae", resolver=ResourceResolver(
-    package_paths={"my_robot_description": Path("…")}))``. Vertices are in the obstacle's local frame,
-    multiplied by the scales. ``data`` holds the prepared arrays (:class:`MeshData`); equality compares
+    package_paths={"my_robot_description": Path("…")}))``; a ``pathlib.Path`` is taken as its text.
+    Vertices are in the obstacle's local frame, multiplied by the scales. ``data`` holds the prepared arrays
+    (:class:`MeshData`); equality compares
     the URI, the scales and the resolved source.
     """
 
@@ -178,9 +182,11 @@ class Mesh:
     source: str = field(repr=False)
     type_name: ClassVar[str] = "Mesh"
 
-    def __init__(self, mesh_resource: str, scale_x: float = 1.0, scale_y: float = 1.0, scale_z: float = 1.0,
-                 *, resolver: ResourceResolver | None = None) -> None:
+    def __init__(self, mesh_resource: str | os.PathLike[str], scale_x: float = 1.0, scale_y: float = 1.0,
+                 scale_z: float = 1.0, *, resolver: ResourceResolver | None = None) -> None:
         scale = _scales((scale_x, scale_y, scale_z))
+        if isinstance(mesh_resource, os.PathLike):
+            mesh_resource = os.fspath(mesh_resource)
         path = (resolver or ResourceResolver.default()).resolve(mesh_resource)
         try:
             read_mesh_file(path)  # validates suffix, emptiness and content with clear errors

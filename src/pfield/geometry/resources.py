@@ -1,15 +1,18 @@
-"""Resolution of resource URIs (meshes, URDF files) to files, confined to allowed places.
+"""Resolution of resource URIs (meshes, URDF files) to files, optionally confined to allowed places.
 
 Accepted forms:
 
 * ``package://<pkg>/<relative path>`` — through the configured ``package_paths`` (``{pkg: directory}``),
   then through the ament index: ``<prefix>/share/<pkg>`` for each prefix of ``AMENT_PREFIX_PATH``;
-* ``file:///abs/path`` and plain paths (relative to the current directory) — only when the resolved
-  path (symlinks and ``..`` resolved) lies inside one of ``allowed_roots``.
+* ``file:///abs/path``, ``file://localhost/abs/path`` and plain paths (relative to ``base_directory``,
+  by default the current directory).
 
-A ``package://`` file must stay inside its package directory. Anything else (other schemes, files
-outside the roots, escapes through ``..`` or symlinks) raises :class:`~pfield.errors.ResourceNotAllowed`;
-a missing package or file raises :class:`~pfield.errors.ResourceNotFound` saying what to configure.
+Whoever calls the library is trusted: by default (``allowed_roots=None``) any local file the caller names
+is read. A resolver serving untrusted clients — the node, whose messages come from the network — is given
+``allowed_roots``: then ``file://`` URIs and plain paths must resolve (symlinks and ``..`` resolved) inside
+one of them. A ``package://`` file must always stay inside its package directory. Other schemes, files
+outside the roots and escapes raise :class:`~pfield.errors.ResourceNotAllowed`; a missing package or file
+raises :class:`~pfield.errors.ResourceNotFound` saying what to configure.
 """
 
 from __future__ import annotations
@@ -33,16 +36,19 @@ def _inside(path: Path, root: Path) -> bool:
 
 @dataclass(frozen=True)
 class ResourceResolver:
-    """Maps resource URIs to existing files inside allowed places (see the module docstring).
+    """Maps resource URIs to existing files (see the module docstring).
 
-    ``package_paths`` maps ROS package names to their directories; ``allowed_roots`` are the directories
-    ``file://`` URIs and plain paths may point into. ``use_ament`` also looks packages up under
-    ``AMENT_PREFIX_PATH``. The default resolver (:meth:`default`) allows the current working directory only.
+    ``package_paths`` maps ROS package names to their directories. ``allowed_roots`` are the directories
+    ``file://`` URIs and plain paths may point into; ``None`` (the default) allows every local file, an empty
+    sequence none. ``base_directory`` anchors relative paths (``None``: the current directory when
+    resolving; a scene file's folder for its meshes). ``use_ament`` also looks packages up under
+    ``AMENT_PREFIX_PATH``.
     """
 
     package_paths: Mapping[str, Path] = field(default_factory=dict)
-    allowed_roots: Sequence[Path] = ()
+    allowed_roots: Sequence[Path] | None = None
     use_ament: bool = True
+    base_directory: Path | None = None
 
     def __post_init__(self) -> None:
         packages: dict[str, Path] = {}
@@ -50,14 +56,18 @@ class ResourceResolver:
             if not name or "/" in name:
                 raise InvalidInput("package_paths", name, "package names are non-empty and contain no '/'")
             packages[name] = Path(directory).expanduser().resolve()
-        roots = tuple(Path(root).expanduser().resolve() for root in self.allowed_roots)
+        if self.allowed_roots is not None:
+            roots = tuple(Path(root).expanduser().resolve() for root in self.allowed_roots)
+            object.__setattr__(self, "allowed_roots", roots)
+        if self.base_directory is not None:
+            object.__setattr__(self, "base_directory", Path(self.base_directory).expanduser().resolve())
         object.__setattr__(self, "package_paths", packages)
-        object.__setattr__(self, "allowed_roots", roots)
 
     @classmethod
     def default(cls) -> ResourceResolver:
-        """No package paths (except the ament index) and the current working directory as the only root."""
-        return cls(allowed_roots=(Path.cwd(),))
+        """The library's resolver: any local file (relative to the current directory), ``package://``
+        through the ament index."""
+        return cls()
 
     def resolve(self, uri: str) -> Path:
         """The existing file ``uri`` names (absolute, symlinks resolved).
@@ -80,12 +90,12 @@ class ResourceResolver:
         return self._resolve_file(uri, Path(uri).expanduser())
 
     def _resolve_file(self, uri: str, path: Path) -> Path:
-        resolved = (Path.cwd() / path).resolve()
-        if not any(_inside(resolved, root) for root in self.allowed_roots):
+        resolved = ((self.base_directory or Path.cwd()) / path).resolve()
+        if self.allowed_roots is not None and not any(_inside(resolved, root) for root in self.allowed_roots):
             roots = ", ".join(str(root) for root in self.allowed_roots) or "none configured"
             raise ResourceNotAllowed(
                 f"{uri!r} resolves to {resolved}, outside the allowed roots ({roots}); "
-                "add its directory as an allowed root (e.g. --mesh-root DIR) or use package://"
+                "add its directory as an allowed root (pfield serve --mesh-root DIR) or use package://"
             )
         return _existing(uri, resolved)
 

@@ -1,7 +1,8 @@
 """Pydantic models mirroring the ROS 2 messages and services pfield speaks (the wire format).
 
-Import a package module (``pfield.interfaces.geometry_msgs``) to register its types, or use
-:func:`lookup_type` / :func:`lookup_service` after importing :mod:`pfield.interfaces.all`.
+:func:`lookup_type` / :func:`lookup_service` find every type pfield knows (they import
+:mod:`pfield.interfaces.all` on first use); the models themselves live in the package modules
+(``pfield.interfaces.geometry_msgs`` …).
 :func:`message_from_yaml` parses the YAML flow text of ``ros2 topic pub``; ``pfield.interfaces.convert``
 maps messages to and from pfield's core types.
 """

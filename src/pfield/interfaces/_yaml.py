@@ -11,6 +11,7 @@ needs): a deeper document is refused with an error instead of exhausting Python'
 
 from __future__ import annotations
 
+import typing
 from collections.abc import Mapping
 from typing import Any, TypeVar
 
@@ -78,13 +79,40 @@ def _path(location: tuple[int | str, ...]) -> str:
     return text or "message"
 
 
-def validation_error(error: ValidationError, type_name: str) -> InvalidInput:
-    """The first problem of a pydantic error as ``InvalidInput`` naming the field path."""
+def _message_class(annotation: Any) -> type[RosMessage] | None:
+    """The message class a field annotation holds (``Pose``, ``list[Pose]``, ``Annotated[...]``), else None."""
+    while typing.get_origin(annotation) in (typing.Annotated, list, tuple):
+        annotation = typing.get_args(annotation)[0]
+    return annotation if isinstance(annotation, type) and issubclass(annotation, RosMessage) else None
+
+
+def _model_at(model: type[RosMessage], location: tuple[int | str, ...]) -> type[RosMessage]:
+    """The (nested) message class holding the field at ``location`` (its last part is the unknown name)."""
+    for part in location[:-1]:
+        if isinstance(part, int):
+            continue
+        info = model.model_fields.get(str(part))
+        nested = _message_class(info.annotation) if info is not None else None
+        if nested is None:
+            break
+        model = nested
+    return model
+
+
+def validation_error(error: ValidationError, type_name: str,
+                     model: type[RosMessage] | None = None) -> InvalidInput:
+    """The first problem of a pydantic error as ``InvalidInput`` naming the field path (for an unknown field,
+    also the fields the message at that place has, when ``model`` is given)."""
     first = error.errors()[0]
-    field = _path(tuple(first["loc"]))
+    location = tuple(first["loc"])
+    field = _path(location)
     reason = first["msg"]
     if first["type"] == "extra_forbidden":
         reason = f"unknown field of {type_name}"
+        if model is not None and location:
+            holder = _model_at(model, location)
+            known = ", ".join(info.alias or name for name, info in holder.model_fields.items())
+            reason = f"unknown field of {holder.ros_type} (known: {known})"
     return InvalidInput(field, first.get("input"), reason)
 
 
@@ -97,7 +125,7 @@ def message_from_data(model: type[M], data: Any) -> M:
     try:
         return model.model_validate(data)
     except ValidationError as exc:
-        raise validation_error(exc, model.ros_type) from None
+        raise validation_error(exc, model.ros_type, model) from None
 
 
 def message_from_yaml(model: type[M], text: str) -> M:

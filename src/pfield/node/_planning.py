@@ -45,11 +45,15 @@ def make_field(config: FieldConfig, goal: Pose, obstacles: Sequence[Any]) -> Any
 
 
 def make_mesh(resource: str, scale: tuple[float, float, float], resolver: Any, max_bytes: int) -> Any:
-    """A Mesh shape of ``resource`` resolved through ``resolver`` (a :class:`~pfield.geometry.ResourceResolver`;
-    None: the default one); a resolved file over ``max_bytes`` is refused before it is read."""
+    """A Mesh shape of ``resource`` resolved through ``resolver`` (a :class:`~pfield.geometry.ResourceResolver`);
+    a resolved file over ``max_bytes`` is refused before it is read.
+
+    The node's clients are not trusted: without a resolver only files under the current directory are read
+    (the library's own default resolver would read any file)."""
     from pfield.geometry import Mesh, ResourceResolver
 
-    resolver = resolver if resolver is not None else ResourceResolver.default()
+    if resolver is None:
+        resolver = ResourceResolver(allowed_roots=(Path.cwd(),))
     size = resolver.resolve(resource).stat().st_size
     if size > max_bytes:
         raise InvalidInput("mesh_resource", resource, f"the file has {size} bytes, above max_mesh_file_size "

@@ -13,6 +13,8 @@ is safer than clamping: a configuration outside the limits means the caller's st
 from __future__ import annotations
 
 import logging
+import xml.etree.ElementTree as ET
+from collections.abc import Mapping
 from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple
@@ -25,7 +27,7 @@ from pfield._spatial_kernels import matrix_to_quat
 from pfield._validation import as_vector
 from pfield.errors import InvalidInput
 from pfield.robot import _kinematics as _k
-from pfield.robot._loader import LoadedRobot, joint_axis, load_urdf, read_disabled_pairs
+from pfield.robot._loader import LoadedRobot, _read_text, joint_axis, load_urdf, read_disabled_pairs
 from pfield.robot.catalog import builtin_spec, example_robot_data_root
 from pfield.spatial import Pose
 
@@ -37,6 +39,38 @@ __all__ = ["LIMIT_TOLERANCE", "KinematicArrays", "RobotModel"]
 
 _LOG = logging.getLogger(__name__)
 LIMIT_TOLERANCE = 1e-4
+
+_BUILTIN_ALIASES: dict[str, dict[str, str]] = {"panda": {"ready": "default"}}
+"""Extra names of SRDF group states of the built-in robots: the Panda SRDF's ``default`` state
+(0, −π/4, 0, −3π/4, 0, π/2, π/4) is the pose MoveIt's panda_moveit_config calls ``ready``."""
+
+
+def read_group_states(srdf_path: str | Path, joint_names: tuple[str, ...]) -> dict[str, NDArray[np.float64]]:
+    """The SRDF's ``<group_state name=… group=…><joint name=… value=…/>`` elements as joint vectors.
+
+    Joints the model does not have (locked fingers) are ignored; a state that does not set every model joint
+    is skipped (it describes another group), as is one whose values are not numbers.
+    """
+    path = Path(srdf_path).expanduser()
+    try:
+        root = ET.fromstring(_read_text("srdf", path))
+    except ET.ParseError as exc:
+        raise InvalidInput("srdf", str(path), f"not valid XML: {exc}") from exc
+    states: dict[str, NDArray[np.float64]] = {}
+    for element in root.iter("group_state"):
+        values: dict[str, float] = {}
+        try:
+            for joint in element.iter("joint"):
+                values[joint.get("name", "")] = float(joint.get("value", "nan").split()[0])
+        except ValueError:
+            _LOG.debug("SRDF %s: group state %r has a non-numeric value", path, element.get("name"))
+            continue
+        name = element.get("name")
+        if name and all(j in values for j in joint_names):
+            states[name] = np.array([values[j] for j in joint_names])
+        else:
+            _LOG.debug("SRDF %s: group state %r does not set every joint; skipped", path, name)
+    return states
 
 
 class KinematicArrays(NamedTuple):
@@ -76,6 +110,11 @@ def _pack_kinematics(model: pin.Model, ee_frame: pin.Frame) -> KinematicArrays:
                            np.ascontiguousarray(ee_frame.placement.translation, dtype=np.float64))
 
 
+def _joint_names(loaded: LoadedRobot) -> tuple[str, ...]:
+    model = loaded.model
+    return tuple(model.names[j] for j in range(1, model.njoints))
+
+
 class RobotModel:
     """A kinematic robot: joint names in tree order, limits, end-effector FK and Jacobian, link geometry.
 
@@ -85,7 +124,7 @@ class RobotModel:
     """
 
     def __init__(self, loaded: LoadedRobot, end_effector: str, disabled_pairs: set[frozenset[str]] | None = None,
-                 name: str | None = None) -> None:
+                 name: str | None = None, named_configurations: Mapping[str, ArrayLike] | None = None) -> None:
         model = loaded.model
         if not model.existFrame(end_effector):
             links = [f.name for f in model.frames if f.type == pin.FrameType.BODY]
@@ -107,6 +146,8 @@ class RobotModel:
         self._idx_q = np.array(idx_q)
         self._rotations = np.empty((n, 3, 3))
         self._origins = np.empty((n, 3))
+        self._named = {str(key): _frozen(self.check_joint_angles(value, f"named_configurations[{key!r}]"))
+                       for key, value in (named_configurations or {}).items()}
 
     # ---- construction -------------------------------------------------------------------------------
     @classmethod
@@ -115,13 +156,14 @@ class RobotModel:
                   resolver: ResourceResolver | None = None) -> RobotModel:
         """Load a URDF. ``package_paths`` maps package names to their root folders (for ``package://``).
 
-        ``srdf`` (optional) supplies the disabled self-collision pairs; without it adjacent links are
-        excluded. ``locked_joints`` maps joint names to fixed values (e.g. gripper fingers). ``resolver``
-        (optional) resolves mesh URIs instead, e.g. the node's obstacle resolver.
+        ``srdf`` (optional) supplies the disabled self-collision pairs and the named configurations (its group
+        states); without it adjacent links are excluded. ``locked_joints`` maps joint names to fixed values
+        (e.g. gripper fingers). ``resolver`` (optional) resolves mesh URIs instead, e.g. the node's resolver.
         """
         loaded = load_urdf(path, package_paths, locked_joints, resolver)
         disabled = read_disabled_pairs(srdf) if srdf is not None else None
-        return cls(loaded, end_effector, disabled)
+        named = read_group_states(srdf, _joint_names(loaded)) if srdf is not None else None
+        return cls(loaded, end_effector, disabled, named_configurations=named)
 
     @classmethod
     def builtin(cls, name: str) -> RobotModel:
@@ -129,7 +171,11 @@ class RobotModel:
         spec = builtin_spec(name)
         root = example_robot_data_root()
         loaded = load_urdf(root / spec.urdf, {"example-robot-data": root}, spec.locked_joints)
-        return cls(loaded, spec.end_effector, read_disabled_pairs(root / spec.srdf), name=str(name).lower())
+        key = str(name).strip().lower()
+        named = read_group_states(root / spec.srdf, _joint_names(loaded))
+        named |= {alias: named[state] for alias, state in _BUILTIN_ALIASES.get(key, {}).items() if state in named}
+        return cls(loaded, spec.end_effector, read_disabled_pairs(root / spec.srdf), name=key,
+                   named_configurations=named)
 
     # ---- properties -----------------------------------------------------------------------------------
     @property
@@ -176,6 +222,18 @@ class RobotModel:
         from pfield.robot.geometry import fit_robot_geometry
 
         return fit_robot_geometry(self)
+
+    def named_configurations(self) -> dict[str, NDArray[np.float64]]:
+        """Name → joint angles (tree order) of the SRDF's group states that set every joint (MoveIt's named
+        targets), plus built-in aliases (the Panda's ``ready`` = its SRDF's ``default``)."""
+        return dict(self._named)
+
+    def named_configuration(self, name: str) -> NDArray[np.float64]:
+        """Joint angles of the named configuration ``name`` (see :meth:`named_configurations`)."""
+        if name not in self._named:
+            known = ", ".join(sorted(self._named)) or "none (load the robot with an SRDF that has group states)"
+            raise InvalidInput("name", name, f"no such named configuration of {self.name}; known: {known}")
+        return self._named[name]
 
     # ---- validation -------------------------------------------------------------------------------------
     def check_joint_angles(self, q: ArrayLike, field: str = "joint_angles") -> NDArray[np.float64]:

@@ -1,9 +1,10 @@
 """Pictures of costmaps and FindValidPose searches (matplotlib object API, headless, no pyplot state).
 
-:func:`plot_find_valid_pose` draws the costmap (white free, blue inflation fading out, violet inscribed,
-black lethal, grey unknown), the candidate positions the search tried (coloured by the best state found
-there; pink: ruled out once a fallback answer was known), the requested footprint (dashed red) and the
-answer's footprint (green) with heading arrows.
+:func:`plot_find_valid_pose` draws the costmap (white free, blue inflation fading out with distance, whose
+cost values the colour bar gives, violet inscribed, black lethal, grey unknown, and red hatching where the map
+ends, so cells outside the map never look like free space), the candidate positions the search tried (coloured
+by the best state found there; pink: ruled out once a fallback answer was known), the requested footprint
+(dashed red) and the answer's footprint (green) with heading arrows.
 """
 
 from __future__ import annotations
@@ -13,15 +14,20 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib.axes import Axes
-from matplotlib.colors import ListedColormap
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import ListedColormap, Normalize, to_hex
 from matplotlib.figure import Figure
-from matplotlib.patches import Patch
+from matplotlib.patches import Patch, Rectangle
 from matplotlib.patches import Polygon as PolygonPatch
 
 from pfield.costmap import Costmap2D, Footprint, PoseState, ValidPoseResult
 from pfield.spatial import Pose
 
-__all__ = ["costmap_colormap", "plot_costmap", "plot_find_valid_pose", "plot_footprint"]
+__all__ = ["add_cost_colorbar", "cost_legend_handles", "costmap_colormap", "plot_costmap", "plot_find_valid_pose",
+           "plot_footprint"]
+
+_OUTSIDE_FACE, _OUTSIDE_HATCH = "#fbe3e3", "#d62728"
+"""Cells outside the map: the axes' background, hatched in red."""
 
 _STATE_COLOURS = {PoseState.FREE: "#2ca02c", PoseState.INSCRIBED: "#bcbd22", PoseState.UNKNOWN: "#17becf",
                   PoseState.OUTSIDE: "#ff7f0e", PoseState.LETHAL: "#d62728"}
@@ -41,14 +47,41 @@ def costmap_colormap() -> ListedColormap:
 
 
 def plot_costmap(ax: Axes, costmap: Costmap2D) -> None:
-    """The costmap in map-frame metres (row 0 at the bottom)."""
+    """The costmap in map-frame metres (row 0 at the bottom); everything beyond the map is hatched red."""
     extent = (costmap.origin_x, costmap.origin_x + costmap.size_x * costmap.resolution,
               costmap.origin_y, costmap.origin_y + costmap.size_y * costmap.resolution)
+    # A huge hatched rectangle behind the image: whatever of it shows is outside the map.
+    ax.add_patch(Rectangle((extent[0] - 1e4, extent[2] - 1e4), 2e4 + extent[1] - extent[0], 2e4 + extent[3] - extent[2],
+                           zorder=-10, facecolor=_OUTSIDE_FACE, edgecolor=_OUTSIDE_HATCH, hatch="///",
+                           linewidth=0.0))
     ax.imshow(costmap.costs, origin="lower", extent=extent, cmap=costmap_colormap(), vmin=0, vmax=255,
-              interpolation="nearest")
+              interpolation="nearest", zorder=0)
+    ax.set_xlim(extent[0], extent[1])
+    ax.set_ylim(extent[2], extent[3])
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_aspect("equal")
+
+
+def cost_legend_handles() -> list[Patch]:
+    """Legend entries of the special cost values (nav2's) and of the cells outside the map."""
+    colours = [to_hex(row) for row in np.asarray(costmap_colormap().colors)]
+    return [Patch(facecolor=colours[0], edgecolor="0.5", label="FREE (0)"),
+            Patch(facecolor=colours[253], label="INSCRIBED (253)"),
+            Patch(facecolor=colours[254], label="LETHAL (254)"),
+            Patch(facecolor=colours[255], label="NO_INFORMATION (255)"),
+            Patch(facecolor=_OUTSIDE_FACE, edgecolor=_OUTSIDE_HATCH, hatch="///", linewidth=0.0,
+                  label="outside the map")]
+
+
+def add_cost_colorbar(figure: Figure, ax: Axes) -> None:
+    """A colour bar of the inflation costs 1–252 (they fall off exponentially with the distance to the
+    nearest lethal cell beyond the inscribed radius)."""
+    colours = np.asarray(costmap_colormap().colors)[1:253]
+    mappable = ScalarMappable(norm=Normalize(1, 252), cmap=ListedColormap(colours))
+    bar = figure.colorbar(mappable, ax=ax, fraction=0.04, pad=0.02)
+    bar.set_label("inflation cost (1–252)")
+    bar.set_ticks([1, 50, 100, 150, 200, 252])
 
 
 def plot_footprint(ax: Axes, footprint: Footprint, pose: Pose, colour: str, linestyle: str = "-",
@@ -77,9 +110,10 @@ def _tried(result: ValidPoseResult) -> tuple[np.ndarray, list[str]]:
 def plot_find_valid_pose(costmap: Costmap2D, footprint: Footprint, request: Pose, result: ValidPoseResult,
                          path: Path, title: str = "FindValidPose", margin: float = 1.0) -> Path:
     """Write a PNG of one search (see the module docstring); zoomed on the searched area ± ``margin`` m."""
-    fig = Figure(figsize=(7.5, 6.5))
+    fig = Figure(figsize=(8.5, 7.5), layout="constrained")
     ax = fig.subplots()
     plot_costmap(ax, costmap)
+    add_cost_colorbar(fig, ax)
     positions, colours = _tried(result)
     if len(positions):
         ax.scatter(positions[:, 0], positions[:, 1], s=6, c=colours, zorder=3)
@@ -94,6 +128,7 @@ def plot_find_valid_pose(costmap: Costmap2D, footprint: Footprint, request: Pose
     handles += [Patch(color=c, label=f"tried: best {s.name}") for s, c in _STATE_COLOURS.items()]
     handles.append(Patch(color=_REJECTED_COLOUR, label="tried: not FREE/INSCRIBED (fallback known)"))
     ax.legend(handles=handles, loc="upper left", fontsize=7, framealpha=0.85)
+    fig.legend(handles=cost_legend_handles(), loc="outside lower center", ncols=5, fontsize=8, frameon=False)
     summary = f"state {result.state.name}, cost {result.cost}"
     if result.distance is not None and result.yaw_offset is not None:
         summary += f", moved {result.distance:.2f} m, turned {math.degrees(result.yaw_offset):.0f}°"

@@ -1,0 +1,62 @@
+"""``--field``, ``--no-arr`` and the outcome line of ``topic echo`` / ``service call`` (no server needed)."""
+
+from __future__ import annotations
+
+import pytest
+
+from pfield.cli._message_view import MessageView, format_yaml, outcome_line
+from pfield.errors import InvalidInput
+
+PLAN = {"success": False,
+        "end_effector_path": {"header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": "world"},
+                              "poses": [{"header": {}, "pose": {"position": {"x": 0.1, "y": 0.2, "z": 0.3}}}] * 3},
+        "joint_trajectory": {"header": {}, "joint_names": ["j1", "j2"], "points": []},
+        "end_effector_velocity_trajectory": [{}] * 3,
+        "error_message": "stagnation: no progress"}
+VIEW = MessageView("potential_fields_interfaces/srv/PlanPath_Response")
+
+
+def test_no_arr_summarises_every_array_in_ros2_words() -> None:
+    shown = VIEW.show(PLAN, no_arr=True)
+    assert shown["end_effector_path"]["poses"] == "<sequence type: geometry_msgs/msg/PoseStamped, length: 3>"
+    assert shown["joint_trajectory"]["joint_names"] == "<sequence type: string, length: 2>"
+    assert shown["end_effector_velocity_trajectory"] == \
+        "<sequence type: geometry_msgs/msg/TwistStamped, length: 3>"
+    assert shown["success"] is False and shown["error_message"] == "stagnation: no progress"
+    odometry = MessageView("nav_msgs/msg/Odometry").show({"pose": {"covariance": [0.0] * 36}}, no_arr=True)
+    assert odometry == {"pose": {"covariance": "<array type: double[36]>"}}
+    point = MessageView("trajectory_msgs/msg/JointTrajectoryPoint").show({"positions": [1.0]}, no_arr=True)
+    assert point == {"positions": "<sequence type: double, length: 1>"}
+
+
+def test_field_selects_a_dotted_path_and_indexes_arrays() -> None:
+    assert VIEW.show(PLAN, "success") is False
+    assert VIEW.show(PLAN, "end_effector_path.poses.2.pose.position") == {"x": 0.1, "y": 0.2, "z": 0.3}
+    assert VIEW.show(PLAN, "end_effector_path.poses", no_arr=True) == \
+        "<sequence type: geometry_msgs/msg/PoseStamped, length: 3>"
+    assert format_yaml(VIEW.show(PLAN, "error_message")) == "stagnation: no progress"
+    assert format_yaml(VIEW.show(PLAN, "success")) == "false"
+
+
+@pytest.mark.parametrize(("path", "says"), [
+    ("sucess", "known: success, end_effector_path"),
+    ("end_effector_path.pose", "known: header, poses"),
+    ("end_effector_path.poses.7", "give an index 0..2"),
+    ("success.x", "has no fields"),
+])
+def test_field_refuses_unknown_parts_naming_what_is_there(path: str, says: str) -> None:
+    with pytest.raises(InvalidInput, match=says) as info:
+        VIEW.show(PLAN, path)
+    assert info.value.field == "--field"
+
+
+def test_outcome_line() -> None:
+    assert outcome_line(PLAN) == "success: false (error_message: stagnation: no progress)"
+    assert outcome_line({"success": True, "error_message": ""}) == "success: true"
+    assert outcome_line({"success": True, "message": "removed 2"}) == "success: true (message: removed 2)"
+    assert outcome_line({"autonomy_vector": {}}) is None
+
+
+def test_long_strings_stay_on_one_line() -> None:
+    text = format_yaml({"error_message": "x " * 100})
+    assert len(text.splitlines()) == 1
