@@ -14,5 +14,5 @@ def test_unknown_demo_section_is_refused(tmp_path: Path) -> None:
     assert result.exit_code == 2
     output = " ".join(result.output.split())
     assert "--only='typo'" in output
-    assert "known: manipulator, whole_body, node_session, mobile, costmap" in output
+    assert "known: manipulator, whole_body, assisted, node_session, mobile, costmap, viewer" in output
     assert not (tmp_path / "out").exists()

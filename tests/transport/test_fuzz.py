@@ -136,12 +136,15 @@ def test_raw_protocol_garbage_never_kills_the_node(fuzzed: Fuzzed) -> None:
                b"\r\n" * 1000, b"GET /nodes HTTP/1.1\r\nHost: a\r\nHost: b\r\n\r\n"]
     before = fuzzed.state()
     for data in garbage:
+        answer = b""
         with socket.create_connection(("127.0.0.1", fuzzed.port), timeout=30) as raw:
-            raw.sendall(data)
-            raw.shutdown(socket.SHUT_WR)
-            answer = b""
-            while chunk := raw.recv(65536):
-                answer += chunk
+            try:
+                raw.sendall(data)
+                raw.shutdown(socket.SHUT_WR)
+                while chunk := raw.recv(65536):
+                    answer += chunk
+            except ConnectionResetError:  # the server may close on garbage before reading all of it (a reset)
+                pass
         assert not answer.startswith(b"HTTP/1.1 5"), answer[:200]
         assert not answer or answer.startswith((b"HTTP/1.1 2", b"HTTP/1.1 4")), answer[:200]
     assert fuzzed.state() == before

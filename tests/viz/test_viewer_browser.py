@@ -9,6 +9,7 @@ and move with the time slider.
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -23,6 +24,8 @@ from numpy.typing import NDArray
 
 ARTIFACTS = Path(__file__).resolve().parents[2] / "build" / "test-artifacts"
 README_IMAGE = Path(__file__).resolve().parents[2] / "docs" / "img" / "viewer.png"
+"""The README's screenshot: rewritten only when PFIELD_UPDATE_DOCS_IMAGES=1 (a test run leaves tracked files
+alone); otherwise the same picture goes to the artefacts."""
 WAIT = 120.0
 """s to wait for the page to show something (software WebGL on 2 shared cores is slow)."""
 
@@ -231,8 +234,18 @@ def test_the_robot_is_drawn_and_moves_with_the_time_slider(live: Any, browser: B
 
     robot = live.robot
     goal = Pose((0.3, -0.25, 0.35), (1.0, 0.0, 0.0, 0.0))
-    live.post.post("/topic/pfield/planning_goal_pose", json={"pose": pose_to_msg(goal).model_dump()})
-    _until(lambda: live.goal is not None and np.allclose(live.goal.position, goal.position), "goal not shown")
+    message = {"pose": pose_to_msg(goal).model_dump()}
+    posted = [0.0]
+
+    def goal_shown() -> bool:
+        # Publish again every 5 s until the viewer shows it: on a loaded machine the page's last gizmo events
+        # of the drag before may still reach the node after a single publish.
+        if time.monotonic() - posted[0] > 5.0:
+            assert live.post.post("/topic/pfield/planning_goal_pose", json=message).status_code == 200
+            posted[0] = time.monotonic()
+        return live.goal is not None and bool(np.allclose(live.goal.position, goal.position))
+
+    _until(goal_shown, "goal not shown")
     q0 = np.array([0.0, -0.6, 0.0, 0.7, 0.0, 1.3, 0.0])
     live.scene.set_configuration(q0)
     live.method.value = "whole_body"  # type: ignore[misc]
@@ -279,8 +292,9 @@ def test_readme_screenshot_and_html_export(live: Any, browser: Browser, tmp_path
     live.refresh_field()
     assert live.field_generation > generation
     time.sleep(3.0)
-    README_IMAGE.parent.mkdir(parents=True, exist_ok=True)
-    image = browser.screenshot(README_IMAGE)
+    target_image = README_IMAGE if os.environ.get("PFIELD_UPDATE_DOCS_IMAGES") == "1" else ARTIFACTS / "viewer.png"
+    target_image.parent.mkdir(parents=True, exist_ok=True)
+    image = browser.screenshot(target_image)
     assert image.shape[:2] == (browser.height, browser.width)
 
     live.arrows_toggle.value = False  # type: ignore[misc]  # arrows at the obstacles' height would hide centres
