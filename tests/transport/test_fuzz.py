@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import socket
+import time
 from collections.abc import Iterator
 from typing import Any
 
@@ -75,6 +76,9 @@ def fuzzed(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Fuzzed]:
         assert target.client.post("/topic/pfield/planning_goal_pose", json=GOAL).status_code == 200
         yield target
         assert process.poll() is None, "the node died"
+        deadline = time.monotonic() + 900.0  # the background warm-up may still compile on a cold cache
+        while target.client.get("/health").json()["ready"] is not True and time.monotonic() < deadline:
+            time.sleep(1.0)
         assert target.client.get("/health").json()["ready"] is True
     text = log.read_text()
     assert "Traceback" not in text, text[-3000:]
