@@ -23,7 +23,8 @@ __all__ = ["FlatStep", "flat_step"]
 
 def _dims(robot: _wb.RobotArrays, scene: _wb.Scene) -> NDArray[np.int64]:
     n, caps, obstacles, pairs = len(robot.parents), len(robot.cap_joint), len(scene.bounds), len(robot.self_pairs)
-    return np.array([n, caps, obstacles, pairs, caps * obstacles + pairs + 2 * n, robot.ee_joint], dtype=np.int64)
+    return np.array([n, caps, obstacles, pairs, caps * obstacles + pairs + 2 * n, robot.ee_joint, len(robot.prim_r)],
+                    dtype=np.int64)
 
 
 class FlatStep:
@@ -33,13 +34,14 @@ class FlatStep:
         dims = _dims(robot, scene)
         floats = [robot.place_rot, robot.place_pos, robot.axes, robot.ee_rot, robot.ee_pos, robot.cap_a, robot.cap_b,
                   robot.cap_r, robot.lower, robot.upper, robot.max_velocity, robot.max_acceleration, scene.centres,
-                  scene.bounds, scene.obstacle_offsets, scene.self_offsets]
-        ints = [robot.parents, robot.kinds, robot.support, robot.cap_joint, robot.self_pairs]
+                  scene.bounds, scene.obstacle_offsets, scene.self_offsets, robot.prim_a, robot.prim_b, robot.prim_r]
+        ints = [robot.parents, robot.kinds, robot.support, robot.cap_joint, robot.self_pairs, robot.link_start,
+                robot.prim_joint]
         self.dims = dims
         self.floats = np.concatenate([np.ravel(a).astype(np.float64) for a in floats])
         self.ints = np.concatenate([np.ravel(a).astype(np.int64) for a in ints])
-        n, caps, _, _, m_max, _ = (int(v) for v in dims)
-        self.work = np.zeros(_workspace_size(n, caps, m_max))
+        n, caps, _, _, m_max, _, prims = (int(v) for v in dims)
+        self.work = np.zeros(_workspace_size(n, caps, m_max, prims))
         self.packed = scene.packed
 
     def buffers(self) -> tuple[Any, ...]:
@@ -48,9 +50,9 @@ class FlatStep:
         return (self.dims, self.floats, self.ints, self.work, *self.packed)
 
 
-def _workspace_size(n: int, caps: int, m_max: int) -> int:
+def _workspace_size(n: int, caps: int, m_max: int, prims: int) -> int:
     return (n * 9 + n * 3 + 6 * n + 3 * n + 3 * n + m_max * n + m_max + m_max * n + m_max + m_max + n * n + n + n
-            + n + caps * 3 + caps * 3 + n + 6 + 12 + 20)
+            + n + caps * 3 + caps * 3 + n + 6 + 12 + 20 + prims * 3 + prims * 3)
 
 
 @njit(cache=True, inline="always")
@@ -60,7 +62,7 @@ def _take(buffer, offset, size):  # type: ignore[no-untyped-def]
 
 @njit(cache=True)
 def _views(dims, floats, ints, work, packed):  # type: ignore[no-untyped-def]
-    n, caps, obstacles, pairs, m_max, ee_joint = dims[0], dims[1], dims[2], dims[3], dims[4], dims[5]
+    n, caps, obstacles, pairs, m_max, ee_joint, prims = dims[0], dims[1], dims[2], dims[3], dims[4], dims[5], dims[6]
     o = 0
     place_rot, o = _take(floats, o, n * 9)
     place_pos, o = _take(floats, o, n * 3)
@@ -78,23 +80,29 @@ def _views(dims, floats, ints, work, packed):  # type: ignore[no-untyped-def]
     bounds, o = _take(floats, o, obstacles)
     obstacle_offsets, o = _take(floats, o, caps * obstacles)
     self_offsets, o = _take(floats, o, pairs)
+    prim_a, o = _take(floats, o, prims * 3)
+    prim_b, o = _take(floats, o, prims * 3)
+    prim_r, o = _take(floats, o, prims)
     i = 0
     parents, i = _take(ints, i, n)
     kinds, i = _take(ints, i, n)
     support, i = _take(ints, i, n * n)
     cap_joint, i = _take(ints, i, caps)
     self_pairs, i = _take(ints, i, pairs * 2)
+    link_start, i = _take(ints, i, caps + 1)
+    prim_joint, i = _take(ints, i, prims)
     robot = _wb.RobotArrays(parents, place_rot.reshape((n, 3, 3)), place_pos.reshape((n, 3)), axes.reshape((n, 3)),
                             kinds, support.reshape((n, n)), ee_joint, ee_rot.reshape((3, 3)), ee_pos,
                             cap_joint, cap_a.reshape((caps, 3)), cap_b.reshape((caps, 3)), cap_r,
-                            self_pairs.reshape((pairs, 2)), lower, upper, max_velocity, max_acceleration)
+                            self_pairs.reshape((pairs, 2)), lower, upper, max_velocity, max_acceleration,
+                            link_start, prim_joint, prim_a.reshape((prims, 3)), prim_b.reshape((prims, 3)), prim_r)
     scene = _wb.Scene(packed, centres.reshape((obstacles, 3)), bounds, obstacle_offsets.reshape((caps, obstacles)),
                       self_offsets)
-    return robot, scene, _workspace_views(work, n, caps, m_max)
+    return robot, scene, _workspace_views(work, n, caps, m_max, prims)
 
 
 @njit(cache=True)
-def _workspace_views(work, n, caps, m_max):  # type: ignore[no-untyped-def]
+def _workspace_views(work, n, caps, m_max, prims):  # type: ignore[no-untyped-def]
     o = 0
     rotations, o = _take(work, o, n * 9)
     origins, o = _take(work, o, n * 3)
@@ -116,11 +124,13 @@ def _workspace_views(work, n, caps, m_max):  # type: ignore[no-untyped-def]
     scratch, o = _take(work, o, 6)
     task, o = _take(work, o, 12)
     out, o = _take(work, o, 20)
+    prim_seg_a, o = _take(work, o, prims * 3)
+    prim_seg_b, o = _take(work, o, prims * 3)
     return _wb.Workspace(rotations.reshape((n, 3, 3)), origins.reshape((n, 3)), jac.reshape((6, n)),
                          jlin.reshape((3, n)), jlin2.reshape((3, n)), rows.reshape((m_max, n)), b,
                          hinv.reshape((m_max, n)), mu, curvature, h.reshape((n, n)), rhs, x, free,
                          seg_a.reshape((caps, 3)), seg_b.reshape((caps, 3)), limited, scratch.reshape((2, 3)),
-                         task.reshape((2, 6)), out)
+                         task.reshape((2, 6)), out, prim_seg_a.reshape((prims, 3)), prim_seg_b.reshape((prims, 3)))
 
 
 @njit(cache=True)

@@ -32,20 +32,14 @@ from numpy.typing import NDArray
 
 from pfield._spatial_kernels import matrix_to_quat
 from pfield.field.forces import attraction, khatib_magnitude, rotation_error, soft_saturate
-from pfield.geometry._packed import CAPSULE, SPHERE, PackedObstacles
+from pfield.geometry._packed import PackedObstacles
 from pfield.planning._qp import cholesky_inplace, cholesky_solve, hildreth
-from pfield.robot._distance import (
-    closest_segment_points,
-    point_segment_distance,
-    round_segment_distance,
-    segment_obstacle_distance,
-)
+from pfield.robot._clearance import link_obstacle_distance, link_pair_distance, world_segments
 from pfield.robot._kinematics import (
     frame_pose,
     joint_transforms,
     linear_point_jacobian,
     point_jacobian,
-    transform_point_into,
 )
 
 # indices into the parameter vector (see pfield.planning.whole_body.kernel_parameters)
@@ -57,7 +51,11 @@ SUCCESS, ITERATION_LIMIT, STAGNATION, COLLISION, SELF_COLLISION = range(5)
 
 
 class RobotArrays(NamedTuple):
-    """Kinematics (see :mod:`pfield.robot._kinematics`), link capsules and limits, packed for the kernel."""
+    """Kinematics (see :mod:`pfield.robot._kinematics`), the link model and limits, packed for the kernel.
+
+    ``cap_*`` are the links' bounding capsules (index l), ``self_pairs`` link pairs, and ``link_start``,
+    ``prim_*`` the fitted primitives of each link (:class:`pfield.robot.geometry.RobotGeometry`).
+    """
 
     parents: NDArray[np.int64]
     place_rot: NDArray[np.float64]
@@ -77,14 +75,19 @@ class RobotArrays(NamedTuple):
     upper: NDArray[np.float64]
     max_velocity: NDArray[np.float64]
     max_acceleration: NDArray[np.float64]
+    link_start: NDArray[np.int64]
+    prim_joint: NDArray[np.int64]
+    prim_a: NDArray[np.float64]
+    prim_b: NDArray[np.float64]
+    prim_r: NDArray[np.float64]
 
 
 class Scene(NamedTuple):
     """Obstacles, their bounding spheres (centre, radius) for culling far link–obstacle pairs, and offsets.
 
-    Capsules over-approximate the links, so a valid start can have capsules closer than ``safety_distance``
-    (or overlapping). ``obstacle_offsets[c, i]`` and ``self_offsets[k]`` (≤ 0, m) are subtracted from those
-    pairs' distances: such a pair may not get any closer than it starts, and only that counts as a
+    The fitted model over-approximates the links, so a valid start can have links closer than
+    ``safety_distance`` (or overlapping). ``obstacle_offsets[c, i]`` and ``self_offsets[k]`` (≤ 0, m) are
+    subtracted from those pairs' distances: such a pair may not get any closer than it starts, and only that counts as a
     collision (:func:`pfield.planning.whole_body.make_scene`).
     """
 
@@ -116,17 +119,20 @@ class Workspace(NamedTuple):
     scratch: NDArray[np.float64]
     task: NDArray[np.float64]
     out: NDArray[np.float64]  # [twist(6), position(3), quaternion(4), clearance, self clearance, pos err, rot err,
-    #                            culprit capsule, culprit obstacle]
+    #                            culprit link, culprit obstacle]
+    prim_seg_a: NDArray[np.float64]
+    prim_seg_b: NDArray[np.float64]
 
 
 @njit(cache=True)
-def make_workspace(n, n_capsules, n_obstacles, n_pairs):  # type: ignore[no-untyped-def]
+def make_workspace(n, n_capsules, n_obstacles, n_pairs, n_prims):  # type: ignore[no-untyped-def]
     m_max = n_capsules * n_obstacles + n_pairs + 2 * n
     return Workspace(np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((6, n)), np.empty((3, n)), np.empty((3, n)),
                      np.empty((m_max, n)), np.empty(m_max), np.empty((m_max, n)), np.empty(m_max), np.empty(m_max),
                      np.empty((n, n)),
                      np.empty(n), np.empty(n), np.empty(n), np.empty((n_capsules, 3)), np.empty((n_capsules, 3)),
-                     np.empty(n), np.empty((2, 3)), np.empty((2, 6)), np.empty(20))
+                     np.empty(n), np.empty((2, 3)), np.empty((2, 6)), np.empty(20), np.empty((n_prims, 3)),
+                     np.empty((n_prims, 3)))
 
 
 @njit(cache=True, inline="always")
@@ -175,10 +181,9 @@ def _task(robot, goal_p, goal_q, params, ws):  # type: ignore[no-untyped-def]
 
 @njit(cache=True, inline="always")
 def _segments(robot, ws):  # type: ignore[no-untyped-def]
-    for c in range(robot.cap_joint.shape[0]):
-        j = robot.cap_joint[c]
-        transform_point_into(ws.rotations, ws.origins, j, robot.cap_a[c], ws.seg_a[c])
-        transform_point_into(ws.rotations, ws.origins, j, robot.cap_b[c], ws.seg_b[c])
+    world_segments(ws.rotations, ws.origins, robot.cap_joint, robot.cap_a, robot.cap_b, ws.seg_a, ws.seg_b)
+    world_segments(ws.rotations, ws.origins, robot.prim_joint, robot.prim_a, robot.prim_b, ws.prim_seg_a,
+                   ws.prim_seg_b)
 
 
 @njit(cache=True, inline="always")
@@ -196,39 +201,36 @@ def _add_row(kin, jlin, rows, bounds, m, nx, ny, nz, joint, px, py, pz, bound): 
 
 @njit(cache=True, inline="always")
 def _obstacle_rows(robot, scene, params, ws, m):  # type: ignore[no-untyped-def]
-    """Damper rows and null-space repulsion of every link–obstacle pair within Q; returns the row count."""
+    """Damper rows and null-space repulsion of every link–obstacle pair within Q; returns the row count.
+
+    One row per pair, at the closest point of the link's nearest primitive
+    (:func:`pfield.robot._clearance.link_obstacle_distance`)."""
     influence, dt = params[INFLUENCE], params[DT]
     clearance, culprit_c, culprit_o = math.inf, -1, -1
     # hoisted out of the loops: numba reference-counts tuple members on every access (see _distance)
     packed, centres, bounds = scene.packed, scene.centres, scene.bounds
-    rows, kinds = packed.rows, packed.kinds
     seg_a, seg_b, cap_r, cap_joint, scratch = ws.seg_a, ws.seg_b, robot.cap_r, robot.cap_joint, ws.scratch
+    link_start, prim_a, prim_b, prim_r = robot.link_start, ws.prim_seg_a, ws.prim_seg_b, robot.prim_r
     offsets = scene.obstacle_offsets
     worst = math.inf
     speed, safety, null_scale = params[XI] * params[V_MAX], params[SAFETY], params[NULL_GAIN] * params[V_MAX]
     kin = (ws.rotations, ws.origins, robot.axes, robot.kinds, robot.support)
     jlin, wrows, wb, free = ws.jlin, ws.rows, ws.b, ws.free
     for c in range(cap_joint.shape[0]):
-        a, b, radius = seg_a[c], seg_b[c], cap_r[c]
         for i in range(bounds.shape[0]):
-            lower = point_segment_distance(centres[i], a, b) - bounds[i] - radius
-            if lower >= influence:
-                clearance = min(clearance, lower)
-                continue
-            if kinds[i] == SPHERE or kinds[i] == CAPSULE:
-                d, t, nx, ny, nz = round_segment_distance(rows, kinds, i, a, b, scratch)
-            else:
-                d, t, nx, ny, nz = segment_obstacle_distance(packed, i, a, b, scratch)
-            d -= radius
+            d, exact, px, py, pz, nx, ny, nz = link_obstacle_distance(
+                c, i, packed, centres, bounds, seg_a, seg_b, cap_r, link_start, prim_a, prim_b, prim_r, scratch,
+                influence)
             clearance = min(clearance, d)
+            if not exact:
+                continue
             d -= offsets[c, i]
             if d < worst:
                 worst, culprit_c, culprit_o = d, c, i
             if d >= influence or cap_joint[c] < 0:
                 continue
             bound = -_allowed_speed(d, influence, safety, speed, dt)
-            m = _add_row(kin, jlin, wrows, wb, m, nx, ny, nz, cap_joint[c], a[0] + t * (b[0] - a[0]),
-                         a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2]), bound)
+            m = _add_row(kin, jlin, wrows, wb, m, nx, ny, nz, cap_joint[c], px, py, pz, bound)
             push = null_scale * khatib_magnitude(d, params[ETA], influence, params[F_CAP]) / params[F_CAP]
             for j in range(free.shape[0]):
                 free[j] += push * wrows[m - 1, j]
@@ -244,18 +246,20 @@ def _self_rows(robot, scene, params, ws, m):  # type: ignore[no-untyped-def]
     kin = (ws.rotations, ws.origins, robot.axes, robot.kinds, robot.support)
     jlin, jlin2, wrows, wb = ws.jlin, ws.jlin2, ws.rows, ws.b
     pairs, seg_a, seg_b, cap_r, cap_joint = robot.self_pairs, ws.seg_a, ws.seg_b, robot.cap_r, robot.cap_joint
+    link_start, prim_a, prim_b, prim_r = robot.link_start, ws.prim_seg_a, ws.prim_seg_b, robot.prim_r
     offsets = scene.self_offsets
     for k in range(pairs.shape[0]):
         c1, c2 = pairs[k, 0], pairs[k, 1]
-        a1, b1, a2, b2 = seg_a[c1], seg_b[c1], seg_a[c2], seg_b[c2]
-        s, t = closest_segment_points(a1, b1, a2, b2)
-        p1x, p1y, p1z = a1[0] + s * (b1[0] - a1[0]), a1[1] + s * (b1[1] - a1[1]), a1[2] + s * (b1[2] - a1[2])
-        p2x, p2y, p2z = a2[0] + t * (b2[0] - a2[0]), a2[1] + t * (b2[1] - a2[1]), a2[2] + t * (b2[2] - a2[2])
+        # pairs whose bound (after the start offset ≤ 0) is ≥ Q need no row
+        d, exact, p1x, p1y, p1z, p2x, p2y, p2z = link_pair_distance(
+            c1, c2, seg_a, seg_b, cap_r, link_start, prim_a, prim_b, prim_r, influence + offsets[k])
+        d -= offsets[k]
+        clearance = min(clearance, d)
+        if not exact or d >= influence:
+            continue
         dx, dy, dz = p1x - p2x, p1y - p2y, p1z - p2z
         dist = math.sqrt(dx * dx + dy * dy + dz * dz)
-        d = dist - cap_r[c1] - cap_r[c2] - offsets[k]
-        clearance = min(clearance, d)
-        if d >= influence or dist < 1e-12:
+        if dist < 1e-12:
             continue
         nx, ny, nz = dx / dist, dy / dist, dz / dist
         bound = -_allowed_speed(d, influence, safety, speed, dt)

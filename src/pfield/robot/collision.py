@@ -1,8 +1,8 @@
 """Collision checks of a robot configuration: fast (link capsules, compiled) and exact (coal on the meshes).
 
-* :func:`capsule_clearances` — signed clearance (m) of every link capsule to every obstacle and of every
-  self-collision capsule pair, from the compiled kernels the planner uses (conservative: capsules cover
-  the links).
+* :func:`capsule_clearances` — signed clearance (m) of every link's fitted model to every obstacle and of
+  every self-collision link pair, from the compiled kernels the planner uses (conservative: the fitted
+  spheres/capsules cover the links' collision surfaces).
 * :class:`CollisionChecker` — the robot's own URDF collision geometry (pinocchio ``GeometryModel``; link
   meshes through their convex hulls, which contain them, so "no collision" stays true) against
   the obstacles' exact shapes with coal (Pan et al., "FCL", ICRA 2012, coal is its successor); self
@@ -23,6 +23,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from pfield._validation import nonnegative
 from pfield.geometry import Box, Capsule, Cylinder, Ellipsoid, Mesh, Obstacle, Sphere, pack_obstacles
+from pfield.geometry._sdf import empty_packed
+from pfield.robot._clearance import clearances_at
 from pfield.robot.geometry import adjacent_joints
 from pfield.robot.model import RobotModel
 
@@ -45,15 +47,17 @@ class CollisionReport:
 
 def capsule_clearances(robot: RobotModel, q: ArrayLike,
                        obstacles: Sequence[Obstacle]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Capsule clearances (m): link × obstacle (L, M) and self-collision pairs (P,) at joint angles ``q``."""
-    from pfield.field.config import FieldConfig
-    from pfield.planning._whole_body_loop import pair_distances
-    from pfield.planning.whole_body import WholeBodyOptions, make_scene, pack_robot
-
+    """Clearances (m) of the fitted link model: link × obstacle (L, M, links in ``robot.geometry.capsules``
+    order) and self-collision link pairs (P,) at joint angles ``q``."""
     values = robot.check_joint_angles(q)
-    arrays = pack_robot(robot, FieldConfig(), WholeBodyOptions())
-    scene = make_scene(pack_obstacles(list(obstacles)) if obstacles else None, arrays)
-    obstacle, own = pair_distances(values, arrays, scene)
+    packed = pack_obstacles(list(obstacles)) if obstacles else empty_packed()
+    count = len(packed.kinds)
+    k, g = robot.kinematics, robot.geometry
+    # no culling bound is needed for exact values: infinite bounding radii never cull
+    centres, bounds = np.ascontiguousarray(packed.rows[:, 0:3]), np.full(count, np.inf)
+    obstacle, own = clearances_at(values, k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, g.joints, g.a, g.b,
+                                  g.radii, g.link_start, g.prim_joint, g.prim_a, g.prim_b, g.prim_r, g.self_pairs,
+                                  packed, centres, bounds)
     return obstacle, own
 
 

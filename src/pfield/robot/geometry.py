@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 from scipy.spatial import ConvexHull, QhullError
 
 from pfield.robot._distance import segment_segment_distance
-from pfield.robot._fit import TARGET_GAP, LinkSurface, cached_fit, segment_distances
+from pfield.robot._fit import TARGET_GAP, LinkFit, LinkSurface, Primitives, cached_fit, measure, segment_distances
 
 if TYPE_CHECKING:
     import pinocchio as pin
@@ -87,7 +87,7 @@ class RobotGeometry:
       ``radii`` (L,); it contains the link's collision geometry and all of its fitted primitives;
     * ``primitives`` — the fitted spheres/capsules (index p), grouped by link: those of link l are
       ``link_start[l]:link_start[l + 1]``, with ends ``prim_a``, ``prim_b`` and radii ``prim_r`` in the frame
-      of joint ``joints[l]``;
+      of joint ``prim_joint[p]`` (= ``joints[l]``);
     * ``self_pairs`` — the link index pairs (P, 2) checked for self-collision; ``fits`` — the per-link fit report.
     """
 
@@ -99,6 +99,7 @@ class RobotGeometry:
     radii: NDArray[np.float64]  # (L,)
     primitives: tuple[LinkCapsule, ...] = ()
     link_start: NDArray[np.int64] = field(default_factory=lambda: np.zeros(1, dtype=np.int64))  # (L + 1,)
+    prim_joint: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # (Np,)
     prim_a: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))  # (Np, 3)
     prim_b: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))  # (Np, 3)
     prim_r: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))  # (Np,)
@@ -265,18 +266,28 @@ def world_segment(capsule: LinkCapsule, rotations: NDArray[np.float64],
     return r @ capsule.a + o, r @ capsule.b + o
 
 
-def fit_robot_geometry(robot: RobotModel, target_gap: float = TARGET_GAP) -> RobotGeometry:
+def fit_robot_geometry(robot: RobotModel, target_gap: float = TARGET_GAP, *,
+                       one_capsule: bool = False) -> RobotGeometry:
     """Fit each link of ``robot`` (bounding capsule and spheres/capsules, see :mod:`pfield.robot._fit`) and
-    choose the self-collision pairs. The fitted primitives are cached per collision surface."""
+    choose the self-collision pairs. The fitted primitives are cached per collision surface.
+
+    ``one_capsule=True`` models each link by its single covering capsule alone (no spheres/capsules fit,
+    ``fits`` reports that capsule): the coarse model, for comparisons."""
     capsules, primitives, reports, starts = [], [], [], [0]
     for link, (joint, placement, surface) in _link_surfaces(robot).items():
         rotation, translation = np.asarray(placement.rotation), np.asarray(placement.translation)
-        fit = cached_fit(surface, target_gap)
+        bound = fit_capsule(surface.vertices @ rotation.T + translation, link, joint)
+        if one_capsule:
+            single = Primitives(bound.a[None], bound.b[None], np.array([bound.radius]))
+            in_link = single.transformed(rotation.T, -translation @ rotation)
+            fit = LinkFit(in_link, *measure(surface, in_link))
+        else:
+            fit = cached_fit(surface, target_gap)
         prims = fit.primitives.transformed(rotation, translation)
         # the bounding capsule covers the surface; every primitive stays within target_gap of it (+ rounding)
-        bound = fit_capsule(surface.vertices @ rotation.T + translation, link, joint)
-        capsules.append(LinkCapsule(link, joint, bound.a, bound.b, bound.radius + target_gap + 1e-9,
-                                    bound.volume_ratio, bound.mean_gap))
+        margin = 0.0 if one_capsule else target_gap + 1e-9
+        capsules.append(LinkCapsule(link, joint, bound.a, bound.b, bound.radius + margin, bound.volume_ratio,
+                                    bound.mean_gap))
         for j in range(len(prims)):
             primitives.append(LinkCapsule(link, joint, prims.a[j], prims.b[j], float(prims.radii[j])))
         starts.append(len(primitives))
@@ -291,7 +302,7 @@ def fit_robot_geometry(robot: RobotModel, target_gap: float = TARGET_GAP) -> Rob
         np.array([c.a for c in capsules], dtype=np.float64).reshape(-1, 3),
         np.array([c.b for c in capsules], dtype=np.float64).reshape(-1, 3),
         np.array([c.radius for c in capsules], dtype=np.float64),
-        tuple(primitives), np.array(starts, dtype=np.int64),
+        tuple(primitives), np.array(starts, dtype=np.int64), np.array([p.joint for p in primitives], dtype=np.int64),
         np.array([p.a for p in primitives], dtype=np.float64).reshape(-1, 3),
         np.array([p.b for p in primitives], dtype=np.float64).reshape(-1, 3),
         np.array([p.radius for p in primitives], dtype=np.float64),
