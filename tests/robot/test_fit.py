@@ -143,20 +143,26 @@ def test_locked_fingers_move_the_finger_links(panda: RobotModel) -> None:
 
 
 def test_clearances_are_the_minimum_over_each_links_primitives(xarm: RobotModel) -> None:
+    from pfield.geometry import pack_obstacles
+    from pfield.robot._distance import segment_obstacle_distance
+
     q = np.array([0.0, -0.6, 0.0, 0.9, 0.0, 1.5, 0.0])
-    ball = Obstacle("ball", Sphere(0.03), Pose((0.35, 0.05, 0.4)))
-    obstacle, own = capsule_clearances(xarm, q, [ball])
+    obstacles = [Obstacle("ball", Sphere(0.03), Pose((0.35, 0.05, 0.4))),
+                 Obstacle("box", Box(0.1, 0.2, 0.05), Pose((0.3, -0.1, 0.3), (0.0, 0.0, 0.38268343, 0.92387953)))]
+    obstacle, own = capsule_clearances(xarm, q, obstacles)
+    packed = pack_obstacles(obstacles)
     g = xarm.geometry
     rotations, origins = xarm.joint_frames(q)
-    centre = np.array(ball.pose.position)
-    for link in range(len(g.capsules)):
-        best = np.inf
-        for p in range(g.link_start[link], g.link_start[link + 1]):
-            j = g.prim_joint[p]
-            a = g.prim_a[p] if j < 0 else rotations[j] @ g.prim_a[p] + origins[j]
-            b = g.prim_b[p] if j < 0 else rotations[j] @ g.prim_b[p] + origins[j]
-            best = min(best, _fit.segment_distances(centre[None], a, b)[0] - g.prim_r[p] - 0.03)
-        assert obstacle[link, 0] == pytest.approx(best, abs=1e-12)
+    for i in range(len(obstacles)):
+        for link in range(len(g.capsules)):
+            best = np.inf
+            for p in range(g.link_start[link], g.link_start[link + 1]):
+                j = g.prim_joint[p]
+                a = g.prim_a[p] if j < 0 else rotations[j] @ g.prim_a[p] + origins[j]
+                b = g.prim_b[p] if j < 0 else rotations[j] @ g.prim_b[p] + origins[j]
+                d = segment_obstacle_distance(packed, i, a, b, np.empty((2, 3)))[0]
+                best = min(best, d - g.prim_r[p])
+            assert obstacle[link, i] == pytest.approx(best, abs=1e-9)
     assert own.shape == (len(g.self_pairs),)
 
 
@@ -220,3 +226,21 @@ def test_mbm_harness_writes_one_record_per_problem(tmp_path: Path, capsys: pytes
         bench_mbm.main(["--archive", str(archive), "--scenes", "nothing", "--out", str(tmp_path / "x.jsonl")])
     with pytest.raises(SystemExit):
         bench_mbm.main(["--archive", str(tmp_path / "missing.tar.bz2"), "--out", str(tmp_path / "x.jsonl")])
+
+
+def test_mbm_status_names_follow_the_failure_reason() -> None:
+    import sys
+    from types import SimpleNamespace
+
+    sys.path.insert(0, str(ROOT))
+    from benchmarks.bench_mbm import status_name
+
+    cases = {"": "reached", "stagnation: no progress": "stagnation", "iteration limit: 10 steps": "iteration_limit",
+             "collision: the start configuration collides (a/b)": "start_invalid",
+             "collision: the next step would bring link 'x' into contact": "collision",
+             "self-collision: the next step would bring two links into contact": "self_collision"}
+    for reason, expected in cases.items():
+        path = SimpleNamespace(success=not reason, failure_reason=reason)
+        assert status_name(path) == expected  # type: ignore[arg-type]
+    with_status = SimpleNamespace(success=False, failure_reason="x", status=SimpleNamespace(name="GOAL_INVALID"))
+    assert status_name(with_status) == "goal_invalid"  # type: ignore[arg-type]

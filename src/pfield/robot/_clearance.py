@@ -51,26 +51,34 @@ def link_obstacle_distance(  # type: ignore[no-untyped-def]
     best, px, py, pz, bx, by, bz = math.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
     round_obstacle = kinds[i] == SPHERE or kinds[i] == CAPSULE
     mid = scratch[1]
+    # nothing whose lower bound exceeds ``limit`` can be the minimum: the best exact value so far, or (before
+    # any) an upper bound: a segment's midpoint is one of its points, so min_p d(mid_p) − r_p ≥ the minimum
+    limit = math.inf
+    if not round_obstacle:
+        for p in range(link_start[link], link_start[link + 1]):
+            for k in range(3):
+                mid[k] = 0.5 * (prim_a[p, k] + prim_b[p, k])
+            limit = min(limit, obstacle_signed_distance(packed, i, mid)[0] - prim_r[p])
     for p in range(link_start[link], link_start[link + 1]):
         a, b = prim_a[p], prim_b[p]
-        if point_segment_distance(centre, a, b) - reach - prim_r[p] >= best:
+        if point_segment_distance(centre, a, b) - reach - prim_r[p] > limit:
             continue
         if round_obstacle:
             d, t, nx, ny, nz = round_segment_distance(rows, kinds, i, a, b, scratch)
         else:
-            # a signed distance is 1-Lipschitz: d(s(t)) ≥ d(midpoint) − half the length (one evaluation
-            # instead of a bisection when this primitive cannot beat the best)
-            half = 0.0
+            # a signed distance is 1-Lipschitz: d(s(t)) ≥ d(midpoint) − half the segment's length
+            half2 = 0.0
             for k in range(3):
                 mid[k] = 0.5 * (a[k] + b[k])
-                half += (b[k] - a[k]) * (b[k] - a[k])
-            if obstacle_signed_distance(packed, i, mid)[0] - 0.5 * math.sqrt(half) - prim_r[p] >= best:
+                half2 += (b[k] - a[k]) * (b[k] - a[k])
+            if obstacle_signed_distance(packed, i, mid)[0] - 0.5 * math.sqrt(half2) - prim_r[p] > limit:
                 continue
             d, t, nx, ny, nz = segment_obstacle_distance(packed, i, a, b, scratch)
         d -= prim_r[p]
         if d < best:
             best, bx, by, bz = d, nx, ny, nz
             px, py, pz = a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])
+            limit = min(limit, best)
     return best, True, px, py, pz, bx, by, bz
 
 
