@@ -123,8 +123,9 @@ def solve(robots: Robots, directory: Path, index: int) -> dict[str, Any]:
     """Plan problem ``index`` of the scene folder ``directory``; the JSON record of the result.
 
     Keys: ``scene`` (folder name), ``index``, ``success``, ``status``, ``seconds`` (planning wall time),
-    ``cpu_seconds`` (its CPU time: the machine may be shared), ``steps``, ``planner``, ``joint_names``, ``positions`` (joint vectors from the start on), ``times`` (s), and
-    ``fingers``, ``start_clear``/``goal_clear`` (the exact meshes clear the start/goal joints),
+    ``cpu_seconds`` (its CPU time: the machine may be shared), ``steps``, ``planner``, ``joint_names``,
+    ``positions`` (joint vectors from the start on), ``times`` (s), and ``fingers``,
+    ``start_clear``/``goal_clear`` (the exact meshes clear the start/goal joints),
     ``path_length`` (m), ``min_clearance`` (m, link model), ``mesh_min_distance`` (m, coal, every 25th
     waypoint and the last).
     """
@@ -146,7 +147,8 @@ def solve(robots: Robots, directory: Path, index: int) -> dict[str, Any]:
     samples = [*path.joint_positions[::25], path.joint_positions[-1]]
     return {
         "scene": directory.name, "index": index, "success": bool(path.success), "status": status_name(path),
-        "seconds": seconds, "cpu_seconds": cpu, "steps": int(path.iterations), "planner": PLANNER, "joint_names": list(robot.joint_names),
+        "seconds": seconds, "cpu_seconds": cpu, "steps": int(path.iterations), "planner": PLANNER,
+        "joint_names": list(robot.joint_names),
         "positions": path.joint_positions.tolist(), "times": path.times.tolist(), "fingers": fingers,
         "start_clear": not checker.check(start).in_collision, "goal_clear": not checker.check(goal_joints).in_collision,
         "path_length": float(np.linalg.norm(np.diff(path.positions, axis=0), axis=1).sum()),

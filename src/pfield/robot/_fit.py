@@ -31,11 +31,11 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
-from scipy.spatial import ConvexHull, Delaunay
+from scipy.spatial import ConvexHull, Delaunay, QhullError
 
 _LOG = logging.getLogger(__name__)
 
-FIT_VERSION = 2  # bump when the fitting rule changes (invalidates the disk cache)
+FIT_VERSION = 3  # bump when the fitting rule changes (invalidates the disk cache)
 TARGET_GAP = 0.014  # m, the stand-off bound of every primitive (mean gaps come out at ~0.6 of it)
 _GAP_SAMPLES = 600  # surface samples per primitive for the gap
 _VOLUME_SAMPLES = 60_000
@@ -81,12 +81,16 @@ class Primitives:
 
 @dataclass(frozen=True)
 class LinkFit:
-    """The fitted primitives of one link (link frame) and the fit's measures (see the module docstring)."""
+    """The fitted primitives of one link (link frame), the fit's measures (see the module docstring) and the
+    single covering capsule (:func:`fit_single_capsule`, link frame) with its volume ratio and mean gap."""
 
     primitives: Primitives
     mean_gap: float
     max_gap: float
     volume_ratio: float
+    bound: Primitives
+    bound_volume_ratio: float
+    bound_mean_gap: float
 
 
 def segment_distances(points: NDArray[np.float64], a: NDArray[np.float64],
@@ -262,7 +266,62 @@ def fit_link(surface: LinkSurface, target_gap: float = TARGET_GAP) -> LinkFit:
     """:func:`fit_primitives` with the stand-off bound ``target_gap`` (m), measured."""
     prims = fit_primitives(surface, target_gap)
     mean_gap, max_gap, ratio = measure(surface, prims)
-    return LinkFit(prims, mean_gap, max_gap, ratio)
+    a, b, r, bound_ratio, bound_gap = fit_single_capsule(surface.vertices)
+    return LinkFit(prims, mean_gap, max_gap, ratio, Primitives(a[None], b[None], np.array([r])), bound_ratio,
+                   bound_gap)
+
+
+def _enclosing_circle(points: NDArray[np.float64], iterations: int = 400) -> NDArray[np.float64]:
+    """Approximate centre of the smallest circle (any dimension) enclosing ``points`` (Bădoiu–Clarkson)."""
+    centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
+    for k in range(1, iterations + 1):
+        far = points[np.argmax(np.linalg.norm(points - centre, axis=1))]
+        centre = centre + (far - centre) / (k + 1)
+    return centre
+
+
+def _capsule_along(points: NDArray[np.float64], axis: NDArray[np.float64]
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    basis = np.linalg.svd(np.eye(3) - np.outer(axis, axis))[0][:, :2]
+    planar = points @ basis
+    centre2 = _enclosing_circle(planar)
+    rho = np.linalg.norm(planar - centre2, axis=1)
+    radius = float(rho.max()) + 1e-9
+    t = points @ axis
+    h = np.sqrt(np.maximum(radius**2 - rho**2, 0.0))
+    t_b, t_a = float(np.max(t - h)), float(np.min(t + h))
+    offset = basis @ centre2
+    if t_a > t_b:  # every point fits in one sphere
+        t_mid = 0.5 * (t_a + t_b)
+        centre = offset + t_mid * axis
+        radius = float(np.linalg.norm(points - centre, axis=1).max()) + 1e-9
+        return centre, centre.copy(), radius
+    return offset + t_a * axis, offset + t_b * axis, radius
+
+
+def fit_single_capsule(
+        points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], float, float, float]:
+    """Smallest-volume capsule (over the principal axes) covering ``points`` (N, 3): ``(a, b, r, volume
+    ratio to the points' hull, mean distance of the hull's vertices to the capsule surface)``; the steps are
+    in :mod:`pfield.robot.geometry`."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    try:
+        hull = ConvexHull(pts)
+        vertices, hull_volume = pts[hull.vertices], float(hull.volume)
+    except (QhullError, ValueError):
+        vertices, hull_volume = pts, 0.0
+    axes = np.linalg.svd(vertices - vertices.mean(axis=0), full_matrices=False)[2]
+    best = None
+    for axis in axes:
+        a, b, r = _capsule_along(vertices, axis / np.linalg.norm(axis))
+        volume = math.pi * r * r * (float(np.linalg.norm(b - a)) + 4.0 * r / 3.0)
+        if best is None or volume < best[3]:
+            best = (a, b, r, volume)
+    assert best is not None
+    a, b, r, volume = best
+    gaps = r - segment_distances(vertices, a, b)
+    ratio = volume / hull_volume if hull_volume > 0 else math.inf
+    return a, b, r, ratio, float(gaps.mean())
 
 
 # ---- cache ---------------------------------------------------------------------------------------------
@@ -294,7 +353,9 @@ def cached_fit(surface: LinkSurface, target_gap: float = TARGET_GAP) -> LinkFit:
         try:
             with np.load(path) as data:
                 fit = LinkFit(Primitives(data["a"], data["b"], data["radii"]), float(data["mean_gap"]),
-                              float(data["max_gap"]), float(data["volume_ratio"]))
+                              float(data["max_gap"]), float(data["volume_ratio"]),
+                              Primitives(data["bound_a"], data["bound_b"], data["bound_r"]),
+                              float(data["bound_volume_ratio"]), float(data["bound_mean_gap"]))
         except (OSError, KeyError, ValueError) as exc:
             _LOG.warning("ignoring unreadable robot fit cache %s: %s", path, exc)
     if fit is None:
@@ -303,7 +364,9 @@ def cached_fit(surface: LinkSurface, target_gap: float = TARGET_GAP) -> LinkFit:
             tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
             try:
                 np.savez(tmp, a=fit.primitives.a, b=fit.primitives.b, radii=fit.primitives.radii,
-                         mean_gap=fit.mean_gap, max_gap=fit.max_gap, volume_ratio=fit.volume_ratio)
+                         mean_gap=fit.mean_gap, max_gap=fit.max_gap, volume_ratio=fit.volume_ratio,
+                         bound_a=fit.bound.a, bound_b=fit.bound.b, bound_r=fit.bound.radii,
+                         bound_volume_ratio=fit.bound_volume_ratio, bound_mean_gap=fit.bound_mean_gap)
                 tmp.replace(path)
             except OSError as exc:
                 _LOG.warning("cannot write robot fit cache %s: %s", path, exc)

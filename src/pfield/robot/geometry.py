@@ -27,10 +27,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import ConvexHull, QhullError
+from scipy.spatial import ConvexHull
 
 from pfield.robot._distance import segment_segment_distance
-from pfield.robot._fit import TARGET_GAP, LinkFit, LinkSurface, Primitives, cached_fit, measure, segment_distances
+from pfield.robot._fit import TARGET_GAP, LinkFit, LinkSurface, cached_fit, fit_single_capsule, measure
 
 if TYPE_CHECKING:
     import pinocchio as pin
@@ -111,54 +111,10 @@ class RobotGeometry:
         return tuple(c.link for c in self.capsules)
 
 
-def _enclosing_circle(points: NDArray[np.float64], iterations: int = 400) -> NDArray[np.float64]:
-    """Approximate centre of the smallest circle (any dimension) enclosing ``points`` (Bădoiu–Clarkson)."""
-    centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
-    for k in range(1, iterations + 1):
-        far = points[np.argmax(np.linalg.norm(points - centre, axis=1))]
-        centre = centre + (far - centre) / (k + 1)
-    return centre
-
-
-def _capsule_along(points: NDArray[np.float64], axis: NDArray[np.float64]
-                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-    basis = np.linalg.svd(np.eye(3) - np.outer(axis, axis))[0][:, :2]
-    planar = points @ basis
-    centre2 = _enclosing_circle(planar)
-    rho = np.linalg.norm(planar - centre2, axis=1)
-    radius = float(rho.max()) + 1e-9
-    t = points @ axis
-    h = np.sqrt(np.maximum(radius**2 - rho**2, 0.0))
-    t_b, t_a = float(np.max(t - h)), float(np.min(t + h))
-    offset = basis @ centre2
-    if t_a > t_b:  # every point fits in one sphere
-        t_mid = 0.5 * (t_a + t_b)
-        centre = offset + t_mid * axis
-        radius = float(np.linalg.norm(points - centre, axis=1).max()) + 1e-9
-        return centre, centre.copy(), radius
-    return offset + t_a * axis, offset + t_b * axis, radius
-
-
 def fit_capsule(points: NDArray[np.float64], link: str = "", joint: int = -1) -> LinkCapsule:
-    """Smallest-volume capsule (over the principal axes) covering ``points`` (N, 3); see module doc."""
-    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    try:
-        hull = ConvexHull(pts)
-        vertices, hull_volume = pts[hull.vertices], float(hull.volume)
-    except (QhullError, ValueError):
-        vertices, hull_volume = pts, 0.0
-    axes = np.linalg.svd(vertices - vertices.mean(axis=0), full_matrices=False)[2]
-    best = None
-    for axis in axes:
-        a, b, r = _capsule_along(vertices, axis / np.linalg.norm(axis))
-        volume = math.pi * r * r * (float(np.linalg.norm(b - a)) + 4.0 * r / 3.0)
-        if best is None or volume < best[3]:
-            best = (a, b, r, volume)
-    assert best is not None
-    a, b, r, volume = best
-    gaps = r - segment_distances(vertices, a, b)
-    ratio = volume / hull_volume if hull_volume > 0 else math.inf
-    return LinkCapsule(link, joint, a, b, r, ratio, float(gaps.mean()))
+    """Smallest-volume capsule (over the principal axes) covering ``points`` (N, 3); see the module doc."""
+    a, b, r, ratio, gap = fit_single_capsule(points)
+    return LinkCapsule(link, joint, a, b, r, ratio, gap)
 
 
 def _primitive_points(shape: object) -> NDArray[np.float64]:
@@ -276,18 +232,17 @@ def fit_robot_geometry(robot: RobotModel, target_gap: float = TARGET_GAP, *,
     capsules, primitives, reports, starts = [], [], [], [0]
     for link, (joint, placement, surface) in _link_surfaces(robot).items():
         rotation, translation = np.asarray(placement.rotation), np.asarray(placement.translation)
-        bound = fit_capsule(surface.vertices @ rotation.T + translation, link, joint)
+        fit = cached_fit(surface, target_gap)
         if one_capsule:
-            single = Primitives(bound.a[None], bound.b[None], np.array([bound.radius]))
-            in_link = single.transformed(rotation.T, -translation @ rotation)
-            fit = LinkFit(in_link, *measure(surface, in_link))
-        else:
-            fit = cached_fit(surface, target_gap)
+            fit = LinkFit(fit.bound, *measure(surface, fit.bound), fit.bound, fit.bound_volume_ratio,
+                          fit.bound_mean_gap)
         prims = fit.primitives.transformed(rotation, translation)
-        # the bounding capsule covers the surface; every primitive stays within target_gap of it (+ rounding)
+        bound = fit.bound.transformed(rotation, translation)
+        # the covering capsule contains the surface and every primitive lies within target_gap of it: grown by
+        # target_gap it bounds the primitives (the one-capsule model is its own bound)
         margin = 0.0 if one_capsule else target_gap + 1e-9
-        capsules.append(LinkCapsule(link, joint, bound.a, bound.b, bound.radius + margin, bound.volume_ratio,
-                                    bound.mean_gap))
+        capsules.append(LinkCapsule(link, joint, bound.a[0], bound.b[0], float(bound.radii[0]) + margin,
+                                    fit.bound_volume_ratio, fit.bound_mean_gap))
         for j in range(len(prims)):
             primitives.append(LinkCapsule(link, joint, prims.a[j], prims.b[j], float(prims.radii[j])))
         starts.append(len(primitives))
