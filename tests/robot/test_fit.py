@@ -144,6 +144,7 @@ def test_locked_fingers_move_the_finger_links(panda: RobotModel) -> None:
 
 def test_clearances_are_the_minimum_over_each_links_primitives(xarm: RobotModel) -> None:
     from pfield.geometry import pack_obstacles
+    from pfield.robot._clearance import FINE_RANGE
     from pfield.robot._distance import segment_obstacle_distance
 
     q = np.array([0.0, -0.6, 0.0, 0.9, 0.0, 1.5, 0.0])
@@ -153,6 +154,7 @@ def test_clearances_are_the_minimum_over_each_links_primitives(xarm: RobotModel)
     packed = pack_obstacles(obstacles)
     g = xarm.geometry
     rotations, origins = xarm.joint_frames(q)
+    near = 0
     for i in range(len(obstacles)):
         for link in range(len(g.capsules)):
             best = np.inf
@@ -162,7 +164,11 @@ def test_clearances_are_the_minimum_over_each_links_primitives(xarm: RobotModel)
                 b = g.prim_b[p] if j < 0 else rotations[j] @ g.prim_b[p] + origins[j]
                 d = segment_obstacle_distance(packed, i, a, b, np.empty((2, 3)))[0]
                 best = min(best, d - g.prim_r[p])
-            assert obstacle[link, i] == pytest.approx(best, abs=1e-9)
+            assert obstacle[link, i] <= best + 1e-9  # never more than the fitted model's distance
+            if obstacle[link, i] < FINE_RANGE:  # near: exactly the fitted model's
+                assert obstacle[link, i] == pytest.approx(best, abs=1e-9)
+                near += 1
+    assert near >= 3
     assert own.shape == (len(g.self_pairs),)
 
 

@@ -34,7 +34,8 @@ class FlatStep:
         dims = _dims(robot, scene)
         floats = [robot.place_rot, robot.place_pos, robot.axes, robot.ee_rot, robot.ee_pos, robot.cap_a, robot.cap_b,
                   robot.cap_r, robot.lower, robot.upper, robot.max_velocity, robot.max_acceleration, scene.centres,
-                  scene.bounds, scene.obstacle_offsets, scene.self_offsets, robot.prim_a, robot.prim_b, robot.prim_r]
+                  scene.bounds, scene.obstacle_offsets, scene.self_offsets, robot.prim_a, robot.prim_b, robot.prim_r,
+                  robot.self_r]
         ints = [robot.parents, robot.kinds, robot.support, robot.cap_joint, robot.self_pairs, robot.link_start,
                 robot.prim_joint]
         self.dims = dims
@@ -83,6 +84,7 @@ def _views(dims, floats, ints, work, packed):  # type: ignore[no-untyped-def]
     prim_a, o = _take(floats, o, prims * 3)
     prim_b, o = _take(floats, o, prims * 3)
     prim_r, o = _take(floats, o, prims)
+    self_r, o = _take(floats, o, caps)
     i = 0
     parents, i = _take(ints, i, n)
     kinds, i = _take(ints, i, n)
@@ -95,7 +97,8 @@ def _views(dims, floats, ints, work, packed):  # type: ignore[no-untyped-def]
                             kinds, support.reshape((n, n)), ee_joint, ee_rot.reshape((3, 3)), ee_pos,
                             cap_joint, cap_a.reshape((caps, 3)), cap_b.reshape((caps, 3)), cap_r,
                             self_pairs.reshape((pairs, 2)), lower, upper, max_velocity, max_acceleration,
-                            link_start, prim_joint, prim_a.reshape((prims, 3)), prim_b.reshape((prims, 3)), prim_r)
+                            link_start, prim_joint, prim_a.reshape((prims, 3)), prim_b.reshape((prims, 3)), prim_r,
+                            self_r)
     scene = _wb.Scene(packed, centres.reshape((obstacles, 3)), bounds, obstacle_offsets.reshape((caps, obstacles)),
                       self_offsets)
     return robot, scene, _workspace_views(work, n, caps, m_max, prims)

@@ -53,8 +53,9 @@ SUCCESS, ITERATION_LIMIT, STAGNATION, COLLISION, SELF_COLLISION = range(5)
 class RobotArrays(NamedTuple):
     """Kinematics (see :mod:`pfield.robot._kinematics`), the link model and limits, packed for the kernel.
 
-    ``cap_*`` are the links' bounding capsules (index l), ``self_pairs`` link pairs, and ``link_start``,
-    ``prim_*`` the fitted primitives of each link (:class:`pfield.robot.geometry.RobotGeometry`).
+    ``cap_*`` are the links' bounding capsules (index l; ``self_r`` the radii of the ungrown covering
+    capsules, for the ``self_pairs`` link pairs), and ``link_start``, ``prim_*`` the fitted primitives of
+    each link (:class:`pfield.robot.geometry.RobotGeometry`).
     """
 
     parents: NDArray[np.int64]
@@ -80,6 +81,7 @@ class RobotArrays(NamedTuple):
     prim_a: NDArray[np.float64]
     prim_b: NDArray[np.float64]
     prim_r: NDArray[np.float64]
+    self_r: NDArray[np.float64]
 
 
 class Scene(NamedTuple):
@@ -245,17 +247,15 @@ def _self_rows(robot, scene, params, ws, m):  # type: ignore[no-untyped-def]
     clearance = math.inf
     kin = (ws.rotations, ws.origins, robot.axes, robot.kinds, robot.support)
     jlin, jlin2, wrows, wb = ws.jlin, ws.jlin2, ws.rows, ws.b
-    pairs, seg_a, seg_b, cap_r, cap_joint = robot.self_pairs, ws.seg_a, ws.seg_b, robot.cap_r, robot.cap_joint
-    link_start, prim_a, prim_b, prim_r = robot.link_start, ws.prim_seg_a, ws.prim_seg_b, robot.prim_r
+    pairs, seg_a, seg_b, cap_joint = robot.self_pairs, ws.seg_a, ws.seg_b, robot.cap_joint
+    self_r = robot.self_r
     offsets = scene.self_offsets
     for k in range(pairs.shape[0]):
         c1, c2 = pairs[k, 0], pairs[k, 1]
-        # pairs whose bound (after the start offset ≤ 0) is ≥ Q need no row
-        d, exact, p1x, p1y, p1z, p2x, p2y, p2z = link_pair_distance(
-            c1, c2, seg_a, seg_b, cap_r, link_start, prim_a, prim_b, prim_r, influence + offsets[k])
+        d, p1x, p1y, p1z, p2x, p2y, p2z = link_pair_distance(c1, c2, seg_a, seg_b, self_r)
         d -= offsets[k]
         clearance = min(clearance, d)
-        if not exact or d >= influence:
+        if d >= influence:
             continue
         dx, dy, dz = p1x - p2x, p1y - p2y, p1z - p2z
         dist = math.sqrt(dx * dx + dy * dy + dz * dz)

@@ -97,7 +97,7 @@ def pack_robot(robot: RobotModel, config: FieldConfig, options: WholeBodyOptions
     return _wb.RobotArrays(k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, k.support, k.ee_joint, k.ee_rot,
                            k.ee_pos, g.joints, g.a, g.b, g.radii, g.self_pairs, np.array(robot.lower_limits),
                            np.array(robot.upper_limits), np.array(robot.velocity_limits), accel.astype(np.float64),
-                           g.link_start, g.prim_joint, g.prim_a, g.prim_b, g.prim_r)
+                           g.link_start, g.prim_joint, g.prim_a, g.prim_b, g.prim_r, g.self_radii)
 
 
 def kernel_parameters(config: FieldConfig, dt: float, goal_tolerance: float, rotation_tolerance: float,
@@ -133,7 +133,8 @@ def make_scene(packed: PackedObstacles | None, robot: _wb.RobotArrays | None = N
     if robot is None or q0 is None:
         return scene
     obstacle, own = clearances_at(q0, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds,
-                                  robot.cap_joint, robot.cap_a, robot.cap_b, robot.cap_r, robot.link_start,
+                                  robot.cap_joint, robot.cap_a, robot.cap_b, robot.cap_r, robot.self_r,
+                                  robot.link_start,
                                   robot.prim_joint, robot.prim_a, robot.prim_b, robot.prim_r, robot.self_pairs,
                                   scene.packed, scene.centres, scene.bounds)
     return scene._replace(obstacle_offsets=np.minimum(obstacle - safety_distance, 0.0),

@@ -1,9 +1,13 @@
 """Compiled clearances of the two-level link model: link–obstacle and link–link (self) distances.
 
 Each link l has a bounding capsule (``cap_a[l]``–``cap_b[l]``, ``cap_r[l]``, containing everything below)
-and its fitted primitives ``link_start[l]:link_start[l + 1]`` (:mod:`pfield.robot.geometry`). A distance
-is the minimum over the link's primitives (over primitive pairs for two links), and the bounding capsules
-cull: a pair whose bound is ≥ ``cutoff`` gets that bound instead (no closer than it, never exact).
+and its fitted primitives ``link_start[l]:link_start[l + 1]`` (:mod:`pfield.robot.geometry`); ``self_r[l]``
+is the radius of the ungrown covering capsule, used for self-collision (:func:`link_pair_distance`). Near
+(bounding capsules closer than ``FINE_RANGE`` = 10 cm) a distance is the minimum over the link's
+primitives; farther, the bounding capsules' own distance stands for it
+(a lower bound, at most the capsules' over-approximation off, where a few centimetres do not matter and the
+cost of the fine model would be wasted). A pair whose cheap bound is ≥ ``cutoff`` gets that bound instead
+and is reported as not exact (no closer than it).
 Segment ends are in the world frame (:func:`world_segments`). The closest point returned is on the
 primitive's segment (its axis), where the kernels take the point Jacobian; ``n`` points from the obstacle
 (or from the second link) towards the link.
@@ -23,17 +27,27 @@ from pfield.robot._distance import (
     point_segment_distance,
     round_segment_distance,
     segment_obstacle_distance,
-    segment_segment_distance,
 )
-from pfield.robot._kinematics import joint_transforms, transform_point_into
+from pfield.robot._kinematics import joint_transforms
+
+FINE_RANGE = 0.1  # m: pairs whose bounding capsules are at least this far apart use the capsules' distance
 
 
 @njit(cache=True, inline="always")
 def world_segments(rotations, origins, joints, a, b, out_a, out_b):  # type: ignore[no-untyped-def]
-    """World ends of every segment (local ends ``a``, ``b`` carried by ``joints``) into ``out_a``, ``out_b``."""
+    """World ends of every segment (local ends ``a``, ``b`` carried by ``joints``) into ``out_a``, ``out_b``.
+
+    Scalar indexing only: an array view per segment (``a[c]``) costs more than the transform itself."""
     for c in range(joints.shape[0]):
-        transform_point_into(rotations, origins, joints[c], a[c], out_a[c])
-        transform_point_into(rotations, origins, joints[c], b[c], out_b[c])
+        j = joints[c]
+        if j < 0:
+            for k in range(3):
+                out_a[c, k], out_b[c, k] = a[c, k], b[c, k]
+            continue
+        for k in range(3):
+            r0, r1, r2, o = rotations[j, k, 0], rotations[j, k, 1], rotations[j, k, 2], origins[j, k]
+            out_a[c, k] = r0 * a[c, 0] + r1 * a[c, 1] + r2 * a[c, 2] + o
+            out_b[c, k] = r0 * b[c, 0] + r1 * b[c, 1] + r2 * b[c, 2] + o
 
 
 @njit(cache=True, inline="always")
@@ -48,6 +62,14 @@ def link_obstacle_distance(  # type: ignore[no-untyped-def]
     lower = point_segment_distance(centre, cap_a[link], cap_b[link]) - reach - cap_r[link]
     if lower >= cutoff:
         return lower, False, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
+    a, b = cap_a[link], cap_b[link]
+    if kinds[i] == SPHERE or kinds[i] == CAPSULE:
+        d, t, nx, ny, nz = round_segment_distance(rows, kinds, i, a, b, scratch)
+    else:
+        d, t, nx, ny, nz = segment_obstacle_distance(packed, i, a, b, scratch)
+    d -= cap_r[link]
+    if d >= FINE_RANGE:  # far: the bounding capsule's distance (a lower bound of the fitted model's)
+        return d, True, a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2]), nx, ny, nz
     best, px, py, pz, bx, by, bz = math.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
     round_obstacle = kinds[i] == SPHERE or kinds[i] == CAPSULE
     mid = scratch[1]
@@ -60,19 +82,24 @@ def link_obstacle_distance(  # type: ignore[no-untyped-def]
                 mid[k] = 0.5 * (prim_a[p, k] + prim_b[p, k])
             limit = min(limit, obstacle_signed_distance(packed, i, mid)[0] - prim_r[p])
     for p in range(link_start[link], link_start[link + 1]):
-        a, b = prim_a[p], prim_b[p]
-        if point_segment_distance(centre, a, b) - reach - prim_r[p] > limit:
+        # cheap bounds first, in scalars (an array view per primitive costs more than the bound)
+        ax, ay, az = prim_a[p, 0], prim_a[p, 1], prim_a[p, 2]
+        ex, ey, ez = prim_b[p, 0] - ax, prim_b[p, 1] - ay, prim_b[p, 2] - az
+        length2 = ex * ex + ey * ey + ez * ez
+        cx, cy, cz = centre[0] - ax, centre[1] - ay, centre[2] - az
+        u = 0.0 if length2 <= 1e-14 else min(max((cx * ex + cy * ey + cz * ez) / length2, 0.0), 1.0)
+        fx, fy, fz = cx - u * ex, cy - u * ey, cz - u * ez
+        if math.sqrt(fx * fx + fy * fy + fz * fz) - reach - prim_r[p] > limit:
             continue
+        if not round_obstacle:
+            # a signed distance is 1-Lipschitz: d(s(t)) ≥ d(midpoint) − half the segment's length
+            mid[0], mid[1], mid[2] = ax + 0.5 * ex, ay + 0.5 * ey, az + 0.5 * ez
+            if obstacle_signed_distance(packed, i, mid)[0] - 0.5 * math.sqrt(length2) - prim_r[p] > limit:
+                continue
+        a, b = prim_a[p], prim_b[p]
         if round_obstacle:
             d, t, nx, ny, nz = round_segment_distance(rows, kinds, i, a, b, scratch)
         else:
-            # a signed distance is 1-Lipschitz: d(s(t)) ≥ d(midpoint) − half the segment's length
-            half2 = 0.0
-            for k in range(3):
-                mid[k] = 0.5 * (a[k] + b[k])
-                half2 += (b[k] - a[k]) * (b[k] - a[k])
-            if obstacle_signed_distance(packed, i, mid)[0] - 0.5 * math.sqrt(half2) - prim_r[p] > limit:
-                continue
             d, t, nx, ny, nz = segment_obstacle_distance(packed, i, a, b, scratch)
         d -= prim_r[p]
         if d < best:
@@ -83,36 +110,26 @@ def link_obstacle_distance(  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, inline="always")
-def link_pair_distance(  # type: ignore[no-untyped-def]
-        l1, l2, cap_a, cap_b, cap_r, link_start, prim_a, prim_b, prim_r, cutoff):
-    """Clearance (m) between links ``l1`` and ``l2``: ``(d, exact, p1 (3), p2 (3))``, p1/p2 the closest
-    points on the two primitives' segments (``exact`` False: the bounding capsules' bound ≥ ``cutoff``)."""
-    lower = segment_segment_distance(cap_a[l1], cap_b[l1], cap_a[l2], cap_b[l2]) - cap_r[l1] - cap_r[l2]
-    if lower >= cutoff:
-        return lower, False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    best = math.inf
-    p1x, p1y, p1z, p2x, p2y, p2z = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    for p in range(link_start[l1], link_start[l1 + 1]):
-        a1, b1, r1 = prim_a[p], prim_b[p], prim_r[p]
-        # link l2 lies inside its bounding capsule: a primitive that cannot beat the best against it is skipped
-        if segment_segment_distance(a1, b1, cap_a[l2], cap_b[l2]) - r1 - cap_r[l2] >= best:
-            continue
-        for q in range(link_start[l2], link_start[l2 + 1]):
-            a2, b2 = prim_a[q], prim_b[q]
-            s, t = closest_segment_points(a1, b1, a2, b2)
-            x1, y1, z1 = a1[0] + s * (b1[0] - a1[0]), a1[1] + s * (b1[1] - a1[1]), a1[2] + s * (b1[2] - a1[2])
-            x2, y2, z2 = a2[0] + t * (b2[0] - a2[0]), a2[1] + t * (b2[1] - a2[1]), a2[2] + t * (b2[2] - a2[2])
-            dx, dy, dz = x1 - x2, y1 - y2, z1 - z2
-            d = math.sqrt(dx * dx + dy * dy + dz * dz) - r1 - prim_r[q]
-            if d < best:
-                best, p1x, p1y, p1z, p2x, p2y, p2z = d, x1, y1, z1, x2, y2, z2
-    return best, True, p1x, p1y, p1z, p2x, p2y, p2z
+def link_pair_distance(l1, l2, cap_a, cap_b, self_r):  # type: ignore[no-untyped-def]
+    """Clearance (m) between links ``l1`` and ``l2`` on their covering capsules (radii ``self_r``):
+    ``(d, p1 (3), p2 (3))``, p1/p2 the closest points of the two segments.
+
+    Self-collision uses the single covering capsule of each link (it contains the link's collision surface):
+    the SRDF leaves only links that are not close by design, and the fitted primitives would cost about a
+    hundred segment pairs per link pair for every step.
+    """
+    a1, b1, a2, b2 = cap_a[l1], cap_b[l1], cap_a[l2], cap_b[l2]
+    s, t = closest_segment_points(a1, b1, a2, b2)
+    x1, y1, z1 = a1[0] + s * (b1[0] - a1[0]), a1[1] + s * (b1[1] - a1[1]), a1[2] + s * (b1[2] - a1[2])
+    x2, y2, z2 = a2[0] + t * (b2[0] - a2[0]), a2[1] + t * (b2[1] - a2[1]), a2[2] + t * (b2[2] - a2[2])
+    d = math.sqrt((x1 - x2) ** 2 + (y1 - y2) ** 2 + (z1 - z2) ** 2) - self_r[l1] - self_r[l2]
+    return d, x1, y1, z1, x2, y2, z2
 
 
 @njit(cache=True)
 def fill_clearances(  # type: ignore[no-untyped-def]
-        cap_a, cap_b, cap_r, link_start, prim_a, prim_b, prim_r, self_pairs, packed, centres, bounds, scratch,
-        obstacle, own, cutoff):
+        cap_a, cap_b, cap_r, self_r, link_start, prim_a, prim_b, prim_r, self_pairs, packed, centres, bounds,
+        scratch, obstacle, own, cutoff):
     """Link–obstacle clearances into ``obstacle`` (L, M) and self-pair clearances into ``own`` (P,), from
     world segments; pairs whose bound is ≥ ``cutoff`` get the bound."""
     for link in range(obstacle.shape[0]):
@@ -120,13 +137,12 @@ def fill_clearances(  # type: ignore[no-untyped-def]
             obstacle[link, i] = link_obstacle_distance(link, i, packed, centres, bounds, cap_a, cap_b, cap_r,
                                                        link_start, prim_a, prim_b, prim_r, scratch, cutoff)[0]
     for k in range(self_pairs.shape[0]):
-        own[k] = link_pair_distance(self_pairs[k, 0], self_pairs[k, 1], cap_a, cap_b, cap_r, link_start, prim_a,
-                                    prim_b, prim_r, math.inf)[0]
+        own[k] = link_pair_distance(self_pairs[k, 0], self_pairs[k, 1], cap_a, cap_b, self_r)[0]
 
 
 @njit(cache=True)
 def clearances_at(  # type: ignore[no-untyped-def]
-        q, parents, place_rot, place_pos, axes, kinds, joints, cap_a, cap_b, cap_r, link_start, prim_joint,
+        q, parents, place_rot, place_pos, axes, kinds, joints, cap_a, cap_b, cap_r, self_r, link_start, prim_joint,
         prim_a, prim_b, prim_r, self_pairs, packed, centres, bounds):
     """Exact clearances (m) at ``q``: link × obstacle (L, M) and self pairs (P,) of the fitted model."""
     n, links, prims = q.shape[0], joints.shape[0], prim_joint.shape[0]
@@ -137,7 +153,7 @@ def clearances_at(  # type: ignore[no-untyped-def]
     world_segments(rotations, origins, joints, cap_a, cap_b, seg_a, seg_b)
     world_segments(rotations, origins, prim_joint, prim_a, prim_b, pa, pb)
     obstacle, own = np.empty((links, bounds.shape[0])), np.empty(self_pairs.shape[0])
-    fill_clearances(seg_a, seg_b, cap_r, link_start, pa, pb, prim_r, self_pairs, packed, centres, bounds,
+    fill_clearances(seg_a, seg_b, cap_r, self_r, link_start, pa, pb, prim_r, self_pairs, packed, centres, bounds,
                     np.empty((2, 3)), obstacle, own, math.inf)
     return obstacle, own
 

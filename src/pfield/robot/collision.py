@@ -56,8 +56,8 @@ def capsule_clearances(robot: RobotModel, q: ArrayLike,
     # no culling bound is needed for exact values: infinite bounding radii never cull
     centres, bounds = np.ascontiguousarray(packed.rows[:, 0:3]), np.full(count, np.inf)
     obstacle, own = clearances_at(values, k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, g.joints, g.a, g.b,
-                                  g.radii, g.link_start, g.prim_joint, g.prim_a, g.prim_b, g.prim_r, g.self_pairs,
-                                  packed, centres, bounds)
+                                  g.radii, g.self_radii, g.link_start, g.prim_joint, g.prim_a, g.prim_b, g.prim_r,
+                                  g.self_pairs, packed, centres, bounds)
     return obstacle, own
 
 

@@ -88,7 +88,8 @@ class RobotGeometry:
     * ``primitives`` — the fitted spheres/capsules (index p), grouped by link: those of link l are
       ``link_start[l]:link_start[l + 1]``, with ends ``prim_a``, ``prim_b`` and radii ``prim_r`` in the frame
       of joint ``prim_joint[p]`` (= ``joints[l]``);
-    * ``self_pairs`` — the link index pairs (P, 2) checked for self-collision; ``fits`` — the per-link fit report.
+    * ``self_pairs`` — the link index pairs (P, 2) checked for self-collision, on the covering capsules (the
+      bounding capsules before growing: radii ``self_radii``); ``fits`` — the per-link fit report.
     """
 
     capsules: tuple[LinkCapsule, ...]
@@ -104,6 +105,7 @@ class RobotGeometry:
     prim_b: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))  # (Np, 3)
     prim_r: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))  # (Np,)
     fits: tuple[LinkFitReport, ...] = ()
+    self_radii: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))  # (L,) ungrown covering capsules
 
     @property
     def link_names(self) -> tuple[str, ...]:
@@ -182,17 +184,16 @@ def adjacent_joints(parents: NDArray[np.int64], ja: int, jb: int) -> bool:
     return ja == jb or (jb >= 0 and parents[jb] == ja) or (ja >= 0 and parents[ja] == jb)
 
 
-def _self_pairs(robot: RobotModel, capsules: list[LinkCapsule], primitives: list[LinkCapsule],
-                starts: list[int]) -> NDArray[np.int64]:
+def _self_pairs(robot: RobotModel, capsules: list[LinkCapsule], covering: list[float]) -> NDArray[np.int64]:
     """Link pairs checked for self-collision: the SRDF's enabled pairs, else all non-adjacent pairs.
 
-    Pairs on one rigid body are always skipped; so are pairs whose fitted primitives already touch in the
-    mid-range configuration (the model over-approximates, and such links are close by design).
+    Pairs on one rigid body are always skipped; so are pairs whose covering capsules (radii ``covering``)
+    already touch in the mid-range configuration (they over-approximate, and such links are close by design).
     """
     reference = np.where(np.isfinite(robot.lower_limits + robot.upper_limits),
                          0.5 * (robot.lower_limits + robot.upper_limits), 0.0)
     rotations, origins = robot.joint_frames(reference)
-    world = [world_segment(p, rotations, origins) for p in primitives]
+    world = [world_segment(c, rotations, origins) for c in capsules]
     pairs = []
     for i in range(len(capsules)):
         for j in range(i + 1, len(capsules)):
@@ -204,8 +205,7 @@ def _self_pairs(robot: RobotModel, capsules: list[LinkCapsule], primitives: list
                     continue
             elif adjacent_joints(robot.kinematics.parents, ci.joint, cj.joint):
                 continue
-            gap = min(segment_segment_distance(*world[p], *world[q]) - primitives[p].radius - primitives[q].radius
-                      for p in range(starts[i], starts[i + 1]) for q in range(starts[j], starts[j + 1]))
+            gap = segment_segment_distance(*world[i], *world[j]) - covering[i] - covering[j]
             if gap <= 0.0:
                 _LOG.info("self-collision pair %s/%s skipped: capsules overlap at mid-range", ci.link, cj.link)
                 continue
@@ -229,7 +229,7 @@ def fit_robot_geometry(robot: RobotModel, target_gap: float = TARGET_GAP, *,
 
     ``one_capsule=True`` models each link by its single covering capsule alone (no spheres/capsules fit,
     ``fits`` reports that capsule): the coarse model, for comparisons."""
-    capsules, primitives, reports, starts = [], [], [], [0]
+    capsules, primitives, reports, starts, covering = [], [], [], [0], []
     for link, (joint, placement, surface) in _link_surfaces(robot).items():
         rotation, translation = np.asarray(placement.rotation), np.asarray(placement.translation)
         fit = cached_fit(surface, target_gap)
@@ -241,6 +241,7 @@ def fit_robot_geometry(robot: RobotModel, target_gap: float = TARGET_GAP, *,
         # the covering capsule contains the surface and every primitive lies within target_gap of it: grown by
         # target_gap it bounds the primitives (the one-capsule model is its own bound)
         margin = 0.0 if one_capsule else target_gap + 1e-9
+        covering.append(float(bound.radii[0]))
         capsules.append(LinkCapsule(link, joint, bound.a[0], bound.b[0], float(bound.radii[0]) + margin,
                                     fit.bound_volume_ratio, fit.bound_mean_gap))
         for j in range(len(prims)):
@@ -250,7 +251,7 @@ def fit_robot_geometry(robot: RobotModel, target_gap: float = TARGET_GAP, *,
                                      fit.mean_gap, fit.max_gap, fit.volume_ratio))
         _LOG.debug("link %s: %d primitives, mean gap %.4f m, max gap %.4f m, volume ratio %.2f", link, len(prims),
                    fit.mean_gap, fit.max_gap, fit.volume_ratio)
-    pairs = _self_pairs(robot, capsules, primitives, starts)
+    pairs = _self_pairs(robot, capsules, covering)
     return RobotGeometry(
         tuple(capsules), pairs,
         np.array([c.joint for c in capsules], dtype=np.int64),
@@ -262,6 +263,7 @@ def fit_robot_geometry(robot: RobotModel, target_gap: float = TARGET_GAP, *,
         np.array([p.b for p in primitives], dtype=np.float64).reshape(-1, 3),
         np.array([p.radius for p in primitives], dtype=np.float64),
         tuple(reports),
+        np.array(covering, dtype=np.float64),
     )
 
 
