@@ -87,8 +87,8 @@ def fill_pair_distances(q, robot, scene, ws, obstacle, own, cutoff):  # type: ig
                      ws.origins)
     _segments(robot, ws)
     fill_clearances(ws.seg_a, ws.seg_b, robot.cap_r, robot.self_r, robot.link_start, ws.prim_seg_a, ws.prim_seg_b,
-                    robot.prim_r, robot.self_pairs, scene.packed, scene.centres, scene.bounds, ws.scratch, obstacle, own,
-                    cutoff)
+                    robot.prim_r, robot.self_pairs, scene.packed, scene.centres, scene.bounds, ws.scratch, obstacle,
+                    own, cutoff)
 
 
 @njit(cache=True)

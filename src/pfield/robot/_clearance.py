@@ -76,11 +76,10 @@ def link_obstacle_distance(  # type: ignore[no-untyped-def]
     # nothing whose lower bound exceeds ``limit`` can be the minimum: the best exact value so far, or (before
     # any) an upper bound: a segment's midpoint is one of its points, so min_p d(mid_p) − r_p ≥ the minimum
     limit = math.inf
-    if not round_obstacle:
-        for p in range(link_start[link], link_start[link + 1]):
-            for k in range(3):
-                mid[k] = 0.5 * (prim_a[p, k] + prim_b[p, k])
-            limit = min(limit, obstacle_signed_distance(packed, i, mid)[0] - prim_r[p])
+    for p in range(link_start[link], link_start[link + 1]):
+        for k in range(3):
+            mid[k] = 0.5 * (prim_a[p, k] + prim_b[p, k])
+        limit = min(limit, obstacle_signed_distance(packed, i, mid)[0] - prim_r[p])
     for p in range(link_start[link], link_start[link + 1]):
         # cheap bounds first, in scalars (an array view per primitive costs more than the bound)
         ax, ay, az = prim_a[p, 0], prim_a[p, 1], prim_a[p, 2]
