@@ -176,7 +176,7 @@ def test_whole_body_nearest_matches_the_capsule_clearances(xarm: Any) -> None:
 
     arm, ball = arm_scene(xarm)
     answer = whole_body_assistance(arm, xarm, Q, Twist((0.02, 0.0, 0.0)))
-    clearances, _ = capsule_clearances(xarm, Q, [ball])
+    clearances = capsule_clearances(xarm, Q, [ball]).obstacle
     assert answer.nearest_obstacle_id == "ball"
     assert answer.nearest_distance == pytest.approx(float(clearances.min()), abs=1e-6)
     # witness points: on the ball's surface, and the normal points from it to the robot
