@@ -42,6 +42,7 @@ from pfield.planning import _whole_body_loop as _loop
 from pfield.planning.options import PlanOptions
 from pfield.planning.result import PlannedPath
 from pfield.planning.status import PlanStatus
+from pfield.robot._clearance import clearances_at
 from pfield.robot.model import RobotModel
 from pfield.spatial import Pose
 
@@ -88,7 +89,7 @@ def obstacle_bounds(packed: PackedObstacles) -> tuple[NDArray[np.float64], NDArr
 
 
 def pack_robot(robot: RobotModel, config: FieldConfig, options: WholeBodyOptions) -> _wb.RobotArrays:
-    """The robot's kinematics, capsules and limits as the kernel's :class:`RobotArrays`."""
+    """The robot's kinematics, link model and limits as the kernel's :class:`RobotArrays`."""
     k, g = robot.kinematics, robot.geometry
     if options.acceleration_limits is None:
         accel = np.where(k.kinds == 0, config.max_angular_acceleration, config.max_linear_acceleration)
@@ -98,7 +99,8 @@ def pack_robot(robot: RobotModel, config: FieldConfig, options: WholeBodyOptions
             raise InvalidInput("acceleration_limits", options.acceleration_limits, f"expected {robot.n_joints} values")
     return _wb.RobotArrays(k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, k.support, k.ee_joint, k.ee_rot,
                            k.ee_pos, g.joints, g.a, g.b, g.radii, g.self_pairs, np.array(robot.lower_limits),
-                           np.array(robot.upper_limits), np.array(robot.velocity_limits), accel.astype(np.float64))
+                           np.array(robot.upper_limits), np.array(robot.velocity_limits), accel.astype(np.float64),
+                           g.link_start, g.prim_joint, g.prim_a, g.prim_b, g.prim_r, g.self_radii)
 
 
 def kernel_parameters(config: FieldConfig, plan: PlanOptions, options: WholeBodyOptions) -> NDArray[np.float64]:
@@ -124,7 +126,7 @@ def make_scene(packed: PackedObstacles | None, robot: _wb.RobotArrays | None = N
                q0: NDArray[np.float64] | None = None, safety_distance: float = 0.0) -> _wb.Scene:
     """Packed obstacles, their bounding spheres and the start offsets of :class:`~._whole_body_layout.Scene`.
 
-    With ``robot`` and ``q0``, capsule pairs that start closer than ``safety_distance`` get the offset
+    With ``robot`` and ``q0``, link pairs that start closer than ``safety_distance`` get the offset
     ``d0 − safety_distance`` (they may not approach further); otherwise all offsets are zero.
     """
     packed = empty_packed() if packed is None else packed
@@ -134,7 +136,10 @@ def make_scene(packed: PackedObstacles | None, robot: _wb.RobotArrays | None = N
     scene = _wb.Scene(packed, centres, radii, np.zeros((n_caps, len(radii))), np.zeros(n_pairs))
     if robot is None or q0 is None:
         return scene
-    obstacle, own = _loop.pair_distances(q0, robot, scene)
+    obstacle, own = clearances_at(q0, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds,
+                                  robot.cap_joint, robot.cap_a, robot.cap_b, robot.cap_r, robot.self_r,
+                                  robot.link_start, robot.prim_joint, robot.prim_a, robot.prim_b, robot.prim_r,
+                                  robot.self_pairs, scene.packed, scene.centres, scene.bounds)
     return scene._replace(obstacle_offsets=np.minimum(obstacle - safety_distance, 0.0),
                           self_offsets=np.minimum(own - safety_distance, 0.0))
 
