@@ -224,17 +224,23 @@ class PotentialField:
         goal_tolerance: float = 0.01,
         max_iterations: int = 30000,
         rotation_tolerance: float | None = None,
+        *,
+        global_fallback: bool = True,
+        global_time_limit: float | None = None,
     ) -> PlannedPath:
         """Task-space plan from ``start`` to the goal (see :func:`pfield.planning.task_space.plan_task_space`)."""
         from pfield.planning.task_space import plan_task_space
 
         return plan_task_space(self, start, dt=dt, goal_tolerance=goal_tolerance, max_iterations=max_iterations,
-                               rotation_tolerance=rotation_tolerance)
+                               rotation_tolerance=rotation_tolerance, global_fallback=global_fallback,
+                               global_time_limit=global_time_limit)
 
     def plan_whole_body(
-        self, robot: Any, q0: ArrayLike, dt: float = 0.01, goal_tolerance: float = 0.01, max_iterations: int = 30000
+        self, robot: Any, q0: ArrayLike, dt: float = 0.01, goal_tolerance: float = 0.01, max_iterations: int = 30000,
+        *, global_fallback: bool = True, global_time_limit: float | None = None,
     ) -> PlannedPath:
         """Whole-body plan of ``robot`` from joint positions ``q0`` (:mod:`pfield.planning.whole_body`)."""
         from pfield.planning.whole_body import plan_whole_body
 
-        return plan_whole_body(self, robot, q0, dt=dt, goal_tolerance=goal_tolerance, max_iterations=max_iterations)
+        return plan_whole_body(self, robot, q0, dt=dt, goal_tolerance=goal_tolerance, max_iterations=max_iterations,
+                               global_fallback=global_fallback, global_time_limit=global_time_limit)

@@ -16,9 +16,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pfield.errors import InvalidInput
+from pfield.planning.retime import TimedJointTrajectory
 from pfield.spatial import Pose, Twist
 
-__all__ = ["PlannedPath"]
+__all__ = ["PLANNERS", "PlannedPath"]
+
+PLANNERS = ("field", "field+global")
+"""Values of :attr:`PlannedPath.planner`."""
 
 
 def _frozen(name: str, value: object, shape: tuple[int | None, ...]) -> NDArray[np.float64]:
@@ -48,6 +52,10 @@ class PlannedPath:
         joint_names: joint names in tree order (empty for task-space plans).
         joint_positions: (N, n) rad or m, or None for task-space plans.
         joint_velocities: (N, n) rad/s or m/s, or None.
+        planner: what produced the path: ``"field"`` (the potential field alone) or ``"field+global"``
+            (the field tracking the path of the global fallback search).
+        trajectory: the joint path time-parameterised within the joint velocity and acceleration limits
+            (what a JointTrajectoryController executes), or None (task-space plans without joints).
     """
 
     success: bool
@@ -61,6 +69,8 @@ class PlannedPath:
     joint_names: tuple[str, ...] = ()
     joint_positions: NDArray[np.float64] | None = field(default=None)
     joint_velocities: NDArray[np.float64] | None = field(default=None)
+    planner: str = PLANNERS[0]
+    trajectory: TimedJointTrajectory | None = None
 
     def __post_init__(self) -> None:
         times = _frozen("times", self.times, (None,))
@@ -82,6 +92,8 @@ class PlannedPath:
             raise InvalidInput("failure_reason", self.failure_reason, "must be empty when success is True")
         object.__setattr__(self, "success", bool(self.success))
         object.__setattr__(self, "iterations", int(self.iterations))
+        if self.planner not in PLANNERS:
+            raise InvalidInput("planner", self.planner, f"must be one of {PLANNERS}")
 
     def __len__(self) -> int:
         return int(self.times.shape[0])

@@ -27,7 +27,10 @@ from pfield.planning._task_space_loop import (
     STAGNATION,
     plan_loop,
 )
+from pfield.planning.fallback import FALLBACK_PLANNER, FIELD_PLANNER, task_space_fallback
+from pfield.planning.global_search import check_global_options
 from pfield.planning.result import PlannedPath
+from pfield.planning.whole_body import make_scene
 from pfield.spatial import Pose
 
 __all__ = ["DEFAULT_MAX_ITERATIONS", "MAX_ITERATIONS_LIMIT", "plan_task_space"]
@@ -58,6 +61,9 @@ def plan_task_space(
     goal_tolerance: float = 0.01,
     max_iterations: int = DEFAULT_MAX_ITERATIONS,
     rotation_tolerance: float | None = None,
+    *,
+    global_fallback: bool = True,
+    global_time_limit: float | None = None,
 ) -> PlannedPath:
     """Plan from ``start`` to ``field.goal`` by integrating the constrained twist.
 
@@ -69,6 +75,11 @@ def plan_task_space(
         max_iterations: step limit; 0 or negative means 30000.
         rotation_tolerance: orientation tolerance (rad) in (0, π); None uses the config's.
 
+        global_fallback: when the field stagnates or reaches the iteration limit, search a path of
+            positions globally (R³, orientation slerped) and let the field run to its vertices in turn
+            (:mod:`pfield.planning.fallback`); ``planner`` says which produced the path.
+        global_time_limit: wall-clock limit of that search (s); None: 2 s.
+
     Returns a :class:`PlannedPath`; ``success`` is True when the last waypoint is within both
     tolerances. Bad arguments raise :class:`~pfield.errors.InvalidInput` naming the argument.
     """
@@ -77,6 +88,7 @@ def plan_task_space(
     step = positive("dt", dt)
     tolerance = positive("goal_tolerance", goal_tolerance)
     iterations = _check_iterations(max_iterations)
+    fallback, global_options = check_global_options(global_fallback, global_time_limit)
     angle = field.config.rotation_tolerance if rotation_tolerance is None else rotation_tolerance
     angle = positive("rotation_tolerance", angle)
     if angle >= math.pi:
@@ -91,12 +103,33 @@ def plan_task_space(
     count, status, obstacle = plan_loop(start_array, goal, params, packed, aux, step, tolerance, angle, iterations,
                                         window, poses, twists, clearances)
     reason = "" if status == REACHED else _reason(field, status, obstacle, poses[count - 1], count, step, window)
+    planner = FIELD_PLANNER
+    # --- global fallback: the field stopped short; search positions, then let the field run to each vertex
+    if fallback and status in (STAGNATION, ITERATION_LIMIT):
+        def run_to(state: np.ndarray, target: Pose, final: bool) -> tuple[bool, np.ndarray, np.ndarray, np.ndarray]:
+            goal_arrays = field.with_goal(target).arrays
+            sub_poses, sub_twists, sub_clear = np.empty_like(poses), np.empty_like(twists), np.empty_like(clearances)
+            sub_tolerance = tolerance if final else max(2.0 * tolerance, 0.5 * global_options.point_step)
+            sub_count, sub_status, _ = plan_loop(
+                state, goal_arrays.goal, params, packed, aux, step, sub_tolerance, angle if final else math.pi - 1e-6,
+                iterations, window, sub_poses, sub_twists, sub_clear)
+            return (sub_status == REACHED, sub_poses[:sub_count].copy(), sub_twists[:sub_count].copy(),
+                    sub_clear[:sub_count].copy())
+
+        outcome = task_space_fallback(run_to, make_scene(packed), start, field.goal, field.config, global_options)
+        if outcome.loop is not None:
+            found_poses, found_twists, found_clear = outcome.loop
+            count, reason, planner, status = len(found_poses), "", FALLBACK_PLANNER, REACHED
+            poses, twists, clearances = found_poses, found_twists, found_clear
+        else:
+            reason = f"{reason}; {outcome.reason}"
+    # --- end of the global fallback
     if reason:
         _log.info("task-space plan failed after %d steps: %s", count - 1, reason)
     return PlannedPath(
         success=status == REACHED, failure_reason=reason, times=np.arange(count, dtype=np.float64) * step,
         positions=poses[:count, :3], orientations=poses[:count, 3:], twists=twists[:count],
-        clearances=clearances[:count], iterations=count - 1,
+        clearances=clearances[:count], iterations=count - 1, planner=planner,
     )
 
 

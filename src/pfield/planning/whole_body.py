@@ -39,7 +39,10 @@ from pfield.geometry._packed import PackedObstacles
 from pfield.geometry._sdf import empty_packed
 from pfield.planning import _whole_body_kernel as _wb
 from pfield.planning import _whole_body_loop as _loop
+from pfield.planning.fallback import FALLBACK_PLANNER, FIELD_PLANNER, whole_body_fallback
+from pfield.planning.global_search import check_global_options
 from pfield.planning.result import PlannedPath
+from pfield.planning.retime import retime_joint_path
 from pfield.robot.model import RobotModel
 from pfield.spatial import Pose
 
@@ -156,13 +159,15 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
                            q0: ArrayLike, dt: float = 0.01, goal_tolerance: float = 0.01,
                            max_iterations: int = DEFAULT_MAX_ITERATIONS, rotation_tolerance: float | None = None,
                            options: WholeBodyOptions | None = None,
-                           obstacles: Sequence[Obstacle] | None = None) -> PlannedPath:
+                           obstacles: Sequence[Obstacle] | None = None, *, global_fallback: bool = True,
+                           global_time_limit: float | None = None) -> PlannedPath:
     """Whole-body plan against already packed obstacles (see :func:`plan_whole_body`).
 
     ``obstacles`` (the objects ``packed`` was made from) name obstacles in failure reasons and allow the
     exact start check: a start whose capsules are already within ``safety_distance`` of something is
     checked with coal on the robot's meshes, and a real contact fails the plan at once.
     """
+    fallback, global_options = check_global_options(global_fallback, global_time_limit)
     obstacle_names = [o.id for o in obstacles] if obstacles else None
     step = positive("delta_time", dt)
     tolerance = positive("goal_tolerance", goal_tolerance)
@@ -180,14 +185,28 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
     status, count, qs, qds, pos, quats, twists, clear, culprit = _loop.plan_loop(
         start, arrays, scene, np.array(goal.position, dtype=np.float64),
         np.array(goal.orientation, dtype=np.float64), params, iterations)
+    # --- global fallback: the field stopped short; search, then let the field track the found path
+    planner, fallback_reason = FIELD_PLANNER, ""
+    if fallback and status in (_wb.STAGNATION, _wb.ITERATION_LIMIT):
+        outcome = whole_body_fallback(robot, arrays, scene, start, qs[-1].copy(), goal, params, iterations, config,
+                                      obstacles, global_options)
+        if outcome.loop is not None:
+            status, count, qs, qds, pos, quats, twists, clear, culprit = outcome.loop
+            planner = FALLBACK_PLANNER
+        fallback_reason = outcome.reason
+    # --- end of the global fallback
     errors = (float(np.linalg.norm(goal.position - pos[-1])), float(Pose(pos[-1], quats[-1]).rotation_distance(goal)))
     reason = "" if status == _wb.SUCCESS else _failure_reason(status, count, culprit, robot, errors,
                                                               obstacle_names, step)
+    if reason and fallback_reason:
+        reason = f"{reason}; {fallback_reason}"
     if reason:
         _LOG.info("whole-body plan failed: %s", reason)
+    trajectory = retime_joint_path(robot.joint_names, qs, robot.velocity_limits, arrays.max_acceleration, step)
     return PlannedPath(success=status == _wb.SUCCESS, failure_reason=reason, times=np.arange(count) * step,
                        positions=pos, orientations=quats, twists=twists, clearances=clear, iterations=count - 1,
-                       joint_names=robot.joint_names, joint_positions=qs, joint_velocities=qds)
+                       joint_names=robot.joint_names, joint_positions=qs, joint_velocities=qds, planner=planner,
+                       trajectory=trajectory)
 
 
 def _start_collision(robot: RobotModel, start: NDArray[np.float64], scene: _wb.Scene,
@@ -236,7 +255,8 @@ def _field_parts(field: Any) -> tuple[FieldConfig, Pose, PackedObstacles | None,
 
 def plan_whole_body(field: Any, robot: RobotModel, q0: ArrayLike, dt: float = 0.01, goal_tolerance: float = 0.01,
                     max_iterations: int = DEFAULT_MAX_ITERATIONS, rotation_tolerance: float | None = None,
-                    options: WholeBodyOptions | None = None) -> PlannedPath:
+                    options: WholeBodyOptions | None = None, *, global_fallback: bool = True,
+                    global_time_limit: float | None = None) -> PlannedPath:
     """Plan in joint space from ``q0`` to the field's goal pose, every link repelled by its obstacles.
 
     Args:
@@ -245,6 +265,9 @@ def plan_whole_body(field: Any, robot: RobotModel, q0: ArrayLike, dt: float = 0.
         q0: starting joint angles (rad / m), tree order; outside the limits → ``InvalidInput``.
         dt: integration step (s); goal_tolerance: position tolerance (m); rotation_tolerance: (rad),
             default ``config.rotation_tolerance``; max_iterations: steps, 0 means 30000.
+        global_fallback: when the field stagnates or reaches the iteration limit, search a joint path
+            globally and let the field track it (:mod:`pfield.planning.fallback`); ``planner`` tells.
+        global_time_limit: wall-clock limit of that search (s); None: 2 s.
 
     Returns:
         A :class:`PlannedPath` with joint names, positions and velocities for every waypoint (the start
@@ -253,7 +276,8 @@ def plan_whole_body(field: Any, robot: RobotModel, q0: ArrayLike, dt: float = 0.
     """
     config, goal, packed, obstacles = _field_parts(field)
     return plan_whole_body_packed(config, goal, packed, robot, q0, dt, goal_tolerance, max_iterations,
-                                  rotation_tolerance, options, obstacles)
+                                  rotation_tolerance, options, obstacles, global_fallback=global_fallback,
+                                  global_time_limit=global_time_limit)
 
 
 def joint_velocity_sign_flips(path: PlannedPath, threshold: float = 1e-3) -> int:
