@@ -124,6 +124,15 @@ def obstacle_to_msg(obstacle: Any) -> ObstacleMsg:
 
 
 def _joint_trajectory(path: PlannedPath, header: Header) -> JointTrajectory:
+    """The time-parameterised trajectory when the plan has one (velocities and accelerations filled, as a
+    JointTrajectoryController expects), else the planner's samples."""
+    if path.trajectory is not None and path.joint_positions is not None:
+        timed = path.trajectory
+        timed_points = [JointTrajectoryPoint(positions=q.tolist(), velocities=v.tolist(), accelerations=a.tolist(),
+                                             time_from_start=Duration.from_seconds(t))
+                        for q, v, a, t in zip(timed.positions, timed.velocities, timed.accelerations,
+                                              timed.times.tolist(), strict=True)]
+        return JointTrajectory(header=header, joint_names=list(timed.joint_names), points=timed_points)
     if path.joint_positions is None:
         return JointTrajectory()
     velocities = path.joint_velocities if path.joint_velocities is not None else np.zeros_like(path.joint_positions)

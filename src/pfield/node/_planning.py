@@ -49,19 +49,28 @@ def make_mesh(resource: str, scale: tuple[float, float, float], resolver: Any) -
     return Mesh(resource, *scale, resolver=resolver)
 
 
-def run_plan(config: FieldConfig, obstacles: Sequence[Any], robot: Any, inputs: PlanInputs) -> PlannedPath:
+def run_plan(config: FieldConfig, obstacles: Sequence[Any], robot: Any, inputs: PlanInputs, *,
+             global_fallback: bool = True, global_time_limit: float | None = None) -> PlannedPath:
+    """The plan of a validated request; joint trajectories are time-parameterised within the URDF velocity
+    limits and the config's acceleration limits (revolute: ``max_angular_acceleration``, prismatic:
+    ``max_linear_acceleration``)."""
     field = make_field(config, inputs.goal, obstacles)
     if inputs.method == "whole_body":
         assert inputs.joint_angles is not None
         return field.plan_whole_body(robot, inputs.joint_angles, inputs.delta_time, inputs.goal_tolerance,
-                                     inputs.max_iterations)
+                                     inputs.max_iterations, global_fallback=global_fallback,
+                                     global_time_limit=global_time_limit)
     assert inputs.start is not None
     path: PlannedPath = field.plan(start=inputs.start, dt=inputs.delta_time, goal_tolerance=inputs.goal_tolerance,
-                                   max_iterations=inputs.max_iterations)
+                                   max_iterations=inputs.max_iterations, global_fallback=global_fallback,
+                                   global_time_limit=global_time_limit)
     if inputs.joint_angles is not None:
         from pfield.planning.joint_trajectory import attach_joint_trajectory
+        from pfield.planning.retime import default_acceleration_limits
 
-        path = attach_joint_trajectory(path, robot, inputs.joint_angles)
+        accelerations = default_acceleration_limits(robot.kinematics.kinds, config.max_angular_acceleration,
+                                                    config.max_linear_acceleration)
+        path = attach_joint_trajectory(path, robot, inputs.joint_angles, acceleration_limits=accelerations)
     return path
 
 

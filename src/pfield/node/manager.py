@@ -42,6 +42,7 @@ from pfield.node import _planning
 from pfield.node._base import Bus, Node, PublicationSpec, ServiceSpec, SubscriptionSpec
 from pfield.node._frames import StaticTransforms, parse_transforms, transforms_data
 from pfield.node._markers import state_markers
+from pfield.planning.global_search import check_global_options
 from pfield.planning.task_space import DEFAULT_MAX_ITERATIONS
 from pfield.spatial import Pose
 
@@ -64,6 +65,10 @@ class ManagerParameters:
     static_transforms: Mapping[str, Any] = dataclasses.field(default_factory=dict)
     """``{frame: {translation: [x, y, z] (m), rotation: [qx, qy, qz, qw]}}``: each frame's pose in
     ``fixed_frame`` (entries may also be :class:`~pfield.spatial.Pose`; held as Poses after validation)."""
+    global_fallback: bool = True
+    """When the field alone stagnates or reaches the iteration limit, search globally and track the result."""
+    global_time_limit: float = 2.0
+    """s: wall-clock limit of that global search."""
 
     def __post_init__(self) -> None:
         timeout = self.dynamic_obstacle_timeout
@@ -73,6 +78,8 @@ class ManagerParameters:
         if not isinstance(self.fixed_frame, str) or not self.fixed_frame:
             raise InvalidInput("fixed_frame", self.fixed_frame, "must be a non-empty frame name")
         object.__setattr__(self, "dynamic_obstacle_timeout", float(timeout))
+        check_global_options(self.global_fallback, self.global_time_limit)
+        object.__setattr__(self, "global_time_limit", float(self.global_time_limit))
         object.__setattr__(self, "static_transforms", parse_transforms(self.static_transforms, self.fixed_frame))
 
 
@@ -153,6 +160,8 @@ class ManagerNode(Node):
         with self._lock:
             return self._config.as_dict() | {"dynamic_obstacle_timeout": self._params.dynamic_obstacle_timeout,
                                              "fixed_frame": self._params.fixed_frame,
+                                             "global_fallback": self._params.global_fallback,
+                                             "global_time_limit": self._params.global_time_limit,
                                              "static_transforms": transforms_data(self._params.static_transforms)}
 
     def set_parameters(self, values: Mapping[str, Any]) -> dict[str, Any]:
@@ -303,9 +312,10 @@ class ManagerNode(Node):
         inputs = self._plan_inputs(request)
         with self._lock:
             self._goal, self._field = inputs.goal, None
-            config = self._config
+            config, params = self._config, self._params
             obstacles = [held.obstacle for held in self._obstacles.values()]
-        path = _planning.run_plan(config, obstacles, self.robot, inputs)
+        path = _planning.run_plan(config, obstacles, self.robot, inputs, global_fallback=params.global_fallback,
+                                  global_time_limit=params.global_time_limit)
         response = plan_response(path, self._params.fixed_frame)
         self._path_positions = path.positions
         self.bus.publish("/pfield/planned_path", response.end_effector_path)
