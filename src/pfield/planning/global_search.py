@@ -21,7 +21,7 @@ that happens and ``global_fallback`` is on, the planners call this module:
 
 Search margin: a state is valid when every capsule keeps ``safety_distance + GlobalOptions.extra_margin``;
 pairs that the start or the goal configuration hold closer (conservative capsules often touch the
-objects of a grasp) may go as deep as at that end, never deeper.
+objects of a grasp) may go ``GlobalOptions.endpoint_band`` deeper than at that end, no deeper.
 """
 
 from __future__ import annotations
@@ -67,6 +67,8 @@ class GlobalOptions:
         joint_resolution: edges are checked every ``joint_resolution`` rad (max over the joints).
         point_step, point_resolution: the same in R³ (m) for task-space searches.
         extra_margin: clearance kept by the search beyond ``safety_distance`` (m).
+        endpoint_band: how much deeper than at the start or goal a pair that is closer than the margin there
+            may go (m; see :func:`endpoint_scene`).
         capacity: nodes per tree.
         shortcut_attempts: random shortcuts tried on the found path.
         ik_restarts: random IK seeds tried for goal configurations (after the given seeds).
@@ -81,6 +83,7 @@ class GlobalOptions:
     point_step: float = 0.1
     point_resolution: float = 0.005
     extra_margin: float = 0.001
+    endpoint_band: float = 0.005
     capacity: int = 20000
     shortcut_attempts: int = 50
     ik_restarts: int = 16
@@ -93,6 +96,7 @@ class GlobalOptions:
                      "tracking_gain", "tracking_lead"):
             positive(name, getattr(self, name))
         nonnegative("extra_margin", self.extra_margin)
+        nonnegative("endpoint_band", self.endpoint_band)
         for name in ("seed", "capacity", "shortcut_attempts", "ik_restarts", "goal_configurations"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < (
@@ -126,15 +130,20 @@ class SearchResult:
 # ---- whole body ---------------------------------------------------------------------------------------
 
 def endpoint_scene(scene: _wb.Scene, arrays: _wb.RobotArrays, ends: Sequence[NDArray[np.float64]],
-                   margin: float) -> _wb.Scene:
-    """``scene`` with offsets min(0, d(end) − margin) over the ``ends``: pairs closer than ``margin`` at the
-    start or the goal may go as deep as there, never deeper."""
+                   margin: float, band: float) -> _wb.Scene:
+    """``scene`` with the offsets min(0, d(end) − margin − band) over the ``ends``: a pair closer than
+    ``margin`` at the start or a goal may go ``band`` deeper than there, no deeper.
+
+    Why the band: such a pair sits exactly on the boundary of its constraint at that end, and with several
+    of them (conservative capsules of neighbouring links often overlap where the meshes do not) almost
+    every direction out of the start would be refused."""
     obstacle_offsets, self_offsets = np.zeros_like(scene.obstacle_offsets), np.zeros_like(scene.self_offsets)
     for q in ends:
         obstacle, own = pair_distances(np.ascontiguousarray(q), arrays, scene)
-        obstacle_offsets = np.minimum(obstacle_offsets, obstacle - margin - _ROUNDING)
-        self_offsets = np.minimum(self_offsets, own - margin - _ROUNDING)
-    return scene._replace(obstacle_offsets=obstacle_offsets, self_offsets=self_offsets)
+        obstacle_offsets = np.minimum(obstacle_offsets, np.where(obstacle < margin, obstacle - margin - band, 0.0))
+        self_offsets = np.minimum(self_offsets, np.where(own < margin, own - margin - band, 0.0))
+    return scene._replace(obstacle_offsets=obstacle_offsets - _ROUNDING * (obstacle_offsets < 0.0),
+                          self_offsets=self_offsets - _ROUNDING * (self_offsets < 0.0))
 
 
 def _joint_checker(arrays: _wb.RobotArrays, scene: _wb.Scene, margin: float, resolution: float) -> _rrt.Checker:
@@ -226,7 +235,7 @@ def joint_space_search(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Sc
                        options: GlobalOptions) -> tuple[SearchResult, _wb.Scene]:
     """Search a capsule-valid joint path from ``start`` to one of ``goals``; returns it and the scene with the
     endpoint offsets (which the tracking must use too)."""
-    search_scene = endpoint_scene(scene, arrays, (start, *goals), margin)
+    search_scene = endpoint_scene(scene, arrays, (start, *goals), margin, options.endpoint_band)
     checker = _joint_checker(arrays, search_scene, margin, options.joint_resolution)
     lower, upper = _sampling_box(robot)
     return _search(checker, start, np.array(goals), lower, upper, options.joint_step, options), search_scene
