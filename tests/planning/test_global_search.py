@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from typing import Any
 
 import numpy as np
@@ -34,7 +35,7 @@ def xarm() -> RobotModel:
 
 def _interpolated(path: np.ndarray, resolution: float) -> np.ndarray:
     samples = [path[0]]
-    for a, b in zip(path[:-1], path[1:], strict=True):
+    for a, b in itertools.pairwise(path):
         steps = max(1, int(np.ceil(np.max(np.abs(b - a)) / resolution)))
         samples.extend(a + (b - a) * k / steps for k in range(1, steps + 1))
     return np.array(samples)

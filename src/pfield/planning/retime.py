@@ -129,7 +129,8 @@ def retime_joint_path(joint_names: tuple[str, ...], waypoints: ArrayLike, veloci
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
     if arc[-1] <= 0.0:  # nothing moves: at rest at every waypoint, dt apart
         zeros = np.zeros_like(points)
-        return TimedJointTrajectory(joint_names, np.arange(len(points)) * step, points, zeros, zeros, v_max, a_max)
+        resting = np.arange(len(points), dtype=np.float64) * step
+        return TimedJointTrajectory(joint_names, resting, points, zeros, zeros, v_max, a_max)
     knots = _knot_indices(arc)
     h, knot_v, knot_a = stretch_intervals(np.ascontiguousarray(points[knots]), np.full(len(knots) - 1, step),
                                           v_max, a_max, _ROUNDS)
