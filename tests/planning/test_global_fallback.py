@@ -145,3 +145,22 @@ def test_planned_path_refuses_an_unknown_planner() -> None:
         PlannedPath(True, "", np.zeros(1), np.zeros((1, 3)), np.array([[0, 0, 0, 1.0]]), np.zeros((1, 6)),
                     np.zeros(1), planner="rrt")
     assert info.value.field == "planner"
+
+
+def test_the_readme_whole_body_service_call_succeeds_as_written(xarm: RobotModel) -> None:
+    from pfield.interfaces import message_from_yaml
+    from pfield.interfaces import potential_fields_interfaces as pfi
+
+    node = ManagerNode(Bus(), xarm)
+    node.on_obstacles(message_from_yaml(pfi.ObstacleArray, "{header: {frame_id: 'world'}, obstacles: [{frame_id: "
+                                        "'ball', type: 'Sphere', group: 'Static', pose: {position: {x: 0.4, y: 0.0, "
+                                        "z: 0.1}, orientation: {w: 1.0}}, radius: 0.1}]}"))
+    request = message_from_yaml(pfi.PlanPath_Request, "{goal: {position: {x: 0.5, y: 0.2, z: 0.4}}, "
+                                "starting_joint_angles: [0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0], delta_time: 0.02, "
+                                "goal_tolerance: 0.01, planning_method: 'whole_body'}")
+    response = node.plan_path(request)
+    assert response.success, response.error_message
+    end = response.end_effector_path.poses[-1].pose.position
+    assert np.linalg.norm(np.array([end.x, end.y, end.z]) - (0.5, 0.2, 0.4)) <= 0.01
+    points = response.joint_trajectory.points
+    assert all(len(p.accelerations) == 7 for p in points)
