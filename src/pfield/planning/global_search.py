@@ -3,14 +3,14 @@
 A potential field is local: it stops in a local minimum (``stagnation``) or runs out of steps. When
 that happens and ``global_fallback`` is on, the planners call this module:
 
-1. **Goal configuration** (whole body): the goal is a pose, so the IK (:func:`pfield.robot.ik.solve_ik`)
+1. **Goal configurations** (whole body): the goal is a pose, so the IK (:func:`pfield.robot.ik.solve_ik`)
    runs from several seeds — the field's last configuration, the start, then uniform samples from a
-   generator seeded by ``seed`` — and keeps the first solution within the joint limits that the exact
-   mesh check (coal) clears, preferring one whose link capsules also keep the search margin. None
-   found → ``goal invalid`` at once, never a long search.
+   generator seeded by ``seed`` — and keeps up to ``goal_configurations`` distinct solutions within the
+   joint limits: those whose link capsules keep the search margin first, then those the exact mesh
+   check (coal) clears. None found → ``goal invalid`` at once, never a long search.
 2. **Search**: compiled RRT-Connect (:mod:`pfield.planning._rrt_kernel`) in joint space against the
-   link capsules and the packed obstacles (whole body), or in R³ against the obstacles' signed distance
-   (task space). Task space searches positions only: its collision model is the end-effector *point*,
+   link capsules and the packed obstacles (whole body; the goal tree is rooted at every goal
+   configuration), or in R³ against the obstacles' signed distance (task space). Task space searches positions only: its collision model is the end-effector *point*,
    so the orientation cannot make a state valid or invalid; the orientation is interpolated by slerp
    along the path, in proportion to the distance travelled, and the field's rotational attraction
    follows it.
