@@ -22,6 +22,7 @@ from pfield.planning import _whole_body_kernel as _wb
 from pfield.planning.global_search import (
     GlobalOptions,
     SearchResult,
+    exact_contact,
     goal_configurations,
     joint_space_search,
     orientations_along,
@@ -68,6 +69,11 @@ def whole_body_fallback(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.S
     loop = track(robot, arrays, search_scene, search.path, goal, params, max_iterations, options)
     if loop[0] != _wb.SUCCESS:
         reason = f"global fallback: tracking the searched path ended with status {int(loop[0])}"
+        _LOG.info(reason)
+        return FallbackOutcome(None, reason, search)
+    contact = exact_contact(robot, arrays, scene, loop[2], obstacles, options.joint_resolution)
+    if contact:
+        reason = f"global fallback: the exact mesh check finds a contact ({contact}) on the tracked path"
         _LOG.info(reason)
         return FallbackOutcome(None, reason, search)
     return FallbackOutcome(loop, "", search)

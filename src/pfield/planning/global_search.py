@@ -10,8 +10,9 @@ that happens and ``global_fallback`` is on, the planners call this module:
    check (coal) clears. None found → ``goal invalid`` at once, never a long search.
 2. **Search**: compiled RRT-Connect (:mod:`pfield.planning._rrt_kernel`) in joint space against the
    link capsules and the packed obstacles (whole body; the goal tree is rooted at every goal
-   configuration), or in R³ against the obstacles' signed distance (task space). Task space searches positions only: its collision model is the end-effector *point*,
-   so the orientation cannot make a state valid or invalid; the orientation is interpolated by slerp
+   configuration), or in R³ against the obstacles' signed distance (task space). Task space searches
+   positions only: its collision model is the end-effector *point*, so the orientation cannot make a
+   state valid or invalid; the orientation is interpolated by slerp
    along the path, in proportion to the distance travelled, and the field's rotational attraction
    follows it.
 3. **Shortcutting** of the found path (same compiled checks).
@@ -21,7 +22,9 @@ that happens and ``global_fallback`` is on, the planners call this module:
 
 Search margin: a state is valid when every capsule keeps ``safety_distance + GlobalOptions.extra_margin``;
 pairs that the start or the goal configuration hold closer (conservative capsules often touch the
-objects of a grasp) may go ``GlobalOptions.endpoint_band`` deeper than at that end, no deeper.
+objects of a grasp) may go as deep as at the goal, or ``GlobalOptions.endpoint_band`` deeper than at the
+start, no deeper. Where capsules overlap along the tracked motion (so they certify nothing), the exact mesh
+check (coal) verifies those waypoints and the motion between them; a contact fails the fallback.
 """
 
 from __future__ import annotations
@@ -41,7 +44,7 @@ from pfield.field.config import FieldConfig
 from pfield.geometry import Obstacle
 from pfield.planning import _rrt_kernel as _rrt
 from pfield.planning import _whole_body_kernel as _wb
-from pfield.planning._track_kernel import track_path
+from pfield.planning._track_kernel import overlapping_waypoints, track_path
 from pfield.planning._whole_body_loop import pair_distances
 from pfield.robot.ik import solve_ik
 from pfield.robot.model import RobotModel
@@ -67,8 +70,8 @@ class GlobalOptions:
         joint_resolution: edges are checked every ``joint_resolution`` rad (max over the joints).
         point_step, point_resolution: the same in R³ (m) for task-space searches.
         extra_margin: clearance kept by the search beyond ``safety_distance`` (m).
-        endpoint_band: how much deeper than at the start or goal a pair that is closer than the margin there
-            may go (m; see :func:`endpoint_scene`).
+        endpoint_band: how much deeper than at the start a pair that is closer than the margin there may go
+            (m; see :func:`endpoint_scene`).
         capacity: nodes per tree.
         shortcut_attempts: random shortcuts tried on the found path.
         ik_restarts: random IK seeds tried for goal configurations (after the given seeds).
@@ -86,7 +89,7 @@ class GlobalOptions:
     endpoint_band: float = 0.005
     capacity: int = 20000
     shortcut_attempts: int = 50
-    ik_restarts: int = 16
+    ik_restarts: int = 48
     goal_configurations: int = 4
     tracking_gain: float = 4.0
     tracking_lead: float = 0.02
@@ -131,17 +134,20 @@ class SearchResult:
 
 def endpoint_scene(scene: _wb.Scene, arrays: _wb.RobotArrays, ends: Sequence[NDArray[np.float64]],
                    margin: float, band: float) -> _wb.Scene:
-    """``scene`` with the offsets min(0, d(end) − margin − band) over the ``ends``: a pair closer than
-    ``margin`` at the start or a goal may go ``band`` deeper than there, no deeper.
+    """``scene`` with the offsets min(0, d(end) − margin − b) over the ``ends``: a pair closer than
+    ``margin`` at the start (b = ``band``) or at a goal (b = 0) may go that much deeper than there, no deeper.
 
-    Why the band: such a pair sits exactly on the boundary of its constraint at that end, and with several
-    of them (conservative capsules of neighbouring links often overlap where the meshes do not) almost
-    every direction out of the start would be refused."""
+    Why the band at the start: such a pair sits exactly on the boundary of its constraint there, and with
+    several of them (conservative capsules of neighbouring links often overlap where the meshes do not)
+    almost every direction out of the start would be refused. A goal is approached from outside its
+    boundary, so it needs none (and a grasp goal's capsules going deeper than at the goal would risk a
+    real contact)."""
     obstacle_offsets, self_offsets = np.zeros_like(scene.obstacle_offsets), np.zeros_like(scene.self_offsets)
-    for q in ends:
+    for index, q in enumerate(ends):
+        extra = band if index == 0 else 0.0
         obstacle, own = pair_distances(np.ascontiguousarray(q), arrays, scene)
-        obstacle_offsets = np.minimum(obstacle_offsets, np.where(obstacle < margin, obstacle - margin - band, 0.0))
-        self_offsets = np.minimum(self_offsets, np.where(own < margin, own - margin - band, 0.0))
+        obstacle_offsets = np.minimum(obstacle_offsets, np.where(obstacle < margin, obstacle - margin - extra, 0.0))
+        self_offsets = np.minimum(self_offsets, np.where(own < margin, own - margin - extra, 0.0))
     return scene._replace(obstacle_offsets=obstacle_offsets - _ROUNDING * (obstacle_offsets < 0.0),
                           self_offsets=self_offsets - _ROUNDING * (self_offsets < 0.0))
 
@@ -247,6 +253,30 @@ def track(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, path: ND
     return track_path(path[0].copy(), np.ascontiguousarray(path), arrays, scene,
                       np.array(goal.position, dtype=np.float64), np.array(goal.orientation, dtype=np.float64), params,
                       max_iterations, options.tracking_gain, options.tracking_lead)
+
+
+def exact_contact(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, qs: NDArray[np.float64],
+                  obstacles: Sequence[Obstacle] | None, resolution: float) -> str:
+    """The first contact ("" if none) that the exact mesh check finds on the waypoints of ``qs`` whose link
+    capsules overlap something, and on the motion into and out of them (every ``resolution`` rad)."""
+    flagged = np.flatnonzero(overlapping_waypoints(np.ascontiguousarray(qs), arrays, scene))
+    if flagged.size == 0:
+        return ""
+    from pfield.robot.collision import CollisionChecker
+
+    checker = CollisionChecker(robot, list(obstacles or ()))
+    segments = sorted({int(k) - 1 for k in flagged if k > 0} | {int(k) for k in flagged if k < len(qs) - 1})
+    if len(qs) == 1:
+        report = checker.check(qs[0])
+        return report.pair if report.in_collision else ""
+    for k in segments:
+        a, b = qs[k], qs[k + 1]
+        steps = max(1, math.ceil(float(np.max(np.abs(b - a))) / resolution))
+        for t in np.linspace(0.0, 1.0, steps + 1):
+            report = checker.check(a + t * (b - a))
+            if report.in_collision:
+                return report.pair
+    return ""
 
 
 # ---- task space ---------------------------------------------------------------------------------------

@@ -187,7 +187,7 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
         np.array(goal.orientation, dtype=np.float64), params, iterations)
     # --- global fallback: the field stopped short; search, then let the field track the found path
     planner, fallback_reason = FIELD_PLANNER, ""
-    if fallback and status in (_wb.STAGNATION, _wb.ITERATION_LIMIT):
+    if fallback and status in (_wb.STAGNATION, _wb.ITERATION_LIMIT, _wb.COLLISION, _wb.SELF_COLLISION):
         outcome = whole_body_fallback(robot, arrays, scene, start, qs[-1].copy(), goal, params, iterations, config,
                                       obstacles, global_options)
         if outcome.loop is not None:
@@ -265,8 +265,9 @@ def plan_whole_body(field: Any, robot: RobotModel, q0: ArrayLike, dt: float = 0.
         q0: starting joint angles (rad / m), tree order; outside the limits → ``InvalidInput``.
         dt: integration step (s); goal_tolerance: position tolerance (m); rotation_tolerance: (rad),
             default ``config.rotation_tolerance``; max_iterations: steps, 0 means 30000.
-        global_fallback: when the field stagnates or reaches the iteration limit, search a joint path
-            globally and let the field track it (:mod:`pfield.planning.fallback`); ``planner`` tells.
+        global_fallback: when the field stagnates, reaches the iteration limit or is squeezed against an
+            obstacle (a ``collision`` the plan stopped before), search a joint path globally and let the
+            field track it (:mod:`pfield.planning.fallback`); ``planner`` tells.
         global_time_limit: wall-clock limit of that search (s); None: 2 s.
 
     Returns:
