@@ -80,10 +80,10 @@ def make_trees(start, goals, capacity, seed):  # type: ignore[no-untyped-def]
     goal pose: whichever the search reaches first), the random stream seeded by ``seed``."""
     n = start.shape[0]
     nodes = np.empty((2, capacity, n))
-    parents = np.full((2, capacity), -1, dtype=np.int64)
-    nodes[0, 0] = start
+    parents = np.empty((2, capacity), dtype=np.int64)  # written as nodes are added; the roots have −1
+    nodes[0, 0], parents[0, 0] = start, -1
     for g in range(goals.shape[0]):
-        nodes[1, g] = goals[g]
+        nodes[1, g], parents[1, g] = goals[g], -1
     state = np.empty(2, dtype=np.uint64)
     state[0] = np.uint64(0)
     # splitmix64 of the seed: a well-mixed non-zero xorshift state for every seed, 0 included
@@ -115,11 +115,11 @@ def state_valid(checker, q):  # type: ignore[no-untyped-def]
     margin = checker.margin
     if checker.kind == POINT_SPACE:
         return min_signed_distance(checker.scene.packed, q)[0] >= margin
-    return _capsules_valid(q, checker.robot, checker.scene, checker.ws, margin)
+    return capsules_valid(q, checker.robot, checker.scene, checker.ws, margin)
 
 
 @njit(cache=True)
-def _capsules_valid(q, robot, scene, ws, margin):  # type: ignore[no-untyped-def]
+def capsules_valid(q, robot, scene, ws, margin):  # type: ignore[no-untyped-def]
     """Every link–obstacle and self pair at least ``margin`` + its offset apart (the whole-body planner's
     capsule distances), stopping at the first pair that is not.
 

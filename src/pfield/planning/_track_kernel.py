@@ -22,6 +22,7 @@ import numpy as np
 from numba import njit
 
 from pfield.planning._qp import cholesky_inplace, cholesky_solve, hildreth
+from pfield.planning._rrt_kernel import capsules_valid
 from pfield.planning._whole_body_kernel import (
     COLLISION,
     DAMPING,
@@ -40,7 +41,6 @@ from pfield.planning._whole_body_kernel import (
     _task,
     make_workspace,
 )
-from pfield.planning._whole_body_loop import fill_pair_distances
 from pfield.robot._kinematics import joint_transforms
 
 _PROFILE_SHARE = 0.8  # share of the joint speed / acceleration limits the moving target uses
@@ -160,12 +160,9 @@ def track_path(q0, waypoints, robot, scene, goal_p, goal_q, params, max_iteratio
 @njit(cache=True)
 def overlapping_waypoints(qs, robot, scene):  # type: ignore[no-untyped-def]
     """Which waypoints of ``qs`` (N, n) have a link capsule overlapping an obstacle or another capsule
-    (raw distances, no offsets): where the conservative capsules cannot certify the motion."""
-    n_caps, n_obstacles, n_pairs = robot.cap_joint.shape[0], scene.bounds.shape[0], robot.self_pairs.shape[0]
-    ws = make_workspace(qs.shape[1], n_caps, n_obstacles, n_pairs)
-    obstacle, own = np.empty((n_caps, n_obstacles)), np.empty(n_pairs)
+    (``scene`` without offsets): where the conservative capsules cannot certify the motion."""
+    ws = make_workspace(qs.shape[1], robot.cap_joint.shape[0], scene.bounds.shape[0], robot.self_pairs.shape[0])
     out = np.zeros(qs.shape[0], dtype=np.bool_)
     for k in range(qs.shape[0]):
-        fill_pair_distances(qs[k], robot, scene, ws, obstacle, own, 0.0)
-        out[k] = (obstacle.size > 0 and obstacle.min() < 0.0) or (own.size > 0 and own.min() < 0.0)
+        out[k] = not capsules_valid(qs[k], robot, scene, ws, 0.0)
     return out

@@ -259,7 +259,9 @@ def exact_contact(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, 
                   obstacles: Sequence[Obstacle] | None, resolution: float) -> str:
     """The first contact ("" if none) that the exact mesh check finds on the waypoints of ``qs`` whose link
     capsules overlap something, and on the motion into and out of them (every ``resolution`` rad)."""
-    flagged = np.flatnonzero(overlapping_waypoints(np.ascontiguousarray(qs), arrays, scene))
+    raw = scene._replace(obstacle_offsets=np.zeros_like(scene.obstacle_offsets),
+                         self_offsets=np.zeros_like(scene.self_offsets))
+    flagged = np.flatnonzero(overlapping_waypoints(np.ascontiguousarray(qs), arrays, raw))
     if flagged.size == 0:
         return ""
     from pfield.robot.collision import CollisionChecker
