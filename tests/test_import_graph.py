@@ -25,6 +25,8 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("viz",),  # plots and viewer: may use every computational package below
     ("interfaces",),
     ("pfield",),  # the package's public face (pfield/__init__.py) re-exports the packages below
+    ("assistance",),  # shared control: blends an operator's command with the autonomy vector
+    ("_assistance_kernel",),  # its compiled laws: field forces, geometry and robot kernels only
     ("autonomy",),
     ("planning",),
     ("robot",),
