@@ -21,26 +21,12 @@ import math
 import numpy as np
 from numba import njit
 
-from pfield._linalg import cholesky_inplace, cholesky_solve, hildreth
 from pfield.planning._rrt_kernel import capsules_valid
-from pfield.planning._whole_body_kernel import (
-    _joint_limit_rows,
-    _limit_speed,
-    _obstacle_rows,
-    _segments,
-    _self_rows,
-    _task,
-)
+from pfield.planning._whole_body_kernel import _task, constrained_velocity
 from pfield.planning._whole_body_layout import (
     DAMPING,
     DT,
-    OUT_CLEARANCE,
-    OUT_NEAREST_CAPSULE,
     OUT_NEAREST_DISTANCE,
-    OUT_NEAREST_OBSTACLE,
-    OUT_NEAREST_SELF_PAIR,
-    OUT_ORIENTATION,
-    OUT_POSITION,
     OUT_POSITION_ERROR,
     OUT_ROTATION_ERROR,
     OUT_SELF_CLEARANCE,
@@ -49,6 +35,7 @@ from pfield.planning._whole_body_layout import (
     TOL,
     make_workspace,
 )
+from pfield.planning._whole_body_loop import record_waypoint, step_culprit
 from pfield.planning.status import PlanStatus
 from pfield.robot._kinematics import joint_transforms
 
@@ -68,22 +55,7 @@ def tracking_step(q, previous, has_prev, reference, robot, scene, goal_p, goal_q
             ws.h[i, j] = 0.0
         ws.h[i, i] = 1.0 + params[DAMPING]
         ws.rhs[i] = reference[i]
-    _segments(robot, ws)
-    ws.free[:] = 0.0
-    # a run-time zero, as in joint_velocity_step (one hildreth specialisation)
-    m = _obstacle_rows(robot, scene, params, ws, np.int64(0))  # type: ignore[arg-type]
-    m = _self_rows(robot, scene, params, ws, m)
-    m = _joint_limit_rows(q, robot, params, ws, m)
-    cholesky_inplace(ws.h, n)
-    cholesky_solve(ws.h, ws.rhs, ws.x, n)
-    hildreth(ws.h, ws.x, ws.rows, ws.b, m, n, ws.hinv, ws.mu, ws.curvature, 200, 1e-7)
-    _limit_speed(previous, has_prev, robot, params, ws, m)
-    for r in range(6):
-        s = 0.0
-        for j in range(n):
-            s += ws.jac[r, j] * ws.x[j]
-        ws.out[OUT_TWIST[0] + r] = s
-    return m
+    return constrained_velocity(q, previous, has_prev, robot, scene, params, ws, 0.0)
 
 
 @njit(cache=True, inline="always")
@@ -141,8 +113,7 @@ def track_path(q0, waypoints, robot, scene, goal_p, goal_q, params, max_iteratio
             target[j] = waypoints[segment - 1, j] + sigma * direction[j] if segment > 0 else waypoints[0, j]
             reference[j] = rate * direction[j] + gain * (target[j] - q[j])
         tracking_step(q, previous, k > 0, reference, robot, scene, goal_p, goal_q, params, ws)
-        qs[k], positions[k], clear[k] = q, out[OUT_POSITION[0]:OUT_POSITION[1]], out[OUT_CLEARANCE]
-        quats[k] = out[OUT_ORIENTATION[0]:OUT_ORIENTATION[1]]
+        record_waypoint(k, q, out, qs, positions, quats, clear)
         if out[OUT_NEAREST_DISTANCE] < 0.0 or out[OUT_SELF_CLEARANCE] < 0.0:
             status = PlanStatus.COLLISION if out[OUT_NEAREST_DISTANCE] < 0.0 else PlanStatus.SELF_COLLISION
             count = max(k, 1)
@@ -164,10 +135,8 @@ def track_path(q0, waypoints, robot, scene, goal_p, goal_q, params, max_iteratio
         for j in range(n):
             q[j] = min(max(q[j] + ws.x[j] * dt, robot.lower[j]), robot.upper[j])
             previous[j] = ws.x[j]
-    culprit = np.array((out[OUT_NEAREST_CAPSULE], out[OUT_NEAREST_OBSTACLE], out[OUT_NEAREST_DISTANCE],
-                        out[OUT_NEAREST_SELF_PAIR], out[OUT_SELF_CLEARANCE]))
     return status, count, qs[:count], qds[:count], positions[:count], quats[:count], twists[:count], \
-        clear[:count], culprit
+        clear[:count], step_culprit(out)
 
 
 @njit(cache=True)
