@@ -70,15 +70,16 @@ def _segment_rates(direction, robot):  # type: ignore[no-untyped-def]
     return _PROFILE_SHARE * rate, _PROFILE_SHARE * accel
 
 
-@njit(cache=True)
-def track_path(q0, waypoints, robot, scene, goal_p, goal_q, params, max_iterations, gain, lead):  # type: ignore[no-untyped-def]
+@njit(cache=True, nogil=True)  # another thread may cancel the plan while it runs
+def track_path(q0, waypoints, robot, scene, goal_p, goal_q, params, max_iterations, gain, lead, cancel):  # type: ignore[no-untyped-def]
     """Follow ``waypoints`` (K+1, n; the first is ``q0``) until the field's goal tolerances hold at the end.
 
     Returns ``(status, count, q, qdot, positions, quaternions, twists, clearances, culprit)`` like
     :func:`~pfield.planning._whole_body_loop.plan_loop` (a :class:`PlanStatus`): REACHED; COLLISION / SELF_COLLISION (a
     damper could not keep a pair apart: stopped before the contact); STAGNATION (the target reached the
     last vertex but the arm did not settle within the tolerances in a further ``max_iterations // 4``
-    steps); ITERATION_LIMIT.
+    steps); ITERATION_LIMIT; CANCELLED (``cancel[0] != 0``, a :class:`~pfield.planning.CancelToken`'s flag,
+    read every step).
     """
     n = q0.shape[0]
     ws = make_workspace(n, robot.cap_joint.shape[0], scene.bounds.shape[0], robot.self_pairs.shape[0])
@@ -126,6 +127,9 @@ def track_path(q0, waypoints, robot, scene, goal_p, goal_q, params, max_iteratio
             break
         qds[k], twists[k] = ws.x, out[OUT_TWIST[0]:OUT_TWIST[1]]
         if k == total - 1:
+            break
+        if cancel[0] != 0:
+            status, count = PlanStatus.CANCELLED, k + 1
             break
         if finished:
             settled_for += 1

@@ -57,19 +57,20 @@ class FallbackOutcome:
 def whole_body_fallback(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, start: NDArray[np.float64],
                         last: NDArray[np.float64], goal: Pose, params: NDArray[np.float64], max_iterations: int,
                         config: FieldConfig, obstacles: Sequence[Obstacle] | None,
-                        options: GlobalOptions) -> FallbackOutcome:
-    """Joint-space fallback from ``start`` (``last``: the field's final configuration, the first IK seed)."""
+                        options: GlobalOptions, cancel: NDArray[np.uint8] | None = None) -> FallbackOutcome:
+    """Joint-space fallback from ``start`` (``last``: the field's final configuration, the first IK seed);
+    ``cancel`` (a :class:`~pfield.planning.CancelToken`'s flag) stops the search and the tracking."""
     margin = search_margin(config, options)
     goals, why = goal_configurations(robot, goal, (last, start), arrays, scene, margin, obstacles, options)
     if not goals:
         _LOG.info("global fallback: %s", why)
         return FallbackOutcome(None, PlanStatus.GOAL_INVALID, why, None)
-    search, search_scene = joint_space_search(robot, arrays, scene, start, goals, margin, options)
+    search, search_scene = joint_space_search(robot, arrays, scene, start, goals, margin, options, cancel)
     _log_search(search)
     if not search.found:
         _LOG.info("global fallback: %s", search.reason)
         return FallbackOutcome(None, search.status, search.reason, search)
-    loop = track(robot, arrays, search_scene, search.path, goal, params, max_iterations, options)
+    loop = track(robot, arrays, search_scene, search.path, goal, params, max_iterations, options, cancel)
     tracked = PlanStatus(loop[0])
     if tracked != PlanStatus.REACHED:
         reason = f"global fallback: tracking the searched path ended with {tracked.name}"
@@ -84,14 +85,15 @@ def whole_body_fallback(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.S
 
 
 def task_space_fallback(run_to: Any, scene: _wb.Scene, start: Pose, goal: Pose, config: FieldConfig,
-                        options: GlobalOptions) -> FallbackOutcome:
+                        options: GlobalOptions, cancel: NDArray[np.uint8] | None = None) -> FallbackOutcome:
     """R³ fallback from ``start``; ``run_to(state, waypoint, final)`` runs the field's compiled loop from the
     7-vector ``state`` to the ``waypoint`` pose and returns ``(status, poses, twists, clearances)``.
 
     Intermediate vertices count as reached within ``max(2 · goal tolerance, point_step / 2)``; the last one
     with the plan's own tolerances."""
     margin = search_margin(config, options)
-    search = point_space_search(scene, np.asarray(start.position), np.asarray(goal.position), margin, options)
+    search = point_space_search(scene, np.asarray(start.position), np.asarray(goal.position), margin, options,
+                                cancel)
     _log_search(search)
     if not search.found:
         _LOG.info("global fallback: %s", search.reason)

@@ -204,7 +204,8 @@ def _sampling_box(robot: RobotModel) -> tuple[NDArray[np.float64], NDArray[np.fl
 
 
 def _search(checker: _rrt.Checker, start: NDArray[np.float64], goals: NDArray[np.float64], lower: NDArray[np.float64],
-            upper: NDArray[np.float64], step: float, options: GlobalOptions) -> SearchResult:
+            upper: NDArray[np.float64], step: float, options: GlobalOptions,
+            cancel: NDArray[np.uint8] | None) -> SearchResult:
     """RRT-Connect from ``start`` to any row of ``goals`` in chunks of compiled work until found, full or
     ``options.time_limit``; then shortcutting."""
     begin = time.perf_counter()
@@ -221,6 +222,9 @@ def _search(checker: _rrt.Checker, start: NDArray[np.float64], goals: NDArray[np
     status, path = _rrt.SEARCHING, start[None]
     while status == _rrt.SEARCHING:
         status, path = _rrt.rrt_connect(checker, trees, lower, upper, step, 2000)
+        if status == _rrt.SEARCHING and cancel is not None and cancel[0] != 0:
+            return SearchResult(False, start[None], PlanStatus.CANCELLED, "cancelled during the global search",
+                                int(checker.counter[0]), time.perf_counter() - begin)
         if status == _rrt.SEARCHING and time.perf_counter() - begin > options.time_limit:
             break
     if status != _rrt.FOUND:
@@ -236,21 +240,25 @@ def _search(checker: _rrt.Checker, start: NDArray[np.float64], goals: NDArray[np
 
 def joint_space_search(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, start: NDArray[np.float64],
                        goals: Sequence[NDArray[np.float64]], margin: float,
-                       options: GlobalOptions) -> tuple[SearchResult, _wb.Scene]:
+                       options: GlobalOptions, cancel: NDArray[np.uint8] | None = None
+                       ) -> tuple[SearchResult, _wb.Scene]:
     """Search a capsule-valid joint path from ``start`` to one of ``goals``; returns it and the scene with the
     endpoint offsets (which the tracking must use too)."""
     search_scene = endpoint_scene(scene, arrays, (start, *goals), margin, options.endpoint_band)
     checker = _joint_checker(arrays, search_scene, margin, options.joint_resolution)
     lower, upper = _sampling_box(robot)
-    return _search(checker, start, np.array(goals), lower, upper, options.joint_step, options), search_scene
+    return _search(checker, start, np.array(goals), lower, upper, options.joint_step, options, cancel), search_scene
 
 
 def track(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, path: NDArray[np.float64], goal: Pose,
-          params: NDArray[np.float64], max_iterations: int, options: GlobalOptions) -> tuple:  # type: ignore[type-arg]
-    """The field's damper QP following ``path`` (see :mod:`pfield.planning._track_kernel`)."""
+          params: NDArray[np.float64], max_iterations: int, options: GlobalOptions,
+          cancel: NDArray[np.uint8] | None = None) -> tuple:  # type: ignore[type-arg]
+    """The field's damper QP following ``path`` (see :mod:`pfield.planning._track_kernel`); ``cancel`` is a
+    :class:`~pfield.planning.CancelToken`'s flag, polled every step."""
+    flag = np.zeros(1, dtype=np.uint8) if cancel is None else cancel
     return track_path(path[0].copy(), np.ascontiguousarray(path), arrays, scene,
                       np.array(goal.position, dtype=np.float64), np.array(goal.orientation, dtype=np.float64), params,
-                      max_iterations, options.tracking_gain, options.tracking_lead)
+                      max_iterations, options.tracking_gain, options.tracking_lead, flag)
 
 
 def exact_contact(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, qs: NDArray[np.float64],
@@ -282,7 +290,7 @@ def exact_contact(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, 
 # ---- task space ---------------------------------------------------------------------------------------
 
 def point_space_search(scene: _wb.Scene, start: NDArray[np.float64], goal: NDArray[np.float64], margin: float,
-                       options: GlobalOptions) -> SearchResult:
+                       options: GlobalOptions, cancel: NDArray[np.uint8] | None = None) -> SearchResult:
     """Search a path of end-effector positions start → goal keeping ``margin`` (m) from every obstacle of
     ``scene`` (its packed obstacles and their bounding spheres).
 
@@ -296,7 +304,8 @@ def point_space_search(scene: _wb.Scene, start: NDArray[np.float64], goal: NDArr
     checker = _rrt.Checker(_rrt.POINT_SPACE, _point_robot(), scene, ws, np.empty((0, len(radii))), np.empty(0),
                            float(margin), float(options.point_resolution), np.zeros(1, dtype=np.int64))
     return _search(checker, np.ascontiguousarray(start, dtype=np.float64),
-                   np.ascontiguousarray(goal, dtype=np.float64)[None], lower, upper, options.point_step, options)
+                   np.ascontiguousarray(goal, dtype=np.float64)[None], lower, upper, options.point_step, options,
+                   cancel)
 
 
 def _point_robot() -> _wb.RobotArrays:

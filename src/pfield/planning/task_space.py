@@ -96,7 +96,8 @@ def plan_task_space(
             return (int(sub_status), sub_poses[:sub_count].copy(), sub_twists[:sub_count].copy(),
                     sub_clear[:sub_count].copy())
 
-        outcome = task_space_fallback(run_to, make_scene(packed), start, field.goal, field.config, global_options)
+        outcome = task_space_fallback(run_to, make_scene(packed), start, field.goal, field.config, global_options,
+                                      cancel)
         if outcome.loop is not None:
             poses, twists, clearances = outcome.loop
             count, reason, planner, status = len(poses), "", FALLBACK_PLANNER, PlanStatus.REACHED
