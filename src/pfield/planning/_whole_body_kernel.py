@@ -247,13 +247,12 @@ def _limit_speed(q_prev_velocity: np.ndarray, has_prev: bool, robot: RobotArrays
     x[:] = limited
 
 
-@njit(cache=True)
-def joint_velocity_step(q: np.ndarray, previous: np.ndarray, has_prev: bool, robot: RobotArrays, scene: Scene,
-                        goal_p: np.ndarray, goal_q: np.ndarray, params: np.ndarray, ws: Workspace) -> int:
-    """The whole-body field's joint velocity at ``q`` into ``ws.x``; pose, twist, clearances into ``ws.out``."""
-    joint_transforms(q, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds, ws.rotations,
-                     ws.origins)
-    _task(robot, goal_p, goal_q, params, ws)
+@njit(cache=True, inline="always")
+def constrained_velocity(q: np.ndarray, previous: np.ndarray, has_prev: bool, robot: RobotArrays, scene: Scene,
+                         params: np.ndarray, ws: Workspace, free_weight: float) -> int:
+    """The joint velocity of the task in ``ws.h`` / ``ws.rhs`` under the velocity dampers (link–obstacle,
+    self-collision, joint limits) into ``ws.x``, speed- and rate-limited, and its twist J q̇ into ``ws.out``;
+    ``free_weight`` scales the dampers' free-space term added to the task. Returns the number of rows."""
     _segments(robot, ws)
     ws.free[:] = 0.0
     # a run-time zero: with the literal 0, type inference also compiles hildreth for m = Literal[int](0)
@@ -262,7 +261,7 @@ def joint_velocity_step(q: np.ndarray, previous: np.ndarray, has_prev: bool, rob
     m = _joint_limit_rows(q, robot, params, ws, m)
     n = q.shape[0]
     for j in range(n):
-        ws.rhs[j] += params[DAMPING] * ws.free[j]
+        ws.rhs[j] += free_weight * ws.free[j]
     cholesky_inplace(ws.h, n)
     cholesky_solve(ws.h, ws.rhs, ws.x, n)
     hildreth(ws.h, ws.x, ws.rows, ws.b, m, n, ws.hinv, ws.mu, ws.curvature, 200, 1e-7)
@@ -273,3 +272,13 @@ def joint_velocity_step(q: np.ndarray, previous: np.ndarray, has_prev: bool, rob
             s += ws.jac[r, j] * ws.x[j]
         ws.out[OUT_TWIST[0] + r] = s
     return m
+
+
+@njit(cache=True)
+def joint_velocity_step(q: np.ndarray, previous: np.ndarray, has_prev: bool, robot: RobotArrays, scene: Scene,
+                        goal_p: np.ndarray, goal_q: np.ndarray, params: np.ndarray, ws: Workspace) -> int:
+    """The whole-body field's joint velocity at ``q`` into ``ws.x``; pose, twist, clearances into ``ws.out``."""
+    joint_transforms(q, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds, ws.rotations,
+                     ws.origins)
+    _task(robot, goal_p, goal_q, params, ws)
+    return constrained_velocity(q, previous, has_prev, robot, scene, params, ws, params[DAMPING])

@@ -37,8 +37,23 @@ from pfield.planning._whole_body_layout import (
     make_workspace,
 )
 from pfield.planning.status import PlanStatus
-from pfield.robot._clearance import fill_clearances
+from pfield.robot._clearance import clearances_at, fill_clearances
 from pfield.robot._kinematics import joint_transforms
+
+
+@njit(cache=True, inline="always")
+def record_waypoint(k: int, q: np.ndarray, out: np.ndarray, qs: np.ndarray, positions: np.ndarray,
+                    quats: np.ndarray, clear: np.ndarray) -> None:
+    """Waypoint ``k`` of a loop's outputs from ``q`` and its step result row ``out``."""
+    qs[k], positions[k], clear[k] = q, out[OUT_POSITION[0]:OUT_POSITION[1]], out[OUT_CLEARANCE]
+    quats[k] = out[OUT_ORIENTATION[0]:OUT_ORIENTATION[1]]
+
+
+@njit(cache=True, inline="always")
+def step_culprit(out: np.ndarray) -> np.ndarray:
+    """The loop's ``culprit`` (5,) of the step result row ``out`` (see :func:`plan_loop`)."""
+    return np.array((out[OUT_NEAREST_CAPSULE], out[OUT_NEAREST_OBSTACLE], out[OUT_NEAREST_DISTANCE],
+                     out[OUT_NEAREST_SELF_PAIR], out[OUT_SELF_CLEARANCE]))
 
 
 @njit(cache=True, nogil=True)  # another thread may cancel the plan while it runs
@@ -68,8 +83,7 @@ def plan_loop(q0: np.ndarray, robot: RobotArrays, scene: Scene, goal_p: np.ndarr
     for k in range(total):
         # has_prev as a run-time bool (dt > 0 always holds here): the same specialisation as autonomy_step's
         joint_velocity_step(q, previous, dt > 0.0, robot, scene, goal_p, goal_q, params, ws)
-        qs[k], positions[k], clear[k] = q, out[OUT_POSITION[0]:OUT_POSITION[1]], out[OUT_CLEARANCE]
-        quats[k] = out[OUT_ORIENTATION[0]:OUT_ORIENTATION[1]]
+        record_waypoint(k, q, out, qs, positions, quats, clear)
         pos_err, rot_err = out[OUT_POSITION_ERROR], out[OUT_ROTATION_ERROR]
         if out[OUT_NEAREST_DISTANCE] < 0.0 or out[OUT_SELF_CLEARANCE] < 0.0:
             # the last step brought capsules into contact (an infeasible squeeze): stop before it
@@ -94,10 +108,8 @@ def plan_loop(q0: np.ndarray, robot: RobotArrays, scene: Scene, goal_p: np.ndarr
         for j in range(n):
             q[j] = min(max(q[j] + ws.x[j] * dt, robot.lower[j]), robot.upper[j])
             previous[j] = ws.x[j]
-    culprit = np.array((out[OUT_NEAREST_CAPSULE], out[OUT_NEAREST_OBSTACLE], out[OUT_NEAREST_DISTANCE],
-                        out[OUT_NEAREST_SELF_PAIR], out[OUT_SELF_CLEARANCE]))
     return status, count, qs[:count], qds[:count], positions[:count], quats[:count], twists[:count], \
-        clear[:count], culprit
+        clear[:count], step_culprit(out)
 
 
 @njit(cache=True)
@@ -129,3 +141,11 @@ def autonomy_step(q: np.ndarray, previous: np.ndarray, has_prev: bool, robot: Ro
     for k in range(own.shape[0]):
         own[k] = min(own[k] - safety, 0.0)
     return joint_velocity_step(q, previous, has_prev, robot, scene, goal_p, goal_q, params, ws)
+
+
+def pair_distances(q: np.ndarray, robot: RobotArrays, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+    """Clearances (m) of the fitted model at ``q``: link × obstacle (L, M) and self pairs (P,)."""
+    return clearances_at(q, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds,
+                         robot.cap_joint, robot.cap_a, robot.cap_b, robot.cap_r, robot.self_r, robot.link_start,
+                         robot.prim_joint, robot.prim_a, robot.prim_b, robot.prim_r, robot.self_pairs, scene.packed,
+                         scene.centres, scene.bounds)
