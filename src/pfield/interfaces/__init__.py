@@ -1,12 +1,14 @@
 """Pydantic models mirroring the ROS 2 messages and services pfield speaks (the wire format).
 
-:func:`lookup_type` / :func:`lookup_service` find every type pfield knows (they import
-:mod:`pfield.interfaces.all` on first use); the models themselves live in the package modules
+:func:`lookup_type` / :func:`lookup_service` find every type pfield knows (importing the package imports
+:mod:`pfield.interfaces.all`, which registers them, so a lookup never depends on what the caller imported
+before); the models themselves live in the package modules
 (``pfield.interfaces.geometry_msgs`` …).
 :func:`message_from_yaml` parses the YAML flow text of ``ros2 topic pub``; ``pfield.interfaces.convert``
 maps messages to and from pfield's core types.
 """
 
+import pfield.interfaces.all  # noqa: F401 - registers every package's types
 from pfield.interfaces._base import (
     RosMessage,
     ServiceType,

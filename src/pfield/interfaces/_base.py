@@ -100,14 +100,8 @@ class RosMessage(BaseModel):
             _REGISTRY[name] = cls
 
 
-def _register_all() -> None:
-    """Import every interface module once, so a lookup never depends on what the caller imported before."""
-    import pfield.interfaces.all  # noqa: F401 - registers each package's types on import
-
-
 def registered_types() -> dict[str, type[RosMessage]]:
     """All registered message types by ROS name (``pkg/msg/Name``; services as ``pkg/srv/Name_Request``)."""
-    _register_all()
     return dict(_REGISTRY)
 
 
@@ -115,7 +109,6 @@ def lookup_type(name: str) -> type[RosMessage]:
     """Model class for a ROS type name; ``pkg/Name`` is accepted for ``pkg/msg/Name`` as ``ros2`` does."""
     if name in _REGISTRY:
         return _REGISTRY[name]
-    _register_all()
     if name in _REGISTRY:
         return _REGISTRY[name]
     parts = name.split("/")
@@ -135,7 +128,6 @@ class ServiceType:
 
 def registered_services() -> dict[str, ServiceType]:
     """Every service whose ``_Request`` and ``_Response`` models are registered, by ``pkg/srv/Name``."""
-    _register_all()
     services = {}
     for name, model in _REGISTRY.items():
         if name.endswith("_Request") and "/srv/" in name:
