@@ -281,7 +281,7 @@ def _bash_script(block: Block) -> str:
     if block.marker == "ros2":
         code = re.sub(r"^(\s*)ros2 ", r"\1pfield ", code, flags=re.M)
         code = re.sub(r"^(\s*pfield topic echo)(?!.*--once)", r"\1 --once", code, flags=re.M)
-    code = re.sub(r"^(\s*)pfield serve\b(.*?)\s*&\s*$", r"\1__pfield_serve\2", code, flags=re.M)
+    code = re.sub(r"^(\s*)pfield serve\b(.*?)\s*&\s*(#.*)?$", r"\1__pfield_serve\2", code, flags=re.M)
     if block.marker == "serve-check":
         code = re.sub(r"^(\s*)pfield serve\b", r"\1__pfield_serve_check", code, flags=re.M)
     if block.marker == "ros2-node":
