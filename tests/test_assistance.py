@@ -164,7 +164,9 @@ Q = np.array([0.0, -0.3, 0.0, 0.6, 0.0, 0.9, 0.0])
 
 def arm_scene(robot: Any, velocity: Any = None) -> tuple[AssistanceScene, Obstacle]:
     ee = robot.forward_kinematics(Q)
-    ball = Obstacle("ball", Sphere(radius=0.04), Pose(position=ee.position + np.array([0.09, 0.0, 0.0])),
+    # 10 cm from the end effector: the fitted link model (conservative, a few mm outside link7's mesh here)
+    # stays clear of the safety distance, so a command away from the ball is left as it is
+    ball = Obstacle("ball", Sphere(radius=0.04), Pose(position=ee.position + np.array([0.10, 0.0, 0.0])),
                     group="Dynamic")
     field = PotentialField(CONFIG, Pose(position=ee.position + np.array([0.0, 0.15, 0.05]),
                                         orientation=ee.orientation), [ball])

@@ -47,12 +47,7 @@ ALLOWED_UPWARD = {
     # PlannedPath.show() opens the 3D viewer on the plan: a lazy delegation upward of the same kind
     ("pfield.planning.result", "pfield.viz.viewer"),
 }
-KNOWN_VIOLATIONS = {
-    # capsule_clearances packs the robot's capsules with planning's whole-body packing and pair distances;
-    # moving capsule packing and pair distances into robot/ (the fitted robot model) removes these edges.
-    ("pfield.robot.collision", "pfield.planning._whole_body_loop"),
-    ("pfield.robot.collision", "pfield.planning.whole_body"),
-}
+KNOWN_VIOLATIONS: set[tuple[str, str]] = set()
 
 
 def _module_name(path: Path) -> str:

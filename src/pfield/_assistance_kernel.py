@@ -14,7 +14,7 @@ from numba import njit
 
 from pfield.field.forces import damper_speed, project_damper
 from pfield.geometry._sdf import obstacle_signed_distance
-from pfield.robot._distance import point_segment_distance, segment_obstacle_distance
+from pfield.robot._clearance import link_obstacle_distance, world_segments
 from pfield.robot._kinematics import end_effector_kinematics, linear_point_jacobian
 
 # parameter vector layout
@@ -118,38 +118,37 @@ def empty_output() -> np.ndarray:
 
 
 @njit(cache=True)
-def nearest_link(rotations, origins, cap_joints, cap_a, cap_b, cap_r, packed, centres, bounds, scratch,  # type: ignore[no-untyped-def]
-                 ends):
-    """Closest link capsule–obstacle pair: (capsule, obstacle, clearance, nx, ny, nz, px, py, pz).
+def nearest_link(rotations, origins, model, packed, centres, bounds, scratch, segments):  # type: ignore[no-untyped-def]
+    """Closest link–obstacle pair of the fitted link model: (link, obstacle, clearance, nx, ny, nz, px, py, pz).
 
-    ``n`` is the obstacle's outward normal at the closest segment point, ``p`` the robot's witness point
-    (segment point − r n); ``ends`` is a (2, 3) workspace for the capsule's world segment. A pair whose
-    bounding-sphere lower bound |c_i − segment| − R_i − r is no better than the best so far is skipped.
+    ``model`` = (joints, cap_a, cap_b, cap_r, link_start, prim_joint, prim_a, prim_b, prim_r) of
+    :class:`pfield.robot.geometry.RobotGeometry` (bounding capsules and fitted primitives), ``segments`` =
+    (link ends a, b (L, 3), primitive ends a, b (Np, 3)) the world-segment workspace. ``n`` is the obstacle's
+    outward normal at the closest point, ``p`` the robot's witness point (the primitive's axis point − r n).
+    A pair whose bound is no better than the best so far is skipped
+    (:func:`pfield.robot._clearance.link_obstacle_distance` with that cutoff).
     """
+    joints, cap_a, cap_b, cap_r, link_start, prim_joint, prim_a, prim_b, prim_r = model
+    seg_a, seg_b, prim_seg_a, prim_seg_b = segments
+    world_segments(rotations, origins, joints, cap_a, cap_b, seg_a, seg_b)
+    world_segments(rotations, origins, prim_joint, prim_a, prim_b, prim_seg_a, prim_seg_b)
     best, best_c, best_i = math.inf, -1, -1
     bn = np.zeros(3)
     bp = np.zeros(3)
-    a, b = ends[0], ends[1]
-    for c in range(cap_joints.shape[0]):
-        j = cap_joints[c]
-        for k in range(3):
-            if j < 0:
-                a[k], b[k] = cap_a[c, k], cap_b[c, k]
-            else:
-                a[k] = origins[j, k] + rotations[j, k, 0] * cap_a[c, 0] + rotations[j, k, 1] * cap_a[c, 1] \
-                    + rotations[j, k, 2] * cap_a[c, 2]
-                b[k] = origins[j, k] + rotations[j, k, 0] * cap_b[c, 0] + rotations[j, k, 1] * cap_b[c, 1] \
-                    + rotations[j, k, 2] * cap_b[c, 2]
+    for c in range(joints.shape[0]):
         for i in range(packed.kinds.shape[0]):
-            if point_segment_distance(centres[i], a, b) - bounds[i] - cap_r[c] >= best:
-                continue
-            d, t, nx, ny, nz = segment_obstacle_distance(packed, i, a, b, scratch)
-            clearance = d - cap_r[c]
-            if clearance < best:
-                best, best_c, best_i = clearance, c, i
+            d, exact, px, py, pz, nx, ny, nz = link_obstacle_distance(
+                c, i, packed, centres, bounds, seg_a, seg_b, cap_r, link_start, prim_seg_a, prim_seg_b, prim_r,
+                scratch, best)
+            if exact and d < best:
+                best, best_c, best_i = d, c, i
                 bn[0], bn[1], bn[2] = nx, ny, nz
-                for k in range(3):
-                    bp[k] = a[k] + t * (b[k] - a[k]) - cap_r[c] * bn[k]
+                bp[0], bp[1], bp[2] = px, py, pz
+    if best_c >= 0:
+        # the witness point on the surface: the axis point less the radius of the primitive that decided
+        radius = obstacle_signed_distance(packed, best_i, bp)[0] - best
+        for k in range(3):
+            bp[k] -= radius * bn[k]
     return best_c, best_i, best, bn[0], bn[1], bn[2], bp[0], bp[1], bp[2]
 
 
@@ -161,12 +160,13 @@ N_OUT_WHOLE_BODY = N_OUT + 5
 
 
 @njit(cache=True)
-def assist_joints(q, lower, upper, kin, capsules, packed, centres, bounds, velocities, qd_auto, user,  # type: ignore[no-untyped-def]
+def assist_joints(q, lower, upper, kin, model, packed, centres, bounds, velocities, qd_auto, user,  # type: ignore[no-untyped-def]
                   params,
-                  rotations, origins, jac, point_jac, scratch, ends, qd, out):
+                  rotations, origins, jac, point_jac, scratch, segments, qd, out):
     """Whole-body assistance in one call (see :func:`pfield.assistance.whole_body_assistance` for the laws).
 
-    ``kin``: the robot's packed kinematics (``RobotModel.kinematics``); ``capsules``: (joints, a, b, radii);
+    ``kin``: the robot's packed kinematics (``RobotModel.kinematics``); ``model``, ``segments``: the fitted
+    link model and its world-segment workspace (:func:`nearest_link`);
     ``qd`` receives the blended joint velocities, ``out`` (:data:`N_OUT_WHOLE_BODY`,) everything else.
     """
     n = q.shape[0]
@@ -183,9 +183,9 @@ def assist_joints(q, lower, upper, kin, capsules, packed, centres, bounds, veloc
     for j in range(n):
         if q[j] - lower[j] < params[LIMIT_MARGIN] or upper[j] - q[j] < params[LIMIT_MARGIN]:
             out[AT_LIMIT] = 1.0
-    cap_joints, cap_a, cap_b, cap_r = capsules
-    c, i, clearance, nx, ny, nz, px, py, pz = nearest_link(rotations, origins, cap_joints, cap_a, cap_b, cap_r,
-                                                           packed, centres, bounds, scratch, ends)
+    cap_joints = model[0]
+    c, i, clearance, nx, ny, nz, px, py, pz = nearest_link(rotations, origins, model, packed, centres, bounds,
+                                                           scratch, segments)
     mode = int(params[MODE])
     alpha = 0.0
     if mode != MODE_SAFETY_ONLY and c >= 0:

@@ -104,6 +104,13 @@ def scaled_norm(values: NDArray[np.float64]) -> float:
     return largest * float(np.sqrt(np.sum(np.square(values / largest))))
 
 
+def boolean(field: str, value: Any) -> bool:
+    """Return ``value`` as a bool; only ``True``/``False`` (and numpy's) pass, never 1, 0 or strings."""
+    if not isinstance(value, bool | np.bool_):
+        raise InvalidInput(field, value, "must be a boolean")
+    return bool(value)
+
+
 def integer(field: str, value: Any) -> int:
     """Return ``value`` as an int; booleans, non-integral numbers and non-numbers are refused."""
     if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):

@@ -3,7 +3,7 @@
 Given the operator's twist u_user and the field's autonomy vector u_auto (:mod:`pfield.autonomy`):
 
 * **nearest obstacle** — exact signed distance d from the robot (the end-effector point in task space, the
-  link capsules in whole body) to every obstacle; ``nearest_normal`` n̂ = ∇d (unit, from the obstacle toward
+  fitted link model in whole body) to every obstacle; ``nearest_normal`` n̂ = ∇d (unit, from the obstacle toward
   the robot), ``robot_point`` p and ``obstacle_point`` p − d n̂ (the witness points).
 * **arbitration** — linear blending u = α u_auto + (1 − α) u_user (Dragan & Srinivasa 2013, "A policy-blending
   formalism for shared control", §3, with α a function of the robot's situation). pfield's α:
@@ -276,10 +276,14 @@ class _Workspace:
     def __init__(self, robot: RobotModel) -> None:
         n, g = robot.n_joints, robot.geometry
         self.robot = robot
-        self.capsules = (g.joints, np.ascontiguousarray(g.a), np.ascontiguousarray(g.b), np.ascontiguousarray(g.radii))
+        contiguous = np.ascontiguousarray
+        self.model = (g.joints, contiguous(g.a), contiguous(g.b), contiguous(g.radii), g.link_start, g.prim_joint,
+                      contiguous(g.prim_a), contiguous(g.prim_b), contiguous(g.prim_r))
+        links, prims = len(g.joints), len(g.prim_r)
+        self.segments = (np.empty((links, 3)), np.empty((links, 3)), np.empty((prims, 3)), np.empty((prims, 3)))
         self.rotations, self.origins = np.empty((n, 3, 3)), np.empty((n, 3))
         self.jac, self.point_jac = np.empty((6, n)), np.empty((3, n))
-        self.scratch, self.ends = np.empty((2, 3)), np.empty((2, 3))
+        self.scratch = np.empty((2, 3))
         self.zeros = np.zeros(n)
 
 
@@ -326,10 +330,10 @@ def whole_body_assistance(scene: AssistanceScene, robot: RobotModel, joint_angle
     params[_k.SINGULARITY] = options.singularity_threshold
     qd, out = np.empty(robot.n_joints), np.empty(_k.N_OUT_WHOLE_BODY)
     centres, bounds = scene._bounds  # type: ignore[attr-defined]
-    _k.assist_joints(q, robot.lower_limits, robot.upper_limits, robot.kinematics, work.capsules,
+    _k.assist_joints(q, robot.lower_limits, robot.upper_limits, robot.kinematics, work.model,
                      scene._packed, centres, bounds, scene.velocity_table,  # type: ignore[attr-defined]
                      np.ascontiguousarray(qd_auto), user, params,
-                     work.rotations, work.origins, work.jac, work.point_jac, work.scratch, work.ends, qd, out)
+                     work.rotations, work.origins, work.jac, work.point_jac, work.scratch, work.segments, qd, out)
     flags |= goal_flags | (Flag.AT_JOINT_LIMIT if out[_k.AT_LIMIT] else 0) | \
         (Flag.NEAR_SINGULARITY if out[_k.SINGULAR] else 0)
     return _answer(scene, out, autonomy, qd, out[_k.POINT:_k.POINT + 3].copy(), flags)

@@ -72,16 +72,16 @@ def test_step_result_reads_the_slots_by_name() -> None:
 
 
 def test_the_compiled_workspaces_follow_the_layout() -> None:
-    n, caps, obstacles, pairs = 7, 8, 3, 5
+    n, caps, obstacles, pairs, prims = 7, 8, 3, 5, 11
     m = caps * obstacles + pairs + 2 * n
-    dims = {"n": n, "caps": caps, "m": m}
+    dims = {"n": n, "caps": caps, "m": m, "prims": prims}
     shapes = {name: tuple(dims[d] if isinstance(d, str) else d for d in shape) for name, shape in wb.WORKSPACE.entries}
-    allocated = wb.make_workspace(n, caps, obstacles, pairs)  # one array per entry (the planning loop)
+    allocated = wb.make_workspace(n, caps, obstacles, pairs, prims)  # one array per entry (the planning loop)
     for name, view in allocated._asdict().items():
         assert view.shape == (shapes[name] or (1,)), name
-    work = np.zeros(wb.WORKSPACE.size(n=n, caps=caps, m=m))
-    viewed = wb.workspace_views(work, n, caps, m)  # views of one buffer (the autonomy step)
-    offsets = wb.WORKSPACE.offsets(n=n, caps=caps, m=m)
+    work = np.zeros(wb.WORKSPACE.size(**dims))
+    viewed = wb.workspace_views(work, n, caps, m, prims)  # views of one buffer (the autonomy step)
+    offsets = wb.WORKSPACE.offsets(**dims)
     base = work.__array_interface__["data"][0]
     for name, view in viewed._asdict().items():
         start, _ = offsets[name]
@@ -98,7 +98,7 @@ def test_the_compiled_robot_views_round_trip_the_packed_robot() -> None:
     arrays = pack_robot(robot, FieldConfig(), WholeBodyOptions())
     scene = make_scene(None, arrays)
     flat = FlatStep(arrays, scene)
-    n, caps, _, pairs, _, ee = (int(v) for v in flat.dims)
-    viewed = wb.robot_views(flat.floats, flat.ints, n, caps, pairs, ee)
+    n, caps, _, pairs, _, ee, prims = (int(v) for v in flat.dims)
+    viewed = wb.robot_views(flat.floats, flat.ints, n, caps, pairs, prims, caps + 1, ee)
     for name, value in arrays._asdict().items():
         np.testing.assert_array_equal(getattr(viewed, name), value, err_msg=name)

@@ -91,10 +91,10 @@ def test_iteration_limit_is_reported(xarm: RobotModel) -> None:
     assert len(path) == 4 and path.iterations == 3
 
 
-def test_unreachable_goal_stagnates(xarm: RobotModel) -> None:
+def test_unreachable_goal_stagnates(xarm: RobotModel) -> None:  # the field alone
     far = Pose((1.5, 0.0, 0.4), (1.0, 0.0, 0.0, 0.0))  # beyond the arm's reach (~0.7 m)
     config = FieldConfig(stagnation_window=1.0)
-    path = PotentialField(config, far).plan_whole_body(xarm, Q0, 0.01, 0.01, 30000)
+    path = PotentialField(config, far).plan_whole_body(xarm, Q0, 0.01, 0.01, 30000, global_fallback=False)
     assert not path.success
     assert path.status == PlanStatus.STAGNATION
     _check_plan_invariants(path, xarm, Q0, 0.01)
@@ -187,8 +187,8 @@ def _reference_qp(hessian: np.ndarray, c: np.ndarray, rows: np.ndarray, bounds: 
 def test_goal_behind_an_obstacle_names_the_blocking_link_and_obstacle(xarm: RobotModel) -> None:
     goal = Pose((0.5, 0.0, 0.25), (1.0, 0.0, 0.0, 0.0))
     wall = Obstacle("ball", Sphere(0.12), Pose((0.5, 0.0, 0.25)))
-    path = PotentialField(FieldConfig(stagnation_window=1.0), goal, [wall]).plan_whole_body(xarm, Q0, 0.01, 0.01,
-                                                                                            30000)
+    path = PotentialField(FieldConfig(stagnation_window=1.0), goal, [wall]).plan_whole_body(
+        xarm, Q0, 0.01, 0.01, 30000, global_fallback=False)  # the field alone
     assert path.status == PlanStatus.STAGNATION
     links = {capsule.link for capsule in xarm.geometry.capsules}
     named = [link for link in links if f"link {link!r} is " in path.failure_reason]

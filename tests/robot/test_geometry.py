@@ -130,7 +130,12 @@ def test_capsule_clearances_are_conservative_against_coal(xarm: RobotModel) -> N
         q = rng.uniform(np.maximum(xarm.lower_limits, -3), np.minimum(xarm.upper_limits, 3))
         capsule = capsule_clearances(xarm, q, obstacles).obstacle
         exact, _, _, _ = checker.distances(q)
-        assert capsule[1:].min() <= exact + 1e-6  # capsules cover the links (the base link excluded: fixed)
+        # the fitted model covers the links (the base link excluded: fixed): no farther than the meshes when
+        # apart, and in contact whenever they are (penetration depths of a union and a hull differ)
+        if exact >= 0.0:
+            assert capsule[1:].min() <= exact + 1e-6
+        else:
+            assert capsule[1:].min() < 0.0
 
 
 def test_capsule_clearances_are_named(xarm: RobotModel) -> None:

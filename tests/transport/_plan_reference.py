@@ -29,7 +29,14 @@ def reference_response(path: PlannedPath, frame_id: str) -> PlanPath_Response:
         twists.append(gm.TwistStamped(header=stamped, twist=gm.Twist(linear=_vector3(v[:3]),
                                                                      angular=_vector3(v[3:]))))
     trajectory = JointTrajectory()
-    if path.joint_positions is not None:
+    if path.joint_positions is not None and path.trajectory is not None:  # the retimed trajectory
+        timed = path.trajectory
+        points = [JointTrajectoryPoint(positions=q.tolist(), velocities=v.tolist(), accelerations=a.tolist(),
+                                       time_from_start=Duration.from_seconds(t))
+                  for q, v, a, t in zip(timed.positions, timed.velocities, timed.accelerations, timed.times.tolist(),
+                                        strict=True)]
+        trajectory = JointTrajectory(header=header, joint_names=list(timed.joint_names), points=points)
+    elif path.joint_positions is not None:
         velocities = path.joint_velocities if path.joint_velocities is not None else \
             np.zeros_like(path.joint_positions)
         points = [JointTrajectoryPoint(positions=q.tolist(), velocities=v.tolist(),

@@ -52,6 +52,24 @@ def test_a_whole_body_plan_writes_the_same_bytes(field: PotentialField) -> None:
         assert fast.end_effector_velocity_trajectory == reference.end_effector_velocity_trajectory
 
 
+def test_the_joint_trajectory_is_the_retimed_one(field: PotentialField) -> None:
+    robot = RobotModel.builtin("xarm7")
+    path = field.plan_whole_body(robot, np.array([0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0]), 0.02, 0.01, 3000)
+    timed = path.trajectory
+    assert timed is not None
+    points = plan_response(path, "world").joint_trajectory.points
+    assert len(points) == len(timed.times)
+    for point, q, v, a, t in zip(points, timed.positions, timed.velocities, timed.accelerations, timed.times,
+                                 strict=True):
+        assert (point.positions, point.velocities, point.accelerations) == (q.tolist(), v.tolist(), a.tolist())
+        assert point.time_from_start.sec * 1_000_000_000 + point.time_from_start.nanosec == round(t * 1e9)
+    samples = replace(path, trajectory=None)  # without one: the planner's samples at i·dt, no accelerations
+    sampled = plan_response(samples, "world").joint_trajectory.points
+    assert len(sampled) == len(path.times) and all(point.accelerations == [] for point in sampled)
+    assert "".join(plan_response(samples, "world").json_chunks()) == \
+        reference_response(samples, "world").model_dump_json()  # type: ignore[attr-defined]
+
+
 def test_non_finite_values_and_long_plans(field: PotentialField) -> None:
     path = field.plan(start=Pose((0.3, 0.1, 0.35), ORIENTATION), dt=0.02, goal_tolerance=0.01, max_iterations=50)
     twists = path.twists.copy()

@@ -226,6 +226,8 @@ class PotentialField:
         max_iterations: int | None = None,
         rotation_tolerance: float | None = None,
         *,
+        global_fallback: bool | None = None,
+        global_time_limit: float | None = None,
         options: PlanOptions | None = None,
     ) -> PlannedPath:
         """Task-space plan from ``start`` to the goal (:func:`pfield.planning.task_space.plan_task_space`).
@@ -237,11 +239,13 @@ class PotentialField:
         from pfield.planning.task_space import plan_task_space
 
         return plan_task_space(self, start, dt=dt, goal_tolerance=goal_tolerance, max_iterations=max_iterations,
-                               rotation_tolerance=rotation_tolerance, options=options)
+                               rotation_tolerance=rotation_tolerance, global_fallback=global_fallback,
+                               global_time_limit=global_time_limit, options=options)
 
     def plan_whole_body(
         self, robot: Any, q0: ArrayLike, dt: float | None = None, goal_tolerance: float | None = None,
         max_iterations: int | None = None, rotation_tolerance: float | None = None, *,
+        global_fallback: bool | None = None, global_time_limit: float | None = None,
         options: PlanOptions | None = None,
     ) -> PlannedPath:
         """Whole-body plan of ``robot`` from joint positions ``q0`` (:mod:`pfield.planning.whole_body`).
@@ -252,4 +256,5 @@ class PotentialField:
         from pfield.planning.whole_body import plan_whole_body
 
         return plan_whole_body(self, robot, q0, dt=dt, goal_tolerance=goal_tolerance, max_iterations=max_iterations,
-                               rotation_tolerance=rotation_tolerance, plan_options=options)
+                               rotation_tolerance=rotation_tolerance, global_fallback=global_fallback,
+                               global_time_limit=global_time_limit, plan_options=options)

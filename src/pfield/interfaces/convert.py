@@ -261,20 +261,28 @@ class _PlanJson:
         yield "]"
 
     def joint_trajectory(self) -> Iterator[str]:
+        """The time-parameterised trajectory when the plan has one (positions, velocities, accelerations and
+        ``time_from_start`` of :attr:`PlannedPath.trajectory`, as a JointTrajectoryController expects), else
+        the planner's samples (positions and velocities at ``times``)."""
         path = self.path
         if path.joint_positions is None:
             yield '{"header":' + self.header("") + ',"joint_names":[],"points":[]}'
             return
-        positions = path.joint_positions
-        velocities = path.joint_velocities if path.joint_velocities is not None else np.zeros_like(positions)
-        stamps = _stamps(path.times)
-        values = ",".join(["{}"] * positions.shape[1])
-        template = ('{"positions":[' + values + '],"velocities":[' + values + '],"accelerations":[],"effort":[],'
-                    '"time_from_start":{"sec":{},"nanosec":{}}}')
-        yield '{"header":' + self.header() + ',"joint_names":' + to_json(list(path.joint_names)).decode() + \
-            ',"points":['
-        yield from _rows(template, "", lambda rows: (positions[rows], velocities[rows], stamps[rows]),
-                         len(path.times))
+        timed = path.trajectory
+        if timed is not None:
+            blocks: tuple[NDArray[Any], ...] = (timed.positions, timed.velocities, timed.accelerations)
+            stamps, names = _stamps(timed.times, "trajectory.times"), timed.joint_names
+        else:
+            positions = path.joint_positions
+            velocities = path.joint_velocities if path.joint_velocities is not None else np.zeros_like(positions)
+            blocks, stamps, names = (positions, velocities), _stamps(path.times), path.joint_names
+        values = ",".join(["{}"] * blocks[0].shape[1])
+        accelerations = values if timed is not None else ""
+        template = ('{"positions":[' + values + '],"velocities":[' + values + '],"accelerations":[' + accelerations
+                    + '],"effort":[],"time_from_start":{"sec":{},"nanosec":{}}}')
+        yield '{"header":' + self.header() + ',"joint_names":' + to_json(list(names)).decode() + ',"points":['
+        yield from _rows(template, "", lambda rows: (*(block[rows] for block in blocks), stamps[rows]),
+                         len(stamps))
         yield "]}"
 
     def end_effector_path(self) -> Iterator[str]:
@@ -380,7 +388,8 @@ def _lazy(model: type[Any], plan: _PlanJson, **values: Any) -> Any:
 
 
 def plan_response(path: PlannedPath, frame_id: str) -> PlanPath_Response:
-    """``PlanPath`` response of a plan: poses and twists stamped ``times[i]`` (= i·dt, s) in ``frame_id``.
+    """``PlanPath`` response of a plan: poses and twists stamped ``times[i]`` (= i·dt, s) in ``frame_id``; the
+    joint trajectory is the retimed :attr:`PlannedPath.trajectory` when the plan has one.
 
     Built without one pydantic object per waypoint: the response (and its ``end_effector_path``, which the
     node publishes) write their JSON straight from the plan's arrays, and build the per-waypoint models only
@@ -388,6 +397,8 @@ def plan_response(path: PlannedPath, frame_id: str) -> PlanPath_Response:
     raises :class:`InvalidInput` naming ``times``.
     """
     _stamps(path.times)  # refuse unrepresentable times before anything is built
+    if path.trajectory is not None:
+        _stamps(path.trajectory.times, "trajectory.times")
     plan = _PlanJson(path, frame_id)
     header = Header(frame_id=frame_id)
     trajectory = (JointTrajectory() if path.joint_positions is None else

@@ -25,6 +25,7 @@ from pfield.field.config import FieldConfig
 from pfield.node._frames import PARAMETER as TRANSFORMS
 from pfield.node._frames import StaticTransforms, parse_transforms
 from pfield.node._params import ParameterRow, ParameterTable, field_docs
+from pfield.planning.options import DEFAULT_GLOBAL_TIME_LIMIT
 from pfield.spatial import Pose
 
 __all__ = ["MAX_MESH_FILE_SIZE", "MAX_OBSTACLES", "Held", "ManagerParameters", "ManagerState", "Memo",
@@ -36,6 +37,9 @@ a whole-body autonomy call and a plan's per-step cost bounded. A message that wo
 and changes nothing."""
 MAX_MESH_FILE_SIZE = 50_000_000
 """bytes: default ``max_mesh_file_size`` (a detailed robot link mesh is 1–10 MB)."""
+
+MAX_GLOBAL_TIME_LIMIT = 600.0
+"""s: the largest ``global_time_limit`` the node accepts (a plan request holds a calls thread that long)."""
 
 T = TypeVar("T")
 
@@ -53,6 +57,10 @@ class ManagerParameters:
     ``fixed_frame`` (entries may also be :class:`~pfield.spatial.Pose`; held as Poses after validation)."""
     max_mesh_file_size: int = MAX_MESH_FILE_SIZE
     """bytes: a Mesh obstacle whose resolved file is larger is refused before it is loaded."""
+    global_fallback: bool = True
+    """When the field alone stagnates or reaches the iteration limit, search globally and track the result."""
+    global_time_limit: float = DEFAULT_GLOBAL_TIME_LIMIT
+    """s: wall-clock limit of that global search."""
 
     def __post_init__(self) -> None:
         timeout = self.dynamic_obstacle_timeout
@@ -66,6 +74,9 @@ class ManagerParameters:
         if isinstance(size, bool) or not isinstance(size, int) or size < 1:
             raise InvalidInput("max_mesh_file_size", size, "must be a positive number of bytes")
         object.__setattr__(self, "dynamic_obstacle_timeout", float(timeout))
+        object.__setattr__(self, "global_fallback", _validation.boolean("global_fallback", self.global_fallback))
+        object.__setattr__(self, "global_time_limit", _validation.positive("global_time_limit",
+                                                                            self.global_time_limit))
         object.__setattr__(self, "static_transforms", parse_transforms(self.static_transforms, self.fixed_frame))
 
     def frames(self) -> StaticTransforms:
@@ -104,7 +115,10 @@ def manager_table(name: str) -> ParameterTable:
              ParameterRow("fixed_frame", "string", own_docs["fixed_frame"], own.fixed_frame),
              ParameterRow(TRANSFORMS, "map", own_docs["static_transforms"], {}),
              ParameterRow("max_mesh_file_size", "integer", own_docs["max_mesh_file_size"], own.max_mesh_file_size,
-                          1, 2**31 - 1, "bytes", positive=True)]
+                          1, 2**31 - 1, "bytes", positive=True),
+             ParameterRow("global_fallback", "bool", own_docs["global_fallback"], own.global_fallback),
+             ParameterRow("global_time_limit", "double", own_docs["global_time_limit"], own.global_time_limit,
+                          0.0, MAX_GLOBAL_TIME_LIMIT, "s", positive=True)]
     return ParameterTable(name, rows)
 
 

@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
 from pfield.planning.cancel import CancelToken
+from pfield.planning.options import DEFAULT_GLOBAL_TIME_LIMIT
 from pfield.planning.result import PlannedPath
 from pfield.spatial import Pose, Twist
 
@@ -62,14 +63,20 @@ def make_mesh(resource: str, scale: tuple[float, float, float], resolver: Any, m
 
 
 def run_plan(config: FieldConfig, obstacles: Sequence[Any], robot: Any, inputs: PlanInputs,
-             cancel: CancelToken | None = None) -> PlannedPath:
+             cancel: CancelToken | None = None, *, global_fallback: bool = True,
+             global_time_limit: float = DEFAULT_GLOBAL_TIME_LIMIT) -> PlannedPath:
     """The plan of ``inputs`` among ``obstacles``; ``cancel`` (checked here before planning, and passed to the
-    planner, which checks it between iterations) ends it early with the status ``cancelled``."""
-    from pfield.planning import PlanOptions
+    planner, which checks it between iterations) ends it early with the status ``cancelled``.
 
+    ``global_fallback`` and ``global_time_limit`` are the :class:`~pfield.planning.PlanOptions` fields of
+    those names (the node's parameters). Joint trajectories are time-parameterised within the URDF velocity
+    limits and the config's acceleration limits (revolute: ``max_angular_acceleration``, prismatic:
+    ``max_linear_acceleration``)."""
+    from pfield.planning import PlanOptions
     field = make_field(config, inputs.goal, obstacles)
     options = PlanOptions(dt=inputs.delta_time, goal_tolerance=inputs.goal_tolerance,
-                          max_iterations=inputs.max_iterations, cancel=cancel)
+                          max_iterations=inputs.max_iterations, cancel=cancel, global_fallback=global_fallback,
+                          global_time_limit=global_time_limit)
     if inputs.method == "whole_body":
         assert inputs.joint_angles is not None
         return field.plan_whole_body(robot, inputs.joint_angles, options=options)
@@ -77,8 +84,11 @@ def run_plan(config: FieldConfig, obstacles: Sequence[Any], robot: Any, inputs: 
     path: PlannedPath = field.plan(start=inputs.start, options=options)
     if inputs.joint_angles is not None:
         from pfield.planning.joint_trajectory import attach_joint_trajectory
+        from pfield.planning.retime import default_acceleration_limits
 
-        path = attach_joint_trajectory(path, robot, inputs.joint_angles)
+        accelerations = default_acceleration_limits(robot.kinematics.kinds, config.max_angular_acceleration,
+                                                    config.max_linear_acceleration)
+        path = attach_joint_trajectory(path, robot, inputs.joint_angles, acceleration_limits=accelerations)
     return path
 
 

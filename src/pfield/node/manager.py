@@ -182,7 +182,9 @@ class ManagerNode(Node):
         return state.config.as_dict() | {"dynamic_obstacle_timeout": params.dynamic_obstacle_timeout,
                                          "fixed_frame": params.fixed_frame,
                                          "static_transforms": transforms_data(params.static_transforms),
-                                         "max_mesh_file_size": params.max_mesh_file_size}
+                                         "max_mesh_file_size": params.max_mesh_file_size,
+                                         "global_fallback": params.global_fallback,
+                                         "global_time_limit": params.global_time_limit}
 
     def describe_parameters(self) -> dict[str, dict[str, Any]]:
         return self.parameter_table.describe()
@@ -377,7 +379,9 @@ class ManagerNode(Node):
         inputs = self._plan_inputs(request, len(state.obstacles))
         if cancel is not None and cancel.cancelled:
             return _CANCELLED.model_copy()
-        path = _planning.run_plan(state.config, state.obstacle_list(), self.robot, inputs, cancel=cancel)
+        params = state.params
+        path = _planning.run_plan(state.config, state.obstacle_list(), self.robot, inputs, cancel=cancel,
+                                  global_fallback=params.global_fallback, global_time_limit=params.global_time_limit)
         if cancel is not None and cancel.cancelled:
             return _CANCELLED.model_copy()
         response = plan_response(path, state.params.fixed_frame)

@@ -27,13 +27,13 @@ class FlatStep:
 
     def __init__(self, robot: _wb.RobotArrays, scene: _wb.Scene) -> None:
         n, caps, obstacles, pairs = len(robot.parents), len(robot.cap_joint), len(scene.bounds), len(robot.self_pairs)
-        m_max = caps * obstacles + pairs + 2 * n
-        self.dims = np.array([n, caps, obstacles, pairs, m_max, robot.ee_joint], dtype=np.int64)
+        m_max, prims = caps * obstacles + pairs + 2 * n, len(robot.prim_r)
+        self.dims = np.array([n, caps, obstacles, pairs, m_max, robot.ee_joint, prims], dtype=np.int64)
         values = robot._asdict()
-        self.floats = _wb.ROBOT_FLOATS.pack(values, n=n, caps=caps, pairs=pairs)
-        self.ints = _wb.ROBOT_INTS.pack(values, n=n, caps=caps, pairs=pairs)
+        self.floats = _wb.ROBOT_FLOATS.pack(values, n=n, caps=caps, pairs=pairs, prims=prims)
+        self.ints = _wb.ROBOT_INTS.pack(values, n=n, caps=caps, pairs=pairs, prims=prims, starts=caps + 1)
         self.scene = _wb.SCENE_FLOATS.pack(scene._asdict(), caps=caps, obstacles=obstacles, pairs=pairs)
-        self.work = np.zeros(_wb.WORKSPACE.size(n=n, caps=caps, m=m_max))
+        self.work = np.zeros(_wb.WORKSPACE.size(n=n, caps=caps, m=m_max, prims=prims))
         self.packed = scene.packed
 
     def buffers(self) -> tuple[Any, ...]:
@@ -53,11 +53,11 @@ def flat_step(
     Returns the step's result row (``_wb.STEP_OUT``, read it with :class:`~._whole_body_layout.StepResult`)
     followed by q̇ (n,).
     """
-    n, caps, obstacles, pairs, m_max, ee_joint = dims[0], dims[1], dims[2], dims[3], dims[4], dims[5]
+    n, caps, obstacles, pairs, m_max, ee_joint, prims = dims[0], dims[1], dims[2], dims[3], dims[4], dims[5], dims[6]
     packed = PackedObstacles(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table)
-    robot = _wb.robot_views(floats, ints, n, caps, pairs, ee_joint)
+    robot = _wb.robot_views(floats, ints, n, caps, pairs, prims, caps + 1, ee_joint)
     scene = _wb.scene_views(scene_floats, caps, obstacles, pairs, packed)
-    ws = _wb.workspace_views(work, n, caps, m_max)
+    ws = _wb.workspace_views(work, n, caps, m_max, prims)
     autonomy_step(q, previous, has_prev, robot, scene, goal_p, goal_q, params, ws)
     size = ws.out.shape[0]
     result = np.empty(size + q.shape[0])

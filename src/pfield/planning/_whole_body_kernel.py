@@ -31,7 +31,6 @@ from numba import njit
 from pfield._linalg import cholesky_inplace, cholesky_solve, hildreth
 from pfield._spatial_kernels import matrix_to_quat, rotation_error
 from pfield.field.forces import attraction, khatib_magnitude, soft_saturate, stepped_damper_speed
-from pfield.geometry._packed import CAPSULE, SPHERE
 from pfield.planning._whole_body_layout import (
     DAMPING,
     DT,
@@ -64,18 +63,12 @@ from pfield.planning._whole_body_layout import (
     Scene,
     Workspace,
 )
-from pfield.robot._distance import (
-    closest_segment_points,
-    point_segment_distance,
-    round_segment_distance,
-    segment_obstacle_distance,
-)
+from pfield.robot._clearance import link_obstacle_distance, link_pair_distance, world_segments
 from pfield.robot._kinematics import (
     frame_pose,
     joint_transforms,
     linear_point_jacobian,
     point_jacobian,
-    transform_point_into,
 )
 
 
@@ -116,10 +109,9 @@ def _task(robot: RobotArrays, goal_p: np.ndarray, goal_q: np.ndarray, params: np
 
 @njit(cache=True, inline="always")
 def _segments(robot: RobotArrays, ws: Workspace) -> None:
-    for c in range(robot.cap_joint.shape[0]):
-        j = robot.cap_joint[c]
-        transform_point_into(ws.rotations, ws.origins, j, robot.cap_a[c], ws.seg_a[c])
-        transform_point_into(ws.rotations, ws.origins, j, robot.cap_b[c], ws.seg_b[c])
+    world_segments(ws.rotations, ws.origins, robot.cap_joint, robot.cap_a, robot.cap_b, ws.seg_a, ws.seg_b)
+    world_segments(ws.rotations, ws.origins, robot.prim_joint, robot.prim_a, robot.prim_b, ws.prim_seg_a,
+                   ws.prim_seg_b)
 
 
 @njit(cache=True, inline="always")
@@ -138,39 +130,36 @@ def _add_row(kin: tuple[np.ndarray, ...], jlin: np.ndarray, rows: np.ndarray, bo
 
 @njit(cache=True, inline="always")
 def _obstacle_rows(robot: RobotArrays, scene: Scene, params: np.ndarray, ws: Workspace, m: int) -> int:
-    """Damper rows and null-space repulsion of every link–obstacle pair within Q; returns the row count."""
+    """Damper rows and null-space repulsion of every link–obstacle pair within Q; returns the row count.
+
+    One row per pair, at the closest point of the link's nearest primitive
+    (:func:`pfield.robot._clearance.link_obstacle_distance`)."""
     influence, dt = params[INFLUENCE], params[DT]
     clearance, culprit_c, culprit_o = math.inf, -1, -1
     # hoisted out of the loops: numba reference-counts tuple members on every access (see _distance)
     packed, centres, bounds = scene.packed, scene.centres, scene.bounds
-    rows, kinds = packed.rows, packed.kinds
     seg_a, seg_b, cap_r, cap_joint, scratch = ws.seg_a, ws.seg_b, robot.cap_r, robot.cap_joint, ws.scratch
+    link_start, prim_a, prim_b, prim_r = robot.link_start, ws.prim_seg_a, ws.prim_seg_b, robot.prim_r
     offsets = scene.obstacle_offsets
     worst = math.inf
     speed, safety, null_scale = params[XI] * params[V_MAX], params[SAFETY], params[NULL_GAIN] * params[V_MAX]
     kin = (ws.rotations, ws.origins, robot.axes, robot.kinds, robot.support)
     jlin, wrows, wb, free = ws.jlin, ws.rows, ws.b, ws.free
     for c in range(cap_joint.shape[0]):
-        a, b, radius = seg_a[c], seg_b[c], cap_r[c]
         for i in range(bounds.shape[0]):
-            lower = point_segment_distance(centres[i], a, b) - bounds[i] - radius
-            if lower >= influence:
-                clearance = min(clearance, lower)
-                continue
-            if kinds[i] == SPHERE or kinds[i] == CAPSULE:
-                d, t, nx, ny, nz = round_segment_distance(rows, kinds, i, a, b, scratch)
-            else:
-                d, t, nx, ny, nz = segment_obstacle_distance(packed, i, a, b, scratch)
-            d -= radius
+            d, exact, px, py, pz, nx, ny, nz = link_obstacle_distance(
+                c, i, packed, centres, bounds, seg_a, seg_b, cap_r, link_start, prim_a, prim_b, prim_r, scratch,
+                influence)
             clearance = min(clearance, d)
+            if not exact:
+                continue
             d -= offsets[c, i]
             if d < worst:
                 worst, culprit_c, culprit_o = d, c, i
             if d >= influence or cap_joint[c] < 0:
                 continue
             bound = -stepped_damper_speed(d, influence, safety, speed, dt)
-            m = _add_row(kin, jlin, wrows, wb, m, nx, ny, nz, cap_joint[c], a[0] + t * (b[0] - a[0]),
-                         a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2]), bound)
+            m = _add_row(kin, jlin, wrows, wb, m, nx, ny, nz, cap_joint[c], px, py, pz, bound)
             push = null_scale * khatib_magnitude(d, params[ETA], influence, params[F_CAP]) / params[F_CAP]
             for j in range(free.shape[0]):
                 free[j] += push * wrows[m - 1, j]
@@ -187,20 +176,20 @@ def _self_rows(robot: RobotArrays, scene: Scene, params: np.ndarray, ws: Workspa
     clearance, nearest = math.inf, -1
     kin = (ws.rotations, ws.origins, robot.axes, robot.kinds, robot.support)
     jlin, jlin2, wrows, wb = ws.jlin, ws.jlin2, ws.rows, ws.b
-    pairs, seg_a, seg_b, cap_r, cap_joint = robot.self_pairs, ws.seg_a, ws.seg_b, robot.cap_r, robot.cap_joint
+    pairs, seg_a, seg_b, cap_joint = robot.self_pairs, ws.seg_a, ws.seg_b, robot.cap_joint
+    self_r = robot.self_r
     offsets = scene.self_offsets
     for k in range(pairs.shape[0]):
         c1, c2 = pairs[k, 0], pairs[k, 1]
-        a1, b1, a2, b2 = seg_a[c1], seg_b[c1], seg_a[c2], seg_b[c2]
-        s, t = closest_segment_points(a1, b1, a2, b2)
-        p1x, p1y, p1z = a1[0] + s * (b1[0] - a1[0]), a1[1] + s * (b1[1] - a1[1]), a1[2] + s * (b1[2] - a1[2])
-        p2x, p2y, p2z = a2[0] + t * (b2[0] - a2[0]), a2[1] + t * (b2[1] - a2[1]), a2[2] + t * (b2[2] - a2[2])
-        dx, dy, dz = p1x - p2x, p1y - p2y, p1z - p2z
-        dist = math.sqrt(dx * dx + dy * dy + dz * dz)
-        d = dist - cap_r[c1] - cap_r[c2] - offsets[k]
+        d, p1x, p1y, p1z, p2x, p2y, p2z = link_pair_distance(c1, c2, seg_a, seg_b, self_r)
+        d -= offsets[k]
         if d < clearance:
             clearance, nearest = d, k
-        if d >= influence or dist < 1e-12:
+        if d >= influence:
+            continue
+        dx, dy, dz = p1x - p2x, p1y - p2y, p1z - p2z
+        dist = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if dist < 1e-12:
             continue
         nx, ny, nz = dx / dist, dy / dist, dz / dist
         bound = -stepped_damper_speed(d, influence, safety, speed, dt)
@@ -258,13 +247,12 @@ def _limit_speed(q_prev_velocity: np.ndarray, has_prev: bool, robot: RobotArrays
     x[:] = limited
 
 
-@njit(cache=True)
-def joint_velocity_step(q: np.ndarray, previous: np.ndarray, has_prev: bool, robot: RobotArrays, scene: Scene,
-                        goal_p: np.ndarray, goal_q: np.ndarray, params: np.ndarray, ws: Workspace) -> int:
-    """The whole-body field's joint velocity at ``q`` into ``ws.x``; pose, twist, clearances into ``ws.out``."""
-    joint_transforms(q, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds, ws.rotations,
-                     ws.origins)
-    _task(robot, goal_p, goal_q, params, ws)
+@njit(cache=True, inline="always")
+def constrained_velocity(q: np.ndarray, previous: np.ndarray, has_prev: bool, robot: RobotArrays, scene: Scene,
+                         params: np.ndarray, ws: Workspace, free_weight: float) -> int:
+    """The joint velocity of the task in ``ws.h`` / ``ws.rhs`` under the velocity dampers (link–obstacle,
+    self-collision, joint limits) into ``ws.x``, speed- and rate-limited, and its twist J q̇ into ``ws.out``;
+    ``free_weight`` scales the dampers' free-space term added to the task. Returns the number of rows."""
     _segments(robot, ws)
     ws.free[:] = 0.0
     # a run-time zero: with the literal 0, type inference also compiles hildreth for m = Literal[int](0)
@@ -273,7 +261,7 @@ def joint_velocity_step(q: np.ndarray, previous: np.ndarray, has_prev: bool, rob
     m = _joint_limit_rows(q, robot, params, ws, m)
     n = q.shape[0]
     for j in range(n):
-        ws.rhs[j] += params[DAMPING] * ws.free[j]
+        ws.rhs[j] += free_weight * ws.free[j]
     cholesky_inplace(ws.h, n)
     cholesky_solve(ws.h, ws.rhs, ws.x, n)
     hildreth(ws.h, ws.x, ws.rows, ws.b, m, n, ws.hinv, ws.mu, ws.curvature, 200, 1e-7)
@@ -284,3 +272,13 @@ def joint_velocity_step(q: np.ndarray, previous: np.ndarray, has_prev: bool, rob
             s += ws.jac[r, j] * ws.x[j]
         ws.out[OUT_TWIST[0] + r] = s
     return m
+
+
+@njit(cache=True)
+def joint_velocity_step(q: np.ndarray, previous: np.ndarray, has_prev: bool, robot: RobotArrays, scene: Scene,
+                        goal_p: np.ndarray, goal_q: np.ndarray, params: np.ndarray, ws: Workspace) -> int:
+    """The whole-body field's joint velocity at ``q`` into ``ws.x``; pose, twist, clearances into ``ws.out``."""
+    joint_transforms(q, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds, ws.rotations,
+                     ws.origins)
+    _task(robot, goal_p, goal_q, params, ws)
+    return constrained_velocity(q, previous, has_prev, robot, scene, params, ws, params[DAMPING])

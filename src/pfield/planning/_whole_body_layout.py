@@ -45,7 +45,7 @@ STEP_OUT = Layout("whole-body step result", [
     ("twist", (6,)),  # end-effector twist J q̇ (m/s, rad/s), world frame
     ("position", (3,)),  # end-effector position (m)
     ("orientation", (4,)),  # end-effector quaternion (x, y, z, w)
-    ("clearance", ()),  # smallest link-capsule–obstacle signed distance (m), inf without obstacles
+    ("clearance", ()),  # smallest link–obstacle signed distance (m), inf without obstacles
     ("self_clearance", ()),  # smallest self pair distance less its start offset (m), inf without pairs
     ("position_error", ()),  # ‖goal − p‖ (m)
     ("rotation_error", ()),  # ‖log(q_goal ⊗ q⁻¹)‖ (rad)
@@ -87,7 +87,12 @@ class StepResult(NamedTuple):
 
 
 class RobotArrays(NamedTuple):
-    """Kinematics (see :mod:`pfield.robot._kinematics`), link capsules and limits, packed for the kernel."""
+    """Kinematics (see :mod:`pfield.robot._kinematics`), the link model and limits, packed for the kernel.
+
+    ``cap_*`` are the links' bounding capsules (index l; ``self_r`` the radii of the ungrown covering
+    capsules, for the ``self_pairs`` link pairs), and ``link_start``, ``prim_*`` the fitted primitives of
+    each link (:class:`pfield.robot.geometry.RobotGeometry`): link l owns ``link_start[l]:link_start[l + 1]``.
+    """
 
     parents: NDArray[np.int64]
     place_rot: NDArray[np.float64]
@@ -107,23 +112,33 @@ class RobotArrays(NamedTuple):
     upper: NDArray[np.float64]
     max_velocity: NDArray[np.float64]
     max_acceleration: NDArray[np.float64]
+    link_start: NDArray[np.int64]
+    prim_joint: NDArray[np.int64]
+    prim_a: NDArray[np.float64]
+    prim_b: NDArray[np.float64]
+    prim_r: NDArray[np.float64]
+    self_r: NDArray[np.float64]
 
 
 ROBOT_FLOATS = Layout("robot floats", [
     ("place_rot", ("n", 3, 3)), ("place_pos", ("n", 3)), ("axes", ("n", 3)), ("ee_rot", (3, 3)), ("ee_pos", (3,)),
     ("cap_a", ("caps", 3)), ("cap_b", ("caps", 3)), ("cap_r", ("caps",)), ("lower", ("n",)), ("upper", ("n",)),
-    ("max_velocity", ("n",)), ("max_acceleration", ("n",))])
+    ("max_velocity", ("n",)), ("max_acceleration", ("n",)), ("prim_a", ("prims", 3)), ("prim_b", ("prims", 3)),
+    ("prim_r", ("prims",)), ("self_r", ("caps",))])
 ROBOT_INTS = Layout("robot ints", [("parents", ("n",)), ("kinds", ("n",)), ("support", ("n", "n")),
-                                   ("cap_joint", ("caps",)), ("self_pairs", ("pairs", 2))], dtype=np.int64)
-"""The float and int arrays of :class:`RobotArrays` as two flat buffers (``ee_joint`` is passed as is)."""
+                                   ("cap_joint", ("caps",)), ("self_pairs", ("pairs", 2)), ("link_start", ("starts",)),
+                                   ("prim_joint", ("prims",))], dtype=np.int64)
+"""The float and int arrays of :class:`RobotArrays` as two flat buffers (``ee_joint`` is passed as is);
+``prims`` is the number of fitted primitives and ``starts`` = caps + 1 (the bounds of each link's
+primitives)."""
 
 
 class Scene(NamedTuple):
     """Obstacles, their bounding spheres (centre, radius) for culling far link–obstacle pairs, and offsets.
 
-    Capsules over-approximate the links, so a valid start can have capsules closer than ``safety_distance``
-    (or overlapping). ``obstacle_offsets[c, i]`` and ``self_offsets[k]`` (≤ 0, m) are subtracted from those
-    pairs' distances: such a pair may not get any closer than it starts, and only that counts as a
+    The fitted model over-approximates the links, so a valid start can have links closer than
+    ``safety_distance`` (or overlapping). ``obstacle_offsets[c, i]`` and ``self_offsets[k]`` (≤ 0, m) are
+    subtracted from those pairs' distances: such a pair may not get any closer than it starts, and only that counts as a
     collision (:func:`pfield.planning.whole_body.make_scene`).
     """
 
@@ -161,26 +176,30 @@ class Workspace(NamedTuple):
     scratch: NDArray[np.float64]
     task: NDArray[np.float64]
     out: NDArray[np.float64]
+    prim_seg_a: NDArray[np.float64]
+    prim_seg_b: NDArray[np.float64]
 
 
 WORKSPACE = Layout("whole-body workspace", [
     ("rotations", ("n", 3, 3)), ("origins", ("n", 3)), ("jac", (6, "n")), ("jlin", (3, "n")), ("jlin2", (3, "n")),
     ("rows", ("m", "n")), ("b", ("m",)), ("hinv", ("m", "n")), ("mu", ("m",)), ("curvature", ("m",)),
     ("h", ("n", "n")), ("rhs", ("n",)), ("x", ("n",)), ("free", ("n",)), ("seg_a", ("caps", 3)),
-    ("seg_b", ("caps", 3)), ("limited", ("n",)), ("scratch", (2, 3)), ("task", (2, 6)), ("out", (OUT_SIZE,))])
-"""One flat float buffer per step; ``m`` = the most QP rows (caps·obstacles + pairs + 2n)."""
+    ("seg_b", ("caps", 3)), ("limited", ("n",)), ("scratch", (2, 3)), ("task", (2, 6)), ("out", (OUT_SIZE,)),
+    ("prim_seg_a", ("prims", 3)), ("prim_seg_b", ("prims", 3))])
+"""One flat float buffer per step; ``m`` = the most QP rows (caps·obstacles + pairs + 2n), ``prims`` the
+fitted primitives (their world segments)."""
 
 robot_views = compile_views("robot_views", RobotArrays, [("floats", ROBOT_FLOATS), ("ints", ROBOT_INTS)],
-                            ("n", "caps", "pairs"), ("ee_joint",))
+                            ("n", "caps", "pairs", "prims", "starts"), ("ee_joint",))
 scene_views = compile_views("scene_views", Scene, [("floats", SCENE_FLOATS)], ("caps", "obstacles", "pairs"),
                             ("packed",))
-workspace_views = compile_views("workspace_views", Workspace, [("work", WORKSPACE)], ("n", "caps", "m"))
+workspace_views = compile_views("workspace_views", Workspace, [("work", WORKSPACE)], ("n", "caps", "m", "prims"))
 
 
-_allocate_workspace = compile_allocation("_allocate_workspace", Workspace, WORKSPACE, ("n", "caps", "m"))
+_allocate_workspace = compile_allocation("_allocate_workspace", Workspace, WORKSPACE, ("n", "caps", "m", "prims"))
 
 
 @njit(cache=True)
-def make_workspace(n: int, n_capsules: int, n_obstacles: int, n_pairs: int) -> Workspace:
-    """A fresh :class:`Workspace` for n joints, capsules, obstacles and self pairs."""
-    return _allocate_workspace(n, n_capsules, n_capsules * n_obstacles + n_pairs + 2 * n)
+def make_workspace(n: int, n_capsules: int, n_obstacles: int, n_pairs: int, n_prims: int) -> Workspace:
+    """A fresh :class:`Workspace` for n joints, link capsules, obstacles, self pairs and fitted primitives."""
+    return _allocate_workspace(n, n_capsules, n_capsules * n_obstacles + n_pairs + 2 * n, n_prims)

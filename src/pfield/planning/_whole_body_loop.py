@@ -1,5 +1,6 @@
 """Compiled whole-body loops on top of :func:`~pfield.planning._whole_body_kernel.joint_velocity_step`: the
-planning loop, exact capsule pair distances, and the single step of the autonomy vector (numba, cache=True).
+planning loop and the single step of the autonomy vector (numba, cache=True); the link clearances come
+from :mod:`pfield.robot._clearance`.
 """
 
 from __future__ import annotations
@@ -10,7 +11,6 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from pfield.geometry._packed import CAPSULE, SPHERE
 from pfield.planning._progress import track_progress
 from pfield.planning._whole_body_kernel import _segments, joint_velocity_step
 from pfield.planning._whole_body_layout import (
@@ -37,13 +37,23 @@ from pfield.planning._whole_body_layout import (
     make_workspace,
 )
 from pfield.planning.status import PlanStatus
-from pfield.robot._distance import (
-    closest_segment_points,
-    point_segment_distance,
-    round_segment_distance,
-    segment_obstacle_distance,
-)
+from pfield.robot._clearance import clearances_at, fill_clearances
 from pfield.robot._kinematics import joint_transforms
+
+
+@njit(cache=True, inline="always")
+def record_waypoint(k: int, q: np.ndarray, out: np.ndarray, qs: np.ndarray, positions: np.ndarray,
+                    quats: np.ndarray, clear: np.ndarray) -> None:
+    """Waypoint ``k`` of a loop's outputs from ``q`` and its step result row ``out``."""
+    qs[k], positions[k], clear[k] = q, out[OUT_POSITION[0]:OUT_POSITION[1]], out[OUT_CLEARANCE]
+    quats[k] = out[OUT_ORIENTATION[0]:OUT_ORIENTATION[1]]
+
+
+@njit(cache=True, inline="always")
+def step_culprit(out: np.ndarray) -> np.ndarray:
+    """The loop's ``culprit`` (5,) of the step result row ``out`` (see :func:`plan_loop`)."""
+    return np.array((out[OUT_NEAREST_CAPSULE], out[OUT_NEAREST_OBSTACLE], out[OUT_NEAREST_DISTANCE],
+                     out[OUT_NEAREST_SELF_PAIR], out[OUT_SELF_CLEARANCE]))
 
 
 @njit(cache=True, nogil=True)  # another thread may cancel the plan while it runs
@@ -60,7 +70,8 @@ def plan_loop(q0: np.ndarray, robot: RobotArrays, scene: Scene, goal_p: np.ndarr
     closest self pair and its distance (indices −1 when there is none).
     """
     n = q0.shape[0]
-    ws = make_workspace(n, robot.cap_joint.shape[0], scene.bounds.shape[0], robot.self_pairs.shape[0])
+    ws = make_workspace(n, robot.cap_joint.shape[0], scene.bounds.shape[0], robot.self_pairs.shape[0],
+                        robot.prim_r.shape[0])
     total = max_iterations + 1
     qs, qds = np.empty((total, n)), np.empty((total, n))
     positions, quats, twists, clear = np.empty((total, 3)), np.empty((total, 4)), np.empty((total, 6)), np.empty(total)
@@ -72,8 +83,7 @@ def plan_loop(q0: np.ndarray, robot: RobotArrays, scene: Scene, goal_p: np.ndarr
     for k in range(total):
         # has_prev as a run-time bool (dt > 0 always holds here): the same specialisation as autonomy_step's
         joint_velocity_step(q, previous, dt > 0.0, robot, scene, goal_p, goal_q, params, ws)
-        qs[k], positions[k], clear[k] = q, out[OUT_POSITION[0]:OUT_POSITION[1]], out[OUT_CLEARANCE]
-        quats[k] = out[OUT_ORIENTATION[0]:OUT_ORIENTATION[1]]
+        record_waypoint(k, q, out, qs, positions, quats, clear)
         pos_err, rot_err = out[OUT_POSITION_ERROR], out[OUT_ROTATION_ERROR]
         if out[OUT_NEAREST_DISTANCE] < 0.0 or out[OUT_SELF_CLEARANCE] < 0.0:
             # the last step brought capsules into contact (an infeasible squeeze): stop before it
@@ -98,54 +108,23 @@ def plan_loop(q0: np.ndarray, robot: RobotArrays, scene: Scene, goal_p: np.ndarr
         for j in range(n):
             q[j] = min(max(q[j] + ws.x[j] * dt, robot.lower[j]), robot.upper[j])
             previous[j] = ws.x[j]
-    culprit = np.array((out[OUT_NEAREST_CAPSULE], out[OUT_NEAREST_OBSTACLE], out[OUT_NEAREST_DISTANCE],
-                        out[OUT_NEAREST_SELF_PAIR], out[OUT_SELF_CLEARANCE]))
     return status, count, qs[:count], qds[:count], positions[:count], quats[:count], twists[:count], \
-        clear[:count], culprit
+        clear[:count], step_culprit(out)
 
 
 @njit(cache=True)
 def fill_pair_distances(q: np.ndarray, robot: RobotArrays, scene: Scene, ws: Workspace, obstacle: np.ndarray,
                         own: np.ndarray, cutoff: float) -> None:
-    """Capsule clearances (m) at ``q`` into ``obstacle`` (L, M, link–obstacle) and ``own`` (P, self pairs).
+    """Link clearances (m) at ``q`` into ``obstacle`` (L, M, link–obstacle) and ``own`` (P, self pairs).
 
-    Link–obstacle pairs whose bounding-sphere bound is ≥ ``cutoff`` get that bound instead of the exact value.
+    Link–obstacle pairs whose bounding-capsule bound is ≥ ``cutoff`` get that bound instead of the exact value.
     """
     joint_transforms(q, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds, ws.rotations,
                      ws.origins)
     _segments(robot, ws)
-    seg_a, seg_b, cap_r, packed, scratch = ws.seg_a, ws.seg_b, robot.cap_r, scene.packed, ws.scratch
-    rows, kinds, centres, bounds = packed.rows, packed.kinds, scene.centres, scene.bounds
-    for c in range(obstacle.shape[0]):
-        a, b = seg_a[c], seg_b[c]
-        for i in range(obstacle.shape[1]):
-            lower = point_segment_distance(centres[i], a, b) - bounds[i] - cap_r[c]
-            if lower >= cutoff:
-                obstacle[c, i] = lower
-            elif kinds[i] == SPHERE or kinds[i] == CAPSULE:
-                obstacle[c, i] = round_segment_distance(rows, kinds, i, a, b, scratch)[0] - cap_r[c]
-            else:
-                obstacle[c, i] = segment_obstacle_distance(packed, i, a, b, scratch)[0] - cap_r[c]
-    pairs = robot.self_pairs
-    for k in range(pairs.shape[0]):
-        c1, c2 = pairs[k, 0], pairs[k, 1]
-        s, t = closest_segment_points(seg_a[c1], seg_b[c1], seg_a[c2], seg_b[c2])
-        total = 0.0
-        for a in range(3):
-            diff = (seg_a[c1, a] + s * (seg_b[c1, a] - seg_a[c1, a])) - (
-                seg_a[c2, a] + t * (seg_b[c2, a] - seg_a[c2, a]))
-            total += diff * diff
-        own[k] = math.sqrt(total) - cap_r[c1] - cap_r[c2]
-
-
-@njit(cache=True)
-def pair_distances(q: np.ndarray, robot: RobotArrays, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
-    """Exact capsule clearances (m) at ``q``: link–obstacle pairs (L, M) and self-collision pairs (P,)."""
-    ws = make_workspace(q.shape[0], robot.cap_joint.shape[0], scene.bounds.shape[0], robot.self_pairs.shape[0])
-    obstacle = np.empty((robot.cap_joint.shape[0], scene.bounds.shape[0]))
-    own = np.empty(robot.self_pairs.shape[0])
-    fill_pair_distances(q, robot, scene, ws, obstacle, own, math.inf)
-    return obstacle, own
+    fill_clearances(ws.seg_a, ws.seg_b, robot.cap_r, robot.self_r, robot.link_start, ws.prim_seg_a, ws.prim_seg_b,
+                    robot.prim_r, robot.self_pairs, scene.packed, scene.centres, scene.bounds, ws.scratch, obstacle,
+                    own, cutoff)
 
 
 @njit(cache=True)
@@ -162,3 +141,11 @@ def autonomy_step(q: np.ndarray, previous: np.ndarray, has_prev: bool, robot: Ro
     for k in range(own.shape[0]):
         own[k] = min(own[k] - safety, 0.0)
     return joint_velocity_step(q, previous, has_prev, robot, scene, goal_p, goal_q, params, ws)
+
+
+def pair_distances(q: np.ndarray, robot: RobotArrays, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+    """Clearances (m) of the fitted model at ``q``: link × obstacle (L, M) and self pairs (P,)."""
+    return clearances_at(q, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds,
+                         robot.cap_joint, robot.cap_a, robot.cap_b, robot.cap_r, robot.self_r, robot.link_start,
+                         robot.prim_joint, robot.prim_a, robot.prim_b, robot.prim_r, robot.self_pairs, scene.packed,
+                         scene.centres, scene.bounds)

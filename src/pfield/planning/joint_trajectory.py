@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike
 
 from pfield.errors import InvalidInput
 from pfield.planning.result import PlannedPath
+from pfield.planning.retime import default_acceleration_limits, retime_joint_path
 from pfield.planning.status import PlanStatus
 from pfield.robot.ik import ik_path_kernel, ik_settings
 from pfield.robot.model import RobotModel
@@ -28,13 +29,15 @@ _LOG = logging.getLogger(__name__)
 
 def attach_joint_trajectory(path: PlannedPath, robot: RobotModel, q_seed: ArrayLike, *,
                             position_tolerance: float = 1e-4, rotation_tolerance: float = 1e-3,
-                            max_iterations: int = 200) -> PlannedPath:
+                            max_iterations: int = 200, acceleration_limits: ArrayLike | None = None) -> PlannedPath:
     """``path`` with ``joint_names``, ``joint_positions`` and ``joint_velocities`` for every waypoint.
 
     When the IK fails at waypoint k, the result keeps the task-space path, has ``success=False`` and a
     ``failure_reason`` naming k and the remaining error, and no joint arrays (the robot cannot follow it).
     Joint speeds above the URDF velocity limits are logged as a warning (the plan's ``dt`` is too short
-    for the robot there), not changed.
+    for the robot there), not changed; ``trajectory`` is the joint path time-parameterised within the
+    velocity limits and ``acceleration_limits`` (per joint; default
+    :func:`~pfield.planning.retime.default_acceleration_limits`), which a controller can execute.
     """
     if not isinstance(path, PlannedPath):
         raise InvalidInput("path", path, "expected a pfield PlannedPath")
@@ -60,4 +63,9 @@ def attach_joint_trajectory(path: PlannedPath, robot: RobotModel, q_seed: ArrayL
         if too_fast.any():
             first = int(np.argwhere(too_fast)[0, 0])
             _LOG.warning("joint trajectory exceeds the velocity limits from waypoint %d on", first)
-    return replace(path, joint_names=robot.joint_names, joint_positions=qs, joint_velocities=velocities)
+    limits = default_acceleration_limits(robot.kinematics.kinds) if acceleration_limits is None else \
+        acceleration_limits
+    dt = float(path.times[1] - path.times[0]) if len(path) > 1 else 0.01
+    trajectory = retime_joint_path(robot.joint_names, qs, robot.velocity_limits, limits, dt if dt > 0 else 0.01)
+    return replace(path, joint_names=robot.joint_names, joint_positions=qs, joint_velocities=velocities,
+                   trajectory=trajectory)

@@ -12,11 +12,12 @@ import math
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
-from pfield._validation import integer, positive
+from pfield._validation import boolean, integer, positive
 from pfield.errors import InvalidInput
 from pfield.planning.cancel import CancelToken
 
-__all__ = ["DEFAULT_MAX_ITERATIONS", "MAX_ITERATIONS_LIMIT", "MIN_STAGNATION_STEPS", "PlanOptions"]
+__all__ = ["DEFAULT_GLOBAL_TIME_LIMIT", "DEFAULT_MAX_ITERATIONS", "MAX_ITERATIONS_LIMIT", "MIN_STAGNATION_STEPS",
+           "PlanOptions"]
 
 DEFAULT_MAX_ITERATIONS = 30000
 """Used when ``max_iterations`` is 0, negative or missing (the PlanPath service's "0 or missing")."""
@@ -24,6 +25,8 @@ MAX_ITERATIONS_LIMIT = 2_000_000
 """The library's upper bound of ``max_iterations``, for every planner: a plan keeps every waypoint, and
 at this bound the buffers take ~0.25 GB (task space, 112 B per step) or ~0.5 GB (a 7-joint whole-body
 plan). Services may cap lower as their own policy (the node's ``MAX_ITERATIONS_CAP``)."""
+DEFAULT_GLOBAL_TIME_LIMIT = 2.0
+"""Default wall-clock limit (s) of one global fallback search."""
 _FROM_CONFIG = ("rotation_tolerance", "stagnation_window", "stagnation_progress")
 MIN_STAGNATION_STEPS = 10
 """The stagnation window is never shorter than this many steps, whatever ``stagnation_window / dt``."""
@@ -43,6 +46,12 @@ class PlanOptions:
         stagnation_progress: (m, and rad for rotation) > 0; None uses ``FieldConfig.stagnation_progress``.
         cancel: a :class:`CancelToken` the compiled loop polls every step; when it is cancelled the plan
             ends with :attr:`PlanStatus.CANCELLED` and the waypoints so far.
+        global_fallback: when the field alone ends in stagnation or at the iteration limit (whole body:
+            also squeezed into a collision it stopped before), search a path globally and let the field
+            track it (:mod:`pfield.planning.fallback`); :attr:`PlannedPath.planner` says which produced the
+            path. A bool (1, 0 and strings are refused).
+        global_time_limit: wall-clock limit (s, > 0, finite) of that search; running out of it ends the
+            plan with :attr:`PlanStatus.GLOBAL_TIME_LIMIT`.
 
     Stagnation (one rule for every planner, :mod:`pfield.planning._progress`): every
     ``stagnation_steps`` steps the best position error and the best rotation error so far are compared
@@ -57,6 +66,8 @@ class PlanOptions:
     stagnation_window: float | None = None
     stagnation_progress: float | None = None
     cancel: CancelToken | None = None
+    global_fallback: bool = True
+    global_time_limit: float = DEFAULT_GLOBAL_TIME_LIMIT
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "dt", positive("dt", self.dt))
@@ -75,6 +86,8 @@ class PlanOptions:
             value = getattr(self, name)
             if value is not None:
                 object.__setattr__(self, name, positive(name, value))
+        object.__setattr__(self, "global_fallback", boolean("global_fallback", self.global_fallback))
+        object.__setattr__(self, "global_time_limit", positive("global_time_limit", self.global_time_limit))
         if self.cancel is not None and not isinstance(self.cancel, CancelToken):
             raise InvalidInput("cancel", self.cancel, "expected a pfield.planning.CancelToken or None")
 

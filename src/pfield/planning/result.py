@@ -18,10 +18,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pfield.errors import InvalidInput
+from pfield.planning.retime import TimedJointTrajectory
 from pfield.planning.status import PlanStatus
 from pfield.spatial import Pose, Twist
 
-__all__ = ["PlannedPath"]
+__all__ = ["PLANNERS", "PlannedPath"]
+
+PLANNERS = ("field", "field+global")
+"""Values of :attr:`PlannedPath.planner`."""
 
 
 def _frozen(name: str, value: object, shape: tuple[int | None, ...]) -> NDArray[np.float64]:
@@ -54,8 +58,10 @@ class PlannedPath:
         joint_velocities: (N, n) rad/s or m/s, or None.
         status: why the plan ended (:class:`PlanStatus`); compare this, not ``failure_reason``. May be
             omitted only for a successful path (then REACHED).
-        planner: what produced the path: ``"field"`` (the potential field alone) or ``"field+global"``
-            (with a global fallback).
+        planner: what produced the path (one of :data:`PLANNERS`): ``"field"`` (the potential field alone)
+            or ``"field+global"`` (the field tracking the path of the global fallback search).
+        trajectory: the joint path time-parameterised within the joint velocity and acceleration limits
+            (what a JointTrajectoryController executes), or None (task-space plans without joints).
     """
 
     success: bool
@@ -70,7 +76,8 @@ class PlannedPath:
     joint_positions: NDArray[np.float64] | None = field(default=None)
     joint_velocities: NDArray[np.float64] | None = field(default=None)
     status: PlanStatus = field(default=None)  # type: ignore[assignment]  # None → REACHED for a success
-    planner: str = "field"
+    planner: str = PLANNERS[0]
+    trajectory: TimedJointTrajectory | None = None
 
     def __post_init__(self) -> None:
         self._check_status()
@@ -93,6 +100,8 @@ class PlannedPath:
             raise InvalidInput("failure_reason", self.failure_reason, "must be empty when success is True")
         object.__setattr__(self, "success", bool(self.success))
         object.__setattr__(self, "iterations", int(self.iterations))
+        if self.planner not in PLANNERS:
+            raise InvalidInput("planner", self.planner, f"must be one of {PLANNERS}")
 
     def _check_status(self) -> None:
         status = self.status
@@ -107,8 +116,6 @@ class PlannedPath:
         if bool(self.success) != status.success:
             raise InvalidInput("status", status.name, f"contradicts success={bool(self.success)}")
         object.__setattr__(self, "status", status)
-        if self.planner not in ("field", "field+global"):
-            raise InvalidInput("planner", self.planner, "expected 'field' or 'field+global'")
 
     def __len__(self) -> int:
         return int(self.times.shape[0])

@@ -10,6 +10,7 @@ that stops short says why in ``failure_reason``: stagnation (no progress toward 
 from __future__ import annotations
 
 import logging
+import math
 
 import numpy as np
 
@@ -17,9 +18,12 @@ from pfield.errors import InvalidInput
 from pfield.field.field import PotentialField
 from pfield.geometry import signed_distances
 from pfield.planning._task_space_loop import plan_loop
+from pfield.planning.fallback import FALLBACK_PLANNER, FIELD_PLANNER, task_space_fallback
+from pfield.planning.global_search import GlobalOptions
 from pfield.planning.options import DEFAULT_MAX_ITERATIONS, MAX_ITERATIONS_LIMIT, PlanOptions
 from pfield.planning.result import PlannedPath
 from pfield.planning.status import PlanStatus
+from pfield.planning.whole_body import make_scene
 from pfield.spatial import Pose
 
 __all__ = ["DEFAULT_MAX_ITERATIONS", "MAX_ITERATIONS_LIMIT", "plan_task_space"]
@@ -37,6 +41,8 @@ def plan_task_space(
     max_iterations: int | None = None,
     rotation_tolerance: float | None = None,
     *,
+    global_fallback: bool | None = None,
+    global_time_limit: float | None = None,
     options: PlanOptions | None = None,
 ) -> PlannedPath:
     """Plan from ``start`` to ``field.goal`` by integrating the constrained twist.
@@ -56,7 +62,8 @@ def plan_task_space(
     if not isinstance(start, Pose):
         raise InvalidInput("start", start, "expected a pfield.Pose")
     settings = PlanOptions.build(options, dt=dt, goal_tolerance=goal_tolerance, max_iterations=max_iterations,
-                                 rotation_tolerance=rotation_tolerance).resolved(field.config)
+                                 rotation_tolerance=rotation_tolerance, global_fallback=global_fallback,
+                                 global_time_limit=global_time_limit).resolved(field.config)
     assert settings.rotation_tolerance is not None and settings.stagnation_progress is not None
     blocked = _goal_blocked(field)
     if blocked:
@@ -73,12 +80,36 @@ def plan_task_space(
         status = PlanStatus.START_INVALID
     reason = "" if status == PlanStatus.REACHED else _reason(field, status, obstacle, poses[count - 1],
                                                              clearances[count - 1], count, step, window)
+    planner = FIELD_PLANNER
+    # --- global fallback: the field stopped short; search positions, then let the field run to each vertex
+    if settings.global_fallback and status in (PlanStatus.STAGNATION, PlanStatus.ITERATION_LIMIT):
+        global_options = GlobalOptions(time_limit=settings.global_time_limit)
+        tolerance, angle, progress = settings.goal_tolerance, settings.rotation_tolerance, settings.stagnation_progress
+
+        def run_to(state: np.ndarray, target: Pose, final: bool) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+            sub_poses, sub_twists, sub_clear = np.empty_like(poses), np.empty_like(twists), np.empty_like(clearances)
+            sub_tolerance = tolerance if final else max(2.0 * tolerance, 0.5 * global_options.point_step)
+            sub_count, sub_status, _ = plan_loop(
+                state, field.with_goal(target).arrays.goal, params, packed, aux, step, sub_tolerance,
+                angle if final else math.pi - 1e-6, iterations, window, progress, cancel,
+                sub_poses, sub_twists, sub_clear)
+            return (int(sub_status), sub_poses[:sub_count].copy(), sub_twists[:sub_count].copy(),
+                    sub_clear[:sub_count].copy())
+
+        outcome = task_space_fallback(run_to, make_scene(packed), start, field.goal, field.config, global_options,
+                                      cancel)
+        if outcome.loop is not None:
+            poses, twists, clearances = outcome.loop
+            count, reason, planner, status = len(poses), "", FALLBACK_PLANNER, PlanStatus.REACHED
+        else:
+            reason, status = f"{reason}; {outcome.reason}", outcome.status
+    # --- end of the global fallback
     if reason:
         _log.info("task-space plan failed after %d steps: %s", count - 1, reason)
     return PlannedPath(
         success=status == PlanStatus.REACHED, failure_reason=reason, times=np.arange(count, dtype=np.float64) * step,
         positions=poses[:count, :3], orientations=poses[:count, 3:], twists=twists[:count],
-        clearances=clearances[:count], iterations=count - 1, status=status,
+        clearances=clearances[:count], iterations=count - 1, status=status, planner=planner,
     )
 
 

@@ -39,8 +39,11 @@ from pfield.geometry._packed import PackedObstacles, bounding_radius
 from pfield.geometry._sdf import empty_packed
 from pfield.planning import _whole_body_layout as _wb
 from pfield.planning import _whole_body_loop as _loop
+from pfield.planning.fallback import FALLBACK_PLANNER, FIELD_PLANNER, whole_body_fallback
+from pfield.planning.global_search import GlobalOptions
 from pfield.planning.options import PlanOptions
 from pfield.planning.result import PlannedPath
+from pfield.planning.retime import retime_joint_path
 from pfield.planning.status import PlanStatus
 from pfield.robot.model import RobotModel
 from pfield.spatial import Pose
@@ -88,7 +91,7 @@ def obstacle_bounds(packed: PackedObstacles) -> tuple[NDArray[np.float64], NDArr
 
 
 def pack_robot(robot: RobotModel, config: FieldConfig, options: WholeBodyOptions) -> _wb.RobotArrays:
-    """The robot's kinematics, capsules and limits as the kernel's :class:`RobotArrays`."""
+    """The robot's kinematics, link model and limits as the kernel's :class:`RobotArrays`."""
     k, g = robot.kinematics, robot.geometry
     if options.acceleration_limits is None:
         accel = np.where(k.kinds == 0, config.max_angular_acceleration, config.max_linear_acceleration)
@@ -98,7 +101,8 @@ def pack_robot(robot: RobotModel, config: FieldConfig, options: WholeBodyOptions
             raise InvalidInput("acceleration_limits", options.acceleration_limits, f"expected {robot.n_joints} values")
     return _wb.RobotArrays(k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, k.support, k.ee_joint, k.ee_rot,
                            k.ee_pos, g.joints, g.a, g.b, g.radii, g.self_pairs, np.array(robot.lower_limits),
-                           np.array(robot.upper_limits), np.array(robot.velocity_limits), accel.astype(np.float64))
+                           np.array(robot.upper_limits), np.array(robot.velocity_limits), accel.astype(np.float64),
+                           g.link_start, g.prim_joint, g.prim_a, g.prim_b, g.prim_r, g.self_radii)
 
 
 def kernel_parameters(config: FieldConfig, plan: PlanOptions, options: WholeBodyOptions) -> NDArray[np.float64]:
@@ -124,7 +128,7 @@ def make_scene(packed: PackedObstacles | None, robot: _wb.RobotArrays | None = N
                q0: NDArray[np.float64] | None = None, safety_distance: float = 0.0) -> _wb.Scene:
     """Packed obstacles, their bounding spheres and the start offsets of :class:`~._whole_body_layout.Scene`.
 
-    With ``robot`` and ``q0``, capsule pairs that start closer than ``safety_distance`` get the offset
+    With ``robot`` and ``q0``, link pairs that start closer than ``safety_distance`` get the offset
     ``d0 − safety_distance`` (they may not approach further); otherwise all offsets are zero.
     """
     packed = empty_packed() if packed is None else packed
@@ -172,7 +176,8 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
                            q0: ArrayLike, dt: float | None = None, goal_tolerance: float | None = None,
                            max_iterations: int | None = None, rotation_tolerance: float | None = None,
                            options: WholeBodyOptions | None = None,
-                           obstacles: Sequence[Obstacle] | None = None, *,
+                           obstacles: Sequence[Obstacle] | None = None, *, global_fallback: bool | None = None,
+                           global_time_limit: float | None = None,
                            plan_options: PlanOptions | None = None) -> PlannedPath:
     """Whole-body plan against already packed obstacles (see :func:`plan_whole_body`).
 
@@ -181,7 +186,8 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
     checked with coal on the robot's meshes, and a real contact fails the plan at once (START_INVALID).
     """
     settings = PlanOptions.build(plan_options, dt=dt, goal_tolerance=goal_tolerance, max_iterations=max_iterations,
-                                 rotation_tolerance=rotation_tolerance).resolved(config)
+                                 rotation_tolerance=rotation_tolerance, global_fallback=global_fallback,
+                                 global_time_limit=global_time_limit).resolved(config)
     obstacle_names = [o.id for o in obstacles] if obstacles else None
     start = robot.check_joint_angles(q0, "starting_joint_angles")
     opts = options or WholeBodyOptions()
@@ -195,15 +201,32 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
     status, count, qs, qds, pos, quats, twists, clear, culprit = _loop.plan_loop(
         start, arrays, scene, np.array(goal.position, dtype=np.float64),
         np.array(goal.orientation, dtype=np.float64), params, settings.max_iterations, cancel)
+    # --- global fallback: the field stopped short; search, then let the field track the found path
+    planner, fallback_reason, field_status = FIELD_PLANNER, "", status
+    if settings.global_fallback and status in (PlanStatus.STAGNATION, PlanStatus.ITERATION_LIMIT,
+                                               PlanStatus.COLLISION, PlanStatus.SELF_COLLISION):
+        outcome = whole_body_fallback(robot, arrays, scene, start, qs[-1].copy(), goal, params,
+                                      settings.max_iterations, config, obstacles,
+                                      GlobalOptions(time_limit=settings.global_time_limit), cancel)
+        if outcome.loop is not None:
+            status, count, qs, qds, pos, quats, twists, clear, culprit = outcome.loop
+            planner = FALLBACK_PLANNER
+        else:
+            status, fallback_reason = outcome.status, outcome.reason
+    # --- end of the global fallback
     errors = (float(np.linalg.norm(goal.position - pos[-1])), float(Pose(pos[-1], quats[-1]).rotation_distance(goal)))
-    reason = "" if status == PlanStatus.REACHED else _failure_reason(status, count, culprit, robot, errors,
-                                                                     obstacle_names, settings.dt)
+    reason = "" if status == PlanStatus.REACHED else _failure_reason(
+        field_status, count, culprit, robot, errors, obstacle_names, settings.dt)
+    if reason and fallback_reason:
+        reason = f"{reason}; {fallback_reason}"
     if reason:
         _LOG.info("whole-body plan failed: %s", reason)
+    trajectory = retime_joint_path(robot.joint_names, qs, robot.velocity_limits, arrays.max_acceleration,
+                                   settings.dt)
     return PlannedPath(success=status == PlanStatus.REACHED, failure_reason=reason,
                        times=np.arange(count) * settings.dt, positions=pos, orientations=quats, twists=twists,
                        clearances=clear, iterations=count - 1, joint_names=robot.joint_names, joint_positions=qs,
-                       joint_velocities=qds, status=status)
+                       joint_velocities=qds, status=status, planner=planner, trajectory=trajectory)
 
 
 def _start_collision(robot: RobotModel, start: NDArray[np.float64], scene: _wb.Scene,
@@ -243,6 +266,7 @@ def _field_parts(field: Any) -> tuple[FieldConfig, Pose, PackedObstacles | None,
 def plan_whole_body(field: Any, robot: RobotModel, q0: ArrayLike, dt: float | None = None,
                     goal_tolerance: float | None = None, max_iterations: int | None = None,
                     rotation_tolerance: float | None = None, options: WholeBodyOptions | None = None, *,
+                    global_fallback: bool | None = None, global_time_limit: float | None = None,
                     plan_options: PlanOptions | None = None) -> PlannedPath:
     """Plan in joint space from ``q0`` to the field's goal pose, every link repelled by its obstacles.
 
@@ -254,6 +278,10 @@ def plan_whole_body(field: Any, robot: RobotModel, q0: ArrayLike, dt: float | No
             fields of those names (dt 0.01 s, 0.01 m, 30000 steps, the config's rotation tolerance).
         options: the whole-body QP's own settings (:class:`WholeBodyOptions`).
         plan_options: every planning setting and the cancel token (:class:`PlanOptions`).
+        global_fallback, global_time_limit: shorthands for those :class:`PlanOptions` fields: when the field
+            stagnates, reaches the iteration limit or is squeezed against an obstacle (a collision the plan
+            stopped before), search a joint path globally and let the field track it
+            (:mod:`pfield.planning.fallback`); :attr:`PlannedPath.planner` tells which produced the path.
 
     Returns:
         A :class:`PlannedPath` with joint names, positions and velocities for every waypoint (the start
@@ -263,7 +291,8 @@ def plan_whole_body(field: Any, robot: RobotModel, q0: ArrayLike, dt: float | No
     """
     config, goal, packed, obstacles = _field_parts(field)
     return plan_whole_body_packed(config, goal, packed, robot, q0, dt, goal_tolerance, max_iterations,
-                                  rotation_tolerance, options, obstacles, plan_options=plan_options)
+                                  rotation_tolerance, options, obstacles, global_fallback=global_fallback,
+                                  global_time_limit=global_time_limit, plan_options=plan_options)
 
 
 def joint_velocity_sign_flips(path: PlannedPath, threshold: float = 1e-3) -> int:

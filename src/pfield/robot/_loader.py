@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from pfield._validation import finite
 from pfield.errors import InvalidInput, ResourceNotFound
 from pfield.geometry.resources import ResourceResolver
 
@@ -115,7 +116,7 @@ def _lock(model: pin.Model, geometry: pin.GeometryModel,
             raise InvalidInput(f"locked_joints[{name!r}]", value, f"no such joint; joints: {list(model.names)[1:]}")
         joint_id = model.getJointId(name)
         ids.append(joint_id)
-        q_ref[model.joints[joint_id].idx_q] = float(value)
+        q_ref[model.joints[joint_id].idx_q] = finite(f"locked_joints[{name!r}]", value)
     reduced, reduced_geometry = pin.buildReducedModel(model, geometry, ids, q_ref)
     return reduced, reduced_geometry
 

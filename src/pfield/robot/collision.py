@@ -1,8 +1,8 @@
 """Collision checks of a robot configuration: fast (link capsules, compiled) and exact (coal on the meshes).
 
-* :func:`capsule_clearances` — signed clearance (m) of every link capsule to every obstacle and of every
-  self-collision capsule pair, from the compiled kernels the planner uses (conservative: capsules cover
-  the links).
+* :func:`capsule_clearances` — signed clearance (m) of every link's fitted model to every obstacle and of
+  every self-collision link pair, from the compiled kernels the planner uses (conservative: the fitted
+  spheres/capsules cover the links' collision surfaces).
 * :class:`CollisionChecker` — the robot's own URDF collision geometry (pinocchio ``GeometryModel``; link
   meshes through their convex hulls, which contain them, so "no collision" stays true) against
   the obstacles' exact shapes with coal (Pan et al., "FCL", ICRA 2012, coal is its successor); self
@@ -23,6 +23,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from pfield._validation import nonnegative
 from pfield.geometry import Box, Capsule, Cylinder, Ellipsoid, Mesh, Obstacle, Sphere, pack_obstacles
+from pfield.geometry._sdf import empty_packed
+from pfield.robot._clearance import clearances_at
 from pfield.robot.geometry import adjacent_joints
 from pfield.robot.model import RobotModel
 
@@ -45,10 +47,11 @@ class CollisionReport:
 
 @dataclass(frozen=True, eq=False)
 class CapsuleClearances:
-    """Capsule clearances (m) at one configuration, with the names of what they are between.
+    """Clearances (m) of the fitted link model at one configuration, with the names of what they are between.
 
-    ``obstacle[c, i]`` is the signed clearance of link capsule c (``links[c]``) to obstacle i
-    (``obstacle_ids[i]``); ``self_pairs[k]`` that of the self-collision pair ``pair_links[k]``.
+    ``obstacle[c, i]`` is the signed clearance of link c (``links[c]``, in ``robot.geometry.capsules``
+    order) to obstacle i (``obstacle_ids[i]``); ``self_pairs[k]`` that of the self-collision pair
+    ``pair_links[k]``.
     """
 
     obstacle: NDArray[np.float64]  # (L, M)
@@ -58,7 +61,7 @@ class CapsuleClearances:
     pair_links: tuple[tuple[str, str], ...]
 
     def between(self, link: str, obstacle_id: str) -> float:
-        """Clearance (m) of ``link``'s capsule to obstacle ``obstacle_id``."""
+        """Clearance (m) of ``link`` to obstacle ``obstacle_id``."""
         return float(self.obstacle[self.links.index(link), self.obstacle_ids.index(obstacle_id)])
 
     def nearest(self) -> tuple[str, str, float]:
@@ -70,15 +73,16 @@ class CapsuleClearances:
 
 
 def capsule_clearances(robot: RobotModel, q: ArrayLike, obstacles: Sequence[Obstacle]) -> CapsuleClearances:
-    """Capsule clearances (m) at joint angles ``q``: every link × obstacle and every self-collision pair."""
-    from pfield.field.config import FieldConfig
-    from pfield.planning._whole_body_loop import pair_distances
-    from pfield.planning.whole_body import WholeBodyOptions, make_scene, pack_robot
-
+    """Clearances (m) of the fitted link model at joint angles ``q``: every link × obstacle and every
+    self-collision pair (the compiled distances the planner uses)."""
     values = robot.check_joint_angles(q)
-    arrays = pack_robot(robot, FieldConfig(), WholeBodyOptions())
-    scene = make_scene(pack_obstacles(list(obstacles)) if obstacles else None, arrays)
-    obstacle, own = pair_distances(values, arrays, scene)
+    packed = pack_obstacles(list(obstacles)) if obstacles else empty_packed()
+    k, g = robot.kinematics, robot.geometry
+    # exact values everywhere: infinite bounding radii never cull a pair
+    centres, bounds = np.ascontiguousarray(packed.rows[:, 0:3]), np.full(len(packed.kinds), np.inf)
+    obstacle, own = clearances_at(values, k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, g.joints, g.a, g.b,
+                                  g.radii, g.self_radii, g.link_start, g.prim_joint, g.prim_a, g.prim_b, g.prim_r,
+                                  g.self_pairs, packed, centres, bounds)
     links = robot.geometry.link_names
     pairs = tuple((links[int(a)], links[int(b)]) for a, b in robot.geometry.self_pairs)
     return CapsuleClearances(obstacle, own, links, tuple(o.id for o in obstacles), pairs)

@@ -1,8 +1,12 @@
-"""Link geometry: one capsule per link covering its URDF collision geometry, and self-collision pairs.
+"""Link geometry: spheres and capsules fitted to each link's URDF collision surface, and self-collision pairs.
 
 A capsule is a segment ``a–b`` (in the frame of the joint that carries the link) swept by a sphere of
-radius ``r``: it covers a point x when ``dist(x, [a, b]) ≤ r``. Fitting (per link, all of its collision
-elements together, meshes through their convex hull, primitives through surface samples):
+radius ``r``: it covers a point x when ``dist(x, [a, b]) ≤ r``; a sphere is a capsule with ``a == b``.
+Each link gets as many primitives as its shape needs (:mod:`pfield.robot._fit`: the link's triangles are
+split into groups, each covered by one capsule, the count chosen by the mean gap to the real surface), so
+the union covers every triangle of the collision geometry (meshes as loaded by pinocchio/coal, boxes by
+their faces, other primitives by inflated surface samples). One capsule covering a point set
+(:func:`fit_capsule`):
 
 1. axis ``u`` — each principal axis of the points is tried and the smallest-volume capsule is kept;
 2. radius — the smallest circle enclosing the points projected on the plane ⟂ u (Bădoiu–Clarkson
@@ -10,30 +14,30 @@ elements together, meshes through their convex hull, primitives through surface 
 3. ends — the shortest segment that still covers every point: with ``t_i`` the axial coordinate and
    ``h_i = √(r² − ρ_i²)``, ``t_b = max(t_i − h_i)`` and ``t_a = min(t_i + h_i)``.
 
-The fit error is reported per link: ``volume_ratio`` (capsule volume / convex-hull volume, ≥ 1) and
-``mean_gap`` (mean distance from the hull's vertices to the capsule surface, m). Coverage is exact by
-construction for meshes and boxes; curved primitives are sampled densely and inflated by the chord error.
+The fit is reported per link (:class:`LinkFitReport`, :func:`fit_table`): counts, mean and max gap
+(fitted surface → collision surface) and the volume ratio.
 """
 
 from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import ConvexHull, QhullError
+from scipy.spatial import ConvexHull
 
 from pfield.robot._distance import segment_segment_distance
+from pfield.robot._fit import TARGET_GAP, LinkFit, LinkSurface, cached_fit, fit_single_capsule, measure
 
 if TYPE_CHECKING:
     import pinocchio as pin
 
     from pfield.robot.model import RobotModel
 
-__all__ = ["LinkCapsule", "RobotGeometry", "fit_capsule", "fit_robot_geometry"]
+__all__ = ["LinkCapsule", "LinkFitReport", "RobotGeometry", "fit_capsule", "fit_robot_geometry", "fit_table"]
 
 _LOG = logging.getLogger(__name__)
 _CIRCLE_SAMPLES = 48
@@ -41,9 +45,11 @@ _CIRCLE_SAMPLES = 48
 
 @dataclass(frozen=True, eq=False)
 class LinkCapsule:
-    """A capsule covering one link: segment ``a``–``b`` and ``radius`` in the frame of joint ``joint``.
+    """One covering primitive of a link: segment ``a``–``b`` and ``radius`` in the frame of joint ``joint``.
 
-    ``joint`` is the index into ``RobotModel.joint_names`` of the joint moving the link (−1: fixed base).
+    ``joint`` is the index into ``RobotModel.joint_names`` of the joint moving the link (−1: fixed base);
+    ``a == b`` makes it a sphere. ``volume_ratio`` and ``mean_gap`` describe this primitive alone against the
+    points it was fitted to (:func:`fit_capsule`); the link's fit is in :attr:`RobotGeometry.fits`.
     """
 
     link: str
@@ -51,82 +57,66 @@ class LinkCapsule:
     a: NDArray[np.float64]
     b: NDArray[np.float64]
     radius: float
-    volume_ratio: float
+    volume_ratio: float = math.nan
+    mean_gap: float = math.nan
+
+    @property
+    def is_sphere(self) -> bool:
+        return bool(np.all(self.a == self.b))
+
+
+@dataclass(frozen=True)
+class LinkFitReport:
+    """How one link is modelled: ``spheres`` + ``capsules`` primitives, the mean and max gap (m) from the
+    fitted surface to the collision surface, and the union volume / collision volume (see :mod:`._fit`)."""
+
+    link: str
+    joint: int
+    spheres: int
+    capsules: int
     mean_gap: float
+    max_gap: float
+    volume_ratio: float
 
 
 @dataclass(frozen=True, eq=False)
 class RobotGeometry:
-    """All link capsules plus the capsule index pairs checked for self-collision, packed for kernels."""
+    """The link model, packed for the kernels, at two levels.
+
+    * ``capsules`` — one bounding capsule per link (index l), in the joint frame: ``joints``, ``a``, ``b``,
+      ``radii`` (L,); it contains the link's collision geometry and all of its fitted primitives;
+    * ``primitives`` — the fitted spheres/capsules (index p), grouped by link: those of link l are
+      ``link_start[l]:link_start[l + 1]``, with ends ``prim_a``, ``prim_b`` and radii ``prim_r`` in the frame
+      of joint ``prim_joint[p]`` (= ``joints[l]``);
+    * ``self_pairs`` — the link index pairs (P, 2) checked for self-collision, on the covering capsules (the
+      bounding capsules before growing: radii ``self_radii``); ``fits`` — the per-link fit report.
+    """
 
     capsules: tuple[LinkCapsule, ...]
-    self_pairs: NDArray[np.int64]  # (P, 2) indices into capsules
+    self_pairs: NDArray[np.int64]  # (P, 2) indices into capsules (links)
     joints: NDArray[np.int64]  # (L,)
     a: NDArray[np.float64]  # (L, 3)
     b: NDArray[np.float64]  # (L, 3)
     radii: NDArray[np.float64]  # (L,)
+    primitives: tuple[LinkCapsule, ...] = ()
+    link_start: NDArray[np.int64] = field(default_factory=lambda: np.zeros(1, dtype=np.int64))  # (L + 1,)
+    prim_joint: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # (Np,)
+    prim_a: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))  # (Np, 3)
+    prim_b: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))  # (Np, 3)
+    prim_r: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))  # (Np,)
+    fits: tuple[LinkFitReport, ...] = ()
+    self_radii: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))  # (L,) ungrown covering capsules
 
     @property
     def link_names(self) -> tuple[str, ...]:
+        """The link of every bounding capsule (one per link, in ``capsules`` order)."""
         return tuple(c.link for c in self.capsules)
 
 
-def _enclosing_circle(points: NDArray[np.float64], iterations: int = 400) -> NDArray[np.float64]:
-    """Approximate centre of the smallest circle (any dimension) enclosing ``points`` (Bădoiu–Clarkson)."""
-    centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
-    for k in range(1, iterations + 1):
-        far = points[np.argmax(np.linalg.norm(points - centre, axis=1))]
-        centre = centre + (far - centre) / (k + 1)
-    return centre
-
-
-def _capsule_along(points: NDArray[np.float64], axis: NDArray[np.float64]
-                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-    basis = np.linalg.svd(np.eye(3) - np.outer(axis, axis))[0][:, :2]
-    planar = points @ basis
-    centre2 = _enclosing_circle(planar)
-    rho = np.linalg.norm(planar - centre2, axis=1)
-    radius = float(rho.max()) + 1e-9
-    t = points @ axis
-    h = np.sqrt(np.maximum(radius**2 - rho**2, 0.0))
-    t_b, t_a = float(np.max(t - h)), float(np.min(t + h))
-    offset = basis @ centre2
-    if t_a > t_b:  # every point fits in one sphere
-        t_mid = 0.5 * (t_a + t_b)
-        centre = offset + t_mid * axis
-        radius = float(np.linalg.norm(points - centre, axis=1).max()) + 1e-9
-        return centre, centre.copy(), radius
-    return offset + t_a * axis, offset + t_b * axis, radius
-
-
-def _point_segment_distances(points: NDArray[np.float64], a: NDArray[np.float64],
-                             b: NDArray[np.float64]) -> NDArray[np.float64]:
-    d = b - a
-    length2 = float(d @ d)
-    t = np.zeros(len(points)) if length2 == 0.0 else np.clip((points - a) @ d / length2, 0.0, 1.0)
-    return np.linalg.norm(points - (a + t[:, None] * d), axis=1)
-
-
 def fit_capsule(points: NDArray[np.float64], link: str = "", joint: int = -1) -> LinkCapsule:
-    """Smallest-volume capsule (over the principal axes) covering ``points`` (N, 3); see module doc."""
-    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    try:
-        hull = ConvexHull(pts)
-        vertices, hull_volume = pts[hull.vertices], float(hull.volume)
-    except (QhullError, ValueError):
-        vertices, hull_volume = pts, 0.0
-    axes = np.linalg.svd(vertices - vertices.mean(axis=0), full_matrices=False)[2]
-    best = None
-    for axis in axes:
-        a, b, r = _capsule_along(vertices, axis / np.linalg.norm(axis))
-        volume = math.pi * r * r * (float(np.linalg.norm(b - a)) + 4.0 * r / 3.0)
-        if best is None or volume < best[3]:
-            best = (a, b, r, volume)
-    assert best is not None
-    a, b, r, volume = best
-    gaps = r - _point_segment_distances(vertices, a, b)
-    ratio = volume / hull_volume if hull_volume > 0 else math.inf
-    return LinkCapsule(link, joint, a, b, r, ratio, float(gaps.mean()))
+    """Smallest-volume capsule (over the principal axes) covering ``points`` (N, 3); see the module doc."""
+    a, b, r, ratio, gap = fit_single_capsule(points)
+    return LinkCapsule(link, joint, a, b, r, ratio, gap)
 
 
 def _primitive_points(shape: object) -> NDArray[np.float64]:
@@ -153,25 +143,40 @@ def _primitive_points(shape: object) -> NDArray[np.float64]:
     raise NotImplementedError(f"collision shape {kind} is not supported for capsule fitting")
 
 
-def _geometry_points(obj: pin.GeometryObject) -> NDArray[np.float64]:
-    """Points (frame of the parent joint) whose convex hull covers one collision element."""
+def _element_surface(obj: pin.GeometryObject) -> tuple[NDArray[np.float64], NDArray[np.int64], float]:
+    """Vertices (element frame), triangles and volume of one collision element."""
     shape = obj.geometry
     if hasattr(shape, "vertices"):
-        local = np.asarray(shape.vertices(), dtype=np.float64).reshape(-1, 3)
-    else:
-        local = _primitive_points(shape)
-    placement = obj.placement
-    return local @ np.asarray(placement.rotation).T + np.asarray(placement.translation)
+        vertices = np.asarray(shape.vertices(), dtype=np.float64).reshape(-1, 3)
+        triangles = np.array([[shape.tri_indices(i)[k] for k in range(3)] for i in range(shape.num_tris)],
+                             dtype=np.int64).reshape(-1, 3)
+        corners = vertices[triangles]
+        volume = abs(float(np.einsum("ij,ij->i", corners[:, 0], np.cross(corners[:, 1], corners[:, 2])).sum())) / 6
+        return vertices, triangles, volume
+    points = _primitive_points(shape)
+    hull = ConvexHull(points)
+    return points, np.asarray(hull.simplices, dtype=np.int64), float(hull.volume)
 
 
-def _link_groups(robot: RobotModel) -> dict[str, tuple[int, list[NDArray[np.float64]]]]:
+def _link_surfaces(robot: RobotModel) -> dict[str, tuple[int, pin.SE3, LinkSurface]]:
+    """Per link: (joint index, the link frame in its joint frame, the collision surface in the link frame)."""
     model = robot.pinocchio_model
-    groups: dict[str, tuple[int, list[NDArray[np.float64]]]] = {}
+    parts: dict[str, tuple[int, pin.SE3, list[tuple[NDArray[np.float64], NDArray[np.int64], float]]]] = {}
     for obj in robot.collision_model.geometryObjects:
-        link = model.frames[obj.parentFrame].name
-        joint = int(obj.parentJoint) - 1
-        groups.setdefault(link, (joint, []))[1].append(_geometry_points(obj))
-    return groups
+        frame = model.frames[obj.parentFrame]
+        entry = parts.setdefault(frame.name, (int(obj.parentJoint) - 1, frame.placement, []))
+        vertices, triangles, volume = _element_surface(obj)
+        in_link = entry[1].inverse() * obj.placement
+        entry[2].append((vertices @ np.asarray(in_link.rotation).T + np.asarray(in_link.translation), triangles,
+                         volume))
+    surfaces = {}
+    for link, (joint, placement, elements) in parts.items():
+        offsets = np.cumsum([0] + [len(v) for v, _, _ in elements])
+        surfaces[link] = (joint, placement, LinkSurface(
+            np.concatenate([v for v, _, _ in elements]),
+            np.concatenate([t + offsets[i] for i, (_, t, _) in enumerate(elements)]),
+            float(sum(volume for _, _, volume in elements))))
+    return surfaces
 
 
 def adjacent_joints(parents: NDArray[np.int64], ja: int, jb: int) -> bool:
@@ -179,11 +184,11 @@ def adjacent_joints(parents: NDArray[np.int64], ja: int, jb: int) -> bool:
     return ja == jb or (jb >= 0 and parents[jb] == ja) or (ja >= 0 and parents[ja] == jb)
 
 
-def _self_pairs(robot: RobotModel, capsules: list[LinkCapsule]) -> NDArray[np.int64]:
-    """Capsule pairs checked for self-collision: the SRDF's enabled pairs, else all non-adjacent pairs.
+def _self_pairs(robot: RobotModel, capsules: list[LinkCapsule], covering: list[float]) -> NDArray[np.int64]:
+    """Link pairs checked for self-collision: the SRDF's enabled pairs, else all non-adjacent pairs.
 
-    Pairs on one rigid body are always skipped; so are pairs whose capsules already touch in the mid-range
-    configuration (the capsules over-approximate, and such links are close by design).
+    Pairs on one rigid body are always skipped; so are pairs whose covering capsules (radii ``covering``)
+    already touch in the mid-range configuration (they over-approximate, and such links are close by design).
     """
     reference = np.where(np.isfinite(robot.lower_limits + robot.upper_limits),
                          0.5 * (robot.lower_limits + robot.upper_limits), 0.0)
@@ -200,7 +205,7 @@ def _self_pairs(robot: RobotModel, capsules: list[LinkCapsule]) -> NDArray[np.in
                     continue
             elif adjacent_joints(robot.kinematics.parents, ci.joint, cj.joint):
                 continue
-            gap = segment_segment_distance(*world[i], *world[j]) - ci.radius - cj.radius
+            gap = segment_segment_distance(*world[i], *world[j]) - covering[i] - covering[j]
             if gap <= 0.0:
                 _LOG.info("self-collision pair %s/%s skipped: capsules overlap at mid-range", ci.link, cj.link)
                 continue
@@ -217,19 +222,56 @@ def world_segment(capsule: LinkCapsule, rotations: NDArray[np.float64],
     return r @ capsule.a + o, r @ capsule.b + o
 
 
-def fit_robot_geometry(robot: RobotModel) -> RobotGeometry:
-    """Fit one capsule per link of ``robot`` and choose the self-collision pairs."""
-    capsules = []
-    for link, (joint, parts) in _link_groups(robot).items():
-        capsule = fit_capsule(np.concatenate(parts), link, joint)
-        _LOG.debug("capsule %s: r=%.4f len=%.4f volume ratio %.2f mean gap %.4f m", link, capsule.radius,
-                   np.linalg.norm(capsule.b - capsule.a), capsule.volume_ratio, capsule.mean_gap)
-        capsules.append(capsule)
-    pairs = _self_pairs(robot, capsules)
+def fit_robot_geometry(robot: RobotModel, target_gap: float = TARGET_GAP, *,
+                       one_capsule: bool = False) -> RobotGeometry:
+    """Fit each link of ``robot`` (bounding capsule and spheres/capsules, see :mod:`pfield.robot._fit`) and
+    choose the self-collision pairs. The fitted primitives are cached per collision surface.
+
+    ``one_capsule=True`` models each link by its single covering capsule alone (no spheres/capsules fit,
+    ``fits`` reports that capsule): the coarse model, for comparisons."""
+    capsules, primitives, reports, starts, covering = [], [], [], [0], []
+    for link, (joint, placement, surface) in _link_surfaces(robot).items():
+        rotation, translation = np.asarray(placement.rotation), np.asarray(placement.translation)
+        fit = cached_fit(surface, target_gap)
+        if one_capsule:
+            fit = LinkFit(fit.bound, *measure(surface, fit.bound), fit.bound, fit.bound_volume_ratio,
+                          fit.bound_mean_gap)
+        prims = fit.primitives.transformed(rotation, translation)
+        bound = fit.bound.transformed(rotation, translation)
+        # the covering capsule contains the surface and every primitive lies within target_gap of it: grown by
+        # target_gap it bounds the primitives (the one-capsule model is its own bound)
+        margin = 0.0 if one_capsule else target_gap + 1e-9
+        covering.append(float(bound.radii[0]))
+        capsules.append(LinkCapsule(link, joint, bound.a[0], bound.b[0], float(bound.radii[0]) + margin,
+                                    fit.bound_volume_ratio, fit.bound_mean_gap))
+        for j in range(len(prims)):
+            primitives.append(LinkCapsule(link, joint, prims.a[j], prims.b[j], float(prims.radii[j])))
+        starts.append(len(primitives))
+        reports.append(LinkFitReport(link, joint, fit.primitives.spheres, len(prims) - fit.primitives.spheres,
+                                     fit.mean_gap, fit.max_gap, fit.volume_ratio))
+        _LOG.debug("link %s: %d primitives, mean gap %.4f m, max gap %.4f m, volume ratio %.2f", link, len(prims),
+                   fit.mean_gap, fit.max_gap, fit.volume_ratio)
+    pairs = _self_pairs(robot, capsules, covering)
     return RobotGeometry(
         tuple(capsules), pairs,
         np.array([c.joint for c in capsules], dtype=np.int64),
         np.array([c.a for c in capsules], dtype=np.float64).reshape(-1, 3),
         np.array([c.b for c in capsules], dtype=np.float64).reshape(-1, 3),
         np.array([c.radius for c in capsules], dtype=np.float64),
+        tuple(primitives), np.array(starts, dtype=np.int64), np.array([p.joint for p in primitives], dtype=np.int64),
+        np.array([p.a for p in primitives], dtype=np.float64).reshape(-1, 3),
+        np.array([p.b for p in primitives], dtype=np.float64).reshape(-1, 3),
+        np.array([p.radius for p in primitives], dtype=np.float64),
+        tuple(reports),
+        np.array(covering, dtype=np.float64),
     )
+
+
+def fit_table(geometry: RobotGeometry) -> str:
+    """The fitted model as a Markdown table (one row per link), as in ``docs/robots.md``."""
+    lines = ["| link | spheres | capsules | mean gap (cm) | max gap (cm) | volume ratio |",
+             "|---|---:|---:|---:|---:|---:|"]
+    for r in geometry.fits:
+        lines.append(f"| {r.link} | {r.spheres} | {r.capsules} | {r.mean_gap * 100:.2f} | {r.max_gap * 100:.2f} | "
+                     f"{r.volume_ratio:.2f} |")
+    return "\n".join(lines)

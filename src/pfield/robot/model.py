@@ -24,7 +24,7 @@ import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from pfield._spatial_kernels import matrix_to_quat
-from pfield._validation import as_vector
+from pfield._validation import as_vector, positive
 from pfield.errors import InvalidInput
 from pfield.robot import _kinematics as _k
 from pfield.robot._loader import LoadedRobot, _read_text, joint_axis, load_urdf, read_disabled_pairs
@@ -166,11 +166,17 @@ class RobotModel:
         return cls(loaded, end_effector, disabled, named_configurations=named)
 
     @classmethod
-    def builtin(cls, name: str) -> RobotModel:
-        """``"xarm7"`` or ``"panda"`` from the installed example-robot-data files (see :mod:`.catalog`)."""
+    def builtin(cls, name: str, locked_joints: dict[str, float] | None = None) -> RobotModel:
+        """``"xarm7"`` or ``"panda"`` from the installed example-robot-data files (see :mod:`.catalog`).
+
+        ``locked_joints`` adds joints to lock or overrides the catalog's values, e.g. the Panda's fingers
+        opened to 0.065 m as MotionBenchMaker's robot allows (a locked joint's value may lie outside its URDF
+        limits: it becomes part of a fixed placement).
+        """
         spec = builtin_spec(name)
         root = example_robot_data_root()
-        loaded = load_urdf(root / spec.urdf, {"example-robot-data": root}, spec.locked_joints)
+        locked = {**spec.locked_joints, **(locked_joints or {})}
+        loaded = load_urdf(root / spec.urdf, {"example-robot-data": root}, locked)
         key = str(name).strip().lower()
         named = read_group_states(root / spec.srdf, _joint_names(loaded))
         named |= {alias: named[state] for alias, state in _BUILTIN_ALIASES.get(key, {}).items() if state in named}
@@ -218,7 +224,8 @@ class RobotModel:
 
     @cached_property
     def geometry(self) -> RobotGeometry:
-        """Link capsules and self-collision pairs (fitted once, on first use)."""
+        """The fitted link model (spheres/capsules and bounding capsules) and self-collision pairs, fitted on
+        first use (each link's fit is cached in memory and on disk, see :mod:`pfield.robot._fit`)."""
         from pfield.robot.geometry import fit_robot_geometry
 
         return fit_robot_geometry(self)
@@ -234,6 +241,17 @@ class RobotModel:
             known = ", ".join(sorted(self._named)) or "none (load the robot with an SRDF that has group states)"
             raise InvalidInput("name", name, f"no such named configuration of {self.name}; known: {known}")
         return self._named[name]
+
+    def refit(self, target_gap: float | None = None, *, one_capsule: bool = False) -> RobotGeometry:
+        """Replace :attr:`geometry` by a fit with stand-off bound ``target_gap`` (m), or with one capsule per
+        link (``one_capsule=True``: the single covering capsule of each link, for comparisons)."""
+        from pfield.robot._fit import TARGET_GAP
+        from pfield.robot.geometry import fit_robot_geometry
+
+        gap = TARGET_GAP if target_gap is None else positive("target_gap", target_gap)
+        geometry = fit_robot_geometry(self, gap, one_capsule=one_capsule)
+        self.__dict__["geometry"] = geometry
+        return geometry
 
     # ---- validation -------------------------------------------------------------------------------------
     def check_joint_angles(self, q: ArrayLike, field: str = "joint_angles") -> NDArray[np.float64]:

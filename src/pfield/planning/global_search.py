@@ -1,0 +1,333 @@
+"""The global fallback of the field planners: search, shorten, then let the field track the result.
+
+A potential field is local: it stops in a local minimum (``stagnation``) or runs out of steps. When
+that happens and ``global_fallback`` is on, the planners call this module:
+
+1. **Goal configurations** (whole body): the goal is a pose, so the IK (:func:`pfield.robot.ik.solve_ik`)
+   runs from several seeds — the field's last configuration, the start, then uniform samples from a
+   generator seeded by ``seed`` — and keeps up to ``goal_configurations`` distinct solutions within the
+   joint limits: those whose link capsules keep the search margin first, then those the exact mesh
+   check (coal) clears. None found → ``goal invalid`` at once, never a long search.
+2. **Search**: compiled RRT-Connect (:mod:`pfield.planning._rrt_kernel`) in joint space against the
+   link capsules and the packed obstacles (whole body; the goal tree is rooted at every goal
+   configuration), or in R³ against the obstacles' signed distance (task space). Task space searches
+   positions only: its collision model is the end-effector *point*, so the orientation cannot make a
+   state valid or invalid; the orientation is interpolated by slerp
+   along the path, in proportion to the distance travelled, and the field's rotational attraction
+   follows it.
+3. **Shortcutting** of the found path (same compiled checks).
+4. **Tracking by the field**: whole body, the damper-constrained QP follows a moving joint-space
+   attractor (:mod:`pfield.planning._track_kernel`); task space, the field's own compiled loop runs to
+   each path vertex in turn as its goal. The motion keeps the dampers' clearance.
+
+Search margin: a state is valid when every capsule keeps ``safety_distance + GlobalOptions.extra_margin``;
+pairs that the start or the goal configuration hold closer (conservative capsules often touch the
+objects of a grasp) may go as deep as at the goal, or ``GlobalOptions.endpoint_band`` deeper than at the
+start, no deeper. Where capsules overlap along the tracked motion (so they certify nothing), the exact mesh
+check (coal) verifies those waypoints and the motion between them; a contact fails the fallback.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pfield._validation import nonnegative, positive
+from pfield.errors import InvalidInput
+from pfield.field.config import FieldConfig
+from pfield.geometry import Obstacle
+from pfield.planning import _rrt_kernel as _rrt
+from pfield.planning import _whole_body_layout as _wb
+from pfield.planning._track_kernel import overlapping_waypoints, track_path
+from pfield.planning._whole_body_loop import pair_distances
+from pfield.planning.options import DEFAULT_GLOBAL_TIME_LIMIT
+from pfield.planning.status import PlanStatus
+from pfield.robot.ik import solve_ik
+from pfield.robot.model import RobotModel
+from pfield.spatial import Pose, quaternion_exp, quaternion_inverse, quaternion_log, quaternion_multiply
+
+__all__ = ["GlobalOptions", "SearchResult", "goal_configurations", "joint_space_search",
+           "point_space_search"]
+
+_LOG = logging.getLogger(__name__)
+_ROUNDING = 1e-9  # m: an endpoint must pass its own offset test despite rounding
+
+
+@dataclass(frozen=True)
+class GlobalOptions:
+    """Settings of the global search (documented defaults; times in s, angles in rad, lengths in m).
+
+    Attributes:
+        time_limit: wall-clock limit of the search (s).
+        seed: seed of the random samples (IK restarts, RRT-Connect, shortcutting): same seed, same path.
+        joint_step: largest joint-space extension of a tree per iteration (rad, Euclidean norm).
+        joint_resolution: edges are checked every ``joint_resolution`` rad (max over the joints).
+        point_step, point_resolution: the same in R³ (m) for task-space searches.
+        extra_margin: clearance kept by the search beyond ``safety_distance`` (m).
+        endpoint_band: how much deeper than at the start a pair that is closer than the margin there may go
+            (m; see :func:`endpoint_scene`).
+        capacity: nodes per tree.
+        shortcut_attempts: random shortcuts tried on the found path.
+        ik_restarts: random IK seeds tried for goal configurations (after the given seeds).
+        goal_configurations: most goal configurations the search starts from (its second tree's roots).
+        tracking_gain: k_p (1/s) of the joint-space moving attractor; tracking_lead: largest lag (rad).
+    """
+
+    time_limit: float = DEFAULT_GLOBAL_TIME_LIMIT
+    seed: int = 0
+    joint_step: float = 1.0
+    joint_resolution: float = 0.01
+    point_step: float = 0.1
+    point_resolution: float = 0.005
+    extra_margin: float = 0.001
+    endpoint_band: float = 0.005
+    capacity: int = 20000
+    shortcut_attempts: int = 50
+    ik_restarts: int = 48
+    goal_configurations: int = 4
+    tracking_gain: float = 4.0
+    tracking_lead: float = 0.02
+
+    def __post_init__(self) -> None:
+        for name in ("time_limit", "joint_step", "joint_resolution", "point_step", "point_resolution",
+                     "tracking_gain", "tracking_lead"):
+            positive(name, getattr(self, name))
+        nonnegative("extra_margin", self.extra_margin)
+        nonnegative("endpoint_band", self.endpoint_band)
+        for name in ("seed", "capacity", "shortcut_attempts", "ik_restarts", "goal_configurations"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < (
+                    2 if name == "capacity" else (1 if name == "goal_configurations" else 0)):
+                raise InvalidInput(name, value, "must be a non-negative integer" if name != "capacity"
+                                   else "must be an integer >= 2")
+
+
+@dataclass(frozen=True, eq=False)
+class SearchResult:
+    """Outcome of a global search: ``path`` (K, n) from start to goal when ``found``; otherwise ``status``
+    says why (START_INVALID, GOAL_INVALID, GLOBAL_TIME_LIMIT, GLOBAL_NO_PATH) and ``reason`` in words.
+
+    ``states_checked`` counts the compiled validity checks; ``seconds`` the search's wall time.
+    """
+
+    found: bool
+    path: NDArray[np.float64]
+    status: PlanStatus
+    reason: str
+    states_checked: int
+    seconds: float
+
+
+# ---- whole body ---------------------------------------------------------------------------------------
+
+def endpoint_scene(scene: _wb.Scene, arrays: _wb.RobotArrays, ends: Sequence[NDArray[np.float64]],
+                   margin: float, band: float) -> _wb.Scene:
+    """``scene`` with the offsets min(0, d(end) − margin − b) over the ``ends``: a pair closer than
+    ``margin`` at the start (b = ``band``) or at a goal (b = 0) may go that much deeper than there, no deeper.
+
+    Why the band at the start: such a pair sits exactly on the boundary of its constraint there, and with
+    several of them (conservative capsules of neighbouring links often overlap where the meshes do not)
+    almost every direction out of the start would be refused. A goal is approached from outside its
+    boundary, so it needs none (and a grasp goal's capsules going deeper than at the goal would risk a
+    real contact)."""
+    obstacle_offsets, self_offsets = np.zeros_like(scene.obstacle_offsets), np.zeros_like(scene.self_offsets)
+    for index, q in enumerate(ends):
+        extra = band if index == 0 else 0.0
+        obstacle, own = pair_distances(np.ascontiguousarray(q), arrays, scene)
+        obstacle_offsets = np.minimum(obstacle_offsets, np.where(obstacle < margin, obstacle - margin - extra, 0.0))
+        self_offsets = np.minimum(self_offsets, np.where(own < margin, own - margin - extra, 0.0))
+    return scene._replace(obstacle_offsets=obstacle_offsets - _ROUNDING * (obstacle_offsets < 0.0),
+                          self_offsets=self_offsets - _ROUNDING * (self_offsets < 0.0))
+
+
+def _joint_checker(arrays: _wb.RobotArrays, scene: _wb.Scene, margin: float, resolution: float) -> _rrt.Checker:
+    n, caps, obstacles, pairs = len(arrays.parents), len(arrays.cap_joint), len(scene.bounds), len(arrays.self_pairs)
+    ws = _wb.make_workspace(n, caps, obstacles, pairs, len(arrays.prim_r))
+    return _rrt.Checker(_rrt.JOINT_SPACE, arrays, scene, ws, np.empty((caps, obstacles)), np.empty(pairs),
+                        float(margin), float(resolution), np.zeros(1, dtype=np.int64))
+
+
+def _capsules_clear(arrays: _wb.RobotArrays, scene: _wb.Scene, q: NDArray[np.float64], margin: float) -> bool:
+    obstacle, own = pair_distances(q, arrays, scene)
+    return bool(np.all(obstacle >= margin) and np.all(own >= margin))
+
+
+def goal_configurations(robot: RobotModel, goal: Pose, seeds: Sequence[NDArray[np.float64]],
+                        arrays: _wb.RobotArrays, scene: _wb.Scene, margin: float,
+                        obstacles: Sequence[Obstacle] | None, options: GlobalOptions
+                        ) -> tuple[list[NDArray[np.float64]], str]:
+    """Up to ``options.goal_configurations`` distinct collision-free joint configurations at ``goal`` (module
+    docstring, step 1), those whose capsules keep ``margin`` first; or ([], why): the goal is invalid."""
+    rng = np.random.default_rng(options.seed)
+    lower, upper = _sampling_box(robot)
+    candidates = [*seeds, *(rng.uniform(lower, upper) for _ in range(options.ik_restarts))]
+    checker = None
+    if obstacles:
+        from pfield.robot.collision import CollisionChecker
+
+        checker = CollisionChecker(robot, list(obstacles))
+    reachable = 0
+    clear: list[NDArray[np.float64]] = []
+    touching: list[NDArray[np.float64]] = []
+    for seed in candidates:
+        result = solve_ik(robot, goal, np.clip(seed, robot.lower_limits, robot.upper_limits))
+        if not result.success or any(np.max(np.abs(result.q - q)) < 1e-3 for q in clear + touching):
+            reachable += int(result.success)
+            continue
+        reachable += 1
+        if _capsules_clear(arrays, scene, result.q, margin):
+            clear.append(result.q)
+        elif checker is None or not checker.check(result.q).in_collision:
+            touching.append(result.q)
+        if len(clear) >= options.goal_configurations:
+            break
+    found = (clear + touching)[:options.goal_configurations]
+    if found:
+        return found, ""
+    if reachable == 0:
+        return [], (f"goal invalid: no inverse-kinematics solution within the joint limits reaches the goal pose "
+                    f"({len(candidates)} seeds)")
+    return [], f"goal invalid: every inverse-kinematics solution of the goal pose collides ({reachable} found)"
+
+
+def _sampling_box(robot: RobotModel) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Joint limits, with [−π, π] for continuous joints."""
+    lower = np.where(np.isfinite(robot.lower_limits), robot.lower_limits, -math.pi)
+    upper = np.where(np.isfinite(robot.upper_limits), robot.upper_limits, math.pi)
+    return np.ascontiguousarray(lower, dtype=np.float64), np.ascontiguousarray(upper, dtype=np.float64)
+
+
+def _search(checker: _rrt.Checker, start: NDArray[np.float64], goals: NDArray[np.float64], lower: NDArray[np.float64],
+            upper: NDArray[np.float64], step: float, options: GlobalOptions,
+            cancel: NDArray[np.uint8] | None) -> SearchResult:
+    """RRT-Connect from ``start`` to any row of ``goals`` in chunks of compiled work until found, full or
+    ``options.time_limit``; then shortcutting."""
+    begin = time.perf_counter()
+    if not _rrt.state_valid(checker, start):
+        return SearchResult(False, start[None], PlanStatus.START_INVALID,
+                            "start invalid: the start violates the search margin",
+                            int(checker.counter[0]), time.perf_counter() - begin)
+    valid = [g for g in goals if _rrt.state_valid(checker, g)]
+    if not valid:
+        return SearchResult(False, start[None], PlanStatus.GOAL_INVALID,
+                            "goal invalid: the goal violates the search margin",
+                            int(checker.counter[0]), time.perf_counter() - begin)
+    trees = _rrt.make_trees(start, np.array(valid), options.capacity, options.seed)
+    status, path = _rrt.SEARCHING, start[None]
+    while status == _rrt.SEARCHING:
+        status, path = _rrt.rrt_connect(checker, trees, lower, upper, step, 2000)
+        if status == _rrt.SEARCHING and cancel is not None and cancel[0] != 0:
+            return SearchResult(False, start[None], PlanStatus.CANCELLED, "cancelled during the global search",
+                                int(checker.counter[0]), time.perf_counter() - begin)
+        if status == _rrt.SEARCHING and time.perf_counter() - begin > options.time_limit:
+            break
+    if status != _rrt.FOUND:
+        timed_out = status == _rrt.SEARCHING
+        why = "time limit" if timed_out else "tree capacity"
+        outcome = PlanStatus.GLOBAL_TIME_LIMIT if timed_out else PlanStatus.GLOBAL_NO_PATH
+        return SearchResult(False, start[None], outcome, f"global search: no path within the {why} "
+                            f"({options.time_limit:g} s, {options.capacity} nodes per tree)",
+                            int(checker.counter[0]), time.perf_counter() - begin)
+    short = _rrt.shortcut(checker, path, options.shortcut_attempts, trees.state)
+    return SearchResult(True, short, PlanStatus.REACHED, "", int(checker.counter[0]), time.perf_counter() - begin)
+
+
+def joint_space_search(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, start: NDArray[np.float64],
+                       goals: Sequence[NDArray[np.float64]], margin: float,
+                       options: GlobalOptions, cancel: NDArray[np.uint8] | None = None
+                       ) -> tuple[SearchResult, _wb.Scene]:
+    """Search a capsule-valid joint path from ``start`` to one of ``goals``; returns it and the scene with the
+    endpoint offsets (which the tracking must use too)."""
+    search_scene = endpoint_scene(scene, arrays, (start, *goals), margin, options.endpoint_band)
+    checker = _joint_checker(arrays, search_scene, margin, options.joint_resolution)
+    lower, upper = _sampling_box(robot)
+    return _search(checker, start, np.array(goals), lower, upper, options.joint_step, options, cancel), search_scene
+
+
+def track(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, path: NDArray[np.float64], goal: Pose,
+          params: NDArray[np.float64], max_iterations: int, options: GlobalOptions,
+          cancel: NDArray[np.uint8] | None = None) -> tuple:  # type: ignore[type-arg]
+    """The field's damper QP following ``path`` (see :mod:`pfield.planning._track_kernel`); ``cancel`` is a
+    :class:`~pfield.planning.CancelToken`'s flag, polled every step."""
+    flag = np.zeros(1, dtype=np.uint8) if cancel is None else cancel
+    return track_path(path[0].copy(), np.ascontiguousarray(path), arrays, scene,
+                      np.array(goal.position, dtype=np.float64), np.array(goal.orientation, dtype=np.float64), params,
+                      max_iterations, options.tracking_gain, options.tracking_lead, flag)
+
+
+def exact_contact(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, qs: NDArray[np.float64],
+                  obstacles: Sequence[Obstacle] | None, resolution: float) -> str:
+    """The first contact ("" if none) that the exact mesh check finds on the waypoints of ``qs`` whose link
+    capsules overlap something, and on the motion into and out of them (every ``resolution`` rad)."""
+    raw = scene._replace(obstacle_offsets=np.zeros_like(scene.obstacle_offsets),
+                         self_offsets=np.zeros_like(scene.self_offsets))
+    flagged = np.flatnonzero(overlapping_waypoints(np.ascontiguousarray(qs), arrays, raw))
+    if flagged.size == 0:
+        return ""
+    from pfield.robot.collision import CollisionChecker
+
+    checker = CollisionChecker(robot, list(obstacles or ()))
+    segments = sorted({int(k) - 1 for k in flagged if k > 0} | {int(k) for k in flagged if k < len(qs) - 1})
+    if len(qs) == 1:
+        report = checker.check(qs[0])
+        return report.pair if report.in_collision else ""
+    for k in segments:
+        a, b = qs[k], qs[k + 1]
+        steps = max(1, math.ceil(float(np.max(np.abs(b - a))) / resolution))
+        for t in np.linspace(0.0, 1.0, steps + 1):
+            report = checker.check(a + t * (b - a))
+            if report.in_collision:
+                return report.pair
+    return ""
+
+
+# ---- task space ---------------------------------------------------------------------------------------
+
+def point_space_search(scene: _wb.Scene, start: NDArray[np.float64], goal: NDArray[np.float64], margin: float,
+                       options: GlobalOptions, cancel: NDArray[np.uint8] | None = None) -> SearchResult:
+    """Search a path of end-effector positions start → goal keeping ``margin`` (m) from every obstacle of
+    ``scene`` (its packed obstacles and their bounding spheres).
+
+    The sampling box is the bounding box of start, goal and the obstacles' bounding spheres, grown by
+    ``10 · point_step`` (a detour around an obstacle needs room beyond it)."""
+    centres, radii = scene.centres, scene.bounds
+    points = np.vstack([start[None], goal[None], centres - radii[:, None], centres + radii[:, None]])
+    pad = 10.0 * options.point_step
+    lower, upper = points.min(axis=0) - pad, points.max(axis=0) + pad
+    ws = _wb.make_workspace(3, 0, len(radii), 0, 0)
+    checker = _rrt.Checker(_rrt.POINT_SPACE, _point_robot(), scene, ws, np.empty((0, len(radii))), np.empty(0),
+                           float(margin), float(options.point_resolution), np.zeros(1, dtype=np.int64))
+    return _search(checker, np.ascontiguousarray(start, dtype=np.float64),
+                   np.ascontiguousarray(goal, dtype=np.float64)[None], lower, upper, options.point_step, options,
+                   cancel)
+
+
+def _point_robot() -> _wb.RobotArrays:
+    """A :class:`RobotArrays` with no joints or capsules (the point space needs none; same array types)."""
+    f, i = np.zeros, np.zeros
+    return _wb.RobotArrays(i(0, np.int64), f((0, 3, 3)), f((0, 3)), f((0, 3)), i(0, np.int64), i((0, 0), np.int64),
+                           -1, np.eye(3), f(3), i(0, np.int64), f((0, 3)), f((0, 3)), f(0), i((0, 2), np.int64),
+                           f(0), f(0), f(0), f(0), i(1, np.int64), i(0, np.int64), f((0, 3)), f((0, 3)), f(0), f(0))
+
+
+def orientations_along(path: NDArray[np.float64], start: Pose, goal: Pose) -> list[Pose]:
+    """Poses at the vertices of a position ``path``: the orientation q(s) = exp(s log(q_g ⊗ q_0⁻¹)) ⊗ q_0
+    (the world-frame geodesic, i.e. slerp) with s the share of the path's length travelled."""
+    lengths = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))])
+    total = lengths[-1] if lengths[-1] > 0 else 1.0
+    rotation = quaternion_log(quaternion_multiply(goal.orientation, quaternion_inverse(start.orientation)))
+    poses = [Pose(p, quaternion_multiply(quaternion_exp(rotation * (s / total)), start.orientation))
+             for p, s in zip(path, lengths, strict=True)]
+    poses[-1] = Pose(path[-1], goal.orientation)
+    return poses
+
+
+def search_margin(config: FieldConfig, options: GlobalOptions) -> float:
+    """Clearance (m) every searched state keeps: ``safety_distance + extra_margin``."""
+    return float(config.safety_distance + options.extra_margin)

@@ -1,0 +1,158 @@
+"""Compiled clearances of the two-level link model: link–obstacle and link–link (self) distances.
+
+Each link l has a bounding capsule (``cap_a[l]``–``cap_b[l]``, ``cap_r[l]``, containing everything below)
+and its fitted primitives ``link_start[l]:link_start[l + 1]`` (:mod:`pfield.robot.geometry`); ``self_r[l]``
+is the radius of the ungrown covering capsule, used for self-collision (:func:`link_pair_distance`). Near
+(bounding capsules closer than ``FINE_RANGE`` = 10 cm) a distance is the minimum over the link's
+primitives; farther, the bounding capsules' own distance stands for it
+(a lower bound, at most the capsules' over-approximation off, where a few centimetres do not matter and the
+cost of the fine model would be wasted). A pair whose cheap bound is ≥ ``cutoff`` gets that bound instead
+and is reported as not exact (no closer than it).
+Segment ends are in the world frame (:func:`world_segments`). The closest point returned is on the
+primitive's segment (its axis), where the kernels take the point Jacobian; ``n`` points from the obstacle
+(or from the second link) towards the link.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from pfield.geometry._packed import CAPSULE, SPHERE
+from pfield.geometry._sdf import obstacle_signed_distance
+from pfield.robot._distance import (
+    closest_segment_points,
+    point_segment_distance,
+    round_segment_distance,
+    segment_obstacle_distance,
+)
+from pfield.robot._kinematics import joint_transforms
+
+FINE_RANGE = 0.1  # m: pairs whose bounding capsules are at least this far apart use the capsules' distance
+
+
+@njit(cache=True, inline="always")
+def world_segments(rotations, origins, joints, a, b, out_a, out_b):  # type: ignore[no-untyped-def]
+    """World ends of every segment (local ends ``a``, ``b`` carried by ``joints``) into ``out_a``, ``out_b``.
+
+    Scalar indexing only: an array view per segment (``a[c]``) costs more than the transform itself."""
+    for c in range(joints.shape[0]):
+        j = joints[c]
+        if j < 0:
+            for k in range(3):
+                out_a[c, k], out_b[c, k] = a[c, k], b[c, k]
+            continue
+        for k in range(3):
+            r0, r1, r2, o = rotations[j, k, 0], rotations[j, k, 1], rotations[j, k, 2], origins[j, k]
+            out_a[c, k] = r0 * a[c, 0] + r1 * a[c, 1] + r2 * a[c, 2] + o
+            out_b[c, k] = r0 * b[c, 0] + r1 * b[c, 1] + r2 * b[c, 2] + o
+
+
+@njit(cache=True, inline="always")
+def link_obstacle_distance(  # type: ignore[no-untyped-def]
+        link, i, packed, centres, bounds, cap_a, cap_b, cap_r, link_start, prim_a, prim_b, prim_r, scratch, cutoff):
+    """Signed clearance (m) of ``link`` to obstacle ``i``: ``(d, exact, px, py, pz, nx, ny, nz)``.
+
+    ``exact`` is False when the bounding capsule's bound (returned as ``d``) is ≥ ``cutoff``.
+    """
+    rows, kinds = packed.rows, packed.kinds
+    centre, reach = centres[i], bounds[i]
+    lower = point_segment_distance(centre, cap_a[link], cap_b[link]) - reach - cap_r[link]
+    if lower >= cutoff:
+        return lower, False, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
+    a, b = cap_a[link], cap_b[link]
+    if kinds[i] == SPHERE or kinds[i] == CAPSULE:
+        d, t, nx, ny, nz = round_segment_distance(rows, kinds, i, a, b, scratch)
+    else:
+        d, t, nx, ny, nz = segment_obstacle_distance(packed, i, a, b, scratch)
+    d -= cap_r[link]
+    if d >= FINE_RANGE:  # far: the bounding capsule's distance (a lower bound of the fitted model's)
+        return d, True, a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2]), nx, ny, nz
+    best, px, py, pz, bx, by, bz = math.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
+    round_obstacle = kinds[i] == SPHERE or kinds[i] == CAPSULE
+    mid = scratch[1]
+    # nothing whose lower bound exceeds ``limit`` can be the minimum: the best exact value so far, or (before
+    # any) an upper bound: a segment's midpoint is one of its points, so min_p d(mid_p) − r_p ≥ the minimum
+    limit = math.inf
+    for p in range(link_start[link], link_start[link + 1]):
+        for k in range(3):
+            mid[k] = 0.5 * (prim_a[p, k] + prim_b[p, k])
+        limit = min(limit, obstacle_signed_distance(packed, i, mid)[0] - prim_r[p])
+    for p in range(link_start[link], link_start[link + 1]):
+        # cheap bounds first, in scalars (an array view per primitive costs more than the bound)
+        ax, ay, az = prim_a[p, 0], prim_a[p, 1], prim_a[p, 2]
+        ex, ey, ez = prim_b[p, 0] - ax, prim_b[p, 1] - ay, prim_b[p, 2] - az
+        length2 = ex * ex + ey * ey + ez * ez
+        cx, cy, cz = centre[0] - ax, centre[1] - ay, centre[2] - az
+        u = 0.0 if length2 <= 1e-14 else min(max((cx * ex + cy * ey + cz * ez) / length2, 0.0), 1.0)
+        fx, fy, fz = cx - u * ex, cy - u * ey, cz - u * ez
+        if math.sqrt(fx * fx + fy * fy + fz * fz) - reach - prim_r[p] > limit:
+            continue
+        if not round_obstacle:
+            # a signed distance is 1-Lipschitz: d(s(t)) ≥ d(midpoint) − half the segment's length
+            mid[0], mid[1], mid[2] = ax + 0.5 * ex, ay + 0.5 * ey, az + 0.5 * ez
+            if obstacle_signed_distance(packed, i, mid)[0] - 0.5 * math.sqrt(length2) - prim_r[p] > limit:
+                continue
+        a, b = prim_a[p], prim_b[p]
+        if round_obstacle:
+            d, t, nx, ny, nz = round_segment_distance(rows, kinds, i, a, b, scratch)
+        else:
+            d, t, nx, ny, nz = segment_obstacle_distance(packed, i, a, b, scratch)
+        d -= prim_r[p]
+        if d < best:
+            best, bx, by, bz = d, nx, ny, nz
+            px, py, pz = a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])
+            limit = min(limit, best)
+    return best, True, px, py, pz, bx, by, bz
+
+
+@njit(cache=True, inline="always")
+def link_pair_distance(l1, l2, cap_a, cap_b, self_r):  # type: ignore[no-untyped-def]
+    """Clearance (m) between links ``l1`` and ``l2`` on their covering capsules (radii ``self_r``):
+    ``(d, p1 (3), p2 (3))``, p1/p2 the closest points of the two segments.
+
+    Self-collision uses the single covering capsule of each link (it contains the link's collision surface):
+    the SRDF leaves only links that are not close by design, and the fitted primitives would cost about a
+    hundred segment pairs per link pair for every step.
+    """
+    a1, b1, a2, b2 = cap_a[l1], cap_b[l1], cap_a[l2], cap_b[l2]
+    s, t = closest_segment_points(a1, b1, a2, b2)
+    x1, y1, z1 = a1[0] + s * (b1[0] - a1[0]), a1[1] + s * (b1[1] - a1[1]), a1[2] + s * (b1[2] - a1[2])
+    x2, y2, z2 = a2[0] + t * (b2[0] - a2[0]), a2[1] + t * (b2[1] - a2[1]), a2[2] + t * (b2[2] - a2[2])
+    d = math.sqrt((x1 - x2) ** 2 + (y1 - y2) ** 2 + (z1 - z2) ** 2) - self_r[l1] - self_r[l2]
+    return d, x1, y1, z1, x2, y2, z2
+
+
+@njit(cache=True)
+def fill_clearances(  # type: ignore[no-untyped-def]
+        cap_a, cap_b, cap_r, self_r, link_start, prim_a, prim_b, prim_r, self_pairs, packed, centres, bounds,
+        scratch, obstacle, own, cutoff):
+    """Link–obstacle clearances into ``obstacle`` (L, M) and self-pair clearances into ``own`` (P,), from
+    world segments; pairs whose bound is ≥ ``cutoff`` get the bound."""
+    for link in range(obstacle.shape[0]):
+        for i in range(obstacle.shape[1]):
+            obstacle[link, i] = link_obstacle_distance(link, i, packed, centres, bounds, cap_a, cap_b, cap_r,
+                                                       link_start, prim_a, prim_b, prim_r, scratch, cutoff)[0]
+    for k in range(self_pairs.shape[0]):
+        own[k] = link_pair_distance(self_pairs[k, 0], self_pairs[k, 1], cap_a, cap_b, self_r)[0]
+
+
+@njit(cache=True)
+def clearances_at(  # type: ignore[no-untyped-def]
+        q, parents, place_rot, place_pos, axes, kinds, joints, cap_a, cap_b, cap_r, self_r, link_start, prim_joint,
+        prim_a, prim_b, prim_r, self_pairs, packed, centres, bounds):
+    """Exact clearances (m) at ``q``: link × obstacle (L, M) and self pairs (P,) of the fitted model."""
+    n, links, prims = q.shape[0], joints.shape[0], prim_joint.shape[0]
+    rotations, origins = np.empty((n, 3, 3)), np.empty((n, 3))
+    joint_transforms(q, parents, place_rot, place_pos, axes, kinds, rotations, origins)
+    seg_a, seg_b = np.empty((links, 3)), np.empty((links, 3))
+    pa, pb = np.empty((prims, 3)), np.empty((prims, 3))
+    world_segments(rotations, origins, joints, cap_a, cap_b, seg_a, seg_b)
+    world_segments(rotations, origins, prim_joint, prim_a, prim_b, pa, pb)
+    obstacle, own = np.empty((links, bounds.shape[0])), np.empty(self_pairs.shape[0])
+    fill_clearances(seg_a, seg_b, cap_r, self_r, link_start, pa, pb, prim_r, self_pairs, packed, centres, bounds,
+                    np.empty((2, 3)), obstacle, own, math.inf)
+    return obstacle, own
+

@@ -1,0 +1,374 @@
+"""Fitting spheres and capsules to one link's collision surface, conservatively, and measuring the fit.
+
+A link's collision elements (meshes with their triangles as pinocchio/coal load them; boxes and other
+primitives through their corners or inflated surface samples and the triangles of their hull) are
+expressed in the link's own frame. The union of the fitted primitives contains every vertex and a dense
+area sample of that surface, and every primitive stays within ``target_gap`` of the solid
+(:func:`fit_primitives`): the primitives hug the surface from inside instead of wrapping it.
+
+Measures, reported per link (:class:`LinkFit`):
+
+* **gap** — for area-uniform samples on the *exposed* surface of the union (points of a primitive's
+  surface that no other primitive of the link contains), the distance (m) to the nearest point of the
+  link's collision surface (the exact mesh distance of :mod:`pfield.geometry`). ``mean_gap`` and
+  ``max_gap`` are its mean and maximum: how far the fitted model's surface stands off the real one
+  (``max_gap`` ≤ ``target_gap`` by construction, up to sampling);
+* **volume ratio** — union volume (Monte Carlo, fixed seed) / volume of the collision elements (closed
+  meshes by the divergence theorem, boxes exactly; overlapping elements are counted twice).
+
+Fits are cached in memory and on disk (:func:`cached_fit`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+from scipy.spatial import ConvexHull, Delaunay, QhullError
+
+_LOG = logging.getLogger(__name__)
+
+FIT_VERSION = 3  # bump when the fitting rule changes (invalidates the disk cache)
+TARGET_GAP = 0.014  # m, the stand-off bound of every primitive (mean gaps come out at ~0.6 of it)
+_GAP_SAMPLES = 600  # surface samples per primitive for the gap
+_VOLUME_SAMPLES = 60_000
+_COVER_SAMPLES = 2500  # area samples covered besides the vertices
+_INTERIOR_TRIES, _INTERIOR_CANDIDATES = 8000, 1200
+_PAIR_TRIES, _PAIR_REACH = 4000, 0.2
+
+
+@dataclass(frozen=True)
+class LinkSurface:
+    """A link's collision surface in the link frame: ``vertices`` (V, 3), ``triangles`` (T, 3) and volume."""
+
+    vertices: NDArray[np.float64]
+    triangles: NDArray[np.int64]
+    volume: float
+
+    def key(self, target_gap: float) -> str:
+        digest = hashlib.sha256()
+        digest.update(f"{FIT_VERSION}:{target_gap!r}".encode())
+        digest.update(np.ascontiguousarray(self.vertices, dtype=np.float64).tobytes())
+        digest.update(np.ascontiguousarray(self.triangles, dtype=np.int64).tobytes())
+        return digest.hexdigest()[:32]
+
+
+@dataclass(frozen=True)
+class Primitives:
+    """k capsules in one frame: ends ``a``, ``b`` (k, 3) and radii (k,); a == b is a sphere."""
+
+    a: NDArray[np.float64]
+    b: NDArray[np.float64]
+    radii: NDArray[np.float64]
+
+    def __len__(self) -> int:
+        return len(self.radii)
+
+    @property
+    def spheres(self) -> int:
+        return int(np.count_nonzero(np.linalg.norm(self.b - self.a, axis=1) == 0.0))
+
+    def transformed(self, rotation: NDArray[np.float64], translation: NDArray[np.float64]) -> Primitives:
+        return Primitives(self.a @ rotation.T + translation, self.b @ rotation.T + translation, self.radii.copy())
+
+
+@dataclass(frozen=True)
+class LinkFit:
+    """The fitted primitives of one link (link frame), the fit's measures (see the module docstring) and the
+    single covering capsule (:func:`fit_single_capsule`, link frame) with its volume ratio and mean gap."""
+
+    primitives: Primitives
+    mean_gap: float
+    max_gap: float
+    volume_ratio: float
+    bound: Primitives
+    bound_volume_ratio: float
+    bound_mean_gap: float
+
+
+def segment_distances(points: NDArray[np.float64], a: NDArray[np.float64],
+                      b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Distance (N,) of every point to the segment a–b."""
+    d = b - a
+    length2 = float(d @ d)
+    t = np.zeros(len(points)) if length2 == 0.0 else np.clip((points - a) @ d / length2, 0.0, 1.0)
+    return np.asarray(np.linalg.norm(points - (a + t[:, None] * d), axis=1))
+
+
+def depth_outside(points: NDArray[np.float64], prims: Primitives) -> NDArray[np.float64]:
+    """(N, k): how far each point lies outside each primitive (≤ 0: inside)."""
+    return np.stack([segment_distances(points, prims.a[j], prims.b[j]) - prims.radii[j]
+                     for j in range(len(prims))], axis=1)
+
+
+@njit(cache=True)
+def _coverage(a, b, radii, points):  # type: ignore[no-untyped-def]
+    """(K, N) booleans: candidate k (segment a_k–b_k, radius r_k) contains point n."""
+    covered = np.zeros((a.shape[0], points.shape[0]), dtype=np.bool_)
+    for k in range(a.shape[0]):
+        dx, dy, dz = b[k, 0] - a[k, 0], b[k, 1] - a[k, 1], b[k, 2] - a[k, 2]
+        length2 = dx * dx + dy * dy + dz * dz
+        r2 = radii[k] * radii[k]
+        for n in range(points.shape[0]):
+            px, py, pz = points[n, 0] - a[k, 0], points[n, 1] - a[k, 1], points[n, 2] - a[k, 2]
+            t = 0.0 if length2 == 0.0 else min(max((px * dx + py * dy + pz * dz) / length2, 0.0), 1.0)
+            ex, ey, ez = px - t * dx, py - t * dy, pz - t * dz
+            covered[k, n] = ex * ex + ey * ey + ez * ez <= r2
+    return covered
+
+
+def _surface_samples(surface: LinkSurface, count: int, rng: np.random.Generator) -> NDArray[np.float64]:
+    corners = surface.vertices[surface.triangles]
+    areas = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+    pick = rng.choice(len(corners), count, p=areas / areas.sum())
+    u = rng.random((count, 2))
+    flip = u.sum(axis=1) > 1.0
+    u[flip] = 1.0 - u[flip]
+    tri = corners[pick]
+    return np.asarray(tri[:, 0] + u[:, :1] * (tri[:, 1] - tri[:, 0]) + u[:, 1:] * (tri[:, 2] - tri[:, 0]))
+
+
+def _candidates(surface: LinkSurface, samples: NDArray[np.float64], gap: float,
+                rng: np.random.Generator) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Candidate spheres and capsules whose every point lies within ``gap`` of the solid (module docstring)."""
+    solid = _solid(surface)
+    lower, upper = surface.vertices.min(axis=0), surface.vertices.max(axis=0)
+    points = lower + rng.random((_INTERIOR_TRIES, 3)) * (upper - lower)
+    depth = -solid(points)
+    inside = depth > 0.0
+    centres, depth = points[inside][:_INTERIOR_CANDIDATES], depth[inside][:_INTERIOR_CANDIDATES]
+    a, b, r = [centres, samples], [centres, samples], [depth + gap, np.full(len(samples), gap)]
+    if len(centres) > 1:
+        i = rng.integers(0, len(centres), _PAIR_TRIES)
+        j = rng.integers(0, len(centres), _PAIR_TRIES)
+        keep = (i != j) & (np.linalg.norm(centres[i] - centres[j], axis=1) < _PAIR_REACH)
+        i, j = i[keep], j[keep]
+        t = np.linspace(0.0, 1.0, 9)
+        along = centres[i][:, None] + t[None, :, None] * (centres[j] - centres[i])[:, None]
+        radius = -solid(along.reshape(-1, 3)).reshape(len(i), len(t)).max(axis=1)
+        keep = radius > 0.0
+        a.append(centres[i][keep])
+        b.append(centres[j][keep])
+        r.append(radius[keep] + gap)
+    return np.concatenate(a), np.concatenate(b), np.concatenate(r)
+
+
+def fit_primitives(surface: LinkSurface, gap: float) -> Primitives:
+    """Spheres/capsules whose union covers every vertex of ``surface`` and stands off it by at most ``gap``.
+
+    Candidates: a sphere of radius d(c) + gap at an interior point c at depth d(c) lies within ``gap`` of the
+    ball of radius d(c) ⊂ solid; a capsule between two interior points with radius (least depth along the
+    segment, 9 samples) + gap likewise; a sphere of radius ``gap`` at every surface point covers it alone.
+    Greedy set cover (Chvátal 1979) of the vertices and area samples, then redundant picks are dropped.
+    """
+    rng = np.random.default_rng(7)
+    targets = np.concatenate([surface.vertices, _surface_samples(surface, _COVER_SAMPLES, rng)])
+    a, b, radii = _candidates(surface, targets, gap, rng)
+    covered = _coverage(a, b, radii, targets)
+    uncovered = np.ones(len(targets), dtype=bool)
+    chosen: list[int] = []
+    while uncovered.any():
+        gain = covered[:, uncovered].sum(axis=1)
+        k = int(np.argmax(gain))
+        chosen.append(k)
+        uncovered &= ~covered[k]
+    counts = covered[chosen].sum(axis=0)
+    for k in sorted(chosen, key=lambda c: int(covered[c].sum())):
+        if np.all(counts[covered[k]] > 1):
+            chosen.remove(k)
+            counts -= covered[k]
+    order = np.array(chosen, dtype=np.int64)
+    return Primitives(a[order].copy(), b[order].copy(), radii[order].copy())
+
+
+def _solid(surface: LinkSurface):  # type: ignore[no-untyped-def]
+    """Signed distance to the link's solid (negative inside): the mesh's when it is closed, else its hull's
+    inside test with the distance to the surface."""
+    from pfield.geometry import Obstacle
+    from pfield.geometry.mesh import Mesh
+    from pfield.spatial import Pose
+
+    mesh = Obstacle("link", Mesh.from_arrays(surface.vertices, surface.triangles, name="link"), Pose())
+    if mesh.shape.watertight:  # type: ignore[union-attr]
+        return lambda points: mesh.signed_distance(points)[0]
+    hull = Delaunay(surface.vertices[ConvexHull(surface.vertices).vertices])
+
+    def signed(points: NDArray[np.float64]) -> NDArray[np.float64]:
+        distance = np.abs(mesh.signed_distance(points)[0])
+        return np.where(hull.find_simplex(points) >= 0, -distance, distance)
+
+    return signed
+
+
+def _sample_capsule_surface(a: NDArray[np.float64], b: NDArray[np.float64], r: float, count: int,
+                            rng: np.random.Generator) -> NDArray[np.float64]:
+    """Area-uniform points on the surface of capsule (a, b, r)."""
+    axis = b - a
+    length = float(np.linalg.norm(axis))
+    sphere = rng.normal(size=(count, 3))
+    sphere /= np.linalg.norm(sphere, axis=1, keepdims=True)
+    if length == 0.0:
+        return np.asarray(a + r * sphere)
+    u = axis / length
+    side = 2 * math.pi * r * length / (2 * math.pi * r * length + 4 * math.pi * r * r)
+    on_side = rng.random(count) < side
+    # side points: the sphere direction projected ⟂ u, at a uniform axial position
+    radial = sphere - np.outer(sphere @ u, u)
+    norms = np.linalg.norm(radial, axis=1, keepdims=True)
+    radial = np.where(norms > 1e-9, radial / np.maximum(norms, 1e-12), np.cross(u, [1.0, 0.0, 0.0]))
+    t = rng.random(count)[:, None]
+    side_points = a + t * axis + r * radial
+    caps = np.where((sphere @ u)[:, None] >= 0.0, b + r * sphere, a + r * sphere)
+    return np.asarray(np.where(on_side[:, None], side_points, caps))
+
+
+def _surface_distance(surface: LinkSurface, points: NDArray[np.float64]) -> NDArray[np.float64]:
+    from pfield.geometry import Obstacle
+    from pfield.geometry.mesh import Mesh
+    from pfield.spatial import Pose
+
+    mesh = Obstacle("link", Mesh.from_arrays(surface.vertices, surface.triangles, name="link"), Pose())
+    return np.asarray(np.abs(mesh.signed_distance(points)[0]))
+
+
+def union_volume(prims: Primitives, rng: np.random.Generator, samples: int = _VOLUME_SAMPLES) -> float:
+    """Monte Carlo volume (m³) of the union of ``prims``."""
+    lower = np.minimum(prims.a, prims.b).min(axis=0) - prims.radii.max()
+    upper = np.maximum(prims.a, prims.b).max(axis=0) + prims.radii.max()
+    points = lower + rng.random((samples, 3)) * (upper - lower)
+    inside = np.any(depth_outside(points, prims) <= 0.0, axis=1)
+    return float(np.prod(upper - lower) * np.count_nonzero(inside) / samples)
+
+
+def measure(surface: LinkSurface, prims: Primitives) -> tuple[float, float, float]:
+    """(mean gap, max gap, volume ratio) of ``prims`` for ``surface`` (module docstring)."""
+    rng = np.random.default_rng(12)
+    exposed = []
+    for j in range(len(prims)):
+        points = _sample_capsule_surface(prims.a[j], prims.b[j], float(prims.radii[j]), _GAP_SAMPLES, rng)
+        depth = depth_outside(points, prims)
+        depth[:, j] = np.inf
+        exposed.append(points[np.all(depth > -1e-9, axis=1)])
+    samples = np.concatenate(exposed)
+    gaps = _surface_distance(surface, samples)
+    ratio = union_volume(prims, rng) / surface.volume if surface.volume > 0 else math.inf
+    return float(gaps.mean()), float(gaps.max()), ratio
+
+
+def fit_link(surface: LinkSurface, target_gap: float = TARGET_GAP) -> LinkFit:
+    """:func:`fit_primitives` with the stand-off bound ``target_gap`` (m), measured."""
+    prims = fit_primitives(surface, target_gap)
+    mean_gap, max_gap, ratio = measure(surface, prims)
+    a, b, r, bound_ratio, bound_gap = fit_single_capsule(surface.vertices)
+    return LinkFit(prims, mean_gap, max_gap, ratio, Primitives(a[None], b[None], np.array([r])), bound_ratio,
+                   bound_gap)
+
+
+def _enclosing_circle(points: NDArray[np.float64], iterations: int = 400) -> NDArray[np.float64]:
+    """Approximate centre of the smallest circle (any dimension) enclosing ``points`` (Bădoiu–Clarkson)."""
+    centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
+    for k in range(1, iterations + 1):
+        far = points[np.argmax(np.linalg.norm(points - centre, axis=1))]
+        centre = centre + (far - centre) / (k + 1)
+    return centre
+
+
+def _capsule_along(points: NDArray[np.float64], axis: NDArray[np.float64]
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    basis = np.linalg.svd(np.eye(3) - np.outer(axis, axis))[0][:, :2]
+    planar = points @ basis
+    centre2 = _enclosing_circle(planar)
+    rho = np.linalg.norm(planar - centre2, axis=1)
+    radius = float(rho.max()) + 1e-9
+    t = points @ axis
+    h = np.sqrt(np.maximum(radius**2 - rho**2, 0.0))
+    t_b, t_a = float(np.max(t - h)), float(np.min(t + h))
+    offset = basis @ centre2
+    if t_a > t_b:  # every point fits in one sphere
+        t_mid = 0.5 * (t_a + t_b)
+        centre = offset + t_mid * axis
+        radius = float(np.linalg.norm(points - centre, axis=1).max()) + 1e-9
+        return centre, centre.copy(), radius
+    return offset + t_a * axis, offset + t_b * axis, radius
+
+
+def fit_single_capsule(
+        points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], float, float, float]:
+    """Smallest-volume capsule (over the principal axes) covering ``points`` (N, 3): ``(a, b, r, volume
+    ratio to the points' hull, mean distance of the hull's vertices to the capsule surface)``; the steps are
+    in :mod:`pfield.robot.geometry`."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    try:
+        hull = ConvexHull(pts)
+        vertices, hull_volume = pts[hull.vertices], float(hull.volume)
+    except (QhullError, ValueError):
+        vertices, hull_volume = pts, 0.0
+    axes = np.linalg.svd(vertices - vertices.mean(axis=0), full_matrices=False)[2]
+    best = None
+    for axis in axes:
+        a, b, r = _capsule_along(vertices, axis / np.linalg.norm(axis))
+        volume = math.pi * r * r * (float(np.linalg.norm(b - a)) + 4.0 * r / 3.0)
+        if best is None or volume < best[3]:
+            best = (a, b, r, volume)
+    assert best is not None
+    a, b, r, volume = best
+    gaps = r - segment_distances(vertices, a, b)
+    ratio = volume / hull_volume if hull_volume > 0 else math.inf
+    return a, b, r, ratio, float(gaps.mean())
+
+
+# ---- cache ---------------------------------------------------------------------------------------------
+_MEMORY: dict[str, LinkFit] = {}
+
+
+def cache_directory() -> Path | None:
+    """Where fits are kept on disk: ``$NUMBA_CACHE_DIR/pfield-robot-fits`` when numba's cache is redirected,
+    else ``__pycache__/robot-fits`` next to this module (where numba caches the kernels); None if unwritable."""
+    root = os.environ.get("NUMBA_CACHE_DIR")
+    directory = Path(root) / "pfield-robot-fits" if root else Path(__file__).resolve().parent / "__pycache__" / \
+        "robot-fits"
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return None
+    return directory if os.access(directory, os.W_OK) else None
+
+
+def cached_fit(surface: LinkSurface, target_gap: float = TARGET_GAP) -> LinkFit:
+    """:func:`fit_link`, remembered in memory and on disk under a hash of the surface and the settings."""
+    key = surface.key(target_gap)
+    if key in _MEMORY:
+        return _MEMORY[key]
+    directory = cache_directory()
+    path = directory / f"{key}.npz" if directory is not None else None
+    fit = None
+    if path is not None and path.exists():
+        try:
+            with np.load(path) as data:
+                fit = LinkFit(Primitives(data["a"], data["b"], data["radii"]), float(data["mean_gap"]),
+                              float(data["max_gap"]), float(data["volume_ratio"]),
+                              Primitives(data["bound_a"], data["bound_b"], data["bound_r"]),
+                              float(data["bound_volume_ratio"]), float(data["bound_mean_gap"]))
+        except (OSError, KeyError, ValueError) as exc:
+            _LOG.warning("ignoring unreadable robot fit cache %s: %s", path, exc)
+    if fit is None:
+        fit = fit_link(surface, target_gap)
+        if path is not None:
+            tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
+            try:
+                np.savez(tmp, a=fit.primitives.a, b=fit.primitives.b, radii=fit.primitives.radii,
+                         mean_gap=fit.mean_gap, max_gap=fit.max_gap, volume_ratio=fit.volume_ratio,
+                         bound_a=fit.bound.a, bound_b=fit.bound.b, bound_r=fit.bound.radii,
+                         bound_volume_ratio=fit.bound_volume_ratio, bound_mean_gap=fit.bound_mean_gap)
+                tmp.replace(path)
+            except OSError as exc:
+                _LOG.warning("cannot write robot fit cache %s: %s", path, exc)
+    _MEMORY[key] = fit
+    return fit

@@ -1,0 +1,176 @@
+"""The planners' global fallback: it runs only when the field stops short, and then gets there safely."""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from pfield.errors import InvalidInput
+from pfield.field.config import FieldConfig
+from pfield.field.field import PotentialField
+from pfield.geometry import Box, Obstacle, Sphere, signed_distances
+from pfield.node._base import Bus
+from pfield.node.manager import ManagerNode
+from pfield.planning.result import PlannedPath
+from pfield.planning.scenes import SEED_GOAL, SEED_START, seed_obstacles
+from pfield.planning.status import PlanStatus
+from pfield.robot import RobotModel
+from pfield.robot.collision import CollisionChecker
+from pfield.spatial import Pose
+
+SEED_Q0 = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0])
+# a box "cup" open toward −x around the start; the goal lies behind its bottom
+CUP = [Obstacle("bottom", Box(0.05, 0.7, 0.7), Pose((0.3, 0.0, 0.0))),
+       Obstacle("left", Box(0.55, 0.05, 0.7), Pose((0.05, 0.35, 0.0))),
+       Obstacle("right", Box(0.55, 0.05, 0.7), Pose((0.05, -0.35, 0.0))),
+       Obstacle("top", Box(0.55, 0.7, 0.05), Pose((0.05, 0.0, 0.35))),
+       Obstacle("floor", Box(0.55, 0.7, 0.05), Pose((0.05, 0.0, -0.35)))]
+CUP_GOAL = Pose((0.8, 0.0, 0.0))
+
+
+@pytest.fixture(scope="module")
+def xarm() -> RobotModel:
+    return RobotModel.builtin("xarm7")
+
+
+def _same(a: PlannedPath, b: PlannedPath) -> None:
+    assert (a.success, a.status, a.failure_reason, a.planner) == (b.success, b.status, b.failure_reason, b.planner)
+    for name in ("times", "positions", "orientations", "twists", "clearances", "joint_positions", "joint_velocities"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+
+
+def test_a_task_space_u_trap_stagnates_alone_and_is_solved_through_the_fallback() -> None:
+    field = PotentialField(FieldConfig(), CUP_GOAL, CUP)
+    alone = field.plan(Pose((0.0, 0.0, 0.0)), dt=0.02, goal_tolerance=0.01, max_iterations=20000,
+                       global_fallback=False)
+    assert not alone.success and alone.status == PlanStatus.STAGNATION
+    assert alone.planner == "field"
+    path = field.plan(Pose((0.0, 0.0, 0.0)), dt=0.02, goal_tolerance=0.01, max_iterations=20000)
+    assert path.success, path.failure_reason
+    assert path.planner == "field+global"
+    np.testing.assert_allclose(path.times, np.arange(len(path)) * 0.02)
+    np.testing.assert_array_equal(path.positions[0], (0.0, 0.0, 0.0))
+    assert np.linalg.norm(path.positions[-1] - CUP_GOAL.position) <= 0.01
+    # every waypoint and every segment between waypoints (sampled every 1 mm) stays outside the cup
+    assert path.min_clearance > 0.0
+    samples = np.vstack([a + (b - a) * t for a, b in itertools.pairwise(path.positions)
+                         for t in np.linspace(0.0, 1.0, 5)])
+    distances, _ = signed_distances(field.arrays.packed, samples)
+    assert np.min(distances) > 0.0
+
+
+def test_where_the_field_reaches_the_goal_the_fallback_does_not_run(xarm: RobotModel, tmp_path: Path) -> None:
+    obstacles = seed_obstacles(tmp_path)
+    field = PotentialField(FieldConfig(), SEED_GOAL, obstacles)
+    task_on, task_off = (field.plan(SEED_START, dt=0.01, goal_tolerance=0.01, global_fallback=flag)
+                         for flag in (True, False))
+    assert task_on.success and task_on.planner == "field"
+    _same(task_on, task_off)
+    body_on, body_off = (field.plan_whole_body(xarm, SEED_Q0, 0.02, 0.01, 25000, global_fallback=flag)
+                         for flag in (True, False))
+    assert body_on.success and body_on.planner == "field"
+    _same(body_on, body_off)
+
+
+def _wall_scene() -> tuple[list[Obstacle], Pose, np.ndarray]:
+    """xarm7 from the seed start (tool forward) to a tool-down goal behind a 40 cm wall: the field pushes the
+    hand into the wall and stagnates; the arm has to lift the hand over the wall."""
+    return ([Obstacle("wall", Box(0.04, 0.8, 0.4), Pose((0.4, 0.0, 0.2)))],
+            Pose((0.55, 0.0, 0.36), (1.0, 0.0, 0.0, 0.0)), SEED_Q0)
+
+
+def test_a_whole_body_plan_that_stagnates_is_solved_through_the_fallback_without_contact(xarm: RobotModel) -> None:
+    obstacles, goal, start = _wall_scene()
+    config = FieldConfig(max_linear_velocity=0.25, max_angular_velocity=1.0, safety_distance=0.005,
+                         influence_distance=0.05)
+    field = PotentialField(config, goal, obstacles)
+    alone = field.plan_whole_body(xarm, start, 0.02, 0.01, 10000, global_fallback=False)
+    path = field.plan_whole_body(xarm, start, 0.02, 0.01, 10000)
+    if alone.success:  # the scene must trap the field for this test to mean anything
+        pytest.fail("the field alone reached the goal: the scene does not exercise the fallback")
+    assert path.success, path.failure_reason
+    assert path.planner == "field+global"
+    assert path.joint_positions is not None
+    np.testing.assert_allclose(path.joint_positions[0], start)
+    assert path.final_pose.translation_distance(goal) <= 0.01
+    assert path.final_pose.rotation_distance(goal) <= config.rotation_tolerance
+    checker = CollisionChecker(xarm, obstacles)
+    for a, b in itertools.pairwise(path.joint_positions):
+        steps = max(1, int(np.ceil(np.max(np.abs(b - a)) / 0.01)))
+        for t in np.linspace(0.0, 1.0, steps + 1)[1:]:
+            assert not checker.check(a + (b - a) * t).in_collision
+    assert path.trajectory is not None and np.all(np.diff(path.trajectory.times) > 0.0)
+
+
+def test_a_goal_inside_an_obstacle_is_reported_as_goal_invalid_without_a_search(xarm: RobotModel) -> None:
+    goal = Pose((0.45, 0.25, 0.3), (0.707, 0.0, 0.707, 0.0))
+    blocker = [Obstacle("block", Sphere(0.12), Pose((0.45, 0.25, 0.3)))]
+    path = PotentialField(FieldConfig(), goal, blocker).plan_whole_body(xarm, SEED_Q0, 0.02, 0.01, 2000)
+    assert not path.success and path.planner == "field"
+    assert path.status == PlanStatus.GOAL_INVALID
+
+
+def test_a_goal_beyond_the_reach_ends_as_goal_invalid_when_the_field_stagnates(xarm: RobotModel) -> None:
+    far = Pose((1.5, 0.0, 0.4), (1.0, 0.0, 0.0, 0.0))  # beyond the arm's reach (~0.7 m): no IK solution
+    field = PotentialField(FieldConfig(stagnation_window=1.0), far)
+    alone = field.plan_whole_body(xarm, SEED_Q0, 0.01, 0.01, 30000, global_fallback=False)
+    path = field.plan_whole_body(xarm, SEED_Q0, 0.01, 0.01, 30000)
+    assert (alone.status, path.status, path.planner) == (PlanStatus.STAGNATION, PlanStatus.GOAL_INVALID, "field")
+    np.testing.assert_array_equal(path.joint_positions, alone.joint_positions)  # the field's motion is kept
+
+
+@pytest.mark.parametrize(("kwargs", "field"), [
+    ({"global_fallback": "yes"}, "global_fallback"), ({"global_time_limit": 0.0}, "global_time_limit"),
+    ({"global_time_limit": float("nan")}, "global_time_limit"),
+])
+def test_bad_fallback_arguments_are_refused_by_both_planners(xarm: RobotModel, kwargs: dict[str, Any],
+                                                             field: str) -> None:
+    planner = PotentialField(FieldConfig(), CUP_GOAL, CUP)
+    with pytest.raises(InvalidInput) as info:
+        planner.plan(Pose((0.0, 0.0, 0.0)), **kwargs)
+    assert info.value.field == field
+    with pytest.raises(InvalidInput) as info:
+        planner.plan_whole_body(xarm, SEED_Q0, **kwargs)
+    assert info.value.field == field
+
+
+def test_the_node_parameters_switch_the_fallback(xarm: RobotModel) -> None:
+    node = ManagerNode(Bus(), xarm)
+    assert node.get_parameters()["global_fallback"] is True
+    assert node.get_parameters()["global_time_limit"] == 2.0
+    after = node.set_parameters({"global_fallback": False, "global_time_limit": 0.5})
+    assert (after["global_fallback"], after["global_time_limit"]) == (False, 0.5)
+    for bad in ({"global_fallback": "no"}, {"global_time_limit": -1.0}):
+        with pytest.raises(InvalidInput):
+            node.set_parameters(bad)
+        assert node.get_parameters() == after
+
+
+def test_planned_path_refuses_an_unknown_planner() -> None:
+    with pytest.raises(InvalidInput) as info:
+        PlannedPath(True, "", np.zeros(1), np.zeros((1, 3)), np.array([[0, 0, 0, 1.0]]), np.zeros((1, 6)),
+                    np.zeros(1), planner="rrt")
+    assert info.value.field == "planner"
+
+
+def test_the_readme_whole_body_service_call_succeeds_as_written(xarm: RobotModel) -> None:
+    from pfield.interfaces import message_from_yaml
+    from pfield.interfaces import potential_fields_interfaces as pfi
+
+    node = ManagerNode(Bus(), xarm)
+    node.on_obstacles(message_from_yaml(pfi.ObstacleArray, "{header: {frame_id: 'world'}, obstacles: [{frame_id: "
+                                        "'ball', type: 'Sphere', group: 'Static', pose: {position: {x: 0.4, y: 0.0, "
+                                        "z: 0.1}, orientation: {w: 1.0}}, radius: 0.1}]}"))
+    request = message_from_yaml(pfi.PlanPath_Request, "{goal: {position: {x: 0.5, y: 0.2, z: 0.4}}, "
+                                "starting_joint_angles: [0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0], delta_time: 0.02, "
+                                "goal_tolerance: 0.01, planning_method: 'whole_body'}")
+    response = node.plan_path(request)
+    assert response.success, response.error_message
+    end = response.end_effector_path.poses[-1].pose.position
+    assert np.linalg.norm(np.array([end.x, end.y, end.z]) - (0.5, 0.2, 0.4)) <= 0.01
+    points = response.joint_trajectory.points
+    assert all(len(p.accelerations) == 7 for p in points)

@@ -1,0 +1,153 @@
+"""The compiled global search: valid, deterministic paths; invalid ends refused at once; options validated."""
+
+from __future__ import annotations
+
+import itertools
+from typing import Any
+
+import numpy as np
+import pytest
+
+from pfield.errors import InvalidInput
+from pfield.field.config import FieldConfig
+from pfield.geometry import Box, Obstacle, Sphere, pack_obstacles, signed_distances
+from pfield.planning.global_search import (
+    GlobalOptions,
+    goal_configurations,
+    joint_space_search,
+    orientations_along,
+    point_space_search,
+)
+from pfield.planning.options import PlanOptions
+from pfield.planning.status import PlanStatus
+from pfield.planning.whole_body import WholeBodyOptions, make_scene, pack_robot
+from pfield.robot import RobotModel
+from pfield.robot.collision import CollisionChecker, capsule_clearances
+from pfield.spatial import Pose
+
+WALL = [Obstacle("wall", Box(0.05, 0.6, 0.6), Pose((0.5, 0.0, 0.0)))]
+Q_START = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0])
+
+
+@pytest.fixture(scope="module")
+def xarm() -> RobotModel:
+    return RobotModel.builtin("xarm7")
+
+
+def _interpolated(path: np.ndarray, resolution: float) -> np.ndarray:
+    samples = [path[0]]
+    for a, b in itertools.pairwise(path):
+        steps = max(1, int(np.ceil(np.max(np.abs(b - a)) / resolution)))
+        samples.extend(a + (b - a) * k / steps for k in range(1, steps + 1))
+    return np.array(samples)
+
+
+def test_a_point_path_around_a_wall_keeps_the_margin_on_every_edge() -> None:
+    packed = pack_obstacles(WALL)
+    result = point_space_search(make_scene(packed), np.zeros(3), np.array([1.0, 0.0, 0.0]), 0.02, GlobalOptions())
+    assert result.found, result.reason
+    np.testing.assert_array_equal(result.path[0], np.zeros(3))
+    np.testing.assert_array_equal(result.path[-1], [1.0, 0.0, 0.0])
+    distances, _ = signed_distances(packed, _interpolated(result.path, 0.001))
+    assert np.min(distances) >= 0.02 - 1e-9
+    assert result.states_checked > 0
+
+
+def test_the_same_seed_gives_the_same_path_and_another_seed_may_not() -> None:
+    scene = make_scene(pack_obstacles(WALL))
+    runs = [point_space_search(scene, np.zeros(3), np.array([1.0, 0.0, 0.0]), 0.02, GlobalOptions(seed=seed))
+            for seed in (7, 7, 8)]
+    np.testing.assert_array_equal(runs[0].path, runs[1].path)
+    assert runs[0].states_checked == runs[1].states_checked
+    assert runs[2].found
+
+
+@pytest.mark.parametrize(("start", "goal", "status"), [
+    ((0.5, 0.0, 0.0), (1.0, 0.0, 0.0), PlanStatus.START_INVALID),
+    ((0.0, 0.0, 0.0), (0.51, 0.0, 0.1), PlanStatus.GOAL_INVALID),
+])
+def test_an_end_inside_an_obstacle_is_refused_before_searching(start: Any, goal: Any, status: PlanStatus) -> None:
+    result = point_space_search(make_scene(pack_obstacles(WALL)), np.array(start, dtype=float),
+                                np.array(goal, dtype=float), 0.02, GlobalOptions())
+    assert not result.found and result.status == status
+    assert result.states_checked <= 2
+
+
+def test_an_enclosed_goal_ends_at_the_time_limit_with_a_reason() -> None:
+    box = [Obstacle(f"side{i}", Box(*size), Pose(centre)) for i, (size, centre) in enumerate([
+        ((0.05, 0.5, 0.5), (1.25, 0, 0)), ((0.05, 0.5, 0.5), (0.75, 0, 0)), ((0.5, 0.05, 0.5), (1.0, 0.25, 0)),
+        ((0.5, 0.05, 0.5), (1.0, -0.25, 0)), ((0.5, 0.5, 0.05), (1.0, 0, 0.25)), ((0.5, 0.5, 0.05), (1.0, 0, -0.25))])]
+    result = point_space_search(make_scene(pack_obstacles(box)), np.zeros(3), np.array([1.0, 0.0, 0.0]), 0.01,
+                                GlobalOptions(time_limit=0.2, capacity=500))
+    assert not result.found and result.status in (PlanStatus.GLOBAL_TIME_LIMIT, PlanStatus.GLOBAL_NO_PATH)
+    cancelled = point_space_search(make_scene(pack_obstacles(box)), np.zeros(3), np.array([1.0, 0.0, 0.0]), 0.01,
+                                   GlobalOptions(time_limit=60.0), np.ones(1, dtype=np.uint8))
+    assert not cancelled.found and cancelled.status == PlanStatus.CANCELLED  # stopped after one chunk
+
+
+def test_orientations_follow_the_geodesic_in_proportion_to_the_distance() -> None:
+    start, goal = Pose((0, 0, 0)), Pose((2, 0, 0), (0.0, 0.0, 1.0, 0.0))  # 180° about z
+    poses = orientations_along(np.array([[0.0, 0, 0], [1.0, 0, 0], [2.0, 0, 0]]), start, goal)
+    assert poses[1].rotation_distance(start) == pytest.approx(np.pi / 2)
+    assert poses[-1].rotation_distance(goal) == 0.0
+
+
+def test_a_joint_path_keeps_the_capsule_margin_and_is_clear_under_the_exact_check(xarm: RobotModel) -> None:
+    obstacles = [Obstacle("ball", Sphere(0.1), Pose((0.35, 0.0, 0.35)))]
+    arrays = pack_robot(xarm, FieldConfig(), WholeBodyOptions())
+    scene = make_scene(pack_obstacles(obstacles), arrays, Q_START, 0.01)
+    goal = np.array([1.2, 0.4, -0.3, 0.8, 0.2, -1.2, 0.3])
+    result, _ = joint_space_search(xarm, arrays, scene, Q_START, [goal], 0.02, GlobalOptions(seed=3))
+    assert result.found, result.reason
+    np.testing.assert_array_equal(result.path[0], Q_START)
+    np.testing.assert_array_equal(result.path[-1], goal)
+    checker = CollisionChecker(xarm, obstacles)
+    # every pair keeps the margin, or goes at most endpoint_band deeper than at the start or the goal
+    ends = [capsule_clearances(xarm, q, obstacles) for q in (Q_START, goal)]
+    band = GlobalOptions().endpoint_band
+    floor_obstacle = np.minimum(0.02, np.minimum(ends[0].obstacle, ends[1].obstacle) - band)
+    floor_own = np.minimum(0.02, np.minimum(ends[0].self_pairs, ends[1].self_pairs) - band)
+    for q in _interpolated(result.path, 0.01):
+        clearances = capsule_clearances(xarm, q, obstacles)
+        assert np.all(clearances.obstacle >= floor_obstacle - 1e-9)
+        assert np.all(clearances.self_pairs >= floor_own - 1e-9)
+        assert not checker.check(q).in_collision
+
+
+def test_goal_configurations_reach_the_pose_and_refuse_a_goal_inside_an_obstacle(xarm: RobotModel) -> None:
+    arrays = pack_robot(xarm, FieldConfig(), WholeBodyOptions())
+    target = xarm.forward_kinematics(np.array([0.3, 0.2, 0.0, 0.9, 0.0, -0.6, 0.0]))
+    far_ball = [Obstacle("ball", Sphere(0.08), Pose((-0.4, -0.3, 0.3)))]
+    scene = make_scene(pack_obstacles(far_ball), arrays)
+    found, why = goal_configurations(xarm, target, [Q_START], arrays, scene, 0.01, far_ball, GlobalOptions())
+    assert found and why == ""
+    for q in found:
+        assert xarm.forward_kinematics(q).translation_distance(target) < 1e-3
+    ball = [Obstacle("ball", Sphere(0.08), Pose(target.position))]
+    scene = make_scene(pack_obstacles(ball), arrays)
+    inside, why = goal_configurations(xarm, target, [Q_START], arrays, scene, 0.01, ball, GlobalOptions())
+    assert inside == [] and why.startswith("goal invalid: every inverse-kinematics solution")
+    far, why = goal_configurations(xarm, Pose((3.0, 0.0, 0.0)), [Q_START], arrays, scene, 0.01, ball,
+                                   GlobalOptions(ik_restarts=2))
+    assert far == [] and why.startswith("goal invalid: no inverse-kinematics solution")
+
+
+@pytest.mark.parametrize(("kwargs", "field"), [
+    ({"time_limit": 0.0}, "time_limit"), ({"joint_step": -1.0}, "joint_step"), ({"capacity": 1}, "capacity"),
+    ({"seed": True}, "seed"), ({"extra_margin": float("nan")}, "extra_margin"),
+    ({"goal_configurations": 0}, "goal_configurations"),
+])
+def test_bad_options_are_refused_naming_the_field(kwargs: dict[str, Any], field: str) -> None:
+    with pytest.raises(InvalidInput) as info:
+        GlobalOptions(**kwargs)
+    assert info.value.field == field
+
+
+@pytest.mark.parametrize(("fallback", "limit", "field"), [
+    ("yes", None, "global_fallback"), (1, None, "global_fallback"), (True, -1.0, "global_time_limit"),
+    (True, float("inf"), "global_time_limit"),
+])
+def test_bad_planner_arguments_are_refused(fallback: Any, limit: Any, field: str) -> None:
+    with pytest.raises(InvalidInput) as info:
+        PlanOptions.build(None, global_fallback=fallback, global_time_limit=limit)
+    assert info.value.field == field

@@ -1,0 +1,136 @@
+"""Time parameterisation: strictly increasing times, |q̇| and |q̈| within the limits, positions on the path."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from pfield.errors import InvalidInput
+from pfield.field.config import FieldConfig
+from pfield.field.field import PotentialField
+from pfield.interfaces import message_from_yaml
+from pfield.interfaces import potential_fields_interfaces as pfi
+from pfield.interfaces.convert import plan_response
+from pfield.node._base import Bus
+from pfield.node.manager import ManagerNode
+from pfield.planning.retime import TimedJointTrajectory, default_acceleration_limits, retime_joint_path
+from pfield.robot import RobotModel
+from pfield.spatial import Pose
+
+NAMES = ("a", "b", "c")
+V_MAX = np.array([1.0, 0.5, 2.0])
+A_MAX = np.array([0.5, 1.0, 0.2])
+
+
+@pytest.fixture(scope="module")
+def xarm() -> RobotModel:
+    return RobotModel.builtin("xarm7")
+
+
+def _assert_valid(trajectory: TimedJointTrajectory, waypoints: np.ndarray) -> None:
+    assert trajectory.times[0] == 0.0
+    assert np.all(np.diff(trajectory.times) > 0.0)
+    assert np.all(np.abs(trajectory.velocities) <= trajectory.velocity_limits + 1e-6)
+    assert np.all(np.abs(trajectory.accelerations) <= trajectory.acceleration_limits + 1e-6)
+    # every waypoint is kept, unchanged: the positions are on the geometric path
+    np.testing.assert_array_equal(trajectory.positions, waypoints)
+    np.testing.assert_array_equal(trajectory.velocities[[0, -1]], 0.0)
+
+
+def _corner_path() -> np.ndarray:
+    """A dense path with a sharp corner, a fast stretch and a wiggle, sampled 10 ms apart at 2 rad/s."""
+    first = np.linspace((0.0, 0.0, 0.0), (1.0, 0.2, -0.3), 60)
+    second = np.linspace((1.0, 0.2, -0.3), (0.2, 1.0, 0.4), 80)[1:]
+    path = np.vstack([first, second])
+    path[10:20, 2] += 1e-4 * np.sin(np.arange(10))
+    return path
+
+
+def test_a_dense_path_with_a_corner_is_timed_within_the_limits() -> None:
+    path = _corner_path()
+    trajectory = retime_joint_path(NAMES, path, V_MAX, A_MAX, dt=0.01)
+    _assert_valid(trajectory, path)
+    # a limit binds somewhere: the timing is not needlessly slow by orders of magnitude
+    ratio = max(np.max(np.abs(trajectory.velocities) / V_MAX), np.max(np.abs(trajectory.accelerations) / A_MAX))
+    assert ratio > 0.5
+
+
+def test_a_straight_rest_to_rest_move_takes_at_least_the_bang_bang_time() -> None:
+    # 1 rad at v ≤ 1, a ≤ 0.5 from rest to rest cannot be faster than 2·√(0.5/0.5)·… = 2√(L/a) = 2.83 s
+    path = np.linspace((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), 101)
+    trajectory = retime_joint_path(NAMES, path, V_MAX, A_MAX, dt=0.01)
+    _assert_valid(trajectory, path)
+    assert trajectory.duration >= 2.0 * np.sqrt(1.0 / 0.5) - 1e-9
+
+
+def test_repeated_waypoints_still_get_strictly_increasing_times() -> None:
+    path = np.repeat(np.linspace((0.0, 0.0, 0.0), (0.3, -0.2, 0.1), 20), 3, axis=0)
+    trajectory = retime_joint_path(NAMES, path, V_MAX, A_MAX, dt=0.02)
+    _assert_valid(trajectory, path)
+    assert len(trajectory.times) == len(path)
+
+
+def test_a_path_that_does_not_move_stays_at_rest() -> None:
+    path = np.zeros((5, 3))
+    trajectory = retime_joint_path(NAMES, path, V_MAX, A_MAX, dt=0.02)
+    np.testing.assert_allclose(trajectory.times, np.arange(5) * 0.02)
+    assert not trajectory.velocities.any() and not trajectory.accelerations.any()
+
+
+@pytest.mark.parametrize(("kwargs", "field"), [
+    ({"waypoints": np.full((3, 3), np.nan)}, "waypoints"),
+    ({"waypoints": np.zeros((0, 3))}, "waypoints"),
+    ({"joint_names": ("a", "b")}, "joint_names"),
+    ({"velocity_limits": [1.0, 1.0]}, "velocity_limits"),
+    ({"velocity_limits": [1.0, -1.0, 1.0]}, "velocity_limits[1]"),
+    ({"acceleration_limits": [1.0, 1.0, 0.0]}, "acceleration_limits[2]"),
+    ({"dt": 0.0}, "dt"),
+])
+def test_bad_input_is_refused_naming_the_field(kwargs: dict[str, Any], field: str) -> None:
+    arguments: dict[str, Any] = {"joint_names": NAMES, "waypoints": _corner_path(), "velocity_limits": V_MAX,
+                                 "acceleration_limits": A_MAX, "dt": 0.01} | kwargs
+    with pytest.raises(InvalidInput) as info:
+        retime_joint_path(**arguments)
+    assert info.value.field == field
+
+
+def test_default_acceleration_limits_follow_the_joint_kinds() -> None:
+    np.testing.assert_array_equal(default_acceleration_limits([0, 1, 0], 0.3, 2.0), [0.3, 2.0, 0.3])
+
+
+def test_whole_body_plans_carry_a_trajectory_within_the_urdf_and_config_limits(xarm: RobotModel) -> None:
+    config = FieldConfig(max_angular_acceleration=0.5)
+    field = PotentialField(config, Pose((0.4, 0.2, 0.4), (1.0, 0.0, 0.0, 0.0)))
+    path = field.plan_whole_body(xarm, [0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0], 0.02, 0.01, 10000)
+    assert path.success, path.failure_reason
+    assert path.trajectory is not None and path.joint_positions is not None
+    _assert_valid(path.trajectory, path.joint_positions)
+    np.testing.assert_array_equal(path.trajectory.velocity_limits, xarm.velocity_limits)
+    np.testing.assert_array_equal(path.trajectory.acceleration_limits, np.full(7, 0.5))
+    response = plan_response(path, "world")
+    points = response.joint_trajectory.points
+    assert len(points) == len(path.trajectory.times)
+    np.testing.assert_allclose([p.accelerations for p in points], path.trajectory.accelerations, atol=1e-12)
+    np.testing.assert_allclose([p.time_from_start.to_seconds() for p in points], path.trajectory.times, atol=1e-8)
+
+
+def test_the_node_answer_carries_timed_velocities_and_accelerations(xarm: RobotModel) -> None:
+    manager = ManagerNode(Bus(), xarm)
+    request = message_from_yaml(pfi.PlanPath_Request, "{start: {position: {x: 0.227, y: 0.0, z: 0.294}, "
+                                "orientation: {x: 0.707, y: 0.0, z: 0.707, w: 0.0}}, goal: {position: {x: 0.3, y: 0.1, "
+                                "z: 0.35}, orientation: {x: 0.707, y: 0.0, z: 0.707, w: 0.0}}, delta_time: 0.02, "
+                                "goal_tolerance: 0.01, starting_joint_angles: [0, 0, 0, 0, 0, -1.5708, 0]}")
+    response = manager.plan_path(request)
+    assert response.success, response.error_message
+    points = response.joint_trajectory.points
+    times = np.array([p.time_from_start.to_seconds() for p in points])
+    assert np.all(np.diff(times) > 0.0)
+    accelerations = np.array([p.accelerations for p in points])
+    velocities = np.array([p.velocities for p in points])
+    assert accelerations.shape == velocities.shape == (len(points), 7)
+    limit = FieldConfig().max_angular_acceleration  # the node's config: revolute joints
+    # the message's float32-free doubles: within the limits up to the Duration's nanosecond rounding
+    assert np.all(np.abs(accelerations) <= limit + 1e-6)
+    assert np.all(np.abs(velocities) <= xarm.velocity_limits + 1e-6)
