@@ -3,8 +3,8 @@
 How a block is run and checked:
 
 * ``bash`` blocks run with ``bash -euo pipefail`` in one working folder per document (with ``src``, ``tests``,
-  ``examples`` and ``ros`` linked from the repository, so relative paths work and written files stay out of
-  the tree), against a real ``pfield serve`` this test starts on a free 127.0.0.1 port (``PFIELD_URL``).
+  ``examples``, ``ros`` and ``benchmarks`` linked from the repository and ``../shared`` beside it, so relative
+  paths work and written files stay out of the tree), against a real ``pfield serve`` this test starts on a free 127.0.0.1 port (``PFIELD_URL``).
   A line ``pfield serve ARGS &`` starts another real server with those arguments on a free port (and points
   ``PFIELD_URL`` at it for the rest of the block). Every command must exit 0.
 * ``python`` blocks run in-process, statement by statement, in that folder. A statement with a trailing
@@ -45,7 +45,8 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 DOCS = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
 VENV_BIN = Path(sys.executable).parent
-LINKED = ("src", "tests", "examples", "ros")
+LINKED = ("src", "tests", "examples", "ros", "benchmarks")
+SHARED = REPO.parent / "shared"  # the reference data beside the clone (``../shared`` in the docs)
 FOOTPRINT = "[[0.4, 0.25], [-0.4, 0.25], [-0.4, -0.25], [0.4, -0.25]]"
 
 _FENCE = re.compile(r"^```(\w*)\n(.*?)^```\n", re.S | re.M)
@@ -180,12 +181,15 @@ def _wait_for(url: str, process: subprocess.Popen[bytes], log: Path) -> None:
 
 @pytest.fixture(scope="module")
 def workdirs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    """One working folder per document, with the repository's folders linked in."""
+    """One working folder per document, with the repository's folders linked in and ``../shared`` resolving
+    to the reference data beside the clone, as it does from the repository."""
     folders = {}
     for path in DOCS:
         work = tmp_path_factory.mktemp(path.stem)
         for name in LINKED:
             (work / name).symlink_to(REPO / name)
+        if SHARED.is_dir() and not (work.parent / "shared").exists():
+            (work.parent / "shared").symlink_to(SHARED)
         folders[path.name] = work
     return folders
 

@@ -6,7 +6,8 @@ public computation once on a tiny problem, through the same entry points (and so
 types) as real use: the first real request then finds its kernels compiled or cached.
 
 * :data:`STEPS` — the warm-up steps, in order: geometry SDFs, task-space field and planner, the whole-body
-  planner for each built-in robot's packed layout, IK, the autonomy vector, the mobile field, the costmap.
+  planner for each built-in robot's packed layout, IK, the autonomy vector, the global fallback, the mobile
+  field, the costmap.
 * :func:`warm` — run them (once per process; ``progress(done, total, step)`` after each step).
 * :func:`start_background` — :func:`warm` in a daemon thread (``pfield serve``, ``pfield ros2 node``).
 * :func:`ready` — thread-safe: has :func:`warm` finished in this process (what ``GET /health`` reports)?
@@ -154,6 +155,30 @@ def _autonomy(scratch: Path) -> None:
     whole_body_assistance(assistance, robot, q, Twist((0.02, 0.0, 0.0)))
 
 
+def _global_fallback(scratch: Path) -> None:
+    """Both fallbacks end to end (search, shortcutting, tracking, the exact contact check) and the retiming,
+    on the smallest scenes that trap the field: a 40 cm wall between an xArm7 hand and its goal, and a
+    box cup around a task-space start."""
+    from pfield.field import FieldConfig, PotentialField
+    from pfield.geometry import Box, Obstacle
+    from pfield.robot import RobotModel
+    from pfield.spatial import Pose
+
+    robot = RobotModel.builtin("xarm7")
+    wall = [Obstacle("wall", Box(0.04, 0.8, 0.4), Pose((0.4, 0.0, 0.2)))]
+    config = FieldConfig(max_linear_velocity=0.25, max_angular_velocity=1.0, safety_distance=0.005,
+                         influence_distance=0.05)
+    q0 = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0])
+    PotentialField(config, Pose((0.55, 0.0, 0.36), (1.0, 0.0, 0.0, 0.0)), wall).plan_whole_body(
+        robot, q0, 0.02, 0.01, 10000)
+    sides = [((0.3, 0.0, 0.0), (0.05, 0.7, 0.7)), ((0.05, 0.35, 0.0), (0.55, 0.05, 0.7)),
+             ((0.05, -0.35, 0.0), (0.55, 0.05, 0.7)), ((0.05, 0.0, 0.35), (0.55, 0.7, 0.05)),
+             ((0.05, 0.0, -0.35), (0.55, 0.7, 0.05))]
+    cup = [Obstacle(f"side{k}", Box(*size), Pose(centre)) for k, (centre, size) in enumerate(sides)]
+    PotentialField(FieldConfig(), Pose((0.8, 0.0, 0.0)), cup).plan(Pose((0.0, 0.0, 0.0)), dt=0.02,
+                                                                   max_iterations=20000)
+
+
 def _mobile(scratch: Path) -> None:
     import math
 
@@ -204,6 +229,7 @@ STEPS: tuple[WarmupStep, ...] = (
     WarmupStep("whole-body planner (panda)", _whole_body("panda")),
     WarmupStep("inverse kinematics", _inverse_kinematics),
     WarmupStep("autonomy vector and assistance", _autonomy),
+    WarmupStep("global fallback and retiming", _global_fallback),
     WarmupStep("mobile field and controller", _mobile),
     WarmupStep("costmap and find_valid_pose", _costmap),
 )

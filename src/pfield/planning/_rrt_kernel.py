@@ -9,10 +9,9 @@ final greedy pass.
 
 Two state spaces share the code, chosen by :attr:`Checker.kind`:
 
-* ``JOINT_SPACE`` — joint angles of a robot; a state is valid when every link capsule keeps
-  ``margin`` from every obstacle and every self-collision capsule pair keeps ``margin`` from each other,
-  both measured with the whole-body planner's own distance kernels (:mod:`pfield.robot._distance`)
-  minus the scene's offsets (pairs that start or end closer than ``margin``
+* ``JOINT_SPACE`` — joint angles of a robot; a state is valid when every link keeps ``margin`` from
+  every obstacle and every self-collision pair keeps ``margin`` from each other, both measured on the
+  whole-body planner's own link model (:mod:`pfield.robot._clearance`) minus the scene's offsets (pairs that start or end closer than ``margin``
   may go as deep as they start or end, never deeper).
 * ``POINT_SPACE`` — an end-effector position in R³ (the task-space planner's model: the end effector
   is a point); valid when its signed distance to every obstacle is at least ``margin``.
@@ -33,16 +32,10 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from pfield.geometry._packed import CAPSULE, SPHERE
-from pfield.geometry._sdf import min_signed_distance, obstacle_signed_distance
+from pfield.geometry._sdf import min_signed_distance
 from pfield.planning._whole_body_kernel import _segments
 from pfield.planning._whole_body_layout import RobotArrays, Scene, Workspace
-from pfield.robot._distance import (
-    point_segment_distance,
-    round_segment_distance,
-    segment_obstacle_distance,
-    segment_segment_distance,
-)
+from pfield.robot._clearance import link_obstacle_distance, link_pair_distance
 from pfield.robot._kinematics import joint_transforms
 
 JOINT_SPACE, POINT_SPACE = 0, 1
@@ -121,43 +114,30 @@ def state_valid(checker, q):  # type: ignore[no-untyped-def]
 
 @njit(cache=True)
 def capsules_valid(q, robot, scene, ws, margin):  # type: ignore[no-untyped-def]
-    """Every link–obstacle and self pair at least ``margin`` + its offset apart (the whole-body planner's
-    capsule distances), stopping at the first pair that is not.
+    """Every link–obstacle and self pair at least ``margin`` + its offset apart, measured on the same
+    two-level link model as the planners and :func:`pfield.planning._whole_body_loop.pair_distances`
+    (:func:`pfield.robot._clearance.link_obstacle_distance`: the covering capsule culls, the fitted
+    primitives decide; self pairs on the covering capsules), stopping at the first pair that is not.
 
-    Two cheap certificates come first, both exact lower bounds: the obstacle's bounding sphere, then the
-    signed distance d(m) at the segment's midpoint minus half its length (d is 1-Lipschitz); only a pair
-    that neither clears gets the exact segment–obstacle minimisation."""
+    The cutoff handed to the distance is the pair's own threshold, so a pair whose cheap bound already
+    clears it costs one point–segment distance."""
     joint_transforms(q, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds, ws.rotations,
                      ws.origins)
     _segments(robot, ws)
-    seg_a, seg_b, cap_r, scratch = ws.seg_a, ws.seg_b, robot.cap_r, ws.scratch
+    # hoisted out of the loops: numba reference-counts tuple members on every access (see _distance)
+    seg_a, seg_b, cap_r, self_r, scratch = ws.seg_a, ws.seg_b, robot.cap_r, robot.self_r, ws.scratch
+    link_start, prim_a, prim_b, prim_r = robot.link_start, ws.prim_seg_a, ws.prim_seg_b, robot.prim_r
     packed, centres, bounds, offsets = scene.packed, scene.centres, scene.bounds, scene.obstacle_offsets
-    rows, kinds = packed.rows, packed.kinds
-    middle = np.empty(3)
     for c in range(seg_a.shape[0]):
-        a, b, radius = seg_a[c], seg_b[c], cap_r[c]
-        half = 0.0
-        for k in range(3):
-            middle[k] = 0.5 * (a[k] + b[k])
-            half += (b[k] - a[k]) ** 2
-        half = 0.5 * math.sqrt(half)
         for i in range(bounds.shape[0]):
-            need = margin + offsets[c, i] + radius
-            if point_segment_distance(centres[i], a, b) - bounds[i] >= need:
-                continue
-            if obstacle_signed_distance(packed, i, middle)[0] - half >= need:
-                continue
-            if kinds[i] == SPHERE or kinds[i] == CAPSULE:
-                d = round_segment_distance(rows, kinds, i, a, b, scratch)[0]
-            else:
-                d = segment_obstacle_distance(packed, i, a, b, scratch)[0]
+            need = margin + offsets[c, i]
+            d = link_obstacle_distance(c, i, packed, centres, bounds, seg_a, seg_b, cap_r, link_start, prim_a,
+                                       prim_b, prim_r, scratch, need)[0]
             if d < need:
                 return False
     pairs, self_offsets = robot.self_pairs, scene.self_offsets
     for k in range(pairs.shape[0]):
-        c1, c2 = pairs[k, 0], pairs[k, 1]
-        if segment_segment_distance(seg_a[c1], seg_b[c1], seg_a[c2], seg_b[c2]) - cap_r[c1] - cap_r[c2] \
-                - self_offsets[k] < margin:
+        if link_pair_distance(pairs[k, 0], pairs[k, 1], seg_a, seg_b, self_r)[0] - self_offsets[k] < margin:
             return False
     return True
 
@@ -316,15 +296,3 @@ def shortcut(checker, path, attempts, state):  # type: ignore[no-untyped-def]
         size += 1
         i = j
     return out[:size]
-
-
-@njit(cache=True)
-def path_valid(checker, path):  # type: ignore[no-untyped-def]
-    """Whether every state and edge of ``path`` is valid."""
-    point = np.empty(path.shape[1])
-    if not state_valid(checker, path[0]):
-        return False
-    for k in range(1, path.shape[0]):
-        if not edge_valid(checker, path[k - 1], path[k], point):
-            return False
-    return True
