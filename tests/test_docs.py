@@ -4,7 +4,8 @@ How a block is run and checked:
 
 * ``bash`` blocks run with ``bash -euo pipefail`` in one working folder per document (with ``src``, ``tests``,
   ``examples``, ``ros`` and ``benchmarks`` linked from the repository and ``../shared`` beside it, so relative
-  paths work and written files stay out of the tree), against a real ``pfield serve`` this test starts on a free 127.0.0.1 port (``PFIELD_URL``).
+  paths work and written files stay out of the tree), against a real ``pfield serve`` this test starts on a
+  free 127.0.0.1 port (``PFIELD_URL``).
   A line ``pfield serve ARGS &`` starts another real server with those arguments on a free port (and points
   ``PFIELD_URL`` at it for the rest of the block). Every command must exit 0.
 * ``python`` blocks run in-process, statement by statement, in that folder. A statement with a trailing

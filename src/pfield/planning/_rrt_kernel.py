@@ -11,8 +11,8 @@ Two state spaces share the code, chosen by :attr:`Checker.kind`:
 
 * ``JOINT_SPACE`` — joint angles of a robot; a state is valid when every link keeps ``margin`` from
   every obstacle and every self-collision pair keeps ``margin`` from each other, both measured on the
-  whole-body planner's own link model (:mod:`pfield.robot._clearance`) minus the scene's offsets (pairs that start or end closer than ``margin``
-  may go as deep as they start or end, never deeper).
+  whole-body planner's own link model (:mod:`pfield.robot._clearance`) minus the scene's offsets (pairs
+  that start or end closer than ``margin`` may go as deep as they start or end, never deeper).
 * ``POINT_SPACE`` — an end-effector position in R³ (the task-space planner's model: the end effector
   is a point); valid when its signed distance to every obstacle is at least ``margin``.
 
