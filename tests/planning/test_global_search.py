@@ -151,3 +151,40 @@ def test_bad_planner_arguments_are_refused(fallback: Any, limit: Any, field: str
     with pytest.raises(InvalidInput) as info:
         PlanOptions.build(None, global_fallback=fallback, global_time_limit=limit)
     assert info.value.field == field
+
+
+def test_goal_configurations_inside_the_joint_margin_come_first(xarm: RobotModel) -> None:
+    """A goal configuration on a joint limit cannot be tracked (the joint-limit dampers stop short of it), so
+    those keeping ``joint_margin`` from every limit lead the list."""
+    arrays = pack_robot(xarm, FieldConfig(), WholeBodyOptions())
+    target = xarm.forward_kinematics(np.array([0.3, 0.2, 0.0, 0.9, 0.0, -0.6, 0.0]))
+    scene = make_scene(pack_obstacles([]), arrays)
+    margin = 0.5
+    found, _ = goal_configurations(xarm, target, [Q_START], arrays, scene, 0.01, [], GlobalOptions(), margin)
+    inside = [bool(np.all(q >= xarm.lower_limits + margin) and np.all(q <= xarm.upper_limits - margin))
+              for q in found]
+    assert inside[0] and inside == sorted(inside, reverse=True), inside
+
+
+def test_tracking_a_lagging_joint_does_not_overshoot_its_target(xarm: RobotModel) -> None:
+    """The tracking's pull on a joint that lags its target is capped at the speed it can brake from
+    (√(2·a·e)): under the acceleration limit a stronger pull overshoots into a limit cycle."""
+    from pfield.planning import _track_kernel
+    from pfield.planning.whole_body import kernel_parameters
+
+    config = FieldConfig(max_angular_acceleration=1.0)  # rad/s²: joints take a while to brake
+    arrays = pack_robot(xarm, config, WholeBodyOptions())
+    scene = make_scene(pack_obstacles([]), arrays, Q_START, config.safety_distance)
+    target = Q_START.copy()
+    start = Q_START.copy()
+    start[0] += 1.5  # 1.5 rad behind on the base joint
+    unreachable = Pose((3.0, 0.0, 0.0))  # the run never ends early: the whole motion toward the target shows
+    params = kernel_parameters(config, PlanOptions(dt=0.01).resolved(config), WholeBodyOptions())
+    options = GlobalOptions()
+    loop = _track_kernel.track_path(start, np.stack([target, target]), arrays, scene,
+                                    np.array(unreachable.position), np.array(unreachable.orientation), params, 1500,
+                                    options.tracking_gain, options.tracking_lead, np.zeros(1, dtype=np.uint8))
+    assert PlanStatus(loop[0]) in (PlanStatus.STAGNATION, PlanStatus.ITERATION_LIMIT)
+    joint = loop[2][:, 0]
+    assert abs(joint[-1] - target[0]) < 0.01  # it got there
+    assert np.min(joint) >= target[0] - 0.02, f"overshoot {target[0] - np.min(joint):.3f} rad"

@@ -32,10 +32,12 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from pfield.geometry._sdf import min_signed_distance
+from pfield.geometry._packed import CAPSULE, SPHERE
+from pfield.geometry._sdf import min_signed_distance, obstacle_signed_distance
 from pfield.planning._whole_body_kernel import _segments
 from pfield.planning._whole_body_layout import RobotArrays, Scene, Workspace
 from pfield.robot._clearance import link_obstacle_distance, link_pair_distance
+from pfield.robot._distance import point_segment_distance, round_segment_distance, segment_obstacle_distance
 from pfield.robot._kinematics import joint_transforms
 
 JOINT_SPACE, POINT_SPACE = 0, 1
@@ -116,11 +118,12 @@ def state_valid(checker, q):  # type: ignore[no-untyped-def]
 def capsules_valid(q, robot, scene, ws, margin):  # type: ignore[no-untyped-def]
     """Every link–obstacle and self pair at least ``margin`` + its offset apart, measured on the same
     two-level link model as the planners and :func:`pfield.planning._whole_body_loop.pair_distances`
-    (:func:`pfield.robot._clearance.link_obstacle_distance`: the covering capsule culls, the fitted
-    primitives decide; self pairs on the covering capsules), stopping at the first pair that is not.
+    (the fitted primitives of :func:`pfield.robot._clearance.link_obstacle_distance`; self pairs on the
+    covering capsules), stopping at the first pair that is not.
 
-    The cutoff handed to the distance is the pair's own threshold, so a pair whose cheap bound already
-    clears it costs one point–segment distance."""
+    Most pairs are decided by exact lower bounds before the fitted primitives are looked at, cheapest first:
+    the obstacle's bounding sphere against the link's covering capsule, the signed distance d(m) at the
+    capsule axis's midpoint minus half its length (d is 1-Lipschitz), the covering capsule's own distance."""
     joint_transforms(q, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds, ws.rotations,
                      ws.origins)
     _segments(robot, ws)
@@ -128,9 +131,27 @@ def capsules_valid(q, robot, scene, ws, margin):  # type: ignore[no-untyped-def]
     seg_a, seg_b, cap_r, self_r, scratch = ws.seg_a, ws.seg_b, robot.cap_r, robot.self_r, ws.scratch
     link_start, prim_a, prim_b, prim_r = robot.link_start, ws.prim_seg_a, ws.prim_seg_b, robot.prim_r
     packed, centres, bounds, offsets = scene.packed, scene.centres, scene.bounds, scene.obstacle_offsets
+    rows, kinds = packed.rows, packed.kinds
+    middle = np.empty(3)
     for c in range(seg_a.shape[0]):
+        a, b, radius = seg_a[c], seg_b[c], cap_r[c]
+        half = 0.0
+        for k in range(3):
+            middle[k] = 0.5 * (a[k] + b[k])
+            half += (b[k] - a[k]) ** 2
+        half = 0.5 * math.sqrt(half)
         for i in range(bounds.shape[0]):
             need = margin + offsets[c, i]
+            if point_segment_distance(centres[i], a, b) - bounds[i] - radius >= need:
+                continue
+            if obstacle_signed_distance(packed, i, middle)[0] - half - radius >= need:
+                continue
+            if kinds[i] == SPHERE or kinds[i] == CAPSULE:
+                d = round_segment_distance(rows, kinds, i, a, b, scratch)[0]
+            else:
+                d = segment_obstacle_distance(packed, i, a, b, scratch)[0]
+            if d - radius >= need:
+                continue
             d = link_obstacle_distance(c, i, packed, centres, bounds, seg_a, seg_b, cap_r, link_start, prim_a,
                                        prim_b, prim_r, scratch, need)[0]
             if d < need:

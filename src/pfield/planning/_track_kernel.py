@@ -8,6 +8,10 @@ accelerations stay within 80 % of the limits), and it waits while the arm lags m
 
     minimise  ½‖q̇ − q̇_ref‖²,   q̇_ref = σ̇ (w_{k+1} − w_k) + k_p (q* − q),
 
+with each joint's correction k_p (q* − q) capped at √(2 a e) (a: the acceleration left by the profile,
+e = |q* − q|): the speed from which the joint can still stop at the target, so the pull never overshoots
+into a limit cycle under the acceleration limits,
+
 under the same velocity-damper rows (link–obstacle, self-collision, joint limits) as
 :func:`~pfield.planning._whole_body_kernel.joint_velocity_step`, built by the same functions, then the same
 velocity scaling and acceleration rate limit. So the tracked motion keeps the field's clearance
@@ -103,6 +107,8 @@ def track_path(q0, waypoints, robot, scene, goal_p, goal_q, params, max_iteratio
                 direction[j] = waypoints[segment, j] - waypoints[segment - 1, j]
             sigma, rate = 0.0, 0.0
             top, accel = _segment_rates(direction, robot)
+            if not math.isfinite(top):  # a repeated vertex: nothing to travel (and inf · 0 would be NaN)
+                sigma, top, accel = 1.0, 0.0, 0.0
         lag = 0.0
         for j in range(n):
             lag = max(lag, abs(target[j] - q[j]))
@@ -113,7 +119,12 @@ def track_path(q0, waypoints, robot, scene, goal_p, goal_q, params, max_iteratio
             rate = 0.0
         for j in range(n):
             target[j] = waypoints[segment - 1, j] + sigma * direction[j] if segment > 0 else waypoints[0, j]
-            reference[j] = rate * direction[j] + gain * (target[j] - q[j])
+            # the lag correction k_p e, no faster than the joint can brake to rest within |e| at the
+            # acceleration left by the profile: a stronger pull overshoots into a limit cycle
+            error = target[j] - q[j]
+            braking = 2.0 * (1.0 - _PROFILE_SHARE) * robot.max_acceleration[j]
+            pull = min(gain * abs(error), math.sqrt(braking * abs(error)))
+            reference[j] = rate * direction[j] + math.copysign(pull, error)
         tracking_step(q, previous, k > 0, reference, robot, scene, goal_p, goal_q, params, ws)
         record_waypoint(k, q, out, qs, positions, quats, clear)
         if out[OUT_NEAREST_DISTANCE] < 0.0 or out[OUT_SELF_CLEARANCE] < 0.0:

@@ -61,7 +61,10 @@ def whole_body_fallback(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.S
     """Joint-space fallback from ``start`` (``last``: the field's final configuration, the first IK seed);
     ``cancel`` (a :class:`~pfield.planning.CancelToken`'s flag) stops the search and the tracking."""
     margin = search_margin(config, options)
-    goals, why = goal_configurations(robot, goal, (last, start), arrays, scene, margin, obstacles, options)
+    # twice the joint-limit dampers' stop: the tracking's target keeps some room from it
+    joint_margin = 2.0 * float(params[_wb.JOINT_SAFETY])
+    goals, why = goal_configurations(robot, goal, (last, start), arrays, scene, margin, obstacles, options,
+                                     joint_margin)
     if not goals:
         _LOG.info("global fallback: %s", why)
         return FallbackOutcome(None, PlanStatus.GOAL_INVALID, why, None)

@@ -160,10 +160,13 @@ def _capsules_clear(arrays: _wb.RobotArrays, scene: _wb.Scene, q: NDArray[np.flo
 
 def goal_configurations(robot: RobotModel, goal: Pose, seeds: Sequence[NDArray[np.float64]],
                         arrays: _wb.RobotArrays, scene: _wb.Scene, margin: float,
-                        obstacles: Sequence[Obstacle] | None, options: GlobalOptions
+                        obstacles: Sequence[Obstacle] | None, options: GlobalOptions, joint_margin: float = 0.0
                         ) -> tuple[list[NDArray[np.float64]], str]:
     """Up to ``options.goal_configurations`` distinct collision-free joint configurations at ``goal`` (module
-    docstring, step 1), those whose capsules keep ``margin`` first; or ([], why): the goal is invalid."""
+    docstring, step 1), or ([], why): the goal is invalid. Preferred first: those whose link model keeps
+    ``margin`` and whose joints stay ``joint_margin`` (rad or m) inside their limits — the joint-limit
+    dampers stop a joint ``joint_safety`` short of its limit, so a goal configuration on the limit cannot be
+    tracked; then those that keep ``margin`` at a limit; then those that only the exact mesh check clears."""
     rng = np.random.default_rng(options.seed)
     lower, upper = _sampling_box(robot)
     candidates = [*seeds, *(rng.uniform(lower, upper) for _ in range(options.ik_restarts))]
@@ -172,22 +175,25 @@ def goal_configurations(robot: RobotModel, goal: Pose, seeds: Sequence[NDArray[n
         from pfield.robot.collision import CollisionChecker
 
         checker = CollisionChecker(robot, list(obstacles))
+    inner_lower, inner_upper = robot.lower_limits + joint_margin, robot.upper_limits - joint_margin
     reachable = 0
     clear: list[NDArray[np.float64]] = []
+    at_limit: list[NDArray[np.float64]] = []
     touching: list[NDArray[np.float64]] = []
     for seed in candidates:
         result = solve_ik(robot, goal, np.clip(seed, robot.lower_limits, robot.upper_limits))
-        if not result.success or any(np.max(np.abs(result.q - q)) < 1e-3 for q in clear + touching):
+        if not result.success or any(np.max(np.abs(result.q - q)) < 1e-3 for q in clear + at_limit + touching):
             reachable += int(result.success)
             continue
         reachable += 1
         if _capsules_clear(arrays, scene, result.q, margin):
-            clear.append(result.q)
+            inside = bool(np.all(result.q >= inner_lower) and np.all(result.q <= inner_upper))
+            (clear if inside else at_limit).append(result.q)
         elif checker is None or not checker.check(result.q).in_collision:
             touching.append(result.q)
         if len(clear) >= options.goal_configurations:
             break
-    found = (clear + touching)[:options.goal_configurations]
+    found = (clear + at_limit + touching)[:options.goal_configurations]
     if found:
         return found, ""
     if reachable == 0:
