@@ -14,7 +14,7 @@ from numba import njit
 
 from pfield.field.forces import damper_speed, project_damper
 from pfield.geometry._sdf import obstacle_signed_distance
-from pfield.robot._clearance import link_obstacle_distance, world_segments
+from pfield.robot._clearance import link_obstacle_distance_below, near_segments, world_segments
 from pfield.robot._kinematics import end_effector_kinematics, linear_point_jacobian
 
 # parameter vector layout
@@ -126,20 +126,21 @@ def nearest_link(rotations, origins, model, packed, centres, bounds, scratch, se
     (link ends a, b (L, 3), primitive ends a, b (Np, 3)) the world-segment workspace. ``n`` is the obstacle's
     outward normal at the closest point, ``p`` the robot's witness point (the primitive's axis point − r n).
     A pair whose bound is no better than the best so far is skipped
-    (:func:`pfield.robot._clearance.link_obstacle_distance` with that cutoff).
+    (:func:`pfield.robot._clearance.link_obstacle_distance_below` with that cutoff).
     """
     joints, cap_a, cap_b, cap_r, link_start, prim_joint, prim_a, prim_b, prim_r = model
     seg_a, seg_b, prim_seg_a, prim_seg_b = segments
     world_segments(rotations, origins, joints, cap_a, cap_b, seg_a, seg_b)
-    world_segments(rotations, origins, prim_joint, prim_a, prim_b, prim_seg_a, prim_seg_b)
+    near_segments(rotations, origins, seg_a, seg_b, cap_r, link_start, prim_joint, prim_a, prim_b, centres, bounds,
+                  prim_seg_a, prim_seg_b)
     best, best_c, best_i = math.inf, -1, -1
     bn = np.zeros(3)
     bp = np.zeros(3)
     for c in range(joints.shape[0]):
         for i in range(packed.kinds.shape[0]):
-            d, exact, px, py, pz, nx, ny, nz = link_obstacle_distance(
+            d, exact, px, py, pz, nx, ny, nz = link_obstacle_distance_below(
                 c, i, packed, centres, bounds, seg_a, seg_b, cap_r, link_start, prim_seg_a, prim_seg_b, prim_r,
-                scratch, best)
+                scratch, best, best)
             if exact and d < best:
                 best, best_c, best_i = d, c, i
                 bn[0], bn[1], bn[2] = nx, ny, nz
