@@ -2,7 +2,7 @@
 
 Calling a numba function from Python costs about 0.1 µs per array argument (typing and unboxing), which is
 more than a whole field evaluation with a few obstacles. A prepared call (:class:`pfield.field.PreparedTwist`,
-:class:`pfield.planning.WholeBodyStepper`, :class:`pfield.robot.IKSolver`) therefore binds the arrays it
+:class:`pfield.planning.WholeBodyStepper`, :class:`pfield.robot.ik.IKSolver`) therefore binds the arrays it
 reads and writes once, in a :class:`BoundArrays` table (slot k: address, shape[0], shape[1], shape[2]), and
 passes that one array; compiled code re-views slot k with :func:`float_view1` … :func:`int_view2`
 (``numba.carray`` over the same memory, no reference counting). The :class:`BoundArrays` object keeps every
