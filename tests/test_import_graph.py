@@ -31,7 +31,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("planning",),
     ("robot",),
     ("field",),
-    ("geometry",),
+    ("geometry", "_bound"),  # _bound: bound-array tables over geometry._raw's pointer intrinsics
     ("mobile", "costmap"),  # 2D packages: spatial and the bottom layer only
     ("spatial",),
     ("_spatial_kernels", "_linalg", "_layout", "_validation", "_compile_notice"),
