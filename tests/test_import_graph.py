@@ -31,7 +31,8 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("planning",),
     ("robot",),
     ("field",),
-    ("geometry", "_bound"),  # _bound: bound-array tables over geometry._raw's pointer intrinsics
+    ("_bound",),  # bound-array tables of the prepared calls, over geometry._raw's pointer intrinsics
+    ("geometry",),
     ("mobile", "costmap"),  # 2D packages: spatial and the bottom layer only
     ("spatial",),
     ("_spatial_kernels", "_linalg", "_layout", "_validation", "_compile_notice"),

@@ -18,7 +18,7 @@ Q0 = np.array([0.0, -0.6, 0.0, 0.9, 0.0, 1.5, 0.0])
 def stepper() -> WholeBodyStepper:
     robot = RobotModel.builtin("xarm7")
     tip = robot.forward_kinematics(Q0).position
-    obstacles = [Obstacle("near", Sphere(0.03), Pose(tip + (0.0, 0.08, 0.0))),
+    obstacles = [Obstacle("near", Sphere(0.03), Pose(tip + np.array([0.0, 0.08, 0.0]))),
                  Obstacle("far", Sphere(0.05), Pose((0.2, -0.4, 0.3)))]
     field = PotentialField(FieldConfig(), Pose((0.5, 0.2, 0.3), (1.0, 0.0, 0.0, 0.0)), obstacles)
     return WholeBodyStepper(field, robot)
@@ -40,8 +40,12 @@ def test_rows_equal_the_validating_path(stepper: WholeBodyStepper, dt: float) ->
 
 def test_other_argument_types_take_the_validating_path(stepper: WholeBodyStepper) -> None:
     expected = _validated(stepper, Q0, None, 0.0)
-    for q in (Q0.tolist(), tuple(Q0), Q0.astype(np.float32).astype(np.float64), Q0.reshape(1, 7)[0]):
+    for q in (Q0.tolist(), tuple(Q0), Q0.reshape(1, 7)[0], np.tile(Q0, 2)[::2] * 0 + Q0):
         assert np.array_equal(stepper.row(q), expected)
+    single = Q0.astype(np.float32)  # another dtype: converted as check_joint_angles converts it
+    assert np.array_equal(stepper.row(single), _validated(stepper, single, None, 0.0))
+    strided = np.repeat(Q0, 2)[::2]  # a non-contiguous view
+    assert np.array_equal(stepper.row(strided), expected)
     assert np.array_equal(stepper.row(Q0, [], 0.01), _validated(stepper, Q0, None, 0.01))
     assert np.array_equal(stepper.row(Q0, [0.1] * 7, 0.01), _validated(stepper, Q0, np.full(7, 0.1), 0.01))
 

@@ -38,7 +38,8 @@ def test_reaches_one_centimetre_away(xarm: RobotModel) -> None:
     q0 = np.array([0.0, -0.6, 0.0, 0.9, 0.0, 1.5, 0.0])
     start = xarm.forward_kinematics(q0)
     solver = IKSolver(xarm)
-    solver.target[:3], solver.target[3:], solver.seed[:] = start.position + (0.01, 0.0, 0.0), start.orientation, q0
+    solver.target[:3] = start.position + np.array([0.01, 0.0, 0.0])
+    solver.target[3:], solver.seed[:] = start.orientation, q0
     assert solver.solve()
     reached = xarm.forward_kinematics(solver.q)
     assert np.linalg.norm(reached.position - solver.target[:3]) <= 1e-4
