@@ -58,8 +58,10 @@ def cpp_figures(sections: tuple[str, ...]) -> dict[Key, dict[str, float]]:
 
 
 def cpp_median(figures: dict[Key, dict[str, float]], key: Key, fallback: float) -> tuple[float, str]:
-    """(median of ``key`` from this run, "C++ same run") or (``fallback``, "C++ from REFERENCE.md")."""
+    """(median of ``key`` from this run, "C++ measured in this run (min …)") or (``fallback``, "C++ from
+    REFERENCE.md"). The minimum over the C++ batches is the figure least disturbed when the machine is shared;
+    compare it with pfield's CPU time."""
     row = figures.get(key)
     if row is None:
         return fallback, "C++ from REFERENCE.md"
-    return float(row["median"]), "C++ measured in this run"
+    return float(row["median"]), f"C++ measured in this run (min of its batches {float(row['min']):.3g})"
