@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test bench lint venv clean clean-numba-cache ros2-interfaces chromium
+.PHONY: demo test bench anchor lint venv clean clean-numba-cache ros2-interfaces chromium
 
 $(STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -51,7 +51,22 @@ test: lint ros2-interfaces chromium
 	$(VENV)/bin/pytest -q
 
 bench: $(STAMP) ros2-interfaces
+	-@$(MAKE) --no-print-directory anchor
 	$(PY) -m benchmarks.run
+
+# The C++ original (argallab/potential_fields' library) and its timing program, built once into
+# build/anchor-cpp (git-ignored) so that `make bench` times it side by side; ~2-6 min, needs cmake, g++
+# and python3.11 (pinned cmeel wheels). Without it the benchmarks compare with REFERENCE.md's figures.
+ANCHOR_CPP    ?= ../shared/benchmarks/anchor-cpp
+ANCHOR_WORK   := build/anchor-cpp
+ANCHOR_SOURCE ?= $(firstword $(wildcard ../.mirror/argallab+potential_fields/repo) build/anchor-src.git)
+anchor: $(ANCHOR_WORK)/install/bin/pf_anchor_bench
+
+$(ANCHOR_WORK)/install/bin/pf_anchor_bench:
+	@mkdir -p build && test -d $(ANCHOR_CPP) || { echo "no $(ANCHOR_CPP): the C++ anchor is not built"; exit 1; }
+	@test -e $(ANCHOR_SOURCE) || git clone --quiet --bare https://github.com/argallab/potential_fields $(ANCHOR_SOURCE)
+	PYTHON=$(PYTHON) RUN_TESTS=0 $(ANCHOR_CPP)/build.sh $(ANCHOR_SOURCE) $(ANCHOR_WORK) > build/anchor-build.log 2>&1 \
+		|| { echo "C++ anchor build failed, see build/anchor-build.log"; exit 1; }
 
 # numba re-checks a cached kernel only against its own file; after editing a kernel that others inline
 # (geometry/_sdf.py, field/forces.py, ...), drop the compiled cache so every dependant recompiles.

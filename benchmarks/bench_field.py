@@ -9,6 +9,13 @@ parameters. For every scene:
 * **wrench / twist compiled**: per pose inside a compiled batch (what planners pay per evaluation);
 * **RK4 step compiled**: one step of the planner's integrator (four constrained twists), per step.
 
+* **prepared limited twist**: :class:`pfield.field.PreparedTwist` (bound arrays, validated once, one compiled
+  call per pose; target ≤ 1 µs with 10 spheres), previous twist and dt 0.01 as above.
+
+The C++ column is the anchor program (``pf_anchor_bench``, :mod:`benchmarks._anchor`) run in the same
+``make bench``: its limited twist with the previous twist and dt 0.01 for the twist rows; REFERENCE §3 when
+the program is not built.
+
 Plus batch evaluation of 100 000 poses against 10 spheres (target ≤ 50 ms).
 
 Values are median wall times (the harness's rule). The machine is shared, so each note adds the median
@@ -25,8 +32,9 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
+from benchmarks._anchor import cpp_figures, cpp_median
 from benchmarks._common import BenchRow, auto_number, cpu_time, median_time
-from pfield.field import PotentialField
+from pfield.field import PotentialField, PreparedTwist
 from pfield.field._unowned import unowned, unowned_packed
 from pfield.geometry import Mesh, Obstacle, PackedObstacles, ResourceResolver
 from pfield.planning._task_space_loop import rk4_twist
@@ -89,9 +97,16 @@ def _scene_rows(name: str, field: PotentialField, quick: bool) -> list[BenchRow]
 
     work = np.zeros((8, 6))
     steps = 2000
+    measured = cpp_figures(("field",))
+    wrench_c, source = cpp_median(measured, ("field", name, "default", "wrench"), wrench_c)
+    twist_c, _ = cpp_median(measured, ("field", name, "default", "limited_twist_prev_dt0.01"), twist_c)
+    rk4_c, _ = cpp_median(measured, ("field", name, "default", "rk4_step"), rk4_c)
+    prepared = PreparedTwist(field)
+    prepared.pose[:3], prepared.pose[3:], prepared.previous[:] = pose.position, pose.orientation, previous.as_array()
     figures = [
         ("wrench from Python", lambda: field.wrench(pose), 1, wrench_c),
         ("limited twist from Python", lambda: field.twist(pose, previous, 0.01), 1, twist_c),
+        ("prepared limited twist from Python", lambda: prepared.evaluate(0.01), 1, twist_c),
         ("wrench compiled", lambda: field.wrenches(poses, quats), 1000, wrench_c),
         ("twist compiled", lambda: field.twists(poses, quats), 1000, twist_c),
         ("one RK4 step compiled", lambda: _rk4_steps(steps, pose.position.copy(), pose.orientation.copy(), goal,
@@ -100,9 +115,12 @@ def _scene_rows(name: str, field: PotentialField, quick: bool) -> list[BenchRow]
     rows = []
     for label, fn, per, reference in figures:
         value, note = timed(fn, per)
-        target = 10.0 if name == "spheres_10" and label == "limited twist from Python" else None
-        if target is not None:
-            note += "; issue target ≤ 10 µs with 10 spheres"
+        target = None
+        if name == "spheres_10" and label == "limited twist from Python":
+            target, note = 10.0, note + "; target ≤ 10 µs with 10 spheres"
+        if name == "spheres_10" and label.startswith("prepared"):
+            target, note = 1.0, note + "; target ≤ 1 µs with 10 spheres"
+        note += f"; {source}"
         rows.append(BenchRow(SECTION, f"{name}: {label}", value, "µs", reference, target=target, note=note))
     return rows
 

@@ -8,6 +8,8 @@ Autonomy vector: ``whole_body_autonomy_vector`` from Python at q0 (previous velo
 Kinematics: FK, end-effector Jacobian and one IK solve (+1 cm) — the compiled kernels called from a
 compiled loop (comparable with the C++ library's C++ calls) and the public Python API.
 Notes add the median CPU time (the machine is shared; wall time includes waiting for a core).
+The C++ column is the anchor program run in the same ``make bench`` (:mod:`benchmarks._anchor`), else REFERENCE §3.
+Prepared calls: :class:`~pfield.robot.ik.IKSolver` (bound arrays, one compiled call) next to the kernel.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
+from benchmarks._anchor import cpp_figures, cpp_median
 from benchmarks._common import BenchRow, auto_number, cpu_time, median_time
 from pfield.autonomy import whole_body_autonomy_vector
 from pfield.field import FieldConfig, PotentialField
@@ -26,7 +29,7 @@ from pfield.planning.scenes import DEFAULT_PARAMS, SEED_GOAL, seed_obstacles, sp
 from pfield.planning.whole_body import joint_velocity_sign_flips
 from pfield.robot import RobotModel
 from pfield.robot import _kinematics as kin
-from pfield.robot.ik import ik_kernel, solve_ik
+from pfield.robot.ik import IKSolver, ik_kernel, solve_ik
 from pfield.spatial import Pose
 
 SECTION_PLAN = "whole-body planning (xArm7, µs per step)"
@@ -40,6 +43,7 @@ CPP = {(0, "default"): (386.0, 19770, 19.5, "reached"),
        (5, "default"): (1826.0, 21232, 86.0, "stagnation, arm thrown outside joint limits"),
        (0, "rosYaml"): (132.0, 7319, 18.1, "reached"), (5, "rosYaml"): (1047.0, 30000, 35.0, "not reached")}
 TARGET_US = {0: 19.5, 5: 35.0}
+ANCHOR_SECTIONS = ("whole_body", "extra")
 CPP_VECTOR = {(0, "default"): 17.0, (5, "default"): 59.0, (0, "rosYaml"): 19.0, (5, "rosYaml"): 19.0}
 
 
@@ -57,6 +61,11 @@ def _plan_rows(robot: RobotModel, repeat: int) -> list[BenchRow]:
             path = field.plan_whole_body(robot, Q0, 0.01, 0.01, 30000)
             steps = max(path.iterations, 1)
             cpp_ms, cpp_steps, cpp_us, cpp_outcome = CPP[(count, name)]
+            measured = cpp_figures(ANCHOR_SECTIONS).get(("whole_body", f"{count} spheres", name, "plan"))
+            source = "C++ from REFERENCE.md"
+            if measured is not None:
+                cpp_ms, cpp_steps = float(measured["median"]), int(measured.get("steps", cpp_steps))
+                cpp_us, source = cpp_ms * 1e3 / max(cpp_steps, 1), "C++ measured in this run"
             state = "reached" if path.success else path.failure_reason.split(":")[0]
             distance = float(np.linalg.norm(path.positions[-1] - GOAL.position))
             rows.append(BenchRow(
@@ -65,7 +74,7 @@ def _plan_rows(robot: RobotModel, repeat: int) -> list[BenchRow]:
                 note=f"{seconds * 1e3:.3g} ms per plan (C++ {cpp_ms:g} ms), CPU {cpu * 1e3:.3g} ms; {steps} steps, "
                      f"{state} ({distance * 100:.2f} cm from goal, min clearance {path.min_clearance * 100:.2f} cm, "
                      f"{joint_velocity_sign_flips(path)} joint-velocity sign flips); C++: {cpp_steps} steps, "
-                     f"{cpp_outcome}"))
+                     f"{cpp_outcome}; {source}"))
     with tempfile.TemporaryDirectory() as directory:
         field = PotentialField(FieldConfig(), SEED_GOAL, seed_obstacles(Path(directory)))
         seed_q = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0])
@@ -92,8 +101,11 @@ def _vector_rows(robot: RobotModel, repeat: int) -> list[BenchRow]:
             number = auto_number(call)
             seconds = median_time(call, repeat=repeat, number=number)
             cpu = cpu_time(call, repeat, number)
-            rows.append(BenchRow(SECTION_VECTOR, f"{count} spheres / {name}", seconds * 1e6, "µs",
-                                 CPP_VECTOR[(count, name)], target=25.0, note=f"CPU {cpu * 1e6:.3g} µs"))
+            cpp, source = cpp_median(cpp_figures(ANCHOR_SECTIONS),
+                                     ("extra", f"{count} spheres", name, "whole_body_autonomy_vector"),
+                                     CPP_VECTOR[(count, name)])
+            rows.append(BenchRow(SECTION_VECTOR, f"{count} spheres / {name}", seconds * 1e6, "µs", cpp, target=cpp,
+                                 note=f"CPU {cpu * 1e6:.3g} µs; {source}; target ≤ 1.0× the C++"))
     return rows
 
 
@@ -144,17 +156,30 @@ def _kinematics_rows(robot: RobotModel, repeat: int) -> list[BenchRow]:
                          k.ee_rot, k.ee_pos, lower, upper, settings)
 
     ik = median_time(ik_compiled, repeat=repeat, number=auto_number(ik_compiled))
+    solver = IKSolver(robot)
+    solver.target[:3], solver.target[3:], solver.seed[:] = target.position, target.orientation, Q0
+    prepared = median_time(solver.solve, repeat=repeat, number=auto_number(solver.solve))
+    prepared_cpu = cpu_time(solver.solve, repeat, auto_number(solver.solve))
+    figures = cpp_figures(ANCHOR_SECTIONS)
+    _, ik_source = cpp_median(figures, ("extra", "xarm7", "-", "ik_plus_1cm"), 4.2)
+    cpp_fk, fk_source = cpp_median(figures, ("extra", "xarm7", "-", "fk"), 1.0)
+    cpp_jac, _ = cpp_median(figures, ("extra", "xarm7", "-", "ee_point_jacobian"), 1.0)
+    cpp_ik, _ = cpp_median(figures, ("extra", "xarm7", "-", "ik_plus_1cm"), 4.2)
     api_fk = median_time(lambda: robot.forward_kinematics(Q0), repeat=repeat, number=2000)
     api_jac = median_time(lambda: robot.jacobian(Q0), repeat=repeat, number=2000)
     api_ik = median_time(lambda: solve_ik(robot, target, Q0), repeat=repeat, number=500)
     iterations = solve_ik(robot, target, Q0).iterations
     return [
-        BenchRow(SECTION_KIN, "FK (all joints, compiled loop)", fk * 1e6, "µs", 1.0, target=1.0,
-                 note=f"public forward_kinematics() from Python: {api_fk * 1e6:.3g} µs (returns a validated Pose)"),
-        BenchRow(SECTION_KIN, "FK + end-effector Jacobian (compiled loop)", jacobian * 1e6, "µs", 1.0, target=1.0,
-                 note=f"public jacobian() from Python: {api_jac * 1e6:.3g} µs"),
-        BenchRow(SECTION_KIN, "IK solve, +1 cm (kernel called from Python)", ik * 1e6, "µs", 4.2,
-                 note=f"{iterations} DLS iterations; public solve_ik(): {api_ik * 1e6:.3g} µs"),
+        BenchRow(SECTION_KIN, "FK (all joints, compiled loop)", fk * 1e6, "µs", cpp_fk, target=cpp_fk,
+                 note=f"public forward_kinematics() from Python: {api_fk * 1e6:.3g} µs (returns a validated Pose); "
+                      f"{fk_source}"),
+        BenchRow(SECTION_KIN, "FK + end-effector Jacobian (compiled loop)", jacobian * 1e6, "µs", cpp_jac,
+                 target=cpp_jac, note=f"public jacobian() from Python: {api_jac * 1e6:.3g} µs; {fk_source}"),
+        BenchRow(SECTION_KIN, "IK solve, +1 cm (prepared IKSolver.solve from Python)", prepared * 1e6, "µs", cpp_ik,
+                 target=cpp_ik, note=f"CPU {prepared_cpu * 1e6:.3g} µs; {iterations} DLS iterations; {ik_source}; "
+                                     "target ≤ 1.0× the C++"),
+        BenchRow(SECTION_KIN, "IK solve, +1 cm (kernel called from Python)", ik * 1e6, "µs", cpp_ik,
+                 note=f"public solve_ik(): {api_ik * 1e6:.3g} µs"),
     ]
 
 

@@ -31,6 +31,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("planning",),
     ("robot",),
     ("field",),
+    ("_bound",),  # bound-array tables of the prepared calls, over geometry._raw's pointer intrinsics
     ("geometry",),
     ("mobile", "costmap"),  # 2D packages: spatial and the bottom layer only
     ("spatial",),

@@ -13,7 +13,7 @@ from pfield.errors import (
     ResourceNotFound,
     UnknownFrame,
 )
-from pfield.field import FieldConfig, PotentialField
+from pfield.field import FieldConfig, PotentialField, PreparedTwist
 from pfield.geometry import (
     Box,
     Capsule,
@@ -45,6 +45,7 @@ __all__ = [
     "PlanningFailed",
     "Pose",
     "PotentialField",
+    "PreparedTwist",
     "ResourceNotAllowed",
     "ResourceNotFound",
     "ResourceResolver",

@@ -12,9 +12,11 @@ import math
 import numpy as np
 from numba import njit
 
+from pfield._bound import float_view1, float_view2, float_view3, int_view1, int_view2
 from pfield.field.forces import damper_speed, project_damper
+from pfield.geometry._packed import PackedObstacles
 from pfield.geometry._sdf import obstacle_signed_distance
-from pfield.robot._clearance import link_obstacle_distance, world_segments
+from pfield.robot._clearance import link_obstacle_distance_below, near_segments, world_segments
 from pfield.robot._kinematics import end_effector_kinematics, linear_point_jacobian
 
 # parameter vector layout
@@ -126,20 +128,21 @@ def nearest_link(rotations, origins, model, packed, centres, bounds, scratch, se
     (link ends a, b (L, 3), primitive ends a, b (Np, 3)) the world-segment workspace. ``n`` is the obstacle's
     outward normal at the closest point, ``p`` the robot's witness point (the primitive's axis point − r n).
     A pair whose bound is no better than the best so far is skipped
-    (:func:`pfield.robot._clearance.link_obstacle_distance` with that cutoff).
+    (:func:`pfield.robot._clearance.link_obstacle_distance_below` with that cutoff).
     """
     joints, cap_a, cap_b, cap_r, link_start, prim_joint, prim_a, prim_b, prim_r = model
     seg_a, seg_b, prim_seg_a, prim_seg_b = segments
     world_segments(rotations, origins, joints, cap_a, cap_b, seg_a, seg_b)
-    world_segments(rotations, origins, prim_joint, prim_a, prim_b, prim_seg_a, prim_seg_b)
+    near_segments(rotations, origins, seg_a, seg_b, cap_r, link_start, prim_joint, prim_a, prim_b, centres, bounds,
+                  prim_seg_a, prim_seg_b)
     best, best_c, best_i = math.inf, -1, -1
     bn = np.zeros(3)
     bp = np.zeros(3)
     for c in range(joints.shape[0]):
         for i in range(packed.kinds.shape[0]):
-            d, exact, px, py, pz, nx, ny, nz = link_obstacle_distance(
+            d, exact, px, py, pz, nx, ny, nz = link_obstacle_distance_below(
                 c, i, packed, centres, bounds, seg_a, seg_b, cap_r, link_start, prim_seg_a, prim_seg_b, prim_r,
-                scratch, best)
+                scratch, best, best)
             if exact and d < best:
                 best, best_c, best_i = d, c, i
                 bn[0], bn[1], bn[2] = nx, ny, nz
@@ -150,6 +153,33 @@ def nearest_link(rotations, origins, model, packed, centres, bounds, scratch, se
         for k in range(3):
             bp[k] -= radius * bn[k]
     return best_c, best_i, best, bn[0], bn[1], bn[2], bp[0], bp[1], bp[2]
+
+
+@njit(cache=True, inline="always")
+def below_singular_value(gram, threshold):  # type: ignore[no-untyped-def]
+    """σ_min(J) < ``threshold`` for ``gram`` = J Jᵀ (6, 6), ``threshold`` > 0, without an eigen solver.
+
+    σ_min² is the smallest eigenvalue of J Jᵀ, so σ_min < t exactly when J Jᵀ − t² I is not positive
+    definite, i.e. when its Cholesky factorisation meets a pivot ≤ 0.
+    """
+    m = np.empty((6, 6))
+    for r in range(6):
+        for c in range(6):
+            m[r, c] = gram[r, c]
+        m[r, r] -= threshold * threshold
+    for j in range(6):
+        pivot = m[j, j]
+        for k in range(j):
+            pivot -= m[j, k] * m[j, k]
+        if not pivot > 0.0:
+            return True
+        m[j, j] = math.sqrt(pivot)
+        for i in range(j + 1, 6):
+            value = m[i, j]
+            for k in range(j):
+                value -= m[i, k] * m[j, k]
+            m[i, j] = value / m[j, j]
+    return False
 
 
 # whole-body extras: parameter slots after N_PARAMS, output slots after N_OUT
@@ -174,11 +204,10 @@ def assist_joints(q, lower, upper, kin, model, packed, centres, bounds, velociti
     end_effector_kinematics(q, parents, place_rot, place_pos, axes, kinds, support, ee_joint, ee_rot, ee_pos,
                             rotations, origins, jac)
     gram = jac @ jac.T
+    out[SINGULAR] = 1.0 if below_singular_value(gram, params[SINGULARITY]) else 0.0
     for k in range(6):
         gram[k, k] += params[DAMPING] * params[DAMPING]
     qd_user = jac.T @ np.linalg.solve(gram, user)
-    smallest = math.sqrt(max(np.linalg.eigvalsh(jac @ jac.T)[0], 0.0))
-    out[SINGULAR] = 1.0 if smallest < params[SINGULARITY] else 0.0
     out[AT_LIMIT] = 0.0
     for j in range(n):
         if q[j] - lower[j] < params[LIMIT_MARGIN] or upper[j] - q[j] < params[LIMIT_MARGIN]:
@@ -226,3 +255,22 @@ def assist_joints(q, lower, upper, kin, model, packed, centres, bounds, velociti
     out[NORMAL], out[NORMAL + 1], out[NORMAL + 2] = nx, ny, nz
     out[TTC], out[LIMITED] = ttc, 1.0 if limited else 0.0
     out[POINT], out[POINT + 1], out[POINT + 2] = px, py, pz
+
+
+@njit(cache=True)
+def bound_assist(q, qd_auto, user, params, qd, out, table):  # type: ignore[no-untyped-def]
+    """:func:`assist_joints` on the arrays bound by :func:`pfield.assistance._bind` (slot order there)."""
+    kin = (int_view1(table, 0), float_view3(table, 1), float_view2(table, 2), float_view2(table, 3),
+           int_view1(table, 4), int_view2(table, 5), int_view1(table, 6)[0], float_view2(table, 7),
+           float_view1(table, 8))
+    model = (int_view1(table, 9), float_view2(table, 10), float_view2(table, 11), float_view1(table, 12),
+             int_view1(table, 13), int_view1(table, 14), float_view2(table, 15), float_view2(table, 16),
+             float_view1(table, 17))
+    packed = PackedObstacles(int_view1(table, 18), float_view2(table, 19), float_view3(table, 20),
+                             float_view3(table, 21), float_view2(table, 22), float_view2(table, 23),
+                             int_view2(table, 24), int_view2(table, 25))
+    segments = (float_view2(table, 35), float_view2(table, 36), float_view2(table, 37), float_view2(table, 38))
+    assist_joints(q, float_view1(table, 26), float_view1(table, 27), kin, model, packed, float_view2(table, 28),
+                  float_view1(table, 29), float_view2(table, 30), qd_auto, user, params, float_view3(table, 31),
+                  float_view2(table, 32), float_view2(table, 33), float_view2(table, 34), float_view2(table, 39),
+                  segments, qd, out)

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -41,13 +42,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pfield import _assistance_kernel as _k
+from pfield._bound import BoundArrays
 from pfield._validation import as_vector, finite, in_range
-from pfield.autonomy import whole_body_autonomy
+from pfield.autonomy import whole_body_row
 from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
 from pfield.field.field import _fast_twist
 from pfield.geometry import Obstacle, pack_obstacles
 from pfield.geometry._sdf import empty_packed
+from pfield.planning._whole_body_layout import OUT_ORIENTATION, OUT_POSITION, OUT_SIZE, OUT_TWIST
 from pfield.planning.whole_body import obstacle_bounds
 from pfield.robot.model import RobotModel
 from pfield.spatial import Pose, Twist
@@ -56,6 +59,7 @@ __all__ = ["ARBITRATIONS", "Assistance", "AssistanceOptions", "AssistanceScene",
            "whole_body_assistance"]
 
 ARBITRATIONS = ("linear", "linear_goal", "safety_only")
+_TWIST, _POSITION, _ORIENTATION = slice(*OUT_TWIST), slice(*OUT_POSITION), slice(*OUT_ORIENTATION)
 _MODES = {name: i for i, name in enumerate(ARBITRATIONS)}
 
 
@@ -211,9 +215,30 @@ def _goal_flags(scene: AssistanceScene, pose: Pose, autonomy: NDArray[np.float64
     return flags, min(max(1.0 - distance / options.goal_radius, 0.0), 1.0)
 
 
+def _goal_flags_at(scene: AssistanceScene, position: NDArray[np.float64], orientation: NDArray[np.float64],
+                   autonomy: NDArray[np.float64]) -> tuple[int, float]:
+    """:func:`_goal_flags` at the end-effector pose (``position``, ``orientation``) of a compiled step's row
+    (the :class:`Pose` is built only when the rotation matters: within the goal tolerance)."""
+    goal, options = scene.field.goal, scene.options
+    error = position - goal.position
+    distance = math.sqrt(error.dot(error))  # np.linalg.norm's own formula for a vector: the same float
+    flags = 0
+    if distance <= options.goal_tolerance and \
+            Pose(position, orientation).rotation_distance(goal) <= scene.field.config.rotation_tolerance:
+        flags |= Flag.AT_GOAL
+    else:
+        v = autonomy.tolist()
+        if math.hypot(v[0], v[1], v[2]) < options.stall_speed and math.hypot(v[3], v[4], v[5]) < options.stall_speed:
+            flags |= Flag.STALLED
+    return flags, min(max(1.0 - distance / options.goal_radius, 0.0), 1.0)
+
+
+_FLAG_NAMES = tuple((name.lower().replace("_", " "), bit) for name, bit in vars(Flag).items()
+                    if isinstance(bit, int))
+
+
 def _message(flags: int, alpha: float, limited: bool) -> str:
-    names = [name.lower().replace("_", " ") for name, bit in vars(Flag).items() if isinstance(bit, int)
-             and flags & bit]
+    names = [name for name, bit in _FLAG_NAMES if flags & bit]
     action = "approach limited by the dampers" if limited else "command passed through the dampers unchanged"
     return f"alpha {alpha:.3f}; {action}" + (f"; {', '.join(names)}" if names else "")
 
@@ -251,49 +276,64 @@ def task_space_assistance(scene: AssistanceScene, pose: Pose, user_command: Twis
 
 def _answer(scene: AssistanceScene, out: NDArray[np.float64], autonomy: Twist, joint_velocities: NDArray[np.float64],
             robot_point: NDArray[np.float64], flags: int) -> Assistance:
-    nearest = int(out[_k.NEAREST])
-    distance = float(out[_k.DISTANCE])
+    # scalars through one tolist() (exact float64 values); the obstacle point p − d n̂ in the same IEEE
+    # operations as the array expression, without numpy's per-operation overhead
+    values = out.tolist()
+    nearest, distance = int(values[_k.NEAREST]), values[_k.DISTANCE]
     normal = out[_k.NORMAL:_k.NORMAL + 3].copy()
+    point = np.asarray(robot_point, dtype=float).tolist()
     if nearest >= 0:
         flags |= Flag.IN_COLLISION if distance <= 0.0 else 0
         flags |= Flag.NEAR_OBSTACLE if distance < scene.config.influence_distance else 0  # type: ignore[union-attr]
-    alpha = float(out[_k.ALPHA])
+        n0, n1, n2 = values[_k.NORMAL], values[_k.NORMAL + 1], values[_k.NORMAL + 2]
+        obstacle_point = np.array((point[0] - distance * n0, point[1] - distance * n1, point[2] - distance * n2))
+    else:
+        obstacle_point = np.array(point)
+    alpha = values[_k.ALPHA]
     return Assistance(
         autonomy_vector=autonomy, joint_velocities=joint_velocities,
-        blended_command=_fast_twist(out[0:6].copy()), alpha=alpha, speed_scale=float(out[_k.SCALE]),
+        blended_command=_fast_twist(out[0:6].copy()), alpha=alpha, speed_scale=values[_k.SCALE],
         nearest_obstacle_id=scene._ids[nearest] if nearest >= 0 else "",  # type: ignore[attr-defined]
-        nearest_distance=distance, nearest_normal=normal, robot_point=np.array(robot_point, dtype=float),
-        obstacle_point=robot_point - distance * normal if nearest >= 0 else np.array(robot_point, dtype=float),
-        time_to_collision=float(out[_k.TTC]), flags=flags, message=_message(flags, alpha, out[_k.LIMITED] > 0))
+        nearest_distance=distance, nearest_normal=normal, robot_point=np.array(point),
+        obstacle_point=obstacle_point, time_to_collision=values[_k.TTC], flags=flags,
+        message=_message(flags, alpha, values[_k.LIMITED] > 0))
 
 
 # ---------------------------------------------------------------------------------------------- whole body
 
 
 class _Workspace:
-    """Per-robot arrays of :func:`pfield._assistance_kernel.assist_joints` (allocated once per robot)."""
+    """The arrays of :func:`pfield._assistance_kernel.bound_assist` for one (scene, robot), bound once.
 
-    def __init__(self, robot: RobotModel) -> None:
-        n, g = robot.n_joints, robot.geometry
-        self.robot = robot
-        contiguous = np.ascontiguousarray
-        self.model = (g.joints, contiguous(g.a), contiguous(g.b), contiguous(g.radii), g.link_start, g.prim_joint,
-                      contiguous(g.prim_a), contiguous(g.prim_b), contiguous(g.prim_r))
+    Slots: the robot's kinematics (0–8), its link model (9–17), the scene's packed obstacles (18–25), the
+    joint limits (26, 27), obstacle centres, bounding radii and velocities (28–30), then the workspace:
+    joint frames (31, 32), Jacobians (33, 34), world segments (35–38), scratch (39).
+    """
+
+    def __init__(self, scene: AssistanceScene, robot: RobotModel) -> None:
+        n, g, k = robot.n_joints, robot.geometry, robot.kinematics
+        self.scene, self.robot = scene, robot
         links, prims = len(g.joints), len(g.prim_r)
-        self.segments = (np.empty((links, 3)), np.empty((links, 3)), np.empty((prims, 3)), np.empty((prims, 3)))
-        self.rotations, self.origins = np.empty((n, 3, 3)), np.empty((n, 3))
-        self.jac, self.point_jac = np.empty((6, n)), np.empty((3, n))
-        self.scratch = np.empty((2, 3))
+        centres, bounds = scene._bounds  # type: ignore[attr-defined]
+        arrays = [k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, k.support, np.array([k.ee_joint]), k.ee_rot,
+                  k.ee_pos, g.joints, g.a, g.b, g.radii, g.link_start, g.prim_joint, g.prim_a, g.prim_b, g.prim_r,
+                  *scene._packed, robot.lower_limits, robot.upper_limits, centres, bounds,  # type: ignore[attr-defined]
+                  scene.velocity_table, np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((6, n)), np.empty((3, n)),
+                  np.empty((links, 3)), np.empty((links, 3)), np.empty((prims, 3)), np.empty((prims, 3)),
+                  np.empty((2, 3))]
+        self._bound = BoundArrays([np.ascontiguousarray(a) for a in arrays])
+        self.table = self._bound.table
         self.zeros = np.zeros(n)
 
 
-_WORKSPACES: dict[int, _Workspace] = {}
+_CACHE = threading.local()
 
 
-def _workspace(robot: RobotModel) -> _Workspace:
-    entry = _WORKSPACES.get(id(robot))
-    if entry is None or entry.robot is not robot:
-        entry = _WORKSPACES[id(robot)] = _Workspace(robot)
+def _workspace(scene: AssistanceScene, robot: RobotModel) -> _Workspace:
+    """The bound workspace of (scene, robot) for this thread (the last one used is kept)."""
+    entry: _Workspace | None = getattr(_CACHE, "entry", None)
+    if entry is None or entry.scene is not scene or entry.robot is not robot:
+        entry = _CACHE.entry = _Workspace(scene, robot)
     return entry
 
 
@@ -316,24 +356,21 @@ def whole_body_assistance(scene: AssistanceScene, robot: RobotModel, joint_angle
     step = in_range("delta_time", dt, 0.0, math.inf, "s") if dt else 0.0
     user = _user_twist(user_command)
     flags = _input_flags(input_age, options)
-    work = _workspace(robot)
+    work = _workspace(scene, robot)
     if scene.field is None:
-        qd_auto, autonomy, pose = work.zeros, Twist(), robot.forward_kinematics(q)
+        qd_auto, autonomy = work.zeros, Twist()
+        goal_flags, goal_share = _goal_flags(scene, robot.forward_kinematics(q), autonomy.as_array())
     else:
-        result = whole_body_autonomy(scene.field, robot, q, prev_joint_velocities, step)
-        qd_auto, autonomy, pose = result.joint_velocities, result.twist, result.pose
-    goal_flags, goal_share = _goal_flags(scene, pose, autonomy.as_array())
+        row = whole_body_row(scene.field, robot, q, prev_joint_velocities, step)
+        qd_auto, autonomy = row[OUT_SIZE:], _fast_twist(row[_TWIST])
+        goal_flags, goal_share = _goal_flags_at(scene, row[_POSITION], row[_ORIENTATION], row[_TWIST])
     params = np.empty(_k.N_PARAMS_WHOLE_BODY)
     params[:_k.N_PARAMS] = scene._params  # type: ignore[attr-defined]
     params[_k.MODE], params[_k.GOAL_SHARE] = mode, goal_share
     params[_k.DAMPING], params[_k.LIMIT_MARGIN] = options.damping, options.joint_limit_margin
     params[_k.SINGULARITY] = options.singularity_threshold
     qd, out = np.empty(robot.n_joints), np.empty(_k.N_OUT_WHOLE_BODY)
-    centres, bounds = scene._bounds  # type: ignore[attr-defined]
-    _k.assist_joints(q, robot.lower_limits, robot.upper_limits, robot.kinematics, work.model,
-                     scene._packed, centres, bounds, scene.velocity_table,  # type: ignore[attr-defined]
-                     np.ascontiguousarray(qd_auto), user, params,
-                     work.rotations, work.origins, work.jac, work.point_jac, work.scratch, work.segments, qd, out)
+    _k.bound_assist(q, qd_auto, user, params, qd, out, work.table)
     flags |= goal_flags | (Flag.AT_JOINT_LIMIT if out[_k.AT_LIMIT] else 0) | \
         (Flag.NEAR_SINGULARITY if out[_k.SINGULAR] else 0)
     return _answer(scene, out, autonomy, qd, out[_k.POINT:_k.POINT + 3].copy(), flags)

@@ -34,7 +34,8 @@ from pfield.planning import WholeBodyOptions, WholeBodyStepper
 from pfield.robot.model import RobotModel
 from pfield.spatial import Pose, Twist
 
-__all__ = ["WholeBodyAutonomy", "task_space_autonomy_vector", "whole_body_autonomy", "whole_body_autonomy_vector"]
+__all__ = ["WholeBodyAutonomy", "task_space_autonomy_vector", "whole_body_autonomy", "whole_body_autonomy_vector",
+           "whole_body_row"]
 
 _LOG = logging.getLogger(__name__)
 _CACHE = threading.local()
@@ -119,6 +120,13 @@ def whole_body_autonomy_vector(field: Any, robot: RobotModel, q: ArrayLike,
     if query_pose is None:
         return _fast_twist(_fast_path(field, robot, q, prev_joint_velocities, dt))
     return whole_body_autonomy(field, robot, q, prev_joint_velocities, dt, query_pose).twist
+
+
+def whole_body_row(field: Any, robot: RobotModel, q: ArrayLike, prev_joint_velocities: ArrayLike | None = None,
+                   dt: float = 0.0) -> NDArray[np.float64]:
+    """The whole-body step's raw row at ``q`` (:meth:`pfield.planning.WholeBodyStepper.row`), from the cached
+    stepper: what :func:`whole_body_autonomy` reads, without building its value objects."""
+    return _stepper(field, robot, None).row(q, prev_joint_velocities, dt)
 
 
 def _fast_path(field: Any, robot: RobotModel, q: ArrayLike, prev_joint_velocities: ArrayLike | None,

@@ -7,5 +7,6 @@ obstacle set in :mod:`pfield.field._evaluate`.
 
 from pfield.field.config import FieldConfig
 from pfield.field.field import FieldArrays, PotentialField
+from pfield.field.prepared import PreparedTwist
 
-__all__ = ["FieldArrays", "FieldConfig", "PotentialField"]
+__all__ = ["FieldArrays", "FieldConfig", "PotentialField", "PreparedTwist"]

@@ -10,16 +10,20 @@ dozen arrays instead.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 from numba import njit
 
+from pfield._bound import BoundArrays, float_view1, float_view2, float_view3, int_view1, int_view2
 from pfield.geometry._packed import PackedObstacles
 from pfield.planning import _whole_body_layout as _wb
 from pfield.planning._whole_body_loop import autonomy_step
+from pfield.robot._kinematics import check_limits
+from pfield.robot.model import LIMIT_TOLERANCE
 
-__all__ = ["FlatStep", "flat_step"]
+__all__ = ["FlatStep", "bound_step", "flat_step"]
 
 
 class FlatStep:
@@ -35,6 +39,13 @@ class FlatStep:
         self.scene = _wb.SCENE_FLOATS.pack(scene._asdict(), caps=caps, obstacles=obstacles, pairs=pairs)
         self.work = np.zeros(_wb.WORKSPACE.size(n=n, caps=caps, m=m_max, prims=prims))
         self.packed = scene.packed
+
+    def bind(self, goal_p: np.ndarray, goal_q: np.ndarray, params: np.ndarray, lower: np.ndarray,
+             upper: np.ndarray) -> BoundArrays:
+        """The table of :func:`bound_step`: these buffers, the goal, ``params`` (rewritten in place by the
+        caller when ``dt`` changes) and the joint limits that ``q`` is checked against."""
+        return BoundArrays([self.dims, self.floats, self.ints, self.scene, self.work, goal_p, goal_q, params, lower,
+                            upper, *self.packed])
 
     def buffers(self) -> tuple[Any, ...]:
         """The trailing arguments of :func:`flat_step` (the obstacles' arrays one by one: a named tuple
@@ -61,6 +72,42 @@ def flat_step(
     autonomy_step(q, previous, has_prev, robot, scene, goal_p, goal_q, params, ws)
     size = ws.out.shape[0]
     result = np.empty(size + q.shape[0])
+    result[:size] = ws.out
+    result[size:] = ws.x
+    return result
+
+
+@njit(cache=True)
+def bound_step(q: np.ndarray, previous: np.ndarray, given: bool, use_previous: bool, table: np.ndarray) -> np.ndarray:
+    """:func:`flat_step` on the arrays bound by :meth:`FlatStep.bind`, checking its inputs in compiled code.
+
+    ``q`` is checked and clamped as :meth:`pfield.robot.RobotModel.check_joint_angles` does (a copy);
+    ``previous`` (when ``given``) must have n finite values. Returns an empty array when an input is bad (the
+    caller then takes the validating path, which raises the standard message), else the row of :func:`flat_step`.
+    """
+    dims = int_view1(table, 0)
+    n, caps, obstacles, pairs, m_max, ee_joint, prims = dims[0], dims[1], dims[2], dims[3], dims[4], dims[5], dims[6]
+    if q.shape[0] != n or (given and previous.shape[0] != n):
+        return np.empty(0)
+    values = np.empty(n)
+    for j in range(n):
+        values[j] = q[j]
+    if check_limits(values, float_view1(table, 8), float_view1(table, 9), LIMIT_TOLERANCE) != -1:
+        return np.empty(0)
+    if given:
+        for j in range(n):
+            if not math.isfinite(previous[j]):
+                return np.empty(0)
+    packed = PackedObstacles(int_view1(table, 10), float_view2(table, 11), float_view3(table, 12),
+                             float_view3(table, 13), float_view2(table, 14), float_view2(table, 15),
+                             int_view2(table, 16), int_view2(table, 17))
+    robot = _wb.robot_views(float_view1(table, 1), int_view1(table, 2), n, caps, pairs, prims, caps + 1, ee_joint)
+    scene = _wb.scene_views(float_view1(table, 3), caps, obstacles, pairs, packed)
+    ws = _wb.workspace_views(float_view1(table, 4), n, caps, m_max, prims)
+    autonomy_step(values, previous, use_previous, robot, scene, float_view1(table, 5), float_view1(table, 6),
+                  float_view1(table, 7), ws)
+    size = ws.out.shape[0]
+    result = np.empty(size + n)
     result[:size] = ws.out
     result[size:] = ws.x
     return result

@@ -63,7 +63,7 @@ from pfield.planning._whole_body_layout import (
     Scene,
     Workspace,
 )
-from pfield.robot._clearance import link_obstacle_distance, link_pair_distance, world_segments
+from pfield.robot._clearance import link_obstacle_distance, link_pair_distance, near_segments, world_segments
 from pfield.robot._kinematics import (
     frame_pose,
     joint_transforms,
@@ -112,6 +112,15 @@ def _segments(robot: RobotArrays, ws: Workspace) -> None:
     world_segments(ws.rotations, ws.origins, robot.cap_joint, robot.cap_a, robot.cap_b, ws.seg_a, ws.seg_b)
     world_segments(ws.rotations, ws.origins, robot.prim_joint, robot.prim_a, robot.prim_b, ws.prim_seg_a,
                    ws.prim_seg_b)
+
+
+@njit(cache=True, inline="always")
+def _segments_near(robot: RobotArrays, scene: Scene, ws: Workspace) -> None:
+    """:func:`_segments` for the field's step: the fitted primitives only of links that may reach the fine
+    level (:func:`pfield.robot._clearance.near_segments`); the others are never read by the step."""
+    world_segments(ws.rotations, ws.origins, robot.cap_joint, robot.cap_a, robot.cap_b, ws.seg_a, ws.seg_b)
+    near_segments(ws.rotations, ws.origins, ws.seg_a, ws.seg_b, robot.cap_r, robot.link_start, robot.prim_joint,
+                  robot.prim_a, robot.prim_b, scene.centres, scene.bounds, ws.prim_seg_a, ws.prim_seg_b)
 
 
 @njit(cache=True, inline="always")
@@ -253,7 +262,14 @@ def constrained_velocity(q: np.ndarray, previous: np.ndarray, has_prev: bool, ro
     """The joint velocity of the task in ``ws.h`` / ``ws.rhs`` under the velocity dampers (link–obstacle,
     self-collision, joint limits) into ``ws.x``, speed- and rate-limited, and its twist J q̇ into ``ws.out``;
     ``free_weight`` scales the dampers' free-space term added to the task. Returns the number of rows."""
-    _segments(robot, ws)
+    _segments_near(robot, scene, ws)
+    return velocity_from_segments(q, previous, has_prev, robot, scene, params, ws, free_weight)
+
+
+@njit(cache=True, inline="always")
+def velocity_from_segments(q: np.ndarray, previous: np.ndarray, has_prev: bool, robot: RobotArrays, scene: Scene,
+                           params: np.ndarray, ws: Workspace, free_weight: float) -> int:
+    """:func:`constrained_velocity` once the world segments are in ``ws`` (:func:`_segments_near`)."""
     ws.free[:] = 0.0
     # a run-time zero: with the literal 0, type inference also compiles hildreth for m = Literal[int](0)
     m = _obstacle_rows(robot, scene, params, ws, np.int64(0))  # type: ignore[arg-type]

@@ -12,8 +12,9 @@ import numpy as np
 from numba import njit
 
 from pfield.planning._progress import track_progress
-from pfield.planning._whole_body_kernel import _segments, joint_velocity_step
+from pfield.planning._whole_body_kernel import _segments_near, _task, joint_velocity_step, velocity_from_segments
 from pfield.planning._whole_body_layout import (
+    DAMPING,
     DT,
     OUT_CLEARANCE,
     OUT_NEAREST_CAPSULE,
@@ -121,7 +122,7 @@ def fill_pair_distances(q: np.ndarray, robot: RobotArrays, scene: Scene, ws: Wor
     """
     joint_transforms(q, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds, ws.rotations,
                      ws.origins)
-    _segments(robot, ws)
+    _segments_near(robot, scene, ws)
     fill_clearances(ws.seg_a, ws.seg_b, robot.cap_r, robot.self_r, robot.link_start, ws.prim_seg_a, ws.prim_seg_b,
                     robot.prim_r, robot.self_pairs, scene.packed, scene.centres, scene.bounds, ws.scratch, obstacle,
                     own, cutoff)
@@ -140,7 +141,9 @@ def autonomy_step(q: np.ndarray, previous: np.ndarray, has_prev: bool, robot: Ro
             obstacle[c, i] = min(obstacle[c, i] - safety, 0.0)
     for k in range(own.shape[0]):
         own[k] = min(own[k] - safety, 0.0)
-    return joint_velocity_step(q, previous, has_prev, robot, scene, goal_p, goal_q, params, ws)
+    # the joint frames and world segments at q are those fill_pair_distances left in ws
+    _task(robot, goal_p, goal_q, params, ws)
+    return velocity_from_segments(q, previous, has_prev, robot, scene, params, ws, params[DAMPING])
 
 
 def pair_distances(q: np.ndarray, robot: RobotArrays, scene: Scene) -> tuple[np.ndarray, np.ndarray]:

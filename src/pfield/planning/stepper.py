@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 from pfield._validation import as_vector, finite
 from pfield.errors import InvalidInput
 from pfield.planning import _whole_body_layout as _wb
-from pfield.planning._whole_body_flat import FlatStep, flat_step
+from pfield.planning._whole_body_flat import FlatStep, bound_step, flat_step
 from pfield.planning.options import PlanOptions
 from pfield.planning.whole_body import WholeBodyOptions, kernel_parameters, make_scene, pack_robot
 from pfield.robot.model import RobotModel
@@ -28,6 +28,7 @@ __all__ = ["WholeBodyStep", "WholeBodyStepper"]
 NOMINAL_DT = 0.01
 """(s) the dampers' look-ahead when a step is asked for without a ``dt``."""
 _TWIST, _POSITION, _ORIENTATION = slice(*_wb.OUT_TWIST), slice(*_wb.OUT_POSITION), slice(*_wb.OUT_ORIENTATION)
+_FLOAT64 = np.dtype(np.float64)
 
 
 class WholeBodyStep:
@@ -82,9 +83,41 @@ class WholeBodyStepper:
         self._params = kernel_parameters(config, PlanOptions(dt=NOMINAL_DT).resolved(config), self.options)
         self._goal_p = np.array(field.goal.position, dtype=np.float64)
         self._goal_q = np.array(field.goal.orientation, dtype=np.float64)
-        self._buffers = FlatStep(arrays, scene).buffers()
+        flat = FlatStep(arrays, scene)
+        self._buffers = flat.buffers()
         self._zeros = np.zeros(robot.n_joints)
         self._last_dt, self._dt_params = -1.0, self._params
+        # the hot path's bound arrays: the parameter vector of the current dt is rewritten in place
+        self._bound_params, self._bound_dt = self._params.copy(), 0.0
+        self._bound = flat.bind(self._goal_p, self._goal_q, self._bound_params, robot.lower_limits,
+                                robot.upper_limits)
+        self._table = self._bound.table
+
+    def row(self, q: ArrayLike, prev_joint_velocities: ArrayLike | None = None, dt: float = 0.0) -> NDArray[np.float64]:
+        """The compiled step's raw row (``STEP_OUT`` then q̇) at ``q``, validated as :meth:`step` does.
+
+        Float64 arrays of rank 1 take one compiled call that checks them itself (bound arrays,
+        :func:`~pfield.planning._whole_body_flat.bound_step`); anything else, or a bad value, goes through
+        :meth:`~pfield.robot.RobotModel.check_joint_angles` and :meth:`evaluate` (same results, the errors).
+        """
+        previous = prev_joint_velocities
+        if dt.__class__ is float and 0.0 <= dt < math.inf and q.__class__ is np.ndarray and \
+                q.dtype is _FLOAT64 and q.ndim == 1 and (previous is None or (
+                    previous.__class__ is np.ndarray and previous.dtype is _FLOAT64 and previous.ndim == 1)):
+            if dt != self._bound_dt:
+                self._bind_dt(dt)
+            given = previous is not None
+            row = bound_step(q, previous if given else self._zeros, given, given and dt > 0.0,  # type: ignore[arg-type]
+                             self._table)
+            if row.shape[0]:
+                return row
+        return self.evaluate(self.robot.check_joint_angles(q, "joint_angles"), previous, dt)
+
+    def _bind_dt(self, dt: float) -> None:
+        self._bound_params[:] = self._params
+        if dt > 0.0:
+            self._bound_params[_wb.DT] = dt
+        self._bound_dt = dt
 
     def step(self, q: ArrayLike, prev_joint_velocities: ArrayLike | None = None, dt: float = 0.0) -> WholeBodyStep:
         """The field's joint velocities at ``q`` (validated against the robot's joints and limits).
@@ -93,14 +126,12 @@ class WholeBodyStepper:
         |q̇_j − q̇_prev,j| ≤ a_j·dt unless that would break an obstacle damper; ``dt`` also sets the
         dampers' look-ahead (:data:`NOMINAL_DT` when 0).
         """
-        values = self.robot.check_joint_angles(q, "joint_angles")
-        return WholeBodyStep(self.evaluate(values, prev_joint_velocities, dt))
+        return WholeBodyStep(self.row(q, prev_joint_velocities, dt))
 
     def twist(self, q: ArrayLike, prev_joint_velocities: ArrayLike | None = None,
               dt: float = 0.0) -> NDArray[np.float64]:
         """The end-effector twist (6,) of :meth:`step` alone (the shared-control service's hot path)."""
-        values = self.robot.check_joint_angles(q, "joint_angles")
-        return self.evaluate(values, prev_joint_velocities, dt)[_TWIST]
+        return self.row(q, prev_joint_velocities, dt)[_TWIST]
 
     def evaluate(self, q: NDArray[np.float64], previous: ArrayLike | None, dt: float) -> NDArray[np.float64]:
         """The compiled step's raw row at already validated ``q``: ``STEP_OUT`` then q̇."""

@@ -50,12 +50,62 @@ def world_segments(rotations, origins, joints, a, b, out_a, out_b):  # type: ign
             out_b[c, k] = r0 * b[c, 0] + r1 * b[c, 1] + r2 * b[c, 2] + o
 
 
+FINE_MARGIN = 1e-6
+"""(m) slack of :func:`near_segments`' test against rounding: a link's primitives are moved into the world
+frame when its bounding capsule's lower bound is below ``FINE_RANGE + FINE_MARGIN``."""
+
+
+@njit(cache=True, inline="always")
+def near_segments(  # type: ignore[no-untyped-def]
+        rotations, origins, cap_a, cap_b, cap_r, link_start, prim_joint, prim_a, prim_b, centres, bounds, out_a, out_b):
+    """World ends of the fitted primitives of the links that may reach the fine level, into ``out_a``/``out_b``.
+
+    ``cap_a``/``cap_b`` are the bounding capsules' world ends. A link's primitives are read by
+    :func:`link_obstacle_distance` only when its bounding capsule is closer than ``FINE_RANGE`` to an obstacle,
+    so only links whose cheap bound ‖c_i − segment‖ − reach_i − r is below it (plus :data:`FINE_MARGIN`) are
+    transformed; the others keep stale values that nothing reads. Without obstacles nothing is transformed.
+    """
+    for link in range(cap_r.shape[0]):
+        near = False
+        for i in range(bounds.shape[0]):
+            if point_segment_distance(centres[i], cap_a[link], cap_b[link]) - bounds[i] - cap_r[link] < \
+                    FINE_RANGE + FINE_MARGIN:
+                near = True
+                break
+        if not near:
+            continue
+        for c in range(link_start[link], link_start[link + 1]):
+            j = prim_joint[c]
+            if j < 0:
+                for k in range(3):
+                    out_a[c, k], out_b[c, k] = prim_a[c, k], prim_b[c, k]
+                continue
+            for k in range(3):
+                r0, r1, r2, o = rotations[j, k, 0], rotations[j, k, 1], rotations[j, k, 2], origins[j, k]
+                out_a[c, k] = r0 * prim_a[c, 0] + r1 * prim_a[c, 1] + r2 * prim_a[c, 2] + o
+                out_b[c, k] = r0 * prim_b[c, 0] + r1 * prim_b[c, 1] + r2 * prim_b[c, 2] + o
+
+
 @njit(cache=True, inline="always")
 def link_obstacle_distance(  # type: ignore[no-untyped-def]
         link, i, packed, centres, bounds, cap_a, cap_b, cap_r, link_start, prim_a, prim_b, prim_r, scratch, cutoff):
     """Signed clearance (m) of ``link`` to obstacle ``i``: ``(d, exact, px, py, pz, nx, ny, nz)``.
 
     ``exact`` is False when the bounding capsule's bound (returned as ``d``) is ≥ ``cutoff``.
+    """
+    return link_obstacle_distance_below(link, i, packed, centres, bounds, cap_a, cap_b, cap_r, link_start, prim_a,
+                                        prim_b, prim_r, scratch, cutoff, math.inf)
+
+
+@njit(cache=True, inline="always")
+def link_obstacle_distance_below(  # type: ignore[no-untyped-def]
+        link, i, packed, centres, bounds, cap_a, cap_b, cap_r, link_start, prim_a, prim_b, prim_r, scratch, cutoff,
+        fine_cutoff):
+    """:func:`link_obstacle_distance` for callers that need exact values only below ``fine_cutoff`` (≤ ``cutoff``).
+
+    The fine level skips every primitive whose bound exceeds ``fine_cutoff``; when that leaves none, the pair
+    gets ``fine_cutoff`` (a lower bound: every primitive is farther) and ``exact`` False. Values below
+    ``fine_cutoff`` are those of :func:`link_obstacle_distance`, bit for bit.
     """
     rows, kinds = packed.rows, packed.kinds
     centre, reach = centres[i], bounds[i]
@@ -75,7 +125,7 @@ def link_obstacle_distance(  # type: ignore[no-untyped-def]
     mid = scratch[1]
     # nothing whose lower bound exceeds ``limit`` can be the minimum: the best exact value so far, or (before
     # any) an upper bound: a segment's midpoint is one of its points, so min_p d(mid_p) − r_p ≥ the minimum
-    limit = math.inf
+    limit = fine_cutoff
     for p in range(link_start[link], link_start[link + 1]):
         for k in range(3):
             mid[k] = 0.5 * (prim_a[p, k] + prim_b[p, k])
@@ -105,6 +155,8 @@ def link_obstacle_distance(  # type: ignore[no-untyped-def]
             best, bx, by, bz = d, nx, ny, nz
             px, py, pz = a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])
             limit = min(limit, best)
+    if best == math.inf and fine_cutoff < math.inf:
+        return fine_cutoff, False, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
     return best, True, px, py, pz, bx, by, bz
 
 
@@ -130,11 +182,13 @@ def fill_clearances(  # type: ignore[no-untyped-def]
         cap_a, cap_b, cap_r, self_r, link_start, prim_a, prim_b, prim_r, self_pairs, packed, centres, bounds,
         scratch, obstacle, own, cutoff):
     """Link–obstacle clearances into ``obstacle`` (L, M) and self-pair clearances into ``own`` (P,), from
-    world segments; pairs whose bound is ≥ ``cutoff`` get the bound."""
+    world segments; pairs whose bound is ≥ ``cutoff`` get the bound (also a fine-level one:
+    :func:`link_obstacle_distance_below`)."""
     for link in range(obstacle.shape[0]):
         for i in range(obstacle.shape[1]):
-            obstacle[link, i] = link_obstacle_distance(link, i, packed, centres, bounds, cap_a, cap_b, cap_r,
-                                                       link_start, prim_a, prim_b, prim_r, scratch, cutoff)[0]
+            obstacle[link, i] = link_obstacle_distance_below(link, i, packed, centres, bounds, cap_a, cap_b, cap_r,
+                                                             link_start, prim_a, prim_b, prim_r, scratch, cutoff,
+                                                             cutoff)[0]
     for k in range(self_pairs.shape[0]):
         own[k] = link_pair_distance(self_pairs[k, 0], self_pairs[k, 1], cap_a, cap_b, self_r)[0]
 

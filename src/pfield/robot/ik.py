@@ -20,15 +20,16 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
+from pfield._bound import BoundArrays, float_view1, float_view2, float_view3, int_view1, int_view2
 from pfield._linalg import cholesky_inplace, cholesky_solve
 from pfield._spatial_kernels import matrix_to_quat, rotation_error
 from pfield._validation import positive
 from pfield.errors import InvalidInput
-from pfield.robot._kinematics import end_effector_kinematics
-from pfield.robot.model import RobotModel
+from pfield.robot._kinematics import check_limits, end_effector_kinematics
+from pfield.robot.model import LIMIT_TOLERANCE, RobotModel
 from pfield.spatial import Pose
 
-__all__ = ["IKResult", "solve_ik"]
+__all__ = ["IKResult", "IKSolver", "solve_ik"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -53,11 +54,11 @@ def _error(rot, pos, target_p, target_q, e):  # type: ignore[no-untyped-def]
     return math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2), math.sqrt(rx * rx + ry * ry + rz * rz)
 
 
-@njit(cache=True)
-def _dls_step(jac, e, frozen, damping, step):  # type: ignore[no-untyped-def]
-    """step = J_fᵀ (J_f J_fᵀ + λ² I)⁻¹ e with the columns of frozen joints removed."""
+@njit(cache=True, inline="always")
+def _dls_step_into(jac, e, frozen, damping, step, a, y):  # type: ignore[no-untyped-def]
+    """step = J_fᵀ (J_f J_fᵀ + λ² I)⁻¹ e with the columns of frozen joints removed, in the workspace ``a``
+    (6, 6; every entry is written) and ``y`` (6,)."""
     n = jac.shape[1]
-    a = np.zeros((6, 6))
     for r in range(6):
         for c in range(r + 1):
             s = 0.0
@@ -69,7 +70,6 @@ def _dls_step(jac, e, frozen, damping, step):  # type: ignore[no-untyped-def]
         a[r, r] += damping
     size = a.shape[0]  # a run-time 6, not the literal: the same QP specialisation as the whole-body planner's
     cholesky_inplace(a, size)
-    y = np.empty(size)
     cholesky_solve(a, e, y, size)
     for j in range(n):
         step[j] = 0.0 if frozen[j] else jac[0, j] * y[0] + jac[1, j] * y[1] + jac[2, j] * y[2] + \
@@ -88,18 +88,31 @@ def ik_kernel(  # type: ignore[no-untyped-def]
     q = np.minimum(np.maximum(q_seed, lower), upper)
     rotations, origins, jac = np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((6, n))
     e, step, frozen = np.empty(6), np.empty(n), np.zeros(n, dtype=np.bool_)
+    success, iterations, pos_err, rot_err = ik_iterate(
+        q, target_p, target_q, parents, place_rot, place_pos, axes, kinds, support, ee_joint, ee_rot, ee_pos, lower,
+        upper, settings, rotations, origins, jac, e, step, frozen, np.zeros((6, 6)), np.empty(6))
+    return q, success, iterations, pos_err, rot_err
+
+
+@njit(cache=True, inline="always")
+def ik_iterate(  # type: ignore[no-untyped-def]
+        q, target_p, target_q, parents, place_rot, place_pos, axes, kinds, support, ee_joint, ee_rot, ee_pos, lower,
+        upper, settings, rotations, origins, jac, e, step, frozen, a, y):
+    """The DLS iterations of :func:`ik_kernel` on ``q`` (already within the limits) in place, in the given
+    workspace; returns (success, iterations, position error, rotation error)."""
+    n = q.shape[0]
     pos_err, rot_err = math.inf, math.inf
     for iteration in range(int(settings[0]) + 1):
         rot, pos = end_effector_kinematics(q, parents, place_rot, place_pos, axes, kinds, support, ee_joint, ee_rot,
                                            ee_pos, rotations, origins, jac)
         pos_err, rot_err = _error(rot, pos, target_p, target_q, e)
         if pos_err <= settings[1] and rot_err <= settings[2]:
-            return q, True, iteration, pos_err, rot_err
+            return True, iteration, pos_err, rot_err
         if iteration == int(settings[0]):
             break
         frozen[:] = False
         for _ in range(3):  # freeze joints pushed past a limit, then recompute the step
-            _dls_step(jac, e, frozen, settings[3], step)
+            _dls_step_into(jac, e, frozen, settings[3], step, a, y)
             changed = False
             for j in range(n):
                 if not frozen[j] and ((q[j] <= lower[j] and step[j] < 0.0) or (q[j] >= upper[j] and step[j] > 0.0)):
@@ -111,7 +124,7 @@ def ik_kernel(  # type: ignore[no-untyped-def]
         scale = 1.0 if largest <= settings[4] else settings[4] / largest
         for j in range(n):
             q[j] = min(max(q[j] + scale * step[j], lower[j]), upper[j])
-    return q, False, int(settings[0]), pos_err, rot_err
+    return False, int(settings[0]), pos_err, rot_err
 
 
 def ik_settings(max_iterations: int, position_tolerance: float, rotation_tolerance: float, damping: float,
@@ -140,6 +153,103 @@ def solve_ik(robot: RobotModel, target: Pose, q_seed: ArrayLike, *, max_iteratio
         seed, np.array(target.position), np.array(target.orientation), *robot.kinematics,
         np.array(robot.lower_limits), np.array(robot.upper_limits), settings)
     return IKResult(bool(success), q, int(iterations), float(pos_err), float(rot_err))
+
+
+_UNIT_TOLERANCE = 1e-9
+BAD_SEED, BAD_POSITION, BAD_ORIENTATION = -1, -2, -3
+
+
+@njit(cache=True)
+def bound_ik(table):  # type: ignore[no-untyped-def]
+    """:func:`ik_kernel` on the arrays bound by :class:`IKSolver`: seed (slot 13) → q (14), result (15) =
+    (iterations, position error, rotation error). Returns 1 (success), 0 (not reached) or a negative defect
+    of the input: :data:`BAD_SEED` (not finite, or beyond the limits), :data:`BAD_POSITION`, :data:`BAD_ORIENTATION`."""
+    lower, upper, target, seed, q = (float_view1(table, 9), float_view1(table, 10), float_view1(table, 12),
+                                     float_view1(table, 13), float_view1(table, 14))
+    for k in range(3):
+        if not math.isfinite(target[k]):
+            return BAD_POSITION
+    norm2 = target[3] * target[3] + target[4] * target[4] + target[5] * target[5] + target[6] * target[6]
+    if not abs(norm2 - 1.0) <= 2.0 * _UNIT_TOLERANCE:
+        return BAD_ORIENTATION
+    for j in range(q.shape[0]):
+        q[j] = seed[j]
+    if check_limits(q, lower, upper, LIMIT_TOLERANCE) != -1:
+        return BAD_SEED
+    for j in range(q.shape[0]):  # as ik_kernel's np.minimum(np.maximum(seed, lower), upper)
+        q[j] = min(max(seed[j], lower[j]), upper[j])
+    frozen = int_view1(table, 21)
+    success, iterations, pos_err, rot_err = ik_iterate(
+        q, target[:3], target[3:], int_view1(table, 0), float_view3(table, 1), float_view2(table, 2),
+        float_view2(table, 3), int_view1(table, 4), int_view2(table, 5), int_view1(table, 6)[0], float_view2(table, 7),
+        float_view1(table, 8), lower, upper, float_view1(table, 11), float_view3(table, 16), float_view2(table, 17),
+        float_view2(table, 18), float_view1(table, 19), float_view1(table, 20), frozen, float_view2(table, 22),
+        float_view1(table, 23))
+    result = float_view1(table, 15)
+    result[0], result[1], result[2] = iterations, pos_err, rot_err
+    return 1 if success else 0
+
+
+class IKSolver:
+    """:func:`solve_ik` prepared for a control loop: settings validated and arrays bound once.
+
+    Write the target pose into ``target`` (7,: position m, unit quaternion x, y, z, w; world frame) and the
+    seed into ``seed`` (n,), call :meth:`solve` (one compiled call, one array argument); the answer is in
+    ``q`` (n,), and ``iterations``, ``position_error``, ``rotation_error``. Results equal
+    ``solve_ik(robot, Pose(target[:3], target[3:]), seed, ...)`` bit for bit. Bad input (non-finite target,
+    a quaternion whose norm is not 1 within 1e-9, a seed beyond the limits) raises
+    :class:`~pfield.errors.InvalidInput`. One solver per thread: its arrays are its state.
+    """
+
+    def __init__(self, robot: RobotModel, *, max_iterations: int = 200, position_tolerance: float = 1e-4,
+                 rotation_tolerance: float = 1e-3, damping: float = 1e-4, max_step: float = 0.3) -> None:
+        if not isinstance(robot, RobotModel):
+            raise InvalidInput("robot", robot, "expected a pfield.RobotModel")
+        n, k = robot.n_joints, robot.kinematics
+        self.robot = robot
+        self.settings = ik_settings(max_iterations, position_tolerance, rotation_tolerance, damping, max_step)
+        self.target = np.zeros(7)
+        self.target[6] = 1.0
+        self.seed, self.q, self._result = np.zeros(n), np.zeros(n), np.zeros(3)
+        arrays = [k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, k.support, np.array([k.ee_joint]), k.ee_rot,
+                  k.ee_pos, robot.lower_limits, robot.upper_limits, self.settings, self.target, self.seed, self.q,
+                  self._result, np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((6, n)), np.empty(6), np.empty(n),
+                  np.zeros(n, dtype=np.int64), np.zeros((6, 6)), np.empty(6)]
+        self._bound = BoundArrays([np.ascontiguousarray(a) for a in arrays])
+        self._table = self._bound.table
+
+    def solve(self) -> bool:
+        """Solve from ``seed`` for ``target`` into ``q``; True when within both tolerances."""
+        status = bound_ik(self._table)
+        if status < 0:
+            raise self._error(status)
+        return status == 1
+
+    @property
+    def iterations(self) -> int:
+        return int(self._result[0])
+
+    @property
+    def position_error(self) -> float:
+        """m, of the last :meth:`solve`."""
+        return float(self._result[1])
+
+    @property
+    def rotation_error(self) -> float:
+        """rad, of the last :meth:`solve`."""
+        return float(self._result[2])
+
+    def _error(self, status: int) -> InvalidInput:
+        if status == BAD_POSITION:
+            return InvalidInput("target[0:3]", self.target[:3].tolist(), "position must be finite")
+        if status == BAD_ORIENTATION:
+            return InvalidInput("target[3:7]", self.target[3:].tolist(),
+                                "orientation must be a unit quaternion (x, y, z, w)")
+        try:
+            self.robot.check_joint_angles(self.seed, "seed")
+        except InvalidInput as error:
+            return error
+        return InvalidInput("seed", self.seed.tolist(), "must be finite and within the joint limits")
 
 
 @njit(cache=True)
