@@ -100,6 +100,8 @@ def solve(problem: Problem, workspace: Workspace, timeout: float | None = None, 
     """
     if not isinstance(problem, Problem):
         return _error(problem, "error", f"problem: expected a pfield.scene.Problem, got {type(problem).__name__}")
+    if problem.error:
+        return _error(problem, "error", problem.error)
     own = problem_seed(seed, problem)
     random.seed(own)
     np.random.seed(own % 2**32)  # noqa: NPY002 (the legacy global generator is what third-party code draws from)

@@ -85,11 +85,15 @@ class Problem:
     robot: RobotSpec | None = None
     config: FieldConfig = field(default_factory=FieldConfig)
     options: PlanOptions = field(default_factory=PlanOptions)
+    error: str = ""
+    """Why the problem could not be read (:meth:`unreadable`); a batch reports it instead of planning."""
 
     def __post_init__(self) -> None:
         text("scene", self.scene)
         if isinstance(self.index, bool) or not isinstance(self.index, int):
             raise InvalidInput("index", self.index, "must be an integer")
+        if text("error", self.error):
+            return
         object.__setattr__(self, "obstacles", tuple(self.obstacles))
         for i, obstacle in enumerate(self.obstacles):
             if not isinstance(obstacle, Obstacle):
@@ -114,6 +118,12 @@ class Problem:
     @property
     def key(self) -> tuple[str, int]:
         return (self.scene, self.index)
+
+    @classmethod
+    def unreadable(cls, scene: str, index: int, error: str) -> Problem:
+        """A problem whose files could not be read: it keeps its place (and key) in a batch, and its record
+        says ``error``."""
+        return cls(scene, index, error=text("error", error) or "unreadable problem")
 
 
 _LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml's parser when present: ~10x faster
@@ -161,8 +171,12 @@ def _folder_problems(folder: Path, robot: str, config: FieldConfig, options: Pla
         number = request.stem.removeprefix("request")
         scene = folder / f"scene{number}.yaml"
         if not scene.exists():
-            raise InvalidInput(str(request), request.name, f"no matching {scene.name} beside it")
-        yield read_moveit_problem(scene, request, int(number), robot, config, options)
+            yield Problem.unreadable(folder.name, int(number), f"{request.name}: no matching {scene.name} beside it")
+            continue
+        try:
+            yield read_moveit_problem(scene, request, int(number), robot, config, options)
+        except InvalidInput as exc:  # one bad pair is one failed problem, not a failed batch
+            yield Problem.unreadable(folder.name, int(number), str(exc))
 
 
 def _path_problems(path: Path, robot: str | None, config: FieldConfig | None, options: PlanOptions | None,
