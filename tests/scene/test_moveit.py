@@ -68,7 +68,9 @@ world:
   collision_objects:
     - id: wedge
       header: {frame_id: world}
-      pose: {position: {x: 1.0, y: 0.0, z: 0.0}, orientation: {x: 0, y: 0, z: 0.7071067811865476, w: 0.7071067811865476}}
+      pose:
+        position: {x: 1.0, y: 0.0, z: 0.0}
+        orientation: {x: 0, y: 0, z: 0.7071067811865476, w: 0.7071067811865476}
       meshes:
         - vertices: [{x: 0, y: 0, z: 0}, {x: 0.1, y: 0, z: 0}, {x: 0, y: 0.1, z: 0}, {x: 0, y: 0, z: 0.1}]
           triangles: [{vertex_indices: [0, 2, 1]}, {vertex_indices: [0, 1, 3]}, {vertex_indices: [0, 3, 2]},

@@ -24,7 +24,7 @@ _WORKSPACE: Workspace | None = None
 
 def _start_worker(robots: tuple[RobotSpec, ...]) -> None:
     global _WORKSPACE
-    _WORKSPACE = Workspace(robots)
+    _WORKSPACE = Workspace(robots, warm=True)
 
 
 def _solve_in_worker(problem: Problem, timeout: float | None, seed: int) -> dict[str, Any]:

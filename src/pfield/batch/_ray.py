@@ -3,8 +3,9 @@
 One actor per worker; each is created with the robot specs taken from Ray's object store (put there once),
 builds its :class:`Workspace` in its constructor, and then plans the problems sent to it. Results come back
 in the input order (``ActorPool.map``). With ``address`` the driver connects to a running cluster
-(``ray start --head`` prints the address); without, it starts a local one with ``workers`` CPUs and stops it
-at the end. The workers import pfield from the driver's environment (``PYTHONPATH`` is passed on).
+(``ray start --head`` prints the address); without, it starts a local one with ``workers`` CPUs on
+127.0.0.1 and stops it at the end. The workers import pfield from the driver's environment (``PYTHONPATH``
+is passed on).
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ class _Planner:
     """The actor's body (wrapped by ``ray.remote`` on first use, so importing this module needs no ray)."""
 
     def __init__(self, robots: tuple[RobotSpec, ...]) -> None:
-        self._workspace = Workspace(robots)
+        self._workspace = Workspace(robots, warm=True)
 
     def solve(self, problem: Problem, timeout: float | None, seed: int) -> dict[str, Any]:
         return solve(problem, self._workspace, timeout, seed)
@@ -50,7 +51,9 @@ def run_ray(problems: Sequence[Problem], robots: tuple[RobotSpec, ...], workers:
         if address:
             ray.init(address=address, runtime_env=env, log_to_driver=False)
         else:
-            ray.init(num_cpus=workers, include_dashboard=False, runtime_env=env, log_to_driver=False)
+            # a local cluster listens on loopback only
+            ray.init(num_cpus=workers, include_dashboard=False, runtime_env=env, log_to_driver=False,
+                     _node_ip_address="127.0.0.1")
         started = True
     try:
         shared = ray.put(robots)

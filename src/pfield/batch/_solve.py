@@ -9,6 +9,7 @@ own fault: a malformed problem, a failing plan or a timeout become a record with
 from __future__ import annotations
 
 import hashlib
+import logging
 import random
 import threading
 import time
@@ -19,17 +20,19 @@ from typing import Any
 import numpy as np
 
 from pfield.errors import InvalidInput
-from pfield.field import PotentialField
+from pfield.field import FieldConfig, PotentialField
 from pfield.planning import CancelToken, PlanStatus
 from pfield.planning.result import PlannedPath
 from pfield.robot import RobotModel
 from pfield.scene import Problem, RobotSpec
+from pfield.spatial import Pose
 
 __all__ = ["RECORD_FIELDS", "TIMING_FIELDS", "Workspace", "problem_seed", "solve"]
 
 RECORD_FIELDS = ("scene", "index", "success", "status", "seconds", "cpu_seconds", "steps", "planner", "joint_names",
                  "positions", "times", "clearances", "error")
 """The keys of every result record, in order (the MotionBenchMaker ``--out`` file's fields, plus ``error``)."""
+_LOG = logging.getLogger(__name__)
 TIMING_FIELDS = ("seconds", "cpu_seconds")
 """The fields that depend on the machine's load: every other field is a pure function of the problem."""
 
@@ -41,12 +44,26 @@ def problem_seed(seed: int, problem: Problem) -> int:
 
 
 class Workspace:
-    """What one worker keeps between problems: the robots built so far (by spec)."""
+    """What one worker keeps between problems: the robots built so far (by spec).
 
-    def __init__(self, robots: Iterable[RobotSpec] = ()) -> None:
+    With ``warm``, each robot given is built and makes a two-step plan at once, so the worker loads the
+    planners' compiled kernels (from numba's cache) before its first problem, not while timing it.
+    """
+
+    def __init__(self, robots: Iterable[RobotSpec] = (), warm: bool = False) -> None:
         self._robots: dict[RobotSpec, RobotModel] = {}
         for spec in robots:
-            self.robot(spec)
+            try:
+                robot = self.robot(spec)
+                if warm:
+                    q = np.clip(np.zeros(len(robot.joint_names)), robot.lower_limits, robot.upper_limits)
+                    PotentialField(FieldConfig(), robot.forward_kinematics(q)).plan_whole_body(
+                        robot, q, max_iterations=2, global_fallback=False)
+            except Exception:  # the problems that need this robot report the error themselves
+                _LOG.exception("building robot %s failed", spec)
+        if warm:
+            PotentialField(FieldConfig(), Pose((0.01, 0.0, 0.0))).plan(Pose(), max_iterations=2,
+                                                                        global_fallback=False)
 
     def robot(self, spec: RobotSpec) -> RobotModel:
         if spec not in self._robots:
