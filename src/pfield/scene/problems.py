@@ -150,6 +150,9 @@ def read_moveit_problem(scene_file: Path, request_file: Path, index: int, robot:
     except InvalidInput as exc:
         where = scene_file.name if exc.field.startswith("scene") else request_file.name
         raise InvalidInput(f"{where}: {exc.field}", exc.value, exc.reason) from None
+    if request.goal_link and request.goal_link != spec.end_effector:
+        raise InvalidInput(f"{request_file.name}: request.goal_constraints[0].position_constraints[0].link_name",
+                           request.goal_link, f"pose goals must name the robot's end effector {spec.end_effector!r}")
     locked = {name: request.start[name] for name in spec.locked_joints if name in request.start}
     start = {name: value for name, value in request.start.items() if name not in spec.locked_joints}
     return Problem(scene_file.parent.name, index, tuple(obstacles), start, request.goal_pose, request.goal_joints,
