@@ -9,6 +9,7 @@ import pytest
 
 from pfield.batch import RECORD_FIELDS, TIMING_FIELDS, Workspace, plan_many, problem_seed, solve
 from pfield.errors import InvalidInput
+from pfield.planning import PlanOptions
 from pfield.scene import Problem, read_problems
 from pfield.spatial import Pose
 
@@ -76,3 +77,16 @@ def test_bad_problem_lists_are_refused_naming_the_entry() -> None:
         with pytest.raises(InvalidInput) as raised:
             plan_many(problems)  # type: ignore[arg-type]
         assert raised.value.field == field
+
+
+def test_a_plan_still_running_at_its_timeout_is_cancelled_and_reported() -> None:
+    # a tolerance no plan can meet and a stagnation window longer than the plan: it would run 10^6 steps
+    endless = PlanOptions(dt=0.01, goal_tolerance=1e-300, max_iterations=1_000_000, stagnation_window=1e6,
+                          stagnation_progress=1e-300, global_fallback=False)
+    problem = Problem("endless", 0, start=Pose((0.3, 0.0, 0.5)), goal=Pose((0.31, 0.0, 0.5)), options=endless)
+    quick = Problem("quick", 0, start=Pose((0.3, 0.0, 0.5)), goal=Pose((0.305, 0.0, 0.5)))
+    slow, fast = plan_many([problem, quick], timeout=0.02)
+    assert (slow["status"], slow["success"]) == ("timeout", False)
+    assert slow["steps"] < 1_000_000 and len(slow["positions"]) == slow["steps"] + 1  # the waypoints so far
+    assert slow["error"] == "timeout: still planning after 0.02 s"
+    assert fast["status"] == "reached"
