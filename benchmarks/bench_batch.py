@@ -21,9 +21,11 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import secrets
 import shutil
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -101,7 +103,10 @@ def _ray_rows(quick: bool) -> list[BenchRow]:
     count = 40 if quick else 100
     command = ["unshare", "-n", "sh", "-c", 'ip link set lo up && exec "$@"', "sh", sys.executable, "-m",
                "benchmarks.bench_batch", "--ray-overhead", str(count)]
-    done = subprocess.run(command, capture_output=True, text=True, cwd=ROOT, timeout=600, check=False)
+    with tempfile.TemporaryDirectory(prefix="pfield-ray-") as home:  # nothing read from or left in ~/.ray
+        env = dict(os.environ, HOME=home, RAY_USAGE_STATS_ENABLED="0", RAY_AUTH_MODE="token",
+                   RAY_AUTH_TOKEN=secrets.token_hex(32))
+        done = subprocess.run(command, capture_output=True, text=True, cwd=ROOT, timeout=600, check=False, env=env)
     if done.returncode != 0:
         return [BenchRow(SECTION, "Ray overhead: failed", 0.0, "", note=done.stderr.strip()[-300:])]
     figures = json.loads(done.stdout.strip().splitlines()[-1])

@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import os
+import secrets
 import sys
 from pathlib import Path
 from typing import Any
@@ -37,7 +38,11 @@ def session(problem_paths: list[Path], tmp_path_factory: pytest.TempPathFactory)
             "--include-dashboard=false", "--disable-usage-stats", f"--temp-dir={out / 'ray'}"]
     client = [sys.executable, str(Path(__file__).with_name("ray_client.py")), f"127.0.0.1:{PORT}",
               *map(str, problem_paths)]
-    env = dict(os.environ, RAY_USAGE_STATS_ENABLED="0", PYTHONPATH=os.environ.get("PYTHONPATH", ""))
+    # token authentication with the test's own token, and a private HOME: nothing read from or left in ~/.ray
+    home = out / "home"
+    home.mkdir()
+    env = dict(os.environ, RAY_USAGE_STATS_ENABLED="0", PYTHONPATH=os.environ.get("PYTHONPATH", ""), HOME=str(home),
+               RAY_AUTH_MODE="token", RAY_AUTH_TOKEN=secrets.token_hex(32))
     done = run_session(head, client, out, timeout=500.0, env=env)
     state = json.loads((out / "session.json").read_text())
     logs = "\n".join((out / name).read_text(errors="replace")[-3000:] for name in ("node.log", "client.log"))
