@@ -22,7 +22,7 @@ the world frame, path or trajectory constraints, and more than one goal constrai
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -207,7 +207,6 @@ class MotionRequest:
     goal_pose: Pose | None = None
     goal_link: str = ""
     group_name: str = ""
-    extra: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
 
 
 def _goal_pose(where: str, goal: Mapping[str, Any], frames: Sequence[str]) -> tuple[Pose, str]:
