@@ -79,6 +79,8 @@ def plan_many(problems: Iterable[Problem], workers: int = 1, backend: str = "pro
 
     A problem that cannot be planned yields a record with status ``"error"`` and the reason in ``error``;
     the batch goes on. The arguments are checked before anything runs (``InvalidInput`` naming the field).
+    The process pool spawns its workers: a script that calls this with ``workers > 1`` must do so under
+    ``if __name__ == "__main__":`` (as for every ``spawn`` pool).
     """
     items, count, limit = _check(problems, workers, backend, seed, timeout, address)
     robots = tuple(dict.fromkeys(p.robot for p in items if p.robot is not None))

@@ -20,6 +20,8 @@ from pfield.scene import Problem, RobotSpec
 __all__ = ["run_in_process", "run_processes"]
 
 _WORKSPACE: Workspace | None = None
+_NO_WORKERS = ("the worker processes could not start (a script that calls plan_many with workers > 1 must do so "
+               "under `if __name__ == \"__main__\":`, as every spawned pool requires)")
 
 
 def _start_worker(robots: tuple[RobotSpec, ...]) -> None:
@@ -44,9 +46,10 @@ def run_processes(problems: Sequence[Problem], robots: tuple[RobotSpec, ...], wo
                   seed: int) -> Iterator[dict[str, Any]]:
     """The records of ``problems`` in order, planned by ``workers`` spawned processes.
 
-    At most ``2 · workers`` problems are in flight (so a long input is not pickled all at once); a worker
-    that dies (a crash in native code) turns the problems it held into ``"error"`` records and the pool is
-    started again for the rest.
+    At most ``2 · workers`` problems are in flight (so a long input is not pickled all at once). When a
+    worker dies (a crash in native code) the pool breaks: the oldest unfinished problem gets an ``"error"``
+    record, and a new pool plans the others again. A pool whose workers cannot start at all ends the batch
+    with an ``"error"`` record for every problem left.
     """
     context = multiprocessing.get_context("spawn")
     position = 0
@@ -54,19 +57,23 @@ def run_processes(problems: Sequence[Problem], robots: tuple[RobotSpec, ...], wo
         with ProcessPoolExecutor(workers, mp_context=context, initializer=_start_worker,
                                  initargs=(robots,)) as pool:
             pending: list[tuple[Problem, Future[dict[str, Any]]]] = []
-            broken = False
+            delivered = 0
             while position < len(problems) or pending:
-                while not broken and position < len(problems) and len(pending) < 2 * workers:
+                while position < len(problems) and len(pending) < 2 * workers:
                     problem = problems[position]
                     pending.append((problem, pool.submit(_solve_in_worker, problem, timeout, seed)))
                     position += 1
                 problem, future = pending.pop(0)
                 try:
-                    yield future.result()
+                    record = future.result()
                 except BrokenProcessPool:
-                    broken = True
+                    if not delivered:  # the workers cannot start at all: every problem left fails the same way
+                        for rest in (problem, *(p for p, _ in pending), *problems[position:]):
+                            yield _error(rest, "error", _NO_WORKERS)
+                        return
                     yield _error(problem, "error", "the worker process died while planning this problem")
                     # the pool is unusable: requeue what it still held and start a new pool
                     position -= len(pending)
-                    pending.clear()
                     break
+                delivered += 1
+                yield record
