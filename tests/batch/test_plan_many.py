@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -90,3 +93,18 @@ def test_a_plan_still_running_at_its_timeout_is_cancelled_and_reported() -> None
     assert slow["steps"] < 1_000_000 and len(slow["positions"]) == slow["steps"] + 1  # the waypoints so far
     assert slow["error"] == "timeout: still planning after 0.02 s"
     assert fast["status"] == "reached"
+
+
+def test_a_script_without_a_main_guard_gets_error_records_naming_the_fix(tmp_path: Path) -> None:
+    script = tmp_path / "unguarded.py"
+    script.write_text(
+        "import json\n"
+        "from pfield.batch import plan_many\n"
+        "from pfield.scene import Problem\n"
+        "from pfield.spatial import Pose\n"
+        "problems = [Problem('s', i, start=Pose(), goal=Pose((0.01, 0, 0))) for i in range(3)]\n"
+        "print(json.dumps([r['status'] + ':' + r['error'] for r in plan_many(problems, workers=2)]))\n")
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300, check=False)
+    assert done.returncode == 0, done.stderr[-2000:]
+    statuses = json.loads(done.stdout.strip().splitlines()[-1])
+    assert len(statuses) == 3 and all(s.startswith("error:") and "__main__" in s for s in statuses)
