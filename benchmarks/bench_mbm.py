@@ -38,55 +38,40 @@ import numpy as np
 import yaml
 
 from benchmarks._common import BenchRow
-from pfield.field import FieldConfig, PotentialField
-from pfield.geometry import Box, Cylinder, Obstacle
+from pfield.field import PotentialField
+from pfield.geometry import Obstacle
 from pfield.planning.result import PlannedPath
 from pfield.robot import RobotModel
 from pfield.robot.collision import CollisionChecker
-from pfield.spatial import Pose
+from pfield.scene import MBM_CONFIG, MBM_OPTIONS, WORLD_FRAMES, request_from_moveit, scene_folders
+from pfield.scene import scene_obstacles as moveit_obstacles
 
 SECTION = "MotionBenchMaker Panda baseline (whole-body potential field)"
 ARCHIVE = Path(__file__).resolve().parents[2] / "shared" / "benchmarks" / "mbm" / "panda_problems_dev.tar.bz2"
 SCENES = ("table_pick_panda", "table_under_pick_panda", "box_panda", "bookshelf_small_panda")
-CONFIG = FieldConfig(max_linear_velocity=0.25, max_angular_velocity=1.0, rotational_attractive_gain=0.6,
-                     max_angular_acceleration=1.0, safety_distance=0.002, influence_distance=0.05)
+CONFIG = MBM_CONFIG
 ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
 FINGER_JOINTS = ("panda_finger_joint1", "panda_finger_joint2")
 PLANNER = "whole_body_field"
-DT, TOLERANCE, MAX_STEPS = 0.02, 0.01, 10000
+DT, TOLERANCE, MAX_STEPS = MBM_OPTIONS.dt, MBM_OPTIONS.goal_tolerance, MBM_OPTIONS.max_iterations
 
 
 def scene_obstacles(scene: dict[str, Any]) -> list[Obstacle]:
-    """Obstacles of a MoveIt PlanningScene (``world.collision_objects`` boxes and cylinders)."""
-    obstacles = []
-    for item in scene.get("world", {}).get("collision_objects", []):
-        for index, (primitive, pose) in enumerate(zip(item["primitives"], item["primitive_poses"], strict=True)):
-            dims = primitive["dimensions"]
-            shape: Box | Cylinder
-            if primitive["type"] == "box":
-                shape = Box(length=dims[0], width=dims[1], height=dims[2])
-            elif primitive["type"] == "cylinder":
-                shape = Cylinder(radius=dims[1], height=dims[0])
-            else:
-                raise ValueError(f"unsupported primitive {primitive['type']!r}")
-            suffix = f"_{index}" if len(item["primitives"]) > 1 else ""
-            obstacles.append(Obstacle(f"{item['id']}{suffix}", shape, Pose(pose["position"], pose["orientation"])))
-    return obstacles
+    """Obstacles of a MoveIt PlanningScene (:func:`pfield.scene.scene_obstacles`; the Panda's base is the world)."""
+    return moveit_obstacles(scene, (*WORLD_FRAMES, "panda_link0"))
 
 
 def request_joints(request: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
-    """(start, goal) arm joint angles of a MotionPlanRequest, in the Panda's tree order."""
-    state = request["start_state"]["joint_state"]
-    start_map = dict(zip(state["name"], state["position"], strict=True))
-    goal_map = {c["joint_name"]: c["position"] for c in request["goal_constraints"][0]["joint_constraints"]}
-    return np.array([start_map[j] for j in ARM_JOINTS]), np.array([goal_map[j] for j in ARM_JOINTS])
+    """(start, goal) arm joint angles of a MotionPlanRequest (:func:`pfield.scene.request_from_moveit`)."""
+    parsed = request_from_moveit(request)
+    assert parsed.goal_joints is not None, "MBM goals are joint goals"
+    return (np.array([parsed.start[j] for j in ARM_JOINTS]), np.array([parsed.goal_joints[j] for j in ARM_JOINTS]))
 
 
 def request_fingers(request: dict[str, Any]) -> dict[str, float]:
     """The finger joint values of the request's start state (locked for the whole plan)."""
-    state = request["start_state"]["joint_state"]
-    values = dict(zip(state["name"], state["position"], strict=True))
-    return {name: float(values[name]) for name in FINGER_JOINTS if name in values}
+    start = request_from_moveit(request).start
+    return {name: start[name] for name in FINGER_JOINTS if name in start}
 
 
 def status_name(path: PlannedPath) -> str:
@@ -154,11 +139,6 @@ def solve(robots: Robots, directory: Path, index: int) -> dict[str, Any]:
         "path_length": float(np.linalg.norm(np.diff(path.positions, axis=0), axis=1).sum()),
         "min_clearance": float(path.min_clearance), "mesh_min_distance": min(checker.distances(q)[0] for q in samples),
     }
-
-
-def scene_folders(root: Path) -> list[Path]:
-    """Every folder under ``root`` holding MBM problems (``request0001.yaml`` …), sorted by name."""
-    return sorted({p.parent for p in root.rglob("request[0-9][0-9][0-9][0-9].yaml")}, key=lambda p: p.name)
 
 
 def problem_indices(directory: Path) -> list[int]:

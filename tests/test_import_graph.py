@@ -22,6 +22,8 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("warmup",),  # compiles every kernel once: uses every computational package below
     ("transport",),
     ("node",),
+    ("batch",),  # many plans on every core or a Ray cluster: problems from scene, the planners' public API
+    ("scene",),  # problems in: MoveIt PlanningScene/MotionPlanRequest and pfield scene YAML (uses interfaces)
     ("viz",),  # plots and viewer: may use every computational package below
     ("interfaces",),
     ("pfield",),  # the package's public face (pfield/__init__.py) re-exports the packages below

@@ -9,7 +9,18 @@ from typing import Annotated
 
 import typer
 
-from pfield.cli import _costmap, _demo, _introspection, _manipulator, _mobile, _node, _ros2, _viewer, _warmup
+from pfield.cli import (
+    _batch,
+    _costmap,
+    _demo,
+    _introspection,
+    _manipulator,
+    _mobile,
+    _node,
+    _ros2,
+    _viewer,
+    _warmup,
+)
 
 app = typer.Typer(
     name="pfield",
@@ -34,7 +45,7 @@ def _main(version: Annotated[bool, typer.Option("--version", callback=_print_ver
     """Potential-field motion planning and shared control (standalone node, tools and demos)."""
 
 
-for _module in (_demo, _warmup, _node, _manipulator, _mobile, _costmap, _ros2, _introspection, _viewer):
+for _module in (_demo, _warmup, _node, _manipulator, _batch, _mobile, _costmap, _ros2, _introspection, _viewer):
     _module.register(app)
 
 __all__ = ["app"]

@@ -45,8 +45,8 @@ def view(
     """Open the 3D viewer: obstacles, influence zones, goal gizmo, plans, the robot and the field arrows."""
     logging.basicConfig(level=log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
     with cli_errors():
-        from pfield.cli._manipulator import load_scene
         from pfield.geometry import ResourceResolver
+        from pfield.scene.files import load_scene
         from pfield.viz.viewer import Viewer, read_plan_csv
 
         packages = parse_package_paths(package_path or [])

@@ -16,7 +16,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from pfield._validation import as_points, finite
 from pfield.errors import InvalidInput
-from pfield.field._evaluate import batch_twists, batch_wrenches, obstacle_aux, twist_at, wrench_at
+from pfield.field._batch_parallel import batch_twists, batch_wrenches
+from pfield.field._evaluate import obstacle_aux, twist_at, wrench_at
 from pfield.field.config import FieldConfig
 from pfield.geometry import Obstacle, PackedObstacles, pack_obstacles, signed_distances
 from pfield.spatial import Pose, Twist, Wrench
@@ -197,13 +198,17 @@ class PotentialField:
         return points, np.ascontiguousarray(quats / norms)
 
     def wrenches(self, positions: ArrayLike, orientations: ArrayLike | None = None) -> NDArray[np.float64]:
-        """Raw wrenches (N, 6) = force, torque at N poses; orientations (N, 4) default to the goal's."""
+        """Raw wrenches (N, 6) = force, torque at N poses; orientations (N, 4) default to the goal's.
+
+        Large batches run on every core (:mod:`pfield.field._batch_parallel`), with the same values."""
         points, quats = self._batch(positions, orientations)
         goal, params, packed, aux = self._arrays
         return batch_wrenches(points, quats, goal, params, aux, *packed)
 
     def twists(self, positions: ArrayLike, orientations: ArrayLike | None = None) -> NDArray[np.float64]:
-        """Constrained twists (N, 6) = linear, angular at N poses, without a previous twist."""
+        """Constrained twists (N, 6) = linear, angular at N poses, without a previous twist.
+
+        Large batches run on every core (:mod:`pfield.field._batch_parallel`), with the same values."""
         points, quats = self._batch(positions, orientations)
         goal, params, packed, aux = self._arrays
         return batch_twists(points, quats, goal, params, aux, np.zeros(6), *packed)

@@ -62,10 +62,11 @@ def ros_environment() -> dict[str, str]:
     return env
 
 
-def run_session(node_argv: list[str], client_argv: list[str], out_dir: Path, timeout: float = 120.0
-                ) -> subprocess.CompletedProcess[str]:
-    """Run ``netns_session.py`` in new network and mount namespaces: the node, then the client, then SIGINT."""
+def run_session(node_argv: list[str], client_argv: list[str], out_dir: Path, timeout: float = 120.0,
+                env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
+    """Run ``netns_session.py`` in new network and mount namespaces: the node (a ROS 2 node, a Ray head …),
+    then the client, then SIGINT. ``env`` defaults to :func:`ros_environment`."""
     command = ["unshare", "-n", "-m", sys.executable, str(HELPERS / "netns_session.py"), str(out_dir),
                "--node", *node_argv, "--client", *client_argv]
-    return subprocess.run(command, env=ros_environment(), capture_output=True, text=True, timeout=timeout,
-                          check=False, cwd=REPO)
+    return subprocess.run(command, env=env if env is not None else ros_environment(), capture_output=True, text=True,
+                          timeout=timeout, check=False, cwd=REPO)

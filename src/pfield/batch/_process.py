@@ -1,0 +1,79 @@
+"""The process backend: a ``spawn`` pool of worker processes, each with its own :class:`Workspace`.
+
+``spawn`` (not ``fork``) so that a worker never inherits the parent's threads or locks (numba's, a Ray
+client's, a web server's); each worker imports pfield afresh and loads the compiled kernels from numba's
+cache on disk (the cache lives beside the source, so workers of one tree share it and do not recompile).
+The robots are built once per worker by the pool's initializer; each problem then travels alone.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+from collections.abc import Iterator, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from typing import Any
+
+from pfield.batch._solve import Workspace, _error, solve
+from pfield.scene import Problem, RobotSpec
+
+__all__ = ["run_in_process", "run_processes"]
+
+_WORKSPACE: Workspace | None = None
+_NO_WORKERS = ("the worker processes could not start (a script that calls plan_many with workers > 1 must do so "
+               "under `if __name__ == \"__main__\":`, as every spawned pool requires)")
+
+
+def _start_worker(robots: tuple[RobotSpec, ...]) -> None:
+    global _WORKSPACE
+    _WORKSPACE = Workspace(robots, warm=True)
+
+
+def _solve_in_worker(problem: Problem, timeout: float | None, seed: int) -> dict[str, Any]:
+    assert _WORKSPACE is not None, "the pool initializer builds the workspace"
+    return solve(problem, _WORKSPACE, timeout, seed)
+
+
+def run_in_process(problems: Sequence[Problem], robots: tuple[RobotSpec, ...], timeout: float | None,
+                   seed: int) -> Iterator[dict[str, Any]]:
+    """The records of ``problems`` in order, planned one after the other in this process."""
+    workspace = Workspace(robots)
+    for problem in problems:
+        yield solve(problem, workspace, timeout, seed)
+
+
+def run_processes(problems: Sequence[Problem], robots: tuple[RobotSpec, ...], workers: int, timeout: float | None,
+                  seed: int) -> Iterator[dict[str, Any]]:
+    """The records of ``problems`` in order, planned by ``workers`` spawned processes.
+
+    At most ``2 · workers`` problems are in flight (so a long input is not pickled all at once). When a
+    worker dies (a crash in native code) the pool breaks: the oldest unfinished problem gets an ``"error"``
+    record, and a new pool plans the others again. A pool whose workers cannot start at all ends the batch
+    with an ``"error"`` record for every problem left.
+    """
+    context = multiprocessing.get_context("spawn")
+    position = 0
+    while position < len(problems):
+        with ProcessPoolExecutor(workers, mp_context=context, initializer=_start_worker,
+                                 initargs=(robots,)) as pool:
+            pending: list[tuple[Problem, Future[dict[str, Any]]]] = []
+            delivered = 0
+            while position < len(problems) or pending:
+                while position < len(problems) and len(pending) < 2 * workers:
+                    problem = problems[position]
+                    pending.append((problem, pool.submit(_solve_in_worker, problem, timeout, seed)))
+                    position += 1
+                problem, future = pending.pop(0)
+                try:
+                    record = future.result()
+                except BrokenProcessPool:
+                    if not delivered:  # the workers cannot start at all: every problem left fails the same way
+                        for rest in (problem, *(p for p, _ in pending), *problems[position:]):
+                            yield _error(rest, "error", _NO_WORKERS)
+                        return
+                    yield _error(problem, "error", "the worker process died while planning this problem")
+                    # the pool is unusable: requeue what it still held and start a new pool
+                    position -= len(pending)
+                    break
+                delivered += 1
+                yield record

@@ -1,0 +1,73 @@
+"""``pfield batch``: plan many problems on every core or on a Ray cluster; results as JSON lines."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+
+def batch(
+    problems: Annotated[list[Path], typer.Argument(help="Scene YAML files, folders of MoveIt sceneNNNN.yaml/"
+                                                        "requestNNNN.yaml pairs, or archives of such folders.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Results file (JSON lines, one record per problem).")],
+    workers: Annotated[int, typer.Option("--workers", "-j", help="Worker processes (or Ray actors).")] = 1,
+    backend: Annotated[str, typer.Option("--backend", help="process or ray.")] = "process",
+    address: Annotated[str | None, typer.Option("--address", help="Ray cluster address (default: a local one).")
+                       ] = None,
+    robot: Annotated[str | None, typer.Option("--robot", help="Built-in robot of MoveIt problems (default panda).")
+                     ] = None,
+    scenes: Annotated[list[str] | None, typer.Option("--scene", help="Only this scene folder (repeatable).")] = None,
+    limit: Annotated[int | None, typer.Option("--limit", help="At most N problems per scene.")] = None,
+    timeout: Annotated[float | None, typer.Option("--timeout", help="Seconds per problem before it is cancelled.")
+                       ] = None,
+    seed: Annotated[int, typer.Option("--seed", help="Seed mixed with each problem's scene and index.")] = 0,
+    resume: Annotated[bool, typer.Option("--resume", help="Skip problems already in --out; append the rest.")
+                      ] = False,
+) -> None:
+    """Plan every problem and write one JSON line per problem to --out (in the problems' order).
+
+    Fields: scene, index, success, status, seconds, cpu_seconds, steps, planner, joint_names, positions,
+    times, clearances, error. Exit code 0 when every problem was planned (whether or not it reached its goal),
+    1 when a problem could not be planned (status error), 2 for bad arguments.
+    """
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from pfield.batch import finished_keys, plan_many, write_records
+    from pfield.errors import PfieldError
+    from pfield.scene import read_problems
+
+    console = Console(stderr=True)
+    try:
+        todo = read_problems(problems, robot=robot, scenes=scenes, limit=limit)
+        done = finished_keys(out) if resume else set()
+        todo = [p for p in todo if p.key not in done]
+        counts = {"reached": 0, "error": 0}
+        with Progress(TextColumn("planning {task.description}"), BarColumn(), MofNCompleteColumn(),
+                      TextColumn("{task.fields[counts]}"), TimeElapsedColumn(), console=console) as progress:
+            task = progress.add_task("", total=len(todo), counts="")
+
+            def report(record: dict[str, object]) -> None:
+                status = str(record["status"])
+                counts[status] = counts.get(status, 0) + 1
+                progress.update(task, advance=1, description=f"{record['scene']}/{record['index']}",
+                                counts=", ".join(f"{k} {v}" for k, v in counts.items() if v))
+
+            records = plan_many(todo, workers=workers, backend=backend, seed=seed, timeout=timeout, address=address,
+                                progress=report)
+            written = write_records(records, out, append=resume)
+    except PfieldError as exc:
+        console.print(f"[red]error:[/red] {exc}", highlight=False)
+        raise typer.Exit(2) from None
+    summary = ", ".join(f"{k} {v}" for k, v in sorted(counts.items()) if v) or "nothing to do"
+    console.print(f"{written} problems planned ({len(done)} already in {out}): {summary}; results in {out}",
+                  highlight=False)
+    if counts["error"]:
+        raise typer.Exit(1)
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``batch`` to ``app``."""
+    app.command("batch")(batch)

@@ -1,0 +1,256 @@
+"""Planning problems: one value per plan to make, read from pfield scene files and MoveIt problem sets.
+
+A :class:`Problem` carries everything one plan needs (obstacles, start, goal, field parameters, planning
+options and, for whole-body problems, the robot to build) as plain picklable values, so a batch can send
+it to another process or a Ray worker. :func:`read_problems` turns paths into problems, in a stable order:
+
+* a pfield scene file (``*.yaml``, :mod:`pfield.scene.files`) → one task-space problem;
+* a folder of MoveIt ``sceneNNNN.yaml`` / ``requestNNNN.yaml`` pairs (the MotionBenchMaker layout, also
+  nested one level: every folder holding such pairs is one scene) → one whole-body problem per pair;
+* an archive (``.tar``, ``.tar.gz``, ``.tgz``, ``.tar.bz2``, ``.tar.xz``) of such folders.
+
+For MoveIt problems the robot is :class:`RobotSpec`'s built-in (default the Panda). The request's values of
+the catalog's locked joints lock them (MotionBenchMaker opens the Panda's fingers to 0.065 m); the goal is
+a joint goal's end-effector pose (forward kinematics) or the request's pose goal.
+"""
+
+from __future__ import annotations
+
+import re
+import tarfile
+import tempfile
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import yaml
+
+from pfield._validation import text
+from pfield.errors import InvalidInput
+from pfield.field import FieldConfig
+from pfield.geometry import Obstacle
+from pfield.planning.options import PlanOptions
+from pfield.robot.catalog import builtin_spec
+from pfield.scene.files import load_scene
+from pfield.scene.moveit import WORLD_FRAMES, request_from_moveit, scene_obstacles
+from pfield.spatial import Pose
+
+__all__ = ["MBM_CONFIG", "MBM_OPTIONS", "Problem", "RobotSpec", "read_moveit_problem", "read_problems",
+           "scene_folders"]
+
+MBM_CONFIG = FieldConfig(max_linear_velocity=0.25, max_angular_velocity=1.0, rotational_attractive_gain=0.6,
+                         max_angular_acceleration=1.0, safety_distance=0.002, influence_distance=0.05)
+"""Field parameters for MoveIt problem sets: rosYaml, except faster limits (the seed's 5 cm/s makes every
+plan slow), a 2 mm safety distance and a 5 cm influence distance (MBM goals are grasp poses next to objects)."""
+MBM_OPTIONS = PlanOptions(dt=0.02, goal_tolerance=0.01, max_iterations=10000)
+"""Planning options for MoveIt problem sets: dt 0.02 s, 1 cm (and the config's 0.05 rad), 10000 steps."""
+_ARCHIVE = re.compile(r"\.(tar|tar\.gz|tgz|tar\.bz2|tbz2|tar\.xz|txz)$")
+_REQUEST = "request[0-9][0-9][0-9][0-9].yaml"
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """A built-in robot (:meth:`RobotModel.builtin`) with joints locked at given values (sorted pairs)."""
+
+    name: str = "panda"
+    locked_joints: tuple[tuple[str, float], ...] = ()
+
+    def __post_init__(self) -> None:
+        builtin_spec(self.name)  # refuses an unknown name, listing the known ones
+        object.__setattr__(self, "locked_joints", tuple(sorted((str(k), float(v)) for k, v in self.locked_joints)))
+
+    def build(self):  # type: ignore[no-untyped-def]  # -> RobotModel (robot is below scene: a plain import)
+        from pfield.robot import RobotModel
+
+        return RobotModel.builtin(self.name, locked_joints=dict(self.locked_joints))
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One plan to make.
+
+    ``scene`` and ``index`` name it (the scene folder or file stem, the problem number), and
+    ``(scene, index)`` is its key in a result file. ``start`` is a :class:`Pose` (task space) or a mapping
+    of joint names to positions (whole body, with ``robot``). The goal is ``goal`` (a pose) or, for a whole-
+    body problem, ``goal_joints`` (its end effector's pose by forward kinematics). Joint values outside the
+    robot's limits are clipped onto them when the plan is made (MoveIt's Panda limits differ slightly).
+    """
+
+    scene: str
+    index: int
+    obstacles: tuple[Obstacle, ...] = ()
+    start: Pose | Mapping[str, float] = field(default_factory=Pose)
+    goal: Pose | None = None
+    goal_joints: Mapping[str, float] | None = None
+    robot: RobotSpec | None = None
+    config: FieldConfig = field(default_factory=FieldConfig)
+    options: PlanOptions = field(default_factory=PlanOptions)
+    error: str = ""
+    """Why the problem could not be read (:meth:`unreadable`); a batch reports it instead of planning."""
+
+    def __post_init__(self) -> None:
+        text("scene", self.scene)
+        if isinstance(self.index, bool) or not isinstance(self.index, int):
+            raise InvalidInput("index", self.index, "must be an integer")
+        if text("error", self.error):
+            return
+        object.__setattr__(self, "obstacles", tuple(self.obstacles))
+        for i, obstacle in enumerate(self.obstacles):
+            if not isinstance(obstacle, Obstacle):
+                raise InvalidInput(f"obstacles[{i}]", obstacle, "expected a pfield.Obstacle")
+        if not isinstance(self.config, FieldConfig):
+            raise InvalidInput("config", self.config, "expected a pfield.FieldConfig")
+        if not isinstance(self.options, PlanOptions):
+            raise InvalidInput("options", self.options, "expected a pfield.PlanOptions")
+        if self.options.cancel is not None:
+            raise InvalidInput("options.cancel", self.options.cancel, "a problem's options cannot carry a CancelToken")
+        if self.robot is not None and not isinstance(self.robot, RobotSpec):
+            raise InvalidInput("robot", self.robot, "expected a pfield.scene.RobotSpec or None")
+        whole_body = self.robot is not None
+        if whole_body == isinstance(self.start, Pose):
+            raise InvalidInput("start", self.start, "a Pose for a task-space problem, joint positions (a mapping of "
+                               "names) with a robot")
+        if (self.goal is None) == (self.goal_joints is None) or (self.goal_joints is not None and not whole_body):
+            raise InvalidInput("goal", self.goal, "give exactly one of goal (a Pose) and goal_joints (with a robot)")
+        if self.goal is not None and not isinstance(self.goal, Pose):
+            raise InvalidInput("goal", self.goal, "expected a pfield.Pose")
+
+    @property
+    def key(self) -> tuple[str, int]:
+        return (self.scene, self.index)
+
+    @classmethod
+    def unreadable(cls, scene: str, index: int, error: str) -> Problem:
+        """A problem whose files could not be read: it keeps its place (and key) in a batch, and its record
+        says ``error``."""
+        return cls(scene, index, error=text("error", error) or "unreadable problem")
+
+
+_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml's parser when present: ~10x faster
+
+
+def _read_yaml(path: Path) -> object:
+    try:
+        return yaml.load(path.read_text(encoding="utf-8"), Loader=_LOADER)  # a safe loader
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+        raise InvalidInput(path.name, str(path), f"cannot read the YAML file ({exc})") from None
+
+
+def read_moveit_problem(scene_file: Path, request_file: Path, index: int, robot: str = "panda",
+                        config: FieldConfig = MBM_CONFIG, options: PlanOptions = MBM_OPTIONS) -> Problem:
+    """The whole-body problem of one MoveIt scene/request pair (see the module text for the robot and goal).
+
+    The robot's base link is also taken as the world frame (the MBM robots stand at the origin). Errors name
+    the file and the part: ``InvalidInput("request0003.yaml: request.goal_constraints", …)``.
+    """
+    spec = builtin_spec(robot)
+    try:
+        obstacles = scene_obstacles(_read_yaml(scene_file), (*WORLD_FRAMES, *_base_frames(robot)))
+        request = request_from_moveit(_read_yaml(request_file), (*WORLD_FRAMES, *_base_frames(robot)))
+    except InvalidInput as exc:
+        where = scene_file.name if exc.field.startswith("scene") else request_file.name
+        raise InvalidInput(f"{where}: {exc.field}", exc.value, exc.reason) from None
+    if request.goal_link and request.goal_link != spec.end_effector:
+        raise InvalidInput(f"{request_file.name}: request.goal_constraints[0].position_constraints[0].link_name",
+                           request.goal_link, f"pose goals must name the robot's end effector {spec.end_effector!r}")
+    locked = {name: request.start[name] for name in spec.locked_joints if name in request.start}
+    start = {name: value for name, value in request.start.items() if name not in spec.locked_joints}
+    return Problem(scene_file.parent.name, index, tuple(obstacles), start, request.goal_pose, request.goal_joints,
+                   RobotSpec(robot, tuple(locked.items())), config, options)
+
+
+def _base_frames(robot: str) -> tuple[str, ...]:
+    return {"panda": ("panda_link0",), "xarm7": ("link_base",)}.get(robot.strip().lower(), ())
+
+
+def scene_folders(root: Path) -> list[Path]:
+    """Every folder under ``root`` (itself included) holding ``requestNNNN.yaml`` files, sorted by name."""
+    return sorted({p.parent for p in root.rglob(_REQUEST)}, key=lambda p: (p.name, str(p)))
+
+
+def _folder_problems(folder: Path, robot: str, config: FieldConfig, options: PlanOptions,
+                     limit: int | None) -> Iterator[Problem]:
+    for request in sorted(folder.glob(_REQUEST))[:limit]:
+        number = request.stem.removeprefix("request")
+        scene = folder / f"scene{number}.yaml"
+        if not scene.exists():
+            yield Problem.unreadable(folder.name, int(number), f"{request.name}: no matching {scene.name} beside it")
+            continue
+        try:
+            yield read_moveit_problem(scene, request, int(number), robot, config, options)
+        except InvalidInput as exc:  # one bad pair is one failed problem, not a failed batch
+            yield Problem.unreadable(folder.name, int(number), str(exc))
+
+
+def _path_problems(path: Path, robot: str | None, config: FieldConfig | None, options: PlanOptions | None,
+                   wanted: set[str] | None, limit: int | None, found: set[str]) -> Iterator[Problem]:
+    moveit = (robot or "panda", config or MBM_CONFIG, options or MBM_OPTIONS)
+    if path.is_dir():
+        folders = scene_folders(path)
+        if not folders:
+            raise InvalidInput("problems", str(path), "the folder holds no requestNNNN.yaml/sceneNNNN.yaml pairs")
+        for folder in folders:
+            found.add(folder.name)
+            if wanted is None or folder.name.removesuffix("_panda") in wanted:
+                yield from _folder_problems(folder, *moveit, limit)
+    elif _ARCHIVE.search(path.name):
+        with tempfile.TemporaryDirectory(prefix="pfield-problems-") as tmp:
+            try:
+                with tarfile.open(path) as opened:
+                    opened.extractall(tmp, filter="data")
+            except (OSError, tarfile.TarError) as exc:
+                raise InvalidInput("problems", str(path), f"cannot read the archive ({exc})") from None
+            # read everything before the folder goes away (meshes are loaded into memory)
+            yield from list(_path_problems(Path(tmp), robot, config, options, wanted, limit, found))
+    elif path.suffix in (".yaml", ".yml"):
+        with tempfile.TemporaryDirectory(prefix="pfield-scene-") as meshes:
+            scene = load_scene(path, Path(meshes))
+        options = PlanOptions.build(options, dt=scene["dt"], goal_tolerance=scene["goal_tolerance"],
+                                    max_iterations=scene["max_iterations"])
+        found.add(path.stem)
+        yield Problem(path.stem, 0, tuple(scene["obstacles"]), scene["start"], scene["goal"],
+                      config=config or scene["config"], options=options)
+    elif not path.exists():
+        raise InvalidInput("problems", str(path), "no such file or folder")
+    else:
+        raise InvalidInput("problems", str(path), "expected a scene .yaml, a folder of MoveIt problems or an archive")
+
+
+def read_problems(paths: Iterable[str | Path], robot: str | None = None, config: FieldConfig | None = None,
+                  options: PlanOptions | None = None, scenes: Sequence[str] | None = None,
+                  limit: int | None = None) -> list[Problem]:
+    """Every problem of ``paths`` in order (see the module text). ``robot`` names the built-in robot of MoveIt
+    problems (default ``"panda"``); ``config``/``options`` replace the defaults (:data:`MBM_CONFIG`,
+    :data:`MBM_OPTIONS` for MoveIt problems; a scene file's own for scene files). ``scenes`` keeps only the
+    scenes of these names (``_panda`` suffix optional), ``limit`` the first N problems of each scene.
+    Two problems with the same ``(scene, index)`` are refused."""
+    if isinstance(paths, str | Path):
+        paths = [paths]
+    if limit is not None and (isinstance(limit, bool) or not isinstance(limit, int) or limit < 1):
+        raise InvalidInput("limit", limit, "must be an integer >= 1 or None")
+    if robot is not None:
+        builtin_spec(robot)
+    wanted = {s.removesuffix("_panda") for s in scenes} if scenes else None
+    problems: list[Problem] = []
+    found: set[str] = set()
+    for path in paths:
+        problems.extend(_path_problems(Path(path), robot, config, options, wanted, limit, found))
+    if wanted is not None:
+        unknown = wanted - {name.removesuffix("_panda") for name in found}
+        if unknown:
+            raise InvalidInput("scenes", sorted(unknown), f"no such scene; known: {sorted(found)}")
+        problems = [p for p in problems if p.scene.removesuffix("_panda") in wanted]
+    if limit is not None:
+        counts: dict[str, int] = {}
+        kept = []
+        for problem in problems:
+            counts[problem.scene] = counts.get(problem.scene, 0) + 1
+            if counts[problem.scene] <= limit:
+                kept.append(problem)
+        problems = kept
+    seen: set[tuple[str, int]] = set()
+    for problem in problems:
+        if problem.key in seen:
+            raise InvalidInput("problems", f"{problem.scene}/{problem.index}", "two problems have this scene and index")
+        seen.add(problem.key)
+    return problems
