@@ -11,7 +11,8 @@ from collections.abc import Iterator
 
 import httpx
 import pytest
-from _serve import pfield_serve, rss_bytes
+
+from serve_process import pfield_serve, rss_bytes
 
 SCAN = json.dumps({"ranges": [1.25] * 60_000}).encode()  # 300 kB of JSON, about 2 MB as a message
 CEILING = 150_000_000
