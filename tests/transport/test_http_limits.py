@@ -238,3 +238,33 @@ def test_a_short_service_refuses_a_bad_body_with_400_naming_it(served: tuple[Fau
     error = answer.json()
     assert set(error) == {"error", "field", "value"} and error["field"] in ("body", "unknown"), error
     assert httpx.post(f"{server.url}/srv/faulty/ok", json={}).json() == {"success": True, "message": ""}
+
+
+class NicenessNode(FaultyNode):
+    """Two Trigger services answering the niceness of the thread that runs them: one short, one long-running."""
+
+    name = "/nice"
+
+    def services(self) -> list[ServiceSpec]:
+        def niceness(_: std_srvs.Trigger_Request) -> std_srvs.Trigger_Response:
+            import os
+
+            return std_srvs.Trigger_Response(success=True, message=str(os.getpriority(os.PRIO_PROCESS,
+                                                                                      threading.get_native_id())))
+
+        return [ServiceSpec("/nice/short", "std_srvs/srv/Trigger", std_srvs.Trigger_Request,
+                            std_srvs.Trigger_Response, niceness),
+                ServiceSpec("/nice/long", "std_srvs/srv/Trigger", std_srvs.Trigger_Request,
+                            std_srvs.Trigger_Response, niceness, long_running=True)]
+
+
+def test_long_running_services_run_at_a_lower_priority_than_short_ones() -> None:
+    import os
+
+    from pfield.transport.http import LONG_RUNNING_NICENESS
+
+    with ServerThread(create_app([NicenessNode(Bus())])) as server:
+        short = int(httpx.post(f"{server.url}/srv/nice/short", json={}).json()["message"])
+        long = int(httpx.post(f"{server.url}/srv/nice/long", json={}).json()["message"])
+    assert short == os.getpriority(os.PRIO_PROCESS, 0)
+    assert long == min(19, short + LONG_RUNNING_NICENESS)
