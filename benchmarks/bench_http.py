@@ -8,9 +8,14 @@
   ``/ws/topic/pfield/autonomy_vector`` counts them; messages per second from first to last. Target ≥ 1000.
 * Handlers off the event loop: the task-space round trip again with short services run on the event loop
   (as before) instead of the calls thread, to show what moving them costs.
-* Under load: 8 keep-alive clients post the autonomy request while one client repeatedly asks for plans at
-  the iteration cap (200 000 iterations, a slow approach that uses them all); p50/p99 of the autonomy calls
-  (target p99 ≤ 5 ms) and the plans' wall time.
+* Under load: 8 keep-alive connections post the autonomy request while another asks for plans at the
+  iteration cap (200 000 iterations, a slow approach that uses them all), every client in a process of its
+  own (as a robot's control loops are; clients in the server's process would share its GIL). Each connection
+  is a 100 Hz control loop (paced): p50/p99 of the autonomy calls (target p99 ≤ 5 ms) and the plans' wall
+  time. Then the same with the 8 connections calling back to back (saturation: the calls thread serves them
+  one at a time, so p99 there is a queue of 8, and the note gives the throughput).
+* ``compute_assistance``: the round trip of a task-space request with an operator command (seed goal, no
+  obstacles), target p50 ≤ 1 ms.
 * Plan response: time to write the JSON of a 200 000-waypoint whole-body-sized response from the plan's arrays,
   and (before) through one validated pydantic object per waypoint (``model_validate`` + ``model_dump_json``).
 * Memory: RSS growth of the server process under 300 junk topic names of 300 kB messages, and under a
@@ -22,6 +27,9 @@ The C++ original has no HTTP interface (no reference figure).
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -76,6 +84,24 @@ def _round_trip(url: str, calls: int, query: dict[str, object]) -> tuple[float, 
     return float(np.percentile(samples, 50)) * 1e3, float(np.percentile(samples, 99)) * 1e3
 
 
+ASSISTANCE = {"query_pose": {"header": {"frame_id": "world"}, "pose": {"position": {"x": 0.3, "y": 0.0, "z": 0.5}}},
+              "user_command": {"twist": {"linear": {"x": 0.02}}}}
+
+
+def _assistance_round_trip(url: str, calls: int) -> tuple[float, float]:
+    """p50, p99 (ms) of ``compute_assistance`` with the seed's goal and no obstacles (a separate node)."""
+    with httpx.Client(base_url=url, timeout=300.0) as client:
+        client.post("/topic/pfield/planning_goal_pose", json={"pose": {"position": {"x": 0.6, "y": 0.3, "z": 0.3}}})
+        for _ in range(50):
+            client.post("/srv/pfield/compute_assistance", json=ASSISTANCE).raise_for_status()
+        samples = []
+        for _ in range(calls):
+            start = time.perf_counter()
+            client.post("/srv/pfield/compute_assistance", json=ASSISTANCE).raise_for_status()
+            samples.append(time.perf_counter() - start)
+    return _percentiles(samples)
+
+
 def _websocket_rate(url: str, bus: Bus, count: int) -> float:
     from pfield.interfaces.geometry_msgs import TwistStamped
 
@@ -110,40 +136,57 @@ def _percentiles(samples: list[float]) -> tuple[float, float]:
     return float(np.percentile(data, 50)), float(np.percentile(data, 99))
 
 
-def _autonomy_while_planning(url: str, plans: int, clients: int = 8) -> tuple[float, float, float, int]:
-    """p50, p99 (ms) of autonomy calls from ``clients`` connections while ``plans`` capped plans run one after
-    another; also the mean plan wall time (s) and the number of autonomy calls."""
-    done = threading.Event()
-    latencies: list[list[float]] = [[] for _ in range(clients)]
-    plan_times: list[float] = []
+CONTROL_RATE_HZ = 100.0
+"""Rate of each paced connection under load (a control loop)."""
 
-    def planner() -> None:
-        with httpx.Client(base_url=url, timeout=600) as client:
-            for _ in range(plans):
+
+def _client_process(url: str, mode: str, count: int, rate: float) -> subprocess.Popen[str]:
+    """This module as a client in its own process (see :func:`_client_main`)."""
+    return subprocess.Popen([sys.executable, "-m", "benchmarks.bench_http", "--client", url, mode, str(count),
+                             str(rate)], stdout=subprocess.PIPE, text=True, cwd=Path(__file__).resolve().parents[1])
+
+
+def _client_main(url: str, mode: str, count: int, rate: float) -> None:
+    """``plan``: ``count`` capped plans, then print their wall times. ``autonomy``: call until the file
+    ``<url hash>.stop`` appears (or ``count`` calls), at ``rate`` Hz (0: back to back); print the latencies."""
+    with httpx.Client(base_url=url, timeout=600) as client:
+        samples: list[float] = []
+        if mode == "plan":
+            for _ in range(count):
                 start = time.perf_counter()
-                answer = client.post("/srv/pfield/plan_path", json=CAPPED_PLAN)
-                answer.raise_for_status()
-                plan_times.append(time.perf_counter() - start)
-        done.set()
-
-    def caller(samples: list[float]) -> None:
-        with httpx.Client(base_url=url, timeout=600) as client:
-            while not done.is_set():
+                client.post("/srv/pfield/plan_path", json=CAPPED_PLAN).raise_for_status()
+                samples.append(time.perf_counter() - start)
+        else:
+            period = 1.0 / rate if rate > 0 else 0.0
+            stop = Path(tempfile.gettempdir()) / f"pfield-bench-{url.rsplit(':', 1)[-1]}.stop"
+            next_call = time.perf_counter()
+            while len(samples) < count and not stop.exists():
                 start = time.perf_counter()
                 client.post("/srv/pfield/compute_autonomy_vector", json=QUERY).raise_for_status()
                 samples.append(time.perf_counter() - start)
+                next_call += period
+                time.sleep(max(0.0, next_call - time.perf_counter()))
+    print(json.dumps(samples))
 
-    threads = [threading.Thread(target=caller, args=(latencies[i],)) for i in range(clients)]
-    plan_thread = threading.Thread(target=planner)
-    for thread in threads:
-        thread.start()
-    plan_thread.start()
-    plan_thread.join()
-    for thread in threads:
-        thread.join()
-    samples = [s for per_client in latencies for s in per_client]
+
+def _autonomy_while_planning(url: str, plans: int, rate: float,
+                             clients: int = 8) -> tuple[float, float, float, int, float]:
+    """p50, p99 (ms) of autonomy calls from ``clients`` connections (each its own process, ``rate`` Hz, 0:
+    back to back) while ``plans`` capped plans run one after another; also the mean plan wall time (s), the
+    number of autonomy calls and their rate (calls/s)."""
+    stop = Path(tempfile.gettempdir()) / f"pfield-bench-{url.rsplit(':', 1)[-1]}.stop"
+    stop.unlink(missing_ok=True)
+    callers = [_client_process(url, "autonomy", 10**9, rate) for _ in range(clients)]
+    time.sleep(1.0)  # the callers' interpreters start and connect
+    start = time.perf_counter()
+    planner = _client_process(url, "plan", plans, 0.0)
+    plan_times = json.loads(planner.communicate()[0])
+    elapsed = time.perf_counter() - start
+    stop.touch()
+    samples = [s for caller in callers for s in json.loads(caller.communicate()[0])]
+    stop.unlink(missing_ok=True)
     p50, p99 = _percentiles(samples)
-    return p50, p99, float(np.mean(plan_times)), len(samples)
+    return p50, p99, float(np.mean(plan_times)), len(samples), len(samples) / elapsed
 
 
 def _plan_response_times(waypoints: int) -> tuple[float, float, float]:
@@ -224,8 +267,11 @@ def run(quick: bool) -> list[BenchRow]:
         wb50, wb99 = _round_trip(server.url, calls, WHOLE_BODY_QUERY)
         rate = _websocket_rate(server.url, bus, burst)
         httpx.put(f"{server.url}/param/pfield_manager", json=SLOW_APPROACH).raise_for_status()
-        load50, load99, plan_s, load_calls = _autonomy_while_planning(server.url, plans)
+        load50, load99, plan_s, load_calls, _ = _autonomy_while_planning(server.url, plans, CONTROL_RATE_HZ)
+        sat50, sat99, _, sat_calls, sat_rate = _autonomy_while_planning(server.url, plans, 0.0)
         junk_mb, reader_mb = _memory_under_floods(server.url)
+    with ServerThread(create_app([ManagerNode(Bus(), RobotModel.builtin("xarm7"))])) as server:
+        assist50, assist99 = _assistance_round_trip(server.url, calls)
     original = _on_the_event_loop()
     try:
         with ServerThread(create_app([ManagerNode(Bus(), RobotModel.builtin("xarm7"))])) as server:
@@ -244,8 +290,13 @@ def run(quick: bool) -> list[BenchRow]:
         BenchRow(SECTION, "compute_autonomy_vector round trip p50, handler on the event loop", loop50, "ms",
                  note=f"for comparison with the calls thread above; p99 {loop99:.2f} ms"),
         BenchRow(SECTION, "autonomy round trip p99 while capped plans run", load99, "ms", target=5.0,
-                 note=f"8 connections, {load_calls} calls, p50 {load50:.2f} ms; {plans} plan(s) of 200 000 "
-                      f"iterations, {plan_s:.1f} s each"),
+                 note=f"8 connections at {CONTROL_RATE_HZ:.0f} Hz, each its own process, {load_calls} calls, "
+                      f"p50 {load50:.2f} ms; {plans} plan(s) of 200 000 iterations, {plan_s:.1f} s each"),
+        BenchRow(SECTION, "autonomy round trip p99 while capped plans run, back to back", sat99, "ms",
+                 note=f"8 connections calling without pause: {sat_rate:.0f} calls/s, {sat_calls} calls, "
+                      f"p50 {sat50:.2f} ms"),
+        BenchRow(SECTION, "compute_assistance HTTP round trip p50", assist50, "ms", target=1.0,
+                 note=f"{calls} calls, task space with an operator command, no obstacles; p99 {assist99:.2f} ms"),
         BenchRow(SECTION, "plan response JSON from the arrays", fast_s, "s",
                  note=f"{waypoints} waypoints with 7 joints, {megabytes:.0f} MB"),
         BenchRow(SECTION, "plan response JSON through per-waypoint pydantic objects (before)", slow_s, "s",
@@ -255,3 +306,11 @@ def run(quick: bool) -> list[BenchRow]:
         BenchRow(SECTION, "RSS growth under a WebSocket client that never reads", reader_mb, "MB", target=150.0,
                  note="200 messages of 300 kB; the outbox keeps at most 16 MB, oldest dropped"),
     ]
+
+
+if __name__ == "__main__":
+    if sys.argv[1:2] == ["--client"]:
+        _client_main(sys.argv[2], sys.argv[3], int(sys.argv[4]), float(sys.argv[5]))
+    else:
+        for row in run(quick="--quick" in sys.argv):
+            print(row)

@@ -34,14 +34,14 @@ import shutil
 import signal
 import subprocess
 import sys
-import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import httpx
 import pytest
+
+from serve_process import pfield_serve
 
 REPO = Path(__file__).resolve().parents[1]
 DOCS = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
@@ -157,29 +157,6 @@ def test_value_matching_rules() -> None:
 
 
 # ---- running -------------------------------------------------------------------------------------------------
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return int(probe.getsockname()[1])
-
-
-def _wait_for(url: str, process: subprocess.Popen[bytes], log: Path) -> None:
-    deadline = time.monotonic() + 300
-    while time.monotonic() < deadline:
-        if process.poll() is not None:
-            pytest.fail(f"pfield serve exited: {log.read_text()}")
-        try:
-            if httpx.get(f"{url}/nodes", timeout=2).status_code == 200:
-                return
-        except httpx.TransportError:
-            pass
-        time.sleep(0.3)
-    process.kill()
-    pytest.fail(f"pfield serve did not start: {log.read_text()}")
-
-
 @pytest.fixture(scope="module")
 def workdirs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     """One working folder per document, with the repository's folders linked in and ``../shared`` resolving
@@ -199,23 +176,10 @@ def workdirs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 def shared_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     """The node the blocks without their own ``pfield serve &`` talk to (with the example map for the costmap)."""
     work = tmp_path_factory.mktemp("shared_serve")
-    port = _free_port()
-    log = work / "serve.log"
-    with log.open("wb") as sink:
-        process = subprocess.Popen(
-            [str(VENV_BIN / "pfield"), "serve", "--port", str(port), "--package-path",
-             f"my_robot_description={REPO / 'tests/data/my_robot_description'}", "--map",
-             str(REPO / "src/pfield/data/maps/example.yaml"), "--footprint", FOOTPRINT],
-            stdout=sink, stderr=subprocess.STDOUT, cwd=work)
-    url = f"http://127.0.0.1:{port}"
-    _wait_for(url, process, log)
-    yield url
-    process.send_signal(signal.SIGINT)
-    try:
-        process.wait(timeout=20)
-    except subprocess.TimeoutExpired:
-        process.kill()
-        process.wait()
+    with pfield_serve("--package-path", f"my_robot_description={REPO / 'tests/data/my_robot_description'}",
+                      "--map", str(REPO / "src/pfield/data/maps/example.yaml"), "--footprint", FOOTPRINT,
+                      log=work / "serve.log", cwd=work, stop=signal.SIGINT) as (url, _):
+        yield url
 
 
 _PRELUDE = r"""

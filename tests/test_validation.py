@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pfield._validation import finite, nonnegative, positive
+from pfield._validation import finite, is_loopback_host, nonnegative, positive
 from pfield.errors import InvalidInput
 
 
@@ -21,3 +21,10 @@ def test_numbers_and_numeric_strings_pass() -> None:
     assert finite("gain", "0.5") == 0.5
     assert positive("gain", np.float32(2.0)) == 2.0
     assert nonnegative("gain", 0) == 0.0
+
+
+@pytest.mark.parametrize(("host", "loopback"), [("localhost", True), ("127.0.0.1", True), ("127.8.0.3", True),
+                                                 ("::1", True), ("0.0.0.0", False), ("192.168.1.5", False),
+                                                 ("::", False), ("example.org", False), ("", False)])
+def test_a_bind_address_is_loopback_only_on_this_machine(host: str, loopback: bool) -> None:
+    assert is_loopback_host(host) is loopback

@@ -86,6 +86,17 @@ def text(field: str, value: Any) -> str:
     return value
 
 
+def is_loopback_host(host: str) -> bool:
+    """Whether a bind address stays on this machine (``localhost`` or a loopback IP such as 127.0.0.1, ::1):
+    serving on any other address needs a token."""
+    import ipaddress
+
+    try:
+        return host == "localhost" or ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
 def in_range(field: str, value: Any, low: float, high: float, unit: str = "") -> float:
     """Return ``value`` as a finite float in ``[low, high]`` (the range documented for the field)."""
     number = finite(field, value)

@@ -1,11 +1,9 @@
-"""Helpers to drive a real ``pfield serve`` process from tests."""
+"""A real ``pfield serve`` process driven through the CLI (started by :func:`serve_process.pfield_serve`)."""
 
 from __future__ import annotations
 
 import os
-import socket
 import subprocess
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -13,15 +11,9 @@ from typing import Any
 import httpx
 import yaml
 
-PFIELD = Path(sys.executable).with_name("pfield")
-REPO = Path(__file__).resolve().parents[2]
-MESH_PACKAGE = REPO / "tests" / "data" / "my_robot_description"
+from serve_process import MESH_PACKAGE, PFIELD, REPO, free_port
 
-
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return int(probe.getsockname()[1])
+__all__ = ["MESH_PACKAGE", "PFIELD", "REPO", "NodeServer", "free_port"]
 
 
 @dataclass

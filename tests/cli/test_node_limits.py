@@ -5,7 +5,6 @@ obstacle count is capped (memory stays bounded) and parameters describe themselv
 from __future__ import annotations
 
 import json
-from pathlib import Path
 from typing import Any
 
 import httpx
@@ -13,6 +12,7 @@ import pytest
 from pfield_node_server import MESH_PACKAGE, NodeServer
 
 from pfield.node.manager import MAX_OBSTACLES
+from serve_process import rss_bytes
 
 START = {"position": {"x": 0.3, "y": 0.0, "z": 0.3}, "orientation": {"w": 1.0}}
 GOAL = {"position": {"x": 0.45, "y": 0.1, "z": 0.35}, "orientation": {"w": 1.0}}
@@ -41,11 +41,6 @@ def send(method: str, url: str, body: Any, timeout: float = 60) -> httpx.Respons
     """JSON with non-ASCII escaped (``"\\ud800"`` stays a lone surrogate escape, as a hostile client sends it)."""
     return httpx.request(method, url, content=json.dumps(body).encode(), timeout=timeout,
                          headers={"content-type": "application/json"})
-
-
-def rss_kib(server: NodeServer) -> int:
-    status = Path(f"/proc/{server.process.pid}/status").read_text()
-    return int(next(line.split()[1] for line in status.splitlines() if line.startswith("VmRSS:")))
 
 
 CASES = {
@@ -128,7 +123,7 @@ def test_an_oversized_mesh_is_refused_before_loading(node_server: NodeServer) ->
 def test_an_obstacle_flood_stops_at_the_cap_with_bounded_memory(node_server: NodeServer) -> None:
     url = node_server.url
     held = node_server.obstacle_ids()
-    start_rss = rss_kib(node_server)
+    start_rss = rss_bytes(node_server.process.pid)
     added: list[str] = []
     try:
         batch = 1000
@@ -140,7 +135,7 @@ def test_an_obstacle_flood_stops_at_the_cap_with_bounded_memory(node_server: Nod
                 break
             added += [item["frame_id"] for item in items]
         assert len(held) + len(added) <= MAX_OBSTACLES < len(held) + len(added) + batch
-        growth_mib = (rss_kib(node_server) - start_rss) / 1024
+        growth_mib = (rss_bytes(node_server.process.pid) - start_rss) / 2**20
         assert growth_mib < 400, f"RSS grew by {growth_mib:.0f} MiB"
         assert httpx.post(f"{url}/srv/pfield/compute_autonomy_vector", json={
             "query_pose": {"pose": {"position": {"x": 0.3, "y": 0.0, "z": 0.3}}}}).status_code == 200

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import subprocess
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -12,6 +11,8 @@ import httpx
 import pytest
 import yaml
 from pfield_node_server import PFIELD, REPO, NodeServer, free_port
+
+from serve_process import pfield_serve
 
 S = math.sqrt(0.5)
 OBSTACLES = "potential_fields_interfaces/msg/ObstacleArray"
@@ -22,30 +23,9 @@ BALL = "{frame_id: 'ball', type: 'Sphere', group: 'Static', pose: {position: {x:
 @pytest.fixture(scope="module")
 def camera_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[NodeServer]:
     work = tmp_path_factory.mktemp("pfield_frames")
-    port, log = free_port(), work / "serve.log"
-    with log.open("wb") as sink:
-        process = subprocess.Popen([str(PFIELD), "serve", "--port", str(port), "--static-transform",
-                                    f"camera=1,2,3,0,0,{S!r},{S!r}"], stdout=sink, stderr=subprocess.STDOUT, cwd=REPO)
-    server = NodeServer(f"http://127.0.0.1:{port}", process, work, log)
-    deadline = time.monotonic() + 240
-    try:
-        while True:
-            assert process.poll() is None, log.read_text()
-            try:
-                if httpx.get(f"{server.url}/nodes", timeout=2).status_code == 200:
-                    break
-            except httpx.TransportError:
-                pass
-            assert time.monotonic() < deadline, log.read_text()
-            time.sleep(0.2)
-        yield server
-    finally:
-        process.terminate()
-        try:
-            process.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
+    log = work / "serve.log"
+    with pfield_serve("--static-transform", f"camera=1,2,3,0,0,{S!r},{S!r}", log=log) as (url, process):
+        yield NodeServer(url, process, work, log)
 
 
 def test_obstacle_in_configured_frame_lands_in_world(camera_server: NodeServer) -> None:

@@ -9,8 +9,8 @@ import pytest
 
 from pfield.errors import InvalidInput
 from pfield.geometry import ResourceResolver
+from pfield.interfaces import convert, message_from_yaml
 from pfield.interfaces import geometry_msgs as gm
-from pfield.interfaces import message_from_yaml
 from pfield.interfaces.convert import obstacle_from_msg, obstacle_to_msg, plan_response, pose_from_msg, pose_to_msg
 from pfield.interfaces.potential_fields_interfaces import Obstacle as ObstacleMsg
 from pfield.planning import PlanStatus
@@ -78,3 +78,33 @@ def test_plan_response_layout() -> None:
     assert trajectory.points[3].time_from_start.to_seconds() == pytest.approx(0.06)
     task_only = PlannedPath(True, "", times, positions, orientations, twists, np.full(n, np.inf))
     assert plan_response(task_only, "world").joint_trajectory.points == []
+
+
+@pytest.mark.parametrize("values", [(0.3, -0.1, 0.35), (1e6, -1e6, 0.0), (5e-324, -0.0, 2.5)])
+def test_points_within_range_come_back_exactly_and_read_only(values: tuple[float, float, float]) -> None:
+    point = convert.point_from_msg(gm.Point(x=values[0], y=values[1], z=values[2]))
+    assert point.tolist() == list(values) and not point.flags.writeable
+
+
+@pytest.mark.parametrize(("values", "field"), [((1e6 + 1, 0.0, 0.0), "p"), ((float("nan"), 0.0, 0.0), "p"),
+                                               ((0.0, float("inf"), 0.0), "p")])
+def test_points_out_of_range_or_not_finite_are_refused_naming_the_field(values: tuple[float, ...], field: str) -> None:
+    with pytest.raises(InvalidInput) as error:
+        convert.point_from_msg(gm.Point(x=values[0], y=values[1], z=values[2]), field)
+    assert error.value.field == field
+
+
+@pytest.mark.parametrize("q", [(0.0, 0.0, 0.0, 1e-10), (1e7, 0.0, 0.0, 0.0), (0.0, float("nan"), 0.0, 1.0)])
+def test_quaternions_outside_the_norm_range_are_refused(q: tuple[float, ...]) -> None:
+    with pytest.raises(InvalidInput) as error:
+        convert.quaternion_from_msg(gm.Quaternion(x=q[0], y=q[1], z=q[2], w=q[3]), "q")
+    assert error.value.field == "q"
+
+
+def test_a_stamped_twist_equals_the_validated_message() -> None:
+    from pfield.spatial import Twist
+
+    message = convert.twist_stamped(Twist((0.1, -0.2, 0.3), (0.0, 0.5, -1e-9)), "world", 12.25)
+    assert message == gm.TwistStamped.model_validate_json(message.model_dump_json())
+    assert (message.header.stamp.sec, message.header.stamp.nanosec) == (12, 250_000_000)
+    assert message.twist.angular.z == -1e-9 and message.header.frame_id == "world"

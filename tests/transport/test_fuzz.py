@@ -15,10 +15,11 @@ from typing import Any
 
 import httpx
 import pytest
-from _serve import pfield_serve
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 from websockets.sync.client import connect
+
+from serve_process import pfield_serve
 
 BALL = {"header": {"frame_id": "world"},
         "obstacles": [{"frame_id": "ball", "type": "Sphere", "group": "Static", "radius": 0.1,

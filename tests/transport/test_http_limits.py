@@ -213,3 +213,58 @@ def test_json_null_is_not_a_message_of_defaults(served: tuple[FaultyNode, Server
     for path in ("/topic/faulty/in", "/topic/other?type=geometry_msgs/msg/Vector3", "/srv/faulty/ok"):
         answer = httpx.post(server.url + path, content=b"null", headers={"content-type": "application/json"})
         assert answer.status_code == 400 and answer.json()["field"] == "body", answer.text
+
+
+def test_a_request_head_over_the_cap_is_answered_400_and_closed(served: tuple[FaultyNode, ServerThread]) -> None:
+    _, server = served
+    cap = ServerLimits().max_header_bytes
+    with socket.create_connection((server.host, server.port), timeout=30) as big:
+        big.sendall(b"GET /nodes HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Padding: " + b"a" * (cap + 100) + b"\r\n\r\n")
+        data = b""
+        while chunk := big.recv(65536):
+            data += chunk
+    head, _, body = data.partition(b"\r\n\r\n")
+    assert head.startswith(b"HTTP/1.1 400") and json.loads(body)["field"] == "request"
+    with socket.create_connection((server.host, server.port), timeout=30) as fine:  # the server still answers
+        assert _raw_request(fine, "GET", "/nodes")[0] == 200
+
+
+@pytest.mark.parametrize("body", [b"{", b"\xff\xfe{}", b"[1, 2]", b'{"unknown": 1}'])
+def test_a_short_service_refuses_a_bad_body_with_400_naming_it(served: tuple[FaultyNode, ServerThread],
+                                                                body: bytes) -> None:
+    _, server = served
+    answer = httpx.post(f"{server.url}/srv/faulty/ok", content=body, headers={"content-type": "application/json"})
+    assert answer.status_code == 400, answer.text
+    error = answer.json()
+    assert set(error) == {"error", "field", "value"} and error["field"] in ("body", "unknown"), error
+    assert httpx.post(f"{server.url}/srv/faulty/ok", json={}).json() == {"success": True, "message": ""}
+
+
+class NicenessNode(FaultyNode):
+    """Two Trigger services answering the niceness of the thread that runs them: one short, one long-running."""
+
+    name = "/nice"
+
+    def services(self) -> list[ServiceSpec]:
+        def niceness(_: std_srvs.Trigger_Request) -> std_srvs.Trigger_Response:
+            import os
+
+            return std_srvs.Trigger_Response(success=True, message=str(os.getpriority(os.PRIO_PROCESS,
+                                                                                      threading.get_native_id())))
+
+        return [ServiceSpec("/nice/short", "std_srvs/srv/Trigger", std_srvs.Trigger_Request,
+                            std_srvs.Trigger_Response, niceness),
+                ServiceSpec("/nice/long", "std_srvs/srv/Trigger", std_srvs.Trigger_Request,
+                            std_srvs.Trigger_Response, niceness, long_running=True)]
+
+
+def test_long_running_services_run_at_a_lower_priority_than_short_ones() -> None:
+    import os
+
+    from pfield.transport.http import LONG_RUNNING_NICENESS
+
+    with ServerThread(create_app([NicenessNode(Bus())])) as server:
+        short = int(httpx.post(f"{server.url}/srv/nice/short", json={}).json()["message"])
+        long = int(httpx.post(f"{server.url}/srv/nice/long", json={}).json()["message"])
+    assert short == os.getpriority(os.PRIO_PROCESS, 0)
+    assert long == min(19, short + LONG_RUNNING_NICENESS)

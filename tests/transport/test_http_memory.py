@@ -1,5 +1,7 @@
 """Memory of a real ``pfield serve`` stays bounded under floods of legal input (RSS read from /proc):
-300 junk topic names of 300 kB messages each, and a WebSocket client that never reads."""
+300 junk topic names of 300 kB messages each, a WebSocket client that never reads, a 2 GB mesh file inside
+an allowed mesh root, and 500 connections that never finish their request head. (The obstacle flood:
+``tests/cli/test_node_limits.py``.)"""
 
 from __future__ import annotations
 
@@ -7,11 +9,14 @@ import base64
 import json
 import os
 import socket
+import time
 from collections.abc import Iterator
+from pathlib import Path
 
 import httpx
 import pytest
-from _serve import pfield_serve, rss_bytes
+
+from serve_process import pfield_serve, rss_bytes
 
 SCAN = json.dumps({"ranges": [1.25] * 60_000}).encode()  # 300 kB of JSON, about 2 MB as a message
 CEILING = 150_000_000
@@ -20,10 +25,19 @@ the WebSocket outbox cap (16 MB) and the allocator's slack. Without the caps the
 300 messages (over 600 MB)."""
 
 
+HALF_SENT = 500
+"""Connections of the connection flood: beyond ``pfield serve``'s default cap of 200 open connections."""
+
+
 @pytest.fixture(scope="module")
-def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, int]]:
+def meshes(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return tmp_path_factory.mktemp("meshes")
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory: pytest.TempPathFactory, meshes: Path) -> Iterator[tuple[str, int]]:
     log = tmp_path_factory.mktemp("serve") / "serve.log"
-    with pfield_serve(log=log) as (url, process):
+    with pfield_serve("--mesh-root", str(meshes), "--header-timeout", "2", log=log) as (url, process):
         yield url, process.pid
 
 
@@ -70,3 +84,46 @@ def test_a_websocket_client_that_never_reads_costs_bounded_memory(served: tuple[
         grown = rss_bytes(pid) - before
         assert grown < CEILING, f"RSS grew {grown / 1e6:.0f} MB with a WebSocket client that never reads"
         assert health["websocket"]["dropped_messages"] > 0
+
+
+def test_a_huge_mesh_file_is_refused_without_reading_it(served: tuple[str, int], meshes: Path) -> None:
+    url, pid = served
+    huge = meshes / "huge.stl"
+    with huge.open("wb") as sparse:  # 2 GB on paper, no disk used
+        sparse.truncate(2_000_000_000)
+    before = rss_bytes(pid)
+    mesh = {"frame_id": "huge", "type": "Mesh", "group": "Static", "scale_x": 1.0, "scale_y": 1.0, "scale_z": 1.0,
+            "mesh_resource": huge.as_uri()}
+    answer = httpx.post(f"{url}/topic/pfield/obstacles", json={"obstacles": [mesh]}, timeout=60)
+    assert answer.status_code == 400 and answer.json()["field"] == "obstacles[0].mesh_resource", answer.text
+    assert "max_mesh_file_size" in answer.json()["error"]
+    grown = rss_bytes(pid) - before
+    assert grown < CEILING, f"RSS grew {grown / 1e6:.0f} MB for a refused 2 GB mesh"
+    ids = httpx.post(f"{url}/srv/pfield/remove_obstacles", json={"frame_ids": []}).json()["remaining"]
+    assert "huge" not in ids
+
+
+def test_half_sent_requests_beyond_the_connection_cap_cost_bounded_memory(served: tuple[str, int]) -> None:
+    url, pid = served
+    host, port = url.removeprefix("http://").split(":")
+    before = rss_bytes(pid)
+    sockets = []
+    try:
+        for _ in range(HALF_SENT):
+            raw = socket.create_connection((host, int(port)), timeout=30)
+            raw.sendall(b"POST /srv/pfield/clear_obstacles HTTP/1.1\r\nHost: 127.0.0.1\r\n")  # never finished
+            sockets.append(raw)
+        grown = rss_bytes(pid) - before
+        refused = 0
+        for raw in sockets[-50:]:  # the last ones were over the cap: answered 429 and closed
+            raw.settimeout(10)
+            refused += raw.recv(12) == b"HTTP/1.1 429"
+        assert refused == 50
+    finally:
+        for raw in sockets:
+            raw.close()
+    assert grown < CEILING, f"RSS grew {grown / 1e6:.0f} MB under {HALF_SENT} half-sent requests"
+    deadline = time.monotonic() + 30  # the header timeout closed the ones within the cap
+    while httpx.get(f"{url}/nodes", timeout=5).status_code != 200:
+        assert time.monotonic() < deadline
+        time.sleep(0.1)

@@ -12,9 +12,10 @@ from typing import Any
 
 import httpx
 import pytest
-from _serve import PFIELD, pfield_serve
 from websockets.exceptions import InvalidStatus
 from websockets.sync.client import connect
+
+from serve_process import PFIELD, pfield_serve
 
 BALL = {"header": {"frame_id": "world"},
         "obstacles": [{"frame_id": "ball", "type": "Sphere", "group": "Static", "radius": 0.1,

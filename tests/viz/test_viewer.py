@@ -208,17 +208,18 @@ def test_pfield_view_refuses_bad_options(args: list[str], field: str) -> None:
     assert not Path("/tmp/never.html").exists()
 
 
-def test_live_costmap_and_find_valid_pose() -> None:
+def test_live_costmap_and_find_valid_pose(tmp_path: Path) -> None:
     """The viewer follows ``pfield serve --map``: the costmap is drawn on the ground, and FindValidPose's
     answer, asked through the viewer, is the node's own answer, drawn where it says."""
     import time
 
     import httpx
-    from _viewer_serve import pfield_serve
+
+    from serve_process import pfield_serve
 
     map_file = Path(__file__).resolve().parents[2] / "src" / "pfield" / "data" / "maps" / "example.yaml"
-    with pfield_serve("--map", str(map_file), "--footprint", "[[0.2, 0.2], [0.2, -0.2], [-0.2, -0.2], [-0.2, 0.2]]") \
-            as url, Viewer(None, port=0) as viewer:
+    with pfield_serve("--map", str(map_file), "--footprint", "[[0.2, 0.2], [0.2, -0.2], [-0.2, -0.2], [-0.2, 0.2]]",
+                      "--log-level", "warning", log=tmp_path / "serve.log") as (url, _), Viewer(None, port=0) as viewer:
         viewer.connect(url)
         deadline = time.monotonic() + 60
         while viewer.server.scene.get_handle_by_name("/costmap") is None and time.monotonic() < deadline:

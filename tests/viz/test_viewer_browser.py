@@ -19,8 +19,9 @@ import httpx
 import numpy as np
 import pytest
 from _chromium import Browser, chromium_available
-from _viewer_serve import pfield_serve
 from numpy.typing import NDArray
+
+from serve_process import pfield_serve
 
 ARTIFACTS = Path(__file__).resolve().parents[2] / "build" / "test-artifacts"
 README_IMAGE = Path(__file__).resolve().parents[2] / "docs" / "img" / "viewer.png"
@@ -58,7 +59,8 @@ def node(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, Path]]
 
     folder = tmp_path_factory.mktemp("meshes")
     trimesh.creation.icosphere(subdivisions=2, radius=0.06).export(folder / "rock.stl")
-    with pfield_serve("--mesh-root", str(folder)) as url:
+    with pfield_serve("--mesh-root", str(folder), "--log-level", "warning",
+                      log=tmp_path_factory.mktemp("serve") / "serve.log") as (url, _):
         yield url, folder
 
 

@@ -7,7 +7,6 @@ serve (none when its options are absent).
 
 from __future__ import annotations
 
-import ipaddress
 import logging
 import sys
 from collections.abc import Callable, Iterator, Mapping
@@ -18,6 +17,7 @@ from typing import Annotated, Any
 
 import typer
 
+from pfield._validation import is_loopback_host
 from pfield.cli import _node_client
 from pfield.errors import InvalidInput, PfieldError
 from pfield.interfaces._yaml import load_yaml
@@ -149,11 +149,7 @@ def build_nodes(context: ServeContext, params: dict[str, dict[str, Any]], csv_di
 
 
 def _check_host(host: str, token: str | None) -> None:
-    try:
-        loopback = host == "localhost" or ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        loopback = False
-    if not loopback and not token:
+    if not is_loopback_host(host) and not token:
         raise InvalidInput("--host", host, "serving beyond this machine needs --token (or PFIELD_TOKEN)")
 
 

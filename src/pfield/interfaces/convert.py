@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -65,8 +66,21 @@ it is refused: no sensor or planner produces such a rotation, and the norm is co
 check itself never overflows."""
 
 
+def _checked(values: tuple[Any, ...]) -> NDArray[np.float64] | None:
+    """``values`` as a read-only array when all are finite floats within :data:`MAX_COORDINATE` (the common
+    case, checked without numpy's per-call overhead), else None: then the full checks name what is wrong."""
+    if all(type(v) is float and math.isfinite(v) and -MAX_COORDINATE <= v <= MAX_COORDINATE for v in values):
+        array = np.array(values)
+        array.setflags(write=False)
+        return array
+    return None
+
+
 def point_from_msg(message: gm.Point | gm.Vector3, field: str = "position") -> NDArray[np.float64]:
     """``(x, y, z)`` of a point message: finite and within :data:`MAX_COORDINATE` m (errors name ``field``)."""
+    fast = _checked((message.x, message.y, message.z))
+    if fast is not None:
+        return fast
     values = as_vector(field, (message.x, message.y, message.z), 3)
     if float(np.max(np.abs(values))) > MAX_COORDINATE:
         raise InvalidInput(field, values.tolist(), f"coordinates must be within ±{MAX_COORDINATE:g} m")
@@ -75,6 +89,9 @@ def point_from_msg(message: gm.Point | gm.Vector3, field: str = "position") -> N
 
 def quaternion_from_msg(message: gm.Quaternion, field: str = "orientation") -> NDArray[np.float64]:
     """``(x, y, z, w)`` of a quaternion message, finite with a norm in the accepted range (not yet unit)."""
+    fast = _checked((message.x, message.y, message.z, message.w))
+    if fast is not None and MIN_QUATERNION_NORM <= math.hypot(*fast.tolist()) <= MAX_QUATERNION_NORM:
+        return fast
     values = as_vector(field, (message.x, message.y, message.z, message.w), 4)
     norm = scaled_norm(values)
     if norm < MIN_QUATERNION_NORM:
@@ -110,9 +127,16 @@ def twist_to_msg(twist: Twist) -> gm.Twist:
     return gm.Twist(linear=_vector3(twist.linear), angular=_vector3(twist.angular))
 
 
+def _xyz(values: Any) -> dict[str, float]:
+    x, y, z = values.tolist()
+    return {"x": x, "y": y, "z": z}
+
+
 def twist_stamped(twist: Twist, frame_id: str, seconds: float = 0.0) -> gm.TwistStamped:
-    return gm.TwistStamped(header=Header(stamp=Time.from_seconds(seconds), frame_id=frame_id),
-                           twist=twist_to_msg(twist))
+    """The stamped message of ``twist`` (validated in one pass: the answer of every control-loop call)."""
+    return gm.TwistStamped.model_validate({
+        "header": {"stamp": Time.from_seconds(seconds), "frame_id": frame_id},
+        "twist": {"linear": _xyz(twist.linear), "angular": _xyz(twist.angular)}})
 
 
 def _shape(message: ObstacleMsg, make_mesh: Callable[[str, float, float, float], Any]) -> Any:

@@ -45,6 +45,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from pfield._validation import as_vector, finite, in_range
 from pfield.assistance import (
     ARBITRATIONS,
@@ -59,7 +61,6 @@ from pfield.interfaces import geometry_msgs as gm
 from pfield.interfaces import nav_msgs, std_srvs, visualization_msgs
 from pfield.interfaces import potential_fields_interfaces as pfi
 from pfield.interfaces.convert import obstacle_from_msg, plan_response, pose_from_msg, twist_stamped
-from pfield.interfaces.geometry_msgs import Point, Vector3
 from pfield.node import _planning
 from pfield.node._base import Bus, Node, PublicationSpec, ServiceSpec, SubscriptionSpec
 from pfield.node._frames import transforms_data
@@ -475,14 +476,15 @@ class ManagerNode(Node):
             assert pose is not None
             answer = task_space_assistance(scene, pose, command, request.arbitration, input_age=age)
         frame, now = state.params.fixed_frame, time.time()
-        return pfi.ComputeAssistance_Response(
-            autonomy_vector=twist_stamped(answer.autonomy_vector, frame, now),
-            joint_velocities=[float(x) for x in answer.joint_velocities],
-            blended_command=twist_stamped(answer.blended_command, frame, now),
-            alpha=answer.alpha, speed_scale=answer.speed_scale, nearest_obstacle_id=answer.nearest_obstacle_id,
-            nearest_distance=answer.nearest_distance, nearest_normal=Vector3(**_xyz(answer.nearest_normal)),
-            robot_point=Point(**_xyz(answer.robot_point)), obstacle_point=Point(**_xyz(answer.obstacle_point)),
-            time_to_collision=answer.time_to_collision, flags=answer.flags, message=answer.message)
+        return pfi.ComputeAssistance_Response.model_validate({  # one validation pass for the whole answer
+            "autonomy_vector": twist_stamped(answer.autonomy_vector, frame, now),
+            "joint_velocities": np.asarray(answer.joint_velocities, dtype=float).tolist(),
+            "blended_command": twist_stamped(answer.blended_command, frame, now),
+            "alpha": answer.alpha, "speed_scale": answer.speed_scale,
+            "nearest_obstacle_id": answer.nearest_obstacle_id, "nearest_distance": answer.nearest_distance,
+            "nearest_normal": _xyz(answer.nearest_normal), "robot_point": _xyz(answer.robot_point),
+            "obstacle_point": _xyz(answer.obstacle_point), "time_to_collision": answer.time_to_collision,
+            "flags": answer.flags, "message": answer.message})
 
 
 def _xyz(values: Any) -> dict[str, float]:

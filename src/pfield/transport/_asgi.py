@@ -27,7 +27,7 @@ Receive = Callable[[], Awaitable[Message]]
 Send = Callable[[Message], Awaitable[None]]
 ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
 
-__all__ = ["LOOPBACK_NAMES", "MAX_JSON_DEPTH", "GuardMiddleware", "error_body", "json_depth"]
+__all__ = ["LOOPBACK_NAMES", "MAX_JSON_DEPTH", "GuardMiddleware", "error_body", "excess_depth", "json_depth"]
 
 _log = logging.getLogger("pfield.transport.http")
 LOOPBACK_NAMES = ("localhost", "127.0.0.1", "[::1]")
@@ -38,6 +38,13 @@ deeper input is refused with 400 before any parser recurses into it."""
 SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
 """Methods that change nothing: cross-origin pages may send them (they cannot read the answer without CORS)."""
 _STRING = re.compile(rb'"(?:[^"\\]|\\.)*"', re.DOTALL)
+_BRACKETS = re.compile(rb"[\[\]{}]")
+_SHALLOW = 64
+"""Up to this many brackets (a service request has < 20) the depth is counted bracket by bracket; above,
+with one vectorised pass over the bytes."""
+_STEPS = np.zeros(256, dtype=np.int8)
+_STEPS[[0x5B, 0x7B]] = 1
+_STEPS[[0x5D, 0x7D]] = -1
 
 
 def error_body(error: str, field: str = "", value: object = None) -> bytes:
@@ -51,9 +58,30 @@ def json_depth(text: bytes | str) -> int:
     data = text.encode("utf-8", "surrogatepass") if isinstance(text, str) else text
     if b"[" not in data and b"{" not in data:
         return 0
-    codes = np.frombuffer(_STRING.sub(b'""', data), dtype=np.uint8)
-    steps = (np.isin(codes, (0x5B, 0x7B)).astype(np.int32) - np.isin(codes, (0x5D, 0x7D)).astype(np.int32))
-    return int(np.cumsum(steps).max(initial=0))
+    data = _STRING.sub(b'""', data) if b'"' in data else data
+    if data.count(b"[") + data.count(b"{") <= _SHALLOW:
+        return _depth_of_few(data)
+    steps = _STEPS[np.frombuffer(data, dtype=np.uint8)]
+    return int(np.cumsum(steps, dtype=np.int64).max(initial=0))
+
+
+def excess_depth(text: bytes | str) -> int:
+    """The nesting depth of JSON ``text`` when it exceeds :data:`MAX_JSON_DEPTH`, else 0. A text with at most
+    that many opening brackets cannot exceed it: then nothing more is read (a service request: < 1 µs)."""
+    opening = ("[", "{") if isinstance(text, str) else (b"[", b"{")
+    if text.count(opening[0]) + text.count(opening[1]) <= MAX_JSON_DEPTH:  # type: ignore[arg-type]
+        return 0
+    depth = json_depth(text)
+    return depth if depth > MAX_JSON_DEPTH else 0
+
+
+def _depth_of_few(data: bytes) -> int:
+    """:func:`json_depth` of string-free ``data`` with few brackets: walk only the bracket characters."""
+    depth = deepest = 0
+    for bracket in _BRACKETS.findall(data):
+        depth += 1 if bracket in b"[{" else -1
+        deepest = max(deepest, depth)
+    return deepest
 
 
 async def _reject(send: Send, status: int, error: str, field: str, value: object = None,
@@ -223,8 +251,8 @@ class GuardMiddleware:
         if not body.strip():
             await _reject(send, 400, "the body is empty: send a JSON value ({} for a message of defaults)", "body")
             return None
-        depth = json_depth(body)
-        if depth > MAX_JSON_DEPTH:
+        depth = excess_depth(body)
+        if depth:
             await _reject(send, 400, f"JSON nested {depth} deep; at most {MAX_JSON_DEPTH} levels are accepted",
                           "body")
             return None

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pfield._validation import is_loopback_host
 from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
 from pfield.planning.result import PlannedPath
@@ -63,7 +64,7 @@ class Viewer:
                  token: str | None = None) -> None:
         import viser
 
-        if not _is_loopback(host) and not token:
+        if not is_loopback_host(host) and not token:
             raise InvalidInput("host", host, "serving the page beyond this machine needs a token")
         self._gate: Any = None
         self.token = token
@@ -372,15 +373,6 @@ class Viewer:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-def _is_loopback(host: str) -> bool:
-    import ipaddress
-
-    try:
-        return host == "localhost" or ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 def _package_paths(robot: Any, given: Mapping[str, Path] | None) -> dict[str, Path]:
