@@ -31,7 +31,6 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
-from scipy.spatial import ConvexHull, Delaunay, QhullError
 
 _LOG = logging.getLogger(__name__)
 
@@ -198,6 +197,8 @@ def _solid(surface: LinkSurface):  # type: ignore[no-untyped-def]
     mesh = Obstacle("link", Mesh.from_arrays(surface.vertices, surface.triangles, name="link"), Pose())
     if mesh.shape.watertight:  # type: ignore[union-attr]
         return lambda points: mesh.signed_distance(points)[0]
+    from scipy.spatial import ConvexHull, Delaunay  # only when fitting: a cached fit needs no scipy.spatial
+
     hull = Delaunay(surface.vertices[ConvexHull(surface.vertices).vertices])
 
     def signed(points: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -304,6 +305,8 @@ def fit_single_capsule(
     """Smallest-volume capsule (over the principal axes) covering ``points`` (N, 3): ``(a, b, r, volume
     ratio to the points' hull, mean distance of the hull's vertices to the capsule surface)``; the steps are
     in :mod:`pfield.robot.geometry`."""
+    from scipy.spatial import ConvexHull, QhullError  # only when fitting (import costs ≈ 0.3 s)
+
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     try:
         hull = ConvexHull(pts)

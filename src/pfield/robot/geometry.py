@@ -27,7 +27,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import ConvexHull
 
 from pfield.robot._distance import segment_segment_distance
 from pfield.robot._fit import TARGET_GAP, LinkFit, LinkSurface, cached_fit, fit_single_capsule, measure
@@ -153,6 +152,8 @@ def _element_surface(obj: pin.GeometryObject) -> tuple[NDArray[np.float64], NDAr
         corners = vertices[triangles]
         volume = abs(float(np.einsum("ij,ij->i", corners[:, 0], np.cross(corners[:, 1], corners[:, 2])).sum())) / 6
         return vertices, triangles, volume
+    from scipy.spatial import ConvexHull  # primitives' surfaces only: importing it costs ≈ 0.3 s at start-up
+
     points = _primitive_points(shape)
     hull = ConvexHull(points)
     return points, np.asarray(hull.simplices, dtype=np.int64), float(hull.volume)
