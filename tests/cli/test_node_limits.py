@@ -122,6 +122,7 @@ def test_an_oversized_mesh_is_refused_before_loading(node_server: NodeServer) ->
 
 def test_an_obstacle_flood_stops_at_the_cap_with_bounded_memory(node_server: NodeServer) -> None:
     url = node_server.url
+    assert httpx.post(f"{url}/srv/pfield/plan_path", json=PLAN, timeout=60).status_code == 200  # sets a goal
     held = node_server.obstacle_ids()
     start_rss = rss_bytes(node_server.process.pid)
     added: list[str] = []
