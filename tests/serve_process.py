@@ -69,6 +69,16 @@ def pfield_serve(*options: str, log: Path, cwd: Path = REPO, stop: int = signal.
             process.wait()
 
 
+def wait_warm(url: str, timeout: float = 1800.0) -> None:
+    """Wait until the node at ``url`` has finished its warm-up (``GET /health`` ready): memory read before then
+    would count the kernels still compiling in its background thread."""
+    deadline = time.monotonic() + timeout
+    while not httpx.get(f"{url}/health", timeout=10, trust_env=False).json()["ready"]:
+        if time.monotonic() > deadline:
+            raise RuntimeError(f"{url} did not finish its warm-up in {timeout:.0f} s")
+        time.sleep(0.5)
+
+
 def rss_bytes(pid: int) -> int:
     """Resident set size of process ``pid`` (from /proc)."""
     for line in Path(f"/proc/{pid}/status").read_text().splitlines():

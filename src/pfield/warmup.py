@@ -96,6 +96,12 @@ def _task_space(scratch: Path) -> None:
     field.twists(positions, np.array([[0.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0]]))
     field.clearances(positions)
     field.plan(SEED_START, dt=0.02, goal_tolerance=0.01, max_iterations=20)
+    from pfield.field.prepared import PreparedTwist
+
+    prepared = PreparedTwist(field)
+    prepared.pose[:3] = SEED_START.position
+    prepared.evaluate()
+    prepared.evaluate(0.01)
     PotentialField(FieldConfig(), Pose((0.5, 0.0, 0.3))).plan(Pose((0.2, 0.0, 0.3)), max_iterations=20)
 
 
@@ -129,6 +135,12 @@ def _inverse_kinematics(scratch: Path) -> None:
     q0 = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0])
     start = robot.forward_kinematics(q0)
     solve_ik(robot, start, q0)
+    from pfield.robot.ik import IKSolver
+
+    solver = IKSolver(robot)
+    solver.target[:3], solver.target[3:] = start.position, start.orientation
+    solver.seed[:] = q0
+    solver.solve()
     goal = start.__class__(start.position + np.array([0.02, 0.0, 0.0]), start.orientation)
     path = PotentialField(FieldConfig(), goal).plan(start, dt=0.02, max_iterations=5)
     attach_joint_trajectory(path, robot, q0)
@@ -146,6 +158,7 @@ def _autonomy(scratch: Path) -> None:
     task_space_autonomy_vector(field, SEED_START)
     whole_body_autonomy_vector(field, robot, q)
     whole_body_autonomy_vector(field, robot, q, np.zeros(7), 0.01)
+    whole_body_autonomy_vector(field, robot, q.tolist())  # not a float64 array: the validating path
     whole_body_autonomy(field, robot, q, np.zeros(7), 0.01, query_pose=SEED_START)
     from pfield.assistance import AssistanceScene, task_space_assistance, whole_body_assistance
     from pfield.spatial import Twist

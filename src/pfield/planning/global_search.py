@@ -309,9 +309,9 @@ def point_space_search(scene: _wb.Scene, start: NDArray[np.float64], goal: NDArr
     ws = _wb.make_workspace(3, 0, len(radii), 0, 0)
     checker = _rrt.Checker(_rrt.POINT_SPACE, _point_robot(), scene, ws, np.empty((0, len(radii))), np.empty(0),
                            float(margin), float(options.point_resolution), np.zeros(1, dtype=np.int64))
-    return _search(checker, np.ascontiguousarray(start, dtype=np.float64),
-                   np.ascontiguousarray(goal, dtype=np.float64)[None], lower, upper, options.point_step, options,
-                   cancel)
+    # writable copies: a Pose's arrays are read-only, and numba would compile the search a second time for them
+    return _search(checker, np.array(start, dtype=np.float64), np.array(goal, dtype=np.float64)[None], lower, upper,
+                   options.point_step, options, cancel)
 
 
 def _point_robot() -> _wb.RobotArrays:
