@@ -52,7 +52,6 @@ SCENES = ("table_pick_panda", "table_under_pick_panda", "box_panda", "bookshelf_
 CONFIG = MBM_CONFIG
 ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
 FINGER_JOINTS = ("panda_finger_joint1", "panda_finger_joint2")
-PLANNER = "whole_body_field"
 DT, TOLERANCE, MAX_STEPS = MBM_OPTIONS.dt, MBM_OPTIONS.goal_tolerance, MBM_OPTIONS.max_iterations
 
 
@@ -125,14 +124,14 @@ def solve(robots: Robots, directory: Path, index: int) -> dict[str, Any]:
     obstacles = scene_obstacles(scene)
     field = PotentialField(CONFIG, robot.forward_kinematics(goal_joints), obstacles)
     begin, cpu = time.perf_counter(), time.process_time()
-    path = field.plan_whole_body(robot, start, DT, TOLERANCE, MAX_STEPS)
+    path = field.plan_whole_body(robot, start, DT, TOLERANCE, MAX_STEPS, global_fallback=False)  # the field alone
     seconds, cpu = time.perf_counter() - begin, time.process_time() - cpu
     assert path.joint_positions is not None
     checker = CollisionChecker(robot, obstacles)
     samples = [*path.joint_positions[::25], path.joint_positions[-1]]
     return {
         "scene": directory.name, "index": index, "success": bool(path.success), "status": status_name(path),
-        "seconds": seconds, "cpu_seconds": cpu, "steps": int(path.iterations), "planner": PLANNER,
+        "seconds": seconds, "cpu_seconds": cpu, "steps": int(path.iterations), "planner": path.planner,
         "joint_names": list(robot.joint_names),
         "positions": path.joint_positions.tolist(), "times": path.times.tolist(), "fingers": fingers,
         "start_clear": not checker.check(start).in_collision, "goal_clear": not checker.check(goal_joints).in_collision,

@@ -220,7 +220,7 @@ def test_mbm_harness_writes_one_record_per_problem(tmp_path: Path, capsys: pytes
     records = [json.loads(line) for line in out.read_text().splitlines()]
     assert len(records) == 1
     record = records[0]
-    assert record["scene"] == "mini_scene" and record["index"] == 1 and record["planner"] == "whole_body_field"
+    assert record["scene"] == "mini_scene" and record["index"] == 1 and record["planner"] == "field"
     assert record["fingers"] == {"panda_finger_joint1": 0.065, "panda_finger_joint2": 0.065}
     assert record["joint_names"] == [f"panda_joint{i}" for i in range(1, 8)]
     assert len(record["positions"]) == len(record["times"]) >= 1

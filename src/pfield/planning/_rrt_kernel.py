@@ -255,7 +255,7 @@ def rrt_connect(checker, trees, lower, upper, step, budget):  # type: ignore[no-
     while checker.counter[0] < stop:
         if trees.counts[0] >= trees.nodes.shape[1] or trees.counts[1] >= trees.nodes.shape[1]:
             return EXHAUSTED, np.empty((0, n))
-        a = int(state[0])
+        a = np.int64(state[0])  # int64, not the state's uint64: _extend and _branch compile for one index type
         b = 1 - a
         state[0] = np.uint64(b)
         for j in range(n):

@@ -142,6 +142,9 @@ class RobotModel:
         lower = np.where(self._continuous, -np.inf, model.lowerPositionLimit[idx_q])
         upper = np.where(self._continuous, np.inf, model.upperPositionLimit[idx_q])
         self._lower, self._upper = _frozen(lower), _frozen(upper)
+        # writable twins for the compiled limit check: the other callers pass writable arrays, and numba
+        # would compile it a second time for read-only ones
+        self._check_lower, self._check_upper = np.array(lower, dtype=np.float64), np.array(upper, dtype=np.float64)
         self._velocity = _frozen(np.asarray(model.velocityLimit)[idx_v])
         self._idx_q = np.array(idx_q)
         self._rotations = np.empty((n, 3, 3))
@@ -263,7 +266,7 @@ class RobotModel:
         if values.shape != (self.n_joints,):
             as_vector(field, q, self.n_joints)  # raises the standard message (count / not numbers)
             values = np.array(values, dtype=np.float64).reshape(-1)
-        bad = _k.check_limits(values, self._lower, self._upper, LIMIT_TOLERANCE)
+        bad = _k.check_limits(values, self._check_lower, self._check_upper, LIMIT_TOLERANCE)
         if bad <= -2:
             raise InvalidInput(field, q, "must be finite (no NaN or inf)")
         if bad >= 0:
