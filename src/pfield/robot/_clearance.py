@@ -39,15 +39,20 @@ def world_segments(rotations, origins, joints, a, b, out_a, out_b):  # type: ign
 
     Scalar indexing only: an array view per segment (``a[c]``) costs more than the transform itself."""
     for c in range(joints.shape[0]):
-        j = joints[c]
-        if j < 0:
-            for k in range(3):
-                out_a[c, k], out_b[c, k] = a[c, k], b[c, k]
-            continue
+        _world_segment(rotations, origins, joints[c], a, b, c, out_a, out_b)
+
+
+@njit(cache=True, inline="always")
+def _world_segment(rotations, origins, j, a, b, c, out_a, out_b):  # type: ignore[no-untyped-def]
+    """World ends of segment ``c`` (local ends ``a[c]``, ``b[c]`` carried by joint ``j``; −1: the base)."""
+    if j < 0:
         for k in range(3):
-            r0, r1, r2, o = rotations[j, k, 0], rotations[j, k, 1], rotations[j, k, 2], origins[j, k]
-            out_a[c, k] = r0 * a[c, 0] + r1 * a[c, 1] + r2 * a[c, 2] + o
-            out_b[c, k] = r0 * b[c, 0] + r1 * b[c, 1] + r2 * b[c, 2] + o
+            out_a[c, k], out_b[c, k] = a[c, k], b[c, k]
+        return
+    for k in range(3):
+        r0, r1, r2, o = rotations[j, k, 0], rotations[j, k, 1], rotations[j, k, 2], origins[j, k]
+        out_a[c, k] = r0 * a[c, 0] + r1 * a[c, 1] + r2 * a[c, 2] + o
+        out_b[c, k] = r0 * b[c, 0] + r1 * b[c, 1] + r2 * b[c, 2] + o
 
 
 FINE_MARGIN = 1e-6
@@ -75,15 +80,7 @@ def near_segments(  # type: ignore[no-untyped-def]
         if not near:
             continue
         for c in range(link_start[link], link_start[link + 1]):
-            j = prim_joint[c]
-            if j < 0:
-                for k in range(3):
-                    out_a[c, k], out_b[c, k] = prim_a[c, k], prim_b[c, k]
-                continue
-            for k in range(3):
-                r0, r1, r2, o = rotations[j, k, 0], rotations[j, k, 1], rotations[j, k, 2], origins[j, k]
-                out_a[c, k] = r0 * prim_a[c, 0] + r1 * prim_a[c, 1] + r2 * prim_a[c, 2] + o
-                out_b[c, k] = r0 * prim_b[c, 0] + r1 * prim_b[c, 1] + r2 * prim_b[c, 2] + o
+            _world_segment(rotations, origins, prim_joint[c], prim_a, prim_b, c, out_a, out_b)
 
 
 @njit(cache=True, inline="always")
