@@ -20,6 +20,7 @@ from pfield.scene import Problem, RobotSpec
 __all__ = ["run_in_process", "run_processes"]
 
 _WORKSPACE: Workspace | None = None
+IN_FLIGHT_PER_WORKER = 16
 _NO_WORKERS = ("the worker processes could not start (a script that calls plan_many with workers > 1 must do so "
                "under `if __name__ == \"__main__\":`, as every spawned pool requires)")
 
@@ -46,7 +47,9 @@ def run_processes(problems: Sequence[Problem], robots: tuple[RobotSpec, ...], wo
                   seed: int) -> Iterator[dict[str, Any]]:
     """The records of ``problems`` in order, planned by ``workers`` spawned processes.
 
-    At most ``2 · workers`` problems are in flight (so a long input is not pickled all at once). When a
+    At most ``IN_FLIGHT_PER_WORKER · workers`` problems are in flight: enough that a long problem at the
+    head of the order does not leave the other workers idle while its successors wait to be delivered, few
+    enough that a long input is not pickled all at once. When a
     worker dies (a crash in native code) the pool breaks: the oldest unfinished problem gets an ``"error"``
     record, and a new pool plans the others again. A pool whose workers cannot start at all ends the batch
     with an ``"error"`` record for every problem left.
@@ -59,7 +62,7 @@ def run_processes(problems: Sequence[Problem], robots: tuple[RobotSpec, ...], wo
             pending: list[tuple[Problem, Future[dict[str, Any]]]] = []
             delivered = 0
             while position < len(problems) or pending:
-                while position < len(problems) and len(pending) < 2 * workers:
+                while position < len(problems) and len(pending) < IN_FLIGHT_PER_WORKER * workers:
                     problem = problems[position]
                     pending.append((problem, pool.submit(_solve_in_worker, problem, timeout, seed)))
                     position += 1
