@@ -29,8 +29,11 @@ def as_vector(field: str, value: Any, length: int) -> NDArray[np.float64]:
     return array
 
 
-def as_points(field: str, value: Any, dim: int = 3) -> NDArray[np.float64]:
-    """Return ``value`` as a finite ``(N, dim)`` float64 array (a single point becomes ``(1, dim)``)."""
+def as_points(field: str, value: Any, dim: int = 3, *, check_finite: bool = True) -> NDArray[np.float64]:
+    """Return ``value`` as a finite ``(N, dim)`` float64 array (a single point becomes ``(1, dim)``).
+
+    ``check_finite=False`` leaves the finiteness check to a compiled kernel that checks each row anyway.
+    """
     try:
         array = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -39,7 +42,7 @@ def as_points(field: str, value: Any, dim: int = 3) -> NDArray[np.float64]:
         array = array.reshape(1, dim)
     if array.ndim != 2 or array.shape[1] != dim:
         raise InvalidInput(field, f"array{array.shape}", f"expected shape (N, {dim})")
-    if not np.all(np.isfinite(array)):
+    if check_finite and not np.all(np.isfinite(array)):
         raise InvalidInput(field, "array", "must be finite (no NaN or inf)")
     return np.ascontiguousarray(array)
 

@@ -170,8 +170,10 @@ def test_fields_are_immutable_values() -> None:
         (lambda: _field().twist(Pose(), previous=Twist(), dt=0.0), "dt"),
         (lambda: _field().twist(Pose(), previous=Twist(), dt=math.nan), "dt"),
         (lambda: _field().twists(np.zeros((4, 2))), "positions"),
-        (lambda: _field().twists([[0.0, 0.0, math.inf]]), "positions"),
-        (lambda: _field().wrenches(np.zeros((2, 3)), np.zeros((2, 4))), "orientations"),
+        (lambda: _field().twists([[0.0, 0.0, math.inf]]), "positions[0]"),
+        (lambda: _field().wrenches(np.zeros((2, 3)), np.zeros((2, 4))), "orientations[0]"),
+        (lambda: _field().twists(np.zeros((2, 3)), [[0, 0, 0, 1], [0, math.nan, 0, 1]]), "orientations[1]"),
+        (lambda: _field().twists(np.zeros((2, 3)), "up"), "orientations"),
         (lambda: _field().wrenches(np.zeros((2, 3)), np.ones((3, 4))), "orientations"),
         (lambda: _field().with_goal("goal"), "goal"),  # type: ignore[arg-type]
         (lambda: _field().with_config(None), "config"),  # type: ignore[arg-type]

@@ -1,88 +1,294 @@
-"""The field over many poses on every core: :func:`batch_twists` / :func:`batch_wrenches` (numba ``prange``).
+"""The field over many poses on every core: :func:`batch_twists` / :func:`batch_wrenches` (numba).
 
 From :data:`PARALLEL_FROM` poses on, the poses are cut into chunks of :data:`CHUNK` that numba's threads
 take (``parallel=True``); smaller batches run in a plain loop on the calling thread (waking the thread pool
-costs more than it saves). Either way each pose runs the same inlined kernels as a one-pose call
-(:mod:`pfield.field._evaluate`): the threaded and the plain loop give the same bits, so a value does not
-depend on the thread count or the batch size (and equals ``twist_at`` / ``wrench_at`` to rounding: LLVM
-may contract a multiply-add differently in another function). The entry points take the eight arrays of
-PackedObstacles one by one (see :mod:`pfield.field._unowned`).
+costs more than it saves). Either way the threaded and the plain loop give the same bits, so a value does
+not depend on the thread count or the batch size, and equals ``twist_at`` / ``wrench_at`` to rounding
+(LLVM may contract a multiply-add differently in another function).
+
+**Lanes.** The twist kernel takes :data:`LANES` poses at a time and runs the first damper sweep of
+:func:`~pfield.field._evaluate._avoid` obstacle by obstacle across them: a sphere's signed distance,
+normal and allowed approach speed are straight-line arithmetic over the lanes, which LLVM turns into SIMD
+instructions (``error_model="numpy"``: no Python zero-division check to branch on); the branchy rest
+(:func:`~pfield.field._evaluate.first_sweep_step`, :func:`~pfield.field._evaluate.settle`) runs per lane
+with those values, in the same order as the one-pose kernel, so the bits are the same as a per-pose loop.
+Other shapes take their exact signed distance lane by lane. A pose whose orientation equals the previous
+pose's (a grid at one orientation, the default of the goal's) reuses its rotation term.
+
+**Validation.** The kernels check and normalise each row themselves (finite position, finite nonzero
+quaternion) instead of a numpy pass per check before the call, and return the first invalid row.
+
+The entry points take the eight arrays of PackedObstacles one by one (see :mod:`pfield.field._unowned`).
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 from numba import njit, prange
 
-from pfield.field._evaluate import constrained_twist, field_wrench
+from pfield.field._evaluate import (
+    ALLOWANCE_ROW,
+    CIRCULATION_GAIN,
+    DAMPER_GAIN,
+    DISTANCE_ROW,
+    INFLUENCE_DISTANCE,
+    MAX_LINEAR_ACCELERATION,
+    MAX_LINEAR_VELOCITY,
+    NX_ROW,
+    NY_ROW,
+    NZ_ROW,
+    SAFETY_DISTANCE,
+    SPHERE_ROWS,
+    _lower_bound,
+    _signed_distance,
+    attraction_twist,
+    cap_speed,
+    damper_allowance,
+    field_wrench,
+    first_sweep_step,
+    goal_rotation,
+    settle,
+)
 from pfield.field._unowned import unowned, unowned_arrays
+from pfield.field.forces import damper_speed, deflect, project_damper
 
-__all__ = ["CHUNK", "PARALLEL_FROM", "batch_twists", "batch_wrenches"]
+__all__ = ["CHUNK", "LANES", "PARALLEL_FROM", "batch_twists", "batch_wrenches"]
 
 CHUNK = 2048
 """Poses per task: large enough that scheduling is negligible, small enough to balance two to 64 threads."""
 PARALLEL_FROM = 8192
+LANES = 8
+"""Poses evaluated side by side (one AVX-512 register of float64, two of AVX2)."""
+MIN_QUATERNION_NORM = 1e-9
+
+# A lane block's scratch is one flat array: row r of lane j at r · LANES + j. One base pointer with constant
+# offsets is what lets LLVM prove that the rows do not overlap (row views of a 2-D array need runtime
+# checks, too many of them to vectorise). Rows: the damper state, then the sphere geometry.
+(_VX, _VY, _VZ, _SX, _SY, _SZ, _CLEAR, _MX, _MY, _MZ, _ACT, _ACTP, _PX, _PY, _PZ, _NORM,
+ _EXCESS) = (LANES * r for r in range(17))
+_SCRATCH = 17 * LANES
+# Sweep 0's geometry of each sphere (distance, normal, allowance: SPHERE_ROWS rows of LANES) is kept in a
+# second flat array for the later sweeps (settle), up to this many obstacles (0.3 kB each); beyond, one
+# sphere's rows are reused and the later sweeps recompute.
+_CACHED_OBSTACLES = 4096
+_D, _NX, _NY, _NZ, _ALLOW = (LANES * r for r in (DISTANCE_ROW, NX_ROW, NY_ROW, NZ_ROW, ALLOWANCE_ROW))
+
+
+@njit(cache=True, inline="always")
+def _unit_row(positions: np.ndarray, orientations: np.ndarray, k: int) -> tuple[bool, float, float, float, float]:
+    """(valid, unit quaternion) of row k; one orientation row serves every position."""
+    p = positions[k]
+    j = k if orientations.shape[0] > 1 else 0
+    qx, qy, qz, qw = orientations[j, 0], orientations[j, 1], orientations[j, 2], orientations[j, 3]
+    norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+    valid = (math.isfinite(p[0]) and math.isfinite(p[1]) and math.isfinite(p[2]) and math.isfinite(norm)
+             and norm >= MIN_QUATERNION_NORM)
+    if not valid:
+        return False, 0.0, 0.0, 0.0, 1.0
+    return True, qx / norm, qy / norm, qz / norm, qw / norm
 
 
 @njit(cache=True, inline="always")
 def _wrench_range(out: np.ndarray, start: int, stop: int, positions: np.ndarray, orientations: np.ndarray,
-                  goal: np.ndarray, params: np.ndarray, aux: np.ndarray, packed: Any) -> None:
+                  goal: np.ndarray, params: np.ndarray, aux: np.ndarray, packed: Any) -> int:
     for k in range(start, stop):
-        q = orientations[k]
+        valid, qx, qy, qz, qw = _unit_row(positions, orientations, k)
+        if not valid:
+            return k
         out[k, 0], out[k, 1], out[k, 2], out[k, 3], out[k, 4], out[k, 5] = field_wrench(
-            positions[k], q[0], q[1], q[2], q[3], goal, params, packed, aux)
+            positions[k], qx, qy, qz, qw, goal, params, packed, aux)
+    return -1
+
+
+@njit(cache=True, inline="always")
+def _start_lanes(st: np.ndarray, out: np.ndarray, block: int, width: int, positions: np.ndarray,
+                 orientations: np.ndarray, goal: np.ndarray, params: np.ndarray, previous: np.ndarray,
+                 last: np.ndarray) -> int:
+    """Attraction and rotation of the block's poses (ω into ``out``), the damper state reset; first bad row."""
+    for j in range(width):
+        k = block + j
+        valid, qx, qy, qz, qw = _unit_row(positions, orientations, k)
+        if not valid:
+            return k
+        if qx != last[0] or qy != last[1] or qz != last[2] or qw != last[3]:
+            last[0], last[1], last[2], last[3] = qx, qy, qz, qw
+            last[4], last[5], last[6] = goal_rotation(qx, qy, qz, qw, goal, params)
+        out[k, 3], out[k, 4], out[k, 5] = last[4], last[5], last[6]
+        st[_PX + j], st[_PY + j], st[_PZ + j] = positions[k, 0], positions[k, 1], positions[k, 2]
+        st[_VX + j], st[_VY + j], st[_VZ + j] = attraction_twist(positions[k], goal, params)
+        st[_SX + j], st[_SY + j], st[_SZ + j] = previous[0], previous[1], previous[2]
+        st[_CLEAR + j], st[_MX + j], st[_MY + j], st[_MZ + j] = math.inf, 0.0, 0.0, 0.0
+        st[_ACT + j], st[_ACTP + j] = 0.0, 0.0
+    return -1
+
+
+@njit(cache=True, inline="always")
+def _sphere_lanes(st: np.ndarray, geo: np.ndarray, at: int, width: int, aux: np.ndarray, i: int,
+                  params: np.ndarray) -> None:
+    """Signed distance, normal and allowed approach speed of sphere i at the block's points (SIMD), into
+    ``geo`` from ``at``.
+
+    The allowance is +inf beyond the influence distance Q: with it, :func:`_sphere_sweep`'s damper steps
+    change nothing, as the one-pose kernel's skip, without a branch. The trip count is a variable: LLVM's loop
+    vectoriser takes such a loop, a constant one it unrolls and leaves scalar.
+    """
+    cx, cy, cz, radius = aux[i, 4], aux[i, 5], aux[i, 6], aux[i, 3]
+    vmax = params[MAX_LINEAR_VELOCITY]  # read before the loop: loads in it could alias the stores
+    influence, safety, gain = params[INFLUENCE_DISTANCE], params[SAFETY_DISTANCE], params[DAMPER_GAIN] * vmax
+    accel = params[MAX_LINEAR_ACCELERATION]
+    for j in range(width):
+        dx, dy, dz = st[_PX + j] - cx, st[_PY + j] - cy, st[_PZ + j] - cz
+        norm = math.sqrt(dx * dx + dy * dy + dz * dz)
+        d = norm - radius
+        geo[at + _D + j], st[_NORM + j] = d, norm
+        geo[at + _NX + j], geo[at + _NY + j], geo[at + _NZ + j] = dx / norm, dy / norm, dz / norm
+        allowed = damper_speed(d, influence, safety, gain, vmax, accel)  # = damper_allowance(d, params)
+        geo[at + _ALLOW + j] = allowed if d < influence else math.inf
+
+
+@njit(cache=True, inline="always")
+def _sphere_sweep(st: np.ndarray, geo: np.ndarray, at: int, width: int, i: int, params: np.ndarray,
+                  aux: np.ndarray) -> None:
+    """Sphere i's part of sweep 0 at every lane, from :func:`_sphere_lanes`'s values.
+
+    The steps of :func:`~pfield.field._evaluate._avoid`'s loop body: the nearest obstacle so far and the
+    projection of the previous twist run over all lanes (SIMD, with selects), with the approach excess of
+    the twist; :func:`~pfield.field.forces.deflect` then runs only at the lanes where the excess is positive
+    (elsewhere it returns the twist unchanged; on a field sampled in space these are a few per cent, and
+    its square roots and divisions would cost more in every lane than in those few).
+    """
+    kappa = params[CIRCULATION_GAIN]
+    cx, cy, cz = aux[i, 0], aux[i, 1], aux[i, 2]
+    blocked = 0  # an integer sum: a max of floats (NaN rules) would keep LLVM from vectorising
+    for j in range(width):
+        d, nx, ny, nz = geo[at + _D + j], geo[at + _NX + j], geo[at + _NY + j], geo[at + _NZ + j]
+        allowed = geo[at + _ALLOW + j]
+        nearer = d < st[_CLEAR + j]
+        st[_CLEAR + j] = d if nearer else st[_CLEAR + j]
+        st[_MX + j] = nx if nearer else st[_MX + j]
+        st[_MY + j] = ny if nearer else st[_MY + j]
+        st[_MZ + j] = nz if nearer else st[_MZ + j]
+        sx, sy, sz, moved = project_damper(st[_SX + j], st[_SY + j], st[_SZ + j], nx, ny, nz, allowed)
+        st[_SX + j], st[_SY + j], st[_SZ + j] = sx, sy, sz
+        st[_ACTP + j] += moved
+        excess = -(st[_VX + j] * nx + st[_VY + j] * ny + st[_VZ + j] * nz) - allowed
+        st[_EXCESS + j] = excess
+        blocked += excess > 0.0
+    if blocked == 0:
+        return
+    for j in range(width):
+        if st[_EXCESS + j] > 0.0:
+            st[_VX + j], st[_VY + j], st[_VZ + j], hit = deflect(
+                st[_VX + j], st[_VY + j], st[_VZ + j], geo[at + _NX + j], geo[at + _NY + j], geo[at + _NZ + j],
+                cx, cy, cz, geo[at + _ALLOW + j], kappa)
+            st[_ACT + j] += hit
+
+
+@njit(cache=True, inline="always")
+def _exact_lane(st: np.ndarray, j: int, i: int, d: float, nx: float, ny: float, nz: float,
+                params: np.ndarray, aux: np.ndarray) -> None:
+    """Obstacle i's part of sweep 0 at lane j from its exact signed distance d and normal n (any shape)."""
+    if d < st[_CLEAR + j]:
+        st[_CLEAR + j], st[_MX + j], st[_MY + j], st[_MZ + j] = d, nx, ny, nz
+    if d < params[INFLUENCE_DISTANCE]:
+        (st[_VX + j], st[_VY + j], st[_VZ + j], st[_SX + j], st[_SY + j], st[_SZ + j], active,
+         active_previous) = first_sweep_step(
+            st[_VX + j], st[_VY + j], st[_VZ + j], st[_SX + j], st[_SY + j], st[_SZ + j], int(st[_ACT + j]),
+            int(st[_ACTP + j]), nx, ny, nz, damper_allowance(d, params), i, params, aux)
+        st[_ACT + j], st[_ACTP + j] = float(active), float(active_previous)
 
 
 @njit(cache=True, inline="always")
 def _twist_range(out: np.ndarray, start: int, stop: int, positions: np.ndarray, orientations: np.ndarray,
                  goal: np.ndarray, params: np.ndarray, aux: np.ndarray, previous: np.ndarray,
-                 packed: Any) -> None:
-    for k in range(start, stop):
-        q = orientations[k]
-        out[k, 0], out[k, 1], out[k, 2], out[k, 3], out[k, 4], out[k, 5], _, _ = constrained_twist(
-            positions[k], q[0], q[1], q[2], q[3], goal, params, packed, aux, previous, False, 0.0)
+                 packed: Any) -> int:
+    """Constrained twists of rows [start, stop) without rate limit, :data:`LANES` at a time; first bad row."""
+    st = np.zeros(_SCRATCH)
+    count = aux.shape[0]
+    caching = count <= _CACHED_OBSTACLES
+    geo = np.zeros(max(count if caching else 1, 1) * SPHERE_ROWS * LANES)
+    last = np.full(7, math.nan)  # the previous unit quaternion and its rotation term
+    influence = params[INFLUENCE_DISTANCE]
+    for block in range(start, stop, LANES):
+        width = min(LANES, stop - block)
+        bad = _start_lanes(st, out, block, width, positions, orientations, goal, params, previous, last)
+        if bad >= 0:
+            return bad
+        cached = LANES if caching else 0
+        for i in range(count):
+            if aux[i, 7] != 0.0:  # a sphere: lane-wise
+                at = i * SPHERE_ROWS * LANES if caching else 0
+                _sphere_lanes(st, geo, at, width, aux, i, params)
+                centres = 0
+                for j in range(width):
+                    centres += st[_NORM + j] == 0.0
+                if centres == 0:
+                    _sphere_sweep(st, geo, at, width, i, params, aux)
+                    continue
+                cached = 0  # a point at a sphere's centre: this block's later sweeps recompute
+            for j in range(width):  # other shapes, or a point at a sphere's centre: one lane at a time
+                p = positions[block + j]
+                bound, dx, dy, dz, norm = _lower_bound(aux, i, p)
+                if bound >= influence and bound >= st[_CLEAR + j]:
+                    continue
+                d, nx, ny, nz = _signed_distance(packed, aux, i, p, bound, dx, dy, dz, norm)
+                _exact_lane(st, j, i, d, nx, ny, nz, params, aux)
+        for j in range(width):
+            k = block + j
+            vx, vy, vz, _, _, _ = settle(
+                positions[k], st[_VX + j], st[_VY + j], st[_VZ + j], st[_SX + j], st[_SY + j], st[_SZ + j],
+                int(st[_ACT + j]), int(st[_ACTP + j]), st[_CLEAR + j], st[_MX + j], st[_MY + j], st[_MZ + j],
+                params, packed, aux, previous, geo, j, cached)
+            out[k, 0], out[k, 1], out[k, 2] = cap_speed(vx, vy, vz, params[MAX_LINEAR_VELOCITY])
+    return -1
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, error_model="numpy")
 def batch_wrenches(
     positions: np.ndarray, orientations: np.ndarray, goal: np.ndarray, params: np.ndarray, aux: np.ndarray,
     kinds: np.ndarray, rows: np.ndarray, triangles: np.ndarray, pseudo_normals: np.ndarray,
     bvh_lower: np.ndarray, bvh_upper: np.ndarray, bvh_nodes: np.ndarray, mesh_table: np.ndarray,
-) -> np.ndarray:
-    """Raw wrenches (N, 6) at N poses (C-contiguous positions (N, 3), unit quaternions (N, 4))."""
+) -> tuple[np.ndarray, np.ndarray]:
+    """Raw wrenches (N, 6) at N poses (C-contiguous positions (N, 3), quaternions (N or 1, 4), normalised
+    here) and, per chunk, the first invalid row (−1: none)."""
     n = positions.shape[0]
     out = np.empty((n, 6))
     if n < PARALLEL_FROM:
         packed = unowned_arrays(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table)
-        _wrench_range(out, 0, n, unowned(positions), unowned(orientations), unowned(goal), unowned(params),
-                      unowned(aux), packed)
-        return out
-    for chunk in prange((n + CHUNK - 1) // CHUNK):
+        bad = np.full(1, _wrench_range(out, 0, n, unowned(positions), unowned(orientations), unowned(goal),
+                                       unowned(params), unowned(aux), packed))
+        return out, bad
+    bad = np.empty((n + CHUNK - 1) // CHUNK, dtype=np.int64)
+    for chunk in prange(bad.shape[0]):
         packed = unowned_arrays(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table)
-        _wrench_range(out, chunk * CHUNK, min(n, (chunk + 1) * CHUNK), unowned(positions), unowned(orientations),
-                      unowned(goal), unowned(params), unowned(aux), packed)
-    return out
+        bad[chunk] = _wrench_range(out, chunk * CHUNK, min(n, (chunk + 1) * CHUNK), unowned(positions),
+                                   unowned(orientations), unowned(goal), unowned(params), unowned(aux), packed)
+    return out, bad
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, error_model="numpy")
 def batch_twists(
     positions: np.ndarray, orientations: np.ndarray, goal: np.ndarray, params: np.ndarray, aux: np.ndarray,
     previous: np.ndarray,
     kinds: np.ndarray, rows: np.ndarray, triangles: np.ndarray, pseudo_normals: np.ndarray,
     bvh_lower: np.ndarray, bvh_upper: np.ndarray, bvh_nodes: np.ndarray, mesh_table: np.ndarray,
-) -> np.ndarray:
-    """Constrained twists (N, 6) at N poses without rate limit (``previous`` (6,) zeros, read only: shared)."""
+) -> tuple[np.ndarray, np.ndarray]:
+    """Constrained twists (N, 6) at N poses without rate limit (``previous`` (6,) zeros, read only: shared)
+    and, per chunk, the first invalid row (−1: none); inputs as :func:`batch_wrenches`."""
     n = positions.shape[0]
     out = np.empty((n, 6))
     if n < PARALLEL_FROM:
         packed = unowned_arrays(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table)
-        _twist_range(out, 0, n, unowned(positions), unowned(orientations), unowned(goal), unowned(params),
-                     unowned(aux), unowned(previous), packed)
-        return out
-    for chunk in prange((n + CHUNK - 1) // CHUNK):
+        bad = np.full(1, _twist_range(out, 0, n, unowned(positions), unowned(orientations), unowned(goal),
+                                      unowned(params), unowned(aux), unowned(previous), packed))
+        return out, bad
+    bad = np.empty((n + CHUNK - 1) // CHUNK, dtype=np.int64)
+    for chunk in prange(bad.shape[0]):
         packed = unowned_arrays(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table)
-        _twist_range(out, chunk * CHUNK, min(n, (chunk + 1) * CHUNK), unowned(positions), unowned(orientations),
-                     unowned(goal), unowned(params), unowned(aux), unowned(previous), packed)
-    return out
+        bad[chunk] = _twist_range(out, chunk * CHUNK, min(n, (chunk + 1) * CHUNK), unowned(positions),
+                                  unowned(orientations), unowned(goal), unowned(params), unowned(aux),
+                                  unowned(previous), packed)
+    return out, bad

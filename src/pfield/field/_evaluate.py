@@ -51,6 +51,8 @@ ROTATION_TOLERANCE, MAX_REPULSIVE_FORCE = PARAMS.index("rotation_tolerance"), PA
 SAFETY_DISTANCE, DAMPER_GAIN = PARAMS.index("safety_distance"), PARAMS.index("damper_gain")
 CIRCULATION_GAIN, STAGNATION_WINDOW = PARAMS.index("circulation_gain"), PARAMS.index("stagnation_window")
 STAGNATION_PROGRESS = PARAMS.index("stagnation_progress")
+SPHERE_ROWS = 5  # a sphere's sweep-0 geometry in the batch kernels' cache (see settle): rows
+DISTANCE_ROW, NX_ROW, NY_ROW, NZ_ROW, ALLOWANCE_ROW = range(SPHERE_ROWS)
 _SWEEPS = 16  # damper sweeps: one deflecting, then alternating projections (narrow wedges converge slowly)
 
 
@@ -118,6 +120,79 @@ def field_wrench(
 
 
 @njit(cache=True, inline="always")
+def damper_allowance(d: float, params: np.ndarray) -> float:
+    """The approach speed (m/s) that obstacle dampers allow at signed distance d < Q (:func:`damper_speed`)."""
+    vmax = params[MAX_LINEAR_VELOCITY]
+    return damper_speed(d, params[INFLUENCE_DISTANCE], params[SAFETY_DISTANCE], params[DAMPER_GAIN] * vmax, vmax,
+                        params[MAX_LINEAR_ACCELERATION])
+
+
+@njit(cache=True, inline="always")
+def first_sweep_step(
+    vx: float, vy: float, vz: float, sx: float, sy: float, sz: float, active: int, active_previous: int,
+    nx: float, ny: float, nz: float, allowed: float, i: int, params: np.ndarray, aux: np.ndarray,
+) -> tuple[float, float, float, float, float, float, int, int]:
+    """Sweep 0 of :func:`_avoid` for obstacle i within Q (normal n, allowed approach speed): deflect the twist
+    v and project the previous linear twist s; count the dampers that bind on each."""
+    sx, sy, sz, moved = project_damper(sx, sy, sz, nx, ny, nz, allowed)
+    vx, vy, vz, hit = deflect(vx, vy, vz, nx, ny, nz, aux[i, 0], aux[i, 1], aux[i, 2], allowed,
+                              params[CIRCULATION_GAIN])
+    return vx, vy, vz, sx, sy, sz, active + hit, active_previous + moved
+
+
+@njit(cache=True, inline="always")
+def settle(
+    p: np.ndarray, vx: float, vy: float, vz: float, sx: float, sy: float, sz: float, active: int,
+    active_previous: int, clearance: float, mx: float, my: float, mz: float,
+    params: np.ndarray, packed: PackedObstacles, aux: np.ndarray, previous: np.ndarray,
+    spheres: np.ndarray, lane: int, lanes: int,
+) -> tuple[float, float, float, float, float, float]:
+    """The sweeps of :func:`_avoid` after the first: (v, brake direction) from sweep 0's state.
+
+    ``clearance`` and m are the nearest obstacle's signed distance and normal found by sweep 0. With
+    ``lanes`` > 0, ``spheres`` holds sweep 0's geometry of every sphere for ``lanes`` poses side by side
+    (:data:`SPHERE_ROWS` rows of ``lanes`` values per obstacle: the value of row r, obstacle i, lane j at
+    (i · SPHERE_ROWS + r) · lanes + j), which the sweeps reuse for spheres instead of recomputing it; with
+    ``lanes`` = 0 (one pose) ``spheres`` is not read.
+    """
+    influence = params[INFLUENCE_DISTANCE]
+    if active >= 2 or active_previous >= 2:
+        for _ in range(1, _SWEEPS):
+            changed = False
+            for i in range(aux.shape[0]):
+                if lanes > 0 and aux[i, 7] != 0.0:
+                    at = i * SPHERE_ROWS * lanes + lane
+                    d, allowed = spheres[at + DISTANCE_ROW * lanes], spheres[at + ALLOWANCE_ROW * lanes]
+                    if d >= influence:
+                        continue
+                    nx, ny = spheres[at + NX_ROW * lanes], spheres[at + NY_ROW * lanes]
+                    nz = spheres[at + NZ_ROW * lanes]
+                else:
+                    bound, dx, dy, dz, norm = _lower_bound(aux, i, p)
+                    if bound >= influence:
+                        continue
+                    d, nx, ny, nz = _signed_distance(packed, aux, i, p, bound, dx, dy, dz, norm)
+                    if d >= influence:
+                        continue
+                    allowed = damper_allowance(d, params)
+                sx, sy, sz, moved = project_damper(sx, sy, sz, nx, ny, nz, allowed)
+                vx, vy, vz, hit = project_damper(vx, vy, vz, nx, ny, nz, allowed)
+                changed = changed or hit or moved
+            if not changed:
+                break
+    if active + active_previous >= 2 and clearance < influence:
+        # Dampers that cannot all hold (a gap narrower than 2 d_s): the nearest obstacle's wins.
+        allowed = damper_allowance(clearance, params)
+        vx, vy, vz, _ = project_damper(vx, vy, vz, mx, my, mz, allowed)
+        sx, sy, sz, _ = project_damper(sx, sy, sz, mx, my, mz, allowed)
+    bx, by, bz = sx - previous[0], sy - previous[1], sz - previous[2]
+    brake = math.sqrt(bx * bx + by * by + bz * bz)
+    if brake > 0.0:
+        bx, by, bz = bx / brake, by / brake, bz / brake
+    return vx, vy, vz, bx, by, bz
+
+
+@njit(cache=True, inline="always")
 def _avoid(
     p: np.ndarray, vx: float, vy: float, vz: float, params: np.ndarray, packed: PackedObstacles,
     aux: np.ndarray, previous: np.ndarray,
@@ -129,49 +204,54 @@ def _avoid(
     nearest obstacle's damper is enforced last, so the clearance cannot shrink). The previous linear twist is
     projected alongside: the unit vector from it to its projection is the direction in which the rate
     limit brakes first (zero when the previous twist obeys every damper). Returns (v, clearance, nearest,
-    brake direction).
+    brake direction). The batch kernels run sweep 0 lane-wise (:mod:`pfield.field._batch_parallel`) with
+    the same steps: :func:`first_sweep_step`, then :func:`settle`.
     """
-    influence, safety = params[INFLUENCE_DISTANCE], params[SAFETY_DISTANCE]
-    vmax = params[MAX_LINEAR_VELOCITY]
-    gain = params[DAMPER_GAIN] * vmax
-    accel, kappa = params[MAX_LINEAR_ACCELERATION], params[CIRCULATION_GAIN]
+    influence = params[INFLUENCE_DISTANCE]
     clearance, nearest, active, active_previous = math.inf, -1, 0, 0
     sx, sy, sz = previous[0], previous[1], previous[2]
     mx, my, mz = 0.0, 0.0, 0.0
-    for sweep in range(_SWEEPS):
-        if sweep > 0 and active < 2 and active_previous < 2:
-            break
-        changed = False
-        for i in range(aux.shape[0]):
-            bound, dx, dy, dz, norm = _lower_bound(aux, i, p)
-            if bound >= influence and (sweep > 0 or bound >= clearance):
-                continue
-            d, nx, ny, nz = _signed_distance(packed, aux, i, p, bound, dx, dy, dz, norm)
-            if sweep == 0 and d < clearance:
-                clearance, nearest, mx, my, mz = d, i, nx, ny, nz
-            if d >= influence:
-                continue
-            allowed = damper_speed(d, influence, safety, gain, vmax, accel)
-            sx, sy, sz, moved = project_damper(sx, sy, sz, nx, ny, nz, allowed)
-            if sweep == 0:
-                vx, vy, vz, hit = deflect(vx, vy, vz, nx, ny, nz, aux[i, 0], aux[i, 1], aux[i, 2], allowed, kappa)
-                active += hit
-                active_previous += moved
-            else:
-                vx, vy, vz, hit = project_damper(vx, vy, vz, nx, ny, nz, allowed)
-                changed = changed or hit or moved
-        if sweep > 0 and not changed:
-            break
-    if active + active_previous >= 2 and clearance < influence:
-        # Dampers that cannot all hold (a gap narrower than 2 d_s): the nearest obstacle's wins.
-        allowed = damper_speed(clearance, influence, safety, gain, vmax, accel)
-        vx, vy, vz, _ = project_damper(vx, vy, vz, mx, my, mz, allowed)
-        sx, sy, sz, _ = project_damper(sx, sy, sz, mx, my, mz, allowed)
-    bx, by, bz = sx - previous[0], sy - previous[1], sz - previous[2]
-    brake = math.sqrt(bx * bx + by * by + bz * bz)
-    if brake > 0.0:
-        bx, by, bz = bx / brake, by / brake, bz / brake
+    for i in range(aux.shape[0]):
+        bound, dx, dy, dz, norm = _lower_bound(aux, i, p)
+        if bound >= influence and bound >= clearance:
+            continue
+        d, nx, ny, nz = _signed_distance(packed, aux, i, p, bound, dx, dy, dz, norm)
+        if d < clearance:
+            clearance, nearest, mx, my, mz = d, i, nx, ny, nz
+        if d < influence:
+            vx, vy, vz, sx, sy, sz, active, active_previous = first_sweep_step(
+                vx, vy, vz, sx, sy, sz, active, active_previous, nx, ny, nz, damper_allowance(d, params), i,
+                params, aux)
+    vx, vy, vz, bx, by, bz = settle(p, vx, vy, vz, sx, sy, sz, active, active_previous, clearance, mx, my, mz,
+                                    params, packed, aux, previous, previous, 0, 0)
     return vx, vy, vz, clearance, nearest, bx, by, bz
+
+
+@njit(cache=True, inline="always")
+def attraction_twist(p: np.ndarray, goal: np.ndarray, params: np.ndarray) -> tuple[float, float, float]:
+    """v = soft-saturated attraction toward the goal (m/s), before obstacles."""
+    vx, vy, vz = attraction(goal[0] - p[0], goal[1] - p[1], goal[2] - p[2],
+                            params[ATTRACTIVE_GAIN], params[ATTRACTIVE_THRESHOLD])
+    return soft_saturate(vx, vy, vz, params[MAX_LINEAR_VELOCITY])
+
+
+@njit(cache=True, inline="always")
+def goal_rotation(
+    qx: float, qy: float, qz: float, qw: float, goal: np.ndarray, params: np.ndarray,
+) -> tuple[float, float, float]:
+    """ω = soft-saturated k_rot · log(q_g ⊗ q⁻¹) (rad/s)."""
+    rx, ry, rz = rotation_error(qx, qy, qz, qw, goal[3], goal[4], goal[5], goal[6])
+    k = params[ROTATIONAL_GAIN]
+    return soft_saturate(k * rx, k * ry, k * rz, params[MAX_ANGULAR_VELOCITY])
+
+
+@njit(cache=True, inline="always")
+def cap_speed(vx: float, vy: float, vz: float, vmax: float) -> tuple[float, float, float]:
+    """v scaled to ‖v‖ ≤ v_max: a projection that pushes away from an obstacle can add speed."""
+    speed = math.sqrt(vx * vx + vy * vy + vz * vz)
+    if speed > vmax:
+        return vx * vmax / speed, vy * vmax / speed, vz * vmax / speed
+    return vx, vy, vz
 
 
 @njit(cache=True, inline="always")
@@ -182,24 +262,20 @@ def constrained_twist(
 ) -> tuple[float, float, float, float, float, float, float, int]:
     """The autonomy twist at pose (p, q) and the clearance: (vx, vy, vz, ωx, ωy, ωz, clearance, nearest).
 
-    1. v = soft-saturated attraction, ω = soft-saturated k_rot · log(q_g ⊗ q⁻¹);
+    1. v = soft-saturated attraction (:func:`attraction_twist`), ω = soft-saturated k_rot · log(q_g ⊗ q⁻¹)
+       (:func:`goal_rotation`);
     2. each obstacle within Q limits the approach speed (velocity damper) and turns the excess into
        tangential motion (:func:`~pfield.field.forces.deflect`), then projections settle several dampers;
+       ‖v‖ ≤ v_max still holds after them (:func:`cap_speed`);
     3. with ``use_previous``, rate limits ‖v − v_prev‖ ≤ a_max dt (braking first,
        :func:`~pfield.field.forces.braking_rate_limit`) and ‖ω − ω_prev‖ ≤ α_max dt.
     ``clearance`` is the smallest signed distance over all obstacles (inf without any), ``nearest`` its
     index (−1).
     """
-    vx, vy, vz = attraction(goal[0] - p[0], goal[1] - p[1], goal[2] - p[2],
-                            params[ATTRACTIVE_GAIN], params[ATTRACTIVE_THRESHOLD])
-    vx, vy, vz = soft_saturate(vx, vy, vz, params[MAX_LINEAR_VELOCITY])
-    rx, ry, rz = rotation_error(qx, qy, qz, qw, goal[3], goal[4], goal[5], goal[6])
-    k = params[ROTATIONAL_GAIN]
-    wx, wy, wz = soft_saturate(k * rx, k * ry, k * rz, params[MAX_ANGULAR_VELOCITY])
+    vx, vy, vz = attraction_twist(p, goal, params)
+    wx, wy, wz = goal_rotation(qx, qy, qz, qw, goal, params)
     vx, vy, vz, clearance, nearest, bx, by, bz = _avoid(p, vx, vy, vz, params, packed, aux, previous)
-    speed, vmax = math.sqrt(vx * vx + vy * vy + vz * vz), params[MAX_LINEAR_VELOCITY]
-    if speed > vmax:  # a projection that pushes away from an obstacle can add speed; v_max still holds
-        vx, vy, vz = vx * vmax / speed, vy * vmax / speed, vz * vmax / speed
+    vx, vy, vz = cap_speed(vx, vy, vz, params[MAX_LINEAR_VELOCITY])
     if use_previous:
         vx, vy, vz = braking_rate_limit(vx, vy, vz, previous[0], previous[1], previous[2],
                                         params[MAX_LINEAR_ACCELERATION] * dt, bx, by, bz, params[MAX_LINEAR_VELOCITY])

@@ -30,6 +30,7 @@ __all__ = ["FieldArrays", "PotentialField"]
 
 _ZERO = np.zeros(3)
 _ZERO.setflags(write=False)  # the same (read-only) array type as Twist.linear: one compiled specialisation
+_NO_PREVIOUS = np.zeros(6)  # the batch twists' previous twist: read by the kernel, never written
 
 
 class FieldArrays(NamedTuple):
@@ -183,35 +184,55 @@ class PotentialField:
     # ---------------------------------------------------------------- batches
 
     def _batch(self, positions: ArrayLike, orientations: ArrayLike | None) -> tuple[NDArray[Any], NDArray[Any]]:
+        """Positions (N, 3) and orientations (N or 1, 4) as the batch kernels take them: shapes checked here,
+        rows checked (finite, nonzero quaternion) and quaternions normalised by the kernels."""
         # Writable C-contiguous copies when needed, so that the kernels see one array type (one compilation).
-        points = np.require(as_points("positions", positions), requirements=["C", "W"])
+        points = np.require(as_points("positions", positions, check_finite=False), requirements=["C", "W"])
         if orientations is None:
-            return points, np.tile(self._goal.orientation, (points.shape[0], 1))
-        quats = np.array(orientations, dtype=np.float64)
+            return points, np.require(self._goal.orientation.reshape(1, 4), requirements=["C", "W"])
+        try:
+            quats = np.require(orientations, dtype=np.float64, requirements=["C", "W"])
+        except (TypeError, ValueError) as exc:
+            raise InvalidInput("orientations", orientations,
+                               f"expected an array of shape ({points.shape[0]}, 4)") from exc
         if quats.shape == (4,):
-            quats = np.tile(quats, (points.shape[0], 1))
-        if quats.shape != (points.shape[0], 4) or not np.all(np.isfinite(quats)):
-            raise InvalidInput("orientations", f"array{quats.shape}", f"expected ({points.shape[0]}, 4) finite")
-        norms = np.linalg.norm(quats, axis=1, keepdims=True)
-        if np.any(norms < 1e-9):
-            raise InvalidInput("orientations", "array", "contains a zero quaternion")
-        return points, np.ascontiguousarray(quats / norms)
+            quats = quats.reshape(1, 4)
+        if quats.ndim != 2 or quats.shape[1] != 4 or quats.shape[0] not in (1, points.shape[0]):
+            raise InvalidInput("orientations", f"array{quats.shape}", f"expected ({points.shape[0]}, 4) or (4,)")
+        return points, quats
+
+    @staticmethod
+    def _rows_checked(result: tuple[NDArray[np.float64], NDArray[np.int64]], points: NDArray[Any],
+                      quats: NDArray[Any]) -> NDArray[np.float64]:
+        """The kernel's values, or the error naming the first row it refused."""
+        values, bad = result
+        refused = bad[bad >= 0]
+        if refused.size:
+            row = int(refused.min())
+            if not np.all(np.isfinite(points[row])):
+                raise InvalidInput(f"positions[{row}]", points[row].tolist(), "must be finite (no NaN or inf)")
+            quat = quats[row if quats.shape[0] > 1 else 0]
+            raise InvalidInput(f"orientations[{row}]", quat.tolist(), "must be a finite, nonzero quaternion")
+        return values
 
     def wrenches(self, positions: ArrayLike, orientations: ArrayLike | None = None) -> NDArray[np.float64]:
-        """Raw wrenches (N, 6) = force, torque at N poses; orientations (N, 4) default to the goal's.
+        """Raw wrenches (N, 6) = force, torque at N poses; orientations (N, 4) or one (4,) for all (normalised),
+        default the goal's.
 
         Large batches run on every core (:mod:`pfield.field._batch_parallel`), with the same values."""
         points, quats = self._batch(positions, orientations)
         goal, params, packed, aux = self._arrays
-        return batch_wrenches(points, quats, goal, params, aux, *packed)
+        return self._rows_checked(batch_wrenches(points, quats, goal, params, aux, *packed), points, quats)
 
     def twists(self, positions: ArrayLike, orientations: ArrayLike | None = None) -> NDArray[np.float64]:
-        """Constrained twists (N, 6) = linear, angular at N poses, without a previous twist.
+        """Constrained twists (N, 6) = linear, angular at N poses, without a previous twist; orientations as
+        :meth:`wrenches`.
 
         Large batches run on every core (:mod:`pfield.field._batch_parallel`), with the same values."""
         points, quats = self._batch(positions, orientations)
         goal, params, packed, aux = self._arrays
-        return batch_twists(points, quats, goal, params, aux, np.zeros(6), *packed)
+        return self._rows_checked(batch_twists(points, quats, goal, params, aux, _NO_PREVIOUS, *packed),
+                                  points, quats)
 
     def clearances(self, positions: ArrayLike) -> NDArray[np.float64]:
         """Signed distance (m) of each point (N, 3) to the nearest obstacle (inf without obstacles)."""
