@@ -67,9 +67,9 @@ MIN_QUATERNION_NORM = 1e-9
 # A lane block's scratch is one flat array: row r of lane j at r · LANES + j. One base pointer with constant
 # offsets is what lets LLVM prove that the rows do not overlap (row views of a 2-D array need runtime
 # checks, too many of them to vectorise). Rows: the damper state, then the sphere geometry.
-(_VX, _VY, _VZ, _SX, _SY, _SZ, _CLEAR, _MX, _MY, _MZ, _ACT, _ACTP, _PX, _PY, _PZ, _NORM,
- _EXCESS) = (LANES * r for r in range(17))
-_SCRATCH = 17 * LANES
+(_VX, _VY, _VZ, _SX, _SY, _SZ, _CLEAR, _MX, _MY, _MZ, _ACT, _ACTP, _PX, _PY, _PZ,
+ _EXCESS) = (LANES * r for r in range(16))
+_SCRATCH = 16 * LANES
 # Sweep 0's geometry of each sphere (distance, normal, allowance: SPHERE_ROWS rows of LANES) is kept in a
 # second flat array for the later sweeps (settle), up to this many obstacles (0.3 kB each); beyond, one
 # sphere's rows are reused and the later sweeps recompute.
@@ -88,7 +88,8 @@ def _unit_row(positions: np.ndarray, orientations: np.ndarray, k: int) -> tuple[
              and norm >= MIN_QUATERNION_NORM)
     if not valid:
         return False, 0.0, 0.0, 0.0, 1.0
-    return True, qx / norm, qy / norm, qz / norm, qw / norm
+    inverse = 1.0 / norm
+    return True, qx * inverse, qy * inverse, qz * inverse, qw * inverse
 
 
 @njit(cache=True, inline="always")
@@ -127,9 +128,9 @@ def _start_lanes(st: np.ndarray, out: np.ndarray, block: int, width: int, positi
 
 @njit(cache=True, inline="always")
 def _sphere_lanes(st: np.ndarray, geo: np.ndarray, at: int, width: int, aux: np.ndarray, i: int,
-                  params: np.ndarray) -> None:
+                  params: np.ndarray) -> int:
     """Signed distance, normal and allowed approach speed of sphere i at the block's points (SIMD), into
-    ``geo`` from ``at``.
+    ``geo`` from ``at``; returns how many points sit at the centre (where the normal is undefined).
 
     The allowance is +inf beyond the influence distance Q: with it, :func:`_sphere_sweep`'s damper steps
     change nothing, as the one-pose kernel's skip, without a branch. The trip count is a variable: LLVM's loop
@@ -139,14 +140,18 @@ def _sphere_lanes(st: np.ndarray, geo: np.ndarray, at: int, width: int, aux: np.
     vmax = params[MAX_LINEAR_VELOCITY]  # read before the loop: loads in it could alias the stores
     influence, safety, gain = params[INFLUENCE_DISTANCE], params[SAFETY_DISTANCE], params[DAMPER_GAIN] * vmax
     accel = params[MAX_LINEAR_ACCELERATION]
+    centres = 0
     for j in range(width):
         dx, dy, dz = st[_PX + j] - cx, st[_PY + j] - cy, st[_PZ + j] - cz
         norm = math.sqrt(dx * dx + dy * dy + dz * dz)
         d = norm - radius
-        geo[at + _D + j], st[_NORM + j] = d, norm
-        geo[at + _NX + j], geo[at + _NY + j], geo[at + _NZ + j] = dx / norm, dy / norm, dz / norm
+        geo[at + _D + j] = d
+        centres += norm == 0.0
+        inverse = 1.0 / norm  # as _signed_distance: one division
+        geo[at + _NX + j], geo[at + _NY + j], geo[at + _NZ + j] = dx * inverse, dy * inverse, dz * inverse
         allowed = damper_speed(d, influence, safety, gain, vmax, accel)  # = damper_allowance(d, params)
         geo[at + _ALLOW + j] = allowed if d < influence else math.inf
+    return centres
 
 
 @njit(cache=True, inline="always")
@@ -221,11 +226,7 @@ def _twist_range(out: np.ndarray, start: int, stop: int, positions: np.ndarray, 
         for i in range(count):
             if aux[i, 7] != 0.0:  # a sphere: lane-wise
                 at = i * SPHERE_ROWS * LANES if caching else 0
-                _sphere_lanes(st, geo, at, width, aux, i, params)
-                centres = 0
-                for j in range(width):
-                    centres += st[_NORM + j] == 0.0
-                if centres == 0:
+                if _sphere_lanes(st, geo, at, width, aux, i, params) == 0:
                     _sphere_sweep(st, geo, at, width, i, params, aux)
                     continue
                 cached = 0  # a point at a sphere's centre: this block's later sweeps recompute

@@ -94,7 +94,8 @@ def _signed_distance(
 ) -> tuple[float, float, float, float]:
     """Signed distance and normal of obstacle i at p; spheres reuse the (exact) bound of :func:`_lower_bound`."""
     if aux[i, 7] != 0.0 and norm > 0.0:
-        return bound, dx / norm, dy / norm, dz / norm
+        inverse = 1.0 / norm
+        return bound, dx * inverse, dy * inverse, dz * inverse
     return obstacle_signed_distance(packed, i, p)
 
 
