@@ -14,6 +14,7 @@ import httpx
 import pytest
 from websockets.sync.client import connect
 
+from pfield.errors import InvalidInput
 from pfield.interfaces import geometry_msgs as gm
 from pfield.interfaces import std_srvs
 from pfield.node._base import Bus, Node, PublicationSpec, ServiceSpec, SubscriptionSpec
@@ -268,3 +269,20 @@ def test_long_running_services_run_at_a_lower_priority_than_short_ones() -> None
         long = int(httpx.post(f"{server.url}/srv/nice/long", json={}).json()["message"])
     assert short == os.getpriority(os.PRIO_PROCESS, 0)
     assert long == min(19, short + LONG_RUNNING_NICENESS)
+
+
+def test_a_server_shortens_the_gil_switch_interval_and_refuses_a_nonpositive_one() -> None:
+    """A plan's answer is written in GIL-holding steps; control-loop calls get the GIL within the interval."""
+    import sys
+
+    before = sys.getswitchinterval()
+    try:
+        sys.setswitchinterval(0.005)
+        with ServerThread(create_app([NicenessNode(Bus())]), limits=ServerLimits(gil_switch_interval=0.0007)):
+            assert sys.getswitchinterval() == pytest.approx(0.0007)
+        assert ServerLimits().gil_switch_interval < 0.005
+        with pytest.raises(InvalidInput) as info:
+            ServerLimits(gil_switch_interval=0.0)
+        assert info.value.field == "gil_switch_interval"
+    finally:
+        sys.setswitchinterval(before)

@@ -205,9 +205,10 @@ def _stamps(times: NDArray[np.float64], field: str = "times") -> NDArray[np.int6
 
 
 _MAX_STAMP_S = 2.0**31 - 1.0
-CHUNK_ROWS = 256
-"""Waypoints written per step: each step holds the GIL for about a millisecond, so other requests keep
-answering while a long plan's answer is written (and the answer can be streamed)."""
+CHUNK_ROWS = 64
+"""Waypoints written per step: each step holds the GIL for about a quarter of a millisecond, so control-loop
+requests keep answering while a long plan's answer is written (and the answer can be streamed). 256 rows
+wrote a 200 000-waypoint answer 10 % faster but doubled the autonomy calls' p99 while it was written."""
 
 
 def _text(value: str) -> str:

@@ -35,13 +35,24 @@ class ServerLimits:
     """Largest request head (request line + headers); a larger one is answered 400."""
     ws_max_message_bytes: int = 1_000_000
     """Largest WebSocket message a client may send (larger: the socket is closed with code 1009)."""
+    gil_switch_interval: float = 0.0005
+    """s a thread that holds the GIL keeps it while another waits (``sys.setswitchinterval``, set for the
+    process when the server starts; Python's default is 0.005). A plan's Python work (its answer) holds the
+    GIL; each control-loop call needs it a few times (event loop, calls thread), so it waits up to this long
+    at each hand-off."""
 
     def __post_init__(self) -> None:
         from pfield._validation import positive
 
         for name in ("max_connections", "header_timeout", "keep_alive_timeout", "max_header_bytes",
-                     "ws_max_message_bytes"):
+                     "ws_max_message_bytes", "gil_switch_interval"):
             positive(name, getattr(self, name))
+
+    def apply_to_process(self) -> None:
+        """The process-wide part: the GIL switch interval."""
+        import sys
+
+        sys.setswitchinterval(self.gil_switch_interval)
 
 
 def _guarded_protocol(server_limits: ServerLimits) -> type[asyncio.Protocol]:

@@ -536,8 +536,9 @@ def run_server(app: FastAPI, host: str, port: int, *, limits: ServerLimits | Non
     """Serve ``app`` on ``host:port`` until interrupted (``pfield serve``), with ``limits`` applied."""
     import uvicorn
 
-    uvicorn.Server(uvicorn_config(app, limits or ServerLimits(), host=host, port=port,
-                                  log_level=log_level)).run()
+    limits = limits or ServerLimits()
+    limits.apply_to_process()
+    uvicorn.Server(uvicorn_config(app, limits, host=host, port=port, log_level=log_level)).run()
 
 
 class ServerThread:
@@ -558,10 +559,12 @@ class ServerThread:
         self._socket.bind((host, port))
         self.host, self.port = self._socket.getsockname()[:2]
         self.url = f"http://{self.host}:{self.port}"
-        self._server = uvicorn.Server(uvicorn_config(app, limits or ServerLimits(), log_level="warning"))
+        self._limits = limits or ServerLimits()
+        self._server = uvicorn.Server(uvicorn_config(app, self._limits, log_level="warning"))
         self._thread: threading.Thread | None = None
 
     def start(self) -> ServerThread:
+        self._limits.apply_to_process()
         self._thread = threading.Thread(target=self._server.run, kwargs={"sockets": [self._socket]},
                                         name="pfield-http", daemon=True)
         self._thread.start()
