@@ -10,10 +10,14 @@ not depend on the thread count or the batch size, and equals ``twist_at`` / ``wr
 :func:`~pfield.field._evaluate._avoid` obstacle by obstacle across them: a sphere's signed distance,
 normal and allowed approach speed are straight-line arithmetic over the lanes, which LLVM turns into SIMD
 instructions (``error_model="numpy"``: no Python zero-division check to branch on); the branchy rest
-(:func:`~pfield.field._evaluate.first_sweep_step`, :func:`~pfield.field._evaluate.settle`) runs per lane
+(:func:`~pfield.field._evaluate.first_sweep_step`, then the later sweeps of
+:func:`~pfield.field._evaluate.damper_sweeps`) runs per lane
 with those values, in the same order as the one-pose kernel, so the bits are the same as a per-pose loop.
 Other shapes take their exact signed distance lane by lane. A pose whose orientation equals the previous
 pose's (a grid at one orientation, the default of the goal's) reuses its rotation term.
+
+The per-chunk loops are inlined into both branches of an entry point (two copies to compile): compiled
+once and called instead, they compile in 17 s rather than 43 s but run 1.7× slower (measured).
 
 **Validation.** The kernels check and normalise each row themselves (finite position, finite nonzero
 quaternion) instead of a numpy pass per check before the call, and return the first invalid row.
@@ -47,22 +51,25 @@ from pfield.field._evaluate import (
     attraction_twist,
     cap_speed,
     damper_allowance,
+    damper_sweeps,
     field_wrench,
     first_sweep_step,
     goal_rotation,
-    settle,
 )
 from pfield.field._unowned import unowned, unowned_arrays
 from pfield.field.forces import damper_speed, deflect, project_damper
 
 __all__ = ["CHUNK", "LANES", "PARALLEL_FROM", "batch_twists", "batch_wrenches"]
 
-CHUNK = 2048
+CHUNK = 1024
 """Poses per task: large enough that scheduling is negligible, small enough to balance two to 64 threads."""
 PARALLEL_FROM = 8192
 LANES = 8
 """Poses evaluated side by side (one AVX-512 register of float64, two of AVX2)."""
 MIN_QUATERNION_NORM = 1e-9
+_lane_damper_speed = njit(cache=True, inline="always", error_model="numpy")(damper_speed.py_func)
+""":func:`~pfield.field.forces.damper_speed` itself, compiled once more for the lane loops with numpy's error
+model: the Python model's zero-division check is a branch that keeps LLVM from vectorising the loop."""
 
 # A lane block's scratch is one flat array: row r of lane j at r · LANES + j. One base pointer with constant
 # offsets is what lets LLVM prove that the rows do not overlap (row views of a 2-D array need runtime
@@ -71,10 +78,20 @@ MIN_QUATERNION_NORM = 1e-9
  _EXCESS) = (LANES * r for r in range(16))
 _SCRATCH = 16 * LANES
 # Sweep 0's geometry of each sphere (distance, normal, allowance: SPHERE_ROWS rows of LANES) is kept in a
-# second flat array for the later sweeps (settle), up to this many obstacles (0.3 kB each); beyond, one
+# second flat array for the later sweeps (damper_sweeps), up to this many obstacles (0.3 kB each); beyond, one
 # sphere's rows are reused and the later sweeps recompute.
 _CACHED_OBSTACLES = 4096
 _D, _NX, _NY, _NZ, _ALLOW = (LANES * r for r in (DISTANCE_ROW, NX_ROW, NY_ROW, NZ_ROW, ALLOWANCE_ROW))
+
+
+@njit(cache=True, inline="always")
+def _unit_quaternion(qx: float, qy: float, qz: float, qw: float) -> tuple[bool, float, float, float, float]:
+    """(valid, q / ‖q‖): valid when finite with a norm of at least :data:`MIN_QUATERNION_NORM`."""
+    norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+    if not (math.isfinite(norm) and norm >= MIN_QUATERNION_NORM):
+        return False, 0.0, 0.0, 0.0, 1.0
+    inverse = 1.0 / norm
+    return True, qx * inverse, qy * inverse, qz * inverse, qw * inverse
 
 
 @njit(cache=True, inline="always")
@@ -82,14 +99,11 @@ def _unit_row(positions: np.ndarray, orientations: np.ndarray, k: int) -> tuple[
     """(valid, unit quaternion) of row k; one orientation row serves every position."""
     p = positions[k]
     j = k if orientations.shape[0] > 1 else 0
-    qx, qy, qz, qw = orientations[j, 0], orientations[j, 1], orientations[j, 2], orientations[j, 3]
-    norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
-    valid = (math.isfinite(p[0]) and math.isfinite(p[1]) and math.isfinite(p[2]) and math.isfinite(norm)
-             and norm >= MIN_QUATERNION_NORM)
-    if not valid:
+    valid, qx, qy, qz, qw = _unit_quaternion(orientations[j, 0], orientations[j, 1], orientations[j, 2],
+                                             orientations[j, 3])
+    if not (valid and math.isfinite(p[0]) and math.isfinite(p[1]) and math.isfinite(p[2])):
         return False, 0.0, 0.0, 0.0, 1.0
-    inverse = 1.0 / norm
-    return True, qx * inverse, qy * inverse, qz * inverse, qw * inverse
+    return True, qx, qy, qz, qw
 
 
 @njit(cache=True, inline="always")
@@ -108,17 +122,27 @@ def _wrench_range(out: np.ndarray, start: int, stop: int, positions: np.ndarray,
 def _start_lanes(st: np.ndarray, out: np.ndarray, block: int, width: int, positions: np.ndarray,
                  orientations: np.ndarray, goal: np.ndarray, params: np.ndarray, previous: np.ndarray,
                  last: np.ndarray) -> int:
-    """Attraction and rotation of the block's poses (ω into ``out``), the damper state reset; first bad row."""
+    """Attraction and rotation of the block's poses (ω into ``out``), the damper state reset; first bad row.
+
+    ``last`` holds the previous pose's quaternion as given (4) and its rotation term (3): a row equal to it
+    (bit for bit, so never a NaN) needs neither the check, the normalisation nor the logarithm again.
+    """
+    several = orientations.shape[0] > 1
     for j in range(width):
         k = block + j
-        valid, qx, qy, qz, qw = _unit_row(positions, orientations, k)
-        if not valid:
+        px, py, pz = positions[k, 0], positions[k, 1], positions[k, 2]
+        if not (math.isfinite(px) and math.isfinite(py) and math.isfinite(pz)):
             return k
-        if qx != last[0] or qy != last[1] or qz != last[2] or qw != last[3]:
-            last[0], last[1], last[2], last[3] = qx, qy, qz, qw
+        o = k if several else 0
+        ox, oy, oz, ow = orientations[o, 0], orientations[o, 1], orientations[o, 2], orientations[o, 3]
+        if ox != last[0] or oy != last[1] or oz != last[2] or ow != last[3]:
+            valid, qx, qy, qz, qw = _unit_quaternion(ox, oy, oz, ow)
+            if not valid:
+                return k
+            last[0], last[1], last[2], last[3] = ox, oy, oz, ow
             last[4], last[5], last[6] = goal_rotation(qx, qy, qz, qw, goal, params)
         out[k, 3], out[k, 4], out[k, 5] = last[4], last[5], last[6]
-        st[_PX + j], st[_PY + j], st[_PZ + j] = positions[k, 0], positions[k, 1], positions[k, 2]
+        st[_PX + j], st[_PY + j], st[_PZ + j] = px, py, pz
         st[_VX + j], st[_VY + j], st[_VZ + j] = attraction_twist(positions[k], goal, params)
         st[_SX + j], st[_SY + j], st[_SZ + j] = previous[0], previous[1], previous[2]
         st[_CLEAR + j], st[_MX + j], st[_MY + j], st[_MZ + j] = math.inf, 0.0, 0.0, 0.0
@@ -149,7 +173,7 @@ def _sphere_lanes(st: np.ndarray, geo: np.ndarray, at: int, width: int, aux: np.
         centres += norm == 0.0
         inverse = 1.0 / norm  # as _signed_distance: one division
         geo[at + _NX + j], geo[at + _NY + j], geo[at + _NZ + j] = dx * inverse, dy * inverse, dz * inverse
-        allowed = damper_speed(d, influence, safety, gain, vmax, accel)  # = damper_allowance(d, params)
+        allowed = _lane_damper_speed(d, influence, safety, gain, vmax, accel)  # = damper_allowance(d, params)
         geo[at + _ALLOW + j] = allowed if d < influence else math.inf
     return centres
 
@@ -215,7 +239,7 @@ def _twist_range(out: np.ndarray, start: int, stop: int, positions: np.ndarray, 
     count = aux.shape[0]
     caching = count <= _CACHED_OBSTACLES
     geo = np.zeros(max(count if caching else 1, 1) * SPHERE_ROWS * LANES)
-    last = np.full(7, math.nan)  # the previous unit quaternion and its rotation term
+    last = np.full(7, math.nan)  # the previous quaternion as given and its rotation term
     influence = params[INFLUENCE_DISTANCE]
     for block in range(start, stop, LANES):
         width = min(LANES, stop - block)
@@ -239,10 +263,10 @@ def _twist_range(out: np.ndarray, start: int, stop: int, positions: np.ndarray, 
                 _exact_lane(st, j, i, d, nx, ny, nz, params, aux)
         for j in range(width):
             k = block + j
-            vx, vy, vz, _, _, _ = settle(
+            vx, vy, vz, _, _, _, _, _, _, _, _, _, _ = damper_sweeps(
                 positions[k], st[_VX + j], st[_VY + j], st[_VZ + j], st[_SX + j], st[_SY + j], st[_SZ + j],
-                int(st[_ACT + j]), int(st[_ACTP + j]), st[_CLEAR + j], st[_MX + j], st[_MY + j], st[_MZ + j],
-                params, packed, aux, previous, geo, j, cached)
+                int(st[_ACT + j]), int(st[_ACTP + j]), st[_CLEAR + j], st[_MX + j], st[_MY + j], st[_MZ + j], 1,
+                params, packed, aux, geo, j, cached)
             out[k, 0], out[k, 1], out[k, 2] = cap_speed(vx, vy, vz, params[MAX_LINEAR_VELOCITY])
     return -1
 

@@ -51,7 +51,7 @@ ROTATION_TOLERANCE, MAX_REPULSIVE_FORCE = PARAMS.index("rotation_tolerance"), PA
 SAFETY_DISTANCE, DAMPER_GAIN = PARAMS.index("safety_distance"), PARAMS.index("damper_gain")
 CIRCULATION_GAIN, STAGNATION_WINDOW = PARAMS.index("circulation_gain"), PARAMS.index("stagnation_window")
 STAGNATION_PROGRESS = PARAMS.index("stagnation_progress")
-SPHERE_ROWS = 5  # a sphere's sweep-0 geometry in the batch kernels' cache (see settle): rows
+SPHERE_ROWS = 5  # a sphere's sweep-0 geometry in the batch kernels' cache (see damper_sweeps): rows
 DISTANCE_ROW, NX_ROW, NY_ROW, NZ_ROW, ALLOWANCE_ROW = range(SPHERE_ROWS)
 _SWEEPS = 16  # damper sweeps: one deflecting, then alternating projections (narrow wedges converge slowly)
 
@@ -142,55 +142,72 @@ def first_sweep_step(
 
 
 @njit(cache=True, inline="always")
-def settle(
+def damper_sweeps(
     p: np.ndarray, vx: float, vy: float, vz: float, sx: float, sy: float, sz: float, active: int,
-    active_previous: int, clearance: float, mx: float, my: float, mz: float,
-    params: np.ndarray, packed: PackedObstacles, aux: np.ndarray, previous: np.ndarray,
-    spheres: np.ndarray, lane: int, lanes: int,
-) -> tuple[float, float, float, float, float, float]:
-    """The sweeps of :func:`_avoid` after the first: (v, brake direction) from sweep 0's state.
+    active_previous: int, clearance: float, mx: float, my: float, mz: float, first: int,
+    params: np.ndarray, packed: PackedObstacles, aux: np.ndarray, spheres: np.ndarray, lane: int, lanes: int,
+) -> tuple[float, float, float, float, float, float, int, int, float, int, float, float, float]:
+    """The damper sweeps of :func:`_avoid` from sweep ``first`` on (0: all of them) and its last step.
 
-    ``clearance`` and m are the nearest obstacle's signed distance and normal found by sweep 0. With
-    ``lanes`` > 0, ``spheres`` holds sweep 0's geometry of every sphere for ``lanes`` poses side by side
-    (:data:`SPHERE_ROWS` rows of ``lanes`` values per obstacle: the value of row r, obstacle i, lane j at
-    (i · SPHERE_ROWS + r) · lanes + j), which the sweeps reuse for spheres instead of recomputing it; with
-    ``lanes`` = 0 (one pose) ``spheres`` is not read.
+    Sweep 0 runs :func:`first_sweep_step` per obstacle within Q and finds the nearest obstacle (clearance,
+    index, normal m); later sweeps, while two or more dampers bind, project v and the previous linear twist s
+    onto every damper's half-space until nothing changes; then, if the dampers could not all hold, the
+    nearest obstacle's damper is enforced last. The batch kernels run sweep 0 lane-wise themselves and start
+    here at ``first`` = 1 with ``lanes`` > 0: ``spheres`` then holds sweep 0's geometry of every sphere for
+    ``lanes`` poses side by side (:data:`SPHERE_ROWS` rows of ``lanes`` values per obstacle: row r of
+    obstacle i, lane j at (i · SPHERE_ROWS + r) · lanes + j), reused instead of recomputed; with ``lanes`` =
+    0 ``spheres`` is not read. One call site of the (inlined, large) exact signed distance per kernel keeps
+    the compile time down. Returns (v, s, active, active_previous, clearance, nearest, m).
     """
     influence = params[INFLUENCE_DISTANCE]
-    if active >= 2 or active_previous >= 2:
-        for _ in range(1, _SWEEPS):
-            changed = False
-            for i in range(aux.shape[0]):
-                if lanes > 0 and aux[i, 7] != 0.0:
-                    at = i * SPHERE_ROWS * lanes + lane
-                    d, allowed = spheres[at + DISTANCE_ROW * lanes], spheres[at + ALLOWANCE_ROW * lanes]
-                    if d >= influence:
-                        continue
-                    nx, ny = spheres[at + NX_ROW * lanes], spheres[at + NY_ROW * lanes]
-                    nz = spheres[at + NZ_ROW * lanes]
-                else:
-                    bound, dx, dy, dz, norm = _lower_bound(aux, i, p)
-                    if bound >= influence:
-                        continue
-                    d, nx, ny, nz = _signed_distance(packed, aux, i, p, bound, dx, dy, dz, norm)
-                    if d >= influence:
-                        continue
-                    allowed = damper_allowance(d, params)
+    nearest = -1
+    for sweep in range(first, _SWEEPS):
+        if sweep > 0 and active < 2 and active_previous < 2:
+            break
+        changed = False
+        for i in range(aux.shape[0]):
+            if lanes > 0 and aux[i, 7] != 0.0:
+                at = i * SPHERE_ROWS * lanes + lane
+                d, allowed = spheres[at + DISTANCE_ROW * lanes], spheres[at + ALLOWANCE_ROW * lanes]
+                if d >= influence:
+                    continue
+                nx, ny = spheres[at + NX_ROW * lanes], spheres[at + NY_ROW * lanes]
+                nz = spheres[at + NZ_ROW * lanes]
+            else:
+                bound, dx, dy, dz, norm = _lower_bound(aux, i, p)
+                if bound >= influence and (sweep > 0 or bound >= clearance):
+                    continue
+                d, nx, ny, nz = _signed_distance(packed, aux, i, p, bound, dx, dy, dz, norm)
+                if sweep == 0 and d < clearance:
+                    clearance, nearest, mx, my, mz = d, i, nx, ny, nz
+                if d >= influence:
+                    continue
+                allowed = damper_allowance(d, params)
+            if sweep == 0:
+                vx, vy, vz, sx, sy, sz, active, active_previous = first_sweep_step(
+                    vx, vy, vz, sx, sy, sz, active, active_previous, nx, ny, nz, allowed, i, params, aux)
+            else:
                 sx, sy, sz, moved = project_damper(sx, sy, sz, nx, ny, nz, allowed)
                 vx, vy, vz, hit = project_damper(vx, vy, vz, nx, ny, nz, allowed)
                 changed = changed or hit or moved
-            if not changed:
-                break
+        if sweep > 0 and not changed:
+            break
     if active + active_previous >= 2 and clearance < influence:
         # Dampers that cannot all hold (a gap narrower than 2 d_s): the nearest obstacle's wins.
         allowed = damper_allowance(clearance, params)
         vx, vy, vz, _ = project_damper(vx, vy, vz, mx, my, mz, allowed)
         sx, sy, sz, _ = project_damper(sx, sy, sz, mx, my, mz, allowed)
+    return vx, vy, vz, sx, sy, sz, active, active_previous, clearance, nearest, mx, my, mz
+
+
+@njit(cache=True, inline="always")
+def brake_direction(sx: float, sy: float, sz: float, previous: np.ndarray) -> tuple[float, float, float]:
+    """Unit vector from the previous linear twist to its projection s (zero when it obeys every damper)."""
     bx, by, bz = sx - previous[0], sy - previous[1], sz - previous[2]
     brake = math.sqrt(bx * bx + by * by + bz * bz)
     if brake > 0.0:
         bx, by, bz = bx / brake, by / brake, bz / brake
-    return vx, vy, vz, bx, by, bz
+    return bx, by, bz
 
 
 @njit(cache=True, inline="always")
@@ -205,26 +222,13 @@ def _avoid(
     nearest obstacle's damper is enforced last, so the clearance cannot shrink). The previous linear twist is
     projected alongside: the unit vector from it to its projection is the direction in which the rate
     limit brakes first (zero when the previous twist obeys every damper). Returns (v, clearance, nearest,
-    brake direction). The batch kernels run sweep 0 lane-wise (:mod:`pfield.field._batch_parallel`) with
-    the same steps: :func:`first_sweep_step`, then :func:`settle`.
+    brake direction). All in :func:`damper_sweeps`; the batch kernels (:mod:`pfield.field._batch_parallel`)
+    run its sweep 0 lane-wise with the same steps.
     """
-    influence = params[INFLUENCE_DISTANCE]
-    clearance, nearest, active, active_previous = math.inf, -1, 0, 0
-    sx, sy, sz = previous[0], previous[1], previous[2]
-    mx, my, mz = 0.0, 0.0, 0.0
-    for i in range(aux.shape[0]):
-        bound, dx, dy, dz, norm = _lower_bound(aux, i, p)
-        if bound >= influence and bound >= clearance:
-            continue
-        d, nx, ny, nz = _signed_distance(packed, aux, i, p, bound, dx, dy, dz, norm)
-        if d < clearance:
-            clearance, nearest, mx, my, mz = d, i, nx, ny, nz
-        if d < influence:
-            vx, vy, vz, sx, sy, sz, active, active_previous = first_sweep_step(
-                vx, vy, vz, sx, sy, sz, active, active_previous, nx, ny, nz, damper_allowance(d, params), i,
-                params, aux)
-    vx, vy, vz, bx, by, bz = settle(p, vx, vy, vz, sx, sy, sz, active, active_previous, clearance, mx, my, mz,
-                                    params, packed, aux, previous, previous, 0, 0)
+    vx, vy, vz, sx, sy, sz, _, _, clearance, nearest, _, _, _ = damper_sweeps(
+        p, vx, vy, vz, previous[0], previous[1], previous[2], 0, 0, math.inf, 0.0, 0.0, 0.0, 0, params, packed,
+        aux, previous, 0, 0)
+    bx, by, bz = brake_direction(sx, sy, sz, previous)
     return vx, vy, vz, clearance, nearest, bx, by, bz
 
 

@@ -92,7 +92,7 @@ def rate_limit(
     return px + scale * dx, py + scale * dy, pz + scale * dz
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def damper_speed(
     distance: float, influence: float, safety: float, gain: float, max_speed: float, max_acceleration: float
 ) -> float:
@@ -131,7 +131,7 @@ def stepped_damper_speed(distance: float, influence: float, safety: float, max_s
     return min(max_speed * margin / (influence - safety), 0.5 * margin / dt)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def deflect(
     vx: float, vy: float, vz: float,
     nx: float, ny: float, nz: float,
@@ -173,7 +173,7 @@ def deflect(
     return ox, oy, oz, True
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def project_damper(
     vx: float, vy: float, vz: float, nx: float, ny: float, nz: float, allowed: float
 ) -> tuple[float, float, float, bool]:
