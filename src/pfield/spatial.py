@@ -45,7 +45,8 @@ Quat: TypeAlias = NDArray[np.float64]  # (4,) x, y, z, w
 Points: TypeAlias = NDArray[np.float64]  # (N, 3)
 
 _IDENTITY_QUAT = (0.0, 0.0, 0.0, 1.0)
-_MIN_QUAT_NORM = 1e-9
+MIN_QUATERNION_NORM = 1e-9
+"""Smallest quaternion norm taken as a rotation (below it: refused as a zero quaternion), everywhere in pfield."""
 
 
 def _batched(value: ArrayLike, width: int) -> tuple[NDArray[np.float64], bool]:
@@ -67,7 +68,7 @@ def _unbatch(array: NDArray[np.float64], single: bool) -> NDArray[np.float64]:
 def normalize_quaternion(q: ArrayLike, field_name: str = "orientation") -> Quat:
     """Unit quaternion from ``q`` (x, y, z, w); rejects non-finite and (near) zero quaternions."""
     quat = np.array(as_vector(field_name, q, 4))
-    if scaled_norm(quat) < _MIN_QUAT_NORM:
+    if scaled_norm(quat) < MIN_QUATERNION_NORM:
         raise InvalidInput(field_name, q, "zero quaternion: give a unit quaternion, e.g. {w: 1.0}")
     if np.max(np.abs(quat)) > 1e150:  # components whose squares would overflow: scale them first
         quat /= np.max(np.abs(quat))

@@ -12,7 +12,7 @@ normal and allowed approach speed are straight-line arithmetic over the lanes, w
 instructions (``error_model="numpy"``: no Python zero-division check to branch on); the branchy rest
 (:func:`~pfield.field._evaluate.first_sweep_step`, then the later sweeps of
 :func:`~pfield.field._evaluate.damper_sweeps`) runs per lane
-with those values, in the same order as the one-pose kernel, so the bits are the same as a per-pose loop.
+with those values, in the same order as the one-pose kernel (equal values to rounding).
 Other shapes take their exact signed distance lane by lane. A pose whose orientation equals the previous
 pose's (a grid at one orientation, the default of the goal's) reuses its rotation term.
 
@@ -58,6 +58,7 @@ from pfield.field._evaluate import (
 )
 from pfield.field._unowned import unowned, unowned_arrays
 from pfield.field.forces import damper_speed, deflect, project_damper
+from pfield.spatial import MIN_QUATERNION_NORM
 
 __all__ = ["CHUNK", "LANES", "PARALLEL_FROM", "batch_twists", "batch_wrenches"]
 
@@ -66,7 +67,6 @@ CHUNK = 1024
 PARALLEL_FROM = 8192
 LANES = 8
 """Poses evaluated side by side (one AVX-512 register of float64, two of AVX2)."""
-MIN_QUATERNION_NORM = 1e-9
 _lane_damper_speed = njit(cache=True, inline="always", error_model="numpy")(damper_speed.py_func)
 """:func:`~pfield.field.forces.damper_speed` itself, compiled once more for the lane loops with numpy's error
 model: the Python model's zero-division check is a branch that keeps LLVM from vectorising the loop."""

@@ -32,7 +32,7 @@ from pfield.interfaces.potential_fields_interfaces import PlanPath_Response
 from pfield.interfaces.std_msgs import Header, Time
 from pfield.interfaces.trajectory_msgs import JointTrajectory
 from pfield.planning.result import PlannedPath
-from pfield.spatial import Pose, Twist
+from pfield.spatial import MIN_QUATERNION_NORM, Pose, Twist
 
 __all__ = [
     "MAX_COORDINATE",
@@ -58,7 +58,6 @@ def prefixed(error: InvalidInput, prefix: str) -> InvalidInput:
 MAX_COORDINATE = 1.0e6
 """m: the largest |x|, |y|, |z| of a position a node accepts. 1000 km is beyond any map a robot works in,
 and it keeps sums, squares and products of coordinates (transforms, distances) finite."""
-MIN_QUATERNION_NORM = 1e-9
 MAX_QUATERNION_NORM = 1e6
 """A message's quaternion (x, y, z, w) is normalised on input (DESIGN §2) when its norm lies in
 [:data:`MIN_QUATERNION_NORM`, :data:`MAX_QUATERNION_NORM`]; outside it (a zero quaternion, ``w = 1e308``)
