@@ -10,7 +10,7 @@ not depend on the thread count or the batch size, and equals ``twist_at`` / ``wr
 :func:`~pfield.field._evaluate._avoid` obstacle by obstacle across them: a sphere's signed distance,
 normal and allowed approach speed are straight-line arithmetic over the lanes, which LLVM turns into SIMD
 instructions (``error_model="numpy"``: no Python zero-division check to branch on); the branchy rest
-(:func:`~pfield.field._evaluate.first_sweep_step`, then the later sweeps of
+(:func:`~pfield.field._evaluate.first_sweep_obstacle`, then the later sweeps of
 :func:`~pfield.field._evaluate.damper_sweeps`) runs per lane
 with those values, in the same order as the one-pose kernel (equal values to rounding).
 Other shapes take their exact signed distance lane by lane. A pose whose orientation equals the previous
@@ -50,10 +50,9 @@ from pfield.field._evaluate import (
     _signed_distance,
     attraction_twist,
     cap_speed,
-    damper_allowance,
     damper_sweeps,
     field_wrench,
-    first_sweep_step,
+    first_sweep_obstacle,
     goal_rotation,
 )
 from pfield.field._unowned import unowned, unowned_arrays
@@ -220,14 +219,12 @@ def _sphere_sweep(st: np.ndarray, geo: np.ndarray, at: int, width: int, i: int, 
 def _exact_lane(st: np.ndarray, j: int, i: int, d: float, nx: float, ny: float, nz: float,
                 params: np.ndarray, aux: np.ndarray) -> None:
     """Obstacle i's part of sweep 0 at lane j from its exact signed distance d and normal n (any shape)."""
-    if d < st[_CLEAR + j]:
-        st[_CLEAR + j], st[_MX + j], st[_MY + j], st[_MZ + j] = d, nx, ny, nz
-    if d < params[INFLUENCE_DISTANCE]:
-        (st[_VX + j], st[_VY + j], st[_VZ + j], st[_SX + j], st[_SY + j], st[_SZ + j], active,
-         active_previous) = first_sweep_step(
-            st[_VX + j], st[_VY + j], st[_VZ + j], st[_SX + j], st[_SY + j], st[_SZ + j], int(st[_ACT + j]),
-            int(st[_ACTP + j]), nx, ny, nz, damper_allowance(d, params), i, params, aux)
-        st[_ACT + j], st[_ACTP + j] = float(active), float(active_previous)
+    (st[_VX + j], st[_VY + j], st[_VZ + j], st[_SX + j], st[_SY + j], st[_SZ + j], active, active_previous,
+     st[_CLEAR + j], _, st[_MX + j], st[_MY + j], st[_MZ + j]) = first_sweep_obstacle(
+        st[_VX + j], st[_VY + j], st[_VZ + j], st[_SX + j], st[_SY + j], st[_SZ + j], int(st[_ACT + j]),
+        int(st[_ACTP + j]), st[_CLEAR + j], -1, st[_MX + j], st[_MY + j], st[_MZ + j], d, nx, ny, nz, i, params,
+        aux)
+    st[_ACT + j], st[_ACTP + j] = float(active), float(active_previous)
 
 
 @njit(cache=True, inline="always")

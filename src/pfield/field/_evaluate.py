@@ -129,16 +129,23 @@ def damper_allowance(d: float, params: np.ndarray) -> float:
 
 
 @njit(cache=True, inline="always")
-def first_sweep_step(
+def first_sweep_obstacle(
     vx: float, vy: float, vz: float, sx: float, sy: float, sz: float, active: int, active_previous: int,
-    nx: float, ny: float, nz: float, allowed: float, i: int, params: np.ndarray, aux: np.ndarray,
-) -> tuple[float, float, float, float, float, float, int, int]:
-    """Sweep 0 of :func:`_avoid` for obstacle i within Q (normal n, allowed approach speed): deflect the twist
-    v and project the previous linear twist s; count the dampers that bind on each."""
-    sx, sy, sz, moved = project_damper(sx, sy, sz, nx, ny, nz, allowed)
-    vx, vy, vz, hit = deflect(vx, vy, vz, nx, ny, nz, aux[i, 0], aux[i, 1], aux[i, 2], allowed,
-                              params[CIRCULATION_GAIN])
-    return vx, vy, vz, sx, sy, sz, active + hit, active_previous + moved
+    clearance: float, nearest: int, mx: float, my: float, mz: float,
+    d: float, nx: float, ny: float, nz: float, i: int, params: np.ndarray, aux: np.ndarray,
+) -> tuple[float, float, float, float, float, float, int, int, float, int, float, float, float]:
+    """Sweep 0 of :func:`damper_sweeps` for obstacle i at signed distance d with normal n: the nearest
+    obstacle so far (clearance, index, normal m); within Q, deflect the twist v and project the previous
+    linear twist s, counting the dampers that bind on each. Returns the updated state."""
+    if d < clearance:
+        clearance, nearest, mx, my, mz = d, i, nx, ny, nz
+    if d < params[INFLUENCE_DISTANCE]:
+        allowed = damper_allowance(d, params)
+        sx, sy, sz, moved = project_damper(sx, sy, sz, nx, ny, nz, allowed)
+        vx, vy, vz, hit = deflect(vx, vy, vz, nx, ny, nz, aux[i, 0], aux[i, 1], aux[i, 2], allowed,
+                                  params[CIRCULATION_GAIN])
+        active, active_previous = active + hit, active_previous + moved
+    return vx, vy, vz, sx, sy, sz, active, active_previous, clearance, nearest, mx, my, mz
 
 
 @njit(cache=True, inline="always")
@@ -149,15 +156,15 @@ def damper_sweeps(
 ) -> tuple[float, float, float, float, float, float, int, int, float, int, float, float, float]:
     """The damper sweeps of :func:`_avoid` from sweep ``first`` on (0: all of them) and its last step.
 
-    Sweep 0 runs :func:`first_sweep_step` per obstacle within Q and finds the nearest obstacle (clearance,
-    index, normal m); later sweeps, while two or more dampers bind, project v and the previous linear twist s
-    onto every damper's half-space until nothing changes; then, if the dampers could not all hold, the
-    nearest obstacle's damper is enforced last. The batch kernels run sweep 0 lane-wise themselves and start
-    here at ``first`` = 1 with ``lanes`` > 0: ``spheres`` then holds sweep 0's geometry of every sphere for
-    ``lanes`` poses side by side (:data:`SPHERE_ROWS` rows of ``lanes`` values per obstacle: row r of
-    obstacle i, lane j at (i · SPHERE_ROWS + r) · lanes + j), reused instead of recomputed; with ``lanes`` =
-    0 ``spheres`` is not read. One call site of the (inlined, large) exact signed distance per kernel keeps
-    the compile time down. Returns (v, s, active, active_previous, clearance, nearest, m).
+    Sweep 0 runs :func:`first_sweep_obstacle` per obstacle; later sweeps, while two or more dampers bind,
+    project v and the previous linear twist s onto every damper's half-space until nothing changes; then, if
+    the dampers could not all hold, the nearest obstacle's damper is enforced last. The batch kernels run
+    sweep 0 lane-wise themselves and start here at ``first`` = 1 with ``lanes`` > 0: ``spheres`` then holds
+    sweep 0's geometry of every sphere for ``lanes`` poses side by side (:data:`SPHERE_ROWS` rows of
+    ``lanes`` values per obstacle: row r of obstacle i, lane j at (i · SPHERE_ROWS + r) · lanes + j), which
+    the later sweeps reuse instead of recomputing it; with ``lanes`` = 0 ``spheres`` is not read. One call
+    site of the (inlined, large) exact signed distance per kernel keeps the compile time down. Returns
+    (v, s, active, active_previous, clearance, nearest, m).
     """
     influence = params[INFLUENCE_DISTANCE]
     nearest = -1
@@ -166,7 +173,7 @@ def damper_sweeps(
             break
         changed = False
         for i in range(aux.shape[0]):
-            if lanes > 0 and aux[i, 7] != 0.0:
+            if sweep > 0 and lanes > 0 and aux[i, 7] != 0.0:
                 at = i * SPHERE_ROWS * lanes + lane
                 d, allowed = spheres[at + DISTANCE_ROW * lanes], spheres[at + ALLOWANCE_ROW * lanes]
                 if d >= influence:
@@ -178,18 +185,17 @@ def damper_sweeps(
                 if bound >= influence and (sweep > 0 or bound >= clearance):
                     continue
                 d, nx, ny, nz = _signed_distance(packed, aux, i, p, bound, dx, dy, dz, norm)
-                if sweep == 0 and d < clearance:
-                    clearance, nearest, mx, my, mz = d, i, nx, ny, nz
+                if sweep == 0:
+                    vx, vy, vz, sx, sy, sz, active, active_previous, clearance, nearest, mx, my, mz = \
+                        first_sweep_obstacle(vx, vy, vz, sx, sy, sz, active, active_previous, clearance, nearest,
+                                             mx, my, mz, d, nx, ny, nz, i, params, aux)
+                    continue
                 if d >= influence:
                     continue
                 allowed = damper_allowance(d, params)
-            if sweep == 0:
-                vx, vy, vz, sx, sy, sz, active, active_previous = first_sweep_step(
-                    vx, vy, vz, sx, sy, sz, active, active_previous, nx, ny, nz, allowed, i, params, aux)
-            else:
-                sx, sy, sz, moved = project_damper(sx, sy, sz, nx, ny, nz, allowed)
-                vx, vy, vz, hit = project_damper(vx, vy, vz, nx, ny, nz, allowed)
-                changed = changed or hit or moved
+            sx, sy, sz, moved = project_damper(sx, sy, sz, nx, ny, nz, allowed)
+            vx, vy, vz, hit = project_damper(vx, vy, vz, nx, ny, nz, allowed)
+            changed = changed or hit or moved
         if sweep > 0 and not changed:
             break
     if active + active_previous >= 2 and clearance < influence:
