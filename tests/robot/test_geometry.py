@@ -109,6 +109,43 @@ def test_segment_obstacle_distance_is_the_minimum_along_the_segment() -> None:
             np.testing.assert_allclose(normal, grad[0], atol=1e-9)
 
 
+def test_box_segment_distance_in_closed_form() -> None:
+    """Boxes are minimised in closed form: exact values where geometry gives them, and never above the
+    general convex minimiser (bisection on the slope) over random segments, penetrating ones included."""
+    from pfield.geometry._sdf import mesh_addresses
+    from pfield.robot._distance import _convex_minimum
+
+    turn = Pose(orientation=quaternion_exp([0.3, -0.2, 0.5])).orientation
+    box = Obstacle("box", Box(0.6, 0.4, 0.2), Pose((0.1, -0.2, 0.3), turn))
+    packed = pack_obstacles([box])
+    scratch = np.zeros((2, 3))
+    rotation, centre = box.pose.rotation, np.array(box.pose.position)
+
+    def world(*local: float) -> np.ndarray:
+        return centre + rotation @ np.array(local)
+
+    # parallel to the +z face, 0.05 above it (a flat minimum: rounding picks the t)
+    d, t, *normal = segment_obstacle_distance(packed, 0, world(-0.2, 0.0, 0.15), world(0.2, 0.0, 0.15), scratch)
+    assert d == pytest.approx(0.05, abs=1e-12) and 0.0 <= t <= 1.0
+    np.testing.assert_allclose(normal, rotation[:, 2], atol=1e-12)
+    # passing the edge x = 0.3, z = 0.1 diagonally: nearest at t = 0.4, (0.42, 0.16), 0.06/√0.2 from the edge
+    d, t, *_ = segment_obstacle_distance(packed, 0, world(0.5, 0.0, 0.0), world(0.3, 0.0, 0.4), scratch)
+    assert d == pytest.approx(0.06 / np.sqrt(0.2), abs=1e-12) and t == pytest.approx(0.4, abs=1e-12)
+    # through the box along x: deepest where it is 0.1 from the ±z faces
+    d, _, *_ = segment_obstacle_distance(packed, 0, world(-1.0, 0.0, 0.0), world(1.0, 0.0, 0.0), scratch)
+    assert d == pytest.approx(-0.1, abs=1e-12)
+    # a point (a == b) is the point's own distance
+    d, t, *_ = segment_obstacle_distance(packed, 0, world(0.0, 0.5, 0.0), world(0.0, 0.5, 0.0), scratch)
+    assert d == pytest.approx(0.3, abs=1e-12) and t == 0.0
+    rng = np.random.default_rng(8)
+    for _ in range(500):
+        a, b = centre + rng.normal(size=3) * 0.4, centre + rng.normal(size=3) * 0.4
+        d, t, *_ = segment_obstacle_distance(packed, 0, a, b, scratch)
+        bisected = _convex_minimum(packed.kinds, packed.rows, mesh_addresses(packed), 0, a, b)[0]
+        assert bisected - 1e-7 * np.linalg.norm(b - a) - 1e-12 <= d <= bisected + 1e-12
+        assert d == pytest.approx(float(box.signed_distance(a + t * (b - a))[0][0]), abs=1e-12)
+
+
 def test_segment_segment_distance_matches_sampling() -> None:
     rng = np.random.default_rng(4)
     s = np.linspace(0, 1, 401)

@@ -47,9 +47,12 @@ _MeshAddresses = tuple[int, int, int, int, int, int, int, int, int]
 
 __all__ = [
     "empty_packed",
+    "mesh_addresses",
     "min_signed_distance",
     "obstacle_signed_distance",
     "obstacle_signed_distance_within",
+    "primitive_local",
+    "row_signed_distance",
     "signed_distances",
 ]
 
@@ -126,7 +129,7 @@ def capsule_local(qx: float, qy: float, qz: float, r: float, hh: float) -> tuple
 
 
 @njit(cache=True, inline="always")
-def _mesh_addresses(packed: PackedObstacles) -> _MeshAddresses:
+def mesh_addresses(packed: PackedObstacles) -> _MeshAddresses:
     """Addresses and sizes of the mesh arrays, so the mesh branch passes no reference-counted arrays."""
     return (
         packed.triangles.ctypes.data, packed.pseudo_normals.ctypes.data, packed.bvh_lower.ctypes.data,
@@ -160,10 +163,13 @@ def _mesh_local(
 
 
 @njit(cache=True, inline="always")
-def _row_signed_distance(
+def row_signed_distance(
     kinds: np.ndarray, rows: np.ndarray, meshes: _MeshAddresses,
     i: int, px: float, py: float, pz: float, cutoff: float,
 ) -> tuple[float, float, float, float]:
+    """:func:`obstacle_signed_distance_within` of the point (px, py, pz) from the packed arrays themselves
+    (``kinds``, ``rows`` and :func:`mesh_addresses`), for loops that hoist them: each member read of a
+    :class:`PackedObstacles` inside a compiled loop costs a reference-count update."""
     # The row is read in one block so numba can prune its reference counting in callers' loops.
     cx, cy, cz = rows[i, 0], rows[i, 1], rows[i, 2]
     r00, r01, r02 = rows[i, 3], rows[i, 4], rows[i, 5]
@@ -179,22 +185,31 @@ def _row_signed_distance(
     qx = r00 * dx + r10 * dy + r20 * dz
     qy = r01 * dx + r11 * dy + r21 * dz
     qz = r02 * dx + r12 * dy + r22 * dz
+    if kind == MESH:
+        d, lx, ly, lz = _mesh_local(meshes, int(mesh), qx, qy, qz, cutoff)
+    else:
+        d, lx, ly, lz = primitive_local(kind, qx, qy, qz, s0, s1, s2, cutoff)
+    return d, r00 * lx + r01 * ly + r02 * lz, r10 * lx + r11 * ly + r12 * lz, r20 * lx + r21 * ly + r22 * lz
+
+
+@njit(cache=True, inline="always")
+def primitive_local(kind: int, qx: float, qy: float, qz: float, s0: float, s1: float, s2: float,
+                    cutoff: float) -> tuple[float, float, float, float]:
+    """Signed distance and local normal of the obstacle-frame point q to a primitive (not a mesh) of packed
+    sizes ``s0..s2`` (:func:`obstacle_signed_distance_within`'s cutoff rule)."""
     if kind == BOX:
-        d, lx, ly, lz = box_local(qx, qy, qz, s0, s1, s2)
-    elif kind == CYLINDER:
-        d, lx, ly, lz = cylinder_local(qx, qy, qz, s0, s1)
-    elif kind == CAPSULE:
-        d, lx, ly, lz = capsule_local(qx, qy, qz, s0, s1)
-    elif kind == ELLIPSOID:
+        return box_local(qx, qy, qz, s0, s1, s2)
+    if kind == CYLINDER:
+        return cylinder_local(qx, qy, qz, s0, s1)
+    if kind == CAPSULE:
+        return capsule_local(qx, qy, qz, s0, s1)
+    if kind == ELLIPSOID:
         # the bounding sphere's distance is a lower bound of the ellipsoid's: exact only within the cutoff
         d, lx, ly, lz = sphere_local(qx, qy, qz, max(s0, s1, s2))
         if d <= cutoff:
-            d, lx, ly, lz = ellipsoid_signed_distance(qx, qy, qz, s0, s1, s2)
-    elif kind == MESH:
-        d, lx, ly, lz = _mesh_local(meshes, int(mesh), qx, qy, qz, cutoff)
-    else:
-        d, lx, ly, lz = sphere_local(qx, qy, qz, s0)
-    return d, r00 * lx + r01 * ly + r02 * lz, r10 * lx + r11 * ly + r12 * lz, r20 * lx + r21 * ly + r22 * lz
+            return ellipsoid_signed_distance(qx, qy, qz, s0, s1, s2)
+        return d, lx, ly, lz
+    return sphere_local(qx, qy, qz, s0)
 
 
 @njit(cache=True, inline="always")
@@ -207,7 +222,7 @@ def obstacle_signed_distance(packed: PackedObstacles, i: int, p: np.ndarray) -> 
     Inlined into the caller (numba ``inline="always"``), allocation- and reference-count-free for
     primitives: about 3 ns for a sphere inside a compiled loop.
     """
-    return _row_signed_distance(packed.kinds, packed.rows, _mesh_addresses(packed), i, p[0], p[1], p[2], math.inf)
+    return row_signed_distance(packed.kinds, packed.rows, mesh_addresses(packed), i, p[0], p[1], p[2], math.inf)
 
 
 @njit(cache=True, inline="always")
@@ -221,7 +236,7 @@ def obstacle_signed_distance_within(
     their bounding sphere; meshes: to their bounding box). Consumers that ignore obstacles beyond an
     influence distance (Khatib repulsion) get identical results, faster.
     """
-    return _row_signed_distance(packed.kinds, packed.rows, _mesh_addresses(packed), i, p[0], p[1], p[2], cutoff)
+    return row_signed_distance(packed.kinds, packed.rows, mesh_addresses(packed), i, p[0], p[1], p[2], cutoff)
 
 
 @njit(cache=True, inline="always")
@@ -230,12 +245,12 @@ def min_signed_distance(packed: PackedObstacles, p: np.ndarray) -> tuple[float, 
 
     Ties go to the lowest index; with no obstacles the answer is ``(inf, 0, 0, 0, −1)``.
     """
-    kinds, rows, meshes = packed.kinds, packed.rows, _mesh_addresses(packed)
+    kinds, rows, meshes = packed.kinds, packed.rows, mesh_addresses(packed)
     px, py, pz = p[0], p[1], p[2]
     best, bx, by, bz, best_i = math.inf, 0.0, 0.0, 0.0, -1
     for i in range(kinds.shape[0]):
         # Cutoff = best so far: an obstacle that cannot beat it may return a cheap bound (> best).
-        d, nx, ny, nz = _row_signed_distance(kinds, rows, meshes, i, px, py, pz, best)
+        d, nx, ny, nz = row_signed_distance(kinds, rows, meshes, i, px, py, pz, best)
         if d < best:
             best, bx, by, bz, best_i = d, nx, ny, nz, i
     return best, bx, by, bz, best_i

@@ -170,36 +170,50 @@ def goal_configurations(robot: RobotModel, goal: Pose, seeds: Sequence[NDArray[n
     rng = np.random.default_rng(options.seed)
     lower, upper = _sampling_box(robot)
     candidates = [*seeds, *(rng.uniform(lower, upper) for _ in range(options.ik_restarts))]
-    checker = None
-    if obstacles:
-        from pfield.robot.collision import CollisionChecker
-
-        checker = CollisionChecker(robot, list(obstacles))
     inner_lower, inner_upper = robot.lower_limits + joint_margin, robot.upper_limits - joint_margin
     reachable = 0
     clear: list[NDArray[np.float64]] = []
     at_limit: list[NDArray[np.float64]] = []
-    touching: list[NDArray[np.float64]] = []
+    unverified: list[NDArray[np.float64]] = []  # the link model overlaps: the exact check decides, if needed
     for seed in candidates:
         result = solve_ik(robot, goal, np.clip(seed, robot.lower_limits, robot.upper_limits))
-        if not result.success or any(np.max(np.abs(result.q - q)) < 1e-3 for q in clear + at_limit + touching):
+        if not result.success or any(np.max(np.abs(result.q - q)) < 1e-3 for q in clear + at_limit + unverified):
             reachable += int(result.success)
             continue
         reachable += 1
         if _capsules_clear(arrays, scene, result.q, margin):
             inside = bool(np.all(result.q >= inner_lower) and np.all(result.q <= inner_upper))
             (clear if inside else at_limit).append(result.q)
-        elif checker is None or not checker.check(result.q).in_collision:
-            touching.append(result.q)
+        else:
+            unverified.append(result.q)
         if len(clear) >= options.goal_configurations:
             break
-    found = (clear + at_limit + touching)[:options.goal_configurations]
+    found = (clear + at_limit)[:options.goal_configurations]
+    if len(found) < options.goal_configurations and unverified:
+        found += _exactly_clear(robot, obstacles, unverified, options.goal_configurations - len(found))
     if found:
         return found, ""
     if reachable == 0:
         return [], (f"goal invalid: no inverse-kinematics solution within the joint limits reaches the goal pose "
                     f"({len(candidates)} seeds)")
     return [], f"goal invalid: every inverse-kinematics solution of the goal pose collides ({reachable} found)"
+
+
+def _exactly_clear(robot: RobotModel, obstacles: Sequence[Obstacle] | None, qs: Sequence[NDArray[np.float64]],
+                   count: int) -> list[NDArray[np.float64]]:
+    """The first ``count`` of ``qs`` that the exact mesh check (coal) clears (all of them without obstacles)."""
+    if not obstacles:
+        return list(qs[:count])
+    from pfield.robot.collision import CollisionChecker
+
+    checker = CollisionChecker(robot, list(obstacles))
+    found: list[NDArray[np.float64]] = []
+    for q in qs:
+        if len(found) == count:
+            break
+        if not checker.check(q).in_collision:
+            found.append(q)
+    return found
 
 
 def _sampling_box(robot: RobotModel) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -21,12 +21,12 @@ import numpy as np
 from numba import njit
 
 from pfield.geometry._packed import CAPSULE, SPHERE
-from pfield.geometry._sdf import obstacle_signed_distance
+from pfield.geometry._sdf import mesh_addresses, row_signed_distance
 from pfield.robot._distance import (
     closest_segment_points,
     point_segment_distance,
     round_segment_distance,
-    segment_obstacle_distance,
+    segment_row_distance,
 )
 from pfield.robot._kinematics import joint_transforms
 
@@ -104,7 +104,8 @@ def link_obstacle_distance_below(  # type: ignore[no-untyped-def]
     gets ``fine_cutoff`` (a lower bound: every primitive is farther) and ``exact`` False. Values below
     ``fine_cutoff`` are those of :func:`link_obstacle_distance`, bit for bit.
     """
-    rows, kinds = packed.rows, packed.kinds
+    # the packed arrays once: each member read of ``packed`` in the loops below would update a reference count
+    rows, kinds, meshes = packed.rows, packed.kinds, mesh_addresses(packed)
     centre, reach = centres[i], bounds[i]
     lower = point_segment_distance(centre, cap_a[link], cap_b[link]) - reach - cap_r[link]
     if lower >= cutoff:
@@ -113,20 +114,19 @@ def link_obstacle_distance_below(  # type: ignore[no-untyped-def]
     if kinds[i] == SPHERE or kinds[i] == CAPSULE:
         d, t, nx, ny, nz = round_segment_distance(rows, kinds, i, a, b, scratch)
     else:
-        d, t, nx, ny, nz = segment_obstacle_distance(packed, i, a, b, scratch)
+        d, t, nx, ny, nz = segment_row_distance(kinds, rows, meshes, i, a, b, scratch)
     d -= cap_r[link]
     if d >= FINE_RANGE:  # far: the bounding capsule's distance (a lower bound of the fitted model's)
         return d, True, a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2]), nx, ny, nz
     best, px, py, pz, bx, by, bz = math.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
     round_obstacle = kinds[i] == SPHERE or kinds[i] == CAPSULE
-    mid = scratch[1]
     # nothing whose lower bound exceeds ``limit`` can be the minimum: the best exact value so far, or (before
     # any) an upper bound: a segment's midpoint is one of its points, so min_p d(mid_p) − r_p ≥ the minimum
     limit = fine_cutoff
     for p in range(link_start[link], link_start[link + 1]):
-        for k in range(3):
-            mid[k] = 0.5 * (prim_a[p, k] + prim_b[p, k])
-        limit = min(limit, obstacle_signed_distance(packed, i, mid)[0] - prim_r[p])
+        mx, my, mz = (0.5 * (prim_a[p, 0] + prim_b[p, 0]), 0.5 * (prim_a[p, 1] + prim_b[p, 1]),
+                      0.5 * (prim_a[p, 2] + prim_b[p, 2]))
+        limit = min(limit, row_signed_distance(kinds, rows, meshes, i, mx, my, mz, math.inf)[0] - prim_r[p])
     for p in range(link_start[link], link_start[link + 1]):
         # cheap bounds first, in scalars (an array view per primitive costs more than the bound)
         ax, ay, az = prim_a[p, 0], prim_a[p, 1], prim_a[p, 2]
@@ -139,14 +139,14 @@ def link_obstacle_distance_below(  # type: ignore[no-untyped-def]
             continue
         if not round_obstacle:
             # a signed distance is 1-Lipschitz: d(s(t)) ≥ d(midpoint) − half the segment's length
-            mid[0], mid[1], mid[2] = ax + 0.5 * ex, ay + 0.5 * ey, az + 0.5 * ez
-            if obstacle_signed_distance(packed, i, mid)[0] - 0.5 * math.sqrt(length2) - prim_r[p] > limit:
+            middle = row_signed_distance(kinds, rows, meshes, i, ax + 0.5 * ex, ay + 0.5 * ey, az + 0.5 * ez, math.inf)
+            if middle[0] - 0.5 * math.sqrt(length2) - prim_r[p] > limit:
                 continue
         a, b = prim_a[p], prim_b[p]
         if round_obstacle:
             d, t, nx, ny, nz = round_segment_distance(rows, kinds, i, a, b, scratch)
         else:
-            d, t, nx, ny, nz = segment_obstacle_distance(packed, i, a, b, scratch)
+            d, t, nx, ny, nz = segment_row_distance(kinds, rows, meshes, i, a, b, scratch)
         d -= prim_r[p]
         if d < best:
             best, bx, by, bz = d, nx, ny, nz

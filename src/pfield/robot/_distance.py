@@ -6,7 +6,8 @@ distance to an obstacle is ``min_t d_O(s(t)) − r`` with d_O the obstacle's exa
 
 * spheres and capsules: closed form (point–segment, segment–segment; Ericson, *Real-Time Collision
   Detection* 2005, §5.1.2 and §5.1.9);
-* boxes, cylinders, ellipsoids: the signed distance of a convex set is convex (a maximum of affine
+* boxes: closed form (:func:`_box_minimiser`: d² is piecewise quadratic along the segment);
+* cylinders, ellipsoids: the signed distance of a convex set is convex (a maximum of affine
   functions), so f(t) = d_O(s(t)) is convex and its minimiser is found by bisection on the sign of
   f'(t) = ∇d_O · (b − a), whose gradient is the kernel's normal;
 * meshes (possibly non-convex): the best of 9 samples, refined by golden-section search in the
@@ -19,8 +20,8 @@ import math
 
 from numba import njit
 
-from pfield.geometry._packed import CAPSULE, MESH, SPHERE
-from pfield.geometry._sdf import obstacle_signed_distance
+from pfield.geometry._packed import BOX, CAPSULE, MESH, SPHERE
+from pfield.geometry._sdf import mesh_addresses, primitive_local, row_signed_distance
 
 _BISECTIONS = 24
 _MESH_SAMPLES = 9
@@ -69,72 +70,169 @@ def segment_segment_distance(p1, q1, p2, q2):  # type: ignore[no-untyped-def]
     return math.sqrt(total)
 
 
+@njit(cache=True, inline="always")
+def _distance_at(kinds, rows, meshes, i, a, b, t):  # type: ignore[no-untyped-def]
+    """Signed distance and normal of a + t(b − a) to obstacle ``i`` (the packed arrays, see
+    :func:`~pfield.geometry._sdf.row_signed_distance`)."""
+    return row_signed_distance(kinds, rows, meshes, i, a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]),
+                               a[2] + t * (b[2] - a[2]), math.inf)
+
+
+@njit(cache=True, inline="always")
+def _local_segment(row, a, b):  # type: ignore[no-untyped-def]
+    """The segment a–b in the frame of the obstacle of packed ``row``: (start p₀, direction u)."""
+    cx, cy, cz = a[0] - row[0], a[1] - row[1], a[2] - row[2]
+    ux, uy, uz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    return ((row[3] * cx + row[6] * cy + row[9] * cz, row[4] * cx + row[7] * cy + row[10] * cz,
+             row[5] * cx + row[8] * cy + row[11] * cz),
+            (row[3] * ux + row[6] * uy + row[9] * uz, row[4] * ux + row[7] * uy + row[10] * uz,
+             row[5] * ux + row[8] * uy + row[11] * uz))
+
+
+@njit(cache=True, inline="always")
+def _local_slope(kind, row, p0, u, t):  # type: ignore[no-untyped-def]
+    """(d, ∇d · u) at p₀ + t·u in the obstacle frame (the slope of d along the segment)."""
+    d, nx, ny, nz = primitive_local(kind, p0[0] + t * u[0], p0[1] + t * u[1], p0[2] + t * u[2], row[12], row[13],
+                                    row[14], math.inf)
+    return d, nx * u[0] + ny * u[1] + nz * u[2]
+
+
 @njit(cache=True)
-def _point_on(a, b, t, out):  # type: ignore[no-untyped-def]
+def _convex_minimum(kinds, rows, meshes, i, a, b):  # type: ignore[no-untyped-def]
+    """Bisection on the sign of the slope, in the obstacle's frame (the segment is taken there once)."""
+    kind, row = kinds[i], rows[i]
+    p0, u = _local_segment(row, a, b)
+    if _local_slope(kind, row, p0, u, 0.0)[1] >= 0.0:
+        t = 0.0
+    elif _local_slope(kind, row, p0, u, 1.0)[1] <= 0.0:
+        t = 1.0
+    else:
+        lo, hi = 0.0, 1.0
+        for _ in range(_BISECTIONS):
+            mid = 0.5 * (lo + hi)
+            if _local_slope(kind, row, p0, u, mid)[1] < 0.0:
+                lo = mid
+            else:
+                hi = mid
+        t = 0.5 * (lo + hi)
+    d, nx, ny, nz = _distance_at(kinds, rows, meshes, i, a, b, t)
+    return d, t, nx, ny, nz
+
+
+@njit(cache=True, inline="always")
+def _box_excess_slope(p0, u, h, t):  # type: ignore[no-untyped-def]
+    """(d², ½ d(d²)/dt) of the box-frame point p₀ + t·u outside the box of half extents h (0, 0 inside)."""
+    square, slope = 0.0, 0.0
     for k in range(3):
-        out[k] = a[k] + t * (b[k] - a[k])
-    return out
+        value = p0[k] + t * u[k]
+        excess = abs(value) - h[k]
+        if excess > 0.0:
+            square += excess * excess
+            slope += excess * (u[k] if value >= 0.0 else -u[k])
+    return square, slope
 
 
 @njit(cache=True)
-def _slope(packed, i, a, b, t, scratch):  # type: ignore[no-untyped-def]
-    d, nx, ny, nz = obstacle_signed_distance(packed, i, _point_on(a, b, t, scratch))
-    return d, nx * (b[0] - a[0]) + ny * (b[1] - a[1]) + nz * (b[2] - a[2]), nx, ny, nz
+def _box_minimiser(rows, i, a, b):  # type: ignore[no-untyped-def]
+    """The t ∈ [0, 1] minimising the signed distance of a + t(b − a) to box ``i``, in closed form.
+
+    In the box frame the segment is p(t) = p₀ + t·u with excesses e_k(t) = |p_k(t)| − h_k. Outside, g = d² =
+    Σ_k max(e_k, 0)² is convex and continuously differentiable, and g' is linear between the breakpoints
+    where some p_k(t) = ±h_k (at most six): the minimiser is an end, or the zero of g' interpolated between
+    the last candidate (ends and breakpoints) where g' < 0 and the first where g' ≥ 0 — no breakpoint lies
+    between them. When g is zero there the segment reaches the box, where d = max_k e_k, the largest of six
+    affine functions ±p_k(t) − h_k (a lower bound of d everywhere, equal to it inside): its minimum is at an
+    end or where two of them cross (ties: the smallest t).
+    """
+    row = rows[i]
+    p0, u = _local_segment(row, a, b)
+    h = (row[12], row[13], row[14])
+    low_t, low = 0.0, _box_excess_slope(p0, u, h, 0.0)[1]
+    high_t, high = 1.0, _box_excess_slope(p0, u, h, 1.0)[1]
+    if low >= 0.0:
+        best_t = 0.0
+    elif high <= 0.0:
+        best_t = 1.0
+    else:
+        for k in range(3):
+            if u[k] == 0.0:
+                continue
+            for side in (-1.0, 1.0):
+                t = (side * h[k] - p0[k]) / u[k]
+                if not 0.0 < t < 1.0:
+                    continue
+                slope = _box_excess_slope(p0, u, h, t)[1]
+                if slope < 0.0 and t > low_t:
+                    low_t, low = t, slope
+                elif slope >= 0.0 and t < high_t:
+                    high_t, high = t, slope
+        best_t = low_t - low * (high_t - low_t) / (high - low)
+    if _box_excess_slope(p0, u, h, best_t)[0] > 1e-24:
+        return best_t
+    # the segment reaches the box: minimise the largest of the six faces' affine excesses s_j t + o_j
+    slopes = (u[0], -u[0], u[1], -u[1], u[2], -u[2])
+    offsets = (p0[0] - h[0], -p0[0] - h[0], p0[1] - h[1], -p0[1] - h[1], p0[2] - h[2], -p0[2] - h[2])
+    best_t, best = 0.0, math.inf
+    for j in range(-1, 6):
+        for m in range(j + 1, 6):
+            if j < 0:
+                if m > 1:
+                    continue
+                t = float(m)  # the two ends
+            elif slopes[j] == slopes[m]:
+                continue
+            else:
+                t = (offsets[m] - offsets[j]) / (slopes[j] - slopes[m])
+                if not 0.0 < t < 1.0:
+                    continue
+            value = -math.inf
+            for f in range(6):
+                value = max(value, slopes[f] * t + offsets[f])
+            if value < best or (value == best and t < best_t):
+                best_t, best = t, value
+    return best_t
 
 
 @njit(cache=True)
-def _convex_minimum(packed, i, a, b, scratch):  # type: ignore[no-untyped-def]
-    d0, g0, nx, ny, nz = _slope(packed, i, a, b, 0.0, scratch)
-    if g0 >= 0.0:
-        return d0, 0.0, nx, ny, nz
-    d1, g1, nx, ny, nz = _slope(packed, i, a, b, 1.0, scratch)
-    if g1 <= 0.0:
-        return d1, 1.0, nx, ny, nz
-    lo, hi = 0.0, 1.0
-    for _ in range(_BISECTIONS):
-        mid = 0.5 * (lo + hi)
-        _, g, _, _, _ = _slope(packed, i, a, b, mid, scratch)
-        if g < 0.0:
-            lo = mid
-        else:
-            hi = mid
-    t = 0.5 * (lo + hi)
-    d, nx, ny, nz = obstacle_signed_distance(packed, i, _point_on(a, b, t, scratch))
+def _box_minimum(kinds, rows, meshes, i, a, b):  # type: ignore[no-untyped-def]
+    """:func:`segment_obstacle_distance` for a box: the closed-form minimiser, then one exact evaluation."""
+    t = _box_minimiser(rows, i, a, b)
+    d, nx, ny, nz = _distance_at(kinds, rows, meshes, i, a, b, t)
     return d, t, nx, ny, nz
 
 
 @njit(cache=True)
-def _sdf_at(packed, i, a, b, t, scratch):  # type: ignore[no-untyped-def]
-    return obstacle_signed_distance(packed, i, _point_on(a, b, t, scratch))[0]
+def _sdf_at(kinds, rows, meshes, i, a, b, t):  # type: ignore[no-untyped-def]
+    return _distance_at(kinds, rows, meshes, i, a, b, t)[0]
 
 
 @njit(cache=True)
-def _mesh_minimum(packed, i, a, b, scratch):  # type: ignore[no-untyped-def]
+def _mesh_minimum(kinds, rows, meshes, i, a, b):  # type: ignore[no-untyped-def]
     best_t, best_d = 0.0, math.inf
     for k in range(_MESH_SAMPLES):
         t = k / (_MESH_SAMPLES - 1)
-        d = _sdf_at(packed, i, a, b, t, scratch)
+        d = _sdf_at(kinds, rows, meshes, i, a, b, t)
         if d < best_d:
             best_d, best_t = d, t
     step = 1.0 / (_MESH_SAMPLES - 1)
     lo, hi = max(best_t - step, 0.0), min(best_t + step, 1.0)
     x1 = hi - _INV_PHI * (hi - lo)
     x2 = lo + _INV_PHI * (hi - lo)
-    f1 = _sdf_at(packed, i, a, b, x1, scratch)
-    f2 = _sdf_at(packed, i, a, b, x2, scratch)
+    f1 = _sdf_at(kinds, rows, meshes, i, a, b, x1)
+    f2 = _sdf_at(kinds, rows, meshes, i, a, b, x2)
     for _ in range(_GOLDEN_STEPS):
         if f1 < f2:
             hi, x2, f2 = x2, x1, f1
             x1 = hi - _INV_PHI * (hi - lo)
-            f1 = _sdf_at(packed, i, a, b, x1, scratch)
+            f1 = _sdf_at(kinds, rows, meshes, i, a, b, x1)
         else:
             lo, x1, f1 = x1, x2, f2
             x2 = lo + _INV_PHI * (hi - lo)
-            f2 = _sdf_at(packed, i, a, b, x2, scratch)
+            f2 = _sdf_at(kinds, rows, meshes, i, a, b, x2)
     t = x1 if f1 < f2 else x2
     if best_d < min(f1, f2):  # the sample was better than the refined bracket (flat or noisy f)
         t = best_t
-    d, nx, ny, nz = obstacle_signed_distance(packed, i, _point_on(a, b, t, scratch))
+    d, nx, ny, nz = _distance_at(kinds, rows, meshes, i, a, b, t)
     return d, t, nx, ny, nz
 
 
@@ -191,12 +289,22 @@ def segment_obstacle_distance(packed, i, a, b, scratch):  # type: ignore[no-unty
     ``n`` is the obstacle's outward normal (∇d) at the closest segment point; ``scratch`` is a (2, 3)
     workspace.
     """
-    kind = packed.kinds[i]
+    return segment_row_distance(packed.kinds, packed.rows, mesh_addresses(packed), i, a, b, scratch)
+
+
+@njit(cache=True, inline="always")
+def segment_row_distance(kinds, rows, meshes, i, a, b, scratch):  # type: ignore[no-untyped-def]
+    """:func:`segment_obstacle_distance` from the packed arrays (``kinds``, ``rows``, and ``meshes`` of
+    :func:`~pfield.geometry._sdf.mesh_addresses`), for loops that hoist them out (each member read of a
+    :class:`~pfield.geometry._packed.PackedObstacles` costs a reference-count update)."""
+    kind = kinds[i]
     if kind == SPHERE or kind == CAPSULE:
-        return round_segment_distance(packed.rows, packed.kinds, i, a, b, scratch)
+        return round_segment_distance(rows, kinds, i, a, b, scratch)
     if kind == MESH:
-        return _mesh_minimum(packed, i, a, b, scratch[0])
-    return _convex_minimum(packed, i, a, b, scratch[0])
+        return _mesh_minimum(kinds, rows, meshes, i, a, b)
+    if kind == BOX:
+        return _box_minimum(kinds, rows, meshes, i, a, b)
+    return _convex_minimum(kinds, rows, meshes, i, a, b)
 
 
 @njit(cache=True, inline="always")

@@ -35,7 +35,7 @@ import json
 import logging
 import threading
 import time
-from collections.abc import AsyncIterator, Callable, Sequence
+from collections.abc import AsyncIterator, Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
@@ -121,6 +121,9 @@ class _Routes:
         self.long_workers = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="pfield-service",
                                                initializer=_lower_priority)
         """``long_running`` services (planning), at a lower scheduling priority (:data:`LONG_RUNNING_NICENESS`)."""
+        self.answer_writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pfield-answers",
+                                                initializer=_lower_priority)
+        """Streamed answers (long plans) are written here, at the plans' priority and never behind a plan."""
 
     def _topic(self, name: str, type_name: str) -> dict[str, Any]:
         return self.topics.setdefault(name, {"name": name, "type": type_name, "publishers": [], "subscribers": []})
@@ -163,7 +166,7 @@ class _Routes:
         return lookup_type(str(type_name or known))
 
     def shutdown(self) -> None:
-        for executor in (self.long_workers, self.call_worker, self.topic_worker):
+        for executor in (self.long_workers, self.answer_writer, self.call_worker, self.topic_worker):
             executor.shutdown(wait=False, cancel_futures=True)
 
 
@@ -287,13 +290,38 @@ def _endpoint(handler: Any, model: type[RosMessage], with_type: bool = False) ->
     return handler
 
 
-def _json(message: RosMessage) -> Response:
-    """The message as a JSON response; messages that write their JSON in pieces (plan responses) are streamed,
-    the pieces written on a worker thread, so a 100 MB plan is neither held twice nor written on the loop."""
+STREAM_PIECE_BYTES = 1 << 16
+"""A streamed answer is sent in pieces of about this many bytes (each written by one worker call)."""
+
+
+def _next_piece(pieces: Iterator[str]) -> bytes:
+    """The next :data:`STREAM_PIECE_BYTES` or so of ``pieces`` (b"" at the end)."""
+    out: list[bytes] = []
+    size = 0
+    for piece in pieces:
+        out.append(piece.encode())
+        size += len(out[-1])
+        if size >= STREAM_PIECE_BYTES:
+            break
+    return b"".join(out)
+
+
+def _json(message: RosMessage, writer: ThreadPoolExecutor | None = None) -> Response:
+    """The message as a JSON response. Messages that write their JSON in pieces (plan responses) are streamed,
+    so a 100 MB plan is neither held in memory twice nor written on the loop; ``writer`` writes the pieces
+    (the server's answer writer, at the plans' lower priority: a long answer is background work; default:
+    the loop's own thread pool)."""
     chunks = getattr(message, "json_chunks", None)
-    if chunks is not None:
-        return StreamingResponse((piece.encode() for piece in chunks()), media_type="application/json")
-    return Response(message.model_dump_json(), media_type="application/json")
+    if chunks is None:
+        return Response(message.model_dump_json(), media_type="application/json")
+    pieces = chunks()
+
+    async def stream() -> AsyncIterator[bytes]:
+        loop = asyncio.get_running_loop()
+        while piece := await loop.run_in_executor(writer, _next_piece, pieces):
+            yield piece
+
+    return StreamingResponse(stream(), media_type="application/json")
 
 
 async def _until_done_or_gone(future: asyncio.Future[Any], request: Request, cancel: Any) -> Any:
@@ -318,11 +346,12 @@ def _add_service_routes(app: FastAPI, routes: _Routes) -> None:
                     return _json(await routes.call(spec.handler, body))
                 loop = asyncio.get_running_loop()
                 if not spec.cancellable:
-                    return _json(await loop.run_in_executor(routes.long_workers, spec.handler, body))
+                    return _json(await loop.run_in_executor(routes.long_workers, spec.handler, body),
+                                 routes.answer_writer)
                 token = CancelToken()
                 handler: Callable[..., RosMessage] = spec.handler
                 future = loop.run_in_executor(routes.long_workers, functools.partial(handler, body, cancel=token))
-                return _json(await _until_done_or_gone(future, request, token))
+                return _json(await _until_done_or_gone(future, request, token), routes.answer_writer)
             return _endpoint(call, spec.request)
         app.post(f"/srv{spec.name}", response_class=Response, name=f"service {spec.name} ({spec.type_name})",
                  responses={200: {"model": spec.response}}, tags=["services"])(make())
