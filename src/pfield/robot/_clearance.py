@@ -25,7 +25,6 @@ from pfield.geometry._sdf import mesh_addresses, row_signed_distance
 from pfield.robot._distance import (
     closest_segment_points,
     point_segment_distance,
-    round_segment_distance,
     segment_row_distance,
 )
 from pfield.robot._kinematics import joint_transforms
@@ -111,10 +110,7 @@ def link_obstacle_distance_below(  # type: ignore[no-untyped-def]
     if lower >= cutoff:
         return lower, False, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
     a, b = cap_a[link], cap_b[link]
-    if kinds[i] == SPHERE or kinds[i] == CAPSULE:
-        d, t, nx, ny, nz = round_segment_distance(rows, kinds, i, a, b, scratch)
-    else:
-        d, t, nx, ny, nz = segment_row_distance(kinds, rows, meshes, i, a, b, scratch)
+    d, t, nx, ny, nz = segment_row_distance(kinds, rows, meshes, i, a, b, scratch)
     d -= cap_r[link]
     if d >= FINE_RANGE:  # far: the bounding capsule's distance (a lower bound of the fitted model's)
         return d, True, a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2]), nx, ny, nz
@@ -143,10 +139,7 @@ def link_obstacle_distance_below(  # type: ignore[no-untyped-def]
             if middle[0] - 0.5 * math.sqrt(length2) - prim_r[p] > limit:
                 continue
         a, b = prim_a[p], prim_b[p]
-        if round_obstacle:
-            d, t, nx, ny, nz = round_segment_distance(rows, kinds, i, a, b, scratch)
-        else:
-            d, t, nx, ny, nz = segment_row_distance(kinds, rows, meshes, i, a, b, scratch)
+        d, t, nx, ny, nz = segment_row_distance(kinds, rows, meshes, i, a, b, scratch)
         d -= prim_r[p]
         if d < best:
             best, bx, by, bz = d, nx, ny, nz

@@ -27,6 +27,7 @@ _BISECTIONS = 24
 _MESH_SAMPLES = 9
 _GOLDEN_STEPS = 18
 _INV_PHI = 0.6180339887498949
+_PAIRS = tuple((j, m) for j in range(6) for m in range(j + 1, 6))  # the box's 15 face pairs
 
 
 @njit(cache=True, inline="always")
@@ -169,27 +170,31 @@ def _box_minimiser(rows, i, a, b):  # type: ignore[no-untyped-def]
         best_t = low_t - low * (high_t - low_t) / (high - low)
     if _box_excess_slope(p0, u, h, best_t)[0] > 1e-24:
         return best_t
-    # the segment reaches the box: minimise the largest of the six faces' affine excesses s_j t + o_j
+    return _box_reach_minimiser(p0, u, h)
+
+
+@njit(cache=True)
+def _box_reach_minimiser(p0, u, h):  # type: ignore[no-untyped-def]
+    """The smallest t ∈ [0, 1] minimising max_j (s_j t + o_j), the six faces' affine excesses ±p_k(t) − h_k
+    (see :func:`_box_minimiser`): an end, or where two of them cross."""
     slopes = (u[0], -u[0], u[1], -u[1], u[2], -u[2])
     offsets = (p0[0] - h[0], -p0[0] - h[0], p0[1] - h[1], -p0[1] - h[1], p0[2] - h[2], -p0[2] - h[2])
     best_t, best = 0.0, math.inf
-    for j in range(-1, 6):
-        for m in range(j + 1, 6):
-            if j < 0:
-                if m > 1:
-                    continue
-                t = float(m)  # the two ends
-            elif slopes[j] == slopes[m]:
+    for candidate in range(2 + 15):  # the two ends, then the 15 face pairs
+        if candidate < 2:
+            t = float(candidate)
+        else:
+            j, m = _PAIRS[candidate - 2]
+            if slopes[j] == slopes[m]:
                 continue
-            else:
-                t = (offsets[m] - offsets[j]) / (slopes[j] - slopes[m])
-                if not 0.0 < t < 1.0:
-                    continue
-            value = -math.inf
-            for f in range(6):
-                value = max(value, slopes[f] * t + offsets[f])
-            if value < best or (value == best and t < best_t):
-                best_t, best = t, value
+            t = (offsets[m] - offsets[j]) / (slopes[j] - slopes[m])
+            if not 0.0 < t < 1.0:
+                continue
+        value = -math.inf
+        for f in range(6):
+            value = max(value, slopes[f] * t + offsets[f])
+        if value < best or (value == best and t < best_t):
+            best_t, best = t, value
     return best_t
 
 
