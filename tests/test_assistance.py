@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from pfield import FieldConfig, Obstacle, Pose, PotentialField, Sphere, Twist
+from pfield import Box, Cylinder, FieldConfig, Obstacle, Pose, PotentialField, Sphere, Twist
 from pfield.assistance import AssistanceOptions, AssistanceScene, Flag, task_space_assistance, whole_body_assistance
 from pfield.errors import InvalidInput
 from pfield.field.forces import damper_speed
@@ -188,6 +188,29 @@ def test_whole_body_nearest_matches_the_capsule_clearances(xarm: Any) -> None:
     assert answer.joint_velocities.shape == (7,)
     np.testing.assert_allclose(answer.blended_command.as_array(), xarm.jacobian(Q) @ answer.joint_velocities,
                                atol=1e-12)
+
+
+def test_whole_body_nearest_is_the_closest_pair_in_clutter(xarm: Any) -> None:
+    """Within the influence distance the field step's own nearest pair is taken, otherwise the whole search
+    decides: either way it is the closest pair of the fitted model (the minimum of its exact clearances)."""
+    from pfield.robot.collision import capsule_clearances
+
+    rng = np.random.default_rng(7)
+    ee = xarm.forward_kinematics(Q)
+    obstacles = [Obstacle("ball", Sphere(0.04), Pose(ee.position + np.array([0.10, 0.0, 0.0]))),
+                 Obstacle("crate", Box(0.1, 0.1, 0.1), Pose(ee.position + np.array([0.0, -0.16, -0.05]))),
+                 Obstacle("post", Cylinder(0.03, 0.3), Pose(ee.position + np.array([-0.1, 0.12, 0.0])))]
+    field = PotentialField(CONFIG, Pose(ee.position + np.array([0.0, 0.15, 0.05]), ee.orientation), obstacles)
+    clutter = AssistanceScene(field=field)
+    within = 0
+    for _ in range(40):
+        q = np.clip(Q + rng.normal(scale=0.15, size=7), xarm.lower_limits, xarm.upper_limits)
+        answer = whole_body_assistance(clutter, xarm, q, Twist((0.02, 0.0, 0.0)))
+        _, nearest_id, nearest = capsule_clearances(xarm, q, obstacles).nearest()
+        assert answer.nearest_obstacle_id == nearest_id
+        assert answer.nearest_distance == pytest.approx(nearest, abs=1e-9)
+        within += CONFIG.safety_distance < nearest < CONFIG.influence_distance
+    assert 5 <= within <= 35  # both ways were taken
 
 
 def test_whole_body_command_away_unchanged_and_approach_limited(xarm: Any) -> None:

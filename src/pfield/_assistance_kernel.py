@@ -13,9 +13,20 @@ import numpy as np
 from numba import njit
 
 from pfield._bound import float_view1, float_view2, float_view3, int_view1, int_view2
+from pfield._linalg import cholesky_inplace, cholesky_solve
 from pfield.field.forces import damper_speed, project_damper
 from pfield.geometry._packed import PackedObstacles
 from pfield.geometry._sdf import obstacle_signed_distance
+from pfield.planning._whole_body_flat import bound_step
+from pfield.planning._whole_body_layout import (
+    OUT_NEAREST_CAPSULE,
+    OUT_NEAREST_DISTANCE,
+    OUT_NEAREST_OBSTACLE,
+    OUT_POSITION_ERROR,
+    OUT_ROTATION_ERROR,
+    OUT_SIZE,
+    OUT_TWIST,
+)
 from pfield.robot._clearance import link_obstacle_distance_below, near_segments, world_segments
 from pfield.robot._kinematics import end_effector_kinematics, linear_point_jacobian
 
@@ -27,6 +38,7 @@ MODE_LINEAR, MODE_LINEAR_GOAL, MODE_SAFETY_ONLY = 0, 1, 2
 # output layout
 BLENDED, ALPHA, SCALE, NEAREST, DISTANCE, NORMAL, TTC, LIMITED = 0, 6, 7, 8, 9, 10, 13, 14
 N_OUT = 15
+_OFFSET_ROUNDING = 1e-9  # m: a pair the field step holds at d_s by its start offset reads d_s within this
 _SWEEPS = 8  # alternating projections over the active dampers (von Neumann); 1–2 suffice in practice
 
 
@@ -120,7 +132,7 @@ def empty_output() -> np.ndarray:
 
 
 @njit(cache=True)
-def nearest_link(rotations, origins, model, packed, centres, bounds, scratch, segments):  # type: ignore[no-untyped-def]
+def nearest_link(rotations, origins, model, packed, centres, bounds, scratch, segments, hint_c, hint_i):  # type: ignore[no-untyped-def]
     """Closest link–obstacle pair of the fitted link model: (link, obstacle, clearance, nx, ny, nz, px, py, pz).
 
     ``model`` = (joints, cap_a, cap_b, cap_r, link_start, prim_joint, prim_a, prim_b, prim_r) of
@@ -128,7 +140,8 @@ def nearest_link(rotations, origins, model, packed, centres, bounds, scratch, se
     (link ends a, b (L, 3), primitive ends a, b (Np, 3)) the world-segment workspace. ``n`` is the obstacle's
     outward normal at the closest point, ``p`` the robot's witness point (the primitive's axis point − r n).
     A pair whose bound is no better than the best so far is skipped
-    (:func:`pfield.robot._clearance.link_obstacle_distance_below` with that cutoff).
+    (:func:`pfield.robot._clearance.link_obstacle_distance_below` with that cutoff). ``hint_c``, ``hint_i`` ≥ 0
+    name a pair already known to be the closest (see :func:`bound_assist_step`): only it is evaluated.
     """
     joints, cap_a, cap_b, cap_r, link_start, prim_joint, prim_a, prim_b, prim_r = model
     seg_a, seg_b, prim_seg_a, prim_seg_b = segments
@@ -140,6 +153,8 @@ def nearest_link(rotations, origins, model, packed, centres, bounds, scratch, se
     bp = np.zeros(3)
     for c in range(joints.shape[0]):
         for i in range(packed.kinds.shape[0]):
+            if hint_c >= 0 and (c != hint_c or i != hint_i):
+                continue
             d, exact, px, py, pz, nx, ny, nz = link_obstacle_distance_below(
                 c, i, packed, centres, bounds, seg_a, seg_b, cap_r, link_start, prim_seg_a, prim_seg_b, prim_r,
                 scratch, best, best)
@@ -184,9 +199,22 @@ def below_singular_value(gram, threshold):  # type: ignore[no-untyped-def]
 
 # whole-body extras: parameter slots after N_PARAMS, output slots after N_OUT
 DAMPING, LIMIT_MARGIN, SINGULARITY = N_PARAMS, N_PARAMS + 1, N_PARAMS + 2
-N_PARAMS_WHOLE_BODY = N_PARAMS + 3
-AT_LIMIT, SINGULAR, POINT = N_OUT, N_OUT + 1, N_OUT + 2
-N_OUT_WHOLE_BODY = N_OUT + 5
+GOAL_TOLERANCE, ROTATION_TOLERANCE, STALL_SPEED, GOAL_RADIUS = N_PARAMS + 3, N_PARAMS + 4, N_PARAMS + 5, N_PARAMS + 6
+HINT_LINK, HINT_OBSTACLE = N_PARAMS + 7, N_PARAMS + 8  # the closest pair when known (nearest_link), else −1
+N_PARAMS_WHOLE_BODY = N_PARAMS + 9
+AT_LIMIT, SINGULAR, POINT, AT_GOAL, STALLED = N_OUT, N_OUT + 1, N_OUT + 2, N_OUT + 5, N_OUT + 6
+N_OUT_WHOLE_BODY = N_OUT + 7
+
+
+@njit(cache=True, inline="always")
+def _times(point_jac, qd):  # type: ignore[no-untyped-def]
+    """The point velocity J_p q̇ (3 scalars) of a (3, n) point Jacobian."""
+    x = y = z = 0.0
+    for j in range(qd.shape[0]):
+        x += point_jac[0, j] * qd[j]
+        y += point_jac[1, j] * qd[j]
+        z += point_jac[2, j] * qd[j]
+    return x, y, z
 
 
 @njit(cache=True)
@@ -203,18 +231,34 @@ def assist_joints(q, lower, upper, kin, model, packed, centres, bounds, velociti
     parents, place_rot, place_pos, axes, kinds, support, ee_joint, ee_rot, ee_pos = kin
     end_effector_kinematics(q, parents, place_rot, place_pos, axes, kinds, support, ee_joint, ee_rot, ee_pos,
                             rotations, origins, jac)
-    gram = jac @ jac.T
+    # q̇_user = Jᵀ (J Jᵀ + λ² I)⁻¹ u_user, in loops (6 × n: LAPACK's call overhead exceeds the work)
+    gram = np.empty((6, 6))
+    for r in range(6):
+        for c in range(r + 1):
+            total = 0.0
+            for j in range(n):
+                total += jac[r, j] * jac[c, j]
+            gram[r, c] = gram[c, r] = total
     out[SINGULAR] = 1.0 if below_singular_value(gram, params[SINGULARITY]) else 0.0
     for k in range(6):
         gram[k, k] += params[DAMPING] * params[DAMPING]
-    qd_user = jac.T @ np.linalg.solve(gram, user)
+    cholesky_inplace(gram, 6)
+    y = np.empty(6)
+    cholesky_solve(gram, user, y, 6)
+    qd_user = np.empty(n)
+    for j in range(n):
+        total = 0.0
+        for k in range(6):
+            total += jac[k, j] * y[k]
+        qd_user[j] = total
     out[AT_LIMIT] = 0.0
     for j in range(n):
         if q[j] - lower[j] < params[LIMIT_MARGIN] or upper[j] - q[j] < params[LIMIT_MARGIN]:
             out[AT_LIMIT] = 1.0
     cap_joints = model[0]
     c, i, clearance, nx, ny, nz, px, py, pz = nearest_link(rotations, origins, model, packed, centres, bounds,
-                                                           scratch, segments)
+                                                           scratch, segments, int(params[HINT_LINK]),
+                                                           int(params[HINT_OBSTACLE]))
     mode = int(params[MODE])
     alpha = 0.0
     if mode != MODE_SAFETY_ONLY and c >= 0:
@@ -227,8 +271,8 @@ def assist_joints(q, lower, upper, kin, model, packed, centres, bounds, velociti
     if c >= 0:
         linear_point_jacobian(rotations, origins, axes, kinds, support, cap_joints[c], px, py, pz, point_jac)
         ox, oy, oz = velocities[i, 0], velocities[i, 1], velocities[i, 2]
-        vu = point_jac @ qd_user
-        approach_user = -(nx * (vu[0] - ox) + ny * (vu[1] - oy) + nz * (vu[2] - oz))
+        ux, uy, uz = _times(point_jac, qd_user)
+        approach_user = -(nx * (ux - ox) + ny * (uy - oy) + nz * (uz - oz))
         if clearance <= 0.0:
             ttc = 0.0
         elif approach_user > 0.0:
@@ -236,8 +280,8 @@ def assist_joints(q, lower, upper, kin, model, packed, centres, bounds, velociti
         if clearance < params[INFLUENCE]:
             allowed = damper_speed(clearance, params[INFLUENCE], params[SAFETY], params[GAIN], params[MAX_SPEED],
                                    params[MAX_ACCELERATION])
-            v = point_jac @ qd
-            excess = -(nx * (v[0] - ox) + ny * (v[1] - oy) + nz * (v[2] - oz)) - allowed
+            vx, vy, vz = _times(point_jac, qd)
+            excess = -(nx * (vx - ox) + ny * (vy - oy) + nz * (vz - oz)) - allowed
             norm2 = 0.0
             for j in range(n):
                 direction = point_jac[0, j] * nx + point_jac[1, j] * ny + point_jac[2, j] * nz
@@ -247,9 +291,11 @@ def assist_joints(q, lower, upper, kin, model, packed, centres, bounds, velociti
                     direction = point_jac[0, j] * nx + point_jac[1, j] * ny + point_jac[2, j] * nz
                     qd[j] += direction * excess / norm2
                 limited = True
-    twist = jac @ qd
     for k in range(6):
-        out[BLENDED + k] = twist[k]
+        total = 0.0
+        for j in range(n):
+            total += jac[k, j] * qd[j]
+        out[BLENDED + k] = total
     out[ALPHA], out[NEAREST], out[DISTANCE] = alpha, i, clearance
     out[SCALE] = servo_scale(clearance, params[SCALE_THRESHOLD])
     out[NORMAL], out[NORMAL + 1], out[NORMAL + 2] = nx, ny, nz
@@ -274,3 +320,41 @@ def bound_assist(q, qd_auto, user, params, qd, out, table):  # type: ignore[no-u
                   float_view1(table, 29), float_view2(table, 30), qd_auto, user, params, float_view3(table, 31),
                   float_view2(table, 32), float_view2(table, 33), float_view2(table, 34), float_view2(table, 39),
                   segments, qd, out)
+
+
+@njit(cache=True)
+def bound_assist_step(q, previous, given, use_previous, step_table, user, params, qd, out, table):  # type: ignore[no-untyped-def]
+    """The whole-body field step at ``q`` and the assistance on its q̇, in one call.
+
+    The step is :func:`pfield.planning._whole_body_flat.bound_step` on ``step_table`` (it checks ``q`` and
+    ``previous`` itself). Its position and rotation errors give the goal outputs (``AT_GOAL``: both within
+    ``GOAL_TOLERANCE`` / ``ROTATION_TOLERANCE``; else ``STALLED``: the autonomy twist slower than
+    ``STALL_SPEED`` in both parts) and ``linear_goal``'s share clip(1 − ‖g − p‖/R, 0, 1) (written into
+    ``params[GOAL_SHARE]``); then :func:`bound_assist` on ``table`` at q clamped to its limits. Returns the
+    step's row; an empty array when an input is bad (the caller's validating path then raises).
+    """
+    row = bound_step(q, previous, given, use_previous, step_table)
+    if row.shape[0] == 0:
+        return row
+    lower, upper = float_view1(table, 26), float_view1(table, 27)
+    values = np.empty(q.shape[0])
+    for j in range(q.shape[0]):
+        values[j] = min(max(q[j], lower[j]), upper[j])
+    distance = row[OUT_POSITION_ERROR]
+    at_goal = distance <= params[GOAL_TOLERANCE] and row[OUT_ROTATION_ERROR] <= params[ROTATION_TOLERANCE]
+    t = OUT_TWIST[0]
+    linear = math.sqrt(row[t] * row[t] + row[t + 1] * row[t + 1] + row[t + 2] * row[t + 2])
+    angular = math.sqrt(row[t + 3] * row[t + 3] + row[t + 4] * row[t + 4] + row[t + 5] * row[t + 5])
+    stalled = not at_goal and linear < params[STALL_SPEED] and angular < params[STALL_SPEED]
+    params[GOAL_SHARE] = min(max(1.0 - distance / params[GOAL_RADIUS], 0.0), 1.0)
+    # The step evaluated every link–obstacle pair exactly below the influence distance Q (its dampers'
+    # cutoff), the others only by bounds ≥ Q; so a nearest pair it reports in (d_s, Q) is the closest of all.
+    # (At or below d_s the step's start offsets hold pairs at d_s, up to rounding: then the whole search decides.)
+    nearest = row[OUT_NEAREST_DISTANCE]
+    known = params[SAFETY] + _OFFSET_ROUNDING < nearest < params[INFLUENCE]
+    params[HINT_LINK] = row[OUT_NEAREST_CAPSULE] if known else -1.0
+    params[HINT_OBSTACLE] = row[OUT_NEAREST_OBSTACLE] if known else -1.0
+    bound_assist(values, row[OUT_SIZE:], user, params, qd, out, table)
+    out[AT_GOAL] = 1.0 if at_goal else 0.0
+    out[STALLED] = 1.0 if stalled else 0.0
+    return row

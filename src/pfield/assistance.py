@@ -44,13 +44,13 @@ from numpy.typing import ArrayLike, NDArray
 from pfield import _assistance_kernel as _k
 from pfield._bound import BoundArrays
 from pfield._validation import as_vector, finite, in_range
-from pfield.autonomy import whole_body_row
+from pfield.autonomy import whole_body_stepper
 from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
 from pfield.field.field import _fast_twist
 from pfield.geometry import Obstacle, pack_obstacles
 from pfield.geometry._sdf import empty_packed
-from pfield.planning._whole_body_layout import OUT_ORIENTATION, OUT_POSITION, OUT_SIZE, OUT_TWIST
+from pfield.planning._whole_body_layout import OUT_ORIENTATION, OUT_POSITION, OUT_TWIST
 from pfield.planning.whole_body import obstacle_bounds
 from pfield.robot.model import RobotModel
 from pfield.spatial import Pose, Twist
@@ -59,6 +59,7 @@ __all__ = ["ARBITRATIONS", "Assistance", "AssistanceOptions", "AssistanceScene",
            "whole_body_assistance"]
 
 ARBITRATIONS = ("linear", "linear_goal", "safety_only")
+_FLOAT64 = np.dtype(np.float64)
 _TWIST, _POSITION, _ORIENTATION = slice(*OUT_TWIST), slice(*OUT_POSITION), slice(*OUT_ORIENTATION)
 _MODES = {name: i for i, name in enumerate(ARBITRATIONS)}
 
@@ -276,12 +277,13 @@ def task_space_assistance(scene: AssistanceScene, pose: Pose, user_command: Twis
 
 def _answer(scene: AssistanceScene, out: NDArray[np.float64], autonomy: Twist, joint_velocities: NDArray[np.float64],
             robot_point: NDArray[np.float64], flags: int) -> Assistance:
-    # scalars through one tolist() (exact float64 values); the obstacle point p − d n̂ in the same IEEE
-    # operations as the array expression, without numpy's per-operation overhead
+    """The answer from a compiled call's fresh ``out``: its vectors are read-only views of it; the scalars
+    come through one tolist() (exact float64 values); the obstacle point p − d n̂ in the same IEEE operations
+    as the array expression, without numpy's per-operation overhead."""
+    out.setflags(write=False)
     values = out.tolist()
     nearest, distance = int(values[_k.NEAREST]), values[_k.DISTANCE]
-    normal = out[_k.NORMAL:_k.NORMAL + 3].copy()
-    point = np.asarray(robot_point, dtype=float).tolist()
+    point = robot_point.tolist()
     if nearest >= 0:
         flags |= Flag.IN_COLLISION if distance <= 0.0 else 0
         flags |= Flag.NEAR_OBSTACLE if distance < scene.config.influence_distance else 0  # type: ignore[union-attr]
@@ -290,13 +292,16 @@ def _answer(scene: AssistanceScene, out: NDArray[np.float64], autonomy: Twist, j
     else:
         obstacle_point = np.array(point)
     alpha = values[_k.ALPHA]
-    return Assistance(
+    # the frozen answer filled in one step: its __init__ would call object.__setattr__ once per field
+    answer = object.__new__(Assistance)
+    answer.__dict__.update(
         autonomy_vector=autonomy, joint_velocities=joint_velocities,
-        blended_command=_fast_twist(out[0:6].copy()), alpha=alpha, speed_scale=values[_k.SCALE],
+        blended_command=_fast_twist(out[_k.BLENDED:_k.BLENDED + 6]), alpha=alpha, speed_scale=values[_k.SCALE],
         nearest_obstacle_id=scene._ids[nearest] if nearest >= 0 else "",  # type: ignore[attr-defined]
-        nearest_distance=distance, nearest_normal=normal, robot_point=np.array(point),
+        nearest_distance=distance, nearest_normal=out[_k.NORMAL:_k.NORMAL + 3], robot_point=robot_point,
         obstacle_point=obstacle_point, time_to_collision=values[_k.TTC], flags=flags,
         message=_message(flags, alpha, values[_k.LIMITED] > 0))
+    return answer
 
 
 # ---------------------------------------------------------------------------------------------- whole body
@@ -324,6 +329,18 @@ class _Workspace:
         self._bound = BoundArrays([np.ascontiguousarray(a) for a in arrays])
         self.table = self._bound.table
         self.zeros = np.zeros(n)
+        # the parameter vector of the compiled call: the scene's, then the whole-body options (MODE and
+        # GOAL_SHARE are written per call)
+        options = scene.options
+        self.params = np.zeros(_k.N_PARAMS_WHOLE_BODY)
+        self.params[:_k.N_PARAMS] = scene._params  # type: ignore[attr-defined]
+        self.params[_k.DAMPING], self.params[_k.LIMIT_MARGIN] = options.damping, options.joint_limit_margin
+        self.params[_k.SINGULARITY], self.params[_k.STALL_SPEED] = options.singularity_threshold, options.stall_speed
+        self.params[_k.GOAL_TOLERANCE], self.params[_k.GOAL_RADIUS] = options.goal_tolerance, options.goal_radius
+        self.params[_k.HINT_LINK] = self.params[_k.HINT_OBSTACLE] = -1.0  # none: bound_assist_step sets them
+        if scene.field is not None:
+            self.params[_k.ROTATION_TOLERANCE] = scene.field.config.rotation_tolerance
+            self.stepper = whole_body_stepper(scene.field, robot)
 
 
 _CACHE = threading.local()
@@ -335,6 +352,29 @@ def _workspace(scene: AssistanceScene, robot: RobotModel) -> _Workspace:
     if entry is None or entry.scene is not scene or entry.robot is not robot:
         entry = _CACHE.entry = _Workspace(scene, robot)
     return entry
+
+
+def _assist_step(work: _Workspace, robot: RobotModel, joint_angles: ArrayLike, previous: ArrayLike | None,
+                 dt: float, user: NDArray[np.float64], qd: NDArray[np.float64],
+                 out: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The step's row, with ``qd`` and ``out`` filled by one compiled call
+    (:func:`pfield._assistance_kernel.bound_assist_step`). Float64 vectors go in as they are (the call checks
+    them); anything else is validated first, and a value the call refuses is validated again for its error."""
+    for attempt in range(2):
+        fast = joint_angles.__class__ is np.ndarray and joint_angles.dtype is _FLOAT64 and \
+            (previous is None or (previous.__class__ is np.ndarray and previous.dtype is _FLOAT64))  # type: ignore[union-attr]
+        if attempt or not fast:
+            joint_angles = robot.check_joint_angles(joint_angles, "joint_angles")
+            # an empty list (the message default) means "no previous"
+            previous = None if previous is None or np.size(previous) == 0 else \
+                as_vector("prev_joint_velocities", previous, robot.n_joints)
+        given = previous is not None
+        row: NDArray[np.float64] = _k.bound_assist_step(
+            joint_angles, previous if given else work.zeros, given, given and dt > 0.0,
+            work.stepper.bound_table(dt), user, work.params, qd, out, work.table)
+        if row.shape[0]:
+            return row
+    raise InvalidInput("joint_angles", joint_angles, "refused by the compiled step")  # not reached: checked above
 
 
 def whole_body_assistance(scene: AssistanceScene, robot: RobotModel, joint_angles: ArrayLike,
@@ -350,27 +390,23 @@ def whole_body_assistance(scene: AssistanceScene, robot: RobotModel, joint_angle
     ``blended_command`` = J q̇; ``time_to_collision`` is that of the nearest link point under q̇_user.
     Evaluated in one compiled call after the autonomy's (:func:`pfield._assistance_kernel.assist_joints`).
     """
-    q = robot.check_joint_angles(joint_angles, "joint_angles")
     mode = _mode(scene, arbitration)
-    options = scene.options
     step = in_range("delta_time", dt, 0.0, math.inf, "s") if dt else 0.0
     user = _user_twist(user_command)
-    flags = _input_flags(input_age, options)
+    flags = _input_flags(input_age, scene.options)
     work = _workspace(scene, robot)
-    if scene.field is None:
-        qd_auto, autonomy = work.zeros, Twist()
-        goal_flags, goal_share = _goal_flags(scene, robot.forward_kinematics(q), autonomy.as_array())
-    else:
-        row = whole_body_row(scene.field, robot, q, prev_joint_velocities, step)
-        qd_auto, autonomy = row[OUT_SIZE:], _fast_twist(row[_TWIST])
-        goal_flags, goal_share = _goal_flags_at(scene, row[_POSITION], row[_ORIENTATION], row[_TWIST])
-    params = np.empty(_k.N_PARAMS_WHOLE_BODY)
-    params[:_k.N_PARAMS] = scene._params  # type: ignore[attr-defined]
-    params[_k.MODE], params[_k.GOAL_SHARE] = mode, goal_share
-    params[_k.DAMPING], params[_k.LIMIT_MARGIN] = options.damping, options.joint_limit_margin
-    params[_k.SINGULARITY] = options.singularity_threshold
+    params = work.params
+    params[_k.MODE] = mode
     qd, out = np.empty(robot.n_joints), np.empty(_k.N_OUT_WHOLE_BODY)
-    _k.bound_assist(q, qd_auto, user, params, qd, out, work.table)
+    if scene.field is None:
+        q = robot.check_joint_angles(joint_angles, "joint_angles")
+        autonomy = Twist()
+        goal_flags, params[_k.GOAL_SHARE] = _goal_flags(scene, robot.forward_kinematics(q), autonomy.as_array())
+        _k.bound_assist(q, work.zeros, user, params, qd, out, work.table)
+    else:
+        row = _assist_step(work, robot, joint_angles, prev_joint_velocities, step, user, qd, out)
+        autonomy = _fast_twist(row[_TWIST])
+        goal_flags = (Flag.AT_GOAL if out[_k.AT_GOAL] else 0) | (Flag.STALLED if out[_k.STALLED] else 0)
     flags |= goal_flags | (Flag.AT_JOINT_LIMIT if out[_k.AT_LIMIT] else 0) | \
         (Flag.NEAR_SINGULARITY if out[_k.SINGULAR] else 0)
-    return _answer(scene, out, autonomy, qd, out[_k.POINT:_k.POINT + 3].copy(), flags)
+    return _answer(scene, out, autonomy, qd, out[_k.POINT:_k.POINT + 3], flags)

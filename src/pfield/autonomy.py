@@ -35,7 +35,7 @@ from pfield.robot.model import RobotModel
 from pfield.spatial import Pose, Twist
 
 __all__ = ["WholeBodyAutonomy", "task_space_autonomy_vector", "whole_body_autonomy", "whole_body_autonomy_vector",
-           "whole_body_row"]
+           "whole_body_row", "whole_body_stepper"]
 
 _LOG = logging.getLogger(__name__)
 _CACHE = threading.local()
@@ -120,6 +120,12 @@ def whole_body_autonomy_vector(field: Any, robot: RobotModel, q: ArrayLike,
     if query_pose is None:
         return _fast_twist(_fast_path(field, robot, q, prev_joint_velocities, dt))
     return whole_body_autonomy(field, robot, q, prev_joint_velocities, dt, query_pose).twist
+
+
+def whole_body_stepper(field: Any, robot: RobotModel) -> WholeBodyStepper:
+    """The cached :class:`~pfield.planning.WholeBodyStepper` of (field, robot) with the default options, for
+    this thread: the one every autonomy and assistance call at control rate steps with."""
+    return _stepper(field, robot, None)
 
 
 def whole_body_row(field: Any, robot: RobotModel, q: ArrayLike, prev_joint_velocities: ArrayLike | None = None,

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pfield import _spatial_kernels as _k
-from pfield._validation import as_vector, scaled_norm
+from pfield._validation import as_vector
 from pfield.errors import InvalidInput
 
 __all__ = [
@@ -68,10 +68,14 @@ def _unbatch(array: NDArray[np.float64], single: bool) -> NDArray[np.float64]:
 def normalize_quaternion(q: ArrayLike, field_name: str = "orientation") -> Quat:
     """Unit quaternion from ``q`` (x, y, z, w); rejects non-finite and (near) zero quaternions."""
     quat = np.array(as_vector(field_name, q, 4))
-    if scaled_norm(quat) < MIN_QUATERNION_NORM:
+    # the norm check in scalars (pfield._validation.scaled_norm's formula: scale by the largest magnitude first)
+    x, y, z, w = quat.tolist()
+    largest = max(abs(x), abs(y), abs(z), abs(w))
+    if largest == 0.0 or largest * math.sqrt((x / largest) ** 2 + (y / largest) ** 2 + (z / largest) ** 2
+                                             + (w / largest) ** 2) < MIN_QUATERNION_NORM:
         raise InvalidInput(field_name, q, "zero quaternion: give a unit quaternion, e.g. {w: 1.0}")
-    if np.max(np.abs(quat)) > 1e150:  # components whose squares would overflow: scale them first
-        quat /= np.max(np.abs(quat))
+    if largest > 1e150:  # components whose squares would overflow: scale them first
+        quat /= largest
     norm = float(np.linalg.norm(quat))
     quat /= norm
     quat.setflags(write=False)
@@ -265,6 +269,18 @@ class Pose:
             f"Pose(position=({p[0]:.6g}, {p[1]:.6g}, {p[2]:.6g}), "
             f"orientation=({q[0]:.6g}, {q[1]:.6g}, {q[2]:.6g}, {q[3]:.6g}))"
         )
+
+
+def _checked_pose(position: NDArray[np.float64], quaternion: NDArray[np.float64]) -> Pose:
+    """The :class:`Pose` of inputs a caller has already checked (a finite (3,) position; a finite (4,)
+    quaternion whose norm lies in [MIN_QUATERNION_NORM, 1e150]): the quaternion normalised as
+    :func:`normalize_quaternion` does, without repeating its checks (a control-loop call's message path)."""
+    pose = object.__new__(Pose)
+    orientation = quaternion / float(np.linalg.norm(quaternion))
+    orientation.setflags(write=False)
+    object.__setattr__(pose, "position", position)
+    object.__setattr__(pose, "orientation", orientation)
+    return pose
 
 
 @dataclass(frozen=True, eq=False, init=False)

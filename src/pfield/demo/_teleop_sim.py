@@ -7,7 +7,8 @@ steer around obstacles: the assistance has to.
 
 Modes: ``none`` (the operator's command executed), ``servo`` (MoveIt Servo's collision velocity scaling:
 u = s(d) u_op, s = exp(k (d − 0.02)), k = −ln(0.001)/0.02, d the exact distance; Servo halts in collision),
-``pfield`` (:func:`pfield.assistance.task_space_assistance`, arbitration ``linear``, the target as the goal).
+``pfield`` (:func:`pfield.assistance.task_space_assistance`, arbitration :data:`ARBITRATION`, the target as the
+goal).
 Obstacles may move (``motion``: id → function t ↦ centre); their velocity is estimated from successive
 positions with the node's filter (:mod:`pfield.node._obstacle_motion`) and the field is rebuilt each step with
 the obstacles at their current pose (plans and the autonomy vector treat obstacles as static).
@@ -34,6 +35,9 @@ from pfield.spatial import Pose, Twist
 
 MODES = ("none", "servo", "pfield")
 SERVO_SCENE_THRESHOLD = 0.02  # m, moveit_servo default scene_collision_proximity_threshold
+ARBITRATION = "linear_goal"
+"""pfield's mode: the operator's target is the field's goal, so the field also takes over as it nears
+(``linear_goal``: the goal share of Dragan & Srinivasa's confidence-based blending, :mod:`pfield.assistance`)."""
 
 
 @dataclass(frozen=True)
@@ -108,7 +112,7 @@ def simulate(obstacles: Sequence[Obstacle], start: NDArray[np.float64], goal: ND
         else:
             field = PotentialField(config, goal_pose, current)
             scene = AssistanceScene(field=field, velocities={key: h.velocity for key, h in held.items()})
-            answer = task_space_assistance(scene, Pose(p), Twist(command), "linear")
+            answer = task_space_assistance(scene, Pose(p), Twist(command), ARBITRATION)
             executed, alpha = answer.blended_command.linear, answer.alpha
         rows.append((t, command, executed, alpha, clearance))
         collided = collided or clearance <= 0.0
@@ -159,7 +163,7 @@ def simulate_arm(robot: Any, obstacles: Sequence[Obstacle], q0: NDArray[np.float
         jac = robot.jacobian(q)
         twist = np.concatenate([command, np.zeros(3)])
         if mode == "pfield":
-            answer = whole_body_assistance(scene, robot, q, Twist(command), "linear")
+            answer = whole_body_assistance(scene, robot, q, Twist(command), ARBITRATION)
             qd, alpha = answer.joint_velocities, answer.alpha
         else:
             qd = jac.T @ np.linalg.solve(jac @ jac.T + 1e-4 * np.eye(6), twist)

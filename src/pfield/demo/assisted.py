@@ -1,5 +1,5 @@
 """Demo section: a simulated operator drives the end effector straight at a target through spheres and a moving
-sphere, with pfield's assistance (``compute_assistance``, arbitration ``linear``) and, for comparison, without.
+sphere, with pfield's assistance (``compute_assistance``, arbitration ``linear_goal``) and, for comparison, without.
 
 Writes ``assisted_teleop.png``: the operator's and the executed speed, the autonomy share α and the nearest
 distance over time (see :mod:`pfield.demo._teleop_sim` for the operator and the modes).

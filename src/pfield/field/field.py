@@ -55,8 +55,7 @@ def _fast_twist(values: NDArray[np.float64]) -> Twist:
     """A Twist from a fresh, finite (6,) kernel output, skipping the (already satisfied) validation."""
     twist = object.__new__(Twist)
     values.setflags(write=False)
-    object.__setattr__(twist, "linear", values[:3])
-    object.__setattr__(twist, "angular", values[3:])
+    twist.__dict__.update(linear=values[:3], angular=values[3:])  # frozen: filled without __setattr__
     return twist
 
 

@@ -32,7 +32,7 @@ from pfield.interfaces.potential_fields_interfaces import PlanPath_Response
 from pfield.interfaces.std_msgs import Header, Time
 from pfield.interfaces.trajectory_msgs import JointTrajectory
 from pfield.planning.result import PlannedPath
-from pfield.spatial import MIN_QUATERNION_NORM, Pose, Twist
+from pfield.spatial import MIN_QUATERNION_NORM, Pose, Twist, _checked_pose
 
 __all__ = [
     "MAX_COORDINATE",
@@ -47,6 +47,7 @@ __all__ = [
     "prefixed",
     "quaternion_from_msg",
     "twist_stamped",
+    "twist_stamped_fields",
     "twist_to_msg",
 ]
 
@@ -108,7 +109,7 @@ def pose_from_msg(message: gm.Pose, field: str = "pose") -> Pose:
     :data:`MAX_QUATERNION_NORM`] (normalised here)."""
     position = point_from_msg(message.position, f"{field}.position")
     orientation = quaternion_from_msg(message.orientation, f"{field}.orientation")
-    return Pose(position, orientation)
+    return _checked_pose(position, orientation)  # both checked just now
 
 
 def pose_to_msg(pose: Pose) -> gm.Pose:
@@ -133,9 +134,13 @@ def _xyz(values: Any) -> dict[str, float]:
 
 def twist_stamped(twist: Twist, frame_id: str, seconds: float = 0.0) -> gm.TwistStamped:
     """The stamped message of ``twist`` (validated in one pass: the answer of every control-loop call)."""
-    return gm.TwistStamped.model_validate({
-        "header": {"stamp": Time.from_seconds(seconds), "frame_id": frame_id},
-        "twist": {"linear": _xyz(twist.linear), "angular": _xyz(twist.angular)}})
+    return gm.TwistStamped.model_validate(twist_stamped_fields(twist, frame_id, seconds))
+
+
+def twist_stamped_fields(twist: Twist, frame_id: str, seconds: float = 0.0) -> dict[str, Any]:
+    """The fields of :func:`twist_stamped` as plain data, for a caller that validates a whole answer once."""
+    return {"header": {"stamp": Time.from_seconds(seconds), "frame_id": frame_id},
+            "twist": {"linear": _xyz(twist.linear), "angular": _xyz(twist.angular)}}
 
 
 def _shape(message: ObstacleMsg, make_mesh: Callable[[str, float, float, float], Any]) -> Any:

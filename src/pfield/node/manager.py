@@ -60,7 +60,13 @@ from pfield.field.config import FieldConfig
 from pfield.interfaces import geometry_msgs as gm
 from pfield.interfaces import nav_msgs, std_srvs, visualization_msgs
 from pfield.interfaces import potential_fields_interfaces as pfi
-from pfield.interfaces.convert import obstacle_from_msg, plan_response, pose_from_msg, twist_stamped
+from pfield.interfaces.convert import (
+    obstacle_from_msg,
+    plan_response,
+    pose_from_msg,
+    twist_stamped,
+    twist_stamped_fields,
+)
 from pfield.node import _planning
 from pfield.node._base import Bus, Node, PublicationSpec, ServiceSpec, SubscriptionSpec
 from pfield.node._frames import transforms_data
@@ -477,9 +483,9 @@ class ManagerNode(Node):
             answer = task_space_assistance(scene, pose, command, request.arbitration, input_age=age)
         frame, now = state.params.fixed_frame, time.time()
         return pfi.ComputeAssistance_Response.model_validate({  # one validation pass for the whole answer
-            "autonomy_vector": twist_stamped(answer.autonomy_vector, frame, now),
+            "autonomy_vector": twist_stamped_fields(answer.autonomy_vector, frame, now),
             "joint_velocities": np.asarray(answer.joint_velocities, dtype=float).tolist(),
-            "blended_command": twist_stamped(answer.blended_command, frame, now),
+            "blended_command": twist_stamped_fields(answer.blended_command, frame, now),
             "alpha": answer.alpha, "speed_scale": answer.speed_scale,
             "nearest_obstacle_id": answer.nearest_obstacle_id, "nearest_distance": answer.nearest_distance,
             "nearest_normal": _xyz(answer.nearest_normal), "robot_point": _xyz(answer.robot_point),

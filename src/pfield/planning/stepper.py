@@ -104,14 +104,21 @@ class WholeBodyStepper:
         if dt.__class__ is float and 0.0 <= dt < math.inf and q.__class__ is np.ndarray and \
                 q.dtype is _FLOAT64 and q.ndim == 1 and (previous is None or (
                     previous.__class__ is np.ndarray and previous.dtype is _FLOAT64 and previous.ndim == 1)):
-            if dt != self._bound_dt:
-                self._bind_dt(dt)
             given = previous is not None
             row = bound_step(q, previous if given else self._zeros, given, given and dt > 0.0,  # type: ignore[arg-type]
-                             self._table)
+                             self.bound_table(dt))
             if row.shape[0]:
                 return row
         return self.evaluate(self.robot.check_joint_angles(q, "joint_angles"), previous, dt)
+
+    def bound_table(self, dt: float) -> NDArray[np.int64]:
+        """The table of :func:`~pfield.planning._whole_body_flat.bound_step` with the parameters of ``dt``
+        (s, finite and ≥ 0, checked by the caller; 0: the nominal step), for callers that fuse the step
+        into their own compiled call (the whole-body assistance)."""
+        if dt != self._bound_dt:
+            self._bind_dt(dt)
+        table: NDArray[np.int64] = self._table
+        return table
 
     def _bind_dt(self, dt: float) -> None:
         self._bound_params[:] = self._params

@@ -99,9 +99,11 @@ def link_obstacle_distance_below(  # type: ignore[no-untyped-def]
         fine_cutoff):
     """:func:`link_obstacle_distance` for callers that need exact values only below ``fine_cutoff`` (≤ ``cutoff``).
 
-    The fine level skips every primitive whose bound exceeds ``fine_cutoff``; when that leaves none, the pair
-    gets ``fine_cutoff`` (a lower bound: every primitive is farther) and ``exact`` False. Values below
-    ``fine_cutoff`` are those of :func:`link_obstacle_distance`, bit for bit.
+    The fine level is skipped when the bounding capsule (which contains every primitive) is already at least
+    ``fine_cutoff`` away: the pair gets the capsule's distance and ``exact`` False. Otherwise it skips every
+    primitive whose bound exceeds ``fine_cutoff``; when that leaves none, the pair gets ``fine_cutoff`` (a lower
+    bound: every primitive is farther) and ``exact`` False. Values below ``fine_cutoff`` are those of
+    :func:`link_obstacle_distance`, bit for bit.
     """
     # the packed arrays once: each member read of ``packed`` in the loops below would update a reference count
     rows, kinds, meshes = packed.rows, packed.kinds, mesh_addresses(packed)
@@ -114,6 +116,8 @@ def link_obstacle_distance_below(  # type: ignore[no-untyped-def]
     d -= cap_r[link]
     if d >= FINE_RANGE:  # far: the bounding capsule's distance (a lower bound of the fitted model's)
         return d, True, a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2]), nx, ny, nz
+    if d >= fine_cutoff:  # the bounding capsule contains every primitive: none is closer than it
+        return d, False, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
     best, px, py, pz, bx, by, bz = math.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
     round_obstacle = kinds[i] == SPHERE or kinds[i] == CAPSULE
     # nothing whose lower bound exceeds ``limit`` can be the minimum: the best exact value so far, or (before
