@@ -17,7 +17,7 @@ from pfield._linalg import cholesky_inplace, cholesky_solve
 from pfield.field.forces import damper_speed, project_damper
 from pfield.geometry._packed import PackedObstacles
 from pfield.geometry._sdf import obstacle_signed_distance
-from pfield.planning._whole_body_flat import bound_step
+from pfield.planning._whole_body_flat import bound_step, bound_workspace
 from pfield.planning._whole_body_layout import (
     OUT_NEAREST_CAPSULE,
     OUT_NEAREST_DISTANCE,
@@ -132,7 +132,8 @@ def empty_output() -> np.ndarray:
 
 
 @njit(cache=True)
-def nearest_link(rotations, origins, model, packed, centres, bounds, scratch, segments, hint_c, hint_i):  # type: ignore[no-untyped-def]
+def nearest_link(rotations, origins, model, packed, centres, bounds, scratch, segments, hint_c, hint_i,  # type: ignore[no-untyped-def]
+                 segments_ready):
     """Closest link–obstacle pair of the fitted link model: (link, obstacle, clearance, nx, ny, nz, px, py, pz).
 
     ``model`` = (joints, cap_a, cap_b, cap_r, link_start, prim_joint, prim_a, prim_b, prim_r) of
@@ -142,12 +143,14 @@ def nearest_link(rotations, origins, model, packed, centres, bounds, scratch, se
     A pair whose bound is no better than the best so far is skipped
     (:func:`pfield.robot._clearance.link_obstacle_distance_below` with that cutoff). ``hint_c``, ``hint_i`` ≥ 0
     name a pair already known to be the closest (see :func:`bound_assist_step`): only it is evaluated.
+    ``segments_ready``: ``segments`` already hold the world segments at these joint frames.
     """
     joints, cap_a, cap_b, cap_r, link_start, prim_joint, prim_a, prim_b, prim_r = model
     seg_a, seg_b, prim_seg_a, prim_seg_b = segments
-    world_segments(rotations, origins, joints, cap_a, cap_b, seg_a, seg_b)
-    near_segments(rotations, origins, seg_a, seg_b, cap_r, link_start, prim_joint, prim_a, prim_b, centres, bounds,
-                  prim_seg_a, prim_seg_b)
+    if not segments_ready:
+        world_segments(rotations, origins, joints, cap_a, cap_b, seg_a, seg_b)
+        near_segments(rotations, origins, seg_a, seg_b, cap_r, link_start, prim_joint, prim_a, prim_b, centres,
+                      bounds, prim_seg_a, prim_seg_b)
     best, best_c, best_i = math.inf, -1, -1
     bn = np.zeros(3)
     bp = np.zeros(3)
@@ -220,17 +223,20 @@ def _times(point_jac, qd):  # type: ignore[no-untyped-def]
 @njit(cache=True)
 def assist_joints(q, lower, upper, kin, model, packed, centres, bounds, velocities, qd_auto, user,  # type: ignore[no-untyped-def]
                   params,
-                  rotations, origins, jac, point_jac, scratch, segments, qd, out):
+                  rotations, origins, jac, point_jac, scratch, segments, qd, out, frames_ready):
     """Whole-body assistance in one call (see :func:`pfield.assistance.whole_body_assistance` for the laws).
 
     ``kin``: the robot's packed kinematics (``RobotModel.kinematics``); ``model``, ``segments``: the fitted
     link model and its world-segment workspace (:func:`nearest_link`);
     ``qd`` receives the blended joint velocities, ``out`` (:data:`N_OUT_WHOLE_BODY`,) everything else.
+    ``frames_ready``: ``rotations``, ``origins``, ``jac`` and ``segments`` already hold the joint frames, the
+    end-effector Jacobian and the world segments at ``q`` (a field step's, :func:`bound_assist_step`).
     """
     n = q.shape[0]
     parents, place_rot, place_pos, axes, kinds, support, ee_joint, ee_rot, ee_pos = kin
-    end_effector_kinematics(q, parents, place_rot, place_pos, axes, kinds, support, ee_joint, ee_rot, ee_pos,
-                            rotations, origins, jac)
+    if not frames_ready:
+        end_effector_kinematics(q, parents, place_rot, place_pos, axes, kinds, support, ee_joint, ee_rot, ee_pos,
+                                rotations, origins, jac)
     # q̇_user = Jᵀ (J Jᵀ + λ² I)⁻¹ u_user, in loops (6 × n: LAPACK's call overhead exceeds the work)
     gram = np.empty((6, 6))
     for r in range(6):
@@ -258,7 +264,7 @@ def assist_joints(q, lower, upper, kin, model, packed, centres, bounds, velociti
     cap_joints = model[0]
     c, i, clearance, nx, ny, nz, px, py, pz = nearest_link(rotations, origins, model, packed, centres, bounds,
                                                            scratch, segments, int(params[HINT_LINK]),
-                                                           int(params[HINT_OBSTACLE]))
+                                                           int(params[HINT_OBSTACLE]), frames_ready)
     mode = int(params[MODE])
     alpha = 0.0
     if mode != MODE_SAFETY_ONLY and c >= 0:
@@ -303,9 +309,10 @@ def assist_joints(q, lower, upper, kin, model, packed, centres, bounds, velociti
     out[POINT], out[POINT + 1], out[POINT + 2] = px, py, pz
 
 
-@njit(cache=True)
-def bound_assist(q, qd_auto, user, params, qd, out, table):  # type: ignore[no-untyped-def]
-    """:func:`assist_joints` on the arrays bound by :func:`pfield.assistance._bind` (slot order there)."""
+@njit(cache=True, inline="always")
+def _unbound(table):  # type: ignore[no-untyped-def]
+    """The arrays bound by :class:`pfield.assistance._Workspace` (slot order there), as :func:`assist_joints`
+    takes them: kinematics, link model, obstacles, world segments."""
     kin = (int_view1(table, 0), float_view3(table, 1), float_view2(table, 2), float_view2(table, 3),
            int_view1(table, 4), int_view2(table, 5), int_view1(table, 6)[0], float_view2(table, 7),
            float_view1(table, 8))
@@ -316,10 +323,17 @@ def bound_assist(q, qd_auto, user, params, qd, out, table):  # type: ignore[no-u
                              float_view3(table, 21), float_view2(table, 22), float_view2(table, 23),
                              int_view2(table, 24), int_view2(table, 25))
     segments = (float_view2(table, 35), float_view2(table, 36), float_view2(table, 37), float_view2(table, 38))
+    return kin, model, packed, segments
+
+
+@njit(cache=True)
+def bound_assist(q, qd_auto, user, params, qd, out, table):  # type: ignore[no-untyped-def]
+    """:func:`assist_joints` on the arrays bound by :class:`pfield.assistance._Workspace`."""
+    kin, model, packed, segments = _unbound(table)
     assist_joints(q, float_view1(table, 26), float_view1(table, 27), kin, model, packed, float_view2(table, 28),
                   float_view1(table, 29), float_view2(table, 30), qd_auto, user, params, float_view3(table, 31),
                   float_view2(table, 32), float_view2(table, 33), float_view2(table, 34), float_view2(table, 39),
-                  segments, qd, out)
+                  segments, qd, out, False)
 
 
 @njit(cache=True)
@@ -354,7 +368,13 @@ def bound_assist_step(q, previous, given, use_previous, step_table, user, params
     known = params[SAFETY] + _OFFSET_ROUNDING < nearest < params[INFLUENCE]
     params[HINT_LINK] = row[OUT_NEAREST_CAPSULE] if known else -1.0
     params[HINT_OBSTACLE] = row[OUT_NEAREST_OBSTACLE] if known else -1.0
-    bound_assist(values, row[OUT_SIZE:], user, params, qd, out, table)
+    # continue from the step's joint frames, Jacobian and world segments (the same link model and obstacles)
+    ws = bound_workspace(step_table)
+    kin, model, packed, _ = _unbound(table)
+    assist_joints(values, lower, upper, kin, model, packed, float_view2(table, 28), float_view1(table, 29),
+                  float_view2(table, 30), row[OUT_SIZE:], user, params, ws.rotations, ws.origins, ws.jac,
+                  float_view2(table, 34), float_view2(table, 39), (ws.seg_a, ws.seg_b, ws.prim_seg_a, ws.prim_seg_b),
+                  qd, out, True)
     out[AT_GOAL] = 1.0 if at_goal else 0.0
     out[STALLED] = 1.0 if stalled else 0.0
     return row

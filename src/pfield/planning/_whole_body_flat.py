@@ -23,7 +23,7 @@ from pfield.planning._whole_body_loop import autonomy_step
 from pfield.robot._kinematics import check_limits
 from pfield.robot.model import LIMIT_TOLERANCE
 
-__all__ = ["FlatStep", "bound_step", "flat_step"]
+__all__ = ["FlatStep", "bound_step", "bound_workspace", "flat_step"]
 
 
 class FlatStep:
@@ -75,6 +75,14 @@ def flat_step(
     result[:size] = ws.out
     result[size:] = ws.x
     return result
+
+
+@njit(cache=True, inline="always")
+def bound_workspace(table: np.ndarray) -> _wb.Workspace:
+    """The workspace of :func:`bound_step`'s ``table``: after a step it holds that step's joint frames, its
+    end-effector Jacobian and world segments (for a caller that continues from them in compiled code)."""
+    dims = int_view1(table, 0)
+    return _wb.workspace_views(float_view1(table, 4), dims[0], dims[1], dims[4], dims[6])
 
 
 @njit(cache=True)

@@ -138,11 +138,13 @@ def _add_row(kin: tuple[np.ndarray, ...], jlin: np.ndarray, rows: np.ndarray, bo
 
 
 @njit(cache=True, inline="always")
-def _obstacle_rows(robot: RobotArrays, scene: Scene, params: np.ndarray, ws: Workspace, m: int) -> int:
+def _obstacle_rows(robot: RobotArrays, scene: Scene, params: np.ndarray, ws: Workspace, m: int, hold: bool) -> int:
     """Damper rows and null-space repulsion of every link–obstacle pair within Q; returns the row count.
 
     One row per pair, at the closest point of the link's nearest primitive
-    (:func:`pfield.robot._clearance.link_obstacle_distance`)."""
+    (:func:`pfield.robot._clearance.link_obstacle_distance`). A pair's distance less its start offset
+    (``scene.obstacle_offsets``); ``hold``: offsets taken at this very configuration, i.e. max(d, d_s) (a pair
+    already closer than d_s may not approach further), without the offsets array."""
     influence, dt = params[INFLUENCE], params[DT]
     clearance, culprit_c, culprit_o = math.inf, -1, -1
     # hoisted out of the loops: numba reference-counts tuple members on every access (see _distance)
@@ -162,7 +164,7 @@ def _obstacle_rows(robot: RobotArrays, scene: Scene, params: np.ndarray, ws: Wor
             clearance = min(clearance, d)
             if not exact:
                 continue
-            d -= offsets[c, i]
+            d = max(d, safety) if hold else d - offsets[c, i]
             if d < worst:
                 worst, culprit_c, culprit_o = d, c, i
             if d >= influence or cap_joint[c] < 0:
@@ -179,7 +181,9 @@ def _obstacle_rows(robot: RobotArrays, scene: Scene, params: np.ndarray, ws: Wor
 
 
 @njit(cache=True, inline="always")
-def _self_rows(robot: RobotArrays, scene: Scene, params: np.ndarray, ws: Workspace, m: int) -> int:
+def _self_rows(robot: RobotArrays, scene: Scene, params: np.ndarray, ws: Workspace, m: int, hold: bool) -> int:
+    """Damper rows of the self-collision pairs within Q (covering capsules); offsets and ``hold`` as in
+    :func:`_obstacle_rows`."""
     influence, dt = params[INFLUENCE], params[DT]
     speed, safety = params[XI] * params[V_MAX], params[SAFETY]
     clearance, nearest = math.inf, -1
@@ -191,7 +195,7 @@ def _self_rows(robot: RobotArrays, scene: Scene, params: np.ndarray, ws: Workspa
     for k in range(pairs.shape[0]):
         c1, c2 = pairs[k, 0], pairs[k, 1]
         d, p1x, p1y, p1z, p2x, p2y, p2z = link_pair_distance(c1, c2, seg_a, seg_b, self_r)
-        d -= offsets[k]
+        d = max(d, safety) if hold else d - offsets[k]
         if d < clearance:
             clearance, nearest = d, k
         if d >= influence:
@@ -263,17 +267,18 @@ def constrained_velocity(q: np.ndarray, previous: np.ndarray, has_prev: bool, ro
     self-collision, joint limits) into ``ws.x``, speed- and rate-limited, and its twist J q̇ into ``ws.out``;
     ``free_weight`` scales the dampers' free-space term added to the task. Returns the number of rows."""
     _segments_near(robot, scene, ws)
-    return velocity_from_segments(q, previous, has_prev, robot, scene, params, ws, free_weight)
+    return velocity_from_segments(q, previous, has_prev, robot, scene, params, ws, free_weight, False)
 
 
 @njit(cache=True, inline="always")
 def velocity_from_segments(q: np.ndarray, previous: np.ndarray, has_prev: bool, robot: RobotArrays, scene: Scene,
-                           params: np.ndarray, ws: Workspace, free_weight: float) -> int:
-    """:func:`constrained_velocity` once the world segments are in ``ws`` (:func:`_segments_near`)."""
+                           params: np.ndarray, ws: Workspace, free_weight: float, hold: bool) -> int:
+    """:func:`constrained_velocity` once the world segments are in ``ws`` (:func:`_segments_near`); ``hold``:
+    the start offsets are taken at ``q`` itself (:func:`_obstacle_rows`)."""
     ws.free[:] = 0.0
     # a run-time zero: with the literal 0, type inference also compiles hildreth for m = Literal[int](0)
-    m = _obstacle_rows(robot, scene, params, ws, np.int64(0))  # type: ignore[arg-type]
-    m = _self_rows(robot, scene, params, ws, m)
+    m = _obstacle_rows(robot, scene, params, ws, np.int64(0), hold)  # type: ignore[arg-type]
+    m = _self_rows(robot, scene, params, ws, m, hold)
     m = _joint_limit_rows(q, robot, params, ws, m)
     n = q.shape[0]
     for j in range(n):

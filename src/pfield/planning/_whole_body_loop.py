@@ -28,7 +28,6 @@ from pfield.planning._whole_body_layout import (
     OUT_SELF_CLEARANCE,
     OUT_TWIST,
     ROT_TOL,
-    SAFETY,
     STAG_PROGRESS,
     STAG_STEPS,
     TOL,
@@ -38,7 +37,7 @@ from pfield.planning._whole_body_layout import (
     make_workspace,
 )
 from pfield.planning.status import PlanStatus
-from pfield.robot._clearance import clearances_at, fill_clearances
+from pfield.robot._clearance import clearances_at
 from pfield.robot._kinematics import joint_transforms
 
 
@@ -114,36 +113,15 @@ def plan_loop(q0: np.ndarray, robot: RobotArrays, scene: Scene, goal_p: np.ndarr
 
 
 @njit(cache=True)
-def fill_pair_distances(q: np.ndarray, robot: RobotArrays, scene: Scene, ws: Workspace, obstacle: np.ndarray,
-                        own: np.ndarray, cutoff: float) -> None:
-    """Link clearances (m) at ``q`` into ``obstacle`` (L, M, link–obstacle) and ``own`` (P, self pairs).
-
-    Link–obstacle pairs whose bounding-capsule bound is ≥ ``cutoff`` get that bound instead of the exact value.
-    """
-    joint_transforms(q, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds, ws.rotations,
-                     ws.origins)
-    _segments_near(robot, scene, ws)
-    fill_clearances(ws.seg_a, ws.seg_b, robot.cap_r, robot.self_r, robot.link_start, ws.prim_seg_a, ws.prim_seg_b,
-                    robot.prim_r, robot.self_pairs, scene.packed, scene.centres, scene.bounds, ws.scratch, obstacle,
-                    own, cutoff)
-
-
-@njit(cache=True)
 def autonomy_step(q: np.ndarray, previous: np.ndarray, has_prev: bool, robot: RobotArrays, scene: Scene,
                   goal_p: np.ndarray, goal_q: np.ndarray, params: np.ndarray, ws: Workspace) -> int:
     """One whole-body field evaluation at ``q`` for shared control: the start offsets are taken at ``q`` itself
-    (pairs already closer than d_s may not approach further), then :func:`joint_velocity_step`."""
-    obstacle, own = scene.obstacle_offsets, scene.self_offsets
-    safety = params[SAFETY]
-    fill_pair_distances(q, robot, scene, ws, obstacle, own, safety)
-    for c in range(obstacle.shape[0]):
-        for i in range(obstacle.shape[1]):
-            obstacle[c, i] = min(obstacle[c, i] - safety, 0.0)
-    for k in range(own.shape[0]):
-        own[k] = min(own[k] - safety, 0.0)
-    # the joint frames and world segments at q are those fill_pair_distances left in ws
+    (pairs already closer than d_s may not approach further: ``hold``), then :func:`velocity_from_segments`."""
+    joint_transforms(q, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds, ws.rotations,
+                     ws.origins)
+    _segments_near(robot, scene, ws)
     _task(robot, goal_p, goal_q, params, ws)
-    return velocity_from_segments(q, previous, has_prev, robot, scene, params, ws, params[DAMPING])
+    return velocity_from_segments(q, previous, has_prev, robot, scene, params, ws, params[DAMPING], True)
 
 
 def pair_distances(q: np.ndarray, robot: RobotArrays, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
