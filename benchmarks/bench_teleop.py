@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks._common import BenchRow, cpu_time, median_time
-from pfield.demo._teleop_sim import MODES, Operator, TeleopRun, simulate, simulate_arm
+from pfield.demo._teleop_sim import ARM_DISTANCE, MODES, Operator, TeleopRun, arm_scene, simulate, simulate_arm
 from pfield.geometry import Box, Cylinder, Obstacle, Sphere
 from pfield.planning.scenes import BENCH_GOAL, BENCH_START, SEED_GOAL, SEED_START, seed_obstacles, sphere_line_scene
 from pfield.spatial import Pose
@@ -60,25 +60,17 @@ def scenes() -> dict[str, tuple[list[Obstacle], np.ndarray, np.ndarray, dict[str
             "boxes": ([*boxes, m3], _S, _G, {"mover": f3})}
 
 
-ARM_DISTANCE = 0.3  # m, the xArm7 case's start-to-goal distance along +y
 GOAL_TOLERANCE = 0.02  # m, simulate()'s and simulate_arm()'s default
 
 
 def _arm_runs(mode: str, runs: int) -> list[TeleopRun]:
-    """xArm7 whole body: the end effector 0.3 m along +y past two spheres (static; exact coal checks).
-
-    The second sphere stands off the line far enough from the goal that the wrist reaches the goal with the
-    field's safety distance (the field alone plans there)."""
+    """xArm7 whole body (:func:`pfield.demo._teleop_sim.arm_scene`, exact coal checks)."""
     from pfield.robot import RobotModel
     from pfield.robot.collision import CollisionChecker
 
     robot = RobotModel.builtin("xarm7")
-    q0 = np.array([0.0, -0.3, 0.0, 0.6, 0.0, 0.9, 0.0])
-    p0 = robot.forward_kinematics(q0).position
-    obstacles = [Obstacle("s0", Sphere(0.04), Pose(p0 + np.array([0.0, 0.15, 0.0]))),
-                 Obstacle("s1", Sphere(0.03), Pose(p0 + np.array([0.02, 0.20, 0.05])))]
+    q0, obstacles, goal = arm_scene(robot)
     checker = CollisionChecker(robot, obstacles)
-    goal = p0 + np.array([0.0, ARM_DISTANCE, 0.0])
     return [simulate_arm(robot, obstacles, q0, goal, mode, seed, checker=checker) for seed in range(runs)]
 
 

@@ -250,3 +250,18 @@ def test_assisted_teleop_demo_run_avoids_what_the_operator_alone_hits(tmp_path: 
     assert np.all((helped.alpha >= 0.0) & (helped.alpha <= 1.0))
     assisted.run(tmp_path, Console(quiet=True))
     assert (tmp_path / "assisted_teleop.png").stat().st_size > 0
+
+
+def test_whole_body_assisted_teleop_reaches_the_goal_clear_of_the_spheres(xarm: Any) -> None:
+    """The teleop benchmark's whole-body case: the operator alone drives the arm into the first sphere, MoveIt
+    Servo's scaling stops it short, pfield's assistance steers the arm around both to the goal."""
+    from pfield.demo._teleop_sim import arm_scene, simulate_arm
+    from pfield.robot.collision import CollisionChecker
+
+    q0, obstacles, goal = arm_scene(xarm)
+    checker = CollisionChecker(xarm, obstacles)
+    runs = {mode: simulate_arm(xarm, obstacles, q0, goal, mode, 0, checker=checker)
+            for mode in ("none", "servo", "pfield")}
+    assert runs["none"].collided
+    assert not runs["servo"].collided and not runs["servo"].success
+    assert runs["pfield"].success and not runs["pfield"].collided and runs["pfield"].clearance.min() > 0.0

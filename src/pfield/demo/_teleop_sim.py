@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 from pfield._assistance_kernel import servo_scale
 from pfield.assistance import AssistanceScene, task_space_assistance
 from pfield.field import FieldConfig, PotentialField
-from pfield.geometry import Obstacle, pack_obstacles, signed_distances
+from pfield.geometry import Obstacle, Sphere, pack_obstacles, signed_distances
 from pfield.node._manager_state import Held
 from pfield.node._obstacle_motion import updated_held
 from pfield.spatial import Pose, Twist
@@ -122,6 +122,23 @@ def simulate(obstacles: Sequence[Obstacle], start: NDArray[np.float64], goal: ND
             success, reached = True, t + dt
             break
     return _outcome(rows, history, collided, success, reached)
+
+
+ARM_START = (0.0, -0.3, 0.0, 0.6, 0.0, 0.9, 0.0)  # rad, the xArm7's joints at the start of arm_scene()
+ARM_DISTANCE = 0.3  # m, arm_scene()'s start-to-goal distance along +y
+
+
+def arm_scene(robot: Any) -> tuple[NDArray[np.float64], list[Obstacle], NDArray[np.float64]]:
+    """The whole-body case of the teleop benchmark: (start joints, obstacles, goal) for the xArm7 ``robot``.
+
+    The end effector goes :data:`ARM_DISTANCE` along +y past two static spheres: one on the straight line, one
+    5 cm above and 2 cm beside it, far enough from the goal that the wrist reaches the goal with the field's
+    safety distance (the field alone plans there)."""
+    q0 = np.array(ARM_START)
+    p0 = robot.forward_kinematics(q0).position
+    obstacles = [Obstacle("s0", Sphere(0.04), Pose(p0 + np.array([0.0, 0.15, 0.0]))),
+                 Obstacle("s1", Sphere(0.03), Pose(p0 + np.array([0.02, 0.20, 0.05])))]
+    return q0, obstacles, p0 + np.array([0.0, ARM_DISTANCE, 0.0])
 
 
 def simulate_arm(robot: Any, obstacles: Sequence[Obstacle], q0: NDArray[np.float64], goal: NDArray[np.float64],
