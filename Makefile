@@ -50,7 +50,13 @@ chromium:
 test: lint ros2-interfaces chromium
 	$(VENV)/bin/pytest -q
 
-bench: $(STAMP) ros2-interfaces
+# the benchmarks' own peers (the `bench` extra: OMPL), installed on the first `make bench`
+BENCH_STAMP := $(VENV)/.bench-installed
+$(BENCH_STAMP): pyproject.toml | $(STAMP)
+	$(PY) -m pip install --quiet -e '.[dev,ros2,viewer,ray,bench]'
+	@touch $@
+
+bench: $(STAMP) $(BENCH_STAMP) ros2-interfaces
 	-@$(MAKE) --no-print-directory anchor
 	$(PY) -m benchmarks.run
 
