@@ -248,9 +248,10 @@ def assist_joints(q, lower, upper, kin, model, packed, centres, bounds, velociti
     out[SINGULAR] = 1.0 if below_singular_value(gram, params[SINGULARITY]) else 0.0
     for k in range(6):
         gram[k, k] += params[DAMPING] * params[DAMPING]
-    cholesky_inplace(gram, 6)
+    size = gram.shape[0]  # a run-time 6: with the literal, the solver would compile a second time
+    cholesky_inplace(gram, size)
     y = np.empty(6)
-    cholesky_solve(gram, user, y, 6)
+    cholesky_solve(gram, user, y, size)
     qd_user = np.empty(n)
     for j in range(n):
         total = 0.0
@@ -333,7 +334,7 @@ def bound_assist(q, qd_auto, user, params, qd, out, table):  # type: ignore[no-u
     assist_joints(q, float_view1(table, 26), float_view1(table, 27), kin, model, packed, float_view2(table, 28),
                   float_view1(table, 29), float_view2(table, 30), qd_auto, user, params, float_view3(table, 31),
                   float_view2(table, 32), float_view2(table, 33), float_view2(table, 34), float_view2(table, 39),
-                  segments, qd, out, False)
+                  segments, qd, out, q.shape[0] < 0)  # False, as a run-time bool: one compile for both callers
 
 
 @njit(cache=True)
@@ -374,7 +375,7 @@ def bound_assist_step(q, previous, given, use_previous, step_table, user, params
     assist_joints(values, lower, upper, kin, model, packed, float_view2(table, 28), float_view1(table, 29),
                   float_view2(table, 30), row[OUT_SIZE:], user, params, ws.rotations, ws.origins, ws.jac,
                   float_view2(table, 34), float_view2(table, 39), (ws.seg_a, ws.seg_b, ws.prim_seg_a, ws.prim_seg_b),
-                  qd, out, True)
+                  qd, out, row.shape[0] > 0)  # True, as a run-time bool (see bound_assist)
     out[AT_GOAL] = 1.0 if at_goal else 0.0
     out[STALLED] = 1.0 if stalled else 0.0
     return row

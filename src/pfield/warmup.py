@@ -166,6 +166,9 @@ def _autonomy(scratch: Path) -> None:
     assistance = AssistanceScene(field=field)
     task_space_assistance(assistance, SEED_START, Twist((0.02, 0.0, 0.0)))
     whole_body_assistance(assistance, robot, q, Twist((0.02, 0.0, 0.0)))
+    # without a goal (the node before its first goal): the assistance alone, no field step
+    no_goal = AssistanceScene(config=field.config, obstacles=field.obstacles)
+    whole_body_assistance(no_goal, robot, q, Twist((0.02, 0.0, 0.0)))
 
 
 def _global_fallback(scratch: Path) -> None:
