@@ -50,7 +50,7 @@ from pfield.field.config import FieldConfig
 from pfield.field.field import _fast_twist
 from pfield.geometry import Obstacle, pack_obstacles
 from pfield.geometry._sdf import empty_packed
-from pfield.planning._whole_body_layout import OUT_ORIENTATION, OUT_POSITION, OUT_TWIST
+from pfield.planning._whole_body_layout import OUT_TWIST
 from pfield.planning.whole_body import obstacle_bounds
 from pfield.robot.model import RobotModel
 from pfield.spatial import Pose, Twist
@@ -60,7 +60,7 @@ __all__ = ["ARBITRATIONS", "Assistance", "AssistanceOptions", "AssistanceScene",
 
 ARBITRATIONS = ("linear", "linear_goal", "safety_only")
 _FLOAT64 = np.dtype(np.float64)
-_TWIST, _POSITION, _ORIENTATION = slice(*OUT_TWIST), slice(*OUT_POSITION), slice(*OUT_ORIENTATION)
+_TWIST = slice(*OUT_TWIST)
 _MODES = {name: i for i, name in enumerate(ARBITRATIONS)}
 
 
@@ -213,24 +213,6 @@ def _goal_flags(scene: AssistanceScene, pose: Pose, autonomy: NDArray[np.float64
         flags |= Flag.AT_GOAL
     elif math.hypot(*autonomy[:3]) < options.stall_speed and math.hypot(*autonomy[3:]) < options.stall_speed:
         flags |= Flag.STALLED
-    return flags, min(max(1.0 - distance / options.goal_radius, 0.0), 1.0)
-
-
-def _goal_flags_at(scene: AssistanceScene, position: NDArray[np.float64], orientation: NDArray[np.float64],
-                   autonomy: NDArray[np.float64]) -> tuple[int, float]:
-    """:func:`_goal_flags` at the end-effector pose (``position``, ``orientation``) of a compiled step's row
-    (the :class:`Pose` is built only when the rotation matters: within the goal tolerance)."""
-    goal, options = scene.field.goal, scene.options
-    error = position - goal.position
-    distance = math.sqrt(error.dot(error))  # np.linalg.norm's own formula for a vector: the same float
-    flags = 0
-    if distance <= options.goal_tolerance and \
-            Pose(position, orientation).rotation_distance(goal) <= scene.field.config.rotation_tolerance:
-        flags |= Flag.AT_GOAL
-    else:
-        v = autonomy.tolist()
-        if math.hypot(v[0], v[1], v[2]) < options.stall_speed and math.hypot(v[3], v[4], v[5]) < options.stall_speed:
-            flags |= Flag.STALLED
     return flags, min(max(1.0 - distance / options.goal_radius, 0.0), 1.0)
 
 
@@ -388,7 +370,8 @@ def whole_body_assistance(scene: AssistanceScene, robot: RobotModel, joint_angle
     link clearance; then the nearest link point's relative approach speed −n̂ᵀ(J_p q̇ − v_obs) is held below
     the damper by the minimum-norm correction Δq̇ = J_pᵀ n̂ e / ‖J_pᵀ n̂‖² (e the excess).
     ``blended_command`` = J q̇; ``time_to_collision`` is that of the nearest link point under q̇_user.
-    Evaluated in one compiled call after the autonomy's (:func:`pfield._assistance_kernel.assist_joints`).
+    The field's step (the autonomy's q̇) and all of this run in one compiled call
+    (:func:`pfield._assistance_kernel.bound_assist_step`); without a goal, the assistance alone.
     """
     mode = _mode(scene, arbitration)
     step = in_range("delta_time", dt, 0.0, math.inf, "s") if dt else 0.0
