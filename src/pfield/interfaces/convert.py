@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -329,6 +330,10 @@ class _PlanJson:
         yield ',"error_message":' + to_json(self.path.failure_reason).decode() + "}"
 
 
+_MATERIALISING = threading.RLock()
+"""Held while a lazy plan model builds its pydantic objects (re-entrant: nested models build inside)."""
+
+
 class _Lazy:
     """Mixin of the plan-response models whose large lists (``_lazy_fields``) are held as arrays: their JSON
     is written from the arrays (:class:`_PlanJson`), and the pydantic objects are built only when a field is
@@ -337,21 +342,27 @@ class _Lazy:
     _lazy_fields: ClassVar[tuple[str, ...]] = ()
 
     def _materialise(self: Any) -> None:
-        missing = [name for name in self._lazy_fields if name not in self.__dict__]
-        if missing:
-            base: Any = type(self).__mro__[2]  # the message model (this class, _Lazy, model)
-            full = base.model_validate_json(self.model_dump_json())
-            values = self.__dict__ | {name: getattr(full, name) for name in missing}
-            self.__dict__.clear()  # in field order, as pydantic writes them
-            self.__dict__.update({name: values[name] for name in type(self).model_fields})
-        for value in list(self.__dict__.values()):
-            if isinstance(value, _Lazy):
-                value._materialise()
+        with _MATERIALISING:
+            missing = [name for name in self._lazy_fields if name not in self.__dict__]
+            if missing:
+                base: Any = type(self).__mro__[2]  # the message model (this class, _Lazy, model)
+                full = base.model_validate_json(self.model_dump_json())
+                values = self.__dict__ | {name: getattr(full, name) for name in missing}
+                self.__dict__.clear()  # in field order, as pydantic writes them
+                self.__dict__.update({name: values[name] for name in type(self).model_fields})
+            for value in list(self.__dict__.values()):
+                if isinstance(value, _Lazy):
+                    value._materialise()
 
     def __getattr__(self, name: str) -> Any:
-        if name in type(self)._lazy_fields:
-            self._materialise()
-            return self.__dict__[name]
+        if name in type(self)._lazy_fields or name in type(self).model_fields:  # type: ignore[attr-defined]
+            # a field not in __dict__: lazy, or being rebuilt by another thread (the ROS 2 publisher and a
+            # service answer may read one plan's path at once): wait for that, then read it
+            with _MATERIALISING:
+                if name in type(self)._lazy_fields:
+                    self._materialise()
+                if name in self.__dict__:
+                    return self.__dict__[name]
         return super().__getattr__(name)  # type: ignore[misc]
 
     def json_chunks(self) -> Iterator[str]:
