@@ -6,8 +6,8 @@
 * The same with the seed's whole-body request (xArm7 joint angles).
 * WebSocket: the node publishes a burst of TwistStamped messages on its bus; one client on
   ``/ws/topic/pfield/autonomy_vector`` counts them; messages per second from first to last. Target ≥ 1000.
-* Handlers off the event loop: the task-space round trip again with short services run on the event loop
-  (as before) instead of the calls thread, to show what moving them costs.
+* Quick calls: a control-loop call that the node knows to be cheap is answered on the event loop, the
+  others on the calls thread; the assistance round trip below is also measured with every call on the thread.
 * Under load: 8 keep-alive connections (lean ``http.client`` loops) post the autonomy request while another
   asks for plans at the iteration cap (200 000 iterations, a slow approach that uses them all), every client
   in a process of its own (as a robot's control loops are; clients in the server's process would share its
@@ -16,7 +16,8 @@
   time. Then the same with the 8 connections calling back to back (saturation: the calls thread serves them
   one at a time, so p99 there is a queue of 8, and the note gives the throughput).
 * ``compute_assistance``: the round trip of a task-space request with an operator command (seed goal, no
-  obstacles), target p50 ≤ 1 ms.
+  obstacles) from a lean keep-alive client in its own process (as a robot's control loop calls the node),
+  target p50 ≤ 1 ms; and from httpx in the server's process (the client then shares the server's GIL).
 * Plan response: time to write the JSON of a 200 000-waypoint whole-body-sized response from the plan's arrays,
   and (before) through one validated pydantic object per waypoint (``model_validate`` + ``model_dump_json``).
 * Memory: RSS growth of the server process under 300 junk topic names of 300 kB messages, and under a
@@ -27,14 +28,15 @@ The C++ original has no HTTP interface (no reference figure).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import subprocess
 import sys
 import tempfile
 import threading
 import time
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import httpx
 import numpy as np
@@ -103,6 +105,20 @@ def _assistance_round_trip(url: str, calls: int) -> tuple[float, float]:
     return _percentiles(samples)
 
 
+CALLER_MODES = {"autonomy": ("/srv/pfield/compute_autonomy_vector", QUERY),
+                "assistance": ("/srv/pfield/compute_assistance", ASSISTANCE)}
+"""The calls of a lean control-loop client (:func:`_client_main`): route and body."""
+
+
+def _lean_round_trip(url: str, mode: str, calls: int) -> tuple[float, float]:
+    """p50, p99 (ms) of ``calls`` back-to-back calls of ``mode`` from a lean client in its own process (as a
+    robot's control loop calls the node), after 50 unmeasured ones."""
+    warm = _client_process(url, mode, 50, 0.0)
+    warm.communicate()
+    caller = _client_process(url, mode, calls, 0.0)
+    return _percentiles(json.loads(caller.communicate()[0]))
+
+
 def _websocket_rate(url: str, bus: Bus, count: int) -> float:
     from pfield.interfaces.geometry_msgs import TwistStamped
 
@@ -148,8 +164,9 @@ def _client_process(url: str, mode: str, count: int, rate: float) -> subprocess.
 
 
 def _client_main(url: str, mode: str, count: int, rate: float) -> None:
-    """``plan``: ``count`` capped plans, then print their wall times. ``autonomy``: call until the file
-    ``<url hash>.stop`` appears (or ``count`` calls), at ``rate`` Hz (0: back to back); print the latencies.
+    """``plan``: ``count`` capped plans, then print their wall times. ``autonomy`` (``assistance``): call
+    ``compute_autonomy_vector`` with :data:`QUERY` (``compute_assistance`` with :data:`ASSISTANCE`) until the
+    file ``<url hash>.stop`` appears (or ``count`` calls), at ``rate`` Hz (0: back to back); print the latencies.
 
     The autonomy caller is a lean control loop: one keep-alive ``http.client`` connection and a body
     encoded once, so that its own CPU time (httpx costs several times more per call) does not crowd the
@@ -168,17 +185,18 @@ def _client_main(url: str, mode: str, count: int, rate: float) -> None:
 
     host, port = url.removeprefix("http://").rsplit(":", 1)
     connection = http.client.HTTPConnection(host, int(port), timeout=600)
-    body, headers = json.dumps(QUERY).encode(), {"Content-Type": "application/json"}
+    path, query = CALLER_MODES[mode]
+    body, headers = json.dumps(query).encode(), {"Content-Type": "application/json"}
     period = 1.0 / rate if rate > 0 else 0.0
     stop = Path(tempfile.gettempdir()) / f"pfield-bench-{port}.stop"
     next_call = time.perf_counter()
     while len(samples) < count and not stop.exists():
         start = time.perf_counter()
-        connection.request("POST", "/srv/pfield/compute_autonomy_vector", body, headers)
+        connection.request("POST", path, body, headers)
         response = connection.getresponse()
         response.read()
         if response.status != 200:
-            raise RuntimeError(f"autonomy call answered {response.status}")
+            raise RuntimeError(f"{mode} call answered {response.status}")
         samples.append(time.perf_counter() - start)
         next_call += period
         time.sleep(max(0.0, next_call - time.perf_counter()))
@@ -257,23 +275,23 @@ def _memory_under_floods(url: str) -> tuple[float, float]:
     return junk, reader
 
 
-def _on_the_event_loop() -> Any:
-    """Patch the transport so that short services run on the event loop (the previous behaviour)."""
-    from pfield.transport import http
+@contextlib.contextmanager
+def _every_call_on_the_calls_thread() -> Iterator[None]:
+    """No call counts as quick (the manager's bound at 0 s): every call is handed to the calls thread, as
+    before quick calls were answered on the event loop."""
+    from pfield.node import manager
 
-    original = http._Routes.call
-
-    async def inline(self: Any, fn: Any, *args: Any) -> Any:
-        return fn(*args)
-
-    http._Routes.call = inline  # type: ignore[method-assign]
-    return original
+    bound = manager.QUICK_CALL_SECONDS
+    manager.QUICK_CALL_SECONDS = 0.0
+    try:
+        yield
+    finally:
+        manager.QUICK_CALL_SECONDS = bound
 
 
 def run(quick: bool) -> list[BenchRow]:
     from pfield.node.manager import ManagerNode
     from pfield.robot import RobotModel
-    from pfield.transport import http
     from pfield.transport.http import ServerThread, create_app
 
     calls, burst, plans, waypoints = (300, 2000, 1, 20_000) if quick else (2000, 20000, 3, 200_000)
@@ -289,12 +307,9 @@ def run(quick: bool) -> list[BenchRow]:
         junk_mb, reader_mb = _memory_under_floods(server.url)
     with ServerThread(create_app([ManagerNode(Bus(), RobotModel.builtin("xarm7"))])) as server:
         assist50, assist99 = _assistance_round_trip(server.url, calls)
-    original = _on_the_event_loop()
-    try:
-        with ServerThread(create_app([ManagerNode(Bus(), RobotModel.builtin("xarm7"))])) as server:
-            loop50, loop99 = _round_trip(server.url, calls, QUERY)
-    finally:
-        http._Routes.call = original  # type: ignore[method-assign]
+        lean50, lean99 = _lean_round_trip(server.url, "assistance", calls)
+        with _every_call_on_the_calls_thread():
+            thread50, thread99 = _lean_round_trip(server.url, "assistance", calls)
     fast_s, slow_s, megabytes = _plan_response_times(waypoints)
     return [
         BenchRow(SECTION, "compute_autonomy_vector HTTP round trip p50", p50, "ms", target=2.0,
@@ -304,16 +319,18 @@ def run(quick: bool) -> list[BenchRow]:
                  note=f"xArm7, {calls} calls; p99 {wb99:.2f} ms"),
         BenchRow(SECTION, "WebSocket TwistStamped stream", rate, "messages/s", target=1000.0,
                  higher_is_better=True, note=f"burst of {burst}, one client"),
-        BenchRow(SECTION, "compute_autonomy_vector round trip p50, handler on the event loop", loop50, "ms",
-                 note=f"for comparison with the calls thread above; p99 {loop99:.2f} ms"),
         BenchRow(SECTION, "autonomy round trip p99 while capped plans run", load99, "ms", target=5.0,
                  note=f"8 connections at {CONTROL_RATE_HZ:.0f} Hz, each its own process, {load_calls} calls, "
                       f"p50 {load50:.2f} ms; {plans} plan(s) of 200 000 iterations, {plan_s:.1f} s each"),
         BenchRow(SECTION, "autonomy round trip p99 while capped plans run, back to back", sat99, "ms",
                  note=f"8 connections calling without pause: {sat_rate:.0f} calls/s, {sat_calls} calls, "
                       f"p50 {sat50:.2f} ms"),
-        BenchRow(SECTION, "compute_assistance HTTP round trip p50", assist50, "ms", target=1.0,
-                 note=f"{calls} calls, task space with an operator command, no obstacles; p99 {assist99:.2f} ms"),
+        BenchRow(SECTION, "compute_assistance HTTP round trip p50", lean50, "ms", target=1.0,
+                 note=f"{calls} calls from a lean client in its own process, task space with an operator command, "
+                      f"no obstacles; p99 {lean99:.2f} ms; every call on the calls thread (before): p50 "
+                      f"{thread50:.2f}, p99 {thread99:.2f} ms"),
+        BenchRow(SECTION, "compute_assistance HTTP round trip p50, httpx client in the server's process",
+                 assist50, "ms", note=f"the client shares the server's GIL; p99 {assist99:.2f} ms"),
         BenchRow(SECTION, "plan response JSON from the arrays", fast_s, "s",
                  note=f"{waypoints} waypoints with 7 joints, {megabytes:.0f} MB"),
         BenchRow(SECTION, "plan response JSON through per-waypoint pydantic objects (before)", slow_s, "s",

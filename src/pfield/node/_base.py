@@ -39,6 +39,11 @@ class ServiceSpec:
     cancellable: bool = False
     """True when the handler accepts ``cancel=`` a :class:`~pfield.planning.CancelToken`; transports pass
     one per call and cancel it when the caller goes away (HTTP client disconnected, ROS request dropped)."""
+    quick: Callable[[Any], bool] | None = None
+    """Given a decoded request: True when the node knows this call to be cheap now (the same kind of call,
+    on the same derived state, answered within the node's bound a moment ago). A transport may then run it
+    on its event loop instead of handing it to a thread (HTTP: a control-loop call saves two thread
+    hand-offs); anything else, or a call it cannot judge, goes to the thread as usual."""
 
 
 @dataclass(frozen=True)

@@ -178,6 +178,12 @@ class Memo(Generic[T]):
         return self._key is not None and len(key) == len(self._key) and all(
             a is b or (isinstance(a, int) and a == b) for a, b in zip(key, self._key, strict=True))
 
+    def ready(self, state: ManagerState) -> bool:
+        """True when :meth:`get` would return at once (the value for ``state`` is built)."""
+        key = self._key_of(state)
+        with self._lock:
+            return self._hit(key)
+
     def get(self, state: ManagerState) -> T:
         key = self._key_of(state)
         with self._lock:

@@ -90,6 +90,12 @@ MAX_PLAN_WORK = 50_000_000
 """Largest ``max_iterations × max(1, obstacles)`` of one plan (obstacle-steps): e.g. 200 000 iterations
 among 250 obstacles or 30 000 among 1666. Measured ~0.6 µs per obstacle-step (task space, spheres), so
 the obstacles cost a capped plan at most ~30 s."""
+QUICK_CALL_SECONDS = 0.5e-3
+"""s: a control-loop call (autonomy vector, assistance) that took at most this long is *quick*: the next one
+of its kind, on the same derived state and no more obstacles, may be answered on the transport's event loop
+(:attr:`~pfield.node._base.ServiceSpec.quick`). The first of a kind (kernels may still compile), one after a
+goal or obstacle change (the field is rebuilt) and any slower one always run on the calls thread, so a loop
+stall is bounded by one call that was measured quick."""
 _INT32_SECONDS = 2**31 - 1
 _CANCELLED = pfi.PlanPath_Response(success=False, error_message="cancelled: the caller went away")
 TASK_SPACE, WHOLE_BODY = pfi.PLANNING_METHOD_TASK_SPACE, pfi.PLANNING_METHOD_WHOLE_BODY
@@ -144,6 +150,8 @@ class ManagerNode(Node):
         self.assistance_options = assistance or AssistanceOptions()
         self._scene: Memo[AssistanceScene] = Memo(self._make_scene, depends=("config", "goal", "obstacles"))
         self._plan_count = 0
+        self._call_costs: dict[tuple[str, str, bool], tuple[int, float]] = {}
+        """(service, planning_method, has a goal) → (obstacle count, s) of the last such call answered."""
 
     # ---- node contract ------------------------------------------------------------------------------
     def services(self) -> list[ServiceSpec]:
@@ -152,11 +160,12 @@ class ManagerNode(Node):
                         pfi.PlanPath_Response, self.plan_path, long_running=True, cancellable=True),
             ServiceSpec("/pfield/compute_autonomy_vector", "potential_fields_interfaces/srv/ComputeAutonomyVector",
                         pfi.ComputeAutonomyVector_Request, pfi.ComputeAutonomyVector_Response,
-                        # not long_running (nor is compute_assistance): the transports already run them off
-                        # their event loop, and a control loop calling them at rate must not queue behind plans
-                        self.compute_autonomy_vector),
+                        # not long_running (nor is compute_assistance): a control loop calling them at rate
+                        # must not queue behind plans
+                        self.compute_autonomy_vector, quick=self._quick("autonomy", self._field)),
             ServiceSpec("/pfield/compute_assistance", "potential_fields_interfaces/srv/ComputeAssistance",
-                        pfi.ComputeAssistance_Request, pfi.ComputeAssistance_Response, self.compute_assistance),
+                        pfi.ComputeAssistance_Request, pfi.ComputeAssistance_Response, self.compute_assistance,
+                        quick=self._quick("assistance", self._scene)),
             ServiceSpec("/pfield/remove_obstacles", "potential_fields_interfaces/srv/RemoveObstacles",
                         pfi.RemoveObstacles_Request, pfi.RemoveObstacles_Response, self.remove_obstacles,
                         long_running=True),
@@ -413,7 +422,7 @@ class ManagerNode(Node):
     def compute_autonomy_vector(self, request: pfi.ComputeAutonomyVector_Request
                                 ) -> pfi.ComputeAutonomyVector_Response:
         """The field's limited twist at the query pose (task_space) or at ``joint_angles`` (whole_body)."""
-        state = self._state
+        started, state = time.perf_counter(), self._state
         method, dt, q, qd, pose = self._query(request, state)
         field = self._field.get(state)
         if field is None:
@@ -424,7 +433,23 @@ class ManagerNode(Node):
             assert pose is not None
             twist = field.twist(pose)
         vector = twist_stamped(twist, state.params.fixed_frame, time.time())
-        return pfi.ComputeAutonomyVector_Response(autonomy_vector=vector)
+        response = pfi.ComputeAutonomyVector_Response(autonomy_vector=vector)
+        self._answered("autonomy", request, state, started)
+        return response
+
+    def _quick(self, kind: str, memo: Memo[Any]) -> Any:
+        """The :attr:`ServiceSpec.quick` test of one control-loop service (see :data:`QUICK_CALL_SECONDS`)."""
+        def quick(request: Any) -> bool:
+            state = self._state
+            last = self._call_costs.get((kind, request.planning_method, state.goal is not None))
+            return (last is not None and last[1] <= QUICK_CALL_SECONDS and len(state.obstacles) <= last[0]
+                    and memo.ready(state))
+        return quick
+
+    def _answered(self, kind: str, request: Any, state: ManagerState, started: float) -> None:
+        """Record what a control-loop call of ``kind`` cost (for :meth:`_quick`)."""
+        key = (kind, request.planning_method, state.goal is not None)
+        self._call_costs[key] = (len(state.obstacles), time.perf_counter() - started)
 
     def _query(self, request: Any, state: ManagerState) -> tuple[str, float, Any, Any, Pose | None]:
         """The ComputeAutonomyVector fields of ``request`` validated: (method, dt, q, q̇_prev, pose)."""
@@ -460,7 +485,7 @@ class ManagerNode(Node):
         approach limited). ``user_command`` in another frame is rotated into the fixed frame; its stamp (when
         non-zero) dates it for ``FLAG_STALE_INPUT``.
         """
-        state = self._state
+        started, state = time.perf_counter(), self._state
         method, dt, q, qd, pose = self._query(request, state)
         if request.arbitration and request.arbitration not in ARBITRATIONS:
             raise InvalidInput("arbitration", request.arbitration, f"expected one of {list(ARBITRATIONS)} or empty")
@@ -482,7 +507,7 @@ class ManagerNode(Node):
             assert pose is not None
             answer = task_space_assistance(scene, pose, command, request.arbitration, input_age=age)
         frame, now = state.params.fixed_frame, time.time()
-        return pfi.ComputeAssistance_Response.model_validate({  # one validation pass for the whole answer
+        response = pfi.ComputeAssistance_Response.model_validate({  # one validation pass for the whole answer
             "autonomy_vector": twist_stamped_fields(answer.autonomy_vector, frame, now),
             "joint_velocities": np.asarray(answer.joint_velocities, dtype=float).tolist(),
             "blended_command": twist_stamped_fields(answer.blended_command, frame, now),
@@ -491,6 +516,8 @@ class ManagerNode(Node):
             "nearest_normal": _xyz(answer.nearest_normal), "robot_point": _xyz(answer.robot_point),
             "obstacle_point": _xyz(answer.obstacle_point), "time_to_collision": answer.time_to_collision,
             "flags": answer.flags, "message": answer.message})
+        self._answered("assistance", request, state, started)
+        return response
 
 
 def _xyz(values: Any) -> dict[str, float]:

@@ -18,9 +18,10 @@ other than this server is refused (421), a state-changing request or WebSocket f
 
 Errors are JSON ``{"error", "field", "value"}``: 400 for bad input (the field path named), 404 for
 unknown names, 405 for a wrong method, 401 without the token, 500 (connection kept) for a server fault.
-No handler runs on the event loop: short services and parameter changes run one at a time on a calls
-thread, subscription handlers on a topics thread, ``long_running`` services (planning) on a pool of
-``workers`` threads so that short calls keep answering; ``cancellable`` ones get a
+Handlers run off the event loop: short services and parameter changes run one at a time on a calls
+thread (control-loop calls that their node knows to be quick now are answered on the loop), subscription
+handlers on a topics thread, ``long_running`` services (planning) on a pool of ``workers`` threads so that
+short calls keep answering; ``cancellable`` ones get a
 :class:`~pfield.planning.CancelToken` that is cancelled when the client disconnects. Nodes with a
 ``tick_period`` are ticked from a background task.
 """
@@ -59,6 +60,9 @@ __all__ = ["DEFAULT_MAX_REQUEST_BYTES", "NotFound", "ServerLimits", "ServerThrea
 _log = logging.getLogger(__name__)
 DEFAULT_MAX_REQUEST_BYTES = 1_000_000
 """Request bodies above this many bytes are refused with 413 (a seed request is < 1 kB)."""
+QUICK_BODY_BYTES = 16_384
+"""Largest body of a quick call decoded on the event loop (a control-loop request is ~1 kB; decoding this
+much takes well under 0.1 ms)."""
 DISCONNECT_POLL_S = 0.05
 """s between checks of whether the client of a cancellable call has gone away."""
 
@@ -223,6 +227,9 @@ class _ShortServices:
     """ASGI middleware answering ``POST /srv/<service>`` of short services (not ``long_running``) directly:
     decoding, validating, the handler and the JSON answer all run as one job on the calls thread, without
     FastAPI's routing and dependency machinery (about half of a control-loop call's time on the event loop).
+    A call its node says is quick now (:attr:`~pfield.node._base.ServiceSpec.quick`; bodies up to
+    :data:`QUICK_BODY_BYTES`) runs on the event loop instead: the two thread hand-offs cost a fast call
+    more than its work, and under load each waits for the GIL.
     Answers and errors are those of the typed FastAPI routes, which still document the services in
     ``/openapi.json`` (and answer every other method and path)."""
 
@@ -244,15 +251,23 @@ class _ShortServices:
             chunks.append(message.get("body", b""))
             if not message.get("more_body", False):
                 break
-        status, body = await self.routes.call(_answer, spec, b"".join(chunks))
+        body = b"".join(chunks)
+        quick = spec.quick if len(body) <= QUICK_BODY_BYTES else None
+        request = body if quick is None else _decoded(spec, body)
+        if isinstance(request, tuple):  # refused while decoding
+            status, body = request
+        elif quick is not None and quick(request):  # known to be cheap now: no thread hand-off
+            status, body = _answer(spec, request)
+        else:
+            status, body = await self.routes.call(_answer, spec, request)
         await send({"type": "http.response.start", "status": status,
                     "headers": [(b"content-length", str(len(body)).encode()),
                                 (b"content-type", b"application/json")]})
         await send({"type": "http.response.body", "body": body})
 
 
-def _answer(spec: ServiceSpec, body: bytes) -> tuple[int, bytes]:
-    """(status, JSON) of a short service's call with request ``body`` (run on the calls thread)."""
+def _decoded(spec: ServiceSpec, body: bytes) -> RosMessage | tuple[int, bytes]:
+    """The request message of a short service's call, or the (status, JSON) of its 400."""
     from pydantic import ValidationError
 
     try:
@@ -263,10 +278,17 @@ def _answer(spec: ServiceSpec, body: bytes) -> tuple[int, bytes]:
         errors = [{"type": "json_invalid", "loc": ("body", exc.pos), "msg": "JSON decode error", "input": {}}]
         return 400, bytes(_validation_error(errors).body)
     try:
-        request = spec.request.model_validate(data, from_attributes=True)
+        return spec.request.model_validate(data, from_attributes=True)
     except ValidationError as exc:
         located = [dict(error, loc=("body", *error["loc"])) for error in exc.errors(include_url=False)]
         return 400, bytes(_validation_error(located).body)
+
+
+def _answer(spec: ServiceSpec, body: bytes | RosMessage) -> tuple[int, bytes]:
+    """(status, JSON) of a short service's call with request ``body`` (raw or decoded)."""
+    request = _decoded(spec, body) if isinstance(body, bytes) else body
+    if isinstance(request, tuple):
+        return request
     try:
         response = spec.handler(request)
     except Exception as exc:
