@@ -63,6 +63,10 @@ DEFAULT_MAX_REQUEST_BYTES = 1_000_000
 QUICK_BODY_BYTES = 16_384
 """Largest body of a quick call decoded on the event loop (a control-loop request is ~1 kB; decoding this
 much takes well under 0.1 ms)."""
+_NO_TELEMETRY: dict[str, Any] = ({"telemetry": {"tracing": False, "metrics": False, "logs": False}}
+                                  if "telemetry" in inspect.signature(FastAPI.__init__).parameters else {})
+"""FastAPI's own OpenTelemetry hooks off (versions that have them look up the providers on every request):
+the node exports no traces, metrics or logs."""
 DISCONNECT_POLL_S = 0.05
 """s between checks of whether the client of a cancellable call has gone away."""
 
@@ -555,7 +559,7 @@ def create_app(nodes: Sequence[Node], *, token: str | None = None,
         for node in nodes:
             node.close()
 
-    app = FastAPI(title="pfield node", version="0.1.0", lifespan=lifespan,
+    app = FastAPI(title="pfield node", version="0.1.0", lifespan=lifespan, **_NO_TELEMETRY,
                   description="pfield's nodes over HTTP: ROS services, topics and parameters by their ROS names.")
     _install_error_handlers(app)
     _add_service_routes(app, routes)
