@@ -12,6 +12,7 @@ import yaml
 from pfield.errors import InvalidInput
 from pfield.geometry import Box, Cylinder, Mesh, Sphere
 from pfield.scene import (
+    MBM_CONFIG,
     MBM_OPTIONS,
     Problem,
     RobotSpec,
@@ -202,3 +203,41 @@ def test_a_problem_refuses_inconsistent_parts() -> None:
     with pytest.raises(InvalidInput) as raised:
         Problem("s", 0, obstacles=("ball",), start=Pose(), goal=Pose())  # type: ignore[arg-type]
     assert raised.value.field == "obstacles[0]"
+
+
+TABLE_PICK = tuple(f"problems/table_pick_panda/{kind}{i:04d}.yaml" for i in (1, 2, 3, 4)
+                   for kind in ("scene", "request"))
+
+
+def test_the_mbm_stagnation_window_keeps_the_fields_plans_and_ends_its_failures_sooner(tmp_path: Path) -> None:
+    """MBM_CONFIG's 2 s window against the 10 s default: a plan the field completes is the same plan to the last
+    waypoint; one that stagnates is reported as stagnation, in fewer steps."""
+    from dataclasses import replace
+
+    from pfield.field import PotentialField
+    from pfield.planning import PlanStatus
+
+    with tarfile.open(ARCHIVE) as opened:
+        opened.extractall(tmp_path, members=[opened.getmember(m) for m in TABLE_PICK], filter="data")
+    folder = tmp_path / "problems" / "table_pick_panda"
+    options = replace(MBM_OPTIONS, global_fallback=False)
+    outcomes = []
+    robot = None
+    for i in (1, 2, 3, 4):
+        problem = read_moveit_problem(folder / f"scene{i:04d}.yaml", folder / f"request{i:04d}.yaml", i)
+        assert problem.config is MBM_CONFIG and MBM_CONFIG.stagnation_window == 2.0
+        assert problem.robot is not None and problem.goal_joints is not None
+        robot = robot or problem.robot.build()
+        start = np.clip([problem.start[name] for name in robot.joint_names], robot.lower_limits, robot.upper_limits)
+        goal = robot.forward_kinematics(np.clip([problem.goal_joints[name] for name in robot.joint_names],
+                                                robot.lower_limits, robot.upper_limits))
+        short, long = (PotentialField(config, goal, problem.obstacles).plan_whole_body(robot, start, options=options)
+                       for config in (MBM_CONFIG, replace(MBM_CONFIG, stagnation_window=10.0)))
+        if long.success:
+            assert short.success
+            np.testing.assert_array_equal(short.joint_positions, long.joint_positions)
+        else:
+            assert short.status == long.status == PlanStatus.STAGNATION
+            assert short.iterations < long.iterations
+        outcomes.append(long.success)
+    assert any(outcomes) and not all(outcomes)  # both kinds of problem are among them
