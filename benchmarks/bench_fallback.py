@@ -7,8 +7,9 @@ settings are bench_mbm's (field parameters, dt 0.02 s, 1 cm / 0.05 rad, 10000 st
 FK(goal joints) at ``panda_hand_tcp``).
 
 * **field** — ``plan_whole_body(..., global_fallback=False)``;
-* **field+global** — ``plan_whole_body(..., global_fallback=True, global_time_limit=5)``: the field, and when
-  it stagnates, the compiled RRT-Connect on the link capsules, shortcutting, and the field tracking the path;
+* **field+global** — ``plan_whole_body(..., global_fallback=True, global_time_limit=5)`` with the request's
+  goal joints as ``goal_configuration`` (the goal OMPL is given): the field, and when it stagnates, the
+  compiled RRT-Connect on the fitted link model to those joints, shortcutting, and the field tracking the path;
 * **OMPL** — ``ompl`` 2.0.1 RRT-Connect (default range and validity resolution), a 5 s limit, from the start
   joints to the request's goal joints, each state checked exactly: coal on the robot's collision meshes
   (convex hulls) through :class:`pfield.robot.collision.CollisionChecker` (a Python callback per state).
@@ -111,11 +112,12 @@ def _counting() -> Iterator[_StateCounter]:
         logger.setLevel(level)
 
 
-def _pfield(robot: RobotModel, field_: PotentialField, start: np.ndarray, fallback: bool) -> Outcome:
+def _pfield(robot: RobotModel, field_: PotentialField, start: np.ndarray, goal: np.ndarray, fallback: bool
+            ) -> Outcome:
     with _counting() as counter:
         begin = time.perf_counter()
         path = field_.plan_whole_body(robot, start, 0.02, 0.01, 10000, global_fallback=fallback,
-                                      global_time_limit=OMPL_TIME_LIMIT)
+                                      global_time_limit=OMPL_TIME_LIMIT, goal_configuration=goal)
         seconds = time.perf_counter() - begin
     assert path.joint_positions is not None and path.trajectory is not None
     status = path.status.name.lower()
@@ -184,7 +186,8 @@ def _problem(robot: RobotModel, directory: Path, index: int) -> dict[str, Outcom
     obstacles = scene_obstacles(scene)
     field_ = PotentialField(CONFIG, robot.forward_kinematics(goal), obstacles)
     checker = CollisionChecker(robot, obstacles)
-    results = {PLANNERS[0]: _pfield(robot, field_, start, False), PLANNERS[1]: _pfield(robot, field_, start, True),
+    results = {PLANNERS[0]: _pfield(robot, field_, start, goal, False),
+               PLANNERS[1]: _pfield(robot, field_, start, goal, True),
                PLANNERS[2]: _ompl(robot, checker, start, goal)}
     for outcome in results.values():
         if outcome.success:
@@ -203,7 +206,7 @@ def _warm_up(robot: RobotModel, root: Path) -> None:
     goal = np.clip(goal, robot.lower_limits, robot.upper_limits)
     field_ = PotentialField(CONFIG, robot.forward_kinematics(goal), scene_obstacles(scene))
     for fallback in (False, True):
-        _pfield(robot, field_, start, fallback)
+        _pfield(robot, field_, start, goal, fallback)
 
 
 def _percentile(values: list[float], q: float) -> float:

@@ -20,6 +20,7 @@ from pfield.planning.scenes import SEED_GOAL, SEED_START, seed_obstacles
 from pfield.planning.status import PlanStatus
 from pfield.robot import RobotModel
 from pfield.robot.collision import CollisionChecker
+from pfield.robot.ik import solve_ik
 from pfield.spatial import Pose
 
 SEED_Q0 = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0])
@@ -174,3 +175,51 @@ def test_the_readme_whole_body_service_call_succeeds_as_written(xarm: RobotModel
     assert np.linalg.norm(np.array([end.x, end.y, end.z]) - (0.5, 0.2, 0.4)) <= 0.01
     points = response.joint_trajectory.points
     assert all(len(p.accelerations) == 7 for p in points)
+
+
+def _wall_field() -> tuple[PotentialField, Pose, np.ndarray]:
+    obstacles, goal, start = _wall_scene()
+    config = FieldConfig(max_linear_velocity=0.25, max_angular_velocity=1.0, safety_distance=0.005,
+                         influence_distance=0.05)
+    return PotentialField(config, goal, obstacles), goal, start
+
+
+def test_a_given_goal_configuration_is_where_the_fallback_goes(xarm: RobotModel) -> None:
+    field, goal, start = _wall_field()
+    solved = field.plan_whole_body(xarm, start, 0.02, 0.01, 10000)
+    assert solved.success and solved.planner == "field+global" and solved.joint_positions is not None
+    # another configuration of the (redundant) arm at the same pose: IK from a seed with the elbow turned
+    other = solve_ik(xarm, goal, np.clip(solved.joint_positions[-1] + np.array([0.0, 0.0, 1.5, 0.0, -1.5, 0.0, 0.0]),
+                                         xarm.lower_limits, xarm.upper_limits))
+    assert other.success
+    assert np.max(np.abs(other.q - solved.joint_positions[-1])) > 0.3  # a different configuration indeed
+    path = field.plan_whole_body(xarm, start, 0.02, 0.01, 10000, goal_configuration=other.q)
+    assert path.success and path.planner == "field+global", path.failure_reason
+    assert path.joint_positions is not None
+    assert path.final_pose.translation_distance(goal) <= 0.01
+    # the tracking ends where the search went: at the given configuration, not the other one
+    assert np.max(np.abs(path.joint_positions[-1] - other.q)) < 0.1
+    checker = CollisionChecker(xarm, list(field.obstacles))
+    assert not any(checker.check(q).in_collision for q in path.joint_positions[::5])
+
+
+def test_a_given_goal_configuration_leaves_the_fields_own_plans_unchanged(xarm: RobotModel, tmp_path: Path) -> None:
+    field = PotentialField(FieldConfig(), SEED_GOAL, seed_obstacles(tmp_path))
+    alone = field.plan_whole_body(xarm, SEED_Q0, 0.02, 0.01, 25000)
+    assert alone.success and alone.planner == "field" and alone.joint_positions is not None
+    given = field.plan_whole_body(xarm, SEED_Q0, 0.02, 0.01, 25000, goal_configuration=alone.joint_positions[-1])
+    _same(alone, given)
+
+
+@pytest.mark.parametrize(("shift", "name", "why"), [
+    (np.array([0.3, 0, 0, 0, 0, 0, 0]), "goal_configuration", "from the goal pose"),
+    (np.array([0, 0, 0, 0, 0, 0, 50.0]), "goal_configuration[6]", ""),
+])
+def test_a_goal_configuration_off_the_goal_or_the_limits_is_refused(xarm: RobotModel, shift: np.ndarray, name: str,
+                                                                   why: str) -> None:
+    field, goal, start = _wall_field()
+    at_goal = solve_ik(xarm, goal, start)
+    assert at_goal.success
+    with pytest.raises(InvalidInput) as info:
+        field.plan_whole_body(xarm, start, 0.02, 0.01, 100, goal_configuration=at_goal.q + shift)
+    assert info.value.field == name and why in str(info.value)

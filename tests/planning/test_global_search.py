@@ -132,6 +132,26 @@ def test_goal_configurations_reach_the_pose_and_refuse_a_goal_inside_an_obstacle
     assert far == [] and why.startswith("goal invalid: no inverse-kinematics solution")
 
 
+def test_a_given_goal_configuration_is_the_only_one_and_is_refused_when_it_collides(xarm: RobotModel) -> None:
+    arrays = pack_robot(xarm, FieldConfig(), WholeBodyOptions())
+    given = np.array([0.3, 0.2, 0.0, 0.9, 0.0, -0.6, 0.0])
+    target = xarm.forward_kinematics(given)
+    far_ball = [Obstacle("ball", Sphere(0.08), Pose((-0.4, -0.3, 0.3)))]
+    scene = make_scene(pack_obstacles(far_ball), arrays)
+    found, why = goal_configurations(xarm, target, [Q_START], arrays, scene, 0.01, far_ball, GlobalOptions(),
+                                     given=given)
+    assert len(found) == 1 and why == ""
+    np.testing.assert_array_equal(found[0], given)  # no IK: exactly the caller's joints
+    # a ball around the elbow of the given configuration: other IK solutions might clear it, this one cannot
+    elbow = xarm.joint_frames(given)[1][3]
+    ball = [Obstacle("ball", Sphere(0.06), Pose(tuple(elbow)))]
+    assert CollisionChecker(xarm, ball).check(given).in_collision
+    scene = make_scene(pack_obstacles(ball), arrays)
+    found, why = goal_configurations(xarm, target, [Q_START], arrays, scene, 0.01, ball, GlobalOptions(),
+                                     given=given)
+    assert found == [] and why == "goal invalid: the given goal configuration collides (exact mesh check)"
+
+
 @pytest.mark.parametrize(("kwargs", "field"), [
     ({"time_limit": 0.0}, "time_limit"), ({"joint_step": -1.0}, "joint_step"), ({"capacity": 1}, "capacity"),
     ({"seed": True}, "seed"), ({"extra_margin": float("nan")}, "extra_margin"),

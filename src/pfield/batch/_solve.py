@@ -88,12 +88,13 @@ def _plan(problem: Problem, workspace: Workspace, token: CancelToken) -> tuple[P
         return field.plan(problem.start, options=options), None
     robot = workspace.robot(problem.robot)
     start = _joints(robot, problem.start, "start")  # type: ignore[arg-type]
-    goal = problem.goal
-    if goal is None:
+    goal, goal_q = problem.goal, None
+    if goal is None:  # a joint goal: the field's goal is its pose, the fallback searches to the joints
         assert problem.goal_joints is not None
-        goal = robot.forward_kinematics(_joints(robot, problem.goal_joints, "goal_joints"))
+        goal_q = _joints(robot, problem.goal_joints, "goal_joints")
+        goal = robot.forward_kinematics(goal_q)
     field = PotentialField(problem.config, goal, problem.obstacles)
-    return field.plan_whole_body(robot, start, options=options), robot
+    return field.plan_whole_body(robot, start, options=options, goal_configuration=goal_q), robot
 
 
 def _error(problem: Any, status: str, message: str, seconds: float = 0.0, cpu: float = 0.0) -> dict[str, Any]:

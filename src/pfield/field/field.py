@@ -271,15 +271,17 @@ class PotentialField:
         self, robot: Any, q0: ArrayLike, dt: float | None = None, goal_tolerance: float | None = None,
         max_iterations: int | None = None, rotation_tolerance: float | None = None, *,
         global_fallback: bool | None = None, global_time_limit: float | None = None,
-        options: PlanOptions | None = None,
+        options: PlanOptions | None = None, goal_configuration: ArrayLike | None = None,
     ) -> PlannedPath:
         """Whole-body plan of ``robot`` from joint positions ``q0`` (:mod:`pfield.planning.whole_body`).
 
         The keyword arguments are shorthands for the :class:`~pfield.planning.PlanOptions` fields of the
-        same names and override ``options``'s.
+        same names and override ``options``'s; ``goal_configuration`` is a joint goal at the field's goal
+        pose, which the global fallback searches to (:func:`~pfield.planning.plan_whole_body`).
         """
         from pfield.planning.whole_body import plan_whole_body
 
         return plan_whole_body(self, robot, q0, dt=dt, goal_tolerance=goal_tolerance, max_iterations=max_iterations,
                                rotation_tolerance=rotation_tolerance, global_fallback=global_fallback,
-                               global_time_limit=global_time_limit, plan_options=options)
+                               global_time_limit=global_time_limit, plan_options=options,
+                               goal_configuration=goal_configuration)

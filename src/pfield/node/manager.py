@@ -101,6 +101,12 @@ _CANCELLED = pfi.PlanPath_Response(success=False, error_message="cancelled: the 
 TASK_SPACE, WHOLE_BODY = pfi.PLANNING_METHOD_TASK_SPACE, pfi.PLANNING_METHOD_WHOLE_BODY
 
 
+def _cost_key(kind: str, request: Any, state: ManagerState) -> tuple[str, str, bool]:
+    """The calls whose cost :attr:`ManagerNode._call_costs` keeps together: (service, planning_method, has a
+    goal)."""
+    return kind, request.planning_method, state.goal is not None
+
+
 def _planning_method(value: str) -> str:
     """The request's ``planning_method`` (empty means task_space); anything else is refused."""
     method = value or TASK_SPACE
@@ -441,15 +447,14 @@ class ManagerNode(Node):
         """The :attr:`ServiceSpec.quick` test of one control-loop service (see :data:`QUICK_CALL_SECONDS`)."""
         def quick(request: Any) -> bool:
             state = self._state
-            last = self._call_costs.get((kind, request.planning_method, state.goal is not None))
+            last = self._call_costs.get(_cost_key(kind, request, state))
             return (last is not None and last[1] <= QUICK_CALL_SECONDS and len(state.obstacles) <= last[0]
                     and memo.ready(state))
         return quick
 
     def _answered(self, kind: str, request: Any, state: ManagerState, started: float) -> None:
         """Record what a control-loop call of ``kind`` cost (for :meth:`_quick`)."""
-        key = (kind, request.planning_method, state.goal is not None)
-        self._call_costs[key] = (len(state.obstacles), time.perf_counter() - started)
+        self._call_costs[_cost_key(kind, request, state)] = (len(state.obstacles), time.perf_counter() - started)
 
     def _query(self, request: Any, state: ManagerState) -> tuple[str, float, Any, Any, Pose | None]:
         """The ComputeAutonomyVector fields of ``request`` validated: (method, dt, q, q̇_prev, pose)."""

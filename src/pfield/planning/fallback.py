@@ -57,14 +57,16 @@ class FallbackOutcome:
 def whole_body_fallback(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, start: NDArray[np.float64],
                         last: NDArray[np.float64], goal: Pose, params: NDArray[np.float64], max_iterations: int,
                         config: FieldConfig, obstacles: Sequence[Obstacle] | None,
-                        options: GlobalOptions, cancel: NDArray[np.uint8] | None = None) -> FallbackOutcome:
+                        options: GlobalOptions, cancel: NDArray[np.uint8] | None = None,
+                        goal_configuration: NDArray[np.float64] | None = None) -> FallbackOutcome:
     """Joint-space fallback from ``start`` (``last``: the field's final configuration, the first IK seed);
-    ``cancel`` (a :class:`~pfield.planning.CancelToken`'s flag) stops the search and the tracking."""
+    ``cancel`` (a :class:`~pfield.planning.CancelToken`'s flag) stops the search and the tracking.
+    ``goal_configuration``: the caller's joint goal at ``goal``, searched to instead of IK solutions."""
     margin = search_margin(config, options)
     # twice the joint-limit dampers' stop: the tracking's target keeps some room from it
     joint_margin = 2.0 * float(params[_wb.JOINT_SAFETY])
     goals, why = goal_configurations(robot, goal, (last, start), arrays, scene, margin, obstacles, options,
-                                     joint_margin)
+                                     joint_margin, goal_configuration)
     if not goals:
         _LOG.info("global fallback: %s", why)
         return FallbackOutcome(None, PlanStatus.GOAL_INVALID, why, None)

@@ -160,13 +160,21 @@ def _capsules_clear(arrays: _wb.RobotArrays, scene: _wb.Scene, q: NDArray[np.flo
 
 def goal_configurations(robot: RobotModel, goal: Pose, seeds: Sequence[NDArray[np.float64]],
                         arrays: _wb.RobotArrays, scene: _wb.Scene, margin: float,
-                        obstacles: Sequence[Obstacle] | None, options: GlobalOptions, joint_margin: float = 0.0
-                        ) -> tuple[list[NDArray[np.float64]], str]:
+                        obstacles: Sequence[Obstacle] | None, options: GlobalOptions, joint_margin: float = 0.0,
+                        given: NDArray[np.float64] | None = None) -> tuple[list[NDArray[np.float64]], str]:
     """Up to ``options.goal_configurations`` distinct collision-free joint configurations at ``goal`` (module
     docstring, step 1), or ([], why): the goal is invalid. Preferred first: those whose link model keeps
     ``margin`` and whose joints stay ``joint_margin`` (rad or m) inside their limits — the joint-limit
     dampers stop a joint ``joint_safety`` short of its limit, so a goal configuration on the limit cannot be
-    tracked; then those that keep ``margin`` at a limit; then those that only the exact mesh check clears."""
+    tracked; then those that keep ``margin`` at a limit; then those that only the exact mesh check clears.
+
+    ``given``: the caller's own goal configuration (a joint goal, as in a MoveIt request), already checked
+    to be within the limits and at ``goal``. It is the only one: no IK runs, and when it collides (its link
+    model overlaps something and the exact mesh check confirms a contact) the goal is invalid."""
+    if given is not None:
+        if _capsules_clear(arrays, scene, given, margin) or _exactly_clear(robot, obstacles, [given], 1):
+            return [given], ""
+        return [], "goal invalid: the given goal configuration collides (exact mesh check)"
     rng = np.random.default_rng(options.seed)
     lower, upper = _sampling_box(robot)
     candidates = [*seeds, *(rng.uniform(lower, upper) for _ in range(options.ik_restarts))]

@@ -177,8 +177,8 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
                            max_iterations: int | None = None, rotation_tolerance: float | None = None,
                            options: WholeBodyOptions | None = None,
                            obstacles: Sequence[Obstacle] | None = None, *, global_fallback: bool | None = None,
-                           global_time_limit: float | None = None,
-                           plan_options: PlanOptions | None = None) -> PlannedPath:
+                           global_time_limit: float | None = None, plan_options: PlanOptions | None = None,
+                           goal_configuration: ArrayLike | None = None) -> PlannedPath:
     """Whole-body plan against already packed obstacles (see :func:`plan_whole_body`).
 
     ``obstacles`` (the objects ``packed`` was made from) name obstacles in failure reasons and allow the
@@ -190,6 +190,7 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
                                  global_time_limit=global_time_limit).resolved(config)
     obstacle_names = [o.id for o in obstacles] if obstacles else None
     start = robot.check_joint_angles(q0, "starting_joint_angles")
+    goal_q = None if goal_configuration is None else _goal_configuration(robot, goal, goal_configuration, settings)
     opts = options or WholeBodyOptions()
     params = kernel_parameters(config, settings, opts)
     arrays = pack_robot(robot, config, opts)
@@ -207,7 +208,7 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
                                                PlanStatus.COLLISION, PlanStatus.SELF_COLLISION):
         outcome = whole_body_fallback(robot, arrays, scene, start, qs[-1].copy(), goal, params,
                                       settings.max_iterations, config, obstacles,
-                                      GlobalOptions(time_limit=settings.global_time_limit), cancel)
+                                      GlobalOptions(time_limit=settings.global_time_limit), cancel, goal_q)
         if outcome.loop is not None:
             status, count, qs, qds, pos, quats, twists, clear, culprit = outcome.loop
             planner = FALLBACK_PLANNER
@@ -227,6 +228,22 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
                        times=np.arange(count) * settings.dt, positions=pos, orientations=quats, twists=twists,
                        clearances=clear, iterations=count - 1, joint_names=robot.joint_names, joint_positions=qs,
                        joint_velocities=qds, status=status, planner=planner, trajectory=trajectory)
+
+
+def _goal_configuration(robot: RobotModel, goal: Pose, values: ArrayLike, settings: PlanOptions) -> NDArray[np.float64]:
+    """``values`` checked as a goal configuration: within the joint limits, and its end effector at ``goal``
+    within the plan's tolerances."""
+    q = robot.check_joint_angles(values, "goal_configuration")
+    reached = robot.forward_kinematics(q)
+    position_error = float(np.linalg.norm(reached.position - goal.position))
+    rotation_error = float(reached.rotation_distance(goal))
+    assert settings.rotation_tolerance is not None
+    if position_error > settings.goal_tolerance or rotation_error > settings.rotation_tolerance:
+        raise InvalidInput("goal_configuration", q.tolist(),
+                           f"its end effector is {position_error:.4g} m and {rotation_error:.4g} rad from the goal "
+                           f"pose (tolerances {settings.goal_tolerance:g} m, {settings.rotation_tolerance:g} rad); "
+                           "give a configuration at the goal, or none to let the planner solve the IK")
+    return q
 
 
 def _start_collision(robot: RobotModel, start: NDArray[np.float64], scene: _wb.Scene,
@@ -267,7 +284,8 @@ def plan_whole_body(field: Any, robot: RobotModel, q0: ArrayLike, dt: float | No
                     goal_tolerance: float | None = None, max_iterations: int | None = None,
                     rotation_tolerance: float | None = None, options: WholeBodyOptions | None = None, *,
                     global_fallback: bool | None = None, global_time_limit: float | None = None,
-                    plan_options: PlanOptions | None = None) -> PlannedPath:
+                    plan_options: PlanOptions | None = None, goal_configuration: ArrayLike | None = None
+                    ) -> PlannedPath:
     """Plan in joint space from ``q0`` to the field's goal pose, every link repelled by its obstacles.
 
     Args:
@@ -282,6 +300,11 @@ def plan_whole_body(field: Any, robot: RobotModel, q0: ArrayLike, dt: float | No
             stagnates, reaches the iteration limit or is squeezed against an obstacle (a collision the plan
             stopped before), search a joint path globally and let the field track it
             (:mod:`pfield.planning.fallback`); :attr:`PlannedPath.planner` tells which produced the path.
+        goal_configuration: joint positions (tree order) at the goal pose, e.g. a MoveIt request's joint
+            goal: the global fallback searches to this configuration instead of solving the IK for several.
+            The field itself is attracted by the pose (the plan succeeds at the pose, whatever the
+            redundant joints). Outside the limits, or its end effector not at the goal pose within the
+            tolerances → ``InvalidInput``; colliding → the fallback ends with ``GOAL_INVALID`` at once.
 
     Returns:
         A :class:`PlannedPath` with joint names, positions and velocities for every waypoint (the start
@@ -292,7 +315,8 @@ def plan_whole_body(field: Any, robot: RobotModel, q0: ArrayLike, dt: float | No
     config, goal, packed, obstacles = _field_parts(field)
     return plan_whole_body_packed(config, goal, packed, robot, q0, dt, goal_tolerance, max_iterations,
                                   rotation_tolerance, options, obstacles, global_fallback=global_fallback,
-                                  global_time_limit=global_time_limit, plan_options=plan_options)
+                                  global_time_limit=global_time_limit, plan_options=plan_options,
+                                  goal_configuration=goal_configuration)
 
 
 def joint_velocity_sign_flips(path: PlannedPath, threshold: float = 1e-3) -> int:
