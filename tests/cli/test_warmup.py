@@ -57,6 +57,30 @@ def test_warmup_command_compiles_every_kernel_with_progress(tmp_path: Path) -> N
     assert lines["SPECIALISATIONS"] == "[]", lines["SPECIALISATIONS"]
 
 
+ONE_LOOP_PER_PLANNER = """
+import numpy as np
+from pfield import FieldConfig, PotentialField, Pose
+from pfield.planning import CancelToken, PlanOptions
+from pfield.planning import _task_space_loop, _track_kernel, _whole_body_loop
+from pfield.robot import RobotModel
+xarm = RobotModel.builtin("xarm7")
+q0 = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0])
+field = PotentialField(FieldConfig(), xarm.forward_kinematics(q0 + 0.05))
+for options in (None, PlanOptions(cancel=CancelToken())):
+    field.plan(Pose((0.2, 0.0, 0.2)), max_iterations=5, options=options)
+    field.plan_whole_body(xarm, q0, max_iterations=5, options=options)
+print("LOOPS", [len(k.signatures) for k in (_task_space_loop.plan_loop, _whole_body_loop.plan_loop)])
+"""
+
+
+def test_a_plan_with_a_cancel_token_runs_the_loop_the_warm_up_compiled() -> None:
+    """The node cancels plans (a :class:`CancelToken` per request), ``pfield warmup`` plans without one: both
+    must call the same specialisation, or the node's first plan compiles for seconds after a warm-up."""
+    done = _python(ONE_LOOP_PER_PLANNER)
+    assert done.returncode == 0, done.stderr
+    assert "LOOPS [1, 1]" in done.stdout, done.stdout
+
+
 def test_first_compile_says_so_once(tmp_path: Path) -> None:
     code = "from pfield.spatial import quaternion_exp; quaternion_exp([0.0, 0.0, 0.1]); quaternion_exp([0.1, 0, 0])"
     cache = tmp_path / "numba-cache"

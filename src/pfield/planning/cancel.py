@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["CancelToken"]
+__all__ = ["CancelToken", "cancel_flag"]
 
 
 class CancelToken:
@@ -27,3 +27,12 @@ class CancelToken:
     @property
     def cancelled(self) -> bool:
         return bool(self.flag[0])
+
+
+def cancel_flag(token: CancelToken | None) -> NDArray[np.uint8]:
+    """The flag a compiled loop reads: ``token``'s, or without one a fresh flag that nobody cancels.
+
+    Always a writable one-element ``uint8`` array: numba compiles a kernel once per array type, and a
+    read-only "never cancelled" constant would be a second specialisation that ``pfield warmup`` compiles
+    while a cancellable plan (the node's) compiles the other on its first call."""
+    return token.flag if token is not None else np.zeros(1, dtype=np.uint8)

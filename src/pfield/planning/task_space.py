@@ -18,6 +18,7 @@ from pfield.errors import InvalidInput
 from pfield.field.field import PotentialField
 from pfield.geometry import signed_distances
 from pfield.planning._task_space_loop import plan_loop
+from pfield.planning.cancel import cancel_flag
 from pfield.planning.fallback import FALLBACK_PLANNER, FIELD_PLANNER, task_space_fallback
 from pfield.planning.global_search import GlobalOptions
 from pfield.planning.options import DEFAULT_MAX_ITERATIONS, MAX_ITERATIONS_LIMIT, PlanOptions
@@ -29,8 +30,6 @@ from pfield.spatial import Pose
 __all__ = ["DEFAULT_MAX_ITERATIONS", "MAX_ITERATIONS_LIMIT", "plan_task_space"]
 
 _log = logging.getLogger(__name__)
-_NEVER_CANCELLED = np.zeros(1, dtype=np.uint8)
-_NEVER_CANCELLED.setflags(write=False)
 
 
 def plan_task_space(
@@ -72,7 +71,7 @@ def plan_task_space(
     iterations, step, window = settings.max_iterations, settings.dt, settings.stagnation_steps
     poses, twists, clearances = np.empty((iterations + 1, 7)), np.empty((iterations + 1, 6)), np.empty(iterations + 1)
     start_array = np.concatenate([start.position, start.orientation])
-    cancel = settings.cancel.flag if settings.cancel is not None else _NEVER_CANCELLED
+    cancel = cancel_flag(settings.cancel)
     count, status, obstacle = plan_loop(start_array, goal, params, packed, aux, step, settings.goal_tolerance,
                                         settings.rotation_tolerance, iterations, window,
                                         settings.stagnation_progress, cancel, poses, twists, clearances)

@@ -39,6 +39,7 @@ from pfield.geometry._packed import PackedObstacles, bounding_radius
 from pfield.geometry._sdf import empty_packed
 from pfield.planning import _whole_body_layout as _wb
 from pfield.planning import _whole_body_loop as _loop
+from pfield.planning.cancel import cancel_flag
 from pfield.planning.fallback import FALLBACK_PLANNER, FIELD_PLANNER, whole_body_fallback
 from pfield.planning.global_search import GlobalOptions
 from pfield.planning.options import PlanOptions
@@ -51,8 +52,6 @@ from pfield.spatial import Pose
 __all__ = ["WholeBodyOptions", "joint_velocity_sign_flips", "plan_whole_body", "plan_whole_body_packed"]
 
 _LOG = logging.getLogger(__name__)
-_NEVER_CANCELLED = np.zeros(1, dtype=np.uint8)
-_NEVER_CANCELLED.setflags(write=False)
 
 
 @dataclass(frozen=True)
@@ -198,7 +197,7 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
     touching, distance = _start_collision(robot, start, scene, obstacles)
     if touching:
         return _single_waypoint(robot, start, f"collision: the start configuration collides ({touching})", distance)
-    cancel = settings.cancel.flag if settings.cancel is not None else _NEVER_CANCELLED
+    cancel = cancel_flag(settings.cancel)
     status, count, qs, qds, pos, quats, twists, clear, culprit = _loop.plan_loop(
         start, arrays, scene, np.array(goal.position, dtype=np.float64),
         np.array(goal.orientation, dtype=np.float64), params, settings.max_iterations, cancel)
