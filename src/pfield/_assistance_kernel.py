@@ -16,7 +16,7 @@ from pfield._bound import float_view1, float_view2, float_view3, int_view1, int_
 from pfield._linalg import cholesky_inplace, cholesky_solve
 from pfield.field.forces import damper_speed, project_damper
 from pfield.geometry._packed import PackedObstacles
-from pfield.geometry._sdf import obstacle_signed_distance
+from pfield.geometry._sdf import mesh_addresses, obstacle_signed_distance
 from pfield.planning._whole_body_flat import bound_step, bound_workspace
 from pfield.planning._whole_body_layout import (
     OUT_NEAREST_CAPSULE,
@@ -27,7 +27,7 @@ from pfield.planning._whole_body_layout import (
     OUT_SIZE,
     OUT_TWIST,
 )
-from pfield.robot._clearance import link_obstacle_distance_below, near_segments, world_segments
+from pfield.robot._clearance import capsule_lower_bound, link_obstacle_distance_below, near_segments, world_segments
 from pfield.robot._kinematics import end_effector_kinematics, linear_point_jacobian
 
 # parameter vector layout
@@ -154,13 +154,17 @@ def nearest_link(rotations, origins, model, packed, centres, bounds, scratch, se
     best, best_c, best_i = math.inf, -1, -1
     bn = np.zeros(3)
     bp = np.zeros(3)
-    for c in range(joints.shape[0]):
-        for i in range(packed.kinds.shape[0]):
-            if hint_c >= 0 and (c != hint_c or i != hint_i):
-                continue
+    kinds, rows, meshes = packed.kinds, packed.rows, mesh_addresses(packed)
+    # the hinted pair alone, or every pair
+    first_c, last_c = (hint_c, hint_c + 1) if hint_c >= 0 else (0, joints.shape[0])
+    first_i, last_i = (hint_i, hint_i + 1) if hint_c >= 0 else (0, kinds.shape[0])
+    for c in range(first_c, last_c):
+        for i in range(first_i, last_i):
+            if capsule_lower_bound(centres, bounds, i, seg_a, seg_b, cap_r, c) >= best:
+                continue  # the call below would answer this bound, not exact: the pair cannot be nearer
             d, exact, px, py, pz, nx, ny, nz = link_obstacle_distance_below(
-                c, i, packed, centres, bounds, seg_a, seg_b, cap_r, link_start, prim_seg_a, prim_seg_b, prim_r,
-                scratch, best, best)
+                c, i, kinds, rows, meshes, centres, bounds, seg_a, seg_b, cap_r, link_start, prim_seg_a, prim_seg_b,
+                prim_r, scratch, best, best)
             if exact and d < best:
                 best, best_c, best_i = d, c, i
                 bn[0], bn[1], bn[2] = nx, ny, nz

@@ -20,7 +20,13 @@ from pfield.geometry import (
     pack_obstacles,
 )
 from pfield.robot import RobotModel
-from pfield.robot._distance import segment_obstacle_distance, segment_segment_distance
+from pfield.robot._clearance import world_segment_range, world_segments
+from pfield.robot._distance import (
+    point_segment_distance,
+    point_segment_distance_xyz,
+    segment_obstacle_distance,
+    segment_segment_distance,
+)
 from pfield.robot.collision import CollisionChecker, capsule_clearances
 from pfield.robot.geometry import fit_capsule
 from pfield.spatial import Pose, quaternion_exp
@@ -157,6 +163,37 @@ def test_segment_segment_distance_matches_sampling() -> None:
         exact = segment_segment_distance(p1, q1, p2, q2)
         assert exact <= dense + 1e-12
         assert exact >= dense - 0.01
+
+
+def test_point_segment_distance_in_scalars_is_the_array_form_bit_for_bit() -> None:
+    """The culling loops use the scalar form; plans must not change by a bit when a loop switches forms."""
+    rng = np.random.default_rng(5)
+    for _ in range(300):
+        c, a, b = rng.normal(size=(3, 3))
+        if rng.random() < 0.2:
+            b = a.copy()  # a point segment
+        dense = np.linalg.norm(a + np.linspace(0.0, 1.0, 2001)[:, None] * (b - a) - c, axis=1).min()
+        scalar = point_segment_distance_xyz(*c, *a, *b)
+        assert scalar == point_segment_distance(c, a, b)
+        assert dense - 1e-3 <= scalar <= dense + 1e-12
+
+
+def test_world_segment_range_transforms_only_its_range(xarm: RobotModel) -> None:
+    q = np.array([0.3, -0.2, 0.1, 0.9, 0.0, -0.6, 0.4])
+    rotations, origins = xarm.joint_frames(q)
+    g = xarm.geometry
+    everything_a, everything_b = np.empty_like(g.prim_a), np.empty_like(g.prim_b)
+    world_segments(rotations, origins, g.prim_joint, g.prim_a, g.prim_b, everything_a, everything_b)
+    start, stop = int(g.link_start[2]), int(g.link_start[3])
+    part_a, part_b = np.full_like(g.prim_a, np.nan), np.full_like(g.prim_b, np.nan)
+    world_segment_range(rotations, origins, g.prim_joint, g.prim_a, g.prim_b, part_a, part_b, start, stop)
+    np.testing.assert_array_equal(part_a[start:stop], everything_a[start:stop])
+    np.testing.assert_array_equal(part_b[start:stop], everything_b[start:stop])
+    assert np.isnan(part_a[:start]).all() and np.isnan(part_a[stop:]).all()
+    # against the joint frames directly: R a + o for every primitive of the range
+    for c in range(start, stop):
+        j = g.prim_joint[c]
+        np.testing.assert_allclose(part_a[c], rotations[j] @ g.prim_a[c] + origins[j], atol=1e-15)
 
 
 def test_capsule_clearances_are_conservative_against_coal(xarm: RobotModel) -> None:

@@ -33,11 +33,11 @@ from numba import njit
 from numpy.typing import NDArray
 
 from pfield.geometry._packed import CAPSULE, SPHERE
-from pfield.geometry._sdf import min_signed_distance, obstacle_signed_distance
+from pfield.geometry._sdf import mesh_addresses, min_signed_distance, obstacle_signed_distance
 from pfield.planning._whole_body_kernel import _segments
 from pfield.planning._whole_body_layout import RobotArrays, Scene, Workspace
-from pfield.robot._clearance import link_obstacle_distance, link_pair_distance
-from pfield.robot._distance import point_segment_distance, round_segment_distance, segment_obstacle_distance
+from pfield.robot._clearance import capsule_lower_bound, link_obstacle_distance, link_pair_distance
+from pfield.robot._distance import round_segment_distance, segment_obstacle_distance
 from pfield.robot._kinematics import joint_transforms
 
 JOINT_SPACE, POINT_SPACE = 0, 1
@@ -131,7 +131,7 @@ def capsules_valid(q, robot, scene, ws, margin):  # type: ignore[no-untyped-def]
     seg_a, seg_b, cap_r, self_r, scratch = ws.seg_a, ws.seg_b, robot.cap_r, robot.self_r, ws.scratch
     link_start, prim_a, prim_b, prim_r = robot.link_start, ws.prim_seg_a, ws.prim_seg_b, robot.prim_r
     packed, centres, bounds, offsets = scene.packed, scene.centres, scene.bounds, scene.obstacle_offsets
-    rows, kinds = packed.rows, packed.kinds
+    rows, kinds, meshes = packed.rows, packed.kinds, mesh_addresses(packed)
     middle = np.empty(3)
     for c in range(seg_a.shape[0]):
         a, b, radius = seg_a[c], seg_b[c], cap_r[c]
@@ -142,7 +142,7 @@ def capsules_valid(q, robot, scene, ws, margin):  # type: ignore[no-untyped-def]
         half = 0.5 * math.sqrt(half)
         for i in range(bounds.shape[0]):
             need = margin + offsets[c, i]
-            if point_segment_distance(centres[i], a, b) - bounds[i] - radius >= need:
+            if capsule_lower_bound(centres, bounds, i, seg_a, seg_b, cap_r, c) >= need:
                 continue
             if obstacle_signed_distance(packed, i, middle)[0] - half - radius >= need:
                 continue
@@ -152,8 +152,8 @@ def capsules_valid(q, robot, scene, ws, margin):  # type: ignore[no-untyped-def]
                 d = segment_obstacle_distance(packed, i, a, b, scratch)[0]
             if d - radius >= need:
                 continue
-            d = link_obstacle_distance(c, i, packed, centres, bounds, seg_a, seg_b, cap_r, link_start, prim_a,
-                                       prim_b, prim_r, scratch, need)[0]
+            d = link_obstacle_distance(c, i, kinds, rows, meshes, centres, bounds, seg_a, seg_b, cap_r, link_start,
+                                       prim_a, prim_b, prim_r, scratch, need)[0]
             if d < need:
                 return False
     pairs, self_offsets = robot.self_pairs, scene.self_offsets

@@ -31,6 +31,7 @@ from numba import njit
 from pfield._linalg import cholesky_inplace, cholesky_solve, hildreth
 from pfield._spatial_kernels import matrix_to_quat, rotation_error
 from pfield.field.forces import attraction, khatib_magnitude, soft_saturate, stepped_damper_speed
+from pfield.geometry._sdf import mesh_addresses
 from pfield.planning._whole_body_layout import (
     DAMPING,
     DT,
@@ -63,7 +64,13 @@ from pfield.planning._whole_body_layout import (
     Scene,
     Workspace,
 )
-from pfield.robot._clearance import link_obstacle_distance, link_pair_distance, near_segments, world_segments
+from pfield.robot._clearance import (
+    capsule_lower_bound,
+    link_obstacle_distance,
+    link_pair_distance,
+    near_segments,
+    world_segments,
+)
 from pfield.robot._kinematics import (
     frame_pose,
     joint_transforms,
@@ -149,6 +156,7 @@ def _obstacle_rows(robot: RobotArrays, scene: Scene, params: np.ndarray, ws: Wor
     clearance, culprit_c, culprit_o = math.inf, -1, -1
     # hoisted out of the loops: numba reference-counts tuple members on every access (see _distance)
     packed, centres, bounds = scene.packed, scene.centres, scene.bounds
+    kinds, rows, meshes = packed.kinds, packed.rows, mesh_addresses(packed)
     seg_a, seg_b, cap_r, cap_joint, scratch = ws.seg_a, ws.seg_b, robot.cap_r, robot.cap_joint, ws.scratch
     link_start, prim_a, prim_b, prim_r = robot.link_start, ws.prim_seg_a, ws.prim_seg_b, robot.prim_r
     offsets = scene.obstacle_offsets
@@ -158,9 +166,14 @@ def _obstacle_rows(robot: RobotArrays, scene: Scene, params: np.ndarray, ws: Wor
     jlin, wrows, wb, free = ws.jlin, ws.rows, ws.b, ws.free
     for c in range(cap_joint.shape[0]):
         for i in range(bounds.shape[0]):
+            # the cheap bound first, in scalars: most pairs end here, before a call that takes arrays
+            lower = capsule_lower_bound(centres, bounds, i, seg_a, seg_b, cap_r, c)
+            if lower >= influence:  # link_obstacle_distance's own first test, answered here
+                clearance = min(clearance, lower)
+                continue
             d, exact, px, py, pz, nx, ny, nz = link_obstacle_distance(
-                c, i, packed, centres, bounds, seg_a, seg_b, cap_r, link_start, prim_a, prim_b, prim_r, scratch,
-                influence)
+                c, i, kinds, rows, meshes, centres, bounds, seg_a, seg_b, cap_r, link_start, prim_a, prim_b, prim_r,
+                scratch, influence)
             clearance = min(clearance, d)
             if not exact:
                 continue
