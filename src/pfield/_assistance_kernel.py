@@ -155,9 +155,10 @@ def nearest_link(rotations, origins, model, packed, centres, bounds, scratch, se
     bn = np.zeros(3)
     bp = np.zeros(3)
     kinds, rows, meshes = packed.kinds, packed.rows, mesh_addresses(packed)
-    # the hinted pair alone, or every pair
-    first_c, last_c = (hint_c, hint_c + 1) if hint_c >= 0 else (0, joints.shape[0])
-    first_i, last_i = (hint_i, hint_i + 1) if hint_c >= 0 else (0, kinds.shape[0])
+    # the hinted pair alone (when it names one), or every pair
+    hinted = 0 <= hint_c < joints.shape[0] and 0 <= hint_i < kinds.shape[0]
+    first_c, last_c = (hint_c, hint_c + 1) if hinted else (0, joints.shape[0])
+    first_i, last_i = (hint_i, hint_i + 1) if hinted else (0, kinds.shape[0])
     for c in range(first_c, last_c):
         for i in range(first_i, last_i):
             if capsule_lower_bound(centres, bounds, i, seg_a, seg_b, cap_r, c) >= best:

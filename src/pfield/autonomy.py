@@ -47,7 +47,8 @@ class WholeBodyAutonomy:
 
     ``twist`` — end-effector twist J(q) q̇ (world frame); ``joint_velocities`` — q̇ (rad/s or m/s, tree
     order); ``pose`` — FK(q); ``pose_mismatch`` — a query pose was given and differs from ``pose`` beyond
-    the tolerance; ``clearance`` — smallest link-capsule clearance to an obstacle (m, ``inf`` without).
+    the tolerance; ``clearance`` — smallest clearance of the fitted link model to an obstacle (m, ``inf``
+    without; exact within the influence distance, a lower bound beyond).
     """
 
     twist: Twist

@@ -152,6 +152,18 @@ def test_a_given_goal_configuration_is_the_only_one_and_is_refused_when_it_colli
     assert found == [] and why == "goal invalid: the given goal configuration collides (exact mesh check)"
 
 
+def test_a_given_goal_configuration_on_a_joint_limit_moves_inside_the_tracking_margin(xarm: RobotModel) -> None:
+    arrays = pack_robot(xarm, FieldConfig(), WholeBodyOptions())
+    given = np.array([0.3, 0.2, 0.0, 0.9, 0.0, -0.6, 0.0])
+    given[3] = xarm.upper_limits[3]  # the elbow on its upper limit
+    scene = make_scene(pack_obstacles([]), arrays)
+    found, _ = goal_configurations(xarm, xarm.forward_kinematics(given), [Q_START], arrays, scene, 0.01, [],
+                                   GlobalOptions(), 0.02, given=given)
+    expected = given.copy()
+    expected[3] -= 0.02
+    np.testing.assert_allclose(found[0], expected, rtol=0.0, atol=1e-15)
+
+
 @pytest.mark.parametrize(("kwargs", "field"), [
     ({"time_limit": 0.0}, "time_limit"), ({"joint_step": -1.0}, "joint_step"), ({"capacity": 1}, "capacity"),
     ({"seed": True}, "seed"), ({"extra_margin": float("nan")}, "extra_margin"),

@@ -66,7 +66,7 @@ from pfield.planning._whole_body_layout import (
 )
 from pfield.robot._clearance import (
     capsule_lower_bound,
-    link_obstacle_distance,
+    link_obstacle_distance_below,
     link_pair_distance,
     near_segments,
     world_segments,
@@ -149,9 +149,14 @@ def _obstacle_rows(robot: RobotArrays, scene: Scene, params: np.ndarray, ws: Wor
     """Damper rows and null-space repulsion of every link–obstacle pair within Q; returns the row count.
 
     One row per pair, at the closest point of the link's nearest primitive
-    (:func:`pfield.robot._clearance.link_obstacle_distance`). A pair's distance less its start offset
+    (:func:`pfield.robot._clearance.link_obstacle_distance_below`). A pair's distance less its start offset
     (``scene.obstacle_offsets``); ``hold``: offsets taken at this very configuration, i.e. max(d, d_s) (a pair
-    already closer than d_s may not approach further), without the offsets array."""
+    already closer than d_s may not approach further), without the offsets array.
+
+    Distances are exact (on the fitted primitives) below min(Q, 10 cm); beyond, a pair's clearance is a lower
+    bound: its bounding capsule's distance (also for the nearest pair), Q itself when every primitive is
+    farther, or its bounding sphere's (clearance only). Measured on MotionBenchMaker table scenes,
+    evaluating primitives between Q and 10 cm cost a third of the step."""
     influence, dt = params[INFLUENCE], params[DT]
     clearance, culprit_c, culprit_o = math.inf, -1, -1
     # hoisted out of the loops: numba reference-counts tuple members on every access (see _distance)
@@ -168,19 +173,19 @@ def _obstacle_rows(robot: RobotArrays, scene: Scene, params: np.ndarray, ws: Wor
         for i in range(bounds.shape[0]):
             # the cheap bound first, in scalars: most pairs end here, before a call that takes arrays
             lower = capsule_lower_bound(centres, bounds, i, seg_a, seg_b, cap_r, c)
-            if lower >= influence:  # link_obstacle_distance's own first test, answered here
+            if lower >= influence:  # link_obstacle_distance_below's own first test, answered here
                 clearance = min(clearance, lower)
                 continue
-            d, exact, px, py, pz, nx, ny, nz = link_obstacle_distance(
+            # fitted primitives only below Q: beyond it a pair gives no row, and its bounding capsule's distance
+            # (within a few cm of the primitives') stands for it
+            d, exact, px, py, pz, nx, ny, nz = link_obstacle_distance_below(
                 c, i, kinds, rows, meshes, centres, bounds, seg_a, seg_b, cap_r, link_start, prim_a, prim_b, prim_r,
-                scratch, influence)
+                scratch, influence, influence)
             clearance = min(clearance, d)
-            if not exact:
-                continue
             d = max(d, safety) if hold else d - offsets[c, i]
             if d < worst:
                 worst, culprit_c, culprit_o = d, c, i
-            if d >= influence or cap_joint[c] < 0:
+            if not exact or d >= influence or cap_joint[c] < 0:  # not exact: a lower bound, at least Q
                 continue
             bound = -stepped_damper_speed(d, influence, safety, speed, dt)
             m = _add_row(kin, jlin, wrows, wb, m, nx, ny, nz, cap_joint[c], px, py, pz, bound)

@@ -45,13 +45,13 @@ STEP_OUT = Layout("whole-body step result", [
     ("twist", (6,)),  # end-effector twist J q̇ (m/s, rad/s), world frame
     ("position", (3,)),  # end-effector position (m)
     ("orientation", (4,)),  # end-effector quaternion (x, y, z, w)
-    ("clearance", ()),  # smallest link–obstacle signed distance (m), inf without obstacles
+    ("clearance", ()),  # smallest link–obstacle signed distance (m; exact below min(Q, 10 cm), else a lower bound)
     ("self_clearance", ()),  # smallest self pair distance less its start offset (m), inf without pairs
     ("position_error", ()),  # ‖goal − p‖ (m)
     ("rotation_error", ()),  # ‖log(q_goal ⊗ q⁻¹)‖ (rad)
     ("nearest_capsule", ()),  # capsule index of the closest link–obstacle pair (less its offset), −1 if none
     ("nearest_obstacle", ()),  # obstacle index of that pair, −1 if none
-    ("nearest_distance", ()),  # that pair's distance less its start offset (m); < 0 is a contact
+    ("nearest_distance", ()),  # that pair's distance less its offset (m; beyond Q a lower bound); < 0: contact
     ("nearest_self_pair", ()),  # index of the closest self pair, −1 if none
 ])
 """The result row of :func:`joint_velocity_step` (``ws.out``). Read it through these offsets in compiled

@@ -143,9 +143,10 @@ def make_scene(packed: PackedObstacles | None, robot: _wb.RobotArrays | None = N
 
 
 def _failure_reason(status: PlanStatus, count: int, culprit: NDArray[np.float64], robot: RobotModel,
-                    errors: tuple[float, float], names: list[str] | None, dt: float) -> str:
+                    errors: tuple[float, float], names: list[str] | None, dt: float, influence: float) -> str:
     """The sentence beside ``status``: the blocking link and obstacle (or the two links), their distance
-    and where (the time and the end effector's remaining errors)."""
+    and where (the time and the end effector's remaining errors). Beyond the influence distance the step
+    knows a pair's distance only as a lower bound, and says so."""
     pos_err, rot_err = errors
     capsules = robot.geometry.capsules
     where = f"at t = {(count - 1) * dt:.2f} s, position error {pos_err:.4f} m, rotation error {rot_err:.4f} rad"
@@ -153,7 +154,8 @@ def _failure_reason(status: PlanStatus, count: int, culprit: NDArray[np.float64]
     blocking = ""
     if capsule >= 0 and obstacle >= 0:
         obstacle_name = names[int(obstacle)] if names else f"#{int(obstacle)}"
-        blocking = f"link {capsules[int(capsule)].link!r} is {distance:.4f} m from obstacle {obstacle_name!r}"
+        bound = "at least " if distance >= influence else ""
+        blocking = f"link {capsules[int(capsule)].link!r} is {bound}{distance:.4f} m from obstacle {obstacle_name!r}"
     self_links = ""
     if pair >= 0:
         first, second = (int(c) for c in robot.geometry.self_pairs[int(pair)])
@@ -216,7 +218,7 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
     # --- end of the global fallback
     errors = (float(np.linalg.norm(goal.position - pos[-1])), float(Pose(pos[-1], quats[-1]).rotation_distance(goal)))
     reason = "" if status == PlanStatus.REACHED else _failure_reason(
-        field_status, count, culprit, robot, errors, obstacle_names, settings.dt)
+        field_status, count, culprit, robot, errors, obstacle_names, settings.dt, config.influence_distance)
     if reason and fallback_reason:
         reason = f"{reason}; {fallback_reason}"
     if reason:
@@ -308,7 +310,7 @@ def plan_whole_body(field: Any, robot: RobotModel, q0: ArrayLike, dt: float | No
     Returns:
         A :class:`PlannedPath` with joint names, positions and velocities for every waypoint (the start
         included), the end-effector poses (FK of each waypoint), twists J q̇ and link clearances (exact
-        signed distance of the nearest link capsule within the influence distance, a lower bound beyond),
+        signed distance of the fitted link model below the influence distance and 10 cm, a lower bound beyond),
         and its ``status``.
     """
     config, goal, packed, obstacles = _field_parts(field)

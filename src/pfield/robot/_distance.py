@@ -313,16 +313,10 @@ def segment_row_distance(kinds, rows, meshes, i, a, b, scratch):  # type: ignore
 
 
 @njit(cache=True, inline="always")
-def point_segment_distance(c, a, b):  # type: ignore[no-untyped-def]
-    """Distance (m) from point c to segment a–b (used for bounding-sphere culling)."""
-    return point_segment_distance_xyz(c[0], c[1], c[2], a[0], a[1], a[2], b[0], b[1], b[2])
-
-
-@njit(cache=True, inline="always")
 def point_segment_distance_xyz(cx, cy, cz, ax, ay, az, bx, by, bz):  # type: ignore[no-untyped-def]
-    """:func:`point_segment_distance` in scalars, for culling loops over many pairs.
+    """Distance (m) from point c to segment a–b, in scalars (the bounding-sphere culling of every pair).
 
-    Why a scalar form: a compiled helper call (inlined or not) that takes arrays, or an array view such as
+    Why scalars: a compiled helper call (inlined or not) that takes arrays, or an array view such as
     ``centres[i]``, updates their reference counts with atomic instructions, about 10 ns each on x86-64;
     in a loop over every link–obstacle pair that cost more than the distance itself (measured: 132 pair
     tests 7.0 µs through array views, 0.58 µs in scalars)."""
