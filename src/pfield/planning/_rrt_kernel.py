@@ -32,12 +32,11 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from pfield.geometry._packed import CAPSULE, SPHERE
-from pfield.geometry._sdf import mesh_addresses, min_signed_distance, obstacle_signed_distance
+from pfield.geometry._sdf import mesh_addresses, min_signed_distance, row_signed_distance
 from pfield.planning._whole_body_kernel import _segments
 from pfield.planning._whole_body_layout import RobotArrays, Scene, Workspace
 from pfield.robot._clearance import capsule_lower_bound, link_obstacle_distance, link_pair_distance
-from pfield.robot._distance import round_segment_distance, segment_obstacle_distance
+from pfield.robot._distance import segment_row_distance
 from pfield.robot._kinematics import joint_transforms
 
 JOINT_SPACE, POINT_SPACE = 0, 1
@@ -132,24 +131,21 @@ def capsules_valid(q, robot, scene, ws, margin):  # type: ignore[no-untyped-def]
     link_start, prim_a, prim_b, prim_r = robot.link_start, ws.prim_seg_a, ws.prim_seg_b, robot.prim_r
     packed, centres, bounds, offsets = scene.packed, scene.centres, scene.bounds, scene.obstacle_offsets
     rows, kinds, meshes = packed.rows, packed.kinds, mesh_addresses(packed)
-    middle = np.empty(3)
     for c in range(seg_a.shape[0]):
         a, b, radius = seg_a[c], seg_b[c], cap_r[c]
+        mx, my, mz = 0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])
         half = 0.0
         for k in range(3):
-            middle[k] = 0.5 * (a[k] + b[k])
             half += (b[k] - a[k]) ** 2
         half = 0.5 * math.sqrt(half)
         for i in range(bounds.shape[0]):
             need = margin + offsets[c, i]
             if capsule_lower_bound(centres, bounds, i, seg_a, seg_b, cap_r, c) >= need:
                 continue
-            if obstacle_signed_distance(packed, i, middle)[0] - half - radius >= need:
+            # the packed arrays' hoisted forms: no reference-counted argument per pair
+            if row_signed_distance(kinds, rows, meshes, i, mx, my, mz, math.inf)[0] - half - radius >= need:
                 continue
-            if kinds[i] == SPHERE or kinds[i] == CAPSULE:
-                d = round_segment_distance(rows, kinds, i, a, b, scratch)[0]
-            else:
-                d = segment_obstacle_distance(packed, i, a, b, scratch)[0]
+            d = segment_row_distance(kinds, rows, meshes, i, a, b, scratch)[0]
             if d - radius >= need:
                 continue
             d = link_obstacle_distance(c, i, kinds, rows, meshes, centres, bounds, seg_a, seg_b, cap_r, link_start,

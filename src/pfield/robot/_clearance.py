@@ -23,7 +23,7 @@ from numba import njit
 from pfield.geometry._packed import CAPSULE, SPHERE
 from pfield.geometry._sdf import mesh_addresses, row_signed_distance
 from pfield.robot._distance import (
-    closest_segment_points,
+    closest_segment_points_xyz,
     point_segment_distance_xyz,
     segment_row_distance,
 )
@@ -175,10 +175,12 @@ def link_pair_distance(l1, l2, cap_a, cap_b, self_r):  # type: ignore[no-untyped
     the SRDF leaves only links that are not close by design, and the fitted primitives would cost about a
     hundred segment pairs per link pair for every step.
     """
-    a1, b1, a2, b2 = cap_a[l1], cap_b[l1], cap_a[l2], cap_b[l2]
-    s, t = closest_segment_points(a1, b1, a2, b2)
-    x1, y1, z1 = a1[0] + s * (b1[0] - a1[0]), a1[1] + s * (b1[1] - a1[1]), a1[2] + s * (b1[2] - a1[2])
-    x2, y2, z2 = a2[0] + t * (b2[0] - a2[0]), a2[1] + t * (b2[1] - a2[1]), a2[2] + t * (b2[2] - a2[2])
+    # scalars only (see point_segment_distance_xyz): this runs for every self pair at every step
+    a1x, a1y, a1z, b1x, b1y, b1z = cap_a[l1, 0], cap_a[l1, 1], cap_a[l1, 2], cap_b[l1, 0], cap_b[l1, 1], cap_b[l1, 2]
+    a2x, a2y, a2z, b2x, b2y, b2z = cap_a[l2, 0], cap_a[l2, 1], cap_a[l2, 2], cap_b[l2, 0], cap_b[l2, 1], cap_b[l2, 2]
+    s, t = closest_segment_points_xyz(a1x, a1y, a1z, b1x, b1y, b1z, a2x, a2y, a2z, b2x, b2y, b2z)
+    x1, y1, z1 = a1x + s * (b1x - a1x), a1y + s * (b1y - a1y), a1z + s * (b1z - a1z)
+    x2, y2, z2 = a2x + t * (b2x - a2x), a2y + t * (b2y - a2y), a2z + t * (b2z - a2z)
     d = math.sqrt((x1 - x2) ** 2 + (y1 - y2) ** 2 + (z1 - z2) ** 2) - self_r[l1] - self_r[l2]
     return d, x1, y1, z1, x2, y2, z2
 

@@ -33,9 +33,18 @@ _PAIRS = tuple((j, m) for j in range(6) for m in range(j + 1, 6))  # the box's 1
 @njit(cache=True, inline="always")
 def closest_segment_points(p1, q1, p2, q2):  # type: ignore[no-untyped-def]
     """Parameters (s, t) ∈ [0, 1]² of the closest points of segments p1–q1 and p2–q2 (Ericson §5.1.9)."""
-    d1x, d1y, d1z = q1[0] - p1[0], q1[1] - p1[1], q1[2] - p1[2]
-    d2x, d2y, d2z = q2[0] - p2[0], q2[1] - p2[1], q2[2] - p2[2]
-    rx, ry, rz = p1[0] - p2[0], p1[1] - p2[1], p1[2] - p2[2]
+    return closest_segment_points_xyz(p1[0], p1[1], p1[2], q1[0], q1[1], q1[2], p2[0], p2[1], p2[2], q2[0], q2[1],
+                                      q2[2])
+
+
+@njit(cache=True, inline="always")
+def closest_segment_points_xyz(  # type: ignore[no-untyped-def]
+        p1x, p1y, p1z, q1x, q1y, q1z, p2x, p2y, p2z, q2x, q2y, q2z):
+    """:func:`closest_segment_points` in scalars, for loops over many pairs (see
+    :func:`point_segment_distance_xyz` for why)."""
+    d1x, d1y, d1z = q1x - p1x, q1y - p1y, q1z - p1z
+    d2x, d2y, d2z = q2x - p2x, q2y - p2y, q2z - p2z
+    rx, ry, rz = p1x - p2x, p1y - p2y, p1z - p2z
     a = d1x * d1x + d1y * d1y + d1z * d1z
     e = d2x * d2x + d2y * d2y + d2z * d2z
     f = d2x * rx + d2y * ry + d2z * rz
@@ -287,12 +296,13 @@ def round_segment_distance(rows, kinds, i, a, b, scratch):  # type: ignore[no-un
     return -radius, t, nx / scale, ny / scale, nz / scale
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def segment_obstacle_distance(packed, i, a, b, scratch):  # type: ignore[no-untyped-def]
     """min over t ∈ [0, 1] of the signed distance of a + t(b − a) to obstacle i: ``(d, t, nx, ny, nz)``.
 
     ``n`` is the obstacle's outward normal (∇d) at the closest segment point; ``scratch`` is a (2, 3)
-    workspace.
+    workspace. The compiled loops call :func:`segment_row_distance` with the packed arrays read once; this
+    form serves calls with a whole :class:`~pfield.geometry._packed.PackedObstacles` (from Python, tests).
     """
     return segment_row_distance(packed.kinds, packed.rows, mesh_addresses(packed), i, a, b, scratch)
 
