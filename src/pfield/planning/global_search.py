@@ -170,12 +170,11 @@ def goal_configurations(robot: RobotModel, goal: Pose, seeds: Sequence[NDArray[n
 
     ``given``: the caller's own goal configuration (a joint goal, as in a MoveIt request), already checked
     to be within the limits and at ``goal``. It is the only one: no IK runs, and when it collides (its link
-    model overlaps something and the exact mesh check confirms a contact) the goal is invalid. A joint
-    closer than ``joint_margin`` to a limit is moved to the margin (the tracking could not reach it; the
-    field's final approach still goes to the pose)."""
+    model overlaps something and the exact mesh check confirms a contact) the goal is invalid. It is
+    searched to as given even on a joint limit: the tracking's last stretch is the field's approach to the
+    pose, which gets there (moving such joints ``joint_margin`` inside lost 3 of 80 MotionBenchMaker
+    problems to stagnation, all solved as given)."""
     if given is not None:
-        inner_lower, inner_upper = robot.lower_limits + joint_margin, robot.upper_limits - joint_margin
-        given = np.where(inner_lower <= inner_upper, np.clip(given, inner_lower, inner_upper), given)
         if _capsules_clear(arrays, scene, given, margin) or _exactly_clear(robot, obstacles, [given], 1):
             return [given], ""
         return [], "goal invalid: the given goal configuration collides (exact mesh check)"
