@@ -35,4 +35,4 @@ def cancel_flag(token: CancelToken | None) -> NDArray[np.uint8]:
     Always a writable one-element ``uint8`` array: numba compiles a kernel once per array type, and a
     read-only "never cancelled" constant would be a second specialisation that ``pfield warmup`` compiles
     while a cancellable plan (the node's) compiles the other on its first call."""
-    return token.flag if token is not None else np.zeros(1, dtype=np.uint8)
+    return (token if token is not None else CancelToken()).flag

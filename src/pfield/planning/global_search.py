@@ -46,6 +46,7 @@ from pfield.planning import _rrt_kernel as _rrt
 from pfield.planning import _whole_body_layout as _wb
 from pfield.planning._track_kernel import overlapping_waypoints, track_path
 from pfield.planning._whole_body_loop import pair_distances
+from pfield.planning.cancel import cancel_flag
 from pfield.planning.options import DEFAULT_GLOBAL_TIME_LIMIT
 from pfield.planning.status import PlanStatus
 from pfield.robot.ik import solve_ik
@@ -286,7 +287,7 @@ def track(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, path: ND
           cancel: NDArray[np.uint8] | None = None) -> tuple:  # type: ignore[type-arg]
     """The field's damper QP following ``path`` (see :mod:`pfield.planning._track_kernel`); ``cancel`` is a
     :class:`~pfield.planning.CancelToken`'s flag, polled every step."""
-    flag = np.zeros(1, dtype=np.uint8) if cancel is None else cancel
+    flag = cancel_flag(None) if cancel is None else cancel
     return track_path(path[0].copy(), np.ascontiguousarray(path), arrays, scene,
                       np.array(goal.position, dtype=np.float64), np.array(goal.orientation, dtype=np.float64), params,
                       max_iterations, options.tracking_gain, options.tracking_lead, flag)
