@@ -12,6 +12,13 @@ Hildreth's method (Hildreth 1957; Luenberger & Ye, *Linear and Nonlinear Program
 coordinate ascent on the multipliers μ ≥ 0 of x = H⁻¹(c + Aᵀ μ). Each sweep updates one multiplier at a
 time in closed form; it converges to the QP optimum when the rows are feasible, and when they are not
 it stays bounded after ``max_sweeps`` (callers then get the best compromise, never NaN).
+
+Coordinate ascent is slow when active rows are nearly parallel (two links pressing on one table: on
+MotionBenchMaker's table_under_pick, 363 of 401 steps used all 200 sweeps and still left 7e-5 m/s of
+violation). So after sweeps 1, 2, 4, 8, … the rows with μ > 0 are taken as the active set and the
+equality-constrained QP on them is solved exactly (:func:`_polish`, the Schur complement A H⁻¹ Aᵀ): when
+its multipliers are all ≥ 0 and every row holds, that is the QP's optimum (the KKT conditions hold) and the
+sweeps stop. Otherwise nothing changes and the sweeps go on.
 """
 
 from __future__ import annotations
@@ -65,7 +72,8 @@ def hildreth(factor: np.ndarray, x: np.ndarray, rows: np.ndarray, b: np.ndarray,
         mu[k] = 0.0
         curvature[k] = -1.0
     worst = 0.0
-    for _ in range(max_sweeps):
+    polish_at = 1
+    for sweep in range(1, max_sweeps + 1):
         worst = 0.0
         for k in range(m):
             slack = b[k]
@@ -91,4 +99,111 @@ def hildreth(factor: np.ndarray, x: np.ndarray, rows: np.ndarray, b: np.ndarray,
             worst = max(worst, slack)
         if worst <= tolerance:
             break
+        if sweep == polish_at:
+            polish_at *= 2
+            if _polish(factor, x, rows, b, m, n, hinv_rows, mu, curvature, tolerance):
+                return 0.0
     return worst
+
+
+@njit(cache=True)
+def _polish(factor: np.ndarray, x: np.ndarray, rows: np.ndarray, b: np.ndarray, m: int, n: int,
+            hinv_rows: np.ndarray, mu: np.ndarray, curvature: np.ndarray, tolerance: float) -> bool:
+    """Finish the QP by active-set steps from the sweeps' guess (the rows with μ > 0; see the module
+    docstring); when the optimum is found, write it into ``x`` and ``mu`` and return True, else change nothing.
+
+    With x_u = x − Σ μ_k H⁻¹a_k the unconstrained optimum, the active rows' multipliers λ solve
+    (A H⁻¹ Aᵀ) λ = b_A − A x_u and x = x_u + H⁻¹Aᵀ λ. A negative λ drops its row, else the most violated
+    row joins, until the KKT conditions hold (λ ≥ 0, every row within ``tolerance``) or after 2n changes.
+    More than n active rows, or a Schur complement singular to working precision (linearly dependent rows),
+    are left to the sweeps."""
+    free = x.copy()
+    count = 0
+    for k in range(m):
+        if mu[k] > 0.0:
+            count += 1
+            for j in range(n):
+                free[j] -= mu[k] * hinv_rows[k, j]
+    if count > n:
+        return False
+    active = np.empty(n, dtype=np.int64)
+    count = 0
+    for k in range(m):
+        if mu[k] > 0.0:
+            active[count] = k
+            count += 1
+    schur, target, lam, solution = np.empty((n, n)), np.empty(n), np.empty(n), np.empty(n)
+    for _ in range(2 * n + 1):
+        if not _active_solve(rows, b, n, hinv_rows, free, active, count, schur, target, lam):
+            return False
+        drop, lowest = -1, 0.0
+        for i in range(count):
+            if lam[i] < lowest:
+                drop, lowest = i, lam[i]
+        if drop >= 0:
+            active[drop] = active[count - 1]
+            count -= 1
+            continue
+        solution[:] = free
+        for i in range(count):
+            for j in range(n):
+                solution[j] += lam[i] * hinv_rows[active[i], j]
+        join, violation = -1, tolerance
+        for k in range(m):
+            slack = b[k]
+            for j in range(n):
+                slack -= rows[k, j] * solution[j]
+            if slack > violation:
+                join, violation = k, slack
+        if join < 0:
+            x[:n] = solution
+            mu[:m] = 0.0
+            for i in range(count):
+                mu[active[i]] = lam[i]
+            return True
+        if count == n:
+            return False
+        if curvature[join] < 0.0:  # H⁻¹a of a row the sweeps never activated
+            cholesky_solve(factor, rows[join], hinv_rows[join], n)
+            c = 0.0
+            for j in range(n):
+                c += rows[join, j] * hinv_rows[join, j]
+            curvature[join] = c
+        active[count] = join
+        count += 1
+    return False
+
+
+@njit(cache=True)
+def _active_solve(rows: np.ndarray, b: np.ndarray, n: int, hinv_rows: np.ndarray, free: np.ndarray,
+                  active: np.ndarray, count: int, schur: np.ndarray, target: np.ndarray, lam: np.ndarray) -> bool:
+    """λ of (A H⁻¹ Aᵀ) λ = b_A − A x_u for the ``count`` rows of ``active`` into ``lam``; False when the
+    Schur complement's Cholesky meets a pivot below 1e-10 of its diagonal (dependent rows)."""
+    for i in range(count):
+        ki = active[i]
+        s = b[ki]
+        for j in range(n):
+            s -= rows[ki, j] * free[j]
+        target[i] = s
+        for l in range(i + 1):
+            kl = active[l]
+            s = 0.0
+            for j in range(n):
+                s += rows[ki, j] * hinv_rows[kl, j]
+            schur[i, l] = s
+            schur[l, i] = s
+    for i in range(count):
+        diagonal = schur[i, i]
+        s = diagonal
+        for l in range(i):
+            s -= schur[i, l] * schur[i, l]
+        if s <= 1e-10 * diagonal:
+            return False
+        schur[i, i] = math.sqrt(s)
+        for r in range(i + 1, count):
+            s = schur[r, i]
+            for l in range(i):
+                s -= schur[r, l] * schur[i, l]
+            schur[r, i] = s / schur[i, i]
+    cholesky_solve(schur, target, lam, count)
+    return True

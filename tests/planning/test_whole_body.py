@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -172,6 +173,26 @@ def test_velocity_qp_matches_a_reference_solver() -> None:
         reference = _reference_qp(hessian, c, rows, bounds)
         assert np.all(rows @ x >= bounds - 1e-9)
         assert 0.5 * x @ hessian @ x - c @ x == pytest.approx(reference, rel=1e-6, abs=1e-6)
+
+
+def test_velocity_qp_is_exact_on_nearly_parallel_rows() -> None:
+    """Two links pressing on one surface give nearly parallel damper rows, where coordinate ascent alone
+    gains ~θ² per sweep; the active-set finish reaches the KKT point within the sweeps a step allows."""
+    from pfield._linalg import cholesky_inplace, cholesky_solve, hildreth
+
+    theta = 0.01
+    rows = np.array([[1.0, 0.0, 0.0], [math.cos(theta), math.sin(theta), 0.0], [0.0, 0.0, -1.0]])
+    bounds = np.array([1.0, 1.0, -5.0])  # the third row holds at the optimum: it must stay inactive
+    hessian, c = np.eye(3), np.zeros(3)
+    factor, x = hessian.copy(), np.empty(3)
+    cholesky_inplace(factor, 3)
+    cholesky_solve(factor, c, x, 3)
+    mu = np.empty(3)
+    worst = hildreth(factor, x, rows, bounds, 3, 3, np.empty((3, 3)), mu, np.empty(3), 200, 1e-12)
+    # both rows active: x = (1, (1 − cos θ)/sin θ, 0); λ = (A Aᵀ)⁻¹ b for H = I, c = 0
+    np.testing.assert_allclose(x, [1.0, (1.0 - math.cos(theta)) / math.sin(theta), 0.0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(mu[:2], np.linalg.solve(rows[:2] @ rows[:2].T, bounds[:2]), rtol=1e-9)
+    assert mu[2] == 0.0 and worst == 0.0
 
 
 def _reference_qp(hessian: np.ndarray, c: np.ndarray, rows: np.ndarray, bounds: np.ndarray) -> float:
