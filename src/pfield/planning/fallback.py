@@ -81,7 +81,7 @@ def whole_body_fallback(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.S
         reason = f"global fallback: tracking the searched path ended with {tracked.name}"
         _LOG.info(reason)
         return FallbackOutcome(None, tracked, reason, search)
-    contact = exact_contact(robot, arrays, scene, loop[2], obstacles, options.joint_resolution)
+    contact = exact_contact(robot, arrays, scene, loop[2], obstacles, options.exact_resolution)
     if contact:
         reason = f"global fallback: the exact mesh check finds a contact ({contact}) on the tracked path"
         _LOG.info(reason)

@@ -132,13 +132,9 @@ def link_obstacle_distance_below(  # type: ignore[no-untyped-def]
         return d, False, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
     best, px, py, pz, bx, by, bz = math.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
     round_obstacle = kinds[i] == SPHERE or kinds[i] == CAPSULE
-    # nothing whose lower bound exceeds ``limit`` can be the minimum: the best exact value so far, or (before
-    # any) an upper bound: a segment's midpoint is one of its points, so min_p d(mid_p) − r_p ≥ the minimum
+    # nothing whose lower bound exceeds ``limit`` can be the minimum: the best exact value so far, or an upper
+    # bound: a segment's midpoint is one of its points, so d(mid_p) − r_p ≥ the minimum
     limit = fine_cutoff
-    for p in range(link_start[link], link_start[link + 1]):
-        mx, my, mz = (0.5 * (prim_a[p, 0] + prim_b[p, 0]), 0.5 * (prim_a[p, 1] + prim_b[p, 1]),
-                      0.5 * (prim_a[p, 2] + prim_b[p, 2]))
-        limit = min(limit, row_signed_distance(kinds, rows, meshes, i, mx, my, mz, math.inf)[0] - prim_r[p])
     for p in range(link_start[link], link_start[link + 1]):
         # cheap bounds first, in scalars (an array view per primitive costs more than the bound)
         ax, ay, az = prim_a[p, 0], prim_a[p, 1], prim_a[p, 2]
@@ -150,9 +146,12 @@ def link_obstacle_distance_below(  # type: ignore[no-untyped-def]
         if math.sqrt(fx * fx + fy * fy + fz * fz) - reach - prim_r[p] > limit:
             continue
         if not round_obstacle:
-            # a signed distance is 1-Lipschitz: d(s(t)) ≥ d(midpoint) − half the segment's length
-            middle = row_signed_distance(kinds, rows, meshes, i, ax + 0.5 * ex, ay + 0.5 * ey, az + 0.5 * ez, math.inf)
-            if middle[0] - 0.5 * math.sqrt(length2) - prim_r[p] > limit:
+            # a signed distance is 1-Lipschitz: d(s(t)) ≥ d(midpoint) − half the segment's length; and the
+            # midpoint's own value bounds the minimum from above
+            middle = row_signed_distance(kinds, rows, meshes, i, ax + 0.5 * ex, ay + 0.5 * ey, az + 0.5 * ez,
+                                         math.inf)[0] - prim_r[p]
+            limit = min(limit, middle)
+            if middle - 0.5 * math.sqrt(length2) > limit:
                 continue
         a, b = prim_a[p], prim_b[p]
         d, t, nx, ny, nz = segment_row_distance(kinds, rows, meshes, i, a, b, scratch)
