@@ -25,6 +25,7 @@ from pfield.geometry._sdf import mesh_addresses, row_signed_distance
 from pfield.robot._distance import (
     closest_segment_points_xyz,
     point_segment_distance_xyz,
+    round_segment_distance_xyz,
     segment_row_distance,
 )
 from pfield.robot._kinematics import joint_transforms
@@ -153,12 +154,15 @@ def link_obstacle_distance_below(  # type: ignore[no-untyped-def]
             limit = min(limit, middle)
             if middle - 0.5 * math.sqrt(length2) > limit:
                 continue
-        a, b = prim_a[p], prim_b[p]
-        d, t, nx, ny, nz = segment_row_distance(kinds, rows, meshes, i, a, b, scratch)
+        if round_obstacle:  # closed form in scalars: no array view or array-taking call per primitive
+            d, t, nx, ny, nz = round_segment_distance_xyz(rows, kinds, i, ax, ay, az, prim_b[p, 0], prim_b[p, 1],
+                                                          prim_b[p, 2])
+        else:
+            d, t, nx, ny, nz = segment_row_distance(kinds, rows, meshes, i, prim_a[p], prim_b[p], scratch)
         d -= prim_r[p]
         if d < best:
             best, bx, by, bz = d, nx, ny, nz
-            px, py, pz = a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])
+            px, py, pz = ax + t * ex, ay + t * ey, az + t * ez
             limit = min(limit, best)
     if best == math.inf and fine_cutoff < math.inf:
         return fine_cutoff, False, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0

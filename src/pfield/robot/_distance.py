@@ -251,44 +251,40 @@ def _mesh_minimum(kinds, rows, meshes, i, a, b):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, inline="always")
-def _closest_to_point(a, b, cx, cy, cz):  # type: ignore[no-untyped-def]
-    """Parameter t of the point of segment a–b nearest to c."""
-    dx, dy, dz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
-    length2 = dx * dx + dy * dy + dz * dz
-    if length2 <= 1e-14:
-        return 0.0
-    return min(max(((cx - a[0]) * dx + (cy - a[1]) * dy + (cz - a[2]) * dz) / length2, 0.0), 1.0)
+def round_segment_distance(rows, kinds, i, a, b, scratch):  # type: ignore[no-untyped-def]
+    """Closed-form :func:`segment_obstacle_distance` for a sphere or capsule obstacle (``kinds[i]``);
+    ``scratch`` is unused (the signature of the other kinds' forms)."""
+    return round_segment_distance_xyz(rows, kinds, i, a[0], a[1], a[2], b[0], b[1], b[2])
 
 
 @njit(cache=True, inline="always")
-def round_segment_distance(rows, kinds, i, a, b, scratch):  # type: ignore[no-untyped-def]
-    """Closed-form :func:`segment_obstacle_distance` for a sphere or capsule obstacle (``kinds[i]``).
+def round_segment_distance_xyz(rows, kinds, i, ax, ay, az, bx, by, bz):  # type: ignore[no-untyped-def]
+    """:func:`round_segment_distance` of the segment a–b given in scalars, for the loops over every fitted
+    primitive (see :func:`point_segment_distance_xyz` for why): ``(d, t, nx, ny, nz)``.
 
     Takes the packed ``rows``/``kinds`` arrays rather than the whole :class:`PackedObstacles` so that hot
     loops can hoist them (numba otherwise reference-counts every member array on each iteration).
     """
-    row = rows[i]
-    radius = row[12]
+    cx, cy, cz, radius = rows[i, 0], rows[i, 1], rows[i, 2], rows[i, 12]
+    ex, ey, ez = bx - ax, by - ay, bz - az
     if kinds[i] == SPHERE:
-        t = _closest_to_point(a, b, row[0], row[1], row[2])
-        qx, qy, qz = row[0], row[1], row[2]
+        length2 = ex * ex + ey * ey + ez * ez
+        t = 0.0 if length2 <= 1e-14 else min(max(((cx - ax) * ex + (cy - ay) * ey + (cz - az) * ez) / length2, 0.0),
+                                              1.0)
+        qx, qy, qz = cx, cy, cz
     else:
-        half = row[13]
-        axis_a, axis_b = scratch[0], scratch[1]
-        for k in range(3):  # local z in the world: third column of the row-major R
-            axis_a[k] = row[k] - half * row[5 + 3 * k]
-            axis_b[k] = row[k] + half * row[5 + 3 * k]
-        t, u = closest_segment_points(a, b, axis_a, axis_b)
-        qx = axis_a[0] + u * (axis_b[0] - axis_a[0])
-        qy = axis_a[1] + u * (axis_b[1] - axis_a[1])
-        qz = axis_a[2] + u * (axis_b[2] - axis_a[2])
-    px, py, pz = a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])
+        half = rows[i, 13]
+        # local z in the world: third column of the row-major R
+        zx, zy, zz = half * rows[i, 5], half * rows[i, 8], half * rows[i, 11]
+        a2x, a2y, a2z, b2x, b2y, b2z = cx - zx, cy - zy, cz - zz, cx + zx, cy + zy, cz + zz
+        t, u = closest_segment_points_xyz(ax, ay, az, bx, by, bz, a2x, a2y, a2z, b2x, b2y, b2z)
+        qx, qy, qz = a2x + u * (b2x - a2x), a2y + u * (b2y - a2y), a2z + u * (b2z - a2z)
+    px, py, pz = ax + t * ex, ay + t * ey, az + t * ez
     dx, dy, dz = px - qx, py - qy, pz - qz
     norm = math.sqrt(dx * dx + dy * dy + dz * dz)
     if norm > 1e-12:
         return norm - radius, t, dx / norm, dy / norm, dz / norm
     # on the centre/axis: any direction ⟂ the segment is a gradient; take one deterministically
-    ex, ey, ez = b[0] - a[0], b[1] - a[1], b[2] - a[2]
     nx, ny, nz = (-ey, ex, 0.0) if abs(ez) < max(abs(ex), abs(ey)) else (0.0, -ez, ey)
     scale = math.sqrt(nx * nx + ny * ny + nz * nz)
     if scale < 1e-12:
