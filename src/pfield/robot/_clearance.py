@@ -25,8 +25,7 @@ from pfield.geometry._sdf import mesh_addresses, row_signed_distance
 from pfield.robot._distance import (
     closest_segment_points_xyz,
     point_segment_distance_xyz,
-    round_segment_distance_xyz,
-    segment_row_distance,
+    segment_row_distance_xyz,
 )
 from pfield.robot._kinematics import joint_transforms
 
@@ -124,11 +123,12 @@ def link_obstacle_distance_below(  # type: ignore[no-untyped-def]
     if lower >= cutoff:
         return lower, False, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
     centre, reach = centres[i], bounds[i]
-    a, b = cap_a[link], cap_b[link]
-    d, t, nx, ny, nz = segment_row_distance(kinds, rows, meshes, i, a, b, scratch)
+    cax, cay, caz, cbx, cby, cbz = cap_a[link, 0], cap_a[link, 1], cap_a[link, 2], cap_b[link, 0], cap_b[link, 1], \
+        cap_b[link, 2]
+    d, t, nx, ny, nz = segment_row_distance_xyz(kinds, rows, meshes, i, cax, cay, caz, cbx, cby, cbz, scratch)
     d -= cap_r[link]
     if d >= FINE_RANGE:  # far: the bounding capsule's distance (a lower bound of the fitted model's)
-        return d, True, a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2]), nx, ny, nz
+        return d, True, cax + t * (cbx - cax), cay + t * (cby - cay), caz + t * (cbz - caz), nx, ny, nz
     if d >= fine_cutoff:  # the bounding capsule contains every primitive: none is closer than it
         return d, False, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
     best, px, py, pz, bx, by, bz = math.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
@@ -154,11 +154,9 @@ def link_obstacle_distance_below(  # type: ignore[no-untyped-def]
             limit = min(limit, middle)
             if middle - 0.5 * math.sqrt(length2) > limit:
                 continue
-        if round_obstacle:  # closed form in scalars: no array view or array-taking call per primitive
-            d, t, nx, ny, nz = round_segment_distance_xyz(rows, kinds, i, ax, ay, az, prim_b[p, 0], prim_b[p, 1],
-                                                          prim_b[p, 2])
-        else:
-            d, t, nx, ny, nz = segment_row_distance(kinds, rows, meshes, i, prim_a[p], prim_b[p], scratch)
+        # in scalars: no array view or array-taking call per primitive (closed forms for spheres, capsules, boxes)
+        d, t, nx, ny, nz = segment_row_distance_xyz(kinds, rows, meshes, i, ax, ay, az, prim_b[p, 0], prim_b[p, 1],
+                                                    prim_b[p, 2], scratch)
         d -= prim_r[p]
         if d < best:
             best, bx, by, bz = d, nx, ny, nz

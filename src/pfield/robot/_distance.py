@@ -6,7 +6,7 @@ distance to an obstacle is ``min_t d_O(s(t)) − r`` with d_O the obstacle's exa
 
 * spheres and capsules: closed form (point–segment, segment–segment; Ericson, *Real-Time Collision
   Detection* 2005, §5.1.2 and §5.1.9);
-* boxes: closed form (:func:`_box_minimiser`: d² is piecewise quadratic along the segment);
+* boxes: closed form (:func:`box_minimiser_xyz`: d² is piecewise quadratic along the segment);
 * cylinders, ellipsoids: the signed distance of a convex set is convex (a maximum of affine
   functions), so f(t) = d_O(s(t)) is convex and its minimiser is found by bisection on the sign of
   f'(t) = ∇d_O · (b − a), whose gradient is the kernel's normal;
@@ -142,9 +142,10 @@ def _box_excess_slope(p0, u, h, t):  # type: ignore[no-untyped-def]
     return square, slope
 
 
-@njit(cache=True)
-def _box_minimiser(rows, i, a, b):  # type: ignore[no-untyped-def]
-    """The t ∈ [0, 1] minimising the signed distance of a + t(b − a) to box ``i``, in closed form.
+@njit(cache=True)  # not inlined: its one array argument costs little; inlined, the cold compile took 3 min longer
+def box_minimiser_xyz(rows, i, ax, ay, az, bx, by, bz):  # type: ignore[no-untyped-def]
+    """The t ∈ [0, 1] minimising the signed distance of a + t(b − a) to box ``i``, in closed form; the segment
+    in scalars, for the loops over every fitted primitive (see :func:`point_segment_distance_xyz` for why).
 
     In the box frame the segment is p(t) = p₀ + t·u with excesses e_k(t) = |p_k(t)| − h_k. Outside, g = d² =
     Σ_k max(e_k, 0)² is convex and continuously differentiable, and g' is linear between the breakpoints
@@ -154,9 +155,14 @@ def _box_minimiser(rows, i, a, b):  # type: ignore[no-untyped-def]
     affine functions ±p_k(t) − h_k (a lower bound of d everywhere, equal to it inside): its minimum is at an
     end or where two of them cross (ties: the smallest t).
     """
-    row = rows[i]
-    p0, u = _local_segment(row, a, b)
-    h = (row[12], row[13], row[14])
+    # the segment in the box frame (as _local_segment, from scalars)
+    cx, cy, cz = ax - rows[i, 0], ay - rows[i, 1], az - rows[i, 2]
+    wx, wy, wz = bx - ax, by - ay, bz - az
+    p0 = (rows[i, 3] * cx + rows[i, 6] * cy + rows[i, 9] * cz, rows[i, 4] * cx + rows[i, 7] * cy + rows[i, 10] * cz,
+          rows[i, 5] * cx + rows[i, 8] * cy + rows[i, 11] * cz)
+    u = (rows[i, 3] * wx + rows[i, 6] * wy + rows[i, 9] * wz, rows[i, 4] * wx + rows[i, 7] * wy + rows[i, 10] * wz,
+         rows[i, 5] * wx + rows[i, 8] * wy + rows[i, 11] * wz)
+    h = (rows[i, 12], rows[i, 13], rows[i, 14])
     low_t, low = 0.0, _box_excess_slope(p0, u, h, 0.0)[1]
     high_t, high = 1.0, _box_excess_slope(p0, u, h, 1.0)[1]
     if low >= 0.0:
@@ -185,7 +191,7 @@ def _box_minimiser(rows, i, a, b):  # type: ignore[no-untyped-def]
 @njit(cache=True)
 def _box_reach_minimiser(p0, u, h):  # type: ignore[no-untyped-def]
     """The smallest t ∈ [0, 1] minimising max_j (s_j t + o_j), the six faces' affine excesses ±p_k(t) − h_k
-    (see :func:`_box_minimiser`): an end, or where two of them cross."""
+    (see :func:`box_minimiser_xyz`): an end, or where two of them cross."""
     slopes = (u[0], -u[0], u[1], -u[1], u[2], -u[2])
     offsets = (p0[0] - h[0], -p0[0] - h[0], p0[1] - h[1], -p0[1] - h[1], p0[2] - h[2], -p0[2] - h[2])
     best_t, best = 0.0, math.inf
@@ -207,11 +213,12 @@ def _box_reach_minimiser(p0, u, h):  # type: ignore[no-untyped-def]
     return best_t
 
 
-@njit(cache=True)
-def _box_minimum(kinds, rows, meshes, i, a, b):  # type: ignore[no-untyped-def]
-    """:func:`segment_obstacle_distance` for a box: the closed-form minimiser, then one exact evaluation."""
-    t = _box_minimiser(rows, i, a, b)
-    d, nx, ny, nz = _distance_at(kinds, rows, meshes, i, a, b, t)
+@njit(cache=True, inline="always")
+def box_segment_distance_xyz(kinds, rows, meshes, i, ax, ay, az, bx, by, bz):  # type: ignore[no-untyped-def]
+    """:func:`segment_obstacle_distance` for box ``i`` of the segment given in scalars: ``(d, t, nx, ny, nz)``."""
+    t = box_minimiser_xyz(rows, i, ax, ay, az, bx, by, bz)
+    d, nx, ny, nz = row_signed_distance(kinds, rows, meshes, i, ax + t * (bx - ax), ay + t * (by - ay),
+                                        az + t * (bz - az), math.inf)
     return d, t, nx, ny, nz
 
 
@@ -251,16 +258,9 @@ def _mesh_minimum(kinds, rows, meshes, i, a, b):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, inline="always")
-def round_segment_distance(rows, kinds, i, a, b, scratch):  # type: ignore[no-untyped-def]
-    """Closed-form :func:`segment_obstacle_distance` for a sphere or capsule obstacle (``kinds[i]``);
-    ``scratch`` is unused (the signature of the other kinds' forms)."""
-    return round_segment_distance_xyz(rows, kinds, i, a[0], a[1], a[2], b[0], b[1], b[2])
-
-
-@njit(cache=True, inline="always")
 def round_segment_distance_xyz(rows, kinds, i, ax, ay, az, bx, by, bz):  # type: ignore[no-untyped-def]
-    """:func:`round_segment_distance` of the segment a–b given in scalars, for the loops over every fitted
-    primitive (see :func:`point_segment_distance_xyz` for why): ``(d, t, nx, ny, nz)``.
+    """Closed-form :func:`segment_obstacle_distance` for a sphere or capsule obstacle (``kinds[i]``), the segment
+    a–b given in scalars (see :func:`point_segment_distance_xyz` for why): ``(d, t, nx, ny, nz)``.
 
     Takes the packed ``rows``/``kinds`` arrays rather than the whole :class:`PackedObstacles` so that hot
     loops can hoist them (numba otherwise reference-counts every member array on each iteration).
@@ -309,13 +309,28 @@ def segment_row_distance(kinds, rows, meshes, i, a, b, scratch):  # type: ignore
     :func:`~pfield.geometry._sdf.mesh_addresses`), for loops that hoist them out (each member read of a
     :class:`~pfield.geometry._packed.PackedObstacles` costs a reference-count update)."""
     kind = kinds[i]
-    if kind == SPHERE or kind == CAPSULE:
-        return round_segment_distance(rows, kinds, i, a, b, scratch)
     if kind == MESH:
         return _mesh_minimum(kinds, rows, meshes, i, a, b)
+    if kind != SPHERE and kind != CAPSULE and kind != BOX:
+        return _convex_minimum(kinds, rows, meshes, i, a, b)
+    return segment_row_distance_xyz(kinds, rows, meshes, i, a[0], a[1], a[2], b[0], b[1], b[2], scratch)
+
+
+@njit(cache=True, inline="always")
+def segment_row_distance_xyz(kinds, rows, meshes, i, ax, ay, az, bx, by, bz, scratch):  # type: ignore[no-untyped-def]
+    """:func:`segment_row_distance` of the segment a–b given in scalars, for the loops over every fitted
+    primitive (see :func:`point_segment_distance_xyz` for why): spheres, capsules and boxes in closed form
+    on scalars; meshes and the other convex kinds through the ends written into ``scratch`` (2, 3)."""
+    kind = kinds[i]
+    if kind == SPHERE or kind == CAPSULE:
+        return round_segment_distance_xyz(rows, kinds, i, ax, ay, az, bx, by, bz)
     if kind == BOX:
-        return _box_minimum(kinds, rows, meshes, i, a, b)
-    return _convex_minimum(kinds, rows, meshes, i, a, b)
+        return box_segment_distance_xyz(kinds, rows, meshes, i, ax, ay, az, bx, by, bz)
+    scratch[0, 0], scratch[0, 1], scratch[0, 2] = ax, ay, az
+    scratch[1, 0], scratch[1, 1], scratch[1, 2] = bx, by, bz
+    if kind == MESH:
+        return _mesh_minimum(kinds, rows, meshes, i, scratch[0], scratch[1])
+    return _convex_minimum(kinds, rows, meshes, i, scratch[0], scratch[1])
 
 
 @njit(cache=True, inline="always")
