@@ -118,13 +118,13 @@ def _polish(factor: np.ndarray, x: np.ndarray, rows: np.ndarray, b: np.ndarray, 
     More than n active rows, or a Schur complement singular to working precision (linearly dependent rows),
     are left to the sweeps."""
     free = x.copy()
-    count = 0
+    guessed = 0
     for k in range(m):
         if mu[k] > 0.0:
-            count += 1
+            guessed += 1
             for j in range(n):
                 free[j] -= mu[k] * hinv_rows[k, j]
-    if count > n:
+    if guessed > n:
         return False
     active = np.empty(n, dtype=np.int64)
     count = np.int64(0)  # a run-time zero: with the literal, _active_solve would compile for Literal[int](0) too
