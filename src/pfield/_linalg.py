@@ -127,7 +127,7 @@ def _polish(factor: np.ndarray, x: np.ndarray, rows: np.ndarray, b: np.ndarray, 
     if guessed > n:
         return False
     active = np.empty(n, dtype=np.int64)
-    count = np.int64(0)  # a run-time zero: with the literal, _active_solve would compile for Literal[int](0) too
+    count = 0 * m  # a run-time zero: with the literal, _active_solve would compile for Literal[int](0) too
     for k in range(m):
         if mu[k] > 0.0:
             active[count] = k
