@@ -30,18 +30,26 @@ from numba import njit
 
 
 @njit(cache=True)
-def cholesky_inplace(h: np.ndarray, n: int) -> None:
-    """Lower Cholesky factor of the leading n×n block of ``h`` written into its lower triangle."""
+def cholesky_inplace(h: np.ndarray, n: int) -> float:
+    """Lower Cholesky factor of the leading n×n block of ``h`` written into its lower triangle (read from it).
+
+    Returns the smallest squared pivot relative to its diagonal entry of ``h`` (1 for a diagonal matrix, near
+    0 for nearly dependent rows, ≤ 0 when the block is not positive definite); a pivot ≤ 0 is clamped to
+    1e-300 so that the factor stays finite, and callers that may meet such blocks test the returned value."""
+    smallest = 1.0
     for j in range(n):
-        s = h[j, j]
+        diagonal = h[j, j]
+        s = diagonal
         for k in range(j):
             s -= h[j, k] * h[j, k]
+        smallest = min(smallest, s / diagonal if diagonal > 0.0 else 0.0)
         h[j, j] = math.sqrt(max(s, 1e-300))
         for i in range(j + 1, n):
             s = h[i, j]
             for k in range(j):
                 s -= h[i, k] * h[j, k]
             h[i, j] = s / h[j, j]
+    return smallest
 
 
 @njit(cache=True)
@@ -83,11 +91,7 @@ def hildreth(factor: np.ndarray, x: np.ndarray, rows: np.ndarray, b: np.ndarray,
                 continue  # satisfied and inactive
             g = hinv_rows[k]
             if curvature[k] < 0.0:
-                cholesky_solve(factor, rows[k], g, n)
-                c = 0.0
-                for j in range(n):
-                    c += rows[k, j] * g[j]
-                curvature[k] = c
+                curvature[k] = _row_curvature(factor, rows, k, hinv_rows, n)
             if curvature[k] <= 1e-14:
                 continue
             new = max(0.0, mu[k] + slack / curvature[k])
@@ -104,6 +108,16 @@ def hildreth(factor: np.ndarray, x: np.ndarray, rows: np.ndarray, b: np.ndarray,
             if _polish(factor, x, rows, b, m, n, hinv_rows, mu, curvature, tolerance):
                 return 0.0
     return worst
+
+
+@njit(cache=True)
+def _row_curvature(factor: np.ndarray, rows: np.ndarray, k: int, hinv_rows: np.ndarray, n: int) -> float:
+    """H⁻¹aₖ into ``hinv_rows[k]``, and aₖᵀ H⁻¹ aₖ: the curvature of the dual along row k's multiplier."""
+    cholesky_solve(factor, rows[k], hinv_rows[k], n)
+    c = 0.0
+    for j in range(n):
+        c += rows[k, j] * hinv_rows[k, j]
+    return c
 
 
 @njit(cache=True)
@@ -164,11 +178,7 @@ def _polish(factor: np.ndarray, x: np.ndarray, rows: np.ndarray, b: np.ndarray, 
         if count == n:
             return False
         if curvature[join] < 0.0:  # H⁻¹a of a row the sweeps never activated
-            cholesky_solve(factor, rows[join], hinv_rows[join], n)
-            c = 0.0
-            for j in range(n):
-                c += rows[join, j] * hinv_rows[join, j]
-            curvature[join] = c
+            curvature[join] = _row_curvature(factor, rows, join, hinv_rows, n)
         active[count] = join
         count += 1
     return False
@@ -190,20 +200,8 @@ def _active_solve(rows: np.ndarray, b: np.ndarray, n: int, hinv_rows: np.ndarray
             s = 0.0
             for j in range(n):
                 s += rows[ki, j] * hinv_rows[kl, j]
-            schur[i, l] = s
-            schur[l, i] = s
-    for i in range(count):
-        diagonal = schur[i, i]
-        s = diagonal
-        for l in range(i):
-            s -= schur[i, l] * schur[i, l]
-        if s <= 1e-10 * diagonal:
-            return False
-        schur[i, i] = math.sqrt(s)
-        for r in range(i + 1, count):
-            s = schur[r, i]
-            for l in range(i):
-                s -= schur[r, l] * schur[i, l]
-            schur[r, i] = s / schur[i, i]
+            schur[i, l] = s  # the lower triangle: what the factorisation reads
+    if cholesky_inplace(schur, count) <= 1e-10:
+        return False
     cholesky_solve(schur, target, lam, count)
     return True

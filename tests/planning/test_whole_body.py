@@ -195,6 +195,21 @@ def test_velocity_qp_is_exact_on_nearly_parallel_rows() -> None:
     assert mu[2] == 0.0 and worst == 0.0
 
 
+def test_cholesky_reports_its_smallest_relative_pivot() -> None:
+    """The factor of [[4, 2], [2, 2]] is [[2, 0], [1, 1]]; its second squared pivot is 2 − 1 = 1, half its
+    diagonal entry. Dependent rows give 0 and an indefinite block a negative value (the factor stays finite)."""
+    from pfield._linalg import cholesky_inplace
+
+    h = np.array([[4.0, 2.0], [2.0, 2.0]])
+    assert cholesky_inplace(h, 2) == 0.5
+    np.testing.assert_array_equal(np.tril(h), [[2.0, 0.0], [1.0, 1.0]])
+    assert cholesky_inplace(np.ones((2, 2)), 2) == 0.0
+    indefinite = np.array([[1.0, 2.0], [2.0, 1.0]])
+    assert cholesky_inplace(indefinite, 2) == -3.0
+    assert np.all(np.isfinite(indefinite))
+    assert cholesky_inplace(np.diag([3.0, 5.0, 7.0]), 3) == 1.0
+
+
 def _reference_qp(hessian: np.ndarray, c: np.ndarray, rows: np.ndarray, bounds: np.ndarray) -> float:
     """Optimal value of min ½xᵀHx − cᵀx s.t. rows·x ≥ bounds, by scipy's SLSQP."""
     from scipy.optimize import minimize

@@ -89,14 +89,14 @@ def _distance_at(kinds, rows, meshes, i, a, b, t):  # type: ignore[no-untyped-de
 
 
 @njit(cache=True, inline="always")
-def _local_segment(row, a, b):  # type: ignore[no-untyped-def]
-    """The segment a–b in the frame of the obstacle of packed ``row``: (start p₀, direction u)."""
-    cx, cy, cz = a[0] - row[0], a[1] - row[1], a[2] - row[2]
-    ux, uy, uz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
-    return ((row[3] * cx + row[6] * cy + row[9] * cz, row[4] * cx + row[7] * cy + row[10] * cz,
-             row[5] * cx + row[8] * cy + row[11] * cz),
-            (row[3] * ux + row[6] * uy + row[9] * uz, row[4] * ux + row[7] * uy + row[10] * uz,
-             row[5] * ux + row[8] * uy + row[11] * uz))
+def _local_segment(rows, i, ax, ay, az, bx, by, bz):  # type: ignore[no-untyped-def]
+    """The segment a–b (in scalars) in the frame of packed obstacle ``i``: (start p₀, direction u)."""
+    cx, cy, cz = ax - rows[i, 0], ay - rows[i, 1], az - rows[i, 2]
+    ux, uy, uz = bx - ax, by - ay, bz - az
+    return ((rows[i, 3] * cx + rows[i, 6] * cy + rows[i, 9] * cz, rows[i, 4] * cx + rows[i, 7] * cy
+             + rows[i, 10] * cz, rows[i, 5] * cx + rows[i, 8] * cy + rows[i, 11] * cz),
+            (rows[i, 3] * ux + rows[i, 6] * uy + rows[i, 9] * uz, rows[i, 4] * ux + rows[i, 7] * uy
+             + rows[i, 10] * uz, rows[i, 5] * ux + rows[i, 8] * uy + rows[i, 11] * uz))
 
 
 @njit(cache=True, inline="always")
@@ -111,7 +111,7 @@ def _local_slope(kind, row, p0, u, t):  # type: ignore[no-untyped-def]
 def _convex_minimum(kinds, rows, meshes, i, a, b):  # type: ignore[no-untyped-def]
     """Bisection on the sign of the slope, in the obstacle's frame (the segment is taken there once)."""
     kind, row = kinds[i], rows[i]
-    p0, u = _local_segment(row, a, b)
+    p0, u = _local_segment(rows, i, a[0], a[1], a[2], b[0], b[1], b[2])
     if _local_slope(kind, row, p0, u, 0.0)[1] >= 0.0:
         t = 0.0
     elif _local_slope(kind, row, p0, u, 1.0)[1] <= 0.0:
@@ -155,13 +155,7 @@ def box_minimiser_xyz(rows, i, ax, ay, az, bx, by, bz):  # type: ignore[no-untyp
     affine functions ±p_k(t) − h_k (a lower bound of d everywhere, equal to it inside): its minimum is at an
     end or where two of them cross (ties: the smallest t).
     """
-    # the segment in the box frame (as _local_segment, from scalars)
-    cx, cy, cz = ax - rows[i, 0], ay - rows[i, 1], az - rows[i, 2]
-    wx, wy, wz = bx - ax, by - ay, bz - az
-    p0 = (rows[i, 3] * cx + rows[i, 6] * cy + rows[i, 9] * cz, rows[i, 4] * cx + rows[i, 7] * cy + rows[i, 10] * cz,
-          rows[i, 5] * cx + rows[i, 8] * cy + rows[i, 11] * cz)
-    u = (rows[i, 3] * wx + rows[i, 6] * wy + rows[i, 9] * wz, rows[i, 4] * wx + rows[i, 7] * wy + rows[i, 10] * wz,
-         rows[i, 5] * wx + rows[i, 8] * wy + rows[i, 11] * wz)
+    p0, u = _local_segment(rows, i, ax, ay, az, bx, by, bz)
     h = (rows[i, 12], rows[i, 13], rows[i, 14])
     low_t, low = 0.0, _box_excess_slope(p0, u, h, 0.0)[1]
     high_t, high = 1.0, _box_excess_slope(p0, u, h, 1.0)[1]
