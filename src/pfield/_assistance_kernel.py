@@ -27,7 +27,13 @@ from pfield.planning._whole_body_layout import (
     OUT_SIZE,
     OUT_TWIST,
 )
-from pfield.robot._clearance import capsule_lower_bound, link_obstacle_distance_below, near_segments, world_segments
+from pfield.robot._clearance import (
+    capsule_level_distance,
+    capsule_lower_bound,
+    fitted_distance_below,
+    near_segments,
+    world_segments,
+)
 from pfield.robot._kinematics import end_effector_kinematics, linear_point_jacobian
 
 # parameter vector layout
@@ -141,8 +147,9 @@ def nearest_link(rotations, origins, model, packed, centres, bounds, scratch, se
     (link ends a, b (L, 3), primitive ends a, b (Np, 3)) the world-segment workspace. ``n`` is the obstacle's
     outward normal at the closest point, ``p`` the robot's witness point (the primitive's axis point − r n).
     A pair whose bound is no better than the best so far is skipped
-    (:func:`pfield.robot._clearance.link_obstacle_distance_below` with that cutoff). ``hint_c``, ``hint_i`` ≥ 0
-    name a pair already known to be the closest (see :func:`bound_assist_step`): only it is evaluated.
+    (:func:`pfield.robot._clearance.link_obstacle_distance_below` with that cutoff, in its two levels).
+    ``hint_c``, ``hint_i`` ≥ 0 name a pair already known to be the closest (see :func:`bound_assist_step`):
+    only it is evaluated.
     ``segments_ready``: ``segments`` already hold the world segments at these joint frames.
     """
     joints, cap_a, cap_b, cap_r, link_start, prim_joint, prim_a, prim_b, prim_r = model
@@ -163,9 +170,14 @@ def nearest_link(rotations, origins, model, packed, centres, bounds, scratch, se
         for i in range(first_i, last_i):
             if capsule_lower_bound(centres, bounds, i, seg_a, seg_b, cap_r, c) >= best:
                 continue  # the call below would answer this bound, not exact: the pair cannot be nearer
-            d, exact, px, py, pz, nx, ny, nz = link_obstacle_distance_below(
-                c, i, kinds, rows, meshes, centres, bounds, seg_a, seg_b, cap_r, link_start, prim_seg_a, prim_seg_b,
-                prim_r, scratch, best, best)
+            # link_obstacle_distance_below with cutoff best, its two levels called here (see fitted_distance_below)
+            d, exact, px, py, pz, nx, ny, nz = capsule_level_distance(
+                kinds, rows, meshes, i, seg_a[c, 0], seg_a[c, 1], seg_a[c, 2], seg_b[c, 0], seg_b[c, 1], seg_b[c, 2],
+                cap_r[c], scratch)
+            if not exact and d < best:
+                d, exact, px, py, pz, nx, ny, nz = fitted_distance_below(
+                    kinds, rows, meshes, i, centres[i, 0], centres[i, 1], centres[i, 2], bounds[i], link_start[c],
+                    link_start[c + 1], prim_seg_a, prim_seg_b, prim_r, scratch, best)
             if exact and d < best:
                 best, best_c, best_i = d, c, i
                 bn[0], bn[1], bn[2] = nx, ny, nz

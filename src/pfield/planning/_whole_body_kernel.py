@@ -65,8 +65,9 @@ from pfield.planning._whole_body_layout import (
     Workspace,
 )
 from pfield.robot._clearance import (
+    capsule_level_distance,
     capsule_lower_bound,
-    link_obstacle_distance_below,
+    fitted_distance_below,
     link_pair_distance,
     near_segments,
     world_segments,
@@ -176,11 +177,16 @@ def _obstacle_rows(robot: RobotArrays, scene: Scene, params: np.ndarray, ws: Wor
             if lower >= influence:  # link_obstacle_distance_below's own first test, answered here
                 clearance = min(clearance, lower)
                 continue
-            # fitted primitives only below Q: beyond it a pair gives no row, and its bounding capsule's distance
-            # (within a few cm of the primitives') stands for it
-            d, exact, px, py, pz, nx, ny, nz = link_obstacle_distance_below(
-                c, i, kinds, rows, meshes, centres, bounds, seg_a, seg_b, cap_r, link_start, prim_a, prim_b, prim_r,
-                scratch, influence, influence)
+            # link_obstacle_distance_below's two levels, called here (see fitted_distance_below for why): fitted
+            # primitives only below Q: beyond it a pair gives no row, and its bounding capsule's distance (within
+            # a few cm of the primitives') stands for it
+            d, exact, px, py, pz, nx, ny, nz = capsule_level_distance(
+                kinds, rows, meshes, i, seg_a[c, 0], seg_a[c, 1], seg_a[c, 2], seg_b[c, 0], seg_b[c, 1], seg_b[c, 2],
+                cap_r[c], scratch)
+            if not exact and d < influence:
+                d, exact, px, py, pz, nx, ny, nz = fitted_distance_below(
+                    kinds, rows, meshes, i, centres[i, 0], centres[i, 1], centres[i, 2], bounds[i], link_start[c],
+                    link_start[c + 1], prim_a, prim_b, prim_r, scratch, influence)
             clearance = min(clearance, d)
             d = max(d, safety) if hold else d - offsets[c, i]
             if d < worst:
