@@ -66,3 +66,30 @@ def stretch_intervals(q, h0, v_max, a_max, rounds):  # type: ignore[no-untyped-d
                 h[k] *= factor
     differences(q, h, v, a)
     return h, v, a
+
+
+@njit(cache=True)
+def knot_indices(arc, spacing):  # type: ignore[no-untyped-def]
+    """Indices of the waypoints that carry the timing: the first, each next one at least ``spacing`` of
+    joint-space arc length ``arc`` (N,) after the previous one, and the last (distinct positions only).
+
+    Dense planner output turns by fractions of a milliradian from step to step; through every step those
+    turns would be accelerations that force a crawl."""
+    keep = np.empty(arc.shape[0], dtype=np.int64)
+    keep[0], count, last = 0, 1, 0.0
+    for k in range(1, arc.shape[0]):
+        if arc[k] - last >= spacing:
+            keep[count], count, last = k, count + 1, arc[k]
+    if arc[-1] > arc[keep[count - 1]]:
+        keep[count], count = arc.shape[0] - 1, count + 1
+    return keep[:count].copy()
+
+
+@njit(cache=True)
+def strictly_increasing(times):  # type: ignore[no-untyped-def]
+    """``times`` (N,) with each repeat (a waypoint that did not move) nudged one representable step later."""
+    out = times.copy()
+    for k in range(1, out.shape[0]):
+        if out[k] <= out[k - 1]:
+            out[k] = np.nextafter(out[k - 1], np.inf)
+    return out

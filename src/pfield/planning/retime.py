@@ -34,13 +34,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from pfield._validation import positive
 from pfield.errors import InvalidInput
-from pfield.planning._retime_kernel import stretch_intervals
+from pfield.planning._retime_kernel import knot_indices, stretch_intervals, strictly_increasing
 
 __all__ = ["DEFAULT_JOINT_ACCELERATION", "DEFAULT_PRISMATIC_ACCELERATION", "TimedJointTrajectory",
            "default_acceleration_limits", "retime_joint_path"]
 
 KNOT_SPACING = 0.05
-"""rad (or m): least joint-space arc length between consecutive knots (see :func:`_knot_indices`)."""
+"""rad (or m): least joint-space arc length between consecutive knots (see :func:`._retime_kernel.knot_indices`)."""
 _ROUNDS = 2000
 DEFAULT_JOINT_ACCELERATION = 0.2
 """rad/s², revolute joints without a configured limit (FieldConfig's ``max_angular_acceleration``)."""
@@ -85,22 +85,6 @@ def default_acceleration_limits(kinds: ArrayLike, revolute: float = DEFAULT_JOIN
     return np.where(np.asarray(kinds) == 0, revolute, prismatic).astype(np.float64)
 
 
-def _knot_indices(arc: NDArray[np.float64]) -> NDArray[np.int64]:
-    """Indices of the waypoints that carry the timing: the first, each next one at least :data:`KNOT_SPACING`
-    of joint-space arc length ``arc`` after the previous one, and the last (distinct positions only).
-
-    Dense planner output turns by fractions of a milliradian from step to step; through every step those
-    turns would be accelerations that force a crawl."""
-    keep, last = [0], 0.0
-    for k in range(1, len(arc)):
-        if arc[k] - last >= KNOT_SPACING:
-            keep.append(k)
-            last = float(arc[k])
-    if arc[-1] > arc[keep[-1]]:
-        keep.append(len(arc) - 1)
-    return np.array(keep, dtype=np.int64)
-
-
 def _limits(name: str, value: ArrayLike, count: int) -> NDArray[np.float64]:
     array = np.array(value, dtype=np.float64).reshape(-1)
     if array.shape != (count,):
@@ -131,7 +115,7 @@ def retime_joint_path(joint_names: tuple[str, ...], waypoints: ArrayLike, veloci
         zeros = np.zeros_like(points)
         resting = np.arange(len(points), dtype=np.float64) * step
         return TimedJointTrajectory(joint_names, resting, points, zeros, zeros, v_max, a_max)
-    knots = _knot_indices(arc)
+    knots = knot_indices(arc, KNOT_SPACING)
     h, knot_v, knot_a = stretch_intervals(np.ascontiguousarray(points[knots]), np.full(len(knots) - 1, step),
                                           v_max, a_max, _ROUNDS)
     scale = max(1.0, float(np.max(np.abs(knot_v) / v_max)), float(np.sqrt(np.max(np.abs(knot_a) / a_max))))
@@ -146,14 +130,6 @@ def retime_joint_path(joint_names: tuple[str, ...], waypoints: ArrayLike, veloci
     times = knot_t[segment] + share[:, 0] * h[segment]
     velocities = (1.0 - share) * knot_v[segment] + share * knot_v[segment + 1]
     accelerations = (1.0 - share) * knot_a[segment] + share * knot_a[segment + 1]
-    times = _strictly_increasing(times)
+    times = strictly_increasing(times)
     return TimedJointTrajectory(joint_names, times, points, velocities, accelerations, v_max, a_max)
 
-
-def _strictly_increasing(times: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``times`` with each repeat (a waypoint that did not move) nudged one representable step later."""
-    out = times.copy()
-    for k in range(1, len(out)):
-        if out[k] <= out[k - 1]:
-            out[k] = np.nextafter(out[k - 1], np.inf)
-    return out
