@@ -266,3 +266,52 @@ def test_without_srdf_only_adjacent_links_are_excluded() -> None:
         assert ji != jj
         assert not (jj >= 0 and parents[jj] == ji) and not (ji >= 0 and parents[ji] == jj)  # never adjacent
     assert frozenset(("link1", "link3")) in pairs  # the SRDF disables it ("Never"); without it, it is checked
+
+
+def test_the_two_distance_levels_against_each_primitive(xarm: RobotModel) -> None:
+    """``capsule_level_distance`` is the bounding capsule's distance, a lower bound of every primitive's and the
+    pair's value (exact) from FINE_RANGE on; ``fitted_distance_below`` is the minimum of the link's primitives'
+    own distances, bit for bit; ``link_obstacle_distance_below`` composes the two as documented."""
+    from pfield.geometry._sdf import mesh_addresses
+    from pfield.planning.whole_body import obstacle_bounds
+    from pfield.robot._clearance import (
+        FINE_RANGE,
+        capsule_level_distance,
+        fitted_distance_below,
+        link_obstacle_distance_below,
+    )
+
+    packed = pack_obstacles(_obstacles())
+    kinds, rows, meshes = packed.kinds, packed.rows, mesh_addresses(packed)
+    centres, bounds = obstacle_bounds(packed)
+    g, scratch = xarm.geometry, np.empty((2, 3))
+    cap_a, cap_b = np.empty_like(g.a), np.empty_like(g.b)
+    prim_a, prim_b = np.empty_like(g.prim_a), np.empty_like(g.prim_b)
+    seen = {"far": 0, "near": 0, "cut": 0}
+    rng = np.random.default_rng(3)
+    for q in rng.uniform(np.maximum(xarm.lower_limits, -2.5), np.minimum(xarm.upper_limits, 2.5), size=(6, 7)):
+        rotations, origins = xarm.joint_frames(q)
+        world_segments(rotations, origins, g.joints, g.a, g.b, cap_a, cap_b)
+        world_segments(rotations, origins, g.prim_joint, g.prim_a, g.prim_b, prim_a, prim_b)
+        for c in range(1, len(g.radii)):  # the base link is fixed
+            start, stop = int(g.link_start[c]), int(g.link_start[c + 1])
+            for i in range(len(kinds)):
+                own = [segment_obstacle_distance(packed, i, prim_a[p], prim_b[p], scratch)[0] - g.prim_r[p]
+                       for p in range(start, stop)]
+                coarse = capsule_level_distance(kinds, rows, meshes, i, *cap_a[c], *cap_b[c], g.radii[c], scratch)
+                assert coarse[0] <= min(own) + 1e-12 and coarse[1] == (coarse[0] >= FINE_RANGE)
+                fine = fitted_distance_below(kinds, rows, meshes, i, *centres[i], bounds[i], start, stop, prim_a,
+                                             prim_b, g.prim_r, scratch, math.inf)
+                assert fine[0] == min(own) and fine[1]
+                pair = link_obstacle_distance_below(c, i, kinds, rows, meshes, centres, bounds, cap_a, cap_b, g.radii,
+                                                    g.link_start, prim_a, prim_b, g.prim_r, scratch, math.inf, 0.05)
+                if coarse[1]:  # far: the bounding capsule stands for the pair
+                    seen["far"] += 1
+                    assert pair == coarse
+                elif min(own) < 0.05:  # near and below the cutoff: the primitives, exactly
+                    seen["near"] += 1
+                    assert pair[0] == min(own) and pair[1]
+                else:  # at or beyond the cutoff: only that it is, never a value below it
+                    seen["cut"] += 1
+                    assert pair[0] >= 0.05 and pair[0] >= coarse[0]
+    assert min(seen.values()) > 0, seen

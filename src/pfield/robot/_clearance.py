@@ -117,7 +117,9 @@ def link_obstacle_distance_below(  # type: ignore[no-untyped-def]
     ``fine_cutoff`` away: the pair gets the capsule's distance and ``exact`` False. Otherwise it skips every
     primitive whose bound exceeds ``fine_cutoff``; when that leaves none, the pair gets ``fine_cutoff`` (a lower
     bound: every primitive is farther) and ``exact`` False. Values below ``fine_cutoff`` are those of
-    :func:`link_obstacle_distance`, bit for bit.
+    :func:`link_obstacle_distance`, bit for bit; a pair at least ``fine_cutoff`` away gets some value at least
+    ``fine_cutoff`` (a primitive's own distance, with ``exact`` True, may stand for it): callers read it only as
+    "not below the cutoff".
 
     The two levels are :func:`capsule_level_distance` and :func:`fitted_distance_below`; loops over many pairs
     call those two themselves (see the latter for why).
@@ -155,7 +157,7 @@ def fitted_distance_below(  # type: ignore[no-untyped-def]
     """The fine level of a link–obstacle pair: the minimum over the link's fitted primitives ``start:stop``
     (world ends ``prim_a``/``prim_b``, radii ``prim_r``) of their distance to obstacle ``i`` (bounding sphere:
     centre (cx, cy, cz), radius ``reach``), as in :func:`link_obstacle_distance_below`: exact below
-    ``fine_cutoff``, else ``(fine_cutoff, False, …)``.
+    ``fine_cutoff``, else a value at least ``fine_cutoff``.
 
     Loops over every pair call :func:`capsule_level_distance` and then this for the near ones, rather than
     :func:`link_obstacle_distance_below`: an inlined call that takes many arrays and branches to several
