@@ -162,7 +162,7 @@ def _polish(factor: np.ndarray, x: np.ndarray, rows: np.ndarray, b: np.ndarray, 
         for i in range(count):
             for j in range(n):
                 solution[j] += lam[i] * hinv_rows[active[i], j]
-        join, violation = -1, tolerance
+        join, violation = 0 * m - 1, tolerance  # a run-time -1: else _row_curvature compiles for Literal[int](-1)
         for k in range(m):
             slack = b[k]
             for j in range(n):
