@@ -9,7 +9,9 @@ items are ints or dimension names (``("n", 3, 3)``), and derives from that one s
 * the packing — :meth:`Layout.pack` (name → values into one flat array) and :meth:`Layout.size`;
 * the views — :meth:`Layout.unpack` (Python: name → reshaped view) and :func:`compile_views`, which writes
   the compiled function that re-views flat buffers as a named tuple of arrays inside numba code, so the
-  offsets are never kept in step by hand.
+  offsets are never kept in step by hand;
+* the reference-count-free copy — :func:`compile_unowned`, the same named tuple with every array re-viewed
+  without an owner, for the top of a compiled loop.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["Layout", "compile_allocation", "compile_views"]
+__all__ = ["Layout", "compile_allocation", "compile_unowned", "compile_views"]
 
 Shape = tuple[int | str, ...]
 
@@ -166,3 +168,25 @@ def compile_views(function_name: str, target: Any, layouts: Sequence[tuple[str, 
         raise ValueError(f"{target.__name__}: fields {sorted(set(fields) ^ known)} are not covered exactly")
     lines.append(f"    return _target({', '.join(fields)})")
     return _compiled(function_name, lines, target, {"_target": target})
+
+
+def compile_unowned(function_name: str, target: Any, views: Mapping[str, Sequence[Layout]],
+                    functions: Mapping[str, Any], fields: Mapping[str, str] | None = None,
+                    passthrough: Sequence[str] = ()) -> Any:
+    """A compiled ``function_name(x) -> target``: the named tuple ``x`` with the entries of each layout in
+    ``views[f]`` re-viewed by the function ``functions[f]``, the other ``fields`` (name → function name) by
+    theirs, and the ``passthrough`` fields as they are.
+
+    For the top of a compiled loop: numba reference-counts an array with two atomic operations each time
+    an inlined kernel binds it, and a loop over a step that binds dozens of arrays pays that at every step
+    (see :mod:`pfield.field._unowned`). The views have no owner: ``x`` must outlive them (a loop's own
+    arguments do; a workspace allocated in the loop must stay referenced until its end), and its arrays must
+    be C-contiguous."""
+    calls = {name: view for view, layouts in views.items() for layout in layouts for name in layout.names}
+    calls.update(fields or {})
+    covered = set(calls) | set(passthrough)
+    if set(target._fields) != covered:
+        raise ValueError(f"{target.__name__}: fields {sorted(set(target._fields) ^ covered)} are not covered exactly")
+    values = [f"x.{name}" if name in passthrough else f"{calls[name]}(x.{name})" for name in target._fields]
+    lines = [f"def {function_name}(x):", f"    return _target({', '.join(values)})"]
+    return _compiled(function_name, lines, target, {"_target": target, **functions})

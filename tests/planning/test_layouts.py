@@ -102,3 +102,32 @@ def test_the_compiled_robot_views_round_trip_the_packed_robot() -> None:
     viewed = wb.robot_views(flat.floats, flat.ints, n, caps, pairs, prims, caps + 1, ee)
     for name, value in arrays._asdict().items():
         np.testing.assert_array_equal(getattr(viewed, name), value, err_msg=name)
+
+
+def test_the_unowned_copies_view_the_same_memory() -> None:
+    """``unowned_robot``/``unowned_scene``/``unowned_workspace`` keep every field's memory, shape and values
+    (writes go through), and a named tuple whose fields the layouts do not cover exactly is refused."""
+    from pfield._layout import compile_unowned
+    from pfield.geometry import Obstacle, Sphere, pack_obstacles
+    from pfield.planning.whole_body import make_scene, pack_robot
+    from pfield.robot import RobotModel
+    from pfield.spatial import Pose
+
+    robot = RobotModel.builtin("xarm7")
+    arrays = pack_robot(robot, FieldConfig(), WholeBodyOptions())
+    scene = make_scene(pack_obstacles([Obstacle("ball", Sphere(0.1), Pose((0.4, 0.0, 0.3)))]), arrays)
+    workspace = wb.make_workspace(7, len(arrays.cap_r), 1, len(arrays.self_pairs), len(arrays.prim_r))
+    pairs = [(arrays, wb.unowned_robot(arrays)), (scene, wb.unowned_scene(scene)),
+             (scene.packed, wb.unowned_scene(scene).packed), (workspace, wb.unowned_workspace(workspace))]
+    for owner, view in pairs:
+        for name, value in owner._asdict().items():
+            if isinstance(value, np.ndarray):
+                seen = getattr(view, name)
+                assert seen.shape == value.shape and seen.dtype == value.dtype, name
+                assert seen.size == 0 or seen.ctypes.data == value.ctypes.data, name
+                np.testing.assert_array_equal(seen, value, err_msg=name)
+    assert wb.unowned_robot(arrays).ee_joint == arrays.ee_joint
+    wb.unowned_workspace(workspace).out[:] = 7.0
+    assert np.all(workspace.out == 7.0)
+    with pytest.raises(ValueError, match="not covered exactly"):
+        compile_unowned("partial", wb.Scene, {"unowned": [wb.SCENE_FLOATS]}, {})

@@ -25,7 +25,8 @@ def unowned(array: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True, inline="always")
-def _unowned_int(array: np.ndarray) -> np.ndarray:
+def unowned_int(array: np.ndarray) -> np.ndarray:
+    """:func:`unowned` of a C-contiguous int64 array."""
     return carray(int_pointer(array.ctypes.data), array.shape)
 
 
@@ -33,14 +34,14 @@ def _unowned_int(array: np.ndarray) -> np.ndarray:
 def unowned_packed(packed: PackedObstacles) -> PackedObstacles:
     """:class:`PackedObstacles` whose arrays are views without reference counting."""
     return PackedObstacles(
-        _unowned_int(packed.kinds),
+        unowned_int(packed.kinds),
         unowned(packed.rows),
         unowned(packed.triangles),
         unowned(packed.pseudo_normals),
         unowned(packed.bvh_lower),
         unowned(packed.bvh_upper),
-        _unowned_int(packed.bvh_nodes),
-        _unowned_int(packed.mesh_table),
+        unowned_int(packed.bvh_nodes),
+        unowned_int(packed.mesh_table),
     )
 
 
@@ -55,6 +56,6 @@ def unowned_arrays(
     in Python (about 4 µs per call) but single arrays in C (about 0.1 µs each).
     """
     return PackedObstacles(
-        _unowned_int(kinds), unowned(rows), unowned(triangles), unowned(pseudo_normals), unowned(bvh_lower),
-        unowned(bvh_upper), _unowned_int(bvh_nodes), _unowned_int(mesh_table),
+        unowned_int(kinds), unowned(rows), unowned(triangles), unowned(pseudo_normals), unowned(bvh_lower),
+        unowned(bvh_upper), unowned_int(bvh_nodes), unowned_int(mesh_table),
     )

@@ -38,6 +38,9 @@ from pfield.planning._whole_body_layout import (
     ROT_TOL,
     TOL,
     make_workspace,
+    unowned_robot,
+    unowned_scene,
+    unowned_workspace,
 )
 from pfield.planning._whole_body_loop import record_waypoint, step_culprit
 from pfield.planning.status import PlanStatus
@@ -86,8 +89,11 @@ def track_path(q0, waypoints, robot, scene, goal_p, goal_q, params, max_iteratio
     read every step).
     """
     n = q0.shape[0]
-    ws = make_workspace(n, robot.cap_joint.shape[0], scene.bounds.shape[0], robot.self_pairs.shape[0],
-                        robot.prim_r.shape[0])
+    # views without reference counting, as in the field's loop (``owned`` is read at the end: it lives until then)
+    robot, scene = unowned_robot(robot), unowned_scene(scene)
+    owned = make_workspace(n, robot.cap_joint.shape[0], scene.bounds.shape[0], robot.self_pairs.shape[0],
+                           robot.prim_r.shape[0])
+    ws = unowned_workspace(owned)
     total = max_iterations + 1
     qs, qds = np.empty((total, n)), np.empty((total, n))
     positions, quats, twists, clear = np.empty((total, 3)), np.empty((total, 4)), np.empty((total, 6)), np.empty(total)
@@ -152,7 +158,7 @@ def track_path(q0, waypoints, robot, scene, goal_p, goal_q, params, max_iteratio
             q[j] = min(max(q[j] + ws.x[j] * dt, robot.lower[j]), robot.upper[j])
             previous[j] = ws.x[j]
     return status, count, qs[:count], qds[:count], positions[:count], quats[:count], twists[:count], \
-        clear[:count], step_culprit(out)
+        clear[:count], step_culprit(owned.out)
 
 
 @njit(cache=True)

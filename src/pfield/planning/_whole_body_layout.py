@@ -7,9 +7,10 @@
   — the robot and the scene as flat buffers for the low-overhead entry of :mod:`._whole_body_flat`;
 * :class:`Workspace` with :data:`WORKSPACE` — the scratch arrays of a step, carved from one buffer.
 
-The compiled views (:func:`robot_views`, :func:`scene_views`, :func:`workspace_views`)
-are generated from these specs (:func:`pfield._layout.compile_views`), and tests check
-that every named tuple has exactly its layout's entries.
+The compiled views (:func:`robot_views`, :func:`scene_views`, :func:`workspace_views`) and the
+reference-count-free copies (:func:`unowned_robot`, :func:`unowned_scene`, :func:`unowned_workspace`) are
+generated from these specs (:func:`pfield._layout.compile_views`, :func:`pfield._layout.compile_unowned`),
+and tests check that every named tuple has exactly its layout's entries.
 """
 
 from __future__ import annotations
@@ -20,7 +21,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from pfield._layout import Layout, compile_allocation, compile_views
+from pfield._layout import Layout, compile_allocation, compile_unowned, compile_views
+from pfield.field._unowned import unowned, unowned_int, unowned_packed
 from pfield.geometry._packed import PackedObstacles
 
 PARAMS = Layout("whole-body parameters", [(name, ()) for name in (
@@ -195,6 +197,14 @@ scene_views = compile_views("scene_views", Scene, [("floats", SCENE_FLOATS)], ("
                             ("packed",))
 workspace_views = compile_views("workspace_views", Workspace, [("work", WORKSPACE)], ("n", "caps", "m", "prims"))
 
+
+# the same named tuples with every array viewed without an owner, for the top of the compiled loops
+_VIEWS = {"unowned": unowned, "unowned_int": unowned_int, "unowned_packed": unowned_packed}
+unowned_robot = compile_unowned("unowned_robot", RobotArrays, {"unowned": [ROBOT_FLOATS], "unowned_int": [ROBOT_INTS]},
+                                _VIEWS, passthrough=("ee_joint",))
+unowned_scene = compile_unowned("unowned_scene", Scene, {"unowned": [SCENE_FLOATS]}, _VIEWS,
+                                fields={"packed": "unowned_packed"})
+unowned_workspace = compile_unowned("unowned_workspace", Workspace, {"unowned": [WORKSPACE]}, _VIEWS)
 
 _allocate_workspace = compile_allocation("_allocate_workspace", Workspace, WORKSPACE, ("n", "caps", "m", "prims"))
 

@@ -35,6 +35,9 @@ from pfield.planning._whole_body_layout import (
     Scene,
     Workspace,
     make_workspace,
+    unowned_robot,
+    unowned_scene,
+    unowned_workspace,
 )
 from pfield.planning.status import PlanStatus
 from pfield.robot._clearance import clearances_at
@@ -70,8 +73,12 @@ def plan_loop(q0: np.ndarray, robot: RobotArrays, scene: Scene, goal_p: np.ndarr
     closest self pair and its distance (indices −1 when there is none).
     """
     n = q0.shape[0]
-    ws = make_workspace(n, robot.cap_joint.shape[0], scene.bounds.shape[0], robot.self_pairs.shape[0],
-                        robot.prim_r.shape[0])
+    # every step binds dozens of arrays: views without reference counting (the arguments and ``owned`` keep
+    # the memory; ``owned`` is read at the end, so it lives until then)
+    robot, scene = unowned_robot(robot), unowned_scene(scene)
+    owned = make_workspace(n, robot.cap_joint.shape[0], scene.bounds.shape[0], robot.self_pairs.shape[0],
+                           robot.prim_r.shape[0])
+    ws = unowned_workspace(owned)
     total = max_iterations + 1
     qs, qds = np.empty((total, n)), np.empty((total, n))
     positions, quats, twists, clear = np.empty((total, 3)), np.empty((total, 4)), np.empty((total, 6)), np.empty(total)
@@ -109,7 +116,7 @@ def plan_loop(q0: np.ndarray, robot: RobotArrays, scene: Scene, goal_p: np.ndarr
             q[j] = min(max(q[j] + ws.x[j] * dt, robot.lower[j]), robot.upper[j])
             previous[j] = ws.x[j]
     return status, count, qs[:count], qds[:count], positions[:count], quats[:count], twists[:count], \
-        clear[:count], step_culprit(out)
+        clear[:count], step_culprit(owned.out)
 
 
 @njit(cache=True)
