@@ -32,9 +32,17 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from pfield.field._unowned import unowned, unowned_int
 from pfield.geometry._sdf import mesh_addresses, min_signed_distance, row_signed_distance
 from pfield.planning._whole_body_kernel import _segments
-from pfield.planning._whole_body_layout import RobotArrays, Scene, Workspace
+from pfield.planning._whole_body_layout import (
+    RobotArrays,
+    Scene,
+    Workspace,
+    unowned_robot,
+    unowned_scene,
+    unowned_workspace,
+)
 from pfield.robot._clearance import capsule_lower_bound, link_obstacle_distance, link_pair_distance
 from pfield.robot._distance import segment_row_distance
 from pfield.robot._kinematics import joint_transforms
@@ -67,6 +75,16 @@ class Trees(NamedTuple):
     parents: NDArray[np.int64]  # (2, capacity)
     counts: NDArray[np.int64]  # (2,)
     state: NDArray[np.uint64]  # (2,)
+
+
+@njit(cache=True, inline="always")
+def _unowned_checker(checker):  # type: ignore[no-untyped-def]
+    """``checker`` with its arrays viewed without reference counting (:func:`pfield._layout.compile_unowned`):
+    every state check binds them. The search's entries call this first; the caller's ``checker`` keeps the
+    memory."""
+    return Checker(checker.kind, unowned_robot(checker.robot), unowned_scene(checker.scene),
+                   unowned_workspace(checker.ws), unowned(checker.obstacle), unowned(checker.own), checker.margin,
+                   checker.resolution, unowned_int(checker.counter))
 
 
 @njit(cache=True)
@@ -244,6 +262,7 @@ def rrt_connect(checker, trees, lower, upper, step, budget):  # type: ignore[no-
     """Run RRT-Connect on ``trees`` for at most ``budget`` more state checks.
 
     Returns (FOUND, path (k, n) from start to goal) or (SEARCHING | EXHAUSTED, empty path)."""
+    checker = _unowned_checker(checker)
     n = lower.shape[0]
     sample, point, candidate = np.empty(n), np.empty(n), np.empty(n)
     stop = checker.counter[0] + budget
@@ -280,6 +299,7 @@ def rrt_connect(checker, trees, lower, upper, step, budget):  # type: ignore[no-
 def shortcut(checker, path, attempts, state):  # type: ignore[no-untyped-def]
     """Shorter valid path through a subset of ``path``'s vertices: ``attempts`` random shortcuts i → j,
     then a greedy pass joining each kept vertex to the farthest later one it sees."""
+    checker = _unowned_checker(checker)
     n = path.shape[1]
     keep = np.ones(path.shape[0], dtype=np.bool_)
     point = np.empty(n)
