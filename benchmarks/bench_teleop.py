@@ -10,8 +10,8 @@ goal), and three cluttered scenes on the benchmark start–goal line (0.3, 0, 0.
 Figures per scene and mode: runs with a collision, minimum clearance over all runs (m), success rate,
 median time to goal of the successful runs (s), agreement (mean cosine between the operator's and the
 executed command). Targets (pfield): no collision, success ≥ Servo's, median time ≤ 0.8 × Servo's.
-Whole body: ``xarm7 whole body`` (the xArm7 past two static spheres, 20 runs per mode, exact coal distances,
-:func:`pfield.demo._teleop_sim.simulate_arm`).
+Whole body: ``xarm7 whole body`` (the xArm7 past two static spheres, 50 runs per mode as in the other scenes,
+exact coal distances, :func:`pfield.demo._teleop_sim.simulate_arm`).
 Speed: ``compute_assistance`` from Python (task space, whole body) and over HTTP (p50).
 """
 
@@ -161,7 +161,7 @@ def speed_rows(quick: bool) -> list[BenchRow]:
 
 
 def run(quick: bool) -> list[BenchRow]:
-    rows, table = teleop_table(10 if quick else 50, 5 if quick else 20)
+    rows, table = teleop_table(10 if quick else 50, 5 if quick else 50)
     (Path(__file__).resolve().parent / "results").mkdir(exist_ok=True)
     (Path(__file__).resolve().parent / "results" / "teleop_table.md").write_text(table + "\n")
     return rows + speed_rows(quick)
