@@ -12,7 +12,7 @@ import pytest
 
 from pfield.batch import RECORD_FIELDS, TIMING_FIELDS, Workspace, plan_many, problem_seed, solve
 from pfield.errors import InvalidInput
-from pfield.planning import PlanOptions
+from pfield.planning import PlanOptions, PlanStatus
 from pfield.scene import Problem, read_problems
 from pfield.spatial import Pose
 
@@ -108,3 +108,15 @@ def test_a_script_without_a_main_guard_gets_error_records_naming_the_fix(tmp_pat
     assert done.returncode == 0, done.stderr[-2000:]
     statuses = json.loads(done.stdout.strip().splitlines()[-1])
     assert len(statuses) == 3 and all(s.startswith("error:") and "__main__" in s for s in statuses)
+
+
+@pytest.mark.parametrize("name", ["panda", "xarm7"])
+def test_a_workers_warm_up_plan_runs_the_field_and_its_global_fallback(name: str) -> None:
+    """The warm-up of a worker goes through every planner a problem of its robot uses (so their kernels are
+    loaded before the first problem is timed): the field stagnates, the fallback reaches the goal."""
+    from pfield.batch._solve import _warm_plan
+    from pfield.robot import RobotModel
+
+    path = _warm_plan(RobotModel.builtin(name))
+    assert path.success and path.status == PlanStatus.REACHED
+    assert path.planner == "field+global"
