@@ -79,7 +79,8 @@ _WARM_OPTIONS = PlanOptions(max_iterations=2000, stagnation_window=0.02, stagnat
 def _warm_plan(robot: RobotModel) -> PlannedPath:
     """A plan of ``robot`` from the middle of its joint ranges to 0.3 rad further on its first joint, past a box
     far away: the field's loop runs two steps and stagnates by :data:`_WARM_OPTIONS`, then the global fallback
-    searches, tracks, checks the meshes and retimes, which loads every kernel a problem of this robot uses."""
+    searches to the joint goal, tracks the path and retimes it, which loads those kernels (a pose goal's IK
+    restarts still load theirs on first use)."""
     lower, upper = robot.lower_limits, robot.upper_limits
     q = np.where(np.isfinite(lower) & np.isfinite(upper), (lower + upper) / 2, 0.0)
     goal = q.copy()
