@@ -113,7 +113,7 @@ def _whole_body(name: str) -> Callable[[Path], None]:
         from pfield.robot.collision import capsule_clearances
 
         robot = RobotModel.builtin(name)
-        q0 = 0.5 * (robot.lower_limits + robot.upper_limits)
+        q0 = robot.mid_configuration
         obstacles = _scene(scratch)
         PotentialField(FieldConfig(), SEED_GOAL, obstacles).plan_whole_body(robot, q0, 0.02, 0.01, 20)
         PotentialField(FieldConfig(), SEED_GOAL).plan_whole_body(robot, q0, 0.02, 0.01, 20)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import shutil
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -222,3 +223,20 @@ def test_named_configurations_of_a_urdf_with_an_srdf(tmp_path) -> None:
     assert no_srdf.named_configurations() == {}
     with pytest.raises(errors.InvalidInput, match="known: none"):
         no_srdf.named_configuration("home")
+
+
+def test_mid_configuration_is_the_middle_of_each_range_and_zero_for_a_continuous_joint(tmp_path: Path) -> None:
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(
+        "<robot name='arm'><link name='base'/><link name='l1'/><link name='tool'/>"
+        "<joint name='j1' type='revolute'><parent link='base'/><child link='l1'/><axis xyz='0 0 1'/>"
+        "<limit lower='-1' upper='0.5' velocity='1' effort='1'/></joint>"
+        "<joint name='j2' type='continuous'><parent link='l1'/><child link='tool'/><origin xyz='0.1 0 0'/>"
+        "<axis xyz='0 0 1'/><limit velocity='1' effort='1'/></joint></robot>")
+    robot = RobotModel.from_urdf(urdf, end_effector="tool")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no inf - inf on the continuous joint
+        middle = robot.mid_configuration
+    assert middle.tolist() == [-0.25, 0.0]
+    middle[0] = 9.0  # a fresh array: the robot's own is untouched
+    assert robot.mid_configuration[0] == -0.25

@@ -81,10 +81,9 @@ def _warm_plan(robot: RobotModel) -> PlannedPath:
     past a box far away: the field's loop runs two steps and stagnates by :data:`_WARM_OPTIONS`, then the
     global fallback solves IK for goal configurations, searches, tracks the path and retimes it, which loads
     those kernels (a pose goal takes every step a joint goal takes, and IK)."""
-    lower, upper = robot.lower_limits, robot.upper_limits
-    q = np.where(np.isfinite(lower) & np.isfinite(upper), (lower + upper) / 2, 0.0)
+    q = robot.mid_configuration
     goal = q.copy()
-    goal[0] += 0.3 if q[0] + 0.3 <= upper[0] else -0.3
+    goal[0] += 0.3 if q[0] + 0.3 <= robot.upper_limits[0] else -0.3
     far = [Obstacle("warm-up", Box(0.1, 0.1, 0.1), Pose((5.0, 5.0, 5.0)))]
     return PotentialField(FieldConfig(), robot.forward_kinematics(goal), far).plan_whole_body(
         robot, q, options=_WARM_OPTIONS)

@@ -191,9 +191,7 @@ def _self_pairs(robot: RobotModel, capsules: list[LinkCapsule], covering: list[f
     Pairs on one rigid body are always skipped; so are pairs whose covering capsules (radii ``covering``)
     already touch in the mid-range configuration (they over-approximate, and such links are close by design).
     """
-    reference = np.where(np.isfinite(robot.lower_limits + robot.upper_limits),
-                         0.5 * (robot.lower_limits + robot.upper_limits), 0.0)
-    rotations, origins = robot.joint_frames(reference)
+    rotations, origins = robot.joint_frames(robot.mid_configuration)
     world = [world_segment(c, rotations, origins) for c in capsules]
     pairs = []
     for i in range(len(capsules)):

@@ -207,6 +207,15 @@ class RobotModel:
         return self._upper
 
     @property
+    def mid_configuration(self) -> NDArray[np.float64]:
+        """The middle of every joint's range, 0 for a continuous joint (rad or m): a configuration away from
+        the limits (a fresh array)."""
+        finite = np.isfinite(self._lower) & np.isfinite(self._upper)
+        middle = np.zeros_like(self._lower)
+        middle[finite] = 0.5 * (self._lower[finite] + self._upper[finite])
+        return middle
+
+    @property
     def velocity_limits(self) -> NDArray[np.float64]:
         """Joint speed limits from the URDF (rad/s or m/s)."""
         return self._velocity
