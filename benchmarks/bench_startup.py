@@ -3,6 +3,8 @@
 * cold compile — ``pfield.warmup.warm()`` in a new process whose ``NUMBA_CACHE_DIR`` is an empty temporary
   directory (so nothing is cached, whatever the source tree's own cache holds). Reported as CPU time of
   that process (user + system; it does not grow when other processes share the machine) and wall time.
+* the same as ``pfield warmup`` does it on this machine (``warm(jobs=2)``: after the first area, the others
+  compile in two processes side by side, :data:`pfield.warmup.LANES`), in a second empty cache: wall time.
 * warm first plan — a new process with that cache filled: ``import pfield``, load the xArm7, build a field
   of five primitive obstacles (one of each shape) and plan the seed's whole-body example from the seed's
   start (the node's first ``plan_path``). Measured from spawning the interpreter to its exit; target 1.5 s.
@@ -25,7 +27,7 @@ from benchmarks._common import BenchRow
 SECTION = "start-up (numba compile and first plan)"
 REPO = Path(__file__).resolve().parents[1]
 
-COLD = "from pfield import warmup; report = warmup.warm(); assert not report.failures, report.failures"
+COLD = "from pfield import warmup; report = warmup.warm(jobs=JOBS); assert not report.failures, report.failures"
 FIRST_PLAN = """
 import tempfile
 from pathlib import Path
@@ -64,7 +66,9 @@ def _run(code: str, cache: Path) -> tuple[float, float]:
 def run(quick: bool) -> list[BenchRow]:
     with tempfile.TemporaryDirectory(prefix="pfield-numba-cache-") as directory:
         cache = Path(directory)
-        cold_wall, cold_cpu = _run(COLD, cache)
+        cold_wall, cold_cpu = _run(COLD.replace("JOBS", "1"), cache)
+        with tempfile.TemporaryDirectory(prefix="pfield-numba-cache-") as other:
+            lanes_wall, lanes_cpu = _run(COLD.replace("JOBS", "2"), Path(other))
         repeats = 1 if quick else 3
         primitives = [_run(f"WITH_MESH = False\n{PRIMITIVES}{FIRST_PLAN}", cache) for _ in range(repeats)]
         with_mesh = [_run(f"WITH_MESH = True\n{FIRST_PLAN}", cache) for _ in range(repeats)]
@@ -76,6 +80,8 @@ def run(quick: bool) -> list[BenchRow]:
                  note="pfield.warmup.warm() in a new process; user + system time"),
         BenchRow(SECTION, "cold compile of every kernel (empty cache), wall", cold_wall, "s",
                  note="grows with the machine's load; the CPU row does not"),
+        BenchRow(SECTION, "cold compile, 2 processes side by side (pfield warmup), wall", lanes_wall, "s",
+                 note=f"warm(jobs=2): {lanes_wall / cold_wall:.2f}x the one-process wall time; CPU {lanes_cpu:.0f} s"),
         BenchRow(SECTION, "new process to first whole-body plan (warm cache), wall", first_wall, "s", target=1.5,
                  note="import + xArm7 + 5 primitive obstacles + seed whole-body plan; interpreter start to exit"),
         BenchRow(SECTION, "new process to first whole-body plan (warm cache), CPU", first_cpu, "s", target=1.5,

@@ -18,14 +18,15 @@ from typing import Any
 
 from numba.core import event
 
-__all__ = ["COLD_COMPILE_SECONDS", "LOGGER_NAME", "install", "quiet"]
+__all__ = ["COLD_COMPILE_SECONDS", "LOGGER_NAME", "compiles", "install", "quiet"]
 
 LOGGER_NAME = "pfield.compile"
 _LOG = logging.getLogger(LOGGER_NAME)
 
-COLD_COMPILE_SECONDS = (60, 180)
-"""Usual range (s) of compiling every pfield kernel with an empty cache: about 130 s of CPU on a 2-core x86-64
-machine (numba compiles on one core; ``benchmarks/bench_startup``)."""
+COLD_COMPILE_SECONDS = (300, 600)
+"""Usual range (s) of compiling every pfield kernel with an empty cache in one process: 320-610 s of CPU on
+2-core x86-64 machines (numba compiles on one core; ``benchmarks/bench_startup``). ``pfield warmup`` shares
+it between two processes where there are two cores (about 55 % of that wall time)."""
 
 
 class _Listener(event.Listener):
@@ -36,6 +37,7 @@ class _Listener(event.Listener):
         self._announced = False
         self._quiet = 0
         self._lock = threading.Lock()
+        self.compiles = 0
 
     def _depth(self) -> int:
         return getattr(self._state, "depth", 0)
@@ -47,6 +49,7 @@ class _Listener(event.Listener):
             return  # a kernel compiled because an outer one calls it: the outer one was announced
         self._state.started = time.perf_counter()
         with self._lock:
+            self.compiles += 1
             announce = not self._announced and not self._quiet
             self._announced = self._announced or announce
         if announce:
@@ -87,6 +90,11 @@ def install() -> None:
     if not _INSTALLED:
         event.register("numba:compile", _LISTENER)
         _INSTALLED = True
+
+
+def compiles() -> int:
+    """How many top-level kernel compiles this process has started (a kernel loaded from the cache is none)."""
+    return _LISTENER.compiles
 
 
 def quiet() -> Any:

@@ -30,6 +30,20 @@ def as_vector(field: str, value: Any, length: int) -> NDArray[np.float64]:
     return array
 
 
+_FLOAT64 = np.dtype(np.float64)
+
+
+def kernel_vector(value: Any) -> bool:
+    """Is ``value`` a writable C-contiguous float64 array of rank 1, the one vector type pfield's compiled
+    calls are built for? Such a value may go straight into a kernel; anything else (a list, a view with
+    strides, a read-only array from a message buffer, another dtype) is validated into one first, or the
+    kernel would compile again for its type (seconds, in the middle of a control loop)."""
+    if value.__class__ is not np.ndarray or value.dtype is not _FLOAT64 or value.ndim != 1:
+        return False
+    flags = value.flags
+    return bool(flags.c_contiguous and flags.writeable)
+
+
 def as_points(field: str, value: Any, dim: int = 3, *, check_finite: bool = True) -> NDArray[np.float64]:
     """Return ``value`` as a finite ``(N, dim)`` float64 array (a single point becomes ``(1, dim)``).
 

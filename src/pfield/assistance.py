@@ -43,7 +43,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pfield import _assistance_kernel as _k
 from pfield._bound import BoundArrays
-from pfield._validation import as_vector, finite, in_range
+from pfield._validation import as_vector, finite, in_range, kernel_vector
 from pfield.autonomy import whole_body_stepper
 from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
@@ -59,7 +59,6 @@ __all__ = ["ARBITRATIONS", "Assistance", "AssistanceOptions", "AssistanceScene",
            "whole_body_assistance"]
 
 ARBITRATIONS = ("linear", "linear_goal", "safety_only")
-_FLOAT64 = np.dtype(np.float64)
 _TWIST = slice(*OUT_TWIST)
 _MODES = {name: i for i, name in enumerate(ARBITRATIONS)}
 
@@ -340,16 +339,16 @@ def _assist_step(work: _Workspace, robot: RobotModel, joint_angles: ArrayLike, p
                  dt: float, user: NDArray[np.float64], qd: NDArray[np.float64],
                  out: NDArray[np.float64]) -> NDArray[np.float64]:
     """The step's row, with ``qd`` and ``out`` filled by one compiled call
-    (:func:`pfield._assistance_kernel.bound_assist_step`). Float64 vectors go in as they are (the call checks
-    them); anything else is validated first, and a value the call refuses is validated again for its error."""
+    (:func:`pfield._assistance_kernel.bound_assist_step`). Kernel vectors
+    (:func:`pfield._validation.kernel_vector`) go in as they are (the call checks their values); anything else
+    is validated first, and a value the call refuses is validated again for its error."""
     for attempt in range(2):
-        fast = joint_angles.__class__ is np.ndarray and joint_angles.dtype is _FLOAT64 and \
-            (previous is None or (previous.__class__ is np.ndarray and previous.dtype is _FLOAT64))  # type: ignore[union-attr]
+        fast = kernel_vector(joint_angles) and (previous is None or kernel_vector(previous))
         if attempt or not fast:
             joint_angles = robot.check_joint_angles(joint_angles, "joint_angles")
-            # an empty list (the message default) means "no previous"
+            # an empty list (the message default) means "no previous"; a writable copy: the kernel's one type
             previous = None if previous is None or np.size(previous) == 0 else \
-                as_vector("prev_joint_velocities", previous, robot.n_joints)
+                np.array(as_vector("prev_joint_velocities", previous, robot.n_joints))
         given = previous is not None
         row: NDArray[np.float64] = _k.bound_assist_step(
             joint_angles, previous if given else work.zeros, given, given and dt > 0.0,

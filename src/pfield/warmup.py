@@ -22,6 +22,8 @@ from __future__ import annotations
 import importlib
 import logging
 import pkgutil
+import subprocess
+import sys
 import tempfile
 import threading
 import time
@@ -35,7 +37,7 @@ import numpy as np
 
 from pfield import _compile_notice
 
-__all__ = ["STEPS", "WarmupReport", "WarmupStep", "kernels", "ready", "start_background", "warm"]
+__all__ = ["LANES", "STEPS", "WarmupReport", "WarmupStep", "kernels", "ready", "start_background", "warm"]
 
 _LOG = logging.getLogger(__name__)
 
@@ -53,11 +55,13 @@ class WarmupStep:
 
 @dataclass(frozen=True)
 class WarmupReport:
-    """What :func:`warm` did: seconds per step (in order), the failed steps with their error, the total."""
+    """What :func:`warm` did: seconds per step (in order), the failed steps with their error, the total, and
+    how many processes compiled (more than 1 when a cold cache was filled in :data:`LANES`)."""
 
     seconds: dict[str, float]
     failures: dict[str, str]
     total_seconds: float
+    processes: int = 1
 
 
 # -- the steps ------------------------------------------------------------------------------------------
@@ -250,6 +254,15 @@ STEPS: tuple[WarmupStep, ...] = (
     WarmupStep("costmap and find_valid_pose", _costmap),
 )
 
+LANES: tuple[tuple[str, ...], ...] = (
+    ("task-space field and planner", "mobile field and controller", "costmap and find_valid_pose",
+     "autonomy vector and assistance"),
+    ("whole-body planner (xarm7)", "whole-body planner (panda)", "inverse kinematics", "global fallback and retiming"),
+)
+"""How :func:`warm` shares the steps after the first between processes when the cache is cold (``jobs`` ≥ 2).
+Cold, in one process (2-core x86-64): task space 175 s, whole body (xArm7) 265 s, autonomy and assistance 121 s,
+every other step under 20 s after those; steps whose kernels build on another's follow it in its lane."""
+
 
 # -- running them ---------------------------------------------------------------------------------------
 
@@ -265,11 +278,14 @@ def ready() -> bool:
     return _READY.is_set()
 
 
-def warm(progress: Progress | None = None, steps: Sequence[WarmupStep] = STEPS) -> WarmupReport:
+def warm(progress: Progress | None = None, steps: Sequence[WarmupStep] = STEPS, jobs: int = 1) -> WarmupReport:
     """Run the warm-up ``steps`` (all by default), once per process: a second call returns the first report.
 
     ``progress(done, total, name)`` is called before the first step and after each one. Compiles are
     logged by :mod:`pfield._compile_notice` at INFO; a failing step is logged as an error and skipped.
+    ``jobs`` ≥ 2 (all steps only): when the first step compiles (a cold cache), the others first run in
+    :data:`LANES`, one process each, filling numba's on-disk cache side by side; this process then runs them
+    too, loading what the lanes compiled, so that it ends warm either way.
     """
     global _REPORT
     with _RUN_LOCK:
@@ -278,11 +294,18 @@ def warm(progress: Progress | None = None, steps: Sequence[WarmupStep] = STEPS) 
         seconds: dict[str, float] = {}
         failures: dict[str, str] = {}
         start = time.perf_counter()
-        if progress is not None:
-            progress(0, len(steps), steps[0].name if steps else "")
+        processes, shown = 1, [0]  # progress never goes back (a lane's step counts as done when it finishes)
+
+        def tell(done: int, name: str) -> None:
+            shown[0] = max(shown[0], done)
+            if progress is not None:
+                progress(shown[0], len(steps), name)
+
+        tell(0, steps[0].name if steps else "")
         with _compile_notice.quiet(), _own_info_dropped(), \
                 tempfile.TemporaryDirectory(prefix="pfield-warmup-") as scratch:
             for done, step in enumerate(steps, 1):
+                compiled_before = _compile_notice.compiles()
                 began = time.perf_counter()
                 try:
                     step.run(Path(scratch))
@@ -290,13 +313,53 @@ def warm(progress: Progress | None = None, steps: Sequence[WarmupStep] = STEPS) 
                     failures[step.name] = f"{type(exc).__name__}: {exc}"
                     _LOG.error("warm-up step %r failed (its kernels compile on first use): %s", step.name, exc)
                 seconds[step.name] = time.perf_counter() - began
-                if progress is not None:
-                    progress(done, len(steps), steps[done].name if done < len(steps) else step.name)
-        report = WarmupReport(seconds, failures, time.perf_counter() - start)
+                if done == 1 and jobs >= 2 and steps is STEPS and _compile_notice.compiles() > compiled_before:
+                    processes = 1 + min(jobs, len(LANES))
+                    _run_lanes(processes - 1, tell)
+                tell(done, steps[done].name if done < len(steps) else step.name)
+        report = WarmupReport(seconds, failures, time.perf_counter() - start, processes)
         if steps is STEPS:
             _REPORT = report
             _READY.set()
         return report
+
+
+def _run_lanes(jobs: int, report: Callable[[int, str], None]) -> None:
+    """Run :data:`LANES` in ``jobs`` processes at once (each lane's steps in order, ``python -c``), calling
+    ``report(steps done, name)`` as their steps finish; a lane that fails leaves its kernels to this process."""
+    lanes = [sum(LANES[k::jobs], ()) for k in range(jobs)]
+    total, finished, lock = len(STEPS), [1], threading.Lock()
+
+    def follow(lane: tuple[str, ...]) -> None:
+        code = "import sys; from pfield.warmup import _lane; _lane(sys.argv[1:])"
+        with subprocess.Popen([sys.executable, "-c", code, *lane], stdout=subprocess.PIPE,
+                              stderr=subprocess.DEVNULL, text=True) as child:
+            assert child.stdout is not None
+            for line in child.stdout:
+                name = line.strip()
+                with lock:
+                    finished[0] += 1
+                    report(min(finished[0], total - 1), name)
+        if child.returncode:
+            _LOG.warning("warm-up lane %s exited with %s; this process compiles what it left", lane, child.returncode)
+
+    threads = [threading.Thread(target=follow, args=(lane,), daemon=True) for lane in lanes]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+
+
+def _lane(names: Sequence[str]) -> None:
+    """One lane of :func:`_run_lanes` (in its own process): run the named steps, printing each name when done."""
+    by_name = {step.name: step for step in STEPS}
+    with _compile_notice.quiet(), tempfile.TemporaryDirectory(prefix="pfield-warmup-") as scratch:
+        for name in names:
+            try:
+                by_name[name].run(Path(scratch))
+            except Exception as exc:  # the parent process runs the step again and reports the failure
+                _LOG.error("warm-up step %r failed in its lane: %s", name, exc)
+            print(name, flush=True)
 
 
 class _OtherThreadsOnly(logging.Filter):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -22,7 +24,15 @@ shapes = st.one_of(
     st.builds(Ellipsoid, sizes, sizes, sizes),
     st.builds(Capsule, sizes, sizes),
 )
-CUBE = Mesh(str(MESHES / "unit_cube.stl"), resolver=ResourceResolver(allowed_roots=[MESHES]))
+
+
+@functools.cache
+def _cube() -> Mesh:
+    """The unit cube mesh, built on first use (not while pytest collects: building it compiles a kernel)."""
+    return Mesh(str(MESHES / "unit_cube.stl"), resolver=ResourceResolver(allowed_roots=[MESHES]))
+
+
+CUBE = st.deferred(lambda: st.just(_cube()))
 
 
 def _obstacle(shape, quaternion) -> Obstacle:  # type: ignore[no-untyped-def]
@@ -30,7 +40,7 @@ def _obstacle(shape, quaternion) -> Obstacle:  # type: ignore[no-untyped-def]
 
 
 @settings(max_examples=150, deadline=None)
-@given(shape=st.one_of(shapes, st.just(CUBE)), quaternion=unit_quaternions,
+@given(shape=st.one_of(shapes, CUBE), quaternion=unit_quaternions,
        point=st.tuples(coordinates, coordinates, coordinates))
 def test_moving_along_the_normal_changes_d_by_the_step(shape, quaternion, point):
     obstacle = _obstacle(shape, quaternion)

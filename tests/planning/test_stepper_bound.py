@@ -50,6 +50,26 @@ def test_other_argument_types_take_the_validating_path(stepper: WholeBodyStepper
     assert np.array_equal(stepper.row(Q0, [0.1] * 7, 0.01), _validated(stepper, Q0, np.full(7, 0.1), 0.01))
 
 
+def _read_only(values: np.ndarray) -> np.ndarray:
+    frozen = values.copy()
+    frozen.setflags(write=False)  # as an array over a message's buffer arrives
+    return frozen
+
+
+def test_every_argument_type_reaches_the_one_compiled_signature(stepper: WholeBodyStepper) -> None:
+    """A read-only, strided or rank-2 float64 array takes the validating path: the compiled step keeps its one
+    signature (a second one would compile for seconds inside a control loop, after ``pfield warmup``)."""
+    from pfield.planning._whole_body_flat import bound_step
+
+    expected = _validated(stepper, Q0, np.full(7, 0.1), 0.01)
+    previous = np.full(7, 0.1)
+    for q, prev in ((Q0, previous), (_read_only(Q0), previous), (Q0, _read_only(previous)),
+                    (np.repeat(Q0, 2)[::2], previous), (Q0, np.repeat(previous, 2)[::2])):
+        assert np.array_equal(stepper.row(q, prev, 0.01), expected)
+    assert np.array_equal(stepper.row(Q0[None, :]), _validated(stepper, Q0, None, 0.0))
+    assert len(bound_step.signatures) == 1, bound_step.signatures
+
+
 def test_within_the_tolerance_beyond_a_limit_is_clamped(stepper: WholeBodyStepper) -> None:
     q = Q0.copy()
     q[1] = stepper.robot.lower_limits[1] - 5e-5

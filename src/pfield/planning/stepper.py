@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pfield._validation import as_vector, finite
+from pfield._validation import as_vector, finite, kernel_vector
 from pfield.errors import InvalidInput
 from pfield.planning import _whole_body_layout as _wb
 from pfield.planning._whole_body_flat import FlatStep, bound_step, flat_step
@@ -28,7 +28,6 @@ __all__ = ["WholeBodyStep", "WholeBodyStepper"]
 NOMINAL_DT = 0.01
 """(s) the dampers' look-ahead when a step is asked for without a ``dt``."""
 _TWIST, _POSITION, _ORIENTATION = slice(*_wb.OUT_TWIST), slice(*_wb.OUT_POSITION), slice(*_wb.OUT_ORIENTATION)
-_FLOAT64 = np.dtype(np.float64)
 
 
 class WholeBodyStep:
@@ -96,14 +95,14 @@ class WholeBodyStepper:
     def row(self, q: ArrayLike, prev_joint_velocities: ArrayLike | None = None, dt: float = 0.0) -> NDArray[np.float64]:
         """The compiled step's raw row (``STEP_OUT`` then q̇) at ``q``, validated as :meth:`step` does.
 
-        Float64 arrays of rank 1 take one compiled call that checks them itself (bound arrays,
+        Writable C-contiguous float64 arrays of rank 1 (:func:`~pfield._validation.kernel_vector`) take one
+        compiled call that checks them itself (bound arrays,
         :func:`~pfield.planning._whole_body_flat.bound_step`); anything else, or a bad value, goes through
         :meth:`~pfield.robot.RobotModel.check_joint_angles` and :meth:`evaluate` (same results, the errors).
         """
         previous = prev_joint_velocities
-        if dt.__class__ is float and 0.0 <= dt < math.inf and q.__class__ is np.ndarray and \
-                q.dtype is _FLOAT64 and q.ndim == 1 and (previous is None or (
-                    previous.__class__ is np.ndarray and previous.dtype is _FLOAT64 and previous.ndim == 1)):
+        if dt.__class__ is float and 0.0 <= dt < math.inf and kernel_vector(q) and \
+                (previous is None or kernel_vector(previous)):
             given = previous is not None
             row = bound_step(q, previous if given else self._zeros, given, given and dt > 0.0,  # type: ignore[arg-type]
                              self.bound_table(dt))
@@ -148,7 +147,7 @@ class WholeBodyStepper:
         n = self.robot.n_joints
         velocities, has_prev = self._zeros, False
         if previous is not None:
-            velocities = np.asarray(previous, dtype=np.float64)
+            velocities = np.array(previous, dtype=np.float64)  # a writable copy: the kernel's one argument type
             if velocities.shape != (n,) or not np.isfinite(velocities).all():
                 if velocities.size == 0:
                     velocities = self._zeros  # an empty list (the message default) means "no previous"
