@@ -84,20 +84,6 @@ def test_warmup_command_compiles_every_kernel_with_progress(tmp_path: Path) -> N
     assert lines["SPECIALISATIONS"] == "[]", lines["SPECIALISATIONS"]
 
 
-FRESH_CACHE = _empty_default_cache() is not None
-"""Did this run start with numba's own cache empty (a fresh checkout, as CI runs)? Read when pytest collects."""
-
-
-@pytest.mark.skipif(not FRESH_CACHE, reason="needs a run that starts from an empty numba cache "
-                    "(a fresh checkout; `make clean-numba-cache` and the robot fits removed)")
-def test_the_whole_run_compiled_each_kernel_once() -> None:
-    """Runs last (tests/conftest.py): every call the suite made — the node's requests, the CLI, batch workers,
-    the public API with lists, read-only and strided arrays — reached the one signature of each kernel that
-    ``pfield warmup`` compiles, so no real request compiles after a warm-up."""
-    held = {name: len(kernel._cache._cache_file._load_index()) for name, kernel in warmup.kernels().items()}
-    assert sorted((count, name) for name, count in held.items() if count > 1) == []
-
-
 ONE_LOOP_PER_PLANNER = """
 import numpy as np
 from pfield import FieldConfig, PotentialField, Pose

@@ -318,7 +318,8 @@ class RobotModel:
     def end_effector_positions(self, qs: ArrayLike) -> NDArray[np.float64]:
         """End-effector positions (N, 3) of N configurations (not validated: trajectory post-processing)."""
         k = self.kinematics
-        array = np.ascontiguousarray(np.asarray(qs, dtype=np.float64).reshape(-1, self.n_joints))
+        # writable and C-contiguous (a copy only when not): the kernel's one argument type
+        array = np.require(np.asarray(qs, dtype=np.float64).reshape(-1, self.n_joints), requirements=("C", "W"))
         return _k.batch_end_effector_positions(array, k.parents, k.place_rot, k.place_pos, k.axes, k.kinds,
                                                k.ee_joint, k.ee_rot, k.ee_pos)
 
