@@ -27,7 +27,7 @@ from benchmarks._common import BenchRow
 SECTION = "start-up (numba compile and first plan)"
 REPO = Path(__file__).resolve().parents[1]
 
-COLD = "from pfield import warmup; report = warmup.warm(jobs=JOBS); assert not report.failures, report.failures"
+COLD = "from pfield import warmup; report = warmup.warm(jobs={jobs}); assert not report.failures, report.failures"
 FIRST_PLAN = """
 import tempfile
 from pathlib import Path
@@ -66,9 +66,9 @@ def _run(code: str, cache: Path) -> tuple[float, float]:
 def run(quick: bool) -> list[BenchRow]:
     with tempfile.TemporaryDirectory(prefix="pfield-numba-cache-") as directory:
         cache = Path(directory)
-        cold_wall, cold_cpu = _run(COLD.replace("JOBS", "1"), cache)
+        cold_wall, cold_cpu = _run(COLD.format(jobs=1), cache)
         with tempfile.TemporaryDirectory(prefix="pfield-numba-cache-") as other:
-            lanes_wall, lanes_cpu = _run(COLD.replace("JOBS", "2"), Path(other))
+            lanes_wall, lanes_cpu = _run(COLD.format(jobs=2), Path(other))
         repeats = 1 if quick else 3
         primitives = [_run(f"WITH_MESH = False\n{PRIMITIVES}{FIRST_PLAN}", cache) for _ in range(repeats)]
         with_mesh = [_run(f"WITH_MESH = True\n{FIRST_PLAN}", cache) for _ in range(repeats)]

@@ -26,7 +26,7 @@ _LOG = logging.getLogger(LOGGER_NAME)
 COLD_COMPILE_SECONDS = (300, 600)
 """Usual range (s) of compiling every pfield kernel with an empty cache in one process: 320-610 s of CPU on
 2-core x86-64 machines (numba compiles on one core; ``benchmarks/bench_startup``). ``pfield warmup`` shares
-it between two processes where there are two cores (about 55 % of that wall time)."""
+it between two processes where there are two cores (0.53× that wall time, the same CPU)."""
 
 
 class _Listener(event.Listener):

@@ -44,6 +44,18 @@ def kernel_vector(value: Any) -> bool:
     return bool(flags.c_contiguous and flags.writeable)
 
 
+def optional_vector(field: str, value: Any, length: int) -> NDArray[np.float64] | None:
+    """None for None or an empty sequence (a message's default: not given); else ``value`` as a finite float64
+    vector of ``length`` elements (:func:`as_vector`'s errors), as a writable copy: :func:`kernel_vector`'s type."""
+    if value is None:
+        return None
+    try:
+        empty = np.size(value) == 0
+    except (TypeError, ValueError):  # ragged: as_vector names the field
+        empty = False
+    return None if empty else np.array(as_vector(field, value, length))
+
+
 def as_points(field: str, value: Any, dim: int = 3, *, check_finite: bool = True) -> NDArray[np.float64]:
     """Return ``value`` as a finite ``(N, dim)`` float64 array (a single point becomes ``(1, dim)``).
 

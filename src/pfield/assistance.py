@@ -43,7 +43,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pfield import _assistance_kernel as _k
 from pfield._bound import BoundArrays
-from pfield._validation import as_vector, finite, in_range, kernel_vector
+from pfield._validation import as_vector, finite, in_range, kernel_vector, optional_vector
 from pfield.autonomy import whole_body_stepper
 from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
@@ -346,9 +346,7 @@ def _assist_step(work: _Workspace, robot: RobotModel, joint_angles: ArrayLike, p
         fast = kernel_vector(joint_angles) and (previous is None or kernel_vector(previous))
         if attempt or not fast:
             joint_angles = robot.check_joint_angles(joint_angles, "joint_angles")
-            # an empty list (the message default) means "no previous"; a writable copy: the kernel's one type
-            previous = None if previous is None or np.size(previous) == 0 else \
-                np.array(as_vector("prev_joint_velocities", previous, robot.n_joints))
+            previous = optional_vector("prev_joint_velocities", previous, robot.n_joints)
         given = previous is not None
         row: NDArray[np.float64] = _k.bound_assist_step(
             joint_angles, previous if given else work.zeros, given, given and dt > 0.0,

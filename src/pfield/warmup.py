@@ -56,12 +56,12 @@ class WarmupStep:
 @dataclass(frozen=True)
 class WarmupReport:
     """What :func:`warm` did: seconds per step (in order), the failed steps with their error, the total, and
-    how many processes compiled (more than 1 when a cold cache was filled in :data:`LANES`)."""
+    how many processes compiled side by side (one per :data:`LANES` entry when a cold cache was filled; else 0)."""
 
     seconds: dict[str, float]
     failures: dict[str, str]
     total_seconds: float
-    processes: int = 1
+    lanes: int = 0
 
 
 # -- the steps ------------------------------------------------------------------------------------------
@@ -284,7 +284,7 @@ def warm(progress: Progress | None = None, steps: Sequence[WarmupStep] = STEPS, 
     ``progress(done, total, name)`` is called before the first step and after each one. Compiles are
     logged by :mod:`pfield._compile_notice` at INFO; a failing step is logged as an error and skipped.
     ``jobs`` ≥ 2 (all steps only): when the first step compiles (a cold cache), the others first run in
-    :data:`LANES`, one process each, filling numba's on-disk cache side by side; this process then runs them
+    :data:`LANES`, one process per lane, filling numba's on-disk cache side by side; this process then runs them
     too, loading what the lanes compiled, so that it ends warm either way.
     """
     global _REPORT
@@ -294,7 +294,7 @@ def warm(progress: Progress | None = None, steps: Sequence[WarmupStep] = STEPS, 
         seconds: dict[str, float] = {}
         failures: dict[str, str] = {}
         start = time.perf_counter()
-        processes, shown = 1, [0]  # progress never goes back (a lane's step counts as done when it finishes)
+        lanes, shown = 0, [0]  # progress never goes back (a lane's step counts as done when it finishes)
 
         def tell(done: int, name: str) -> None:
             shown[0] = max(shown[0], done)
@@ -314,20 +314,20 @@ def warm(progress: Progress | None = None, steps: Sequence[WarmupStep] = STEPS, 
                     _LOG.error("warm-up step %r failed (its kernels compile on first use): %s", step.name, exc)
                 seconds[step.name] = time.perf_counter() - began
                 if done == 1 and jobs >= 2 and steps is STEPS and _compile_notice.compiles() > compiled_before:
-                    processes = 1 + min(jobs, len(LANES))
-                    _run_lanes(processes - 1, tell)
+                    lanes = len(LANES)
+                    _run_lanes(tell)
                 tell(done, steps[done].name if done < len(steps) else step.name)
-        report = WarmupReport(seconds, failures, time.perf_counter() - start, processes)
+        report = WarmupReport(seconds, failures, time.perf_counter() - start, lanes)
         if steps is STEPS:
             _REPORT = report
             _READY.set()
         return report
 
 
-def _run_lanes(jobs: int, report: Callable[[int, str], None]) -> None:
-    """Run :data:`LANES` in ``jobs`` processes at once (each lane's steps in order, ``python -c``), calling
-    ``report(steps done, name)`` as their steps finish; a lane that fails leaves its kernels to this process."""
-    lanes = [sum(LANES[k::jobs], ()) for k in range(jobs)]
+def _run_lanes(report: Callable[[int, str], None]) -> None:
+    """Run each of :data:`LANES` in a process of its own, all at once (a lane's steps in order, ``python -c``),
+    calling ``report(steps done, name)`` as their steps finish; a lane that fails leaves its kernels to this
+    process."""
     total, finished, lock = len(STEPS), [1], threading.Lock()
 
     def follow(lane: tuple[str, ...]) -> None:
@@ -343,7 +343,7 @@ def _run_lanes(jobs: int, report: Callable[[int, str], None]) -> None:
         if child.returncode:
             _LOG.warning("warm-up lane %s exited with %s; this process compiles what it left", lane, child.returncode)
 
-    threads = [threading.Thread(target=follow, args=(lane,), daemon=True) for lane in lanes]
+    threads = [threading.Thread(target=follow, args=(lane,), daemon=True) for lane in LANES]
     for thread in threads:
         thread.start()
     for thread in threads:

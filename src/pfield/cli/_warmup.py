@@ -10,7 +10,7 @@ import typer
 
 
 def warmup(jobs: Annotated[int, typer.Option(
-        min=1, help="processes that compile side by side when the cache is cold (default: the CPU count, at most 2)")]
+        min=1, help="2 or more: compile in two processes side by side when the cache is cold (default: on 2+ cores)")]
         = min(os.cpu_count() or 1, 2)) -> None:
     """Compile every numba kernel of pfield once (field, planners, IK, autonomy, mobile, costmap, SDFs).
 
@@ -38,7 +38,7 @@ def warmup(jobs: Annotated[int, typer.Option(
     console.print(f"warm-up done in {time.perf_counter() - start:.1f} s "
                   f"({len(warm_up.STEPS) - len(result.failures)}/{len(warm_up.STEPS)} areas, "
                   f"{compiled} kernels loaded or compiled"
-                  + (f"; {result.processes - 1} processes compiled side by side" if result.processes > 1 else "")
+                  + (f"; {result.lanes} processes compiled side by side" if result.lanes else "")
                   + ")", highlight=False)
     if result.failures:
         raise typer.Exit(1)

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pfield._validation import as_vector, finite, kernel_vector
+from pfield._validation import finite, kernel_vector, optional_vector
 from pfield.errors import InvalidInput
 from pfield.planning import _whole_body_layout as _wb
 from pfield.planning._whole_body_flat import FlatStep, bound_step, flat_step
@@ -145,15 +145,8 @@ class WholeBodyStepper:
         if not 0.0 <= step < math.inf:
             raise InvalidInput("delta_time", dt, "must be a finite number >= 0 s")
         n = self.robot.n_joints
-        velocities, has_prev = self._zeros, False
-        if previous is not None:
-            velocities = np.array(previous, dtype=np.float64)  # a writable copy: the kernel's one argument type
-            if velocities.shape != (n,) or not np.isfinite(velocities).all():
-                if velocities.size == 0:
-                    velocities = self._zeros  # an empty list (the message default) means "no previous"
-                else:
-                    velocities = np.array(as_vector("prev_joint_velocities", previous, n))
-            has_prev = step > 0.0 and velocities is not self._zeros
+        given = optional_vector("prev_joint_velocities", previous, n)
+        velocities, has_prev = (self._zeros, False) if given is None else (given, step > 0.0)
         return flat_step(q, velocities, has_prev, self._goal_p, self._goal_q, self._parameters(step), *self._buffers)
 
     def _parameters(self, step: float) -> NDArray[np.float64]:
