@@ -1,7 +1,8 @@
 """Run every ``benchmarks/bench_*.py`` module and print one Markdown table per section.
 
 Usage: ``python -m benchmarks.run [--quick] [--only NAME ...] [--out DIR]`` (``make bench``). Each module
-exposes ``run(quick: bool) -> list[BenchRow]``. A full run writes ``benchmarks/results/<module>.json`` (the
+exposes ``run(quick: bool) -> list[BenchRow]``, and may expose ``side_tables(rows) -> {file name: Markdown}``
+(other views of its rows, written beside them). A full run writes ``benchmarks/results/<module>.json`` (the
 tracked figures) and rebuilds ``benchmarks/results/latest.md`` from all saved modules. A partial run
 (``--only`` or ``--quick``) leaves those files alone: its JSON files and a ``latest.md`` of its own rows go
 to ``--out`` (default ``benchmarks/results/partial/``, not tracked).
@@ -78,8 +79,11 @@ def main() -> None:
         for name in modules:
             progress.update(task, description=name)
             start = time.perf_counter()
-            rows = importlib.import_module(f"benchmarks.{name}").run(args.quick)
+            module = importlib.import_module(f"benchmarks.{name}")
+            rows = module.run(args.quick)
             all_rows.extend(rows)
+            for file_name, text in getattr(module, "side_tables", lambda rows: {})(rows).items():
+                (out / file_name).write_text(text)
             payload = {"module": name, "seconds": time.perf_counter() - start, "machine": platform.processor()
                        or platform.machine(), "python": platform.python_version(),
                        "rows": [r.as_dict() for r in rows]}

@@ -269,6 +269,25 @@ def test_assisted_teleop_demo_run_avoids_what_the_operator_alone_hits(tmp_path: 
     assert (tmp_path / "assisted_teleop.png").stat().st_size > 0
 
 
+def test_teleop_benchmark_seed_scenes_are_what_the_table_says() -> None:
+    """The seed reach passes the operator within MoveIt Servo's threshold of the capsule, where braking stalls and
+    steering does not; the seed's planning line keeps every run clear of the threshold (Servo never acts)."""
+    from benchmarks.bench_teleop import scenes
+
+    from pfield.demo._teleop_sim import SERVO_SCENE_THRESHOLD, simulate
+
+    all_scenes = scenes()
+    obstacles, start, goal, _ = all_scenes["seed"]
+    runs = {mode: simulate(obstacles, start, goal, mode, seed=1) for mode in ("none", "servo", "pfield")}
+    assert runs["none"].clearance.min() < SERVO_SCENE_THRESHOLD
+    assert runs["servo"].time_to_goal > runs["none"].time_to_goal  # Servo brakes here
+    assert runs["pfield"].success and not runs["pfield"].collided
+    assert runs["pfield"].clearance.min() > SERVO_SCENE_THRESHOLD
+    assert runs["pfield"].time_to_goal <= 0.8 * runs["servo"].time_to_goal
+    obstacles, start, goal, _ = all_scenes["seed, planning line"]
+    assert simulate(obstacles, start, goal, "none", seed=1).clearance.min() > SERVO_SCENE_THRESHOLD
+
+
 def test_whole_body_assisted_teleop_reaches_the_goal_clear_of_the_spheres(xarm: Any) -> None:
     """The teleop benchmark's whole-body case: the operator alone drives the arm into the first sphere, MoveIt
     Servo's scaling stops it short, pfield's assistance steers the arm around both to the goal."""

@@ -64,3 +64,32 @@ def test_a_full_run_updates_the_tracked_results(fake_benchmarks: Path, monkeypat
     latest = (fake_benchmarks / "latest.md").read_text()
     assert "alpha figure" in latest and "beta figure" in latest
     assert not (fake_benchmarks / "partial").exists()
+
+
+def test_side_tables_go_where_the_run_writes(fake_benchmarks: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    module = sys.modules["benchmarks.bench_alpha"]
+    monkeypatch.setattr(module, "side_tables", lambda rows: {"alpha_table.md": f"{len(rows)} rows\n"}, raising=False)
+    before = _snapshot(fake_benchmarks)
+    monkeypatch.setattr(sys, "argv", ["benchmarks.run", "--only", "alpha"])
+    bench_run.main()
+    assert _snapshot(fake_benchmarks) == before
+    assert (fake_benchmarks / "partial" / "alpha_table.md").read_text() == "1 rows\n"
+    monkeypatch.setattr(sys, "argv", ["benchmarks.run"])
+    bench_run.main()
+    assert (fake_benchmarks / "alpha_table.md").read_text() == "1 rows\n"
+
+
+def test_teleop_side_table_lays_each_scene_and_mode_on_one_line() -> None:
+    from benchmarks.bench_teleop import MODES, scenes, side_tables, teleop_rows
+
+    rows = teleop_rows(2)
+    table = side_tables(rows)["teleop_table.md"].splitlines()
+    assert len(table) == 2 + len(scenes()) * len(MODES)
+    by_name = {row.name: row.value for row in rows}
+    scene, mode, collisions, clearance, success, time, agreement = (c.strip() for c in table[2].strip("|").split("|"))
+    assert float(success) == by_name["seed / none: success"]
+    assert float(agreement) == pytest.approx(by_name["seed / none: agreement"], abs=5e-4)
+    assert (scene, mode) == ("seed", "none")
+    assert collisions == f"{by_name['seed / none: runs with a collision']:.0f}/2"
+    assert float(clearance) == pytest.approx(by_name["seed / none: min clearance"], abs=5e-5)
+    assert float(time) == pytest.approx(by_name["seed / none: median time to goal"], abs=5e-3)

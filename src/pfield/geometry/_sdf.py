@@ -43,7 +43,8 @@ from pfield.geometry._packed import (
 from pfield.geometry._raw import float_pointer, int_pointer
 
 _MeshAddresses = tuple[int, int, int, int, int, int, int, int, int]
-"""Addresses of triangles, pseudo-normals, BVH lower, upper, nodes, mesh table; triangle, node, mesh counts."""
+"""Addresses of triangles, pseudo-normals, BVH lower, upper, nodes, mesh table; triangle, node, mesh counts
+(all int64 in compiled code, :func:`mesh_addresses`)."""
 
 __all__ = [
     "empty_packed",
@@ -130,10 +131,14 @@ def capsule_local(qx: float, qy: float, qz: float, r: float, hh: float) -> tuple
 
 @njit(cache=True, inline="always")
 def mesh_addresses(packed: PackedObstacles) -> _MeshAddresses:
-    """Addresses and sizes of the mesh arrays, so the mesh branch passes no reference-counted arrays."""
-    return (
-        packed.triangles.ctypes.data, packed.pseudo_normals.ctypes.data, packed.bvh_lower.ctypes.data,
-        packed.bvh_upper.ctypes.data, packed.bvh_nodes.ctypes.data, packed.mesh_table.ctypes.data,
+    """Addresses and sizes of the mesh arrays, so the mesh branch passes no reference-counted arrays.
+
+    All nine are int64, the type Python integers take when such a tuple comes back into compiled code (tests,
+    :mod:`pfield._bound`'s tables): one specialisation of each consumer, whoever calls it."""
+    return (  # type: ignore[return-value]  # np.int64 is numba's int64 here, a Python int outside
+        np.int64(packed.triangles.ctypes.data), np.int64(packed.pseudo_normals.ctypes.data),
+        np.int64(packed.bvh_lower.ctypes.data), np.int64(packed.bvh_upper.ctypes.data),
+        np.int64(packed.bvh_nodes.ctypes.data), np.int64(packed.mesh_table.ctypes.data),
         packed.triangles.shape[0], packed.bvh_nodes.shape[0], packed.mesh_table.shape[0],
     )
 
