@@ -55,6 +55,17 @@ def median_time(fn: Callable[[], object], *, repeat: int = 7, number: int = 1, w
     return samples[len(samples) // 2]
 
 
+HOST_CHECK = "host check: sum(range(10**6)) in pure Python"
+
+
+def host_check_ms() -> float:
+    """A fixed pure-Python workload, median of 5 runs (ms): the host's speed when a module ran.
+
+    Hosts differ and a shared one changes speed from hour to hour; a figure that moved by the same factor as
+    this one between two runs moved with the host, not with the code."""
+    return 1e3 * median_time(lambda: sum(range(10**6)), repeat=5, warmup=1)
+
+
 def cpu_time(fn: Callable[[], object], repeat: int, number: int = 1) -> float:
     """Median CPU time of this process per call of ``fn`` (s), after one warm-up call: unlike wall time,
     it does not grow when other processes share the machine."""

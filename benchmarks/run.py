@@ -5,7 +5,9 @@ exposes ``run(quick: bool) -> list[BenchRow]``, and may expose ``side_tables(row
 (other views of its rows, written beside them). A full run writes ``benchmarks/results/<module>.json`` (the
 tracked figures) and rebuilds ``benchmarks/results/latest.md`` from all saved modules. A partial run
 (``--only`` or ``--quick``) leaves those files alone: its JSON files and a ``latest.md`` of its own rows go
-to ``--out`` (default ``benchmarks/results/partial/``, not tracked).
+to ``--out`` (default ``benchmarks/results/partial/``, not tracked). Each module's first section opens with
+the host check (:func:`benchmarks._common.host_check_ms`, timed just before the module), so figures of runs on
+different days or hosts can be read against each other.
 Reference figures: ``../shared/benchmarks/REFERENCE.md``.
 """
 
@@ -22,7 +24,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import Progress
 
-from benchmarks._common import BenchRow
+from benchmarks._common import HOST_CHECK, BenchRow, host_check_ms
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results"
@@ -80,13 +82,17 @@ def main() -> None:
             progress.update(task, description=name)
             start = time.perf_counter()
             module = importlib.import_module(f"benchmarks.{name}")
+            host = host_check_ms()
             rows = module.run(args.quick)
+            if rows:
+                rows = [BenchRow(rows[0].section, HOST_CHECK, host, "ms",
+                                 note=f"before {name}; figures of two runs compare through it"), *rows]
             all_rows.extend(rows)
             for file_name, text in getattr(module, "side_tables", lambda rows: {})(rows).items():
                 (out / file_name).write_text(text)
             payload = {"module": name, "seconds": time.perf_counter() - start, "machine": platform.processor()
                        or platform.machine(), "python": platform.python_version(),
-                       "rows": [r.as_dict() for r in rows]}
+                       "host_check_ms": host, "rows": [r.as_dict() for r in rows]}
             (out / f"{name}.json").write_text(json.dumps(payload, indent=2))
             progress.advance(task)
     console.print(to_markdown(all_rows), markup=False, highlight=False)

@@ -14,7 +14,7 @@ if str(REPO) not in sys.path:  # benchmarks/ is a top-level package beside src/,
     sys.path.insert(0, str(REPO))
 
 from benchmarks import run as bench_run  # noqa: E402
-from benchmarks._common import BenchRow  # noqa: E402
+from benchmarks._common import HOST_CHECK, BenchRow  # noqa: E402
 
 
 @pytest.fixture
@@ -47,7 +47,10 @@ def test_partial_runs_write_elsewhere(fake_benchmarks: Path, monkeypatch: pytest
     bench_run.main()
     assert _snapshot(fake_benchmarks) == before
     partial = fake_benchmarks / "partial"
-    assert json.loads((partial / "bench_alpha.json").read_text())["rows"][0]["value"] == 1.0
+    saved = json.loads((partial / "bench_alpha.json").read_text())
+    host, figure = saved["rows"]
+    assert figure["value"] == 1.0
+    assert host["name"] == HOST_CHECK and host["section"] == "alpha" and host["value"] == saved["host_check_ms"] > 0
     assert "alpha figure" in (partial / "latest.md").read_text()
 
 
@@ -73,10 +76,10 @@ def test_side_tables_go_where_the_run_writes(fake_benchmarks: Path, monkeypatch:
     monkeypatch.setattr(sys, "argv", ["benchmarks.run", "--only", "alpha"])
     bench_run.main()
     assert _snapshot(fake_benchmarks) == before
-    assert (fake_benchmarks / "partial" / "alpha_table.md").read_text() == "1 rows\n"
+    assert (fake_benchmarks / "partial" / "alpha_table.md").read_text() == "2 rows\n"  # with the host check
     monkeypatch.setattr(sys, "argv", ["benchmarks.run"])
     bench_run.main()
-    assert (fake_benchmarks / "alpha_table.md").read_text() == "1 rows\n"
+    assert (fake_benchmarks / "alpha_table.md").read_text() == "2 rows\n"
 
 
 def test_teleop_side_table_lays_each_scene_and_mode_on_one_line() -> None:
