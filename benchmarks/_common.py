@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 
 @dataclass(frozen=True)
@@ -55,14 +55,23 @@ def median_time(fn: Callable[[], object], *, repeat: int = 7, number: int = 1, w
     return samples[len(samples) // 2]
 
 
+class Report(NamedTuple):
+    """What a module's ``run`` may return instead of bare rows: the rows and other views of them
+    (file name → Markdown), which the runner writes beside the rows."""
+
+    rows: list[BenchRow]
+    tables: dict[str, str]
+
+
 HOST_CHECK = "host check: sum(range(10**6)) in pure Python"
 
 
 def host_check_ms() -> float:
     """A fixed pure-Python workload, median of 5 runs (ms): the host's speed when a module ran.
 
-    Hosts differ and a shared one changes speed from hour to hour; a figure that moved by the same factor as
-    this one between two runs moved with the host, not with the code."""
+    Hosts differ and a shared one changes speed from hour to hour; a single-thread figure that moved between two
+    runs by about the same factor as this one most likely moved with the host, not with the code (figures of
+    several processes or of memory traffic need not follow it)."""
     return 1e3 * median_time(lambda: sum(range(10**6)), repeat=5, warmup=1)
 
 

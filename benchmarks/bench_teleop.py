@@ -1,19 +1,19 @@
 """Assisted teleoperation: a simulated operator under no assistance, MoveIt Servo's scaling and pfield's assistance.
 
 Scenes (task space, the end effector as a point; :mod:`pfield.demo._teleop_sim` explains the operator, the modes
-and the exact collision check): ``seed`` (the seed's five primitive obstacles; from the seed's task-space start,
-reach over the capsule to :data:`SEED_REACH` in front of the table: the operator's straight line passes 7 mm above
-the capsule), ``seed, planning line`` (the same obstacles, the seed's task-space start and goal: a control, no
-obstacle within 7.6 cm of the line), and three cluttered scenes on the benchmark start–goal line (0.3, 0, 0.5) →
-(0.6, 0.3, 0.3), each with a ``Dynamic`` sphere (r 0.04 m) moving across or along the line: ``spheres`` (5 spheres
-r 0.03 m on the line), ``pillars`` (3 vertical cylinders r 0.03 m), ``boxes`` (3 boxes 6 cm). Seeded runs (50 per
-scene and mode, 10 with ``--quick``), dt 0.05 s, time limit 30 s, success within 0.02 m of the target.
+and the exact collision check): ``seed`` (the seed's five primitive obstacles, its task-space start and goal: no
+obstacle within 7.6 cm of the line, so Servo never scales), ``seed, reach over the capsule`` (the same obstacles and
+start, the target :data:`SEED_REACH`: the operator's straight line passes 7 mm above the capsule), and three
+cluttered scenes on the benchmark start–goal line (0.3, 0, 0.5) → (0.6, 0.3, 0.3), each with a ``Dynamic`` sphere
+(r 0.04 m) moving across or along the line: ``spheres`` (5 spheres r 0.03 m on the line), ``pillars`` (3 vertical
+cylinders r 0.03 m), ``boxes`` (3 boxes 6 cm). Seeded runs (50 per scene and mode, 10 with ``--quick``), dt 0.05 s,
+time limit 30 s, success within 0.02 m of the target.
 
 Figures per scene and mode: runs with a collision, minimum clearance over all runs (m), success rate,
 median time to goal of the successful runs (s), agreement (mean cosine between the operator's and the
-executed command). Targets (pfield): no collision, success ≥ Servo's, median time ≤ 0.8 × Servo's where Servo
-acts (some run comes within its threshold; elsewhere Servo's time is the operator's own, and 0.8 × that would
-need more than the top speed operator and field share).
+executed command). Targets (pfield): no collision, success ≥ Servo's, median time ≤ 0.8 × Servo's, left out
+where Servo never arrives or where it lies below the straight line at the top speed operator and field share
+(no mode could meet it; the row's note says so).
 Whole body: ``xarm7 whole body`` (the xArm7 past two static spheres, 50 runs per mode as in the other scenes,
 exact coal distances, :func:`pfield.demo._teleop_sim.simulate_arm`).
 Speed: ``compute_assistance`` from Python (task space, whole body) and over HTTP (p50).
@@ -25,16 +25,16 @@ import math
 import tempfile
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from benchmarks._common import BenchRow, cpu_time, median_time
+from benchmarks._common import BenchRow, Report, cpu_time, median_time
 from pfield.demo._teleop_sim import (
     ARM_DISTANCE,
     MODES,
-    SERVO_SCENE_THRESHOLD,
     Operator,
     TeleopRun,
     arm_scene,
@@ -59,8 +59,8 @@ def _mover(at: float, axis: np.ndarray, amplitude: float, rate: float) -> tuple[
 
 
 SEED_REACH = np.array([0.52, 0.0, 0.38])
-"""m, world: the seed scene's target, 6.5 cm in front of the table and 3 cm above the capsule's top; the straight
-line from the seed's start passes 7 mm above the capsule."""
+"""m, world: the target of "seed, reach over the capsule", 6.5 cm in front of the table and 3 cm above the
+capsule's top; the straight line from the seed's start passes 7 mm above the capsule."""
 
 
 def scenes() -> dict[str, tuple[list[Obstacle], np.ndarray, np.ndarray, dict[str, Callable[[float], Any]]]]:
@@ -72,8 +72,8 @@ def scenes() -> dict[str, tuple[list[Obstacle], np.ndarray, np.ndarray, dict[str
     boxes = [Obstacle(f"box_{i}", Box(0.06, 0.06, 0.06), Pose(_S + f * _D + off * _PERP))
              for i, (f, off) in enumerate(((0.3, 0.01), (0.55, -0.02), (0.8, 0.0)))]
     m3, f3 = _mover(0.45, _ALONG, 0.08, 0.5)  # moves along the line, toward and away from the operator
-    return {"seed": (seed, SEED_START.position, SEED_REACH, {}),
-            "seed, planning line": (seed, SEED_START.position, SEED_GOAL.position, {}),
+    return {"seed": (seed, SEED_START.position, SEED_GOAL.position, {}),
+            "seed, reach over the capsule": (seed, SEED_START.position, SEED_REACH, {}),
             "spheres": ([*spheres, m1], _S, _G, {"mover": f1}),
             "pillars": ([*pillars, m2], _S, _G, {"mover": f2}),
             "boxes": ([*boxes, m3], _S, _G, {"mover": f3})}
@@ -93,72 +93,82 @@ def _arm_runs(mode: str, runs: int) -> list[TeleopRun]:
     return [simulate_arm(robot, obstacles, q0, goal, mode, seed, checker=checker) for seed in range(runs)]
 
 
-def teleop_rows(runs: int, arm_runs: int = 0) -> list[BenchRow]:
-    """The table's figures, one row per scene, mode and figure (:func:`side_tables` lays them side by side)."""
-    rows: list[BenchRow] = []
-    cases = [(name, runs, float(np.linalg.norm(g - s)),
+@dataclass(frozen=True)
+class Summary:
+    """One scene and mode over its runs."""
+
+    distance: float  # m, start to goal
+    runs: int
+    collisions: int
+    clearance: float  # m, the minimum over all runs
+    success: float  # share of runs within the goal tolerance before the time limit
+    time: float  # s, the median time to goal of the successful runs (inf: none)
+    agreement: float  # mean cosine of the operator's and the executed command
+
+    def line(self, scene: str, mode: str) -> str:
+        return (f"| {scene} | {mode} | {self.collisions}/{self.runs} | {self.clearance:.4f} | {self.success:.2f} | "
+                f"{self.time:.2f} | {self.agreement:.3f} |")
+
+
+TABLE_HEAD = ("| scene | mode | collisions | min clearance (m) | success | median time (s) | agreement |\n"
+              "|---|---|---:|---:|---:|---:|---:|")
+
+
+def _summary(distance: float, results: list[TeleopRun]) -> Summary:
+    times = [r.time_to_goal for r in results if r.success]
+    return Summary(distance, len(results), sum(r.collided for r in results),
+                   min(float(r.clearance.min()) for r in results), sum(r.success for r in results) / len(results),
+                   float(np.median(times)) if times else math.inf, float(np.mean([r.agreement for r in results])))
+
+
+def teleop_summaries(runs: int, arm_runs: int = 0) -> dict[tuple[str, str], Summary]:
+    """(scene, mode) → :class:`Summary`, in :func:`scenes` order, then the xArm7 (``arm_runs`` > 0)."""
+    cases = [(name, float(np.linalg.norm(g - s)),
               lambda mode, o=o, s=s, g=g, m=m: [simulate(o, s, g, mode, seed, motion=m) for seed in range(runs)])
              for name, (o, s, g, m) in scenes().items()]
     if arm_runs:
-        cases.append(("xarm7 whole body", arm_runs, ARM_DISTANCE, lambda mode: _arm_runs(mode, arm_runs)))
-    for name, runs, distance, simulate_all in cases:
+        cases.append(("xarm7 whole body", ARM_DISTANCE, lambda mode: _arm_runs(mode, arm_runs)))
+    return {(name, mode): _summary(distance, simulate_all(mode))
+            for name, distance, simulate_all in cases for mode in MODES}
+
+
+def teleop_rows(summaries: dict[tuple[str, str], Summary]) -> list[BenchRow]:
+    """Five figures per scene and mode; pfield's carry the targets (no collision, success ≥ Servo's, median
+    time ≤ 0.8 × Servo's where that is reachable at all)."""
+    rows: list[BenchRow] = []
+    for (name, mode), s in summaries.items():
+        servo, mine = summaries[name, "servo"], mode == "pfield"
         # no mode arrives sooner than the straight line at the top speed (operator and field share it)
-        fastest = (distance - GOAL_TOLERANCE) / Operator().top_speed
-        summary: dict[str, dict[str, float]] = {}
-        for mode in MODES:
-            results = simulate_all(mode)
-            times = [r.time_to_goal for r in results if r.success]
-            summary[mode] = {"collisions": sum(r.collided for r in results),
-                             "clearance": min(float(r.clearance.min()) for r in results),
-                             "success": sum(r.success for r in results) / runs,
-                             "time": float(np.median(times)) if times else math.inf,
-                             "agreement": float(np.mean([r.agreement for r in results]))}
-        servo = summary["servo"]
-        servo_acts = servo["clearance"] < SERVO_SCENE_THRESHOLD
-        for mode in MODES:
-            s, mine = summary[mode], mode == "pfield"
-            rows += [
-                BenchRow(SECTION, f"{name} / {mode}: runs with a collision", s["collisions"], f"of {runs}",
-                         target=0.0 if mine else None),
-                BenchRow(SECTION, f"{name} / {mode}: min clearance", s["clearance"], "m", higher_is_better=True),
-                BenchRow(SECTION, f"{name} / {mode}: success", s["success"], "share",
-                         target=servo["success"] if mine else None, higher_is_better=True),
-                BenchRow(SECTION, f"{name} / {mode}: median time to goal", s["time"], "s",
-                         target=0.8 * servo["time"] if mine and servo_acts and math.isfinite(servo["time"]) else None,
-                         note=_time_note(fastest, servo_acts) if mine else ""),
-                BenchRow(SECTION, f"{name} / {mode}: agreement", s["agreement"], "cos", higher_is_better=True),
-            ]
+        fastest = (s.distance - GOAL_TOLERANCE) / Operator().top_speed
+        time_target, time_note = _time_target(servo, fastest) if mine else (None, "")
+        rows += [
+            BenchRow(SECTION, f"{name} / {mode}: runs with a collision", s.collisions, f"of {s.runs}",
+                     target=0.0 if mine else None),
+            BenchRow(SECTION, f"{name} / {mode}: min clearance", s.clearance, "m", higher_is_better=True),
+            BenchRow(SECTION, f"{name} / {mode}: success", s.success, "share",
+                     target=servo.success if mine else None, higher_is_better=True),
+            BenchRow(SECTION, f"{name} / {mode}: median time to goal", s.time, "s", target=time_target,
+                     note=time_note),
+            BenchRow(SECTION, f"{name} / {mode}: agreement", s.agreement, "cos", higher_is_better=True),
+        ]
     return rows
 
 
-_COLUMNS = (("runs with a collision", "collisions", "{:.0f}/{runs}"), ("min clearance", "min clearance (m)", "{:.4f}"),
-            ("success", "success", "{:.2f}"), ("median time to goal", "median time (s)", "{:.2f}"),
-            ("agreement", "agreement", "{:.3f}"))
+def _time_target(servo: Summary, fastest: float) -> tuple[float | None, str]:
+    """pfield's time target (0.8 × Servo's median) and the row's note; no target where Servo never arrives or
+    where 0.8 × Servo's time is below the straight line at the shared top speed (no mode can reach it)."""
+    note = f"the straight line at the top speed takes {fastest:.2f} s; Servo arrives in {servo.success:.0%} of runs"
+    if not math.isfinite(servo.time):
+        return None, f"{note}: no Servo time to compare with"
+    if 0.8 * servo.time < fastest:
+        return None, (f"{note}; 0.8 × Servo's {servo.time:.2f} s = {0.8 * servo.time:.2f} s is below that bound, "
+                      "so no mode can meet it: not applied")
+    return 0.8 * servo.time, note
 
 
-def side_tables(rows: list[BenchRow]) -> dict[str, str]:
-    """``teleop_table.md``: every scene and mode on one line (the runner writes it beside the run's results)."""
-    figures: dict[tuple[str, str], dict[str, BenchRow]] = {}
-    for row in rows:
-        scene, sep, rest = row.name.partition(" / ")
-        mode, _, figure = rest.partition(": ")
-        if sep and mode in MODES:
-            figures.setdefault((scene, mode), {})[figure] = row
-    lines = ["| scene | mode | " + " | ".join(header for _, header, _ in _COLUMNS) + " |",
-             "|---|---|" + "---:|" * len(_COLUMNS)]
-    for (scene, mode), of in figures.items():
-        runs = of["runs with a collision"].unit.removeprefix("of ")
-        cells = [fmt.format(of[figure].value, runs=runs) for figure, _, fmt in _COLUMNS]
-        lines.append(f"| {scene} | {mode} | " + " | ".join(cells) + " |")
-    return {"teleop_table.md": "\n".join(lines) + "\n"}
-
-
-def _time_note(fastest: float, servo_acts: bool) -> str:
-    note = f"the straight line at the top speed takes {fastest:.2f} s"
-    if servo_acts:
-        return note
-    return (f"{note}; Servo never acts here (no run within {SERVO_SCENE_THRESHOLD} m), so its time is the "
-            "operator's own and the 0.8× target does not apply")
+def teleop_table(summaries: dict[tuple[str, str], Summary]) -> str:
+    """Every scene and mode on one line (``teleop_table.md``)."""
+    return "\n".join([TABLE_HEAD, *(s.line(scene, mode) for (scene, mode), s in summaries.items())]) + "\n"
 
 
 def _xyz(values: np.ndarray) -> dict[str, float]:
@@ -206,9 +216,10 @@ def speed_rows(quick: bool) -> list[BenchRow]:
                      note="no obstacles in the node")]
 
 
-def run(quick: bool) -> list[BenchRow]:
-    return teleop_rows(10 if quick else 50, 5 if quick else 50) + speed_rows(quick)
+def run(quick: bool) -> Report:
+    summaries = teleop_summaries(10 if quick else 50, 5 if quick else 50)
+    return Report(teleop_rows(summaries) + speed_rows(quick), {"teleop_table.md": teleop_table(summaries)})
 
 
 if __name__ == "__main__":
-    print(side_tables(teleop_rows(10))["teleop_table.md"])
+    print(teleop_table(teleop_summaries(10)))

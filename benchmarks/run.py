@@ -1,8 +1,8 @@
 """Run every ``benchmarks/bench_*.py`` module and print one Markdown table per section.
 
 Usage: ``python -m benchmarks.run [--quick] [--only NAME ...] [--out DIR]`` (``make bench``). Each module
-exposes ``run(quick: bool) -> list[BenchRow]``, and may expose ``side_tables(rows) -> {file name: Markdown}``
-(other views of its rows, written beside them). A full run writes ``benchmarks/results/<module>.json`` (the
+exposes ``run(quick: bool)`` returning its rows (``list[BenchRow]``) or a :class:`benchmarks._common.Report`
+(the rows and other views of them, written beside them). A full run writes ``benchmarks/results/<module>.json`` (the
 tracked figures) and rebuilds ``benchmarks/results/latest.md`` from all saved modules. A partial run
 (``--only`` or ``--quick``) leaves those files alone: its JSON files and a ``latest.md`` of its own rows go
 to ``--out`` (default ``benchmarks/results/partial/``, not tracked). Each module's first section opens with
@@ -24,7 +24,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import Progress
 
-from benchmarks._common import HOST_CHECK, BenchRow, host_check_ms
+from benchmarks._common import HOST_CHECK, BenchRow, Report, host_check_ms
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results"
@@ -80,15 +80,16 @@ def main() -> None:
         task = progress.add_task("benchmarks", total=len(modules))
         for name in modules:
             progress.update(task, description=name)
+            host = host_check_ms()
             start = time.perf_counter()
             module = importlib.import_module(f"benchmarks.{name}")
-            host = host_check_ms()
-            rows = module.run(args.quick)
+            result = module.run(args.quick)
+            rows, tables = (result.rows, result.tables) if isinstance(result, Report) else (result, {})
             if rows:
                 rows = [BenchRow(rows[0].section, HOST_CHECK, host, "ms",
-                                 note=f"before {name}; figures of two runs compare through it"), *rows]
+                                 note=f"before {name}; single-thread figures of two runs compare through it"), *rows]
             all_rows.extend(rows)
-            for file_name, text in getattr(module, "side_tables", lambda rows: {})(rows).items():
+            for file_name, text in tables.items():
                 (out / file_name).write_text(text)
             payload = {"module": name, "seconds": time.perf_counter() - start, "machine": platform.processor()
                        or platform.machine(), "python": platform.python_version(),

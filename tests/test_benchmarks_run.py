@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import sys
 import types
 from pathlib import Path
@@ -14,7 +15,7 @@ if str(REPO) not in sys.path:  # benchmarks/ is a top-level package beside src/,
     sys.path.insert(0, str(REPO))
 
 from benchmarks import run as bench_run  # noqa: E402
-from benchmarks._common import HOST_CHECK, BenchRow  # noqa: E402
+from benchmarks._common import HOST_CHECK, BenchRow, Report  # noqa: E402
 
 
 @pytest.fixture
@@ -69,30 +70,45 @@ def test_a_full_run_updates_the_tracked_results(fake_benchmarks: Path, monkeypat
     assert not (fake_benchmarks / "partial").exists()
 
 
-def test_side_tables_go_where_the_run_writes(fake_benchmarks: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_reports_tables_go_where_the_run_writes(fake_benchmarks: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     module = sys.modules["benchmarks.bench_alpha"]
-    monkeypatch.setattr(module, "side_tables", lambda rows: {"alpha_table.md": f"{len(rows)} rows\n"}, raising=False)
+    rows = module.run(False)
+    monkeypatch.setattr(module, "run", lambda quick: Report(rows, {"alpha_table.md": "a table\n"}))
     before = _snapshot(fake_benchmarks)
     monkeypatch.setattr(sys, "argv", ["benchmarks.run", "--only", "alpha"])
     bench_run.main()
     assert _snapshot(fake_benchmarks) == before
-    assert (fake_benchmarks / "partial" / "alpha_table.md").read_text() == "2 rows\n"  # with the host check
+    assert (fake_benchmarks / "partial" / "alpha_table.md").read_text() == "a table\n"
+    assert json.loads((fake_benchmarks / "partial" / "bench_alpha.json").read_text())["rows"][1]["value"] == 1.0
     monkeypatch.setattr(sys, "argv", ["benchmarks.run"])
     bench_run.main()
-    assert (fake_benchmarks / "alpha_table.md").read_text() == "2 rows\n"
+    assert (fake_benchmarks / "alpha_table.md").read_text() == "a table\n"
 
 
-def test_teleop_side_table_lays_each_scene_and_mode_on_one_line() -> None:
-    from benchmarks.bench_teleop import MODES, scenes, side_tables, teleop_rows
+def test_teleop_table_has_each_scene_and_mode_with_its_rows_figures() -> None:
+    from benchmarks.bench_teleop import MODES, Summary, scenes, teleop_rows, teleop_table
 
-    rows = teleop_rows(2)
-    table = side_tables(rows)["teleop_table.md"].splitlines()
-    assert len(table) == 2 + len(scenes()) * len(MODES)
-    by_name = {row.name: row.value for row in rows}
-    scene, mode, collisions, clearance, success, time, agreement = (c.strip() for c in table[2].strip("|").split("|"))
-    assert float(success) == by_name["seed / none: success"]
-    assert float(agreement) == pytest.approx(by_name["seed / none: agreement"], abs=5e-4)
-    assert (scene, mode) == ("seed", "none")
-    assert collisions == f"{by_name['seed / none: runs with a collision']:.0f}/2"
-    assert float(clearance) == pytest.approx(by_name["seed / none: min clearance"], abs=5e-5)
-    assert float(time) == pytest.approx(by_name["seed / none: median time to goal"], abs=5e-3)
+    summaries = {(scene, mode): Summary(0.3, 4, k, -0.01 * k, k / 4, 4.0 + k if k else math.inf, 1.0 - 0.1 * k)
+                 for scene in scenes() for k, mode in enumerate(MODES)}
+    lines = teleop_table(summaries).splitlines()
+    assert len(lines) == 2 + len(scenes()) * len(MODES)
+    rows = {row.name: row for row in teleop_rows(summaries)}
+    for line, ((scene, mode), s) in zip(lines[2:], summaries.items(), strict=True):
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        assert cells[:3] == [scene, mode, f"{s.collisions}/4"]
+        for cell, figure in zip(cells[3:], ("min clearance", "success", "median time to goal", "agreement"),
+                                strict=True):
+            assert float(cell) == pytest.approx(rows[f"{scene} / {mode}: {figure}"].value, abs=6e-3)
+    # pfield's time target: 0.8 x Servo's 5.0 s = 4.0 s, above the straight line at 0.08 m/s (3.5 s)
+    assert rows["spheres / pfield: median time to goal"].target == pytest.approx(4.0)
+    assert rows["spheres / pfield: success"].target == 0.25
+
+
+def test_teleop_time_target_is_left_out_only_where_no_mode_can_meet_it() -> None:
+    from benchmarks.bench_teleop import Summary, _time_target
+
+    fastest = 4.18
+    assert _time_target(Summary(0.35, 50, 0, 0.07, 1.0, 4.60, 1.0), fastest)[0] is None  # 3.68 s < 4.18 s
+    assert _time_target(Summary(0.35, 50, 0, 0.0, 0.44, 13.88, 1.0), fastest)[0] == pytest.approx(11.104)
+    target, note = _time_target(Summary(0.35, 50, 0, 0.0, 0.0, math.inf, 1.0), fastest)
+    assert target is None and "no Servo time" in note

@@ -133,8 +133,8 @@ def capsule_local(qx: float, qy: float, qz: float, r: float, hh: float) -> tuple
 def mesh_addresses(packed: PackedObstacles) -> _MeshAddresses:
     """Addresses and sizes of the mesh arrays, so the mesh branch passes no reference-counted arrays.
 
-    All nine are int64, the type Python integers take when such a tuple comes back into compiled code (tests,
-    :mod:`pfield._bound`'s tables): one specialisation of each consumer, whoever calls it."""
+    All nine are int64, the type Python integers take when such a tuple comes back into compiled code (a test
+    or tool calling a consumer from Python): one specialisation of each consumer, whoever calls it."""
     return (  # type: ignore[return-value]  # np.int64 is numba's int64 here, a Python int outside
         np.int64(packed.triangles.ctypes.data), np.int64(packed.pseudo_normals.ctypes.data),
         np.int64(packed.bvh_lower.ctypes.data), np.int64(packed.bvh_upper.ctypes.data),
