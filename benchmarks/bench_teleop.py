@@ -64,7 +64,8 @@ capsule's top; the straight line from the seed's start passes 7 mm above the cap
 
 
 def scenes() -> dict[str, tuple[list[Obstacle], np.ndarray, np.ndarray, dict[str, Callable[[float], Any]]]]:
-    seed = [o for o in seed_obstacles(Path(tempfile.mkdtemp())) if o.type != "Mesh"]
+    with tempfile.TemporaryDirectory() as mesh_directory:  # the seed's mesh is left out (a point vs primitives)
+        seed = [o for o in seed_obstacles(Path(mesh_directory)) if o.type != "Mesh"]
     spheres, (m1, f1) = sphere_line_scene(5, 0.0, 0.03), _mover(0.5, _PERP, 0.12, 0.6)
     pillars = [Obstacle(f"pillar_{i}", Cylinder(0.03, 0.4), Pose(_S + f * _D + off * _PERP))
                for i, (f, off) in enumerate(((0.25, 0.0), (0.5, 0.03), (0.75, -0.03)))]
