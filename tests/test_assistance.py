@@ -271,24 +271,22 @@ def test_assisted_teleop_demo_run_avoids_what_the_operator_alone_hits(tmp_path: 
 
 def test_teleop_benchmark_seed_scenes_are_what_the_table_says() -> None:
     """Reaching over the capsule, the operator passes within MoveIt Servo's threshold: Servo's braking slows the
-    run or stalls it short of the target, pfield's assistance steers past at full speed. On the seed's planning
-    line no run comes within the threshold (Servo never acts)."""
+    run, pfield's assistance steers past at full speed. On the seed's planning line no run comes within the
+    threshold (Servo never acts)."""
     from benchmarks.bench_teleop import scenes
 
     from pfield.demo._teleop_sim import SERVO_SCENE_THRESHOLD, simulate
 
     all_scenes = scenes()
     obstacles, start, goal, _ = all_scenes["seed, reach over the capsule"]
-    for seed, servo_arrives in ((0, True), (1, False)):
+    for seed in (1, 3):  # the operator's bias and noise keep some runs (seed 0, 4) above the threshold
         runs = {mode: simulate(obstacles, start, goal, mode, seed) for mode in ("none", "servo", "pfield")}
         assert runs["none"].clearance.min() < SERVO_SCENE_THRESHOLD
-        assert runs["servo"].success is servo_arrives and not runs["servo"].collided
+        assert runs["servo"].success and not runs["servo"].collided
         assert runs["pfield"].success and not runs["pfield"].collided
         assert runs["pfield"].clearance.min() > SERVO_SCENE_THRESHOLD
-        assert runs["pfield"].time_to_goal <= runs["none"].time_to_goal
-        if servo_arrives:
-            assert runs["none"].time_to_goal < runs["servo"].time_to_goal < math.inf
-            assert runs["pfield"].time_to_goal <= 0.8 * runs["servo"].time_to_goal
+        assert runs["none"].time_to_goal < runs["servo"].time_to_goal < math.inf
+        assert runs["pfield"].time_to_goal <= min(runs["none"].time_to_goal, 0.8 * runs["servo"].time_to_goal)
     obstacles, start, goal, _ = all_scenes["seed"]
     assert simulate(obstacles, start, goal, "none", seed=1).clearance.min() > SERVO_SCENE_THRESHOLD
 
