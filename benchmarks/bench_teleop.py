@@ -2,7 +2,7 @@
 
 Scenes (task space, the end effector as a point; :mod:`pfield.demo._teleop_sim` explains the operator, the modes
 and the exact collision check): ``seed`` (the seed's five primitive obstacles, its task-space start and goal: no
-obstacle within 7.6 cm of the line, so Servo never scales), ``seed, reach over the capsule`` (the same obstacles and
+run within 7.6 cm of an obstacle, so Servo never scales), ``seed, reach over the capsule`` (the same obstacles and
 start, the target :data:`SEED_REACH`: the operator's straight line passes 14 mm above the capsule), and three
 cluttered scenes on the benchmark start–goal line (0.3, 0, 0.5) → (0.6, 0.3, 0.3), each with a ``Dynamic`` sphere
 (r 0.04 m) moving across or along the line: ``spheres`` (5 spheres r 0.03 m on the line), ``pillars`` (3 vertical

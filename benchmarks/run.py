@@ -6,8 +6,8 @@ exposes ``run(quick: bool)`` returning its rows (``list[BenchRow]``) or a :class
 tracked figures) and rebuilds ``benchmarks/results/latest.md`` from all saved modules. A partial run
 (``--only`` or ``--quick``) leaves those files alone: its JSON files and a ``latest.md`` of its own rows go
 to ``--out`` (default ``benchmarks/results/partial/``, not tracked). Each module's first section opens with
-the host check (:func:`benchmarks._common.host_check_ms`, timed just before the module), so figures of runs on
-different days or hosts can be read against each other.
+the host check (:func:`benchmarks._common.host_check_ms`, timed just before the module): a single-thread figure
+of two runs that moved by about the same factor as the host check most likely moved with the host.
 Reference figures: ``../shared/benchmarks/REFERENCE.md``.
 """
 
