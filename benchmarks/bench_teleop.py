@@ -140,8 +140,8 @@ def teleop_rows(summaries: dict[tuple[str, str], Summary]) -> list[BenchRow]:
     for (name, mode), s in summaries.items():
         servo, mine = summaries[name, "servo"], mode == "pfield"
         # no mode arrives sooner than the straight line at the top speed (operator and field share it)
-        fastest = (s.distance - GOAL_TOLERANCE) / Operator().top_speed
-        time_target, time_note = _time_target(servo, fastest) if mine else (None, "")
+        time_target, time_note = (_time_target(servo, (s.distance - GOAL_TOLERANCE) / Operator().top_speed)
+                                  if mine else (None, ""))
         rows += [
             BenchRow(SECTION, f"{name} / {mode}: runs with a collision", s.collisions, f"of {s.runs}",
                      target=0.0 if mine else None),

@@ -294,12 +294,13 @@ def warm(progress: Progress | None = None, steps: Sequence[WarmupStep] = STEPS, 
         seconds: dict[str, float] = {}
         failures: dict[str, str] = {}
         start = time.perf_counter()
-        lanes, shown = 0, [0]  # progress never goes back (a lane's step counts as done when it finishes)
+        lanes, shown = 0, 0  # progress never goes back (a lane's step counts as done when it finishes)
 
         def tell(done: int, name: str) -> None:
-            shown[0] = max(shown[0], done)
+            nonlocal shown
+            shown = max(shown, done)
             if progress is not None:
-                progress(shown[0], len(steps), name)
+                progress(shown, len(steps), name)
 
         tell(0, steps[0].name if steps else "")
         with _compile_notice.quiet(), _own_info_dropped(), \
@@ -328,9 +329,10 @@ def _run_lanes(report: Callable[[int, str], None]) -> None:
     """Run each of :data:`LANES` in a process of its own, all at once (a lane's steps in order, ``python -c``),
     calling ``report(steps done, name)`` as their steps finish; a lane that fails leaves its kernels to this
     process."""
-    total, finished, lock = len(STEPS), [1], threading.Lock()
+    total, finished, lock = len(STEPS), 1, threading.Lock()
 
     def follow(lane: tuple[str, ...]) -> None:
+        nonlocal finished
         code = "import sys; from pfield.warmup import _lane; _lane(sys.argv[1:])"
         with subprocess.Popen([sys.executable, "-c", code, *lane], stdout=subprocess.PIPE,
                               stderr=subprocess.DEVNULL, text=True) as child:
@@ -338,8 +340,8 @@ def _run_lanes(report: Callable[[int, str], None]) -> None:
             for line in child.stdout:
                 name = line.strip()
                 with lock:
-                    finished[0] += 1
-                    report(min(finished[0], total - 1), name)
+                    finished += 1
+                    report(min(finished, total - 1), name)
         if child.returncode:
             _LOG.warning("warm-up lane %s exited with %s; this process compiles what it left", lane, child.returncode)
 
