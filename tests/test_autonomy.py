@@ -52,7 +52,8 @@ def test_equals_the_first_step_of_the_whole_body_plan(xarm: RobotModel, tmp_path
 
 
 def test_previous_velocities_apply_the_joint_acceleration_limit(xarm: RobotModel) -> None:
-    config = FieldConfig(max_angular_acceleration=0.5)
+    # speed limits that do not bind here: the output contract's scaling comes after the rate limit (below)
+    config = FieldConfig(max_angular_acceleration=0.5, max_linear_velocity=5.0, max_angular_velocity=5.0)
     field = PotentialField(config, GOAL)
     free = whole_body_autonomy(field, xarm, Q0).joint_velocities
     rng = np.random.default_rng(11)
@@ -64,6 +65,14 @@ def test_previous_velocities_apply_the_joint_acceleration_limit(xarm: RobotModel
     # dt = 0 (or no previous velocities) means no rate limit
     unlimited = whole_body_autonomy(field, xarm, Q0, prev_joint_velocities=np.full(7, 0.3), dt=0.0)
     np.testing.assert_allclose(unlimited.joint_velocities, free, atol=1e-12)
+
+
+def test_velocity_limits_take_precedence_over_the_acceleration_limit(xarm: RobotModel) -> None:
+    """The output contract (pfield.safety rule 2) scales the rate-limited step into the speed limits."""
+    config = FieldConfig(max_angular_acceleration=0.5, max_linear_velocity=0.01)
+    result = whole_body_autonomy(PotentialField(config, GOAL), xarm, Q0, prev_joint_velocities=np.full(7, 0.3), dt=0.01)
+    assert np.linalg.norm(result.twist.linear) == pytest.approx(0.01, rel=1e-12)
+    assert np.all(np.abs(result.joint_velocities - 0.3) > 0.5 * 0.01)  # decelerated beyond a_max·dt
 
 
 def test_query_pose_mismatch_is_flagged(xarm: RobotModel, caplog: pytest.LogCaptureFixture,

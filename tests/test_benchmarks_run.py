@@ -9,13 +9,10 @@ import types
 from pathlib import Path
 
 import pytest
+from benchmarks import run as bench_run  # the repository root is on pytest's pythonpath (pyproject.toml)
+from benchmarks._common import HOST_CHECK, BenchRow, Report
 
 REPO = Path(__file__).resolve().parents[1]
-if str(REPO) not in sys.path:  # benchmarks/ is a top-level package beside src/, run as ``python -m``
-    sys.path.insert(0, str(REPO))
-
-from benchmarks import run as bench_run  # noqa: E402
-from benchmarks._common import HOST_CHECK, BenchRow, Report  # noqa: E402
 
 
 @pytest.fixture

@@ -37,6 +37,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("geometry",),
     ("mobile", "costmap"),  # 2D packages: spatial and the bottom layer only
     ("spatial",),
+    ("safety",),  # the output contract: every command finite and within its limits (numpy and the bottom layer)
     ("_spatial_kernels", "_linalg", "_layout", "_validation", "_compile_notice"),
     ("errors",),
 )

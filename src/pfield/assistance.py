@@ -42,8 +42,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pfield import _assistance_kernel as _k
+from pfield import safety
 from pfield._bound import BoundArrays
-from pfield._validation import as_vector, finite, in_range, kernel_vector, optional_vector
+from pfield._validation import finite, in_range, kernel_vector, optional_vector
 from pfield.autonomy import whole_body_stepper
 from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
@@ -74,6 +75,11 @@ class Flag:
     NEAR_SINGULARITY = 32
     STALE_INPUT = 64
     NO_GOAL = 128
+    VELOCITY_LIMITED = 256
+    """The operator's command or the blend exceeded a velocity limit and was scaled down to it
+    (:mod:`pfield.safety`)."""
+    HALTED = 512
+    """No finite command could be computed from the inputs: the commands are zero (:mod:`pfield.safety`)."""
 
 
 @dataclass(frozen=True)
@@ -145,7 +151,7 @@ class AssistanceScene:
         table = np.zeros((len(obstacles), 3))
         for i, key in enumerate(ids):
             if key in self.velocities:
-                table[i] = as_vector(f"velocities[{key!r}]", self.velocities[key], 3)
+                table[i] = safety.check_obstacle_velocity(f"velocities[{key!r}]", self.velocities[key])
         config = self.config
         assert config is not None
         params = np.zeros(_k.N_PARAMS)
@@ -193,12 +199,22 @@ def _mode(scene: AssistanceScene, arbitration: str) -> int:
     return _MODES["safety_only"] if scene.field is None else _MODES[name]
 
 
-def _user_twist(user_command: Twist | None) -> NDArray[np.float64]:
+def _user_twist(scene: AssistanceScene, user_command: Twist | None) -> tuple[NDArray[np.float64], int]:
+    """The operator's twist as the compiled call takes it, scaled within the speed limits when beyond them
+    (:mod:`pfield.safety` rule 3: ``FLAG_VELOCITY_LIMITED``), and its flags."""
     if user_command is None:
-        return np.zeros(6)
+        return np.zeros(6), 0
     if not isinstance(user_command, Twist):
         raise InvalidInput("user_command", user_command, "expected a pfield.Twist or None")
-    return user_command.as_array()
+    config = scene.config
+    assert config is not None
+    user, clipped = safety.clip_twist(user_command.as_array(), config.max_linear_velocity, config.max_angular_velocity)
+    return user, Flag.VELOCITY_LIMITED if clipped else 0
+
+
+def _limited(outcome: int) -> int:
+    """The flag of an output-contract outcome (:mod:`pfield.safety`)."""
+    return (Flag.VELOCITY_LIMITED if outcome == safety.SCALED else 0) | (Flag.HALTED if outcome == safety.HALTED else 0)
 
 
 def _goal_flags(scene: AssistanceScene, pose: Pose, autonomy: NDArray[np.float64]) -> tuple[int, float]:
@@ -222,6 +238,8 @@ _FLAG_NAMES = tuple((name.lower().replace("_", " "), bit) for name, bit in vars(
 def _message(flags: int, alpha: float, limited: bool) -> str:
     names = [name for name, bit in _FLAG_NAMES if flags & bit]
     action = "approach limited by the dampers" if limited else "command passed through the dampers unchanged"
+    if flags & Flag.HALTED:
+        action = safety.describe(safety.HALTED)
     return f"alpha {alpha:.3f}; {action}" + (f"; {', '.join(names)}" if names else "")
 
 
@@ -244,8 +262,8 @@ def task_space_assistance(scene: AssistanceScene, pose: Pose, user_command: Twis
     if not isinstance(pose, Pose):
         raise InvalidInput("query_pose", pose, "expected a pfield.Pose")
     mode = _mode(scene, arbitration)
-    user = _user_twist(user_command)
-    flags = _input_flags(input_age, scene.options)
+    user, flags = _user_twist(scene, user_command)
+    flags |= _input_flags(input_age, scene.options)
     autonomy = Twist() if scene.field is None else scene.field.twist(pose, previous, dt)
     auto = autonomy.as_array()
     goal_flags, goal_share = _goal_flags(scene, pose, auto)
@@ -253,6 +271,10 @@ def task_space_assistance(scene: AssistanceScene, pose: Pose, user_command: Twis
     params[_k.MODE], params[_k.GOAL_SHARE] = mode, goal_share
     out = np.empty(_k.N_OUT)
     _k.assist_point(pose.position, scene._packed, scene.velocity_table, user, auto, params, out)  # type: ignore[attr-defined]
+    config = scene.config
+    assert config is not None
+    flags |= _limited(safety.limit_twist(out[_k.BLENDED:_k.BLENDED + 6], config.max_linear_velocity,
+                                         config.max_angular_velocity))
     return _answer(scene, out, autonomy, np.zeros(0), pose.position, flags | goal_flags)
 
 
@@ -348,6 +370,9 @@ def _assist_step(work: _Workspace, robot: RobotModel, joint_angles: ArrayLike, p
             joint_angles = robot.check_joint_angles(joint_angles, "joint_angles")
             previous = optional_vector("prev_joint_velocities", previous, robot.n_joints)
         given = previous is not None
+        if given and len(previous) == robot.n_joints:  # type: ignore[arg-type]
+            # rule 3 of pfield.safety (a NaN stays, for the compiled check to refuse)
+            previous = safety.clip_joint_velocities(previous, robot.velocity_limits)  # type: ignore[arg-type]
         row: NDArray[np.float64] = _k.bound_assist_step(
             joint_angles, previous if given else work.zeros, given, given and dt > 0.0,
             work.stepper.bound_table(dt), user, work.params, qd, out, work.table)
@@ -372,8 +397,8 @@ def whole_body_assistance(scene: AssistanceScene, robot: RobotModel, joint_angle
     """
     mode = _mode(scene, arbitration)
     step = in_range("delta_time", dt, 0.0, math.inf, "s") if dt else 0.0
-    user = _user_twist(user_command)
-    flags = _input_flags(input_age, scene.options)
+    user, flags = _user_twist(scene, user_command)
+    flags |= _input_flags(input_age, scene.options)
     work = _workspace(scene, robot)
     params = work.params
     params[_k.MODE] = mode
@@ -384,9 +409,13 @@ def whole_body_assistance(scene: AssistanceScene, robot: RobotModel, joint_angle
         goal_flags, params[_k.GOAL_SHARE] = _goal_flags(scene, robot.forward_kinematics(q), autonomy.as_array())
         _k.bound_assist(q, work.zeros, user, params, qd, out, work.table)
     else:
-        row = _assist_step(work, robot, joint_angles, prev_joint_velocities, step, user, qd, out)
+        row = work.stepper.limited(_assist_step(work, robot, joint_angles, prev_joint_velocities, step, user, qd, out))
         autonomy = _fast_twist(row[_TWIST])
         goal_flags = (Flag.AT_GOAL if out[_k.AT_GOAL] else 0) | (Flag.STALLED if out[_k.STALLED] else 0)
     flags |= goal_flags | (Flag.AT_JOINT_LIMIT if out[_k.AT_LIMIT] else 0) | \
         (Flag.NEAR_SINGULARITY if out[_k.SINGULAR] else 0)
+    config = scene.config
+    assert config is not None
+    flags |= _limited(safety.limit_joint_command(qd, out[_k.BLENDED:_k.BLENDED + 6], robot.velocity_limits,
+                                                 config.max_linear_velocity, config.max_angular_velocity))
     return _answer(scene, out, autonomy, qd, out[_k.POINT:_k.POINT + 3], flags)

@@ -7,6 +7,7 @@ goal, the obstacles or the parameters gives a new field (:meth:`PotentialField.w
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, NamedTuple
@@ -14,6 +15,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pfield import safety
 from pfield._validation import as_points, finite
 from pfield.errors import InvalidInput
 from pfield.field._batch_parallel import batch_twists, batch_wrenches
@@ -28,6 +30,7 @@ if TYPE_CHECKING:
 
 __all__ = ["FieldArrays", "PotentialField"]
 
+_LOG = logging.getLogger(__name__)
 _ZERO = np.zeros(3)
 _ZERO.setflags(write=False)  # the same (read-only) array type as Twist.linear: one compiled specialisation
 _NO_PREVIOUS = np.zeros(6)  # the batch twists' previous twist: read by the kernel, never written
@@ -65,6 +68,16 @@ def _fast_wrench(values: NDArray[np.float64]) -> Wrench:
     object.__setattr__(wrench, "force", values[:3])
     object.__setattr__(wrench, "torque", values[3:])
     return wrench
+
+
+def _previous_within_limits(previous: Twist, config: FieldConfig) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The previous twist's (linear, angular) parts, scaled within the speed limits when beyond them
+    (:mod:`pfield.safety` rule 3), read-only as a Twist's parts are (one compiled specialisation)."""
+    values = np.concatenate([previous.linear, previous.angular])
+    if safety.twist_scale(values.tolist(), config.max_linear_velocity, config.max_angular_velocity) == 1.0:
+        return previous.linear, previous.angular
+    clipped, _ = safety.clip_twist(values, config.max_linear_velocity, config.max_angular_velocity)
+    return _readonly(clipped[:3]), _readonly(clipped[3:])
 
 
 def _check_pose(name: str, pose: Any) -> Pose:
@@ -168,16 +181,20 @@ class PotentialField:
         """
         pose = _check_pose("pose", pose)
         goal, params, packed, aux = self._arrays
+        config = self._config
         if previous is None:
             values = twist_at(pose.position, pose.orientation, goal, params, aux, _ZERO, _ZERO, False, 0.0, *packed)
-            return _fast_twist(values)
-        if not isinstance(previous, Twist):
-            raise InvalidInput("previous", previous, "expected a pfield.Twist or None")
-        step = finite("dt", dt)
-        if step <= 0.0:
-            raise InvalidInput("dt", dt, "must be > 0 when a previous twist is given")
-        values = twist_at(pose.position, pose.orientation, goal, params, aux, previous.linear, previous.angular, True,
-                          step, *packed)
+        else:
+            if not isinstance(previous, Twist):
+                raise InvalidInput("previous", previous, "expected a pfield.Twist or None")
+            step = finite("dt", dt)
+            if step <= 0.0:
+                raise InvalidInput("dt", dt, "must be > 0 when a previous twist is given")
+            linear, angular = _previous_within_limits(previous, config)
+            values = twist_at(pose.position, pose.orientation, goal, params, aux, linear, angular, True, step,
+                              *packed)
+        if safety.limit_twist(values, config.max_linear_velocity, config.max_angular_velocity) == safety.HALTED:
+            _LOG.warning("twist at %r was not finite: answered zero (%s)", pose, safety.describe(safety.HALTED))
         return _fast_twist(values)
 
     # ---------------------------------------------------------------- batches
@@ -230,8 +247,10 @@ class PotentialField:
         Large batches run on every core (:mod:`pfield.field._batch_parallel`), with the same values."""
         points, quats = self._batch(positions, orientations)
         goal, params, packed, aux = self._arrays
-        return self._rows_checked(batch_twists(points, quats, goal, params, aux, _NO_PREVIOUS, *packed),
-                                  points, quats)
+        values = self._rows_checked(batch_twists(points, quats, goal, params, aux, _NO_PREVIOUS, *packed),
+                                    points, quats)
+        safety.limit_twists(values, self._config.max_linear_velocity, self._config.max_angular_velocity)
+        return values
 
     def clearances(self, positions: ArrayLike) -> NDArray[np.float64]:
         """Signed distance (m) of each point (N, 3) to the nearest obstacle (inf without obstacles)."""

@@ -11,7 +11,9 @@ the prepared call owns the data) and then call with arrays in, arrays out::
     prepared.previous[:] = prepared.twist    # rate limits against the previous command:
     prepared.evaluate(0.01)                  # dt = 0.01 s
 
-``evaluate(dt)`` is one compiled call with one array argument. It checks the pose inside compiled code
+``evaluate(dt)`` is one compiled call with one array argument, between the output contract's checks
+(:mod:`pfield.safety`): a ``previous`` beyond the speed limits is scaled within them in place (a non-finite one
+is refused), and the answer is finite and within the limits. It checks the pose inside compiled code
 (finite, unit quaternion within 1e-9) and raises :class:`~pfield.errors.InvalidInput` otherwise, leaving
 ``twist`` unchanged. The results are those of ``field.twist(Pose(p, q), Twist(previous[:3], previous[3:]), dt)``
 bit for bit (``dt`` = 0: no previous twist). One prepared object per thread: its arrays are its state.
@@ -25,6 +27,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from pfield import safety
 from pfield._bound import BoundArrays, float_view1, float_view2, float_view3, int_view1, int_view2
 from pfield.errors import InvalidInput
 from pfield.field._evaluate import constrained_twist
@@ -87,9 +90,17 @@ class PreparedTwist:
         """Evaluate at ``pose`` into ``twist`` (returned); with ``dt`` > 0 (s) rate-limited against ``previous``."""
         if dt.__class__ is not float or not 0.0 <= dt < math.inf:
             dt = _check_dt(dt)
+        config = self.field.config
+        if dt > 0.0:
+            scale = safety.twist_scale(self.previous.tolist(), config.max_linear_velocity, config.max_angular_velocity)
+            if scale != scale:  # NaN: a component is not finite
+                raise InvalidInput("previous", self.previous.tolist(), "must be finite (no NaN or inf)")
+            if scale < 1.0:
+                self.previous *= scale
         status = prepared_twist(self._table, dt > 0.0, dt)
         if status:
             raise _pose_error(status, self.pose)
+        safety.limit_twist(self.twist, config.max_linear_velocity, config.max_angular_velocity)
         return self.twist
 
 

@@ -154,6 +154,7 @@ ARBITRATION_SAFETY_ONLY = "safety_only"
 ASSISTANCE_FLAGS: dict[str, int] = {
     "FLAG_IN_COLLISION": 1, "FLAG_NEAR_OBSTACLE": 2, "FLAG_AT_GOAL": 4, "FLAG_STALLED": 8,
     "FLAG_AT_JOINT_LIMIT": 16, "FLAG_NEAR_SINGULARITY": 32, "FLAG_STALE_INPUT": 64, "FLAG_NO_GOAL": 128,
+    "FLAG_VELOCITY_LIMITED": 256, "FLAG_HALTED": 512,
 }
 
 
@@ -207,6 +208,8 @@ class ComputeAssistance_Response(RosMessage):
     FLAG_NEAR_SINGULARITY: ClassVar[int] = 32
     FLAG_STALE_INPUT: ClassVar[int] = 64
     FLAG_NO_GOAL: ClassVar[int] = 128
+    FLAG_VELOCITY_LIMITED: ClassVar[int] = 256
+    FLAG_HALTED: ClassVar[int] = 512
     autonomy_vector: TwistStamped = Field(default_factory=TwistStamped)
     joint_velocities: list[Float64] = Field(default_factory=list)
     blended_command: TwistStamped = Field(default_factory=TwistStamped)

@@ -8,6 +8,7 @@ a displacement above :data:`MAX_OBSTACLE_JUMP` m, or updates further apart than 
 within :data:`MIN_UPDATE_INTERVAL` s of the previous one keep the previous velocity (a burst of duplicate
 publications would otherwise divide by ~0). ``Static`` and ``Robot`` obstacles stay at rest. A velocity given
 explicitly on ``/pfield/obstacle_velocities`` replaces the estimate and is kept while the obstacle is held.
+An estimate faster than :data:`pfield.safety.MAX_OBSTACLE_SPEED` is scaled down to it (a given one is refused).
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import math
 from typing import Any
 
 from pfield.node._manager_state import Held
+from pfield.safety import clip_obstacle_velocity
 
 __all__ = ["MAX_OBSTACLE_JUMP", "MIN_UPDATE_INTERVAL", "VELOCITY_SMOOTHING", "updated_held"]
 
@@ -42,5 +44,5 @@ def updated_held(previous: Held | None, obstacle: Any, now: float, timeout: floa
     if elapsed < MIN_UPDATE_INTERVAL:
         return Held(obstacle, now, previous.velocity)
     v = previous.velocity
-    smoothed = tuple(v[k] + VELOCITY_SMOOTHING * (delta[k] / elapsed - v[k]) for k in range(3))
-    return Held(obstacle, now, (smoothed[0], smoothed[1], smoothed[2]))
+    smoothed = [v[k] + VELOCITY_SMOOTHING * (delta[k] / elapsed - v[k]) for k in range(3)]
+    return Held(obstacle, now, clip_obstacle_velocity(smoothed[0], smoothed[1], smoothed[2]))

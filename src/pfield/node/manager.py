@@ -47,6 +47,7 @@ from typing import Any
 
 import numpy as np
 
+from pfield import safety
 from pfield._validation import as_vector, finite, in_range
 from pfield.assistance import (
     ARBITRATIONS,
@@ -300,6 +301,7 @@ class ManagerNode(Node):
             if item.frame_id in given:
                 raise InvalidInput(f"velocities[{i}].frame_id", item.frame_id, "duplicate id in one message")
             linear = [finite(f"velocities[{i}].linear.{axis}", getattr(item.linear, axis)) for axis in "xyz"]
+            linear = safety.check_obstacle_velocity(f"velocities[{i}].linear", linear).tolist()
             if transform is not None:
                 linear = [float(x) for x in rotate_vectors(transform.orientation, linear)]
             given[item.frame_id] = (linear[0], linear[1], linear[2])

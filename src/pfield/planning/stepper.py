@@ -9,12 +9,14 @@ than ``safety_distance`` at q not allowed to approach further.
 
 from __future__ import annotations
 
+import logging
 import math
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pfield import safety
 from pfield._validation import finite, kernel_vector, optional_vector
 from pfield.errors import InvalidInput
 from pfield.planning import _whole_body_layout as _wb
@@ -25,6 +27,7 @@ from pfield.robot.model import RobotModel
 
 __all__ = ["WholeBodyStep", "WholeBodyStepper"]
 
+_LOG = logging.getLogger(__name__)
 NOMINAL_DT = 0.01
 """(s) the dampers' look-ahead when a step is asked for without a ``dt``."""
 _TWIST, _POSITION, _ORIENTATION = slice(*_wb.OUT_TWIST), slice(*_wb.OUT_POSITION), slice(*_wb.OUT_ORIENTATION)
@@ -104,11 +107,32 @@ class WholeBodyStepper:
         if dt.__class__ is float and 0.0 <= dt < math.inf and kernel_vector(q) and \
                 (previous is None or kernel_vector(previous)):
             given = previous is not None
+            if given:
+                previous = self._previous_within_limits(previous)  # type: ignore[arg-type]
             row = bound_step(q, previous if given else self._zeros, given, given and dt > 0.0,  # type: ignore[arg-type]
                              self.bound_table(dt))
             if row.shape[0]:
-                return row
+                return self.limited(row)
         return self.evaluate(self.robot.check_joint_angles(q, "joint_angles"), previous, dt)
+
+    def _previous_within_limits(self, previous: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Rule 3 of :mod:`pfield.safety`: previous joint velocities clipped to the URDF limits (a NaN or a wrong
+        length stays, for the compiled check to refuse)."""
+        if previous.shape[0] != self.robot.n_joints:
+            return previous
+        clipped: NDArray[np.float64] = safety.clip_joint_velocities(previous, self.robot.velocity_limits)
+        return clipped
+
+    def limited(self, row: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The output contract (:func:`pfield.safety.limit_joint_command`) on a fresh step row, in place: its
+        q̇ within the URDF velocity limits and its twist J q̇ within the field's speed limits, by one factor
+        (zero when not finite); returns ``row``."""
+        config = self.field.config
+        outcome = safety.limit_joint_command(row[_wb.OUT_SIZE:], row[_TWIST], self.robot.velocity_limits,
+                                             config.max_linear_velocity, config.max_angular_velocity)
+        if outcome == safety.HALTED:
+            _LOG.warning("whole-body step: %s", safety.describe(outcome))
+        return row
 
     def bound_table(self, dt: float) -> NDArray[np.int64]:
         """The table of :func:`~pfield.planning._whole_body_flat.bound_step` with the parameters of ``dt``
@@ -140,14 +164,18 @@ class WholeBodyStepper:
         return self.row(q, prev_joint_velocities, dt)[_TWIST]
 
     def evaluate(self, q: NDArray[np.float64], previous: ArrayLike | None, dt: float) -> NDArray[np.float64]:
-        """The compiled step's raw row at already validated ``q``: ``STEP_OUT`` then q̇."""
+        """The compiled step's row at already validated ``q``: ``STEP_OUT`` then q̇ (within the limits,
+        :meth:`limited`)."""
         step = dt if type(dt) is float else finite("delta_time", dt)
         if not 0.0 <= step < math.inf:
             raise InvalidInput("delta_time", dt, "must be a finite number >= 0 s")
         n = self.robot.n_joints
         given = optional_vector("prev_joint_velocities", previous, n)
+        if given is not None:
+            given = self._previous_within_limits(given)
         velocities, has_prev = (self._zeros, False) if given is None else (given, step > 0.0)
-        return flat_step(q, velocities, has_prev, self._goal_p, self._goal_q, self._parameters(step), *self._buffers)
+        return self.limited(flat_step(q, velocities, has_prev, self._goal_p, self._goal_q, self._parameters(step),
+                                      *self._buffers))
 
     def _parameters(self, step: float) -> NDArray[np.float64]:
         """The parameter vector for ``delta_time`` = ``step`` (cached: callers usually keep dt constant)."""
