@@ -8,6 +8,7 @@ timeout per request; the whole module takes well under two minutes on a warm nod
 from __future__ import annotations
 
 import json
+import math
 import socket
 import time
 from collections.abc import Iterator
@@ -214,5 +215,58 @@ def test_generated_websocket_frames(fuzzed: Fuzzed) -> None:
                 answer = json.loads(ws.recv(timeout=60))
                 if isinstance(answer, dict) and "malformed JSON" in str(answer.get("error")):
                     break
+
+    check()
+
+
+ABSURD = st.one_of(st.sampled_from([1e308, -1e308, 1.7e308, 5e-324, -5e-324, 1e38, -1e6, 0.0]),
+                   st.floats(allow_nan=False, allow_infinity=False), st.floats(min_value=-1.0, max_value=1.0))
+"""Finite float64 values, weighted toward the extremes of issue 31 (F1, F2)."""
+VECTOR3 = st.fixed_dictionaries({"x": ABSURD, "y": ABSURD, "z": ABSURD})
+COMMAND_REQUESTS = st.fixed_dictionaries({
+    "planning_method": st.sampled_from(["task_space", "whole_body"]),
+    "query_pose": st.fixed_dictionaries({"pose": st.fixed_dictionaries({"position": VECTOR3})}),
+    "joint_angles": st.lists(st.floats(min_value=-1.5, max_value=1.5), min_size=7, max_size=7),
+    "prev_joint_velocities": st.one_of(st.just([]), st.lists(st.sampled_from([0.0, 10.0, -1e38, 1e38, 3.0, 5e-324]),
+                                                             min_size=7, max_size=7)),
+    "delta_time": st.sampled_from([0.0, 0.001, 0.02, 0.5]),
+    "user_command": st.fixed_dictionaries({"twist": st.fixed_dictionaries({"linear": VECTOR3, "angular": VECTOR3})}),
+    "arbitration": st.sampled_from(["", "linear", "linear_goal", "safety_only"])})
+
+
+def _within_limits(twist: dict[str, Any], limits: dict[str, Any]) -> bool:
+    linear = [twist["linear"][k] for k in "xyz"]
+    angular = [twist["angular"][k] for k in "xyz"]
+    return (all(map(math.isfinite, linear + angular))
+            and math.hypot(*linear) <= limits["max_linear_velocity"] * (1 + 1e-6)  # float32 on the wire
+            and math.hypot(*angular) <= limits["max_angular_velocity"] * (1 + 1e-6))
+
+
+def test_generated_commands_are_finite_and_within_limits(fuzzed: Fuzzed) -> None:
+    """Issue 31: well-formed control-loop requests with absurd finite numbers (and absurd obstacle speeds on
+    ``/pfield/obstacle_velocities``) answer commands that are finite and within the node's limits, or a 400."""
+    limits = fuzzed.client.get("/param/pfield_manager").json()
+
+    @settings(FUZZ, max_examples=150)
+    @given(request=COMMAND_REQUESTS, velocity=st.one_of(st.none(), VECTOR3))
+    def check(request: dict[str, Any], velocity: dict[str, float] | None) -> None:
+        if velocity is not None:
+            sent = fuzzed.send("POST", "/topic/pfield/obstacle_velocities",
+                               json.dumps({"velocities": [{"frame_id": "ball", "linear": velocity}]}).encode(),
+                               {"content-type": "application/json"})
+            assert sent.status_code in (200, 400)
+        for service, fields in (("compute_autonomy_vector", ("autonomy_vector",)),
+                                ("compute_assistance", ("autonomy_vector", "blended_command"))):
+            body = request if service == "compute_assistance" else {k: v for k, v in request.items()
+                                                                    if k not in ("user_command", "arbitration")}
+            answer = fuzzed.send("POST", f"/srv/pfield/{service}", json.dumps(body).encode(),
+                                 {"content-type": "application/json"})
+            if answer.status_code != 200:
+                assert answer.status_code == 400
+                continue
+            result = answer.json()
+            for name in fields:
+                assert _within_limits(result[name]["twist"], limits), (service, body, result)
+            assert all(map(math.isfinite, result.get("joint_velocities", []))), (body, result)
 
     check()
