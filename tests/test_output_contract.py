@@ -2,9 +2,10 @@
 
 Property tests over finite float64 inputs, absurd ones included (±1e308, subnormals, obstacle speeds at the
 bound, previous commands far beyond the limits), for each call kind that returns a command: the task-space
-autonomy vector (``PotentialField.twist``, ``PreparedTwist``, ``twists``), the whole-body autonomy vector, and
-the task-space and whole-body assistance. Each property runs :data:`CASES` generated cases (derandomised, the
-same cases on every run). Then the rules of :mod:`pfield.safety` one by one, with exact values.
+autonomy vector (``PotentialField.twist``, ``PreparedTwist``, ``twists``), the whole-body autonomy vector, the
+task-space and whole-body assistance, and the mobile base controller's command. Each property runs
+:data:`CASES` generated cases (derandomised, the same cases on every run). Then the rules of
+:mod:`pfield.safety` one by one, with exact values.
 """
 
 from __future__ import annotations
@@ -21,6 +22,9 @@ from pfield import Box, Capsule, FieldConfig, Obstacle, Pose, PotentialField, Pr
 from pfield.assistance import ARBITRATIONS, AssistanceScene, Flag, task_space_assistance, whole_body_assistance
 from pfield.autonomy import whole_body_autonomy, whole_body_autonomy_vector
 from pfield.errors import InvalidInput
+from pfield.mobile import ControllerConfig
+from pfield.mobile.controller import BaseController
+from pfield.mobile.scan import point_obstacles
 from pfield.robot import RobotModel
 
 CASES = 10_000
@@ -146,6 +150,28 @@ def test_whole_body_assistance_is_finite_and_within_limits(panda: RobotModel, da
     assert_twist_within(answer.blended_command.as_array())
     assert_twist_within(answer.autonomy_vector.as_array())
     assert_joints_within(answer.joint_velocities, panda)
+
+
+@CONTRACT
+@given(obstacles=st.lists(st.lists(ABSURD, min_size=2, max_size=2), max_size=4),
+       goal=st.one_of(st.none(), st.lists(ABSURD, min_size=2, max_size=2)),
+       teleop=st.one_of(st.none(), st.lists(ABSURD, min_size=3, max_size=3)),
+       pose=st.lists(ABSURD, min_size=3, max_size=3),
+       drive=st.sampled_from(["holonomic", "diff_drive"]))
+@example(obstacles=[[0.0, 0.0]], goal=None, teleop=[1e308, 1e308, 0.0], pose=[1e308, -1e308, 0.0], drive="holonomic")
+def test_mobile_base_commands_are_finite_and_within_limits(obstacles: list[list[float]], goal: list[float] | None,
+                                                           teleop: list[float] | None, pose: list[float],
+                                                           drive: str) -> None:
+    controller = BaseController(config=ControllerConfig(drive=drive))
+    controller.set_obstacles(point_obstacles(obstacles))
+    controller.set_goal(goal)
+    if teleop is not None:
+        controller.set_teleop(*teleop, now=0.0)
+    for now in (0.0, 0.1):
+        command = controller.step(pose, now)
+        assert math.isfinite(command.linear_x) and math.isfinite(command.linear_y) and math.isfinite(command.angular_z)
+        assert command.speed <= controller.params.max_spd_norm * SLACK, command
+        assert abs(command.angular_z) <= controller.config.max_angular_speed * SLACK, command
 
 
 # ------------------------------------------------------------------------------------------ the reproductions

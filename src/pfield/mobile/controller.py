@@ -16,6 +16,8 @@ Holonomic output rotates the world velocity into the robot frame (ω = 0). Diff-
 at ``lookahead`` L ahead of the axle with the field velocity (feedback linearisation):
 v = cos ψ·v_x + sin ψ·v_y, ω = (−sin ψ·v_x + cos ψ·v_y)/L, scaled as a whole when |ω| > max_angular_speed.
 Acceleration limits bound the change of motion commands; stops (goal reached, timeout, idle) are immediate.
+Every command is finite and within ``max_spd_norm`` and ``max_angular_speed`` (:mod:`pfield.safety`): a
+non-finite one (absurd poses can overflow the field) is zero.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pfield import safety
 from pfield._validation import as_vector, finite
 from pfield.errors import InvalidInput
 from pfield.mobile.clamping import clamp_norm
@@ -154,10 +157,18 @@ class BaseController:
         if desired is None:
             command = np.zeros(3)
         else:
-            command = self._cap(self._rate_limited(desired, dt), caps)
+            command = self._within_limits(self._cap(self._rate_limited(desired, dt), caps))
         self._last = command
         self._state = state
         return Command2D(float(command[0]), float(command[1]), float(command[2]), state)
+
+    def _within_limits(self, command: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The output contract (:mod:`pfield.safety`) on (v_x, v_y, ω): finite (else zero), the linear part within
+        ``max_spd_norm`` and ω within ``max_angular_speed``, by one factor."""
+        twist = np.array([command[0], command[1], 0.0, 0.0, 0.0, command[2]])
+        if safety.limit_twist(twist, self._params.max_spd_norm, self._config.max_angular_speed) == safety.WITHIN:
+            return command
+        return np.array([twist[0], twist[1], twist[5]])
 
     # -- modes ---------------------------------------------------------------------------------------
     def _desired(self, x: float, y: float, yaw: float,
