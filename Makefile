@@ -4,15 +4,35 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test bench anchor lint venv clean clean-numba-cache ros2-interfaces chromium
+.PHONY: demo test bench anchor lint venv core core-test clean clean-numba-cache ros2-interfaces chromium
 
-$(STAMP): pyproject.toml
+# The compiled core pfield._core (C++17 in src/core, nanobind, scikit-build-core) is built by an editable
+# install without build isolation, so that its build tree (build/cp311-*) is kept and an edit of a C++ file
+# rebuilds only what changed (`make core`, a few seconds). docs/core.md: options, debug and sanitizer builds.
+$(STAMP): pyproject.toml CMakeLists.txt
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[dev,ros2,viewer,ray]'
+	$(PY) -m pip install --quiet 'scikit-build-core>=0.10' 'nanobind>=2.4' cmake ninja
+	$(PY) -m pip install --quiet --no-build-isolation -e '.[dev,ros2,viewer,ray]'
 	@touch $(STAMP)
 
 venv: $(STAMP)
+
+CORE_SOURCES := $(shell find src/core -name '*.cpp' -o -name '*.hpp')
+CORE_STAMP   := $(VENV)/.core-built
+$(CORE_STAMP): $(CORE_SOURCES) CMakeLists.txt | $(STAMP)
+	$(PY) -m pip install --quiet --no-build-isolation --no-deps -e .
+	@touch $@
+
+core: $(CORE_STAMP)
+
+# The core's C++ tests (tests/core) under AddressSanitizer and UndefinedBehaviorSanitizer.
+CORE_TEST_BUILD := build/core-sanitize
+core-test: | $(STAMP)
+	$(VENV)/bin/cmake -S . -B $(CORE_TEST_BUILD) -G Ninja -DCMAKE_MAKE_PROGRAM=$(abspath $(VENV))/bin/ninja \
+		-DPFIELD_PYTHON=OFF -DPFIELD_CORE_TESTS=ON -DPFIELD_SANITIZE=ON > /dev/null
+	$(VENV)/bin/cmake --build $(CORE_TEST_BUILD)
+	$(VENV)/bin/ctest --test-dir $(CORE_TEST_BUILD) --output-on-failure
 
 # ROS 2 interfaces (potential_fields_interfaces) built with plain CMake against the ros-jazzy-* wheels
 # and installed into the venv; rebuilt only when an interface or build file changes (stamp file).
@@ -33,7 +53,7 @@ $(ROS2_STAMP): $(ROS2_PKG)/CMakeLists.txt $(ROS2_PKG)/package.xml $(ROS2_PKG)/ms
 ros2-interfaces: $(ROS2_STAMP)
 
 # warmup first: it compiles every numba kernel once with a progress bar (seconds when cached)
-demo: $(STAMP)
+demo: $(STAMP) $(CORE_STAMP)
 	$(VENV)/bin/pfield warmup
 	$(VENV)/bin/pfield demo
 
@@ -47,16 +67,16 @@ chromium:
 	@command -v chromium > /dev/null || ! command -v apt-get > /dev/null || \
 		{ apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium > /dev/null; }
 
-test: lint ros2-interfaces chromium
+test: lint core core-test ros2-interfaces chromium
 	$(VENV)/bin/pytest -q
 
 # the benchmarks' own peers (the `bench` extra: OMPL), installed on the first `make bench`
 BENCH_STAMP := $(VENV)/.bench-installed
 $(BENCH_STAMP): pyproject.toml | $(STAMP)
-	$(PY) -m pip install --quiet -e '.[dev,ros2,viewer,ray,bench]'
+	$(PY) -m pip install --quiet --no-build-isolation -e '.[dev,ros2,viewer,ray,bench]'
 	@touch $@
 
-bench: $(STAMP) $(BENCH_STAMP) ros2-interfaces
+bench: $(STAMP) $(CORE_STAMP) $(BENCH_STAMP) ros2-interfaces
 	-@$(MAKE) --no-print-directory anchor
 	$(PY) -m benchmarks.run
 
@@ -80,4 +100,4 @@ clean-numba-cache:
 	find src -name '*.nbi' -delete -o -name '*.nbc' -delete
 
 clean:
-	rm -rf $(VENV) $(ROS2_BUILD) demo_output .pytest_cache .mypy_cache .ruff_cache
+	rm -rf $(VENV) build demo_output .pytest_cache .mypy_cache .ruff_cache

@@ -43,8 +43,7 @@ def _scan_rows(quick: bool) -> list[BenchRow]:
     every_beam = scan_ranges_obstacles(ranges, -math.pi, inc, 0.05, 10.0, weighting="sum")
     goal = np.array([3.0, 1.0])
     columns = (np.ascontiguousarray(every_beam.points[:, 0]), np.ascontiguousarray(every_beam.points[:, 1]))
-    args = (goal, True, *columns, every_beam.weights, params.ka, params.attraction_code, params.kr_dist,
-            params.kr_height, params.kr_slope, params.min_spd_norm, params.max_spd_norm, params.clamping_code)
+    args = (goal, True, *columns, every_beam.weights, params.core_field, params.core_limits)
     kernel = _timed(lambda: velocity_at(0.1, -0.2, *args), quick)
 
     sector = scan_ranges_obstacles(ranges, -math.pi, inc, 0.05, 10.0)

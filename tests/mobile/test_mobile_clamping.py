@@ -38,11 +38,12 @@ def test_clamp_norm_keeps_direction_and_bounds(vx, vy, lower, span, mode):
 
 def test_hard_clamp_matches_the_original_strategy_by_hand():
     # attraction 3 m/s -> 1, repulsion 0.0996 stays, opposite: 1 - 0.0996
-    vx, vy = clamped_sum(-3.0, 0.0, 2.0 * math.exp(-3.0), 0.0, 0.1, 1.0, HARD)
+    limits = VectorFieldParams(min_spd_norm=0.1, max_spd_norm=1.0).core_limits
+    vx, vy = clamped_sum(-3.0, 0.0, 2.0 * math.exp(-3.0), 0.0, limits)
     assert (vx, vy) == pytest.approx((-(1.0 - 2.0 * math.exp(-3.0)), 0.0), rel=1e-14)
     # tiny attraction is lifted to min_spd_norm, the sum is then clamped to max
-    assert clamped_sum(0.0, 0.01, 0.0, 0.0, 0.1, 1.0, HARD) == pytest.approx((0.0, 0.1))
-    assert clamped_sum(5.0, 0.0, 5.0, 0.0, 0.1, 1.0, HARD) == pytest.approx((1.0, 0.0))
+    assert clamped_sum(0.0, 0.01, 0.0, 0.0, limits) == pytest.approx((0.0, 0.1))
+    assert clamped_sum(5.0, 0.0, 5.0, 0.0, limits) == pytest.approx((1.0, 0.0))
 
 
 @pytest.mark.parametrize("clamping", ["hard", "tanh"])

@@ -19,53 +19,16 @@ tanh would pull free-space speeds below ``min_spd_norm``). Choose it when the ki
 
 from __future__ import annotations
 
-import math
-
-import numpy as np
-from numba import njit
-from numpy.typing import NDArray
+from pfield._core import mobile as _mobile
 
 __all__ = ["HARD", "TANH", "clamp_norm", "clamped_sum", "clamped_sum_batch"]
 
-HARD, TANH = 0, 1
-
-
-@njit(cache=True, inline="always")
-def clamp_norm(vx: float, vy: float, lower: float, upper: float, mode: int) -> tuple[float, float]:
-    """Rescale (vx, vy) so its norm lies in [lower, upper], keeping the direction; zero stays zero."""
-    # work on (vx, vy)/max(|vx|, |vy|): exact, and neither the norm nor 1/norm under- or overflows, so even
-    # subnormal vectors keep their direction
-    scale = max(abs(vx), abs(vy))
-    if scale == 0.0:
-        return 0.0, 0.0
-    ux = vx / scale
-    uy = vy / scale
-    length = math.hypot(ux, uy)  # in [1, √2]
-    norm = scale * length
-    if mode == TANH:
-        target = max(lower, upper * math.tanh(norm / upper))
-    else:
-        target = min(max(norm, lower), upper)
-    factor = target / length
-    return ux * factor, uy * factor
-
-
-@njit(cache=True, inline="always")
-def clamped_sum(ax: float, ay: float, rx: float, ry: float, min_spd: float, max_spd: float,
-                mode: int) -> tuple[float, float]:
-    """The command of the clamping strategy from the raw attractive (ax, ay) and repulsive (rx, ry) parts."""
-    rx, ry = clamp_norm(rx, ry, 0.0, max_spd, mode)
-    ax, ay = clamp_norm(ax, ay, min_spd, max_spd, mode)
-    # the sum's clamp is hard in both modes: a second tanh would pull free-space speeds below min_spd_norm
-    return clamp_norm(ax + rx, ay + ry, 0.0, max_spd, HARD)
-
-
-@njit(cache=True)
-def clamped_sum_batch(attraction: NDArray[np.float64], repulsion: NDArray[np.float64], min_spd: float,
-                      max_spd: float, mode: int) -> NDArray[np.float64]:
-    """:func:`clamped_sum` over rows of (N, 2) arrays."""
-    out = np.empty_like(attraction)
-    for i in range(attraction.shape[0]):
-        out[i, 0], out[i, 1] = clamped_sum(attraction[i, 0], attraction[i, 1], repulsion[i, 0],
-                                           repulsion[i, 1], min_spd, max_spd, mode)
-    return out
+HARD, TANH = _mobile.Clamping.HARD, _mobile.Clamping.TANH
+clamp_norm = _mobile.clamp_norm
+"""``clamp_norm(vx, vy, lower, upper, mode)``: (vx, vy) rescaled so its norm lies in [lower, upper], direction
+kept; zero stays zero. Computed on v / max(|vx|, |vy|), so subnormal and 1e308 vectors keep their direction."""
+clamped_sum = _mobile.clamped_sum
+"""``clamped_sum(ax, ay, rx, ry, limits)``: the command from the raw attractive and repulsive parts (rules 1–3
+above; ``limits`` is :attr:`VectorFieldParams.core_limits <pfield.mobile.VectorFieldParams.core_limits>`)."""
+clamped_sum_batch = _mobile.clamped_sum_batch
+"""``clamped_sum_batch(attraction, repulsion, limits)``: :func:`clamped_sum` over the rows of (N, 2) arrays."""

@@ -33,7 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 from pfield import safety
 from pfield._validation import as_vector, finite
 from pfield.errors import InvalidInput
-from pfield.mobile.clamping import clamp_norm
+from pfield.mobile.clamping import HARD, clamp_norm
 from pfield.mobile.config import ControllerConfig
 from pfield.mobile.field2d import components_at, velocity_at
 from pfield.mobile.params import VectorFieldParams
@@ -41,6 +41,7 @@ from pfield.mobile.scan import LaserScanLike, ObstaclePoints, compose_pose2d, po
 
 __all__ = ["BaseController", "Command2D", "ControllerState"]
 
+_NO_GOAL = np.zeros(2)  # assisted teleop evaluates the repulsion alone
 
 class ControllerState(enum.StrEnum):
     """What the controller is doing (reported with every command)."""
@@ -187,9 +188,8 @@ class BaseController:
             self._idle_state = ControllerState.REACHED
             return None, ControllerState.REACHED, None
         p = self._params
-        vx, vy = velocity_at(x, y, self._goal, True, *self._columns, self._obstacles.weights, p.ka,
-                             p.attraction_code, p.kr_dist, p.kr_height, p.kr_slope, p.min_spd_norm,
-                             p.max_spd_norm, p.clamping_code)
+        vx, vy = velocity_at(x, y, self._goal, True, *self._columns, self._obstacles.weights, p.core_field,
+                             p.core_limits)
         stuck = self._update_stuck(x, y, now)
         return self._drive_command(vx, vy, yaw), ControllerState.STUCK if stuck else ControllerState.FOLLOWING, None
 
@@ -197,17 +197,17 @@ class BaseController:
                          yaw: float) -> tuple[NDArray[np.float64], tuple[float, float]]:
         p = self._params
         diff = self._config.drive == "diff_drive"
-        ux, uy = clamp_norm(teleop.linear_x, 0.0 if diff else teleop.linear_y, 0.0, p.max_spd_norm, 0)
+        ux, uy = clamp_norm(teleop.linear_x, 0.0 if diff else teleop.linear_y, 0.0, p.max_spd_norm, HARD)
         wz = float(np.clip(teleop.angular_z, -self._config.max_angular_speed, self._config.max_angular_speed))
-        _, _, _, rx, ry = components_at(x, y, np.zeros(2), False, *self._columns, self._obstacles.weights, p.ka,
-                                        p.attraction_code, p.kr_dist, p.kr_height, p.kr_slope)
-        rx, ry = clamp_norm(rx, ry, 0.0, p.max_spd_norm, p.clamping_code)
+        _, _, _, rx, ry = components_at(x, y, _NO_GOAL, False, *self._columns, self._obstacles.weights,
+                                        p.core_field)
+        rx, ry = clamp_norm(rx, ry, 0.0, p.max_spd_norm, p.core_limits.mode)
         c, s = math.cos(yaw), math.sin(yaw)
         bx, by = c * rx + s * ry, -s * rx + c * ry
         speed = math.hypot(ux, uy)
         if diff:
             return np.array([float(np.clip(ux + bx, -speed, speed)), 0.0, wz]), (speed, abs(wz))
-        vx, vy = clamp_norm(ux + bx, uy + by, 0.0, speed, 0) if speed > 0.0 else (0.0, 0.0)
+        vx, vy = clamp_norm(ux + bx, uy + by, 0.0, speed, HARD) if speed > 0.0 else (0.0, 0.0)
         return np.array([vx, vy, wz]), (speed, abs(wz))
 
     def _drive_command(self, vx: float, vy: float, yaw: float) -> NDArray[np.float64]:
@@ -226,7 +226,7 @@ class BaseController:
         out = desired.copy()
         a_lin, a_ang = self._config.max_linear_acceleration, self._config.max_angular_acceleration
         if a_lin > 0.0:
-            dvx, dvy = clamp_norm(desired[0] - self._last[0], desired[1] - self._last[1], 0.0, a_lin * dt, 0)
+            dvx, dvy = clamp_norm(desired[0] - self._last[0], desired[1] - self._last[1], 0.0, a_lin * dt, HARD)
             out[0], out[1] = self._last[0] + dvx, self._last[1] + dvy
         if a_ang > 0.0:
             out[2] = self._last[2] + float(np.clip(desired[2] - self._last[2], -a_ang * dt, a_ang * dt))
@@ -236,7 +236,7 @@ class BaseController:
     def _cap(command: NDArray[np.float64], caps: tuple[float, float] | None) -> NDArray[np.float64]:
         if caps is None:
             return command
-        command[0], command[1] = clamp_norm(command[0], command[1], 0.0, caps[0], 0) if caps[0] > 0 else (0.0, 0.0)
+        command[0], command[1] = clamp_norm(command[0], command[1], 0.0, caps[0], HARD) if caps[0] > 0 else (0.0, 0.0)
         command[2] = float(np.clip(command[2], -caps[1], caps[1]))
         return command
 

@@ -1,4 +1,4 @@
-"""The seed's 2D potential, its exact gradient and the clamped command (compiled kernels + functional API).
+"""The seed's 2D potential, its exact gradient and the clamped command (functional API over the compiled core).
 
 Seed document 004:
 
@@ -12,148 +12,32 @@ with r_i = ‖p − p_ri‖ and per-point weights w_i (1 for point lists; the sc
 :mod:`pfield.mobile.scan` otherwise). The seed prints the attractive gradient with exponent ka−1 on ‖p − p_a‖
 times the unnormalised (p − p_a); the exact gradient above has ka−2 (its norm is ka·‖p − p_a‖^(ka−1)).
 Where a direction is undefined (p on the goal, p on an obstacle point) that term is zero, so no NaN arises.
-All points are 2D in one fixed frame (m); no goal (``None``) means no attraction.
+All points are 2D in one fixed frame (m); no goal (``None``) means no attraction. The loops run in the compiled
+core (``src/core/mobile/field2d.cpp``, :mod:`pfield._core`), on the arrays validated here.
 """
 
 from __future__ import annotations
 
-import math
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
+from pfield._core import mobile as _mobile
 from pfield._validation import as_points, as_vector
 from pfield.errors import InvalidInput
-from pfield.mobile._fastexp import fast_exp
-from pfield.mobile.clamping import clamped_sum, clamped_sum_batch
+from pfield.mobile.clamping import clamped_sum_batch
 from pfield.mobile.params import VectorFieldParams
 
-__all__ = ["FieldComponents", "field_components", "gradient", "potential", "velocity"]
+__all__ = ["FieldComponents", "components_at", "field_components", "gradient", "potential", "velocity",
+           "velocity_at"]
 
-POWER, LINEAR = 0, 1
-_MAX_MAGNITUDE = 1e300  # cap of the power law's ka·d^(ka−1) for ka < 1 at d → 0 (clamped away anyway)
-# Reassociation lets LLVM vectorise the obstacle sums; 'nnan'/'ninf' (2× faster again) are safe because
-# the object layer only passes finite coordinates and weights, fast_exp clips its argument and 1/r is
-# guarded, so no intermediate is NaN or inf. Kernel callers must keep that precondition.
-_FASTMATH = {"reassoc", "contract", "arcp", "nsz", "nnan", "ninf"}
-
-
-@njit(cache=True, inline="always")
-def attraction_at(px: float, py: float, gx: float, gy: float, ka: float, law: int) -> tuple[float, float]:
-    """−∇V_a at (px, py) for the goal (gx, gy); zero at the goal itself."""
-    dx = gx - px
-    dy = gy - py
-    if law == LINEAR:
-        return ka * dx, ka * dy
-    distance = math.hypot(dx, dy)  # hypot: no underflow to 0 next to the goal
-    if distance == 0.0 or ka == 0.0:
-        return 0.0, 0.0
-    # magnitude ka·d^(ka−1), capped so that ka < 1 right next to the goal stays finite
-    magnitude = min(ka * distance ** (ka - 1.0), _MAX_MAGNITUDE)
-    return magnitude * (dx / distance), magnitude * (dy / distance)
-
-
-@njit(cache=True, inline="always")
-def attraction_potential(px: float, py: float, gx: float, gy: float, ka: float, law: int) -> float:
-    """V_a at (px, py): ‖d‖^ka (power; 0^0 = 1) or (ka/2)‖d‖² (linear)."""
-    d2 = (gx - px) ** 2 + (gy - py) ** 2
-    if law == LINEAR:
-        return 0.5 * ka * d2
-    return d2 ** (0.5 * ka)
-
-
-@njit(cache=True, fastmath=_FASTMATH)
-def repulsion_at(px: float, py: float, obstacles_x: NDArray[np.float64], obstacles_y: NDArray[np.float64],
-                 weights: NDArray[np.float64], kr_dist: float, kr_height: float,
-                 kr_slope: float) -> tuple[float, float, float]:
-    """(V_r, −∂V_r/∂x, −∂V_r/∂y) at (px, py) summed over the weighted obstacle points.
-
-    Coordinates come as two contiguous columns (structure of arrays) so that LLVM vectorises the loop.
-    """
-    value = 0.0
-    fx = 0.0
-    fy = 0.0
-    for j in range(obstacles_x.shape[0]):
-        dx = px - obstacles_x[j]
-        dy = py - obstacles_y[j]
-        r = math.sqrt(dx * dx + dy * dy)
-        hill = weights[j] * fast_exp(kr_slope * (kr_dist - r))
-        value += hill
-        inv_r = 1.0 / max(r, 1e-300)
-        inv_r = inv_r if r > 0.0 else 0.0
-        fx += hill * dx * inv_r
-        fy += hill * dy * inv_r
-    return value * (kr_height / kr_slope), fx * kr_height, fy * kr_height
-
-
-@njit(cache=True)
-def components_at(px: float, py: float, goal: NDArray[np.float64], has_goal: bool,
-                  obstacles_x: NDArray[np.float64], obstacles_y: NDArray[np.float64],
-                  weights: NDArray[np.float64], ka: float, law: int,
-                  kr_dist: float, kr_height: float, kr_slope: float) -> tuple[float, float, float, float, float]:
-    """(V, a_x, a_y, r_x, r_y): the potential and the raw attractive and repulsive parts of −∇V."""
-    value, rx, ry = repulsion_at(px, py, obstacles_x, obstacles_y, weights, kr_dist, kr_height, kr_slope)
-    ax = 0.0
-    ay = 0.0
-    if has_goal:
-        ax, ay = attraction_at(px, py, goal[0], goal[1], ka, law)
-        value += attraction_potential(px, py, goal[0], goal[1], ka, law)
-    return value, ax, ay, rx, ry
-
-
-@njit(cache=True)
-def velocity_at(px: float, py: float, goal: NDArray[np.float64], has_goal: bool,
-                obstacles_x: NDArray[np.float64], obstacles_y: NDArray[np.float64],
-                weights: NDArray[np.float64], ka: float, law: int,
-                kr_dist: float, kr_height: float, kr_slope: float, min_spd: float, max_spd: float,
-                mode: int) -> tuple[float, float]:
-    """The clamped command at one point (what the controller runs every tick)."""
-    _, ax, ay, rx, ry = components_at(px, py, goal, has_goal, obstacles_x, obstacles_y, weights, ka, law,
-                                      kr_dist, kr_height, kr_slope)
-    return clamped_sum(ax, ay, rx, ry, min_spd, max_spd, mode)
-
-
-@njit(cache=True)
-def components_batch(points: NDArray[np.float64], goal: NDArray[np.float64], has_goal: bool,
-                     obstacles: NDArray[np.float64], weights: NDArray[np.float64], ka: float, law: int,
-                     kr_dist: float, kr_height: float,
-                     kr_slope: float) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """:func:`components_at` over (N, 2) points: V (N,), attraction (N, 2), repulsion (N, 2)."""
-    n = points.shape[0]
-    obstacles_x = np.ascontiguousarray(obstacles[:, 0])
-    obstacles_y = np.ascontiguousarray(obstacles[:, 1])
-    value = np.empty(n)
-    attraction = np.empty((n, 2))
-    repulsion = np.empty((n, 2))
-    for i in range(n):
-        value[i], attraction[i, 0], attraction[i, 1], repulsion[i, 0], repulsion[i, 1] = components_at(
-            points[i, 0], points[i, 1], goal, has_goal, obstacles_x, obstacles_y, weights, ka, law, kr_dist,
-            kr_height, kr_slope)
-    return value, attraction, repulsion
-
-
-@njit(cache=True, fastmath=_FASTMATH)
-def potential_batch(points: NDArray[np.float64], goal: NDArray[np.float64], has_goal: bool,
-                    obstacles: NDArray[np.float64], weights: NDArray[np.float64], ka: float, law: int,
-                    kr_dist: float, kr_height: float, kr_slope: float) -> NDArray[np.float64]:
-    """V only at (N, 2) points (images): one exponential per point and obstacle, nothing else."""
-    obstacles_x = np.ascontiguousarray(obstacles[:, 0])
-    obstacles_y = np.ascontiguousarray(obstacles[:, 1])
-    out = np.empty(points.shape[0])
-    for i in range(points.shape[0]):
-        px = points[i, 0]
-        py = points[i, 1]
-        hills = 0.0
-        for j in range(obstacles_x.shape[0]):
-            dx = px - obstacles_x[j]
-            dy = py - obstacles_y[j]
-            hills += weights[j] * fast_exp(kr_slope * (kr_dist - math.sqrt(dx * dx + dy * dy)))
-        out[i] = hills * (kr_height / kr_slope)
-        if has_goal:
-            out[i] += attraction_potential(px, py, goal[0], goal[1], ka, law)
-    return out
+components_at = _mobile.components_at
+"""``components_at(px, py, goal, has_goal, obstacles_x, obstacles_y, weights, params.core_field)`` → (V, a_x, a_y,
+r_x, r_y): the potential and the raw attractive and repulsive parts of −∇V at one point (validated inputs)."""
+velocity_at = _mobile.velocity_at
+"""``velocity_at(px, py, goal, has_goal, obstacles_x, obstacles_y, weights, params.core_field, params.core_limits)``
+→ (v_x, v_y): the clamped command at one point, what the controller runs every tick (validated inputs)."""
 
 
 class FieldComponents(NamedTuple):
@@ -196,7 +80,7 @@ def field_components(points: ArrayLike, goal: ArrayLike | None, obstacles: Array
     query = as_points("points", points, dim=2)
     goal_xy, has_goal = _goal_array(goal)
     obs, w = obstacle_arrays(obstacles, weights)
-    return FieldComponents(*components_batch(query, goal_xy, has_goal, obs, w, *_shape_args(params)))
+    return FieldComponents(*_mobile.components_batch(query, goal_xy, has_goal, *_columns(obs), w, params.core_field))
 
 
 def potential(points: ArrayLike, goal: ArrayLike | None, obstacles: ArrayLike | None,
@@ -205,7 +89,9 @@ def potential(points: ArrayLike, goal: ArrayLike | None, obstacles: ArrayLike | 
     query = as_points("points", points, dim=2)
     goal_xy, has_goal = _goal_array(goal)
     obs, w = obstacle_arrays(obstacles, weights)
-    return potential_batch(query, goal_xy, has_goal, obs, w, *_shape_args(params))
+    potentials: NDArray[np.float64] = _mobile.potential_batch(query, goal_xy, has_goal, *_columns(obs), w,
+                                                              params.core_field)
+    return potentials
 
 
 def gradient(points: ArrayLike, goal: ArrayLike | None, obstacles: ArrayLike | None,
@@ -219,9 +105,10 @@ def velocity(points: ArrayLike, goal: ArrayLike | None, obstacles: ArrayLike | N
              params: VectorFieldParams, weights: ArrayLike | None = None) -> NDArray[np.float64]:
     """The clamped command (m/s) at ``points`` (N, 2) → (N, 2): :mod:`pfield.mobile.clamping` applied to −∇V."""
     parts = field_components(points, goal, obstacles, params, weights)
-    return clamped_sum_batch(parts.attraction, parts.repulsion, params.min_spd_norm, params.max_spd_norm,
-                             params.clamping_code)
+    commands: NDArray[np.float64] = clamped_sum_batch(parts.attraction, parts.repulsion, params.core_limits)
+    return commands
 
 
-def _shape_args(params: VectorFieldParams) -> tuple[Any, ...]:
-    return (params.ka, params.attraction_code, params.kr_dist, params.kr_height, params.kr_slope)
+def _columns(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The (M, 2) obstacle points as two contiguous columns (the core's structure of arrays)."""
+    return np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1])

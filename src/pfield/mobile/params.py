@@ -14,8 +14,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
+from functools import cached_property
 from typing import Any, Literal
 
+from pfield._core import mobile as _mobile
 from pfield._validation import finite, nonnegative, positive
 from pfield.errors import InvalidInput
 
@@ -81,15 +83,17 @@ class VectorFieldParams:
         if self.clamping not in CLAMPING_MODES:
             raise InvalidInput("clamping", self.clamping, f"must be one of {CLAMPING_MODES}")
 
-    @property
-    def attraction_code(self) -> int:
-        """Kernel code of ``attraction`` (0 power, 1 linear)."""
-        return ATTRACTION_LAWS.index(self.attraction)
+    @cached_property
+    def core_field(self) -> _mobile.FieldParams:
+        """The field's parameters as the compiled core takes them (built once)."""
+        return _mobile.FieldParams(ka=self.ka, law=_mobile.Attraction(ATTRACTION_LAWS.index(self.attraction)),
+                                   kr_dist=self.kr_dist, kr_height=self.kr_height, kr_slope=self.kr_slope)
 
-    @property
-    def clamping_code(self) -> int:
-        """Kernel code of ``clamping`` (0 hard, 1 tanh)."""
-        return CLAMPING_MODES.index(self.clamping)
+    @cached_property
+    def core_limits(self) -> _mobile.SpeedLimits:
+        """The clamping's speed limits as the compiled core takes them (built once)."""
+        return _mobile.SpeedLimits(min_speed=self.min_spd_norm, max_speed=self.max_spd_norm,
+                                   mode=_mobile.Clamping(CLAMPING_MODES.index(self.clamping)))
 
     def as_dict(self) -> dict[str, Any]:
         """Parameters by ROS parameter name (JSON-compatible)."""

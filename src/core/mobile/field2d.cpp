@@ -1,0 +1,104 @@
+#include "mobile/field2d.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "math/fast_exp.hpp"
+
+namespace pfield::mobile {
+namespace {
+
+constexpr double kMaxMagnitude = 1e300;  // cap of the power law's ka d^(ka-1) for ka < 1 at d -> 0
+
+Vec2 attraction_at(double px, double py, const Goal& goal, const FieldParams& params) {
+  const double dx = goal.x - px, dy = goal.y - py;
+  if (params.law == Attraction::Linear) return {params.ka * dx, params.ka * dy};
+  const double distance = std::hypot(dx, dy);  // hypot: no underflow to 0 next to the goal
+  if (distance == 0.0 || params.ka == 0.0) return {0.0, 0.0};
+  const double magnitude = std::min(params.ka * std::pow(distance, params.ka - 1.0), kMaxMagnitude);
+  return {magnitude * (dx / distance), magnitude * (dy / distance)};
+}
+
+double attraction_potential(double px, double py, const Goal& goal, const FieldParams& params) {
+  const double d2 = (goal.x - px) * (goal.x - px) + (goal.y - py) * (goal.y - py);
+  if (params.law == Attraction::Linear) return 0.5 * params.ka * d2;
+  return std::pow(d2, 0.5 * params.ka);  // 0^0 = 1
+}
+
+// (V_r, -dV_r/dx, -dV_r/dy) summed over the weighted obstacle points; the reduction is vectorised.
+Components repulsion_at(double px, double py, const ObstaclePoints& obstacles, const FieldParams& params) {
+  double value = 0.0, fx = 0.0, fy = 0.0;
+  const double slope = params.kr_slope, dist = params.kr_dist;
+#pragma omp simd reduction(+ : value, fx, fy)
+  for (std::size_t j = 0; j < obstacles.count; ++j) {
+    const double dx = px - obstacles.x[j], dy = py - obstacles.y[j];
+    const double r = std::sqrt(dx * dx + dy * dy);
+    const double hill = obstacles.weight[j] * math::fast_exp(slope * (dist - r));
+    value += hill;
+    const double inv_r = r > 0.0 ? 1.0 / std::max(r, 1e-300) : 0.0;  // a subnormal r: no infinity
+    fx += hill * dx * inv_r;
+    fy += hill * dy * inv_r;
+  }
+  Components out;
+  out.potential = value * (params.kr_height / slope);
+  out.repulsion = {fx * params.kr_height, fy * params.kr_height};
+  return out;
+}
+
+}  // namespace
+
+Components components_at(double px, double py, const Goal& goal, const ObstaclePoints& obstacles,
+                         const FieldParams& params) {
+  Components out = repulsion_at(px, py, obstacles, params);
+  if (goal.present) {
+    out.attraction = attraction_at(px, py, goal, params);
+    out.potential += attraction_potential(px, py, goal, params);
+  }
+  return out;
+}
+
+Vec2 velocity_at(double px, double py, const Goal& goal, const ObstaclePoints& obstacles, const FieldParams& params,
+                 const SpeedLimits& limits) {
+  const Components parts = components_at(px, py, goal, obstacles, params);
+  return clamped_sum(parts.attraction, parts.repulsion, limits);
+}
+
+void potential_batch(const double* points, std::size_t n, const Goal& goal, const ObstaclePoints& obstacles,
+                     const FieldParams& params, double* out) {
+  const double slope = params.kr_slope, dist = params.kr_dist;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double px = points[2 * i], py = points[2 * i + 1];
+    double hills = 0.0;
+#pragma omp simd reduction(+ : hills)
+    for (std::size_t j = 0; j < obstacles.count; ++j) {
+      const double dx = px - obstacles.x[j], dy = py - obstacles.y[j];
+      hills += obstacles.weight[j] * math::fast_exp(slope * (dist - std::sqrt(dx * dx + dy * dy)));
+    }
+    out[i] = hills * (params.kr_height / slope);
+    if (goal.present) out[i] += attraction_potential(px, py, goal, params);
+  }
+}
+
+void components_batch(const double* points, std::size_t n, const Goal& goal, const ObstaclePoints& obstacles,
+                      const FieldParams& params, double* potential, double* attraction, double* repulsion) {
+  for (std::size_t i = 0; i < n; ++i) {
+    const Components c = components_at(points[2 * i], points[2 * i + 1], goal, obstacles, params);
+    potential[i] = c.potential;
+    attraction[2 * i] = c.attraction.x;
+    attraction[2 * i + 1] = c.attraction.y;
+    repulsion[2 * i] = c.repulsion.x;
+    repulsion[2 * i + 1] = c.repulsion.y;
+  }
+}
+
+void clamped_sum_batch(const double* attraction, const double* repulsion, std::size_t n, const SpeedLimits& limits,
+                       double* out) {
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec2 v = clamped_sum({attraction[2 * i], attraction[2 * i + 1]}, {repulsion[2 * i], repulsion[2 * i + 1]},
+                               limits);
+    out[2 * i] = v.x;
+    out[2 * i + 1] = v.y;
+  }
+}
+
+}  // namespace pfield::mobile

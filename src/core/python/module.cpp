@@ -1,0 +1,15 @@
+// pfield._core: the compiled per-step kernels under pfield's Python API (DESIGN §8). One submodule per concept;
+// each binding file is a thin list of defs over a core that knows nothing of Python.
+#include <nanobind/nanobind.h>
+
+namespace nb = nanobind;
+
+namespace pfield::python {
+void bind_mobile(nb::module_& m);
+}  // namespace pfield::python
+
+NB_MODULE(_core, m) {
+  m.doc() = "pfield's compiled core (C++17): the per-step kernels; inputs are validated by the Python layer.";
+  nb::module_ mobile = m.def_submodule("mobile");
+  pfield::python::bind_mobile(mobile);
+}
