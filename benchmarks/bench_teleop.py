@@ -180,9 +180,9 @@ def speed_rows(quick: bool) -> list[BenchRow]:
     import httpx
 
     from pfield import FieldConfig, PotentialField, RobotModel, Twist
-    from pfield.assistance import AssistanceScene, task_space_assistance, whole_body_assistance
     from pfield.node._base import Bus
     from pfield.node.manager import ManagerNode
+    from pfield.shared_control.assistance import AssistanceScene, task_space_assistance, whole_body_assistance
     from pfield.transport.http import ServerThread, create_app
 
     obstacles, start, goal, _ = scenes()["seed"]

@@ -23,13 +23,13 @@ from numba import njit
 
 from benchmarks._anchor import cpp_figures, cpp_median
 from benchmarks._common import BenchRow, auto_number, cpu_time, median_time
-from pfield.autonomy import whole_body_autonomy_vector
 from pfield.field import FieldConfig, PotentialField
 from pfield.planning.scenes import DEFAULT_PARAMS, SEED_GOAL, seed_obstacles, sphere_line_scene
 from pfield.planning.whole_body import joint_velocity_sign_flips
 from pfield.robot import RobotModel
 from pfield.robot import _kinematics as kin
 from pfield.robot.ik import IKSolver, ik_kernel, solve_ik
+from pfield.shared_control.autonomy import whole_body_autonomy_vector
 from pfield.spatial import Pose
 
 SECTION_PLAN = "whole-body planning (xArm7, µs per step)"

@@ -9,9 +9,15 @@ import numpy as np
 import pytest
 
 from pfield import Box, Cylinder, FieldConfig, Obstacle, Pose, PotentialField, Sphere, Twist
-from pfield.assistance import AssistanceOptions, AssistanceScene, Flag, task_space_assistance, whole_body_assistance
 from pfield.errors import InvalidInput
 from pfield.field.forces import damper_speed
+from pfield.shared_control.assistance import (
+    AssistanceOptions,
+    AssistanceScene,
+    Flag,
+    task_space_assistance,
+    whole_body_assistance,
+)
 
 BALL = Obstacle("ball", Sphere(radius=0.05), Pose(position=(0.5, 0.0, 0.3)), group="Dynamic")
 GOAL = Pose(position=(0.8, 0.0, 0.3))
@@ -230,7 +236,7 @@ def test_whole_body_command_away_unchanged_and_approach_limited(xarm: Any) -> No
 def test_whole_body_assistance_takes_any_array_through_one_compiled_signature(xarm: Any) -> None:
     """Read-only (a message's buffer) and strided joint vectors give the same answer as plain ones, through the
     validating path: the compiled call keeps its one signature."""
-    from pfield._assistance_kernel import bound_assist_step
+    from pfield.shared_control._assistance_kernel import bound_assist_step
 
     arm, _ = arm_scene(xarm)
     previous = np.full(7, 0.05)

@@ -8,15 +8,15 @@ import numpy as np
 import pytest
 
 from pfield import errors
-from pfield.autonomy import (
-    task_space_autonomy_vector,
-    whole_body_autonomy,
-    whole_body_autonomy_vector,
-)
 from pfield.field.config import FieldConfig
 from pfield.field.field import PotentialField
 from pfield.planning.scenes import SEED_GOAL, seed_obstacles
 from pfield.robot import RobotModel
+from pfield.shared_control.autonomy import (
+    task_space_autonomy_vector,
+    whole_body_autonomy,
+    whole_body_autonomy_vector,
+)
 from pfield.spatial import Pose
 
 Q0 = np.array([0.0, -0.6, 0.0, 0.9, 0.0, 1.5, 0.0])
@@ -77,9 +77,9 @@ def test_velocity_limits_take_precedence_over_the_acceleration_limit(xarm: Robot
 
 def test_query_pose_mismatch_is_flagged(xarm: RobotModel, caplog: pytest.LogCaptureFixture,
                                         monkeypatch: pytest.MonkeyPatch) -> None:
-    import pfield.autonomy
+    import pfield.shared_control.autonomy
 
-    monkeypatch.setattr(pfield.autonomy, "_last_mismatch_warning", [-np.inf, 0])  # no earlier warning in period
+    monkeypatch.setattr(pfield.shared_control.autonomy, "_last_mismatch_warning", [-np.inf, 0])  # none in period
     field = PotentialField(FieldConfig(), GOAL)
     here = xarm.forward_kinematics(Q0)
     assert not whole_body_autonomy(field, xarm, Q0, query_pose=here).pose_mismatch

@@ -27,9 +27,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("viz",),  # plots and viewer: may use every computational package below
     ("interfaces",),
     ("pfield",),  # the package's public face (pfield/__init__.py) re-exports the packages below
-    ("assistance",),  # shared control: arbitration on top of the autonomy vector
-    ("autonomy",),
-    ("_assistance_kernel",),  # assistance's compiled core: robot kinematics and the field's damper law
+    ("shared_control",),  # autonomy vector, assistance and its compiled kernel, on the planners and the robot
     ("planning",),
     ("robot",),
     ("field",),
@@ -49,8 +47,6 @@ ALLOWED_UPWARD = {
     # PotentialField.plan / plan_whole_body delegate lazily to the planners (DESIGN §7: the one exception)
     ("pfield.field.field", "pfield.planning.task_space"),
     ("pfield.field.field", "pfield.planning.whole_body"),
-    # PlannedPath.show() opens the 3D viewer on the plan: a lazy delegation upward of the same kind
-    ("pfield.planning.result", "pfield.viz.viewer"),
 }
 KNOWN_VIOLATIONS: set[tuple[str, str]] = set()
 

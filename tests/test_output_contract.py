@@ -19,13 +19,19 @@ from hypothesis import HealthCheck, Phase, example, given, settings
 from hypothesis import strategies as st
 
 from pfield import Box, Capsule, FieldConfig, Obstacle, Pose, PotentialField, PreparedTwist, Sphere, Twist, safety
-from pfield.assistance import ARBITRATIONS, AssistanceScene, Flag, task_space_assistance, whole_body_assistance
-from pfield.autonomy import whole_body_autonomy, whole_body_autonomy_vector
 from pfield.errors import InvalidInput
 from pfield.mobile import ControllerConfig
 from pfield.mobile.controller import BaseController
 from pfield.mobile.scan import point_obstacles
 from pfield.robot import RobotModel
+from pfield.shared_control.assistance import (
+    ARBITRATIONS,
+    AssistanceScene,
+    Flag,
+    task_space_assistance,
+    whole_body_assistance,
+)
+from pfield.shared_control.autonomy import whole_body_autonomy, whole_body_autonomy_vector
 
 CASES = 10_000
 """Generated cases per call kind (issue 31: at least 10 000 in CI)."""

@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from pfield import FieldConfig, PotentialField, RobotModel
-from pfield.autonomy import whole_body_autonomy
 from pfield.planning.scenes import SEED_GOAL, seed_obstacles
+from pfield.shared_control.autonomy import whole_body_autonomy
 from pfield.spatial import Pose
 
 

@@ -151,10 +151,14 @@ def _inverse_kinematics(scratch: Path) -> None:
 
 
 def _autonomy(scratch: Path) -> None:
-    from pfield.autonomy import task_space_autonomy_vector, whole_body_autonomy, whole_body_autonomy_vector
     from pfield.field import FieldConfig, PotentialField
     from pfield.planning.scenes import SEED_GOAL, SEED_START
     from pfield.robot import RobotModel
+    from pfield.shared_control.autonomy import (
+        task_space_autonomy_vector,
+        whole_body_autonomy,
+        whole_body_autonomy_vector,
+    )
 
     robot = RobotModel.builtin("xarm7")
     field = PotentialField(FieldConfig(), SEED_GOAL, _scene(scratch))
@@ -164,7 +168,7 @@ def _autonomy(scratch: Path) -> None:
     whole_body_autonomy_vector(field, robot, q, np.zeros(7), 0.01)
     whole_body_autonomy_vector(field, robot, q.tolist())  # not a float64 array: the validating path
     whole_body_autonomy(field, robot, q, np.zeros(7), 0.01, query_pose=SEED_START)
-    from pfield.assistance import AssistanceScene, task_space_assistance, whole_body_assistance
+    from pfield.shared_control.assistance import AssistanceScene, task_space_assistance, whole_body_assistance
     from pfield.spatial import Twist
 
     assistance = AssistanceScene(field=field)

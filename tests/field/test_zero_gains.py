@@ -51,8 +51,8 @@ def test_zero_avoidance_gains_still_plan_around_the_ball(changes: dict[str, floa
 
 
 def test_whole_body_autonomy_without_attraction_is_finite() -> None:
-    from pfield.autonomy import whole_body_autonomy_vector
     from pfield.robot import RobotModel
+    from pfield.shared_control.autonomy import whole_body_autonomy_vector
 
     robot = RobotModel.builtin("xarm7")
     field = PotentialField(REPULSIVE_ONLY, Pose((0.5, 0.2, 0.4)),

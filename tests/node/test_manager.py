@@ -259,9 +259,9 @@ def test_whole_body_autonomy_vector_at_the_seed_joints(robot: Any) -> None:
 
 def test_whole_body_query_pose_far_from_fk_is_reported_and_the_joints_win(
         robot: Any, caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
-    import pfield.autonomy
+    import pfield.shared_control.autonomy
 
-    monkeypatch.setattr(pfield.autonomy, "_last_mismatch_warning", [-np.inf, 0])  # no earlier warning in period
+    monkeypatch.setattr(pfield.shared_control.autonomy, "_last_mismatch_warning", [-np.inf, 0])  # none in period
     manager = ManagerNode(Bus(), robot)
     manager.on_goal(message_from_yaml(PoseStamped, "{pose: {position: {x: 0.5, y: 0.2, z: 0.4}}}"))
     base = "joint_angles: [0, 0, 0, 0, 0, -1.5708, 0], delta_time: 0.02, planning_method: 'whole_body'"

@@ -290,11 +290,13 @@ def test_the_demo_section_writes_the_html_page(tmp_path: Path) -> None:
     assert str(page) in console.export_text().replace("\n", "")
 
 
-def test_planned_path_show_serves_the_plan() -> None:
+def test_show_plan_serves_the_plan() -> None:
     import httpx
 
+    from pfield.viz.viewer import show_plan
+
     plan = _whole_body_plan()
-    viewer = plan.show([Obstacle("ball", Sphere(0.05), Pose((0.5, 0.3, 0.1)))], port=0, block=False)
+    viewer = show_plan(plan, [Obstacle("ball", Sphere(0.05), Pose((0.5, 0.3, 0.1)))], port=0, block=False)
     try:
         assert [o.id for o in viewer.scene.obstacles] == ["ball"]
         assert viewer.goal == plan.final_pose

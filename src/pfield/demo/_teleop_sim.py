@@ -7,7 +7,7 @@ steer around obstacles: the assistance has to.
 
 Modes: ``none`` (the operator's command executed), ``servo`` (MoveIt Servo's collision velocity scaling:
 u = s(d) u_op, s = exp(k (d − 0.02)), k = −ln(0.001)/0.02, d the exact distance; Servo halts in collision),
-``pfield`` (:func:`pfield.assistance.task_space_assistance`, arbitration :data:`ARBITRATION`, the target as the
+``pfield`` (:func:`pfield.shared_control.task_space_assistance`, arbitration :data:`ARBITRATION`, the target as the
 goal).
 Obstacles may move (``motion``: id → function t ↦ centre); their velocity is estimated from successive
 positions with the node's filter (:mod:`pfield.node._obstacle_motion`) and the field is rebuilt each step with
@@ -25,19 +25,19 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pfield._assistance_kernel import servo_scale
-from pfield.assistance import AssistanceScene, task_space_assistance
 from pfield.field import FieldConfig, PotentialField
 from pfield.geometry import Obstacle, Sphere, pack_obstacles, signed_distances
 from pfield.node._manager_state import Held
 from pfield.node._obstacle_motion import updated_held
+from pfield.shared_control._assistance_kernel import servo_scale
+from pfield.shared_control.assistance import AssistanceScene, task_space_assistance
 from pfield.spatial import Pose, Twist
 
 MODES = ("none", "servo", "pfield")
 SERVO_SCENE_THRESHOLD = 0.02  # m, moveit_servo default scene_collision_proximity_threshold
 ARBITRATION = "linear_goal"
 """pfield's mode: the operator's target is the field's goal, so the field also takes over as it nears
-(``linear_goal``: the goal share of Dragan & Srinivasa's confidence-based blending, :mod:`pfield.assistance`)."""
+(``linear_goal``: the goal share of Dragan & Srinivasa's confidence-based blending, :mod:`pfield.shared_control`)."""
 
 
 @dataclass(frozen=True)
@@ -150,12 +150,12 @@ def simulate_arm(robot: Any, obstacles: Sequence[Obstacle], q0: NDArray[np.float
     The operator's end-effector twist (linear part; angular 0) becomes joint velocities by damped least
     squares (λ = 0.01) for ``none`` and ``servo``; ``servo`` scales them by MoveIt Servo's law at the exact
     scene (0.02 m) and self (0.01 m) distances; ``pfield`` executes
-    :func:`pfield.assistance.whole_body_assistance`'s ``joint_velocities``. Joints are integrated and clipped
+    :func:`pfield.shared_control.whole_body_assistance`'s ``joint_velocities``. Joints are integrated and clipped
     to their limits. Collisions and clearances: exact URDF-geometry distances (coal,
     :class:`pfield.robot.collision.CollisionChecker`); a self-collision counts too.
     """
-    from pfield.assistance import whole_body_assistance
     from pfield.robot.collision import CollisionChecker
+    from pfield.shared_control.assistance import whole_body_assistance
 
     op, config = operator or Operator(), config or FieldConfig(max_linear_velocity=0.08)
     checker = checker or CollisionChecker(robot, obstacles)

@@ -97,7 +97,7 @@ def whole_body_twist(field: Any, robot: Any, q: NDArray[np.float64], qd: NDArray
     """End-effector twist of the whole-body autonomy vector at joint angles ``q`` (world frame).
 
     A ``query_pose`` that disagrees with FK(q) is logged; the joint angles stay the truth."""
-    from pfield.autonomy import whole_body_autonomy_vector
+    from pfield.shared_control.autonomy import whole_body_autonomy_vector
 
     return whole_body_autonomy_vector(field, robot, q, prev_joint_velocities=qd, dt=dt, query_pose=query_pose)
 

@@ -4,7 +4,7 @@ Topics in: ``/pfield/obstacles`` (ObstacleArray: add or replace by id; one bad o
 message), ``/pfield/planning_goal_pose`` (PoseStamped), ``/pfield/query_pose`` (PoseStamped: answers on
 ``/pfield/autonomy_vector``). Topics out: ``/pfield/planned_path`` (nav_msgs/Path), ``/pfield/markers``
 (MarkerArray). Services: ``/pfield/plan_path``, ``/pfield/compute_autonomy_vector``,
-``/pfield/compute_assistance`` (shared control, :mod:`pfield.assistance`), ``/pfield/remove_obstacles`` and
+``/pfield/compute_assistance`` (shared control, :mod:`pfield.shared_control`), ``/pfield/remove_obstacles`` and
 ``/pfield/clear_obstacles`` (std_srvs/Trigger). ``Dynamic`` obstacles get a velocity estimated from successive
 poses (:mod:`pfield.node._obstacle_motion`) or given on ``/pfield/obstacle_velocities``
 (ObstacleVelocityArray: every id must be held, or nothing changes); only the assistance uses it. Parameters: every
@@ -49,13 +49,6 @@ import numpy as np
 
 from pfield import safety
 from pfield._validation import as_vector, finite, in_range
-from pfield.assistance import (
-    ARBITRATIONS,
-    AssistanceOptions,
-    AssistanceScene,
-    task_space_assistance,
-    whole_body_assistance,
-)
 from pfield.errors import InvalidInput, PfieldError
 from pfield.field.config import FieldConfig
 from pfield.interfaces import geometry_msgs as gm
@@ -76,6 +69,13 @@ from pfield.node._markers import state_markers
 from pfield.node._obstacle_motion import updated_held
 from pfield.planning.cancel import CancelToken
 from pfield.planning.task_space import DEFAULT_MAX_ITERATIONS
+from pfield.shared_control.assistance import (
+    ARBITRATIONS,
+    AssistanceOptions,
+    AssistanceScene,
+    task_space_assistance,
+    whole_body_assistance,
+)
 from pfield.spatial import Pose, Twist, rotate_vectors
 
 __all__ = ["DEFAULT_MAX_ITERATIONS", "MAX_DELTA_TIME", "MAX_ITERATIONS_CAP", "MAX_OBSTACLES", "MAX_PLAN_WORK",
@@ -486,7 +486,7 @@ class ManagerNode(Node):
                                velocities=velocities, options=self.assistance_options)
 
     def compute_assistance(self, request: pfi.ComputeAssistance_Request) -> pfi.ComputeAssistance_Response:
-        """Shared control at the query pose or joint angles: see ComputeAssistance.srv and :mod:`pfield.assistance`.
+        """Shared control at the query pose or joint angles: see ComputeAssistance.srv and :mod:`pfield.shared_control`.
 
         Works without a goal (``FLAG_NO_GOAL``: zero autonomy vector, α = 0, the operator's command with its
         approach limited). ``user_command`` in another frame is rotated into the fixed frame; its stamp (when

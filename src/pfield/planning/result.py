@@ -9,10 +9,8 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -172,13 +170,4 @@ class PlannedPath:
             for row in table:
                 writer.writerow([repr(float(v)) if math.isfinite(v) else str(float(v)) for v in row])
         return target
-
-    def show(self, obstacles: Sequence[Any] = (), robot: Any = None, *, port: int = 8080,
-             block: bool = True) -> Any:
-        """Open the plan in the 3D web viewer (needs the ``viewer`` extra) at http://127.0.0.1:``port``:
-        its path with orientation triads, ``obstacles`` and, for a whole-body plan, ``robot`` (a
-        :class:`~pfield.robot.RobotModel`) along it. With ``block`` serve until Ctrl-C; return the viewer."""
-        from pfield.viz.viewer import show_plan
-
-        return show_plan(self, obstacles, robot, port=port, block=block)
 

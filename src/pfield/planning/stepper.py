@@ -1,6 +1,6 @@
 """One step of the whole-body field, as a public API: :class:`WholeBodyStepper`.
 
-The whole-body planner integrates this step; shared control (:mod:`pfield.autonomy`) evaluates it once per
+The whole-body planner integrates this step; shared control (:mod:`pfield.shared_control`) evaluates it once per
 control cycle at the robot's measured joints. The stepper packs the robot, the field's obstacles and a
 workspace once, and each :meth:`~WholeBodyStepper.step` is one compiled call: the joint velocities of the
 velocity QP (:mod:`pfield.planning._whole_body_kernel`), with link–obstacle and self pairs already closer

@@ -1,6 +1,6 @@
 """Shared-control assistance: the operator's command arbitrated with the field's, and why (ComputeAssistance).
 
-Given the operator's twist u_user and the field's autonomy vector u_auto (:mod:`pfield.autonomy`):
+Given the operator's twist u_user and the field's autonomy vector u_auto (:mod:`pfield.shared_control.autonomy`):
 
 * **nearest obstacle** — exact signed distance d from the robot (the end-effector point in task space, the
   fitted link model in whole body) to every obstacle; ``nearest_normal`` n̂ = ∇d (unit, from the obstacle toward
@@ -41,11 +41,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pfield import _assistance_kernel as _k
 from pfield import safety
 from pfield._bound import BoundArrays
 from pfield._validation import finite, in_range, kernel_vector, optional_vector
-from pfield.autonomy import whole_body_stepper
 from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
 from pfield.field.field import _fast_twist
@@ -54,6 +52,8 @@ from pfield.geometry._sdf import empty_packed
 from pfield.planning._whole_body_layout import OUT_TWIST
 from pfield.planning.whole_body import obstacle_bounds
 from pfield.robot.model import RobotModel
+from pfield.shared_control import _assistance_kernel as _k
+from pfield.shared_control.autonomy import whole_body_stepper
 from pfield.spatial import Pose, Twist
 
 __all__ = ["ARBITRATIONS", "Assistance", "AssistanceOptions", "AssistanceScene", "Flag", "task_space_assistance",
@@ -311,7 +311,7 @@ def _answer(scene: AssistanceScene, out: NDArray[np.float64], autonomy: Twist, j
 
 
 class _Workspace:
-    """The arrays of :func:`pfield._assistance_kernel.bound_assist` for one (scene, robot), bound once.
+    """The arrays of :func:`pfield.shared_control._assistance_kernel.bound_assist` for one (scene, robot), bound once.
 
     Slots: the robot's kinematics (0–8), its link model (9–17), the scene's packed obstacles (18–25), the
     joint limits (26, 27), obstacle centres, bounding radii and velocities (28–30), then the workspace:
@@ -361,7 +361,7 @@ def _assist_step(work: _Workspace, robot: RobotModel, joint_angles: ArrayLike, p
                  dt: float, user: NDArray[np.float64], qd: NDArray[np.float64],
                  out: NDArray[np.float64]) -> NDArray[np.float64]:
     """The step's row, with ``qd`` and ``out`` filled by one compiled call
-    (:func:`pfield._assistance_kernel.bound_assist_step`). Kernel vectors
+    (:func:`pfield.shared_control._assistance_kernel.bound_assist_step`). Kernel vectors
     (:func:`pfield._validation.kernel_vector`) go in as they are (the call checks their values); anything else
     is validated first, and a value the call refuses is validated again for its error."""
     for attempt in range(2):
@@ -387,13 +387,13 @@ def whole_body_assistance(scene: AssistanceScene, robot: RobotModel, joint_angle
                           input_age: float | None = None) -> Assistance:
     """Assistance for ``robot`` at ``joint_angles`` (whole body).
 
-    q̇_auto from :func:`pfield.autonomy.whole_body_autonomy`; the operator's twist mapped to joints by damped
+    q̇_auto from :func:`pfield.shared_control.whole_body_autonomy`; the operator's twist mapped to joints by damped
     least squares q̇_user = Jᵀ(J Jᵀ + λ² I)⁻¹ u_user; q̇ = α q̇_auto + (1 − α) q̇_user with α from the nearest
     link clearance; then the nearest link point's relative approach speed −n̂ᵀ(J_p q̇ − v_obs) is held below
     the damper by the minimum-norm correction Δq̇ = J_pᵀ n̂ e / ‖J_pᵀ n̂‖² (e the excess).
     ``blended_command`` = J q̇; ``time_to_collision`` is that of the nearest link point under q̇_user.
     The field's step (the autonomy's q̇) and all of this run in one compiled call
-    (:func:`pfield._assistance_kernel.bound_assist_step`); without a goal, the assistance alone.
+    (:func:`pfield.shared_control._assistance_kernel.bound_assist_step`); without a goal, the assistance alone.
     """
     mode = _mode(scene, arbitration)
     step = in_range("delta_time", dt, 0.0, math.inf, "s") if dt else 0.0

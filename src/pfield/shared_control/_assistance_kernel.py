@@ -1,4 +1,4 @@
-"""Compiled core of shared-control assistance at one robot point (see :mod:`pfield.assistance` for the laws).
+"""Compiled core of shared-control assistance at one robot point (the laws: :mod:`pfield.shared_control.assistance`).
 
 One call, arrays in and out: the nearest obstacle (exact signed distance), the arbitration weight α, the
 blend u = α u_auto + (1 − α) u_user, the relative velocity dampers applied to it, MoveIt Servo's speed scale
@@ -241,7 +241,7 @@ def _times(point_jac, qd):  # type: ignore[no-untyped-def]
 def assist_joints(q, lower, upper, kin, model, packed, centres, bounds, velocities, qd_auto, user,  # type: ignore[no-untyped-def]
                   params,
                   rotations, origins, jac, point_jac, scratch, segments, qd, out, frames_ready):
-    """Whole-body assistance in one call (see :func:`pfield.assistance.whole_body_assistance` for the laws).
+    """Whole-body assistance in one call (the laws: :func:`pfield.shared_control.whole_body_assistance`).
 
     ``kin``: the robot's packed kinematics (``RobotModel.kinematics``); ``model``, ``segments``: the fitted
     link model and its world-segment workspace (:func:`nearest_link`);
@@ -329,8 +329,8 @@ def assist_joints(q, lower, upper, kin, model, packed, centres, bounds, velociti
 
 @njit(cache=True, inline="always")
 def _unbound(table):  # type: ignore[no-untyped-def]
-    """The arrays bound by :class:`pfield.assistance._Workspace` (slot order there), as :func:`assist_joints`
-    takes them: kinematics, link model, obstacles, world segments."""
+    """The arrays bound by :class:`pfield.shared_control.assistance._Workspace` (slot order there), as
+    :func:`assist_joints` takes them: kinematics, link model, obstacles, world segments."""
     kin = (int_view1(table, 0), float_view3(table, 1), float_view2(table, 2), float_view2(table, 3),
            int_view1(table, 4), int_view2(table, 5), int_view1(table, 6)[0], float_view2(table, 7),
            float_view1(table, 8))
@@ -346,7 +346,7 @@ def _unbound(table):  # type: ignore[no-untyped-def]
 
 @njit(cache=True)
 def bound_assist(q, qd_auto, user, params, qd, out, table):  # type: ignore[no-untyped-def]
-    """:func:`assist_joints` on the arrays bound by :class:`pfield.assistance._Workspace`."""
+    """:func:`assist_joints` on the arrays bound by :class:`pfield.shared_control.assistance._Workspace`."""
     kin, model, packed, segments = _unbound(table)
     assist_joints(q, float_view1(table, 26), float_view1(table, 27), kin, model, packed, float_view2(table, 28),
                   float_view1(table, 29), float_view2(table, 30), qd_auto, user, params, float_view3(table, 31),
