@@ -101,6 +101,23 @@ def test_teleop_never_exceeds_operator_speed_and_stops_short_of_a_wall(drive):
     assert speeds[-1] < 1e-3
 
 
+@pytest.mark.parametrize("drive", ["holonomic", "diff_drive"])
+def test_assisted_teleop_toward_a_close_wall_stops_and_never_backs_away(drive):
+    """Issue 33: +0.5 m/s toward a wall 0.6 m ahead gave x = −0.5 (the base backed away at the operator's speed)."""
+    controller = BaseController(VectorFieldParams(), ControllerConfig(drive=drive, max_linear_acceleration=0.0))
+    wall = [[0.6, y] for y in np.linspace(-1.0, 1.0, 41)]
+    controller.set_obstacles(point_obstacles(wall))
+    for distance_ahead in (0.6, 0.3, 0.05):
+        controller.set_teleop(0.5, 0.0, 0.0, now=0.0)
+        command = controller.step((0.6 - distance_ahead, 0.0, 0.0), 0.0)
+        assert command.state == ControllerState.TELEOP
+        assert 0.0 <= command.linear_x <= 0.5 and command.speed <= 0.5 + 1e-12, (distance_ahead, command)
+        controller = BaseController(VectorFieldParams(), ControllerConfig(drive=drive, max_linear_acceleration=0.0))
+        controller.set_obstacles(point_obstacles(wall))
+    controller.set_teleop(-0.3, 0.0, 0.0, now=0.0)  # backing away from the wall is the operator's to command
+    assert controller.step((0.5, 0.0, 0.0), 0.0).linear_x == pytest.approx(-0.3)
+
+
 def test_stale_teleop_commands_zero_and_live_teleop_has_priority_over_goal():
     controller = BaseController(VectorFieldParams(kr_height=0.0), ControllerConfig(teleop_timeout=0.5,
                                                                                   max_linear_acceleration=0.0))

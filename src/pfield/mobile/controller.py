@@ -4,9 +4,10 @@ Every :meth:`BaseController.step` (called at a fixed rate with the robot pose (x
 and a monotonic time in s) returns one command in the robot frame and a :class:`ControllerState`:
 
 * **Teleop** (priority while live, i.e. newer than ``teleop_timeout``): the operator's velocity u plus the
-  clamped repulsion (rotated into the robot frame), then scaled down to ‖u‖ if longer, so assistance never
-  drives faster than asked; driven into a wall, the robot stops where the repulsion equals ‖u‖.
-  Diff drive: the operator's ω is kept and v = clip(u_x + r_x, −|u_x|, |u_x|).
+  clamped repulsion (rotated into the robot frame), less any part pointing back against u, then scaled down
+  to ‖u‖ if longer: assistance slows, stops and steers, but never drives faster than asked nor backs the
+  robot away (nav2's assisted teleop only slows and stops); driven into a wall, the robot stops where the
+  repulsion equals ‖u‖. Diff drive: the operator's ω is kept and v = u_x + r_x clipped between 0 and u_x.
 * **Point following**: the clamped −∇V of :mod:`pfield.mobile.clamping`; within ``goal_tolerance`` the goal
   is cleared and the state becomes ``goal_reached``. ``stuck`` is reported while the mean speed over
   ``stuck_window`` stays under ``stuck_speed`` (the goal is kept; the field may still free the robot).
@@ -205,9 +206,15 @@ class BaseController:
         c, s = math.cos(yaw), math.sin(yaw)
         bx, by = c * rx + s * ry, -s * rx + c * ry
         speed = math.hypot(ux, uy)
-        if diff:
-            return np.array([float(np.clip(ux + bx, -speed, speed)), 0.0, wz]), (speed, abs(wz))
-        vx, vy = clamp_norm(ux + bx, uy + by, 0.0, speed, HARD) if speed > 0.0 else (0.0, 0.0)
+        if diff:  # along the operator's sign only: slowed or stopped, never reversed
+            return np.array([float(np.clip(ux + bx, min(ux, 0.0), max(ux, 0.0))), 0.0, wz]), (speed, abs(wz))
+        if speed == 0.0:
+            return np.array([0.0, 0.0, wz]), (0.0, abs(wz))
+        vx, vy = ux + bx, uy + by
+        along = (vx * ux + vy * uy) / speed  # the blend's part along the operator's direction
+        if along < 0.0:  # the repulsion would push the base back: it only slows and stops, as nav2's assisted teleop
+            vx, vy = vx - along * ux / speed, vy - along * uy / speed
+        vx, vy = clamp_norm(vx, vy, 0.0, speed, HARD)
         return np.array([vx, vy, wz]), (speed, abs(wz))
 
     def _drive_command(self, vx: float, vy: float, yaw: float) -> NDArray[np.float64]:
