@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pfield._validation import finite, is_loopback_host, nonnegative, positive
+from pfield._validation import as_vector, finite, is_loopback_host, nonnegative, positive
 from pfield.errors import InvalidInput
 
 
@@ -15,6 +15,18 @@ def test_booleans_non_finite_and_non_numbers_are_refused_naming_the_field(helper
     with pytest.raises(InvalidInput) as info:
         helper("gain", value)  # type: ignore[operator]
     assert info.value.field == "gain"
+
+
+@pytest.mark.parametrize("value", [10**400, -(10**400), "1e999"])
+def test_numbers_beyond_a_double_are_refused_not_overflowing(value: object) -> None:
+    """``float(10**400)`` raises OverflowError, which a transport would answer 500 (issue 31 F3)."""
+    for helper in (finite, positive, nonnegative):
+        with pytest.raises(InvalidInput) as info:
+            helper("influence_distance", value)
+        assert info.value.field == "influence_distance"
+    with pytest.raises(InvalidInput) as info:
+        as_vector("translation", [value, 0.0, 0.0], 3)
+    assert info.value.field == "translation"
 
 
 def test_numbers_and_numeric_strings_pass() -> None:

@@ -19,8 +19,8 @@ def as_vector(field: str, value: Any, length: int) -> NDArray[np.float64]:
     """Return ``value`` as a finite, read-only float64 vector of ``length`` elements."""
     try:
         array = np.array(value, dtype=np.float64).reshape(-1)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInput(field, value, f"expected {length} numbers") from exc
+    except (TypeError, ValueError, OverflowError) as exc:  # OverflowError: an integer beyond a double's range
+        raise InvalidInput(field, value, f"expected {length} finite numbers") from exc
     if array.shape != (length,):
         raise InvalidInput(field, value, f"expected {length} numbers, got {array.size}")
     # a few values: Python's isfinite on the list costs a fraction of numpy's ufunc and reduction
@@ -75,11 +75,14 @@ def as_points(field: str, value: Any, dim: int = 3, *, check_finite: bool = True
 
 
 def finite(field: str, value: Any) -> float:
-    """Return ``value`` as a finite float; booleans are refused (``float(True)`` would pass as 1.0)."""
+    """Return ``value`` as a finite float; booleans are refused (``float(True)`` would pass as 1.0), and so is
+    an integer beyond a double's range (``float(10**400)`` raises ``OverflowError``; a double ends near ±1.8e308)."""
     if isinstance(value, bool | np.bool_):
         raise InvalidInput(field, value, "must be a number, not a boolean")
     try:
         number = float(value)
+    except OverflowError:
+        raise InvalidInput(field, value, "must be a finite number (beyond a double's range, about ±1.8e308)") from None
     except (TypeError, ValueError) as exc:
         raise InvalidInput(field, value, "must be a number") from exc
     if not math.isfinite(number):

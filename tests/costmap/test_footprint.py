@@ -51,12 +51,19 @@ def test_radii_of_rectangle() -> None:
         ("[[0, 0], [1, 0, 3], [0, 1]]", "footprint"),
         ("not a list", "footprint"),
         ("[[0, 0], [1, 0]", "footprint"),
+        (f"[[{10**400}, 0], [1, 0], [0, 1]]", "footprint"),  # beyond a double: was an OverflowError
     ],
 )
 def test_bad_footprints_rejected(text: str, field: str) -> None:
     with pytest.raises(InvalidInput) as info:
         Footprint.from_string(text)
     assert info.value.field == field
+
+
+def test_points_beyond_a_double_are_rejected() -> None:
+    with pytest.raises(InvalidInput) as info:
+        Footprint.from_points([[10**400, 0], [1, 0], [0, 1]])
+    assert info.value.field == "footprint"
 
 
 def test_bad_radius_and_padding_rejected() -> None:

@@ -169,6 +169,10 @@ def test_mesh_files_over_the_size_cap_are_refused_before_loading(node: ManagerNo
     assert [o.id for o in node.obstacles()] == ["ball", "m"]
 
 
+HUGE = 10**400
+"""An integer JSON or YAML can carry and a double cannot: ``float(HUGE)`` raises OverflowError."""
+
+
 # ---- parameter tables ------------------------------------------------------------------------------------
 @pytest.mark.parametrize("make", [lambda: ManagerNode(Bus(), robot=None), lambda: CostmapServer(Bus()),
                                   lambda: BaseControllerNode(Bus())], ids=["manager", "costmap", "base"])
@@ -195,6 +199,25 @@ def test_describe_matches_the_parameters_and_their_defaults(make: Any) -> None:
     (lambda: ManagerNode(Bus(), robot=None), {"nope": 1.0}, "nope"),
     (lambda: BaseControllerNode(Bus()), {"drive": "walking"}, "drive"),
     (lambda: BaseControllerNode(Bus()), {"teleop_timeout": 1e9}, "teleop_timeout"),
+    # absurd sizes (issue 31 F3): a 400-digit integer was a 500 OverflowError, a 100 kB frame name was taken
+    (lambda: ManagerNode(Bus(), robot=None), {"influence_distance": HUGE}, "influence_distance"),
+    (lambda: ManagerNode(Bus(), robot=None), {"influence_distance": -HUGE}, "influence_distance"),
+    (lambda: ManagerNode(Bus(), robot=None), {"max_mesh_file_size": HUGE}, "max_mesh_file_size"),
+    (lambda: ManagerNode(Bus(), robot=None), {"max_mesh_file_size": math.inf}, "max_mesh_file_size"),
+    (lambda: ManagerNode(Bus(), robot=None), {"fixed_frame": "f" * 100_000}, "fixed_frame"),
+    (lambda: ManagerNode(Bus(), robot=None), {"static_transforms": {"camera": {"translation": [HUGE, 0, 0]}}},
+     "static_transforms.camera.translation"),
+    (lambda: ManagerNode(Bus(), robot=None), {"static_transforms": {"camera": {"translation": [1e300, 0, 0]}}},
+     "static_transforms.camera.translation"),
+    (lambda: ManagerNode(Bus(), robot=None), {"static_transforms": {"c" * 100_000: {"translation": [0, 0, 0]}}},
+     "static_transforms key"),
+    (lambda: CostmapServer(Bus()), {"lethal_cost_threshold": math.inf}, "lethal_cost_threshold"),
+    (lambda: CostmapServer(Bus()), {"inflation_radius": HUGE}, "inflation_radius"),
+    (lambda: CostmapServer(Bus()), {"footprint": f"[[{HUGE}, 0], [1, 1], [0, 1]]"}, "footprint"),
+    (lambda: CostmapServer(Bus()), {"footprint": [[HUGE, 0], [1, 1], [0, 1]]}, "footprint"),
+    (lambda: CostmapServer(Bus()), {"global_frame": "g" * 100_000}, "global_frame"),
+    (lambda: BaseControllerNode(Bus()), {"kr_slope": HUGE}, "kr_slope"),
+    (lambda: BaseControllerNode(Bus()), {"odom_frame": "o" * 100_000}, "odom_frame"),
 ])
 def test_out_of_range_parameters_are_refused_and_change_nothing(make: Any, values: dict[str, Any],
                                                                  field: str) -> None:

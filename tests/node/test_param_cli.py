@@ -35,3 +35,17 @@ def test_param_set_nan_is_refused_by_the_node_naming_the_parameter() -> None:
             assert result.exit_code == 1, result.output
             assert "kr_slope" in result.output and "Traceback" not in result.output
     assert node.get_parameters()["kr_slope"] == 30.0
+
+
+def test_param_set_an_absurd_value_is_refused_in_one_short_line_naming_the_parameter() -> None:
+    """Issue 31 F3: a 400-digit integer was answered 500 (OverflowError); a 10 000-character frame was taken."""
+    node = BaseControllerNode(Bus())
+    before = node.get_parameters()
+    runner = CliRunner()
+    with ServerThread(create_app([node])) as server:
+        for name, value in (("kr_slope", "1" * 400), ("kr_slope", "-" + "1" * 400), ("odom_frame", "o" * 10_000)):
+            result = runner.invoke(app, ["param", "set", "/base_controller", name, value, "--url", server.url])
+            assert result.exit_code == 1, result.output
+            assert result.output.startswith(f"error: {name}=") and result.output.count("\n") == 1, result.output
+            assert len(result.output) < 400 and "Traceback" not in result.output
+    assert node.get_parameters() == before

@@ -3,6 +3,7 @@ a server fault keeps the connection, abandoned plans are cancelled, connection /
 
 from __future__ import annotations
 
+import contextlib
 import json
 import socket
 import threading
@@ -19,7 +20,7 @@ from pfield.interfaces import geometry_msgs as gm
 from pfield.interfaces import std_srvs
 from pfield.node._base import Bus, Node, PublicationSpec, ServiceSpec, SubscriptionSpec
 from pfield.planning.cancel import CancelToken
-from pfield.transport.http import ServerLimits, ServerThread, create_app
+from pfield.transport.http import DEFAULT_MAX_REQUEST_BYTES, ServerLimits, ServerThread, create_app
 
 
 class FaultyNode(Node):
@@ -74,7 +75,7 @@ class FaultyNode(Node):
 @pytest.fixture(scope="module")
 def served() -> Iterator[tuple[FaultyNode, ServerThread]]:
     node = FaultyNode(Bus())
-    limits = ServerLimits(max_connections=20, header_timeout=1.0)
+    limits = ServerLimits(max_connections=20, header_timeout=1.0, body_timeout=1.0, max_websockets=3)
     with ServerThread(create_app([node], ws_queue_size=5, ws_queue_bytes=10_000), limits=limits) as server:
         yield node, server
 
@@ -84,6 +85,11 @@ def _raw_request(conn: socket.socket, method: str, path: str, body: bytes = b"")
     head = (f"{method} {path} HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n"
             f"Content-Length: {len(body)}\r\n\r\n").encode()
     conn.sendall(head + body)
+    return _read_response(conn)
+
+
+def _read_response(conn: socket.socket) -> tuple[int, bytes]:
+    """The next answer on ``conn`` (status, body), which stays open."""
     data = b""
     while b"\r\n\r\n" not in data:
         chunk = conn.recv(65536)
@@ -125,26 +131,49 @@ def test_a_call_is_cancelled_when_its_client_goes_away(served: tuple[FaultyNode,
     assert httpx.post(f"{server.url}/srv/faulty/ok", json={}).json()["success"] is True
 
 
-def test_connections_beyond_the_cap_are_refused_with_429(served: tuple[FaultyNode, ServerThread]) -> None:
-    _, server = served
-    idle = [socket.create_connection((server.host, server.port), timeout=30) for _ in range(20)]
+@contextlib.contextmanager
+def _connections(server: ServerThread, count: int) -> Iterator[list[socket.socket]]:
+    """``count`` open connections to ``server``; closed afterwards, then until the server answers again
+    (closed sockets leave its table as it notices them)."""
+    conns = [socket.create_connection((server.host, server.port), timeout=30) for _ in range(count)]
     try:
-        with socket.create_connection((server.host, server.port), timeout=30) as extra:
-            answer = extra.recv(4096)
-            assert answer.startswith(b"HTTP/1.1 429 ")
-            assert json.loads(answer.partition(b"\r\n\r\n")[2])["field"] == "connections"
+        yield conns
     finally:
-        for conn in idle:
+        for conn in conns:
             conn.close()
     deadline = time.monotonic() + 30
-    while True:  # the closed sockets leave the server's table as it notices them
+    while True:
         try:
             if httpx.get(f"{server.url}/nodes", timeout=5).status_code == 200:
-                break
+                return
         except httpx.TransportError:
             pass
         assert time.monotonic() < deadline
         time.sleep(0.1)
+
+
+def test_a_new_connection_beyond_the_cap_takes_the_slot_of_the_longest_idle_one(
+        served: tuple[FaultyNode, ServerThread]) -> None:
+    _, server = served
+    with _connections(server, 20) as idle:
+        time.sleep(0.1)
+        with socket.create_connection((server.host, server.port), timeout=30) as extra:
+            assert _raw_request(extra, "GET", "/nodes")[0] == 200
+        assert idle[0].recv(100) == b""  # the first idle connection gave its slot
+
+
+def test_connections_beyond_the_cap_are_refused_with_429_when_all_are_busy(
+        served: tuple[FaultyNode, ServerThread]) -> None:
+    _, server = served
+    with _connections(server, 20) as busy:
+        for conn in busy:  # each holds a request in progress (until its client goes away)
+            conn.sendall(b"POST /srv/faulty/until_cancelled HTTP/1.1\r\nHost: 127.0.0.1\r\n"
+                         b"Content-Type: application/json\r\nContent-Length: 2\r\n\r\n{}")
+        time.sleep(0.3)
+        with socket.create_connection((server.host, server.port), timeout=30) as extra:
+            answer = extra.recv(4096)
+            assert answer.startswith(b"HTTP/1.1 429 ")
+            assert json.loads(answer.partition(b"\r\n\r\n")[2])["field"] == "connections"
 
 
 def test_half_sent_request_heads_are_closed(served: tuple[FaultyNode, ServerThread]) -> None:
@@ -156,6 +185,94 @@ def test_half_sent_request_heads_are_closed(served: tuple[FaultyNode, ServerThre
         assert _raw_request(keep, "GET", "/nodes")[0] == 200
         keep.sendall(b"GET /nodes HTTP/1.1\r\n")  # a second head, never finished
         assert keep.recv(100) == b""
+
+
+_OK_HEAD = b"POST /srv/faulty/ok HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n"
+
+
+def _answer(conn: socket.socket) -> tuple[int, dict[str, Any]]:
+    """Status and JSON body of the one answer on ``conn``, read until the server closes it."""
+    data = b""
+    while chunk := conn.recv(65536):
+        data += chunk
+    head, _, body = data.partition(b"\r\n\r\n")
+    return int(head.split(b" ")[1]), json.loads(body)
+
+
+def test_a_half_sent_body_is_answered_408_and_closed_at_the_body_deadline(
+        served: tuple[FaultyNode, ServerThread]) -> None:
+    _, server = served
+    with socket.create_connection((server.host, server.port), timeout=30) as slow:
+        slow.sendall(_OK_HEAD + b"Content-Length: 10\r\n\r\n{}")  # 2 of the 10 bytes announced
+        started = time.monotonic()
+        status, error = _answer(slow)
+    assert status == 408 and error["field"] == "body" and 0.9 < time.monotonic() - started < 5.0
+    with socket.create_connection((server.host, server.port), timeout=30) as fine:  # a body in pieces is fine
+        fine.sendall(_OK_HEAD + b"Content-Length: 2\r\n\r\n{")
+        time.sleep(0.3)
+        fine.sendall(b"}")
+        assert _read_response(fine) == (200, b'{"success":true,"message":""}')
+
+
+def test_at_the_cap_a_new_connection_takes_the_slot_of_the_longest_waiting_half_sent_body(
+        served: tuple[FaultyNode, ServerThread]) -> None:
+    _, server = served
+    with _connections(server, 20) as bodies:
+        for conn in bodies:
+            conn.sendall(_OK_HEAD + b"Content-Length: 10\r\n\r\n")
+        time.sleep(0.2)
+        with socket.create_connection((server.host, server.port), timeout=30) as newcomer:
+            assert _raw_request(newcomer, "GET", "/nodes")[0] == 200
+        status, error = _answer(bodies[0])
+        assert status == 408 and "admit another connection" in error["error"]
+
+
+def test_chunk_sizes_beyond_the_body_cap_are_refused_413_before_their_bytes(
+        served: tuple[FaultyNode, ServerThread]) -> None:
+    _, server = served
+    cap = DEFAULT_MAX_REQUEST_BYTES  # the app's body cap (create_app's max_request_bytes)
+    for sizes in (b"ffffffffffffffff\r\n", b"80000\r\n" + b" " * 0x80000 + b"\r\n80000\r\n"):
+        with socket.create_connection((server.host, server.port), timeout=30) as conn:
+            conn.sendall(_OK_HEAD + b"Transfer-Encoding: chunked\r\n\r\n" + sizes)
+            status, error = _answer(conn)
+        assert status == 413 and error["field"] == "body" and str(cap) in error["error"], error
+    with socket.create_connection((server.host, server.port), timeout=30) as conn:  # a chunked body in pieces
+        for piece in (_OK_HEAD + b"Transfer-Enc", b"oding: Chunked\r\n", b"\r\n1\r\n{\r",
+                      b"\n1;ext=1\r\n}\r\n0\r\n\r\n"):
+            conn.sendall(piece)
+            time.sleep(0.02)
+        assert _read_response(conn) == (200, b'{"success":true,"message":""}')
+        assert _raw_request(conn, "GET", "/nodes")[0] == 200  # and the connection stays usable
+    with httpx.Client(base_url=server.url) as client:  # httpx streams an iterator's body chunked
+        answer = client.post("/srv/faulty/ok", content=iter([b"{", b"}"]), headers={"content-type": "application/json"})
+        assert answer.status_code == 200 and answer.json()["success"] is True
+
+
+def _websocket_handshake(server: ServerThread) -> tuple[socket.socket, int]:
+    conn = socket.create_connection((server.host, server.port), timeout=30)
+    conn.sendall(b"GET /ws/topic/faulty/quiet HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\n"
+                 b"Connection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
+                 b"Sec-WebSocket-Version: 13\r\n\r\n")
+    return conn, int(conn.recv(4096).split(b" ")[1])
+
+
+def test_websockets_have_their_own_cap_and_take_no_http_slot(served: tuple[FaultyNode, ServerThread]) -> None:
+    _, server = served
+    sockets = [_websocket_handshake(server) for _ in range(5)]
+    try:
+        assert [status for _, status in sockets] == [101, 101, 101, 429, 429]
+        with _connections(server, 20) as http:  # all 20 HTTP slots answer beside the 3 WebSockets
+            assert all(_raw_request(conn, "GET", "/nodes")[0] == 200 for conn in http)
+        sockets[0][0].close()
+        deadline = time.monotonic() + 30
+        while (status := _websocket_handshake(server))[1] != 101:  # a closed WebSocket frees its slot
+            status[0].close()
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+        sockets.append(status)
+    finally:
+        for conn, _ in sockets:
+            conn.close()
 
 
 def test_a_websocket_that_never_reads_drops_the_oldest_and_counts(served: tuple[FaultyNode, ServerThread]) -> None:

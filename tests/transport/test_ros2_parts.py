@@ -1,19 +1,26 @@
-"""Parts of the ROS 2 host that need no DDS traffic: failure responses and the bus publisher thread."""
+"""Parts of the ROS 2 host that need no DDS traffic: failure responses, the bus publisher thread and the
+parameter callbacks."""
 
 from __future__ import annotations
 
+import math
 import threading
+from typing import Any
 
 from ros2_helpers.support import require_ros2_python
 
 require_ros2_python()
 
 from geometry_msgs.msg import PoseStamped as RosPoseStamped  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
 
 import pfield.interfaces.potential_fields_interfaces as pfi  # noqa: E402
 from pfield.interfaces import std_srvs  # noqa: E402
 from pfield.interfaces.geometry_msgs import PoseStamped  # noqa: E402
 from pfield.interfaces.std_msgs import Header  # noqa: E402
+from pfield.node._base import Bus  # noqa: E402
+from pfield.node.manager import ManagerNode  # noqa: E402
+from pfield.transport._ros2_params import _validate, _widen  # noqa: E402
 from pfield.transport._ros2_publisher import BusPublisher  # noqa: E402
 from pfield.transport.ros2 import _failure_response  # noqa: E402
 
@@ -84,3 +91,26 @@ def test_bus_publisher_publishes_what_is_pending_at_stop() -> None:
     publisher.start()
     publisher.stop(5.0)
     assert sent == ["last words"]
+
+
+class _DoublesNode:
+    """What the pre-set callback reads of an rclpy node: every parameter is declared as a double."""
+
+    def has_parameter(self, name: str) -> bool:
+        return True
+
+    def get_parameter(self, name: str) -> Parameter:
+        return Parameter(name, Parameter.Type.DOUBLE, 0.1)
+
+
+def test_an_integer_beyond_a_double_is_refused_by_the_node_not_raised() -> None:
+    """Issue 31 F3 over ROS 2: ``float(10**400)`` in the pre-set callback raised out of ``set_parameters``."""
+    node = ManagerNode(Bus(), robot=None)
+    before = node.get_parameters()
+    ros_node: Any = _DoublesNode()
+    widened = _widen(ros_node, [Parameter("influence_distance", value=-(10**400))])
+    assert widened[0].type_ == Parameter.Type.DOUBLE and widened[0].value == -math.inf
+    result = _validate(node, frozenset(before), widened)
+    assert not result.successful and result.reason.startswith("influence_distance=")
+    assert node.get_parameters() == before
+    assert _widen(ros_node, [Parameter("influence_distance", value=1)])[0].value == 1.0

@@ -57,7 +57,7 @@ class Footprint:
     def __post_init__(self) -> None:
         try:
             pts = np.array(self.points, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
+        except (TypeError, ValueError, OverflowError) as exc:  # OverflowError: an integer beyond a double
             raise InvalidInput("footprint", self.points, "expected a list of [x, y] points") from exc
         if pts.ndim != 2 or pts.shape[1] != 2:
             raise InvalidInput("footprint", self.points, "expected a list of [x, y] points")
@@ -80,7 +80,7 @@ class Footprint:
     def from_points(cls, points: ArrayLike) -> Footprint:
         try:
             return cls(np.asarray(points, dtype=np.float64))
-        except (TypeError, ValueError) as exc:  # ragged or nested lists
+        except (TypeError, ValueError, OverflowError) as exc:  # ragged or nested lists, integers beyond a double
             if isinstance(exc, InvalidInput):
                 raise
             raise InvalidInput("footprint", points, "expected a list of [x, y] points") from None
@@ -104,7 +104,7 @@ class Footprint:
             isinstance(p, list) and len(p) == 2 and all(isinstance(c, int | float) for c in p) for p in value
         ):
             raise InvalidInput("footprint", text, "expected a string like [[0.4, 0.25], [-0.4, 0.25], ...]")
-        return cls(np.array(value, dtype=np.float64).reshape(-1, 2))
+        return cls.from_points(value)
 
     @classmethod
     def from_parameters(cls, footprint: str, robot_radius: float) -> Footprint:

@@ -6,8 +6,9 @@ fixed frame); a pose ``T_frame_x`` given in ``frame`` becomes ``T_fixed_x = T_fi
 
     static_transforms: {camera: {translation: [x, y, z], rotation: [qx, qy, qz, qw]}}
 
-(m; quaternion x, y, z, w, normalised on input; ``rotation`` may be left out for the identity). On the
-command line: ``--static-transform camera=x,y,z[,qx,qy,qz,qw]``.
+(m, within ±1e6 m as every position a node accepts; quaternion x, y, z, w of a norm in [1e-9, 1e6],
+normalised on input; ``rotation`` may be left out for the identity). On the command line:
+``--static-transform camera=x,y,z[,qx,qy,qz,qw]``.
 """
 
 from __future__ import annotations
@@ -17,6 +18,8 @@ from typing import Any
 
 from pfield._validation import as_vector
 from pfield.errors import InvalidInput, UnknownFrame
+from pfield.interfaces import geometry_msgs as gm
+from pfield.interfaces.convert import point_from_msg, quaternion_from_msg
 from pfield.spatial import Pose, normalize_quaternion
 
 __all__ = ["PARAMETER", "StaticTransforms", "parse_transform_option", "parse_transforms", "transforms_data"]
@@ -41,8 +44,12 @@ def _parse_one(frame: Any, value: Any, fixed_frame: str) -> Pose:
     rotation = value.get("rotation", _IDENTITY)
     if not _is_list(rotation, 4):
         raise InvalidInput(f"{field}.rotation", rotation, "expected a list of 4 numbers (qx, qy, qz, qw)")
-    translation = as_vector(f"{field}.translation", value["translation"], 3)
-    return Pose(translation, normalize_quaternion(rotation, f"{field}.rotation"))
+    # the ranges of every pose a node accepts (convert's checks), on values made finite doubles first
+    x, y, z = as_vector(f"{field}.translation", value["translation"], 3).tolist()
+    qx, qy, qz, qw = as_vector(f"{field}.rotation", rotation, 4).tolist()
+    translation = point_from_msg(gm.Point(x=x, y=y, z=z), f"{field}.translation")
+    quaternion = quaternion_from_msg(gm.Quaternion(x=qx, y=qy, z=qz, w=qw), f"{field}.rotation")
+    return Pose(translation, normalize_quaternion(quaternion, f"{field}.rotation"))
 
 
 def _is_list(value: Any, length: int) -> bool:

@@ -10,6 +10,12 @@ Types use ROS 2's parameter type names (``double``, ``integer``, ``bool``, ``str
 nested mapping (``static_transforms``), which only the HTTP transport carries. Ranges are inclusive
 ``[low, high]`` in the parameter's unit; a string parameter may instead list its ``choices``.
 
+Every value is bounded before it is compared: a number must be a finite double (an integer of 400 digits is
+refused, not converted), an integer parameter an integral value, a string at most ``max_length`` characters
+(:data:`MAX_STRING_LENGTH` unless the row says more), a map at most :data:`MAX_MAP_ENTRIES` wide with bounded
+strings (the node reads its numbers as finite doubles). A refusal is ``InvalidInput`` naming the parameter,
+which every transport answers as a 400 (never a 500), and nothing changes.
+
 Descriptions are read from the config dataclasses' own documentation (attribute docstrings or a
 Google-style ``Attributes:`` section) by :func:`field_docs`, so each parameter is documented once.
 """
@@ -35,6 +41,9 @@ __all__ = ["ParameterRow", "ParameterTable", "field_docs"]
 _TYPES = ("double", "integer", "bool", "string", "map")
 MAX_MAP_ENTRIES = 64
 """A ``map`` parameter holds at most this many entries (a robot's static frames are a handful)."""
+MAX_STRING_LENGTH = 256
+"""Characters of a string parameter (a frame name or a choice), and of each string or key in a map, unless
+the row allows more (``max_length``: the costmap's footprint polygon)."""
 
 
 @dataclass(frozen=True)
@@ -52,6 +61,8 @@ class ParameterRow:
     read_only: bool = False
     positive: bool = False
     """The value must also be strictly above ``low`` (a gain or a period that cannot be 0)."""
+    max_length: int = MAX_STRING_LENGTH
+    """Longest value of a ``string`` parameter, in characters."""
 
     def __post_init__(self) -> None:
         if self.type not in _TYPES:
@@ -64,7 +75,9 @@ class ParameterRow:
                 raise InvalidInput(self.name, value, "must be a number")
             return self._range(_validation.finite(self.name, value))
         if self.type == "integer":
-            if isinstance(value, bool) or not isinstance(value, int | float) or value != int(value):
+            # is_integer() is False for inf and NaN, which int() could not convert
+            if isinstance(value, bool) or not isinstance(value, int | float) \
+                    or (isinstance(value, float) and not value.is_integer()):
                 raise InvalidInput(self.name, value, "must be an integer")
             return int(self._range(int(value)))
         if self.type == "bool":
@@ -75,12 +88,16 @@ class ParameterRow:
             if isinstance(value, list | tuple) and self.name == "footprint":
                 return value  # nav2's footprint also comes as a parsed list of pairs (checked by the node)
             text = _validation.text(self.name, value)
+            if len(text) > self.max_length:
+                raise InvalidInput(self.name, text, f"at most {self.max_length} characters")
             if self.choices and text not in self.choices:
                 raise InvalidInput(self.name, value, f"must be one of {', '.join(self.choices)}")
             return text
         return _check_map(self.name, value)
 
     def _range(self, number: float) -> float:
+        """``number`` (an int of any size, or a finite float) within the row's range; Python compares ints and
+        floats exactly, so a huge integer is refused here without being converted."""
         low = -math.inf if self.low is None else self.low
         high = math.inf if self.high is None else self.high
         unit = f" {self.unit}" if self.unit else ""
@@ -101,7 +118,9 @@ class ParameterRow:
 
 
 def _check_map(field: str, value: Any, depth: int = 0) -> Any:
-    """A JSON-like mapping whose keys and strings are valid UTF-8, at most :data:`MAX_MAP_ENTRIES` wide."""
+    """A JSON-like mapping whose keys and strings are valid UTF-8 of at most :data:`MAX_STRING_LENGTH`
+    characters, at most :data:`MAX_MAP_ENTRIES` wide (its numbers are the node's to judge: a static transform's
+    are read as finite doubles within their range)."""
     if depth == 0 and not isinstance(value, Mapping):
         raise InvalidInput(field, value, "must be a mapping")
     if depth > 4:
@@ -109,8 +128,9 @@ def _check_map(field: str, value: Any, depth: int = 0) -> Any:
     if isinstance(value, Mapping):
         if len(value) > MAX_MAP_ENTRIES:
             raise InvalidInput(field, len(value), f"at most {MAX_MAP_ENTRIES} entries")
+        for key in value:
+            _check_text(f"{field} key", key)
         for key, item in value.items():
-            _validation.text(f"{field} key", key)
             _check_map(f"{field}.{key}", item, depth + 1)
     elif isinstance(value, list | tuple):
         if len(value) > MAX_MAP_ENTRIES:
@@ -118,8 +138,15 @@ def _check_map(field: str, value: Any, depth: int = 0) -> Any:
         for index, item in enumerate(value):
             _check_map(f"{field}[{index}]", item, depth + 1)
     elif isinstance(value, str):
-        _validation.text(field, value)
+        _check_text(field, value)
     return value
+
+
+def _check_text(field: str, value: Any) -> str:
+    text = _validation.text(field, value)
+    if len(text) > MAX_STRING_LENGTH:
+        raise InvalidInput(field, text, f"at most {MAX_STRING_LENGTH} characters")
+    return text
 
 
 class ParameterTable:

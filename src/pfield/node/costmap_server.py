@@ -46,6 +46,7 @@ from pfield.costmap import (
     local_window,
 )
 from pfield.costmap.costmap import MAX_LOCAL_WINDOW_SIZE, MIN_ANGLE_INCREMENT, MIN_RESOLUTION
+from pfield.costmap.footprint import MAX_FOOTPRINT_POINTS
 from pfield.errors import InvalidInput, UnknownFrame
 from pfield.interfaces import geometry_msgs as gm
 from pfield.interfaces.convert import pose_from_msg
@@ -62,12 +63,16 @@ _log = logging.getLogger(__name__)
 LOCAL_COSTMAP, GLOBAL_COSTMAP = 1, 2
 
 
+FOOTPRINT_TEXT_LENGTH = 48 * MAX_FOOTPRINT_POINTS
+"""Longest ``footprint`` string: room for the most vertices a footprint may have, each written in full."""
+
+
 def costmap_table(name: str) -> ParameterTable:
     """The ``/costmap`` parameter table (nav2's names; ranges a real mobile base stays well inside)."""
     d = CostmapParams()
     rows = [
         ParameterRow("footprint", "string", 'nav2 footprint polygon "[[x, y], ...]" (m, robot frame); "[]" means '
-                     "a circle of robot_radius", d.footprint),
+                     "a circle of robot_radius", d.footprint, max_length=FOOTPRINT_TEXT_LENGTH),
         ParameterRow("robot_radius", "double", "radius of a circular robot (m)", d.robot_radius, 0.0, 10.0, "m"),
         ParameterRow("footprint_padding", "double", "padding added around the footprint (m)", d.footprint_padding,
                      0.0, 1.0, "m"),

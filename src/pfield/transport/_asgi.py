@@ -27,9 +27,12 @@ Receive = Callable[[], Awaitable[Message]]
 Send = Callable[[Message], Awaitable[None]]
 ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
 
-__all__ = ["LOOPBACK_NAMES", "MAX_JSON_DEPTH", "GuardMiddleware", "error_body", "excess_depth", "json_depth"]
+__all__ = ["DEFAULT_MAX_REQUEST_BYTES", "LOOPBACK_NAMES", "MAX_JSON_DEPTH", "GuardMiddleware", "error_body",
+           "excess_depth", "json_depth"]
 
 _log = logging.getLogger("pfield.transport.http")
+DEFAULT_MAX_REQUEST_BYTES = 1_000_000
+"""Request bodies above this many bytes are refused with 413 (a seed request is < 1 kB)."""
 LOOPBACK_NAMES = ("localhost", "127.0.0.1", "[::1]")
 """Host names always accepted in ``Host`` (with the server's port) and in same-origin ``Origin`` values."""
 MAX_JSON_DEPTH = 64
@@ -45,6 +48,10 @@ with one vectorised pass over the bytes."""
 _STEPS = np.zeros(256, dtype=np.int8)
 _STEPS[[0x5B, 0x7B]] = 1
 _STEPS[[0x5D, 0x7D]] = -1
+
+
+_CLOSE = ((b"connection", b"close"),)
+"""A refused body is not read: the connection closes after the answer instead of parsing the rest of it."""
 
 
 def error_body(error: str, field: str = "", value: object = None) -> bytes:
@@ -227,7 +234,7 @@ class GuardMiddleware:
         length = headers.get(b"content-length")
         if length is not None and (not length.isdigit() or int(length) > self.max_bytes):
             await _reject(send, 413 if length.isdigit() else 400, f"request body over {self.max_bytes} bytes"
-                          if length.isdigit() else "malformed Content-Length", "body")
+                          if length.isdigit() else "malformed Content-Length", "body", headers=_CLOSE)
             return None
         chunks: list[bytes] = []
         size = 0
@@ -238,7 +245,7 @@ class GuardMiddleware:
             chunks.append(message.get("body", b""))
             size += len(chunks[-1])
             if size > self.max_bytes:
-                await _reject(send, 413, f"request body over {self.max_bytes} bytes", "body")
+                await _reject(send, 413, f"request body over {self.max_bytes} bytes", "body", headers=_CLOSE)
                 return None
             if not message.get("more_body", False):
                 break

@@ -5,7 +5,9 @@ current value, so ``ros2 param list|get|set|dump`` and ``--ros-args -p``/``--par
 any ROS node. Setting goes through two rclpy callbacks:
 
 * a *pre-set* callback widens integers to doubles for parameters declared as doubles (``ros2 param
-  set /pfield_manager max_linear_velocity 1`` means 1.0, as a user expects, instead of a type error);
+  set /pfield_manager max_linear_velocity 1`` means 1.0, as a user expects, instead of a type error); an
+  integer beyond a double's range (a 400-digit one, which Python's ``float`` refuses with ``OverflowError``)
+  becomes ±inf, as IEEE 754 rounds it, and the node refuses it as not finite;
 * an *on-set* callback hands the new values to ``node.set_parameters``, which validates them all and
   applies them together. A rejected value is refused with the node's reason (``InvalidInput`` names the
   parameter and the value); the rclpy value then stays as it was, and so does the pfield node's.
@@ -15,6 +17,7 @@ from __future__ import annotations
 
 import array
 import logging
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -106,11 +109,20 @@ def _widen(ros_node: RclpyNode, parameters: list[Parameter]) -> list[Parameter]:
     for parameter in parameters:
         declared_type = ros_node.get_parameter(parameter.name).type_ if ros_node.has_parameter(parameter.name) else None
         if declared_type == Parameter.Type.DOUBLE and parameter.type_ == Parameter.Type.INTEGER:
-            parameter = Parameter(parameter.name, Parameter.Type.DOUBLE, float(parameter.value))
+            parameter = Parameter(parameter.name, Parameter.Type.DOUBLE, _as_double(parameter.value))
         elif declared_type == Parameter.Type.DOUBLE_ARRAY and parameter.type_ == Parameter.Type.INTEGER_ARRAY:
-            parameter = Parameter(parameter.name, Parameter.Type.DOUBLE_ARRAY, [float(v) for v in parameter.value])
+            parameter = Parameter(parameter.name, Parameter.Type.DOUBLE_ARRAY, [_as_double(v) for v in parameter.value])
         widened.append(parameter)
     return widened
+
+
+def _as_double(value: int) -> float:
+    """``value`` as a double; beyond a double's range (about ±1.8e308) ±inf, which the node refuses. The
+    pre-set callback must not raise: its exception would escape ``set_parameters`` instead of a refusal."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
 
 
 def _validate(node: Node, names: frozenset[str], parameters: list[Parameter]) -> SetParametersResult:

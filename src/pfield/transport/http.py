@@ -51,15 +51,13 @@ from pfield.interfaces import lookup_type, message_from_data
 from pfield.interfaces._base import RosMessage
 from pfield.interfaces._yaml import _path
 from pfield.node._base import Bus, Node, ServiceSpec, SubscriptionSpec, distinct_buses
-from pfield.transport._asgi import MAX_JSON_DEPTH, GuardMiddleware, error_body, excess_depth
+from pfield.transport._asgi import DEFAULT_MAX_REQUEST_BYTES, MAX_JSON_DEPTH, GuardMiddleware, error_body, excess_depth
 from pfield.transport._fanout import TopicFanout
 from pfield.transport._server import ServerLimits, uvicorn_config
 
 __all__ = ["DEFAULT_MAX_REQUEST_BYTES", "NotFound", "ServerLimits", "ServerThread", "create_app", "run_server"]
 
 _log = logging.getLogger(__name__)
-DEFAULT_MAX_REQUEST_BYTES = 1_000_000
-"""Request bodies above this many bytes are refused with 413 (a seed request is < 1 kB)."""
 QUICK_BODY_BYTES = 16_384
 """Largest body of a quick call decoded on the event loop (a control-loop request is ~1 kB; decoding this
 much takes well under 0.1 ms)."""
@@ -561,6 +559,7 @@ def create_app(nodes: Sequence[Node], *, token: str | None = None,
 
     app = FastAPI(title="pfield node", version="0.1.0", lifespan=lifespan, **_NO_TELEMETRY,
                   description="pfield's nodes over HTTP: ROS services, topics and parameters by their ROS names.")
+    app.state.max_request_bytes = max_request_bytes  # the server refuses chunk sizes beyond it (_server)
     _install_error_handlers(app)
     _add_service_routes(app, routes)
     _add_topic_routes(app, routes)
