@@ -116,6 +116,12 @@ def test_assisted_teleop_toward_a_close_wall_stops_and_never_backs_away(drive):
         controller.set_obstacles(point_obstacles(wall))
     controller.set_teleop(-0.3, 0.0, 0.0, now=0.0)  # backing away from the wall is the operator's to command
     assert controller.step((0.5, 0.0, 0.0), 0.0).linear_x == pytest.approx(-0.3)
+    # the seed's pure law stays available: there the repulsion pushes the base back
+    seed_law = BaseController(VectorFieldParams(), ControllerConfig(drive=drive, max_linear_acceleration=0.0,
+                                                                    teleop_mode="field"))
+    seed_law.set_obstacles(point_obstacles(wall))
+    seed_law.set_teleop(0.5, 0.0, 0.0, now=0.0)
+    assert seed_law.step((0.55, 0.0, 0.0), 0.0).linear_x == pytest.approx(-0.5)
 
 
 def test_stale_teleop_commands_zero_and_live_teleop_has_priority_over_goal():

@@ -14,9 +14,13 @@ from pfield._validation import finite, nonnegative, positive
 from pfield.errors import InvalidInput
 from pfield.mobile.scan import SCAN_WEIGHTINGS
 
-__all__ = ["DRIVES", "ControllerConfig"]
+__all__ = ["DRIVES", "TELEOP_MODES", "ControllerConfig"]
 
 DRIVES = ("holonomic", "diff_drive")
+TELEOP_MODES = ("assisted", "field")
+"""``assisted`` (default): the field slows, stops and steers the operator's command but never reverses it (as
+nav2's assisted teleop). ``field``: the seed's pure law u + r, capped at ‖u‖: near a wall the repulsion may
+push the base back, up to the operator's speed."""
 
 
 @dataclass(frozen=True)
@@ -38,6 +42,9 @@ class ControllerConfig:
         scan_weighting: ``sector`` (default), ``arc_length`` or ``sum``, see :mod:`pfield.mobile.scan`.
         scan_sector_angle: sector width (rad) of the ``sector`` weighting, in (0, 2π].
         sensor_x, sensor_y, sensor_yaw: pose of the laser in the robot frame (m, m, rad).
+        teleop_mode: ``assisted`` (default: the repulsion slows, stops and steers the operator's command,
+            never reverses it) or ``field`` (the seed's pure law, which may push the base back), see
+            :data:`TELEOP_MODES`.
     """
 
     drive: Literal["holonomic", "diff_drive"] = "holonomic"
@@ -53,10 +60,13 @@ class ControllerConfig:
     sensor_x: float = 0.0
     sensor_y: float = 0.0
     sensor_yaw: float = 0.0
+    teleop_mode: Literal["assisted", "field"] = "assisted"
 
     def __post_init__(self) -> None:
         if self.drive not in DRIVES:
             raise InvalidInput("drive", self.drive, f"must be one of {DRIVES}")
+        if self.teleop_mode not in TELEOP_MODES:
+            raise InvalidInput("teleop_mode", self.teleop_mode, f"must be one of {TELEOP_MODES}")
         if self.scan_weighting not in SCAN_WEIGHTINGS:
             raise InvalidInput("scan_weighting", self.scan_weighting, f"must be one of {SCAN_WEIGHTINGS}")
         set_ = object.__setattr__

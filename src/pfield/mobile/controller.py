@@ -8,6 +8,7 @@ and a monotonic time in s) returns one command in the robot frame and a :class:`
   to ‖u‖ if longer: assistance slows, stops and steers, but never drives faster than asked nor backs the
   robot away (nav2's assisted teleop only slows and stops); driven into a wall, the robot stops where the
   repulsion equals ‖u‖. Diff drive: the operator's ω is kept and v = u_x + r_x clipped between 0 and u_x.
+  ``teleop_mode="field"`` keeps the seed's pure law (u + r capped at ‖u‖), which may push the robot back.
 * **Point following**: the clamped −∇V of :mod:`pfield.mobile.clamping`; within ``goal_tolerance`` the goal
   is cleared and the state becomes ``goal_reached``. ``stuck`` is reported while the mean speed over
   ``stuck_window`` stays under ``stuck_speed`` (the goal is kept; the field may still free the robot).
@@ -206,13 +207,15 @@ class BaseController:
         c, s = math.cos(yaw), math.sin(yaw)
         bx, by = c * rx + s * ry, -s * rx + c * ry
         speed = math.hypot(ux, uy)
-        if diff:  # along the operator's sign only: slowed or stopped, never reversed
-            return np.array([float(np.clip(ux + bx, min(ux, 0.0), max(ux, 0.0))), 0.0, wz]), (speed, abs(wz))
+        assisted = self._config.teleop_mode == "assisted"
+        if diff:  # assisted: along the operator's sign only, slowed or stopped, never reversed
+            low, high = (min(ux, 0.0), max(ux, 0.0)) if assisted else (-speed, speed)
+            return np.array([float(np.clip(ux + bx, low, high)), 0.0, wz]), (speed, abs(wz))
         if speed == 0.0:
             return np.array([0.0, 0.0, wz]), (0.0, abs(wz))
         vx, vy = ux + bx, uy + by
         along = (vx * ux + vy * uy) / speed  # the blend's part along the operator's direction
-        if along < 0.0:  # the repulsion would push the base back: it only slows and stops, as nav2's assisted teleop
+        if along < 0.0 and assisted:  # it would push the base back: it only slows and stops, as nav2's assisted teleop
             vx, vy = vx - along * ux / speed, vy - along * uy / speed
         vx, vy = clamp_norm(vx, vy, 0.0, speed, HARD)
         return np.array([vx, vy, wz]), (speed, abs(wz))

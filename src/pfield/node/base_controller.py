@@ -38,7 +38,7 @@ from pfield.interfaces import std_srvs
 from pfield.interfaces.convert import point_from_msg, quaternion_from_msg
 from pfield.interfaces.nav_msgs import Odometry
 from pfield.interfaces.sensor_msgs import LaserScan
-from pfield.mobile.config import DRIVES, ControllerConfig
+from pfield.mobile.config import DRIVES, TELEOP_MODES, ControllerConfig
 from pfield.mobile.controller import BaseController, ControllerState
 from pfield.mobile.params import ATTRACTION_LAWS, CLAMPING_MODES, VectorFieldParams
 from pfield.mobile.scan import SCAN_WEIGHTINGS, compose_pose2d, scan_obstacles
@@ -69,7 +69,7 @@ _RANGES: dict[str, tuple[float, float, str]] = {
 _POSITIVE = {"kr_slope", "max_spd_norm", "lookahead", "max_angular_speed", "teleop_timeout", "stuck_window",
              "scan_sector_angle"}
 _CHOICES = {"attraction": ATTRACTION_LAWS, "clamping": CLAMPING_MODES, "drive": DRIVES,
-            "scan_weighting": SCAN_WEIGHTINGS}
+            "scan_weighting": SCAN_WEIGHTINGS, "teleop_mode": TELEOP_MODES}
 _FRAME_DOCS = {"odom_frame": "fixed frame of odometry, goals and the robot pose",
                "base_frame": "the robot's frame (goals in it are relative to the robot)",
                "sensor_frame": "the laser's frame (mounted at sensor_x, sensor_y, sensor_yaw)"}
