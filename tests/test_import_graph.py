@@ -38,6 +38,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("safety",),  # the output contract: every command finite and within its limits (numpy and the bottom layer)
     ("_spatial_kernels", "_linalg", "_layout", "_validation", "_compile_notice"),
     ("_core",),  # the compiled core (C++, nanobind): imports nothing of pfield
+    ("_enums",),  # enums that print their names (outcomes: PlanStatus, PoseState)
     ("errors",),
 )
 """DESIGN §1, top to bottom; a module may import its own layer's package and anything in a lower layer."""

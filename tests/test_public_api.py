@@ -53,3 +53,14 @@ def test_mobile_functional_api_names() -> None:
     assert potential(points, goal, obstacles, params).shape == (1,)
     assert gradient(points, goal, obstacles, params).shape == (1, 2)
     assert np.linalg.norm(velocity(points, goal, obstacles, params)) <= 1.0
+
+
+def test_outcome_enums_print_their_names_and_stay_numbers() -> None:
+    """Issue 33: ``print(path.status)`` printed ``1``; the number stays for comparisons and wire formats."""
+    import json
+
+    from pfield.planning import PlanStatus
+
+    status = PlanStatus.STAGNATION
+    assert str(status) == "STAGNATION" and f"{status}" == "STAGNATION" and f"{status:d}" == "1"
+    assert status == 1 and int(status) == 1 and json.dumps({"status": status}) == '{"status": 1}'

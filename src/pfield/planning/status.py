@@ -7,13 +7,14 @@ them on :attr:`PlannedPath.status`, and ``failure_reason`` is the sentence besid
 
 from __future__ import annotations
 
-from enum import IntEnum
+from pfield._enums import NamedIntEnum
 
 __all__ = ["PlanStatus"]
 
 
-class PlanStatus(IntEnum):
-    """Why a plan ended. Only :attr:`REACHED` is a success."""
+class PlanStatus(NamedIntEnum):
+    """Why a plan ended. Only :attr:`REACHED` is a success. Prints its name (``STAGNATION``); compares and
+    serialises as its number."""
 
     REACHED = 0
     """The last waypoint is within the position and rotation tolerances of the goal."""
