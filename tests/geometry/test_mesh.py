@@ -150,6 +150,9 @@ def test_bad_mesh_files(tmp_path, name, content, error):
 def test_missing_mesh_file(tmp_path):
     with pytest.raises(ResourceNotFound, match="no such file"):
         Mesh(str(tmp_path / "absent.stl"), resolver=ResourceResolver(allowed_roots=[tmp_path]))
+    # the root cause first (issue 33): a message's Mesh without scales and without its file is a missing file
+    with pytest.raises(ResourceNotFound, match="no such file"):
+        Mesh(str(tmp_path / "absent.stl"), 0.0, 0.0, 0.0, resolver=ResourceResolver(allowed_roots=[tmp_path]))
 
 
 @pytest.mark.parametrize("field", ["scale_x", "scale_y", "scale_z"])

@@ -134,6 +134,18 @@ def test_explicit_velocities_feed_the_time_to_collision(node: ManagerNode) -> No
     assert node.state is before
 
 
+def test_the_default_arbitration_is_the_assistance_arbitration_parameter(node: ManagerNode) -> None:
+    """Issue 33: ComputeAssistance.srv names the parameter assistance_arbitration; it exists."""
+    assert node.get_parameters()["assistance_arbitration"] == "linear"
+    assert node.compute_assistance(request()).alpha > 0.0  # linear: the field shares the command near the ball
+    node.set_parameters({"assistance_arbitration": "safety_only"})
+    assert node.compute_assistance(request()).alpha == 0.0
+    assert node.compute_assistance(request(arbitration="linear")).alpha > 0.0  # a request's own choice wins
+    with pytest.raises(InvalidInput, match="assistance_arbitration"):
+        node.set_parameters({"assistance_arbitration": "boss"})
+    assert node.get_parameters()["assistance_arbitration"] == "safety_only"
+
+
 @pytest.fixture(scope="module")
 def served(robot: Any) -> Iterator[tuple[ManagerNode, str]]:
     manager = ManagerNode(Bus(), robot)

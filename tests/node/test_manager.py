@@ -151,7 +151,7 @@ WHOLE_BODY = "{goal: {position: {x: 0.5}}, starting_joint_angles: [0, 0, 0, 0, 0
     ("starting_joint_angles: [0.0, 0.0]", "starting_joint_angles"),
     ("starting_joint_angles: [0, 0, 0, 0, 0, 0, 9]", "starting_joint_angles[6]"),
     (f"max_iterations: {MAX_ITERATIONS_CAP + 1}", "max_iterations"),
-    ("delta_time: 0.0", "delta_time"),
+    ("delta_time: -0.02", "delta_time"),
     ("goal_tolerance: -1.0", "goal_tolerance"),
     ("goal: {orientation: {w: 0.0}}", "goal.orientation"),
 ])
@@ -161,6 +161,32 @@ def test_plan_requests_are_validated_before_anything_changes(node: ManagerNode, 
         node.plan_path(request)
     assert info.value.field.startswith(field)
     assert node.goal is None and node.bus.latest("/pfield/planned_path") is None
+
+
+def test_plan_fields_left_at_zero_take_the_documented_defaults(node: ManagerNode) -> None:
+    """Issue 33: a plan_path request without delta_time (ROS fills 0) was refused; 0 means the default, as
+    max_iterations 0 does."""
+    from pfield.node.manager import DEFAULT_DELTA_TIME, DEFAULT_GOAL_TOLERANCE
+
+    request = message_from_data(pfi.PlanPath_Request, yaml.safe_load(
+        "{start: {position: {x: 0.3, y: 0.1, z: 0.9}, orientation: {w: 1.0}}, "
+        "goal: {position: {x: 0.35, y: 0.1, z: 0.9}, orientation: {w: 1.0}}, max_iterations: 2000}"))
+    assert request.delta_time == 0.0 and request.goal_tolerance == 0.0
+    inputs = node._plan_inputs(request, 0)
+    assert (inputs.delta_time, inputs.goal_tolerance) == (DEFAULT_DELTA_TIME, DEFAULT_GOAL_TOLERANCE)
+    answer = node.plan_path(request)
+    assert answer.success, answer.error_message
+
+
+def test_the_work_cap_names_the_max_iterations_that_passes(node: ManagerNode) -> None:
+    node.on_obstacles(message_from_data(pfi.ObstacleArray, {"obstacles": [
+        {"frame_id": f"s{i}", "type": "Sphere", "group": "Static", "radius": 0.01,
+         "pose": {"position": {"x": 5.0 + i, "y": 0.0, "z": 0.0}, "orientation": {"w": 1.0}}} for i in range(2001)]}))
+    request = message_from_data(pfi.PlanPath_Request, yaml.safe_load(WHOLE_BODY) | {"max_iterations": 30000})
+    largest = 50_000_000 // len(node.state.obstacles)  # MAX_PLAN_WORK over the obstacles held
+    with pytest.raises(InvalidInput, match=rf"max_iterations <= {largest} passes") as info:
+        node.plan_path(request)
+    assert info.value.field == "max_iterations"
 
 
 def test_autonomy_vector_needs_a_goal_and_the_fixed_frame(node: ManagerNode) -> None:

@@ -122,6 +122,9 @@ def test_a_goal_beyond_the_reach_ends_as_goal_invalid_when_the_field_stagnates(x
     path = field.plan_whole_body(xarm, SEED_Q0, 0.01, 0.01, 30000)
     assert (alone.status, path.status, path.planner) == (PlanStatus.STAGNATION, PlanStatus.GOAL_INVALID, "field")
     np.testing.assert_array_equal(path.joint_positions, alone.joint_positions)  # the field's motion is kept
+    # the root cause first (issue 33): the goal cannot be reached, then what the field did
+    assert path.failure_reason.startswith("goal invalid: no inverse-kinematics solution"), path.failure_reason
+    assert "stagnation" in path.failure_reason
 
 
 @pytest.mark.parametrize(("kwargs", "field"), [

@@ -184,10 +184,10 @@ class Mesh:
 
     def __init__(self, mesh_resource: str | os.PathLike[str], scale_x: float = 1.0, scale_y: float = 1.0,
                  scale_z: float = 1.0, *, resolver: ResourceResolver | None = None) -> None:
-        scale = _scales((scale_x, scale_y, scale_z))
         if isinstance(mesh_resource, os.PathLike):
             mesh_resource = os.fspath(mesh_resource)
-        path = (resolver or ResourceResolver.default()).resolve(mesh_resource)
+        path = (resolver or ResourceResolver.default()).resolve(mesh_resource)  # a missing file is said first
+        scale = _scales((scale_x, scale_y, scale_z))
         try:
             read_mesh_file(path)  # validates suffix, emptiness and content with clear errors
         except InvalidInput as exc:

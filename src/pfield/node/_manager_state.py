@@ -26,6 +26,7 @@ from pfield.node._frames import PARAMETER as TRANSFORMS
 from pfield.node._frames import StaticTransforms, parse_transforms
 from pfield.node._params import ParameterRow, ParameterTable, field_docs
 from pfield.planning.options import DEFAULT_GLOBAL_TIME_LIMIT
+from pfield.shared_control import ARBITRATIONS
 from pfield.spatial import Pose
 
 __all__ = ["MAX_MESH_FILE_SIZE", "MAX_OBSTACLES", "Held", "ManagerParameters", "ManagerState", "Memo",
@@ -61,6 +62,9 @@ class ManagerParameters:
     """When the field alone stagnates or reaches the iteration limit, search globally and track the result."""
     global_time_limit: float = DEFAULT_GLOBAL_TIME_LIMIT
     """s: wall-clock limit of that global search."""
+    assistance_arbitration: str = "linear"
+    """compute_assistance's arbitration when a request leaves ``arbitration`` empty: ``linear``, ``linear_goal`` or
+    ``safety_only`` (docs/assistance.md)."""
 
     def __post_init__(self) -> None:
         timeout = self.dynamic_obstacle_timeout
@@ -78,6 +82,9 @@ class ManagerParameters:
         object.__setattr__(self, "global_time_limit", _validation.positive("global_time_limit",
                                                                             self.global_time_limit))
         object.__setattr__(self, "static_transforms", parse_transforms(self.static_transforms, self.fixed_frame))
+        if self.assistance_arbitration not in ARBITRATIONS:
+            raise InvalidInput("assistance_arbitration", self.assistance_arbitration,
+                               f"must be one of {list(ARBITRATIONS)}")
 
     def frames(self) -> StaticTransforms:
         return StaticTransforms(self.fixed_frame, self.static_transforms)
@@ -118,7 +125,9 @@ def manager_table(name: str) -> ParameterTable:
                           1, 2**31 - 1, "bytes", positive=True),
              ParameterRow("global_fallback", "bool", own_docs["global_fallback"], own.global_fallback),
              ParameterRow("global_time_limit", "double", own_docs["global_time_limit"], own.global_time_limit,
-                          0.0, MAX_GLOBAL_TIME_LIMIT, "s", positive=True)]
+                          0.0, MAX_GLOBAL_TIME_LIMIT, "s", positive=True),
+             ParameterRow("assistance_arbitration", "string", own_docs["assistance_arbitration"],
+                          own.assistance_arbitration, choices=ARBITRATIONS)]
     return ParameterTable(name, rows)
 
 

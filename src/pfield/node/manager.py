@@ -19,7 +19,9 @@ header and are in the fixed frame.
 State changes are all-or-nothing: every request is validated completely before anything is changed,
 and planning works on a snapshot, so short calls (autonomy vector) keep answering during a long plan.
 Planning behaviour follows the seed's PlanPath.srv: ``planning_method`` empty means task_space,
-``max_iterations`` ≤ 0 means :data:`DEFAULT_MAX_ITERATIONS`; above :data:`MAX_ITERATIONS_CAP` is refused.
+``max_iterations`` ≤ 0 means :data:`DEFAULT_MAX_ITERATIONS`; above :data:`MAX_ITERATIONS_CAP` is refused. A
+``delta_time`` or ``goal_tolerance`` of 0 (what ROS fills in for a field left out) means
+:data:`DEFAULT_DELTA_TIME` / :data:`DEFAULT_GOAL_TOLERANCE`, the values of the seed's examples.
 
 Bounded work (each limit refused with ``InvalidInput`` naming the field, the value and the limit, before
 anything runs or changes): at most :data:`MAX_OBSTACLES` obstacles; Mesh files up to the
@@ -78,8 +80,9 @@ from pfield.shared_control.assistance import (
 )
 from pfield.spatial import Pose, Twist, rotate_vectors
 
-__all__ = ["DEFAULT_MAX_ITERATIONS", "MAX_DELTA_TIME", "MAX_ITERATIONS_CAP", "MAX_OBSTACLES", "MAX_PLAN_WORK",
-           "MIN_DELTA_TIME", "ManagerNode", "ManagerParameters"]
+__all__ = ["DEFAULT_DELTA_TIME", "DEFAULT_GOAL_TOLERANCE", "DEFAULT_MAX_ITERATIONS", "MAX_DELTA_TIME",
+           "MAX_ITERATIONS_CAP", "MAX_OBSTACLES", "MAX_PLAN_WORK", "MIN_DELTA_TIME", "ManagerNode",
+           "ManagerParameters"]
 
 _log = logging.getLogger(__name__)
 MAX_ITERATIONS_CAP = 200_000
@@ -87,6 +90,10 @@ MAX_ITERATIONS_CAP = 200_000
 MIN_DELTA_TIME, MAX_DELTA_TIME = 1e-6, 10.0
 """s: the accepted ``delta_time`` of a plan (a 1 MHz to 0.1 Hz control rate covers every real controller;
 below 1 µs the waypoints' nanosecond stamps would no longer be distinct)."""
+DEFAULT_DELTA_TIME = 0.02
+"""s: the step of a plan whose request leaves ``delta_time`` at 0 (the seed's examples use 0.02 s)."""
+DEFAULT_GOAL_TOLERANCE = 0.01
+"""m: the goal tolerance of a plan whose request leaves ``goal_tolerance`` at 0 (the seed's examples)."""
 MAX_PLAN_WORK = 50_000_000
 """Largest ``max_iterations × max(1, obstacles)`` of one plan (obstacle-steps): e.g. 200 000 iterations
 among 250 obstacles or 30 000 among 1666. Measured ~0.6 µs per obstacle-step (task space, spheres), so
@@ -147,7 +154,10 @@ class ManagerNode(Node):
         self.csv_dir = csv_dir
         self.parameter_table = manager_table(self.name)
         self._lock = threading.Lock()
-        self._state = ManagerState(config or FieldConfig(), parameters or ManagerParameters())
+        parameters = parameters or ManagerParameters()
+        if assistance is not None:  # the options' arbitration is the parameter's initial value
+            parameters = replace(parameters, assistance_arbitration=assistance.arbitration)
+        self._state = ManagerState(config or FieldConfig(), parameters)
         self._field: Memo[Any] = Memo(lambda s: None if s.goal is None else
                                       _planning.make_field(s.config, s.goal, s.obstacle_list()),
                                       depends=("config", "goal", "obstacles"))
@@ -207,7 +217,8 @@ class ManagerNode(Node):
                                          "static_transforms": transforms_data(params.static_transforms),
                                          "max_mesh_file_size": params.max_mesh_file_size,
                                          "global_fallback": params.global_fallback,
-                                         "global_time_limit": params.global_time_limit}
+                                         "global_time_limit": params.global_time_limit,
+                                         "assistance_arbitration": params.assistance_arbitration}
 
     def describe_parameters(self) -> dict[str, dict[str, Any]]:
         return self.parameter_table.describe()
@@ -377,12 +388,14 @@ class ManagerNode(Node):
             raise InvalidInput("max_iterations", iterations,
                                f"must be <= {MAX_ITERATIONS_CAP} (0 means {DEFAULT_MAX_ITERATIONS})")
         if iterations * max(1, obstacle_count) > MAX_PLAN_WORK:
+            largest = MAX_PLAN_WORK // max(1, obstacle_count)
             raise InvalidInput("max_iterations", iterations, f"{iterations} iterations among {obstacle_count} "
-                               f"obstacles exceed the work cap of {MAX_PLAN_WORK} obstacle-steps")
-        dt = _plan_duration(request.delta_time, iterations)
-        tolerance = request.goal_tolerance
+                               f"obstacles exceed the work cap of {MAX_PLAN_WORK} obstacle-steps: with these "
+                               f"obstacles, max_iterations <= {largest} passes (or remove obstacles)")
+        dt = _plan_duration(request.delta_time or DEFAULT_DELTA_TIME, iterations)
+        tolerance = request.goal_tolerance if request.goal_tolerance != 0 else DEFAULT_GOAL_TOLERANCE
         if not (math.isfinite(tolerance) and tolerance > 0):
-            raise InvalidInput("goal_tolerance", tolerance, "must be > 0 m")
+            raise InvalidInput("goal_tolerance", tolerance, f"must be > 0 m (0 means {DEFAULT_GOAL_TOLERANCE} m)")
         goal = pose_from_msg(request.goal, "goal")
         start: Pose | None = None
         joints = None
@@ -496,6 +509,7 @@ class ManagerNode(Node):
         method, dt, q, qd, pose = self._query(request, state)
         if request.arbitration and request.arbitration not in ARBITRATIONS:
             raise InvalidInput("arbitration", request.arbitration, f"expected one of {list(ARBITRATIONS)} or empty")
+        arbitration = request.arbitration or state.params.assistance_arbitration
         user = request.user_command
         transform = state.params.frames().lookup("user_command.header.frame_id", user.header.frame_id)
         values = [finite(f"user_command.twist.{part}.{axis}", getattr(getattr(user.twist, part), axis))
@@ -508,11 +522,11 @@ class ManagerNode(Node):
         age = time.time() - stamp if stamp > 0 else None
         scene = self._scene.get(state)
         if method == WHOLE_BODY:
-            answer = whole_body_assistance(scene, self.robot, q, command, request.arbitration,
+            answer = whole_body_assistance(scene, self.robot, q, command, arbitration,
                                            prev_joint_velocities=qd, dt=dt, input_age=age)
         else:
             assert pose is not None
-            answer = task_space_assistance(scene, pose, command, request.arbitration, input_age=age)
+            answer = task_space_assistance(scene, pose, command, arbitration, input_age=age)
         frame, now = state.params.fixed_frame, time.time()
         response = pfi.ComputeAssistance_Response.model_validate({  # one validation pass for the whole answer
             "autonomy_vector": twist_stamped_fields(answer.autonomy_vector, frame, now),

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from pfield._enums import NamedIntEnum
 
-__all__ = ["PlanStatus"]
+__all__ = ["ROOT_CAUSES", "PlanStatus"]
 
 
 class PlanStatus(NamedIntEnum):
@@ -45,3 +45,8 @@ class PlanStatus(NamedIntEnum):
     @property
     def success(self) -> bool:
         return self is PlanStatus.REACHED
+
+
+ROOT_CAUSES = frozenset({PlanStatus.GOAL_INVALID, PlanStatus.GLOBAL_NO_PATH})
+"""Outcomes of a global fallback that explain why the field stopped short (the goal cannot be reached at all, or
+no path exists): a failure reason names them first, then what the field did."""

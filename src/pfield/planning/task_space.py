@@ -23,7 +23,7 @@ from pfield.planning.fallback import FALLBACK_PLANNER, FIELD_PLANNER, task_space
 from pfield.planning.global_search import GlobalOptions
 from pfield.planning.options import DEFAULT_MAX_ITERATIONS, MAX_ITERATIONS_LIMIT, PlanOptions
 from pfield.planning.result import PlannedPath
-from pfield.planning.status import PlanStatus
+from pfield.planning.status import ROOT_CAUSES, PlanStatus
 from pfield.planning.whole_body import make_scene
 from pfield.spatial import Pose
 
@@ -101,7 +101,8 @@ def plan_task_space(
             poses, twists, clearances = outcome.loop
             count, reason, planner, status = len(poses), "", FALLBACK_PLANNER, PlanStatus.REACHED
         else:
-            reason, status = f"{reason}; {outcome.reason}", outcome.status
+            status = outcome.status  # the root cause first (see ROOT_CAUSES)
+            reason = f"{outcome.reason}; {reason}" if status in ROOT_CAUSES else f"{reason}; {outcome.reason}"
     # --- end of the global fallback
     if reason:
         _log.info("task-space plan failed after %d steps: %s", count - 1, reason)

@@ -45,7 +45,7 @@ from pfield.planning.global_search import GlobalOptions
 from pfield.planning.options import PlanOptions
 from pfield.planning.result import PlannedPath
 from pfield.planning.retime import retime_joint_path
-from pfield.planning.status import PlanStatus
+from pfield.planning.status import ROOT_CAUSES, PlanStatus
 from pfield.robot.model import RobotModel
 from pfield.spatial import Pose
 
@@ -219,8 +219,9 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
     errors = (float(np.linalg.norm(goal.position - pos[-1])), float(Pose(pos[-1], quats[-1]).rotation_distance(goal)))
     reason = "" if status == PlanStatus.REACHED else _failure_reason(
         field_status, count, culprit, robot, errors, obstacle_names, settings.dt, config.influence_distance)
-    if reason and fallback_reason:
-        reason = f"{reason}; {fallback_reason}"
+    if reason and fallback_reason:  # the root cause first: a goal no search can reach explains the field's stop
+        root_first = status in ROOT_CAUSES
+        reason = f"{fallback_reason}; {reason}" if root_first else f"{reason}; {fallback_reason}"
     if reason:
         _LOG.info("whole-body plan failed: %s", reason)
     trajectory = retime_joint_path(robot.joint_names, qs, robot.velocity_limits, arrays.max_acceleration,
