@@ -237,6 +237,11 @@ def _rows(name: str, results: list[dict[str, Outcome]]) -> list[BenchRow]:
                              target=95.0 if planner == PLANNERS[1] else None, higher_is_better=True, note=note))
         rows.append(BenchRow(SECTION, f"{name}: {planner} median time", medians[planner] * 1e3, "ms",
                              target=20.0 if planner == PLANNERS[1] else None))
+        durations = [float(o.times[-1]) for o in good if o.planner != PLANNERS[2] and len(o.times)]
+        if durations:  # what a robot takes to execute the retimed trajectory (the robot's acceleration limits)
+            rows.append(BenchRow(SECTION, f"{name}: {planner} median trajectory duration",
+                                 _percentile(durations, 50), "s",
+                                 note=f"p95 {_percentile(durations, 95):.2f} s over {len(durations)} trajectories"))
     return rows
 
 

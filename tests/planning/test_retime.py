@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -15,7 +16,8 @@ from pfield.interfaces import potential_fields_interfaces as pfi
 from pfield.interfaces.convert import plan_response
 from pfield.node._base import Bus
 from pfield.node.manager import ManagerNode
-from pfield.planning.retime import TimedJointTrajectory, default_acceleration_limits, retime_joint_path
+from pfield.planning.retime import TimedJointTrajectory, retime_joint_path
+from pfield.planning.whole_body import WholeBodyOptions, plan_whole_body
 from pfield.robot import RobotModel
 from pfield.spatial import Pose
 
@@ -96,19 +98,48 @@ def test_bad_input_is_refused_naming_the_field(kwargs: dict[str, Any], field: st
     assert info.value.field == field
 
 
-def test_default_acceleration_limits_follow_the_joint_kinds() -> None:
-    np.testing.assert_array_equal(default_acceleration_limits([0, 1, 0], 0.3, 2.0), [0.3, 2.0, 0.3])
+def test_the_robot_acceleration_limits_default_to_a_pace_real_arms_follow(xarm: RobotModel,
+                                                                           tmp_path: Path) -> None:
+    """Issue 33: the retiming's default 0.2 rad/s² made a 1.8 s motion last 10 s; the default is now URScript's
+    movej acceleration, 1.4 rad/s², and MoveIt's joint_limits.yaml sets it per joint."""
+    from pfield.robot.catalog import example_robot_data_root
+    from pfield.robot.limits import DEFAULT_JOINT_ACCELERATION
+
+    assert DEFAULT_JOINT_ACCELERATION == 1.4
+    np.testing.assert_array_equal(xarm.acceleration_limits, np.full(7, 1.4))
+    limits = tmp_path / "joint_limits.yaml"
+    limits.write_text("joint_limits:\n  joint2: {has_acceleration_limits: true, max_acceleration: 5.0,\n"
+                      "    has_velocity_limits: true, max_velocity: 1.0}\n  joint3: {has_acceleration_limits: false,"
+                      " max_acceleration: 9.0}\n  finger: {has_acceleration_limits: true, max_acceleration: 1.0}\n")
+    tuned = RobotModel.from_urdf(xarm.urdf_path, xarm.end_effector, {"example-robot-data": example_robot_data_root()},
+                                 joint_limits=limits)
+    np.testing.assert_array_equal(tuned.acceleration_limits, [1.4, 5.0, 1.4, 1.4, 1.4, 1.4, 1.4])
+    assert tuned.velocity_limits[1] == 1.0 and tuned.velocity_limits[2] == xarm.velocity_limits[2]
+    limits.write_text("joint_limits:\n  joint2: {has_acceleration_limits: true, max_acceleration: -1}\n")
+    with pytest.raises(InvalidInput, match=r"joint2\.max_acceleration"):
+        RobotModel.from_urdf(xarm.urdf_path, xarm.end_effector, {"example-robot-data": example_robot_data_root()},
+                             joint_limits=limits)
+
+
+def test_a_plan_is_retimed_with_the_robot_limits_not_the_field_s(xarm: RobotModel) -> None:
+    field = PotentialField(FieldConfig(), Pose((0.4, 0.2, 0.4), (1.0, 0.0, 0.0, 0.0)))
+    path = field.plan_whole_body(xarm, [0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0], 0.02, 0.01, 10000)
+    assert path.success and path.trajectory is not None
+    np.testing.assert_array_equal(path.trajectory.acceleration_limits, xarm.acceleration_limits)
+    slow = retime_joint_path(xarm.joint_names, path.joint_positions, xarm.velocity_limits, np.full(7, 0.2), 0.02)
+    assert path.trajectory.times[-1] < 0.5 * slow.times[-1]  # the old 0.2 rad/s² default: over twice as long
 
 
 def test_whole_body_plans_carry_a_trajectory_within_the_urdf_and_config_limits(xarm: RobotModel) -> None:
     config = FieldConfig(max_angular_acceleration=0.5)
     field = PotentialField(config, Pose((0.4, 0.2, 0.4), (1.0, 0.0, 0.0, 0.0)))
-    path = field.plan_whole_body(xarm, [0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0], 0.02, 0.01, 10000)
+    path = plan_whole_body(field, xarm, [0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0], 0.02, 0.01, 10000,
+                           options=WholeBodyOptions(acceleration_limits=(0.5,) * 7))
     assert path.success, path.failure_reason
     assert path.trajectory is not None and path.joint_positions is not None
     _assert_valid(path.trajectory, path.joint_positions)
     np.testing.assert_array_equal(path.trajectory.velocity_limits, xarm.velocity_limits)
-    np.testing.assert_array_equal(path.trajectory.acceleration_limits, np.full(7, 0.5))
+    np.testing.assert_array_equal(path.trajectory.acceleration_limits, np.full(7, 0.5))  # the options' own
     response = plan_response(path, "world")
     points = response.joint_trajectory.points
     assert len(points) == len(path.trajectory.times)
@@ -130,7 +161,7 @@ def test_the_node_answer_carries_timed_velocities_and_accelerations(xarm: RobotM
     accelerations = np.array([p.accelerations for p in points])
     velocities = np.array([p.velocities for p in points])
     assert accelerations.shape == velocities.shape == (len(points), 7)
-    limit = FieldConfig().max_angular_acceleration  # the node's config: revolute joints
+    limit = xarm.acceleration_limits  # the robot's (the documented default here)
     # the message's float32-free doubles: within the limits up to the Duration's nanosecond rounding
     assert np.all(np.abs(accelerations) <= limit + 1e-6)
     assert np.all(np.abs(velocities) <= xarm.velocity_limits + 1e-6)

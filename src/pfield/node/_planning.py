@@ -84,11 +84,8 @@ def run_plan(config: FieldConfig, obstacles: Sequence[Any], robot: Any, inputs: 
     path: PlannedPath = field.plan(start=inputs.start, options=options)
     if inputs.joint_angles is not None:
         from pfield.planning.joint_trajectory import attach_joint_trajectory
-        from pfield.planning.retime import default_acceleration_limits
 
-        accelerations = default_acceleration_limits(robot.kinematics.kinds, config.max_angular_acceleration,
-                                                    config.max_linear_acceleration)
-        path = attach_joint_trajectory(path, robot, inputs.joint_angles, acceleration_limits=accelerations)
+        path = attach_joint_trajectory(path, robot, inputs.joint_angles)  # the robot's acceleration limits
     return path
 
 

@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike
 
 from pfield.errors import InvalidInput
 from pfield.planning.result import PlannedPath
-from pfield.planning.retime import default_acceleration_limits, retime_joint_path
+from pfield.planning.retime import retime_joint_path
 from pfield.planning.status import PlanStatus
 from pfield.robot.ik import ik_path_kernel, ik_settings
 from pfield.robot.model import RobotModel
@@ -36,8 +36,8 @@ def attach_joint_trajectory(path: PlannedPath, robot: RobotModel, q_seed: ArrayL
     ``failure_reason`` naming k and the remaining error, and no joint arrays (the robot cannot follow it).
     Joint speeds above the URDF velocity limits are logged as a warning (the plan's ``dt`` is too short
     for the robot there), not changed; ``trajectory`` is the joint path time-parameterised within the
-    velocity limits and ``acceleration_limits`` (per joint; default
-    :func:`~pfield.planning.retime.default_acceleration_limits`), which a controller can execute.
+    velocity limits and ``acceleration_limits`` (per joint; default :attr:`RobotModel.acceleration_limits
+    <pfield.robot.RobotModel.acceleration_limits>`), which a controller can execute.
     """
     if not isinstance(path, PlannedPath):
         raise InvalidInput("path", path, "expected a pfield PlannedPath")
@@ -63,8 +63,7 @@ def attach_joint_trajectory(path: PlannedPath, robot: RobotModel, q_seed: ArrayL
         if too_fast.any():
             first = int(np.argwhere(too_fast)[0, 0])
             _LOG.warning("joint trajectory exceeds the velocity limits from waypoint %d on", first)
-    limits = default_acceleration_limits(robot.kinematics.kinds) if acceleration_limits is None else \
-        acceleration_limits
+    limits = robot.acceleration_limits if acceleration_limits is None else acceleration_limits
     dt = float(path.times[1] - path.times[0]) if len(path) > 1 else 0.01
     trajectory = retime_joint_path(robot.joint_names, qs, robot.velocity_limits, limits, dt if dt > 0 else 0.01)
     return replace(path, joint_names=robot.joint_names, joint_positions=qs, joint_velocities=velocities,

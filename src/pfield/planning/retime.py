@@ -20,9 +20,10 @@ through a spline of the waypoints: measured on the MotionBenchMaker plans it cos
 than planning itself), and its limits hold at its grid points only (up to 5·10⁻⁴ relative excess between
 them, so a uniform stretch is needed anyway).
 
-Acceleration limits: the caller's, else :data:`DEFAULT_JOINT_ACCELERATION` for revolute and
-:data:`DEFAULT_PRISMATIC_ACCELERATION` for prismatic joints (FieldConfig's ``max_angular_acceleration`` and
-``max_linear_acceleration`` defaults, the whole-body planner's joint limits).
+Acceleration limits: the caller's — the planners pass :attr:`RobotModel.acceleration_limits
+<pfield.robot.RobotModel.acceleration_limits>` (MoveIt's ``joint_limits.yaml``, else
+:data:`~pfield.robot.limits.DEFAULT_JOINT_ACCELERATION` for revolute and
+:data:`~pfield.robot.limits.DEFAULT_PRISMATIC_ACCELERATION` for prismatic joints).
 """
 
 from __future__ import annotations
@@ -36,16 +37,12 @@ from pfield._validation import positive
 from pfield.errors import InvalidInput
 from pfield.planning._retime_kernel import knot_indices, stretch_intervals, strictly_increasing
 
-__all__ = ["DEFAULT_JOINT_ACCELERATION", "DEFAULT_PRISMATIC_ACCELERATION", "TimedJointTrajectory",
-           "default_acceleration_limits", "retime_joint_path"]
+__all__ = ["TimedJointTrajectory", "retime_joint_path"]
 
 KNOT_SPACING = 0.05
 """rad (or m): least joint-space arc length between consecutive knots (see :func:`._retime_kernel.knot_indices`)."""
 _ROUNDS = 2000
-DEFAULT_JOINT_ACCELERATION = 0.2
-"""rad/s², revolute joints without a configured limit (FieldConfig's ``max_angular_acceleration``)."""
-DEFAULT_PRISMATIC_ACCELERATION = 1.0
-"""m/s², prismatic joints without a configured limit (FieldConfig's ``max_linear_acceleration``)."""
+
 
 
 @dataclass(frozen=True, eq=False)
@@ -77,12 +74,6 @@ class TimedJointTrajectory:
     @property
     def duration(self) -> float:
         return float(self.times[-1])
-
-
-def default_acceleration_limits(kinds: ArrayLike, revolute: float = DEFAULT_JOINT_ACCELERATION,
-                                prismatic: float = DEFAULT_PRISMATIC_ACCELERATION) -> NDArray[np.float64]:
-    """Per-joint acceleration limits from the joint kinds (0 revolute, else prismatic)."""
-    return np.where(np.asarray(kinds) == 0, revolute, prismatic).astype(np.float64)
 
 
 def _limits(name: str, value: ArrayLike, count: int) -> NDArray[np.float64]:

@@ -64,8 +64,9 @@ class WholeBodyOptions:
         null_space_gain: scale of the Khatib repulsion used as the null-space posture preference.
         joint_influence: (rad or m) joint-limit dampers act within this distance of a limit.
         joint_safety: (rad or m) joint-limit dampers stop the joint this far inside the limit.
-        acceleration_limits: (rad/s² or m/s²) per joint; ``None`` uses ``max_angular_acceleration``
-            for revolute and ``max_linear_acceleration`` for prismatic joints.
+        acceleration_limits: (rad/s² or m/s²) per joint, of the planner's steps and of the retimed trajectory;
+            ``None``: the steps use ``max_angular_acceleration`` (revolute) and ``max_linear_acceleration``
+            (prismatic), the trajectory :attr:`RobotModel.acceleration_limits`.
     """
 
     rotation_weight: float = 0.5
@@ -224,8 +225,10 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
         reason = f"{fallback_reason}; {reason}" if root_first else f"{reason}; {fallback_reason}"
     if reason:
         _LOG.info("whole-body plan failed: %s", reason)
-    trajectory = retime_joint_path(robot.joint_names, qs, robot.velocity_limits, arrays.max_acceleration,
-                                   settings.dt)
+    # the trajectory's accelerations: the robot's (joint_limits.yaml or the documented defaults) unless the
+    # options set the planner's joint limits explicitly
+    retime_limits = robot.acceleration_limits if opts.acceleration_limits is None else arrays.max_acceleration
+    trajectory = retime_joint_path(robot.joint_names, qs, robot.velocity_limits, retime_limits, settings.dt)
     return PlannedPath(success=status == PlanStatus.REACHED, failure_reason=reason,
                        times=np.arange(count) * settings.dt, positions=pos, orientations=quats, twists=twists,
                        clearances=clear, iterations=count - 1, joint_names=robot.joint_names, joint_positions=qs,

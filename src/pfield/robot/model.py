@@ -29,6 +29,7 @@ from pfield.errors import InvalidInput
 from pfield.robot import _kinematics as _k
 from pfield.robot._loader import LoadedRobot, _read_text, joint_axis, load_urdf, read_disabled_pairs
 from pfield.robot.catalog import builtin_spec, example_robot_data_root
+from pfield.robot.limits import default_accelerations, read_joint_limits
 from pfield.spatial import Pose
 
 if TYPE_CHECKING:
@@ -124,7 +125,8 @@ class RobotModel:
     """
 
     def __init__(self, loaded: LoadedRobot, end_effector: str, disabled_pairs: set[frozenset[str]] | None = None,
-                 name: str | None = None, named_configurations: Mapping[str, ArrayLike] | None = None) -> None:
+                 name: str | None = None, named_configurations: Mapping[str, ArrayLike] | None = None,
+                 joint_limits: str | Path | None = None) -> None:
         model = loaded.model
         if not model.existFrame(end_effector):
             links = [f.name for f in model.frames if f.type == pin.FrameType.BODY]
@@ -146,6 +148,10 @@ class RobotModel:
         # would compile it a second time for read-only ones
         self._check_lower, self._check_upper = np.array(lower, dtype=np.float64), np.array(upper, dtype=np.float64)
         self._velocity = _frozen(np.asarray(model.velocityLimit)[idx_v])
+        self._acceleration = _frozen(default_accelerations(self.kinematics.kinds))
+        if joint_limits is not None:
+            limits = read_joint_limits(joint_limits, self._joint_names, self._velocity, self.kinematics.kinds)
+            self._velocity, self._acceleration = _frozen(limits.velocity), _frozen(limits.acceleration)
         self._idx_q = np.array(idx_q)
         self._rotations = np.empty((n, 3, 3))
         self._origins = np.empty((n, 3))
@@ -156,17 +162,19 @@ class RobotModel:
     @classmethod
     def from_urdf(cls, path: str | Path, end_effector: str, package_paths: dict[str, str | Path] | None = None,
                   srdf: str | Path | None = None, locked_joints: dict[str, float] | None = None,
-                  resolver: ResourceResolver | None = None) -> RobotModel:
+                  resolver: ResourceResolver | None = None, joint_limits: str | Path | None = None) -> RobotModel:
         """Load a URDF. ``package_paths`` maps package names to their root folders (for ``package://``).
 
         ``srdf`` (optional) supplies the disabled self-collision pairs and the named configurations (its group
         states); without it adjacent links are excluded. ``locked_joints`` maps joint names to fixed values
         (e.g. gripper fingers). ``resolver`` (optional) resolves mesh URIs instead, e.g. the node's resolver.
+        ``joint_limits`` (optional): MoveIt's ``joint_limits.yaml`` for velocity and acceleration limits
+        (:mod:`pfield.robot.limits`; without it: the URDF's velocities and the documented accelerations).
         """
         loaded = load_urdf(path, package_paths, locked_joints, resolver)
         disabled = read_disabled_pairs(srdf) if srdf is not None else None
         named = read_group_states(srdf, _joint_names(loaded)) if srdf is not None else None
-        return cls(loaded, end_effector, disabled, named_configurations=named)
+        return cls(loaded, end_effector, disabled, named_configurations=named, joint_limits=joint_limits)
 
     @classmethod
     def builtin(cls, name: str, locked_joints: dict[str, float] | None = None) -> RobotModel:
@@ -219,6 +227,12 @@ class RobotModel:
     def velocity_limits(self) -> NDArray[np.float64]:
         """Joint speed limits from the URDF (rad/s or m/s)."""
         return self._velocity
+
+    @property
+    def acceleration_limits(self) -> NDArray[np.float64]:
+        """(n,) joint acceleration limits (rad/s² or m/s²) of retimed trajectories: ``joint_limits.yaml``'s, else
+        :data:`~pfield.robot.limits.DEFAULT_JOINT_ACCELERATION` / ``DEFAULT_PRISMATIC_ACCELERATION``."""
+        return self._acceleration
 
     @property
     def pinocchio_model(self) -> pin.Model:
