@@ -36,7 +36,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("mobile", "costmap"),  # 2D packages: spatial and the bottom layer only
     ("spatial",),
     ("safety",),  # the output contract: every command finite and within its limits (numpy and the bottom layer)
-    ("_spatial_kernels", "_linalg", "_layout", "_validation", "_compile_notice"),
+    ("_spatial_kernels", "_linalg", "_layout", "_validation", "_compile_notice", "_files"),
     ("_core",),  # the compiled core (C++, nanobind): imports nothing of pfield
     ("_enums",),  # enums that print their names (outcomes: PlanStatus, PoseState)
     ("errors",),

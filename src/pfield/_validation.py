@@ -160,3 +160,22 @@ def integer(field: str, value: Any) -> int:
     if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
         raise InvalidInput(field, value, "must be an integer")
     return int(value)
+
+
+def number(field: str, value: Any) -> float:
+    """Return ``value`` as a float when it is a number: an int or a float (numpy's too), as ROS's typed fields
+    take them (an int in a float field, as ros2's YAML arguments allow). Strings and booleans are refused where
+    ``float()`` would read ``"0.02"`` or ``True``; NaN and inf pass (ROS floats carry them), :func:`finite`
+    refuses them."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, int | float | np.integer | np.floating):
+        raise InvalidInput(field, value, f"must be a number, not {_type_name(value)}")
+    try:
+        return float(value)
+    except OverflowError:
+        raise InvalidInput(field, value, "must be within a double's range (about ±1.8e308)") from None
+
+
+def _type_name(value: Any) -> str:
+    names = {str: "a string", bytes: "bytes", bool: "a boolean", np.bool_: "a boolean", type(None): "null",
+             list: "a list", dict: "a mapping"}
+    return names.get(type(value), f"a {type(value).__name__}")

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 from typer.testing import CliRunner
 
+from pfield.batch import finished_keys
 from pfield.cli import app
 
 
@@ -42,3 +44,18 @@ def test_bad_arguments_exit_2_naming_the_option(problem_paths: list[Path], tmp_p
         assert result.exit_code == 2 and words in result.output, (args, result.output)
     missing = runner.invoke(app, ["batch", str(tmp_path / "nothing"), "--out", out])
     assert missing.exit_code == 2 and "no such file" in missing.output
+
+
+def test_resume_reads_only_a_regular_results_file_and_skips_lines_that_are_not_records(
+        problem_paths: list[Path], tmp_path: Path) -> None:
+    runner = CliRunner()
+    scene = str(problem_paths[-1])  # the task-space scene file: one quick plan
+    pipe = tmp_path / "results.fifo"
+    os.mkfifo(pipe)  # reading it to resume would wait for a writer forever
+    refused = runner.invoke(app, ["batch", scene, "--out", str(pipe), "--resume"])
+    assert refused.exit_code == 2 and "results=" in refused.output and "is a FIFO" in refused.output, refused.output
+    out = tmp_path / "results.jsonl"
+    out.write_bytes(b'{"scene": "scene", "index": 0}\n\xff\xfe not UTF-8 \xff\n')
+    assert finished_keys(out) == {("scene", 0)}
+    again = runner.invoke(app, ["batch", scene, "--out", str(out), "--resume"])
+    assert again.exit_code == 0 and "0 problems planned (1 already in" in again.output, again.output

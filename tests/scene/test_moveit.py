@@ -148,6 +148,25 @@ def test_bad_scenes_are_refused_naming_the_part(scene: object, field: str, words
     assert raised.value.field == field
 
 
+@pytest.mark.parametrize(("primitive", "pose", "field"), [
+    ({"type": 2, "dimensions": ["0.1"]}, {}, "primitives[0].dimensions[0]"),
+    ({"type": 2, "dimensions": [True]}, {}, "primitives[0].dimensions[0]"),
+    ({"type": 2, "dimensions": [0.1]}, {"position": {"x": "0.4"}}, "primitive_poses[0].position.x"),
+    ({"type": 2, "dimensions": [0.1]}, {"orientation": [0, 0, 0, False]}, "primitive_poses[0].orientation.w"),
+])
+def test_numbers_are_numbers_as_in_the_messages(primitive: dict[str, object], pose: dict[str, object],
+                                                field: str) -> None:
+    """An int serves for a float (MotionBenchMaker writes 0 and 1); a string or a boolean is refused, where
+    ``float()`` would read "0.4" and True."""
+    scene = {"world": {"collision_objects": [{"id": "s", "primitives": [primitive], "primitive_poses": [pose]}]}}
+    with pytest.raises(InvalidInput, match="must be a number, not a") as raised:
+        scene_obstacles(scene)
+    assert raised.value.field == f"scene.world.collision_objects[0].{field}"
+    integers = {"id": "s", "primitives": [{"type": 2, "dimensions": [1]}], "primitive_poses": [{"position": [0, 1, 0]}]}
+    (ball,) = scene_obstacles({"world": {"collision_objects": [integers]}})
+    assert ball.shape == Sphere(radius=1.0) and ball.pose.isclose(Pose((0.0, 1.0, 0.0)))
+
+
 @pytest.mark.parametrize(("request_data", "field"), [
     ({"goal_constraints": []}, "request.goal_constraints"),
     ({"start_state": {"joint_state": {"name": ["a", "b"], "position": [0.0]}}},
@@ -158,6 +177,10 @@ def test_bad_scenes_are_refused_naming_the_part(scene: object, field: str, words
       "path_constraints": {"joint_constraints": [{"joint_name": "a"}]}}, "request.path_constraints"),
     ({"goal_constraints": [{"position_constraints": [{"constraint_region": {}}]}]},
      "request.goal_constraints[0].position_constraints[0].constraint_region.primitive_poses"),
+    ({"start_state": {"joint_state": {"name": ["a"], "position": ["0.5"]}}},
+     "request.start_state.joint_state.position[0]"),
+    ({"goal_constraints": [{"joint_constraints": [{"joint_name": "a", "position": True}]}]},
+     "request.goal_constraints[0].joint_constraints[0].position"),
 ])
 def test_bad_requests_are_refused_naming_the_part(request_data: dict[str, object], field: str) -> None:
     with pytest.raises(InvalidInput) as raised:

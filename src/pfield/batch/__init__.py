@@ -23,6 +23,7 @@ from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import IO, Any
 
+from pfield._files import open_regular
 from pfield._validation import integer, positive
 from pfield.batch._solve import RECORD_FIELDS, TIMING_FIELDS, Workspace, problem_seed, solve
 from pfield.errors import InvalidInput
@@ -111,17 +112,19 @@ def finished_keys(path: str | Path) -> set[tuple[str, int]]:
     """The ``(scene, index)`` of every complete record in a JSON-lines result file (none if it is missing).
 
     A last line cut short by an interrupted run is not a record and is ignored (and overwritten by
-    :func:`write_records` when resuming)."""
+    :func:`write_records` when resuming), as is any other line that is not a record (bytes that are not
+    UTF-8 too). The file is read line by line, and only when it is a regular file (a FIFO would block)."""
     keys: set[tuple[str, int]] = set()
     file = Path(path)
     if not file.exists():
         return keys
-    for line in file.read_text(encoding="utf-8").splitlines():
-        try:
-            record = json.loads(line)
-            keys.add((str(record["scene"]), int(record["index"])))
-        except (ValueError, KeyError, TypeError):
-            continue
+    with open_regular("results", file) as lines:
+        for line in lines:
+            try:
+                record = json.loads(line)
+                keys.add((str(record["scene"]), int(record["index"])))
+            except (ValueError, KeyError, TypeError):  # UnicodeDecodeError is a ValueError
+                continue
     return keys
 
 

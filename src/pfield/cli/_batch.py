@@ -30,17 +30,20 @@ def batch(
 
     Fields: scene, index, success, status, seconds, cpu_seconds, steps, planner, joint_names, positions,
     times, clearances, error. Exit code 0 when every problem was planned (whether or not it reached its goal),
-    1 when a problem could not be planned (status error), 2 for bad arguments.
+    1 when a problem could not be planned (status error), 2 for bad arguments, an unwritable --out (checked
+    before anything is read or planned) or a problem file or archive that cannot be read or is out of bounds.
     """
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+    from pfield._files import check_writable
     from pfield.batch import finished_keys, plan_many, write_records
-    from pfield.errors import PfieldError
+    from pfield.cli._node import cli_errors
     from pfield.scene import read_problems
 
     console = Console(stderr=True)
-    try:
+    with cli_errors():
+        check_writable("--out", out)
         todo = read_problems(problems, robot=robot, scenes=scenes, limit=limit)
         done = finished_keys(out) if resume else set()
         todo = [p for p in todo if p.key not in done]
@@ -58,9 +61,6 @@ def batch(
             records = plan_many(todo, workers=workers, backend=backend, seed=seed, timeout=timeout, address=address,
                                 progress=report)
             written = write_records(records, out, append=resume)
-    except PfieldError as exc:
-        console.print(f"[red]error:[/red] {exc}", highlight=False)
-        raise typer.Exit(2) from None
     summary = ", ".join(f"{k} {v}" for k, v in sorted(counts.items()) if v) or "nothing to do"
     console.print(f"{written} problems planned ({len(done)} already in {out}): {summary}; results in {out}",
                   highlight=False)

@@ -11,7 +11,8 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
-from pfield.errors import PfieldError
+from pfield._files import check_writable
+from pfield.cli._node import cli_errors
 from pfield.scene.files import load_scene
 
 __all__ = ["register"]
@@ -44,11 +45,11 @@ def register(app: typer.Typer) -> None:
         output: Path = typer.Option(Path("plan.png"), "--output", "-o", help="PNG of the path and obstacles."),
         csv: Path | None = typer.Option(None, "--csv", help="Also write the waypoints as CSV."),
     ) -> None:
-        """Plan a task-space path with the potential field and plot it (exit 1 when the goal is not reached)."""
-        console = Console()
-        try:
-            code = _plan(scene, output, csv, console)
-        except PfieldError as exc:
-            console.print(f"[red]error:[/red] {exc}")
-            raise typer.Exit(2) from None
+        """Plan a task-space path with the potential field and plot it (exit 1 when the goal is not reached,
+        2 for a bad scene file or output path, checked before planning)."""
+        with cli_errors():
+            check_writable("--output", output)
+            if csv is not None:
+                check_writable("--csv", csv)
+            code = _plan(scene, output, csv, Console())
         raise typer.Exit(code)

@@ -20,7 +20,7 @@ import typer
 from pfield._validation import is_loopback_host
 from pfield.cli import _node_client
 from pfield.errors import InvalidInput, PfieldError
-from pfield.interfaces._yaml import load_yaml
+from pfield.interfaces._yaml import load_yaml_file
 from pfield.node._base import Bus, Node
 from pfield.transport import DEFAULT_HOST, DEFAULT_PORT
 from pfield.transport._server import ServerLimits
@@ -98,11 +98,7 @@ def parse_static_transforms(values: list[str]) -> dict[str, Any]:
 def load_ros_parameters(path: Path, option: str = "--params") -> dict[str, dict[str, Any]]:
     """``{node name: {parameter: value}}`` of a ROS 2 parameters file (``node: {ros__parameters: {...}}``);
     errors name ``option``, the command-line argument the file came from."""
-    try:
-        text = path.read_text()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InvalidInput(option, str(path), f"cannot read parameters: {exc}") from None
-    data = load_yaml(text, f"{option} {path}") or {}
+    data = load_yaml_file(path, option) or {}
     if not isinstance(data, dict):
         raise InvalidInput(option, str(path), "expected a mapping of node names")
     result = {}
@@ -155,11 +151,11 @@ def _check_host(host: str, token: str | None) -> None:
 
 @contextmanager
 def cli_errors() -> Iterator[None]:
-    """Turn a :class:`PfieldError` raised inside into ``error: ...`` on stderr and exit status 2."""
+    """Turn a :class:`PfieldError` raised inside into one line ``error: ...`` on stderr and exit status 2."""
     try:
         yield
     except PfieldError as exc:
-        typer.echo(f"error: {exc}", err=True)
+        typer.echo("error: " + " ".join(str(exc).splitlines()), err=True)
         raise typer.Exit(2) from None
 
 

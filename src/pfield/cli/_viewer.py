@@ -45,10 +45,13 @@ def view(
     """Open the 3D viewer: obstacles, influence zones, goal gizmo, plans, the robot and the field arrows."""
     logging.basicConfig(level=log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
     with cli_errors():
+        from pfield._files import check_writable
         from pfield.geometry import ResourceResolver
         from pfield.scene.files import load_scene
         from pfield.viz.viewer import Viewer, read_plan_csv
 
+        if export is not None:
+            check_writable("--export", export)
         packages = parse_package_paths(package_path or [])
         model = None if robot.lower() == "none" else load_robot(robot, end_effector, packages)
         roots = [p.resolve() for p in mesh_root or []]

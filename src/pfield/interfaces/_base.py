@@ -1,10 +1,13 @@
 """Base class and field types of the pydantic models that mirror ROS 2 ``.msg``/``.srv`` files.
 
 Every message model derives from :class:`RosMessage`: unknown fields are errors, missing fields take the
-ROS default (0, empty string, false, empty array, default-constructed nested message). Each model
-declares its ROS type name (``ros_type = "geometry_msgs/msg/Pose"``) and is registered under it, so
-transports can look a type up by the name a user types on the command line. Field annotations carry
-the ROS primitive type (``Float32`` …) so a test can prove the models equal the ``.msg`` files.
+ROS default (0, empty string, false, empty array, default-constructed nested message). Field types are
+ROS's: a float field takes a number (an int too, as ros2's YAML arguments allow), an integer field an int,
+a bool field true or false. A string or a boolean where a number belongs is refused (pydantic alone would
+read ``"0.02"`` as 0.02 and ``True`` as 1), and so is a float or a string where an integer or a boolean
+belongs. Each model declares its ROS type name (``ros_type = "geometry_msgs/msg/Pose"``) and is registered
+under it, so transports can look a type up by the name a user types on the command line. Field annotations
+carry the ROS primitive type (``Float32`` …) so a test can prove the models equal the ``.msg`` files.
 """
 
 from __future__ import annotations
@@ -12,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Annotated, Any, ClassVar
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
 
 from pfield import _validation
 from pfield.errors import InvalidInput
@@ -65,19 +68,35 @@ def _float32(value: float) -> float:
     return value
 
 
-Bool = Annotated[bool, RosType("bool")]
+def _typed(check: Any) -> BeforeValidator:
+    """A pydantic check of the value's own type by ``check`` (one of :mod:`pfield._validation`'s), before
+    pydantic's conversions could read a string or a boolean as a number."""
+
+    def validate(value: Any) -> Any:
+        try:
+            return check("value", value)
+        except InvalidInput as exc:  # pydantic names the field
+            raise ValueError(exc.reason) from None
+
+    return BeforeValidator(validate)
+
+
+_NUMBER = _typed(_validation.number)
+_INTEGER = _typed(_validation.integer)
+
+Bool = Annotated[bool, _typed(_validation.boolean), RosType("bool")]
 String = Annotated[str, AfterValidator(_utf8), RosType("string")]
 """A ROS string: valid UTF-8 (a lone surrogate such as ``"\\ud800"`` is refused naming the field)."""
-Float32 = Annotated[float, AfterValidator(_float32), RosType("float32")]
-Float64 = Annotated[float, RosType("float64")]
-Int8 = Annotated[int, Field(ge=-(2**7), lt=2**7), RosType("int8")]
-Int16 = Annotated[int, Field(ge=-(2**15), lt=2**15), RosType("int16")]
-Int32 = Annotated[int, Field(ge=-(2**31), lt=2**31), RosType("int32")]
-Int64 = Annotated[int, Field(ge=-(2**63), lt=2**63), RosType("int64")]
-UInt8 = Annotated[int, Field(ge=0, lt=2**8), RosType("uint8")]
-UInt16 = Annotated[int, Field(ge=0, lt=2**16), RosType("uint16")]
-UInt32 = Annotated[int, Field(ge=0, lt=2**32), RosType("uint32")]
-UInt64 = Annotated[int, Field(ge=0, lt=2**64), RosType("uint64")]
+Float32 = Annotated[float, _NUMBER, AfterValidator(_float32), RosType("float32")]
+Float64 = Annotated[float, _NUMBER, RosType("float64")]
+Int8 = Annotated[int, _INTEGER, Field(ge=-(2**7), lt=2**7), RosType("int8")]
+Int16 = Annotated[int, _INTEGER, Field(ge=-(2**15), lt=2**15), RosType("int16")]
+Int32 = Annotated[int, _INTEGER, Field(ge=-(2**31), lt=2**31), RosType("int32")]
+Int64 = Annotated[int, _INTEGER, Field(ge=-(2**63), lt=2**63), RosType("int64")]
+UInt8 = Annotated[int, _INTEGER, Field(ge=0, lt=2**8), RosType("uint8")]
+UInt16 = Annotated[int, _INTEGER, Field(ge=0, lt=2**16), RosType("uint16")]
+UInt32 = Annotated[int, _INTEGER, Field(ge=0, lt=2**32), RosType("uint32")]
+UInt64 = Annotated[int, _INTEGER, Field(ge=0, lt=2**64), RosType("uint64")]
 
 _REGISTRY: dict[str, type[RosMessage]] = {}
 

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from pfield._validation import finite, text
+from pfield._validation import finite, number, text
 from pfield.errors import InvalidInput
 from pfield.geometry import Box, Cylinder, Mesh, Obstacle, Shape, Sphere
 from pfield.spatial import Pose
@@ -46,6 +46,11 @@ def _mapping(where: str, value: Any) -> Mapping[str, Any]:
     if not isinstance(value, Mapping):
         raise InvalidInput(where, value, "expected a mapping")
     return value
+
+
+def _number(where: str, value: Any) -> float:
+    """A finite number as ROS types it: an int or a float, never a string or a boolean (``"0.5"``, ``true``)."""
+    return finite(where, number(where, value))
 
 
 def _list(where: str, value: Any) -> list[Any]:
@@ -69,7 +74,7 @@ def _vector(where: str, value: Any, names: str) -> list[float]:
         values = list(value)
     else:
         raise InvalidInput(where, value, f"expected a mapping of {list(names)} or a list")
-    return [finite(f"{where}.{name}", v) for name, v in zip(names, values, strict=True)]
+    return [_number(f"{where}.{name}", v) for name, v in zip(names, values, strict=True)]
 
 
 def pose_from_moveit(where: str, value: Any) -> Pose:
@@ -97,7 +102,7 @@ def _primitive(where: str, primitive: Any) -> Shape:
     data = _mapping(where, primitive)
     kind = data.get("type")
     name = _PRIMITIVES.get(kind, kind) if isinstance(kind, int) and not isinstance(kind, bool) else kind
-    dims = [finite(f"{where}.dimensions[{i}]", d) for i, d in enumerate(_list(f"{where}.dimensions",
+    dims = [_number(f"{where}.dimensions[{i}]", d) for i, d in enumerate(_list(f"{where}.dimensions",
                                                                               data.get("dimensions")))]
     expected = {"box": 3, "sphere": 1, "cylinder": 2}
     if name == "cone":
@@ -257,7 +262,7 @@ def request_from_moveit(request: Any, frames: Sequence[str] = WORLD_FRAMES) -> M
         raise InvalidInput("request.start_state.joint_state.position", len(values),
                            f"expected one position per joint name ({len(names)})")
     start = {text(f"request.start_state.joint_state.name[{i}]", n):
-             finite(f"request.start_state.joint_state.position[{i}]", v)
+             _number(f"request.start_state.joint_state.position[{i}]", v)
              for i, (n, v) in enumerate(zip(names, values, strict=True))}
     for key in ("path_constraints", "trajectory_constraints"):
         value = data.get(key)
@@ -279,7 +284,7 @@ def request_from_moveit(request: Any, frames: Sequence[str] = WORLD_FRAMES) -> M
         for i, item in enumerate(joints):
             where = f"request.goal_constraints[0].joint_constraints[{i}]"
             entry = _mapping(where, item)
-            goal_joints[text(f"{where}.joint_name", entry.get("joint_name"))] = finite(f"{where}.position",
+            goal_joints[text(f"{where}.joint_name", entry.get("joint_name"))] = _number(f"{where}.position",
                                                                                        entry.get("position"))
         return MotionRequest(start, goal_joints=goal_joints, group_name=group)
     pose, link = _goal_pose("request.goal_constraints[0]", goal, frames)

@@ -7,7 +7,12 @@ it to another process or a Ray worker. :func:`read_problems` turns paths into pr
 * a pfield scene file (``*.yaml``, :mod:`pfield.scene.files`) → one task-space problem;
 * a folder of MoveIt ``sceneNNNN.yaml`` / ``requestNNNN.yaml`` pairs (the MotionBenchMaker layout, also
   nested one level: every folder holding such pairs is one scene) → one whole-body problem per pair;
-* an archive (``.tar``, ``.tar.gz``, ``.tgz``, ``.tar.bz2``, ``.tar.xz``) of such folders.
+* an archive (``.tar``, ``.tar.gz``, ``.tgz``, ``.tar.bz2``, ``.tar.xz``) of such folders, unpacked within
+  the bounds of :mod:`pfield.scene._archives` (64 MiB decompressed, 10 000 members).
+
+Every YAML file is read within the bounds of :func:`pfield.interfaces._yaml.load_yaml_file` (a regular file
+of at most 8 MiB, 100 levels deep, 250 000 nodes with aliases expanded); a MoveIt file beyond them is one
+problem that cannot be read, a scene file or an archive beyond them fails the whole call.
 
 For MoveIt problems the robot is :class:`RobotSpec`'s built-in (default the Panda). The request's values of
 the catalog's locked joints lock them (MotionBenchMaker opens the Panda's fingers to 0.065 m); the goal is
@@ -17,20 +22,19 @@ a joint goal's end-effector pose (forward kinematics) or the request's pose goal
 from __future__ import annotations
 
 import re
-import tarfile
 import tempfile
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import yaml
-
 from pfield._validation import text
 from pfield.errors import InvalidInput
 from pfield.field import FieldConfig
 from pfield.geometry import Obstacle
+from pfield.interfaces._yaml import load_yaml_file
 from pfield.planning.options import PlanOptions
 from pfield.robot.catalog import builtin_spec
+from pfield.scene._archives import extract_archive
 from pfield.scene.files import load_scene
 from pfield.scene.moveit import WORLD_FRAMES, request_from_moveit, scene_obstacles
 from pfield.spatial import Pose
@@ -132,16 +136,6 @@ class Problem:
         return cls(scene, index, error=text("error", error) or "unreadable problem")
 
 
-_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml's parser when present: ~10x faster
-
-
-def _read_yaml(path: Path) -> object:
-    try:
-        return yaml.load(path.read_text(encoding="utf-8"), Loader=_LOADER)  # a safe loader
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
-        raise InvalidInput(path.name, str(path), f"cannot read the YAML file ({exc})") from None
-
-
 def read_moveit_problem(scene_file: Path, request_file: Path, index: int, robot: str = "panda",
                         config: FieldConfig = MBM_CONFIG, options: PlanOptions = MBM_OPTIONS) -> Problem:
     """The whole-body problem of one MoveIt scene/request pair (see the module text for the robot and goal).
@@ -150,9 +144,11 @@ def read_moveit_problem(scene_file: Path, request_file: Path, index: int, robot:
     the file and the part: ``InvalidInput("request0003.yaml: request.goal_constraints", …)``.
     """
     spec = builtin_spec(robot)
+    frames = (*WORLD_FRAMES, *_base_frames(robot))
+    scene_data, request_data = (load_yaml_file(file, file.name) for file in (scene_file, request_file))
     try:
-        obstacles = scene_obstacles(_read_yaml(scene_file), (*WORLD_FRAMES, *_base_frames(robot)))
-        request = request_from_moveit(_read_yaml(request_file), (*WORLD_FRAMES, *_base_frames(robot)))
+        obstacles = scene_obstacles(scene_data, frames)
+        request = request_from_moveit(request_data, frames)
     except InvalidInput as exc:
         where = scene_file.name if exc.field.startswith("scene") else request_file.name
         raise InvalidInput(f"{where}: {exc.field}", exc.value, exc.reason) from None
@@ -201,11 +197,7 @@ def _path_problems(path: Path, robot: str | None, config: FieldConfig | None, op
                 yield from _folder_problems(folder, *moveit, limit)
     elif _ARCHIVE.search(path.name):
         with tempfile.TemporaryDirectory(prefix="pfield-problems-") as tmp:
-            try:
-                with tarfile.open(path) as opened:
-                    opened.extractall(tmp, filter="data")
-            except (OSError, tarfile.TarError) as exc:
-                raise InvalidInput("problems", str(path), f"cannot read the archive ({exc})") from None
+            extract_archive(path, Path(tmp))
             # read everything before the folder goes away (meshes are loaded into memory)
             yield from list(_path_problems(Path(tmp), robot, config, options, wanted, limit, found))
     elif path.suffix in (".yaml", ".yml"):
