@@ -142,3 +142,16 @@ def test_rasterisation_shifts_with_whole_cells() -> None:
         assert {tuple(c) for c in (base + shift).tolist()} == {tuple(c) for c in moved.tolist()}, yaw
         vertices = np.floor(fp.posed(x, y, yaw) / res).astype(int)
         assert {tuple(v) for v in vertices.tolist()} <= {tuple(c) for c in base.tolist()}
+
+
+@pytest.mark.parametrize(("pose", "resolution", "field"), [
+    ((1e300, 0.0, 0.0), 0.05, "position"),  # over 2^40 cells from the origin
+    ((0.0, math.nan, 0.0), 0.05, "position"),
+    ((0.0, 0.0, math.inf), 0.05, "position"),
+    ((0.0, 0.0, 0.0), 1e-6, "resolution"),  # a 0.4 m footprint over ~1.6e11 cells
+])
+def test_rasterisation_refuses_poses_and_grids_it_cannot_place(pose: tuple[float, float, float], resolution: float,
+                                                                field: str) -> None:
+    with pytest.raises(InvalidInput) as info:
+        Footprint.from_radius(0.2).cells(*pose, (0.0, 0.0), resolution)
+    assert info.value.field == field

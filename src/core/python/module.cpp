@@ -6,10 +6,13 @@ namespace nb = nanobind;
 
 namespace pfield::python {
 void bind_mobile(nb::module_& m);
+void bind_costmap(nb::module_& m);
 }  // namespace pfield::python
 
 NB_MODULE(_core, m) {
   m.doc() = "pfield's compiled core (C++17): the per-step kernels; inputs are validated by the Python layer.";
   nb::module_ mobile = m.def_submodule("mobile");
   pfield::python::bind_mobile(mobile);
+  nb::module_ costmap = m.def_submodule("costmap");
+  pfield::python::bind_costmap(costmap);
 }

@@ -31,7 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from pfield.costmap import _kernels as _k
+from pfield._core import costmap as _costmap
 from pfield.costmap.footprint import Footprint
 from pfield.costmap.map_io import OccupancyMap
 from pfield.errors import InvalidInput
@@ -55,10 +55,10 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-FREE_SPACE = _k.FREE_SPACE
-INSCRIBED_INFLATED_OBSTACLE = _k.INSCRIBED_INFLATED_OBSTACLE
-LETHAL_OBSTACLE = _k.LETHAL_OBSTACLE
-NO_INFORMATION = _k.NO_INFORMATION
+FREE_SPACE: int = _costmap.FREE_SPACE
+INSCRIBED_INFLATED_OBSTACLE: int = _costmap.INSCRIBED_INFLATED_OBSTACLE
+LETHAL_OBSTACLE: int = _costmap.LETHAL_OBSTACLE
+NO_INFORMATION: int = _costmap.NO_INFORMATION
 
 
 MIN_ANGLE_INCREMENT = math.radians(0.1)
@@ -272,7 +272,8 @@ def local_window(occupancy: OccupancyMap, center_x: float, center_y: float, para
     origin_x = ox + math.floor((center_x - 0.5 * cells * res - ox) / step) * step
     origin_y = oy + math.floor((center_y - 0.5 * cells * res - oy) / step) * step
     scale = res / occupancy.resolution
-    data = _k.resample_occupancy(occupancy.data, _snap((origin_x - ox) / occupancy.resolution),
-                                 _snap((origin_y - oy) / occupancy.resolution), scale, cells, cells)
+    data = _costmap.resample_occupancy(np.ascontiguousarray(occupancy.data, dtype=np.int8),
+                                       _snap((origin_x - ox) / occupancy.resolution),
+                                       _snap((origin_y - oy) / occupancy.resolution), scale, cells, cells)
     window = OccupancyMap(data, res, (origin_x, origin_y, 0.0), occupancy.frame_id)
     return build_costmap(window, params)

@@ -17,7 +17,7 @@ the first OUTSIDE; otherwise LETHAL with no pose.
 
 Speed: one rasterised kernel per yaw, shared by every position (the sub-cell offset is the same for all
 lattice positions); rings of equal distance evaluated in order, stopping at the first ring holding a FREE
-or INSCRIBED candidate; a lethal-distance prefilter; all compiled (:mod:`pfield.costmap._kernels`).
+or INSCRIBED candidate; a lethal-distance prefilter; all compiled (``src/core/costmap/find_valid_pose.hpp``).
 """
 
 from __future__ import annotations
@@ -30,8 +30,8 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import NDArray
 
+from pfield._core import costmap as _costmap
 from pfield._validation import nonnegative, positive
-from pfield.costmap import _kernels as _k
 from pfield.costmap.costmap import Costmap2D
 from pfield.costmap.footprint import Footprint
 from pfield.errors import InvalidInput
@@ -61,6 +61,7 @@ MAX_KERNEL_CELLS = 4_000_000
 5 cm and 5° is ~3·10⁴; a 20 m ``safety_dist`` at 0.1° would be ~10⁹ (gigabytes)."""
 _SLACK = 1e-9
 _FAR_CELLS = 2.0**40
+_NOT_EVALUATED: int = _costmap.PoseState.NOT_EVALUATED.value
 
 
 class PoseState(IntEnum):
@@ -86,7 +87,7 @@ class SearchTrace:
     @property
     def evaluated(self) -> int:
         """Number of candidates whose state was computed."""
-        return int(np.count_nonzero(self.states != _k.NOT_EVALUATED))
+        return int(np.count_nonzero(self.states != _NOT_EVALUATED))
 
 
 @dataclass(frozen=True, eq=False)
@@ -142,16 +143,16 @@ def yaw_offsets(angle_tolerance: float, angle_increment: float) -> NDArray[np.fl
 
 
 def _kernels(costmap: Costmap2D, footprint: Footprint, pose: Pose, yaws: NDArray[np.float64]
-             ) -> tuple[int, int, tuple[NDArray[np.int64], ...]]:
-    """Base cell of the requested pose and the rasterised footprint per yaw (CSR arrays)."""
+             ) -> tuple[int, int, _costmap.YawKernels]:
+    """Base cell of the requested pose and the footprint rasterised at each yaw, relative to that cell."""
     u0 = (float(pose.position[0]) - costmap.origin_x) / costmap.resolution
     v0 = (float(pose.position[1]) - costmap.origin_y) / costmap.resolution
     if max(abs(u0), abs(v0)) > _FAR_CELLS:
         raise InvalidInput("pose.position", pose.position.tolist(), "too far from the map (over 2^40 cells)")
     base_m, base_n = math.floor(u0), math.floor(v0)
     points = footprint.points
-    kernels = _k.build_kernels(np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1]),
-                               u0 - base_m, v0 - base_n, yaws, 1.0 / costmap.resolution)
+    kernels = _costmap.rasterize_yaws(np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1]),
+                                      u0 - base_m, v0 - base_n, yaws, 1.0 / costmap.resolution)
     return base_m, base_n, kernels
 
 
@@ -163,10 +164,11 @@ def _answer_pose(pose: Pose, costmap: Costmap2D, i: int, j: int, delta: float) -
     return Pose(position, quaternion_multiply(turn, pose.orientation))
 
 
-def _max_ring(costmap: Costmap2D, base_m: int, base_n: int, k_box: NDArray[np.int64], dist_tolerance: float) -> int:
+def _max_ring(costmap: Costmap2D, base_m: int, base_n: int, kernel_reach: int, dist_tolerance: float) -> int:
     """Largest ``i² + j²`` to search: the tolerance, capped where every candidate lies entirely outside the map
-    (a position that far out is OUTSIDE and nearer to the request than anything beyond it)."""
-    reach = int(np.abs(k_box).max()) + 2
+    (a position that far out is OUTSIDE and nearer to the request than anything beyond it); ``kernel_reach``
+    is the largest cell offset of the rasterised footprints."""
+    reach = kernel_reach + 2
     corner = max(abs(base_m), abs(base_n), abs(base_m - costmap.size_x), abs(base_n - costmap.size_y))
     limit = 2 * (corner + reach) ** 2
     ratio = dist_tolerance / costmap.resolution  # compared before squaring: 1e308 must not overflow
@@ -223,34 +225,28 @@ def find_valid_pose(
         raise InvalidInput("safety_dist", safety_dist, f"the padded footprint is refused: {exc.reason}") from None
     deltas = yaw_offsets(angle_tolerance, angle_increment)
     _check_kernel_work(costmap, robot, deltas.size, safety_dist)
-    base_m, base_n, (k_ptr, k_dm, k_dn, k_box) = _kernels(costmap, robot, pose, pose.yaw + deltas)
-    max_ring = _max_ring(costmap, base_m, base_n, k_box, dist_tolerance)
+    base_m, base_n, kernels = _kernels(costmap, robot, pose, np.ascontiguousarray(pose.yaw + deltas))
+    max_ring = _max_ring(costmap, base_m, base_n, kernels.reach, dist_tolerance)
     if (math.pi * max_ring + 4 * math.sqrt(max_ring) + 1) * deltas.size > MAX_CANDIDATES:
         raise InvalidInput("dist_tolerance", dist_tolerance, f"with {deltas.size} yaws (angle_tolerance "
                            f"{angle_tolerance:g}, angle_increment {angle_increment:g}) the search exceeds "
                            f"{MAX_CANDIDATES} candidates")
     pos_i, pos_j, ring_ptr = candidate_offsets(max_ring)
-    states = np.full((pos_i.size, deltas.size), _k.NOT_EVALUATED, dtype=np.uint8)
-    found = _k.search_rings(costmap.costs, base_m, base_n, ring_ptr, pos_i, pos_j, k_ptr, k_dm, k_dn, k_box,
-                            costmap.lethal_distance, _prefilter_limit(costmap, robot, pose, base_m, base_n), states)
+    states = np.full((pos_i.size, deltas.size), _NOT_EVALUATED, dtype=np.uint8)
+    found = _costmap.find_valid_pose(costmap.costs, costmap.lethal_distance, base_m, base_n, kernels, pos_i, pos_j,
+                                     ring_ptr, _prefilter_limit(costmap, robot, pose, base_m, base_n), states)
     positions = np.column_stack((pose.position[0] + pos_i * costmap.resolution,
                                  pose.position[1] + pos_j * costmap.resolution))
     trace = SearchTrace(positions, deltas, states)
-    for p_slot, a_slot in ((0, 1), (3, 4), (5, 6)):  # FREE/INSCRIBED, else UNKNOWN, else OUTSIDE
-        p, a = int(found[p_slot]), int(found[a_slot])
-        if p >= 0:
-            i, j = int(pos_i[p]), int(pos_j[p])
-            state, cost = _k.evaluate_cells(costmap.costs, base_m + i, base_n + j, k_dm[k_ptr[a]:k_ptr[a + 1]],
-                                            k_dn[k_ptr[a]:k_ptr[a + 1]], k_box[a], _k.EVAL_FULL)
-            return ValidPoseResult(PoseState(state), int(cost), _answer_pose(pose, costmap, i, j, float(deltas[a])),
-                                   costmap.resolution * math.hypot(i, j), float(deltas[a]), trace)
-    return ValidPoseResult(PoseState.LETHAL, 0, None, None, None, trace)
+    if not found.found:
+        return ValidPoseResult(PoseState.LETHAL, 0, None, None, None, trace)
+    i, j, delta = int(pos_i[found.position]), int(pos_j[found.position]), float(deltas[found.yaw])
+    return ValidPoseResult(PoseState(found.state.value), int(found.cost), _answer_pose(pose, costmap, i, j, delta),
+                           costmap.resolution * math.hypot(i, j), delta, trace)
 
 
 def pose_state(costmap: Costmap2D, footprint: Footprint, x: float, y: float, yaw: float) -> tuple[PoseState, int]:
     """State and cost (sum of covered in-map cells' costs) of the footprint at ``(x, y, yaw)`` in the map frame."""
     cells = footprint.cells(x, y, yaw, (costmap.origin_x, costmap.origin_y), costmap.resolution)
-    dm, dn = np.ascontiguousarray(cells[:, 0]), np.ascontiguousarray(cells[:, 1])
-    box = np.array([dm.min(), dm.max(), dn.min(), dn.max()], dtype=np.int64)
-    state, cost = _k.evaluate_cells(costmap.costs, 0, 0, dm, dn, box, _k.EVAL_FULL)
-    return PoseState(state), int(cost)
+    placement = _costmap.evaluate_cells(costmap.costs, cells)
+    return PoseState(placement.state.value), int(placement.cost)

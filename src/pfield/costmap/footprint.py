@@ -8,7 +8,8 @@ radius is the smallest distance from the robot centre to the polygon's edges, th
 the largest distance to a vertex (nav2 ``calculateMinAndMaxDistances``).
 
 Rasterisation onto a grid is exact: a cell is covered when the closed polygon meets the half-open cell
-(see :mod:`pfield.costmap._kernels`). Concave polygons are supported; self-intersecting ones are rejected.
+(compiled core: ``src/core/costmap/raster.hpp``). Concave polygons are supported; self-intersecting ones are
+rejected.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ import yaml
 from numpy.typing import ArrayLike, NDArray
 from shapely.geometry import LinearRing, Point, Polygon
 
-from pfield.costmap import _kernels as _k
+from pfield._core import costmap as _costmap
 from pfield.errors import InvalidInput
 
 __all__ = ["RADIUS_FOOTPRINT_POINTS", "Footprint"]
@@ -38,6 +39,10 @@ def _segment_distance(ax: float, ay: float, bx: float, by: float) -> float:
     t = 0.0 if length2 == 0.0 else min(1.0, max(0.0, -(ax * dx + ay * dy) / length2))
     return math.hypot(ax + t * dx, ay + t * dy)
 
+
+MAX_RASTER_CELLS: int = _costmap.MAX_RASTER_CELLS
+"""Most cells (2^30) the bounding box of one rasterised footprint may span (a 50 m footprint at 2 mm cells)."""
+_FAR_CELLS = 2.0**40
 
 MAX_FOOTPRINT_EXTENT = 50.0
 """m: footprint vertices lie within ±50 m of the robot's centre (the largest mobile machines are ~20 m)."""
@@ -153,9 +158,19 @@ class Footprint:
 
         ``origin`` is the map frame position (m) of cell (0, 0)'s lower-left corner; cell ``(mx, my)`` is
         ``[ox + mx·r, ox + (mx+1)·r) × [oy + my·r, oy + (my+1)·r)``. Cells may lie outside the grid.
+        Raises :class:`~pfield.errors.InvalidInput` for a pose that is not finite or over 2^40 cells from the
+        grid's origin, or a footprint spanning more than :data:`MAX_RASTER_CELLS` cells.
         """
+        if not all(math.isfinite(value) for value in (x, y, yaw)):
+            raise InvalidInput("position", [x, y, yaw], "must be finite")
         world = self.posed(x, y, yaw)
-        us = (world[:, 0] - origin[0]) / resolution
-        vs = (world[:, 1] - origin[1]) / resolution
-        cm, cn = _k.rasterize_polygon(np.ascontiguousarray(us), np.ascontiguousarray(vs))
-        return np.column_stack((cm, cn))
+        us = np.ascontiguousarray((world[:, 0] - origin[0]) / resolution)
+        vs = np.ascontiguousarray((world[:, 1] - origin[1]) / resolution)
+        if not (np.all(np.abs(us) <= _FAR_CELLS) and np.all(np.abs(vs) <= _FAR_CELLS)):
+            raise InvalidInput("position", [x, y], "too far from the grid's origin (over 2^40 cells)")
+        span = (math.floor(us.max()) - math.floor(us.min()) + 1) * (math.floor(vs.max()) - math.floor(vs.min()) + 1)
+        if span > MAX_RASTER_CELLS:
+            raise InvalidInput("resolution", resolution, f"the footprint spans ~{span:.3g} cells, above the cap "
+                               f"of {MAX_RASTER_CELLS}")
+        cells: NDArray[np.int64] = _costmap.rasterize_polygon(us, vs)
+        return cells
