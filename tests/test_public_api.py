@@ -59,8 +59,10 @@ def test_outcome_enums_print_their_names_and_stay_numbers() -> None:
     """Issue 33: ``print(path.status)`` printed ``1``; the number stays for comparisons and wire formats."""
     import json
 
+    from pfield.costmap.find_valid_pose import PoseState
     from pfield.planning import PlanStatus
 
     status = PlanStatus.STAGNATION
     assert str(status) == "STAGNATION" and f"{status}" == "STAGNATION" and f"{status:d}" == "1"
     assert status == 1 and int(status) == 1 and json.dumps({"status": status}) == '{"status": 1}'
+    assert str(PoseState.INSCRIBED) == "INSCRIBED" and PoseState.INSCRIBED == 1

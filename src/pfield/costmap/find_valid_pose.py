@@ -24,13 +24,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from enum import IntEnum
 from functools import lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pfield._core import costmap as _costmap
+from pfield._enums import NamedIntEnum
 from pfield._validation import nonnegative, positive
 from pfield.costmap.costmap import Costmap2D
 from pfield.costmap.footprint import Footprint
@@ -64,8 +64,9 @@ _FAR_CELLS = 2.0**40
 _NOT_EVALUATED: int = _costmap.PoseState.NOT_EVALUATED.value
 
 
-class PoseState(IntEnum):
-    """The response's state constants (``FindValidPose.srv``)."""
+class PoseState(NamedIntEnum):
+    """The response's state constants (``FindValidPose.srv``); prints its name (``INSCRIBED``), compares and
+    serialises as its number."""
 
     FREE = 0
     INSCRIBED = 1
