@@ -80,18 +80,27 @@ def panda_plan():
     return robot, path, PANDA_OBSTACLES
 
 
-def test_arm_plot_draws_every_capsule_to_scale_and_keeps_the_table_inside(panda_plan, tmp_path: Path) -> None:
+def test_arm_plot_shows_the_arm_at_key_moments_to_scale_with_path_and_clearance(panda_plan, tmp_path: Path) -> None:
+    """Issue 33: five translucent snapshots merged into one blob; now one panel per key moment (the start, the
+    closest approach, the end), the end-effector path large and the clearance over time."""
+    from pfield.viz.arm import key_moments
+
     robot, path, obstacles = panda_plan
     figure = plot_arm_plan(path, robot, obstacles, snapshots=4)
-    ax = figure.axes[0]
+    moments = key_moments(path, 4)
+    assert moments[0] == 0 and moments[-1] == len(path) - 1 and int(np.argmin(path.clearances)) in moments
+    assert len(figure.axes) == len(moments) + 2
     capsules = len(robot.geometry.capsules)
     cylinders_and_capsules = sum(1 for o in obstacles if not isinstance(o.shape, Box))
-    assert len(ax.collections) >= 4 * capsules + cylinders_and_capsules
     table = obstacle_bounds([o for o in obstacles if o.id == "table"])
-    assert _inside_limits(ax, table[0], table[1])
-    assert _box_aspect_is_true_scale(ax)
-    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    for ax in figure.axes[:len(moments)]:  # one arm per panel, every capsule, the scene to scale
+        assert capsules + cylinders_and_capsules <= len(ax.collections) < 2 * capsules + cylinders_and_capsules + 2
+        assert _inside_limits(ax, table[0], table[1]) and _box_aspect_is_true_scale(ax)
+    assert "clearance" in figure.axes[0].get_title()
+    labels = [t.get_text() for t in figure.axes[len(moments)].get_legend().get_texts()]
     assert "table (Box)" in labels and "pitcher (Cylinder)" in labels
+    clearance_line = figure.axes[-1].get_lines()[0]
+    np.testing.assert_allclose(clearance_line.get_ydata(), 100 * np.asarray(path.clearances))
     assert save_arm_plot(path, robot, obstacles, tmp_path / "arm.png").stat().st_size > 0
 
 
