@@ -162,7 +162,12 @@ def _plot_paths(target: Path, paths: dict[str, list[list[float]]], markers: list
     import matplotlib.pyplot as plt
     from matplotlib.patches import Ellipse, Rectangle
 
-    figure, axes = plt.subplots(1, 2, figsize=(11, 5))
+    figure, axes = plt.subplots(1, 2, figsize=(12, 5.5))
+    # the first plan as a wide translucent band, the next ones thin and dashed on it: where they coincide, both show
+    styles = [{"color": "tab:blue", "linestyle": "-", "linewidth": 6.0, "alpha": 0.35},
+              {"color": "tab:orange", "linestyle": "--", "linewidth": 1.6, "marker": ".", "markevery": 12}]
+    colours = plt.get_cmap("tab10").colors
+    names = sorted({str(m.get("text")) for m in markers if m["ns"] == "obstacles" and m.get("text")})
     for axis, (i, j), label in zip(axes, ((0, 1), (0, 2)), ("top view (x–y)", "side view (x–z)"), strict=True):
         for marker in markers:
             if marker["ns"] not in ("obstacles", "influence") or marker["type"] == 10:  # mesh: its sphere shows
@@ -173,18 +178,24 @@ def _plot_paths(target: Path, paths: dict[str, list[list[float]]], markers: list
             boxy = marker["type"] == 1 or (marker["type"] == 3 and j == 2)  # CUBE; CYLINDER seen from the side
             patch = (Rectangle((centre[i] - size[i] / 2, centre[j] - size[j] / 2), size[i], size[j]) if boxy
                      else Ellipse((centre[i], centre[j]), size[i], size[j]))
-            patch.set(color="grey", alpha=alpha)
+            name = str(marker.get("text") or "")
+            colour = colours[names.index(name) % len(colours)] if name in names else "grey"
+            patch.set(color=colour, alpha=alpha * 0.8)
+            if marker["ns"] == "obstacles" and axis is axes[1]:  # each obstacle named once, in the legend
+                patch.set_label(name)
             axis.add_patch(patch)
-        for method, points in paths.items():
+        for (method, points), style in zip(paths.items(), styles * len(paths), strict=False):
             xs, ys = [p[i] for p in points], [p[j] for p in points]
-            axis.plot(xs, ys, label=method)
+            axis.plot(xs, ys, label=method, **style)
             axis.plot(xs[0], ys[0], "ko", markersize=4)
-        axis.plot(_GOAL_POSITION[i], _GOAL_POSITION[j], "g*", markersize=12, label="goal")
+        axis.plot(_GOAL_POSITION[i], _GOAL_POSITION[j], "*", color="gold", markeredgecolor="k", markersize=15,
+                  label="goal")
         axis.set_title(label)
         axis.set_aspect("equal")
         axis.set_xlabel("xyz"[i] + " (m)")
         axis.set_ylabel("xyz"[j] + " (m)")
-    axes[0].legend()
+    axes[0].legend(loc="lower left", fontsize=8)
+    axes[1].legend(loc="upper left", fontsize=7, ncols=2, title="obstacles", title_fontsize=8)
     figure.suptitle("Seed plans through the node (obstacles as marker extents, influence zones light)")
     figure.savefig(target, dpi=110, bbox_inches="tight")
     plt.close(figure)

@@ -170,20 +170,24 @@ def plot_path_3d(
     ax = figure.add_subplot(1, 2, 1, projection="3d")
     handles = draw_obstacles(ax, obstacles)
     positions = path.positions
+    ax.computed_zorder = False  # drawn in this order: obstacles, path, triads, then the start and goal markers
     ax.plot(*positions.T, color="black", linewidth=2.0, label="path", zorder=10)
-    ax.scatter(*positions[0], color="tab:green", s=40, label="start")
     extent = [positions, obstacle_bounds(obstacles)]
     if goal is not None:
-        ax.scatter(*goal.position, color="tab:red", marker="*", s=120, label="goal")
         extent.append(goal.position[None, :])
     cloud = np.concatenate(extent)
     size = float(np.max(np.ptp(cloud, axis=0)))
     every = max(1, round((len(path) - 1) / TRIADS)) if len(path) > 1 else 1
     shown = np.unique(np.r_[np.arange(0, len(path), every), len(path) - 1])
+    if goal is not None and len(shown) > 1:  # the goal's own triad stands at the end: no second one under it
+        shown = shown[:-1]
     draw_frames(ax, positions[shown], path.orientations[shown], 0.06 * size,
                 f"orientation every {every} waypoints (x red, y green, z blue)")
+    ax.scatter(*positions[0], color="tab:green", s=60, edgecolors="k", depthshade=False, label="start", zorder=30)
     if goal is not None:
         draw_frames(ax, goal.position, goal.orientation, 0.09 * size, label=None)
+        ax.scatter(*goal.position, color="gold", marker="*", s=320, edgecolors="k", linewidths=0.8,
+                   depthshade=False, label="goal", zorder=31)
     set_equal_box(ax, cloud)
     ax.view_init(elev=22, azim=-120)
     ax.set_xlabel("x (m)")
