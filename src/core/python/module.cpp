@@ -7,6 +7,7 @@ namespace nb = nanobind;
 namespace pfield::python {
 void bind_mobile(nb::module_& m);
 void bind_costmap(nb::module_& m);
+void bind_geometry(nb::module_& m);
 }  // namespace pfield::python
 
 NB_MODULE(_core, m) {
@@ -15,4 +16,6 @@ NB_MODULE(_core, m) {
   pfield::python::bind_mobile(mobile);
   nb::module_ costmap = m.def_submodule("costmap");
   pfield::python::bind_costmap(costmap);
+  nb::module_ geometry = m.def_submodule("geometry");
+  pfield::python::bind_geometry(geometry);
 }

@@ -7,17 +7,18 @@ Public API (see ``docs/geometry.md``)::
     d, n = obstacle.signed_distance(points)          # (N,), (N, 3)
     packed = pack_obstacles([obstacle, ...])          # for compiled consumers
 
-Compiled consumers call :func:`obstacle_signed_distance`, :func:`min_signed_distance` or
-:func:`signed_distances` (numba kernels) on a :class:`PackedObstacles`.
+Python code calls :func:`signed_distances` (the compiled core, ``src/core/geometry``); numba consumers call
+:func:`obstacle_signed_distance` or :func:`min_signed_distance` (numba kernels, the same bits) on a
+:class:`PackedObstacles`.
 """
 
+from pfield.geometry._distances import signed_distances
 from pfield.geometry._packed import PackedObstacles
 from pfield.geometry._sdf import (
     empty_packed,
     min_signed_distance,
     obstacle_signed_distance,
     obstacle_signed_distance_within,
-    signed_distances,
 )
 from pfield.geometry.mesh import Mesh, MeshData, load_mesh_arrays, read_mesh_file
 from pfield.geometry.obstacle import GROUPS, SHAPE_TYPES, Obstacle, Shape, pack_obstacles

@@ -3,7 +3,9 @@
 Every compiled consumer (field, planners, collision checks) calls :func:`obstacle_signed_distance`,
 :func:`obstacle_signed_distance_within` or :func:`min_signed_distance`. They are inlined into the
 caller, allocate nothing on the heap (the mesh query keeps its traversal stack on the call stack) and,
-for primitives, do no reference counting.
+for primitives, do no reference counting. Python code calls :func:`pfield.geometry.signed_distances`, which
+runs the compiled core's port of these kernels (``src/core/geometry``, the same bits) until the consumers
+above move to the core too.
 
 Conventions
 -----------
@@ -54,7 +56,6 @@ __all__ = [
     "obstacle_signed_distance_within",
     "primitive_local",
     "row_signed_distance",
-    "signed_distances",
 ]
 
 
@@ -259,20 +260,6 @@ def min_signed_distance(packed: PackedObstacles, p: np.ndarray) -> tuple[float, 
         if d < best:
             best, bx, by, bz, best_i = d, nx, ny, nz, i
     return best, bx, by, bz, best_i
-
-
-@njit(cache=True)
-def signed_distances(packed: PackedObstacles, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Signed distances ``(N, M)`` and normals ``(N, M, 3)`` of N world points to all M obstacles."""
-    n_points, n_obstacles = points.shape[0], packed.kinds.shape[0]
-    distances = np.empty((n_points, n_obstacles))
-    normals = np.empty((n_points, n_obstacles, 3))
-    for k in range(n_points):
-        for i in range(n_obstacles):
-            d, nx, ny, nz = obstacle_signed_distance(packed, i, points[k])
-            distances[k, i] = d
-            normals[k, i, 0], normals[k, i, 1], normals[k, i, 2] = nx, ny, nz
-    return distances, normals
 
 
 def empty_packed() -> PackedObstacles:

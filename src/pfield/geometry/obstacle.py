@@ -17,10 +17,10 @@ from typing import Any, TypeAlias
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pfield._validation import as_points
 from pfield.errors import InvalidInput
+from pfield.geometry._distances import signed_distances
 from pfield.geometry._packed import ROW_WIDTH, SHAPE_CODES, PackedObstacles
-from pfield.geometry._sdf import empty_packed, signed_distances
+from pfield.geometry._sdf import empty_packed
 from pfield.geometry.mesh import Mesh, MeshData
 from pfield.geometry.shapes import Box, Capsule, Cylinder, Ellipsoid, Sphere
 from pfield.spatial import Pose
@@ -72,9 +72,7 @@ class Obstacle:
         ``points`` is (N, 3) or one (3,) point in the world frame (then N = 1). Exact for every shape;
         see ``docs/geometry.md`` for the normal on ties (medial axis).
         """
-        # writable, as every other caller passes: one compiled specialisation of signed_distances
-        array = np.require(as_points("points", points), requirements=["C", "W"])
-        distances, normals = signed_distances(self.packed, array)
+        distances, normals = signed_distances(self.packed, points)
         return distances[:, 0], normals[:, 0, :]
 
     def bounding_radius(self) -> float:

@@ -1,0 +1,89 @@
+// Bindings of the signed distances (pfield.geometry): a thin list of defs over geometry/sdf.hpp. The packed
+// obstacle set crosses as its eight arrays, in PackedObstacles' field order, read in place.
+#include <nanobind/nanobind.h>
+#include <nanobind/stl/tuple.h>
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <tuple>
+
+#include "geometry/packed.hpp"
+#include "geometry/sdf.hpp"
+#include "python/arrays.hpp"
+
+namespace pfield::python {
+namespace {
+
+using namespace nb::literals;
+using geometry::PackedView;
+
+using Kinds = nb::ndarray<const std::int64_t, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+using Rows16 = Rows<16>;
+using Triangles = nb::ndarray<const double, nb::shape<-1, 3, 3>, nb::c_contig, nb::device::cpu>;
+using PseudoNormals = nb::ndarray<const double, nb::shape<-1, 7, 3>, nb::c_contig, nb::device::cpu>;
+using Nodes = nb::ndarray<const std::int64_t, nb::shape<-1, 3>, nb::c_contig, nb::device::cpu>;
+using MeshTable = nb::ndarray<const std::int64_t, nb::shape<-1, 5>, nb::c_contig, nb::device::cpu>;
+
+// Points that are not all finite: pfield.geometry raises InvalidInput for them (the check runs here, in the loop's
+// pass over the points, rather than as a separate NumPy pass before the call).
+struct NonFinitePoints : std::invalid_argument {
+  NonFinitePoints() : std::invalid_argument("points: must be finite (no NaN or inf)") {}
+};
+
+bool all_finite(const double* values, std::size_t count) {
+  bool finite = true;
+  for (std::size_t k = 0; k < count; ++k) finite &= std::isfinite(values[k]);
+  return finite;
+}
+
+// The view over the arrays, refused with a ValueError when their lengths or indices disagree (a hand-built set).
+PackedView packed_view(const Kinds& kinds, const Rows16& rows, const Triangles& triangles,
+                       const PseudoNormals& pseudo_normals, const Rows<3>& lower, const Rows<3>& upper,
+                       const Nodes& nodes, const MeshTable& table) {
+  if (rows.shape(0) != kinds.shape(0)) throw std::invalid_argument("packed: kinds and rows differ in length");
+  if (pseudo_normals.shape(0) != triangles.shape(0))
+    throw std::invalid_argument("packed: triangles and pseudo_normals differ in length");
+  if (lower.shape(0) != nodes.shape(0) || upper.shape(0) != nodes.shape(0))
+    throw std::invalid_argument("packed: bvh_lower, bvh_upper and bvh_nodes differ in length");
+  const PackedView view{kinds.data(),     rows.data(),  kinds.shape(0), triangles.data(), pseudo_normals.data(),
+                        triangles.shape(0), lower.data(), upper.data(),   nodes.data(),     nodes.shape(0),
+                        table.data(),     table.shape(0)};
+  const std::string problem = geometry::check_packed(view);
+  if (!problem.empty()) throw std::invalid_argument(problem);
+  return view;
+}
+
+}  // namespace
+
+void bind_geometry(nb::module_& m) {
+  m.doc() = "Exact signed distances to packed obstacles (pfield.geometry's compiled core).";
+  nb::exception<NonFinitePoints>(m, "NonFinitePoints", PyExc_ValueError);
+
+  m.def(
+      "signed_distances",
+      [](const Kinds& kinds, const Rows16& rows, const Triangles& triangles, const PseudoNormals& pseudo_normals,
+         const Rows<3>& bvh_lower, const Rows<3>& bvh_upper, const Nodes& bvh_nodes, const MeshTable& mesh_table,
+         const Rows<3>& points, double cutoff) {
+        const PackedView packed =
+            packed_view(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table);
+        const std::size_t n = points.shape(0), count = packed.obstacle_count;
+        auto [distances, d] = new_array({n, count});
+        auto [normals, normal] = new_array({n, count, 3});
+        {
+          nb::gil_scoped_release release;
+          if (!all_finite(points.data(), 3 * n)) throw NonFinitePoints();
+          geometry::signed_distances(packed, points.data(), n, d, normal, cutoff);
+        }
+        return std::make_tuple(distances, normals);
+      },
+      "kinds"_a, "rows"_a, "triangles"_a, "pseudo_normals"_a, "bvh_lower"_a, "bvh_upper"_a, "bvh_nodes"_a,
+      "mesh_table"_a, "points"_a, "cutoff"_a = std::numeric_limits<double>::infinity(),
+      "Signed distances (N, M) and unit normals (N, M, 3) of N world points (N, 3) to the M packed obstacles;\n"
+      "exact where d <= cutoff, beyond it possibly a lower bound > cutoff (obstacle_signed_distance_within).");
+}
+
+}  // namespace pfield::python
