@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "geometry/bvh_build.hpp"
 #include "geometry/mesh_bvh.hpp"
 #include "geometry/packed.hpp"
 #include "geometry/sdf.hpp"
@@ -253,4 +254,27 @@ TEST(check_packed_refuses_broken_trees) {
   Tetrahedron root(true);
   root.table[0] = 3;
   CHECK(check_packed(root.view()).find("root") != std::string::npos);
+}
+
+TEST(bvh_build_splits_at_the_median_in_depth_first_order) {
+  // Five small triangles along x, given out of order; two share a centroid (the stable sort keeps their order).
+  const std::vector<double> xs{3.0, 0.0, 4.0, 1.0, 1.0};
+  std::vector<double> centroids, lows, highs;
+  for (double x : xs) {
+    centroids.insert(centroids.end(), {x, 0.0, 0.0});
+    lows.insert(lows.end(), {x - 0.25, -0.25, 0.0});
+    highs.insert(highs.end(), {x + 0.25, 0.25, 0.0});
+  }
+  const Bvh bvh = build_bvh(centroids.data(), lows.data(), highs.data(), xs.size(), 2);
+  CHECK((bvh.order == std::vector<std::int64_t>{1, 3, 4, 0, 2}));  // by x; triangles 3 and 4 tie, 3 first
+  // root [0, 5) -> left [0, 2) leaf, right [2, 5) -> [2, 3) leaf, [3, 5) leaf; numbered depth first
+  CHECK((bvh.nodes == std::vector<std::int64_t>{1, 2, 0, 0, 2, 1, 3, 4, 0, 2, 1, 1, 3, 2, 1}));
+  CHECK(bvh.lower[0] == -0.25 && bvh.upper[0] == 4.25 && bvh.lower[2] == 0.0 && bvh.upper[1] == 0.25);
+  CHECK(bvh.lower[3 * 2] == 0.75 && bvh.upper[3 * 2] == 4.25);  // the right child's box
+  const std::vector<std::int64_t> kinds;
+  const std::vector<std::int64_t> table{0, 5, 0, 5, 1};
+  const std::vector<double> triangles(9 * xs.size(), 0.0), pseudo_normals(21 * xs.size(), 0.0);
+  const PackedView packed{kinds.data(), nullptr, 0, triangles.data(), pseudo_normals.data(), xs.size(),
+                          bvh.lower.data(), bvh.upper.data(), bvh.nodes.data(), bvh.nodes.size() / 3, table.data(), 1};
+  CHECK(check_packed(packed).empty());
 }

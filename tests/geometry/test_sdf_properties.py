@@ -28,7 +28,7 @@ shapes = st.one_of(
 
 @functools.cache
 def _cube() -> Mesh:
-    """The unit cube mesh, built on first use (not while pytest collects: building it compiles a kernel)."""
+    """The unit cube mesh, built on first use (not while pytest collects: building it reads a file)."""
     return Mesh(str(MESHES / "unit_cube.stl"), resolver=ResourceResolver(allowed_roots=[MESHES]))
 
 

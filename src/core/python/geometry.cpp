@@ -3,6 +3,7 @@
 #include <nanobind/nanobind.h>
 #include <nanobind/stl/tuple.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -10,7 +11,9 @@
 #include <stdexcept>
 #include <string>
 #include <tuple>
+#include <utility>
 
+#include "geometry/bvh_build.hpp"
 #include "geometry/packed.hpp"
 #include "geometry/sdf.hpp"
 #include "python/arrays.hpp"
@@ -84,6 +87,33 @@ void bind_geometry(nb::module_& m) {
       "mesh_table"_a, "points"_a, "cutoff"_a = std::numeric_limits<double>::infinity(),
       "Signed distances (N, M) and unit normals (N, M, 3) of N world points (N, 3) to the M packed obstacles;\n"
       "exact where d <= cutoff, beyond it possibly a lower bound > cutoff (obstacle_signed_distance_within).");
+
+  m.def(
+      "build_bvh",
+      [](const Rows<3>& centroids, const Rows<3>& lows, const Rows<3>& highs, std::size_t leaf_size) {
+        const std::size_t count = centroids.shape(0);
+        if (lows.shape(0) != count || highs.shape(0) != count)
+          throw std::invalid_argument("build_bvh: centroids, lows and highs differ in length");
+        if (count == 0 || leaf_size == 0) throw std::invalid_argument("build_bvh: needs triangles and leaf_size >= 1");
+        geometry::Bvh bvh;
+        {
+          nb::gil_scoped_release release;
+          bvh = geometry::build_bvh(centroids.data(), lows.data(), highs.data(), count, leaf_size);
+        }
+        const std::size_t nodes = bvh.nodes.size() / 3;
+        auto [order, o] = new_array_of<std::int64_t>({count});
+        auto [lower, l] = new_array({nodes, 3});
+        auto [upper, u] = new_array({nodes, 3});
+        auto [tree, t] = new_array_of<std::int64_t>({nodes, 3});
+        std::copy(bvh.order.begin(), bvh.order.end(), o);
+        std::copy(bvh.lower.begin(), bvh.lower.end(), l);
+        std::copy(bvh.upper.begin(), bvh.upper.end(), u);
+        std::copy(bvh.nodes.begin(), bvh.nodes.end(), t);
+        return std::make_tuple(order, lower, upper, tree);
+      },
+      "centroids"_a, "lows"_a, "highs"_a, "leaf_size"_a,
+      "Median-split AABB tree over T triangles given by their centroids and box corners (T, 3) each:\n"
+      "(order (T,), lower (K, 3), upper (K, 3), nodes (K, 3)), nodes in depth-first order, root 0.");
 }
 
 }  // namespace pfield::python

@@ -1,10 +1,11 @@
-"""Preprocessing of triangle meshes for the compiled distance query (runs once per mesh, in numpy).
+"""Preprocessing of triangle meshes for the compiled distance query (runs once per mesh).
 
 * :func:`pseudo_normals` — per triangle, the 7 angle-weighted pseudo-normals of its face, edges and
   vertices (Bærentzen & Aanæs 2005): a face uses its unit normal, an edge the normalised sum of its
   two faces' normals, a vertex the sum of its incident face normals weighted by the incident angles.
 * :func:`build_bvh` — an axis-aligned bounding-box hierarchy: each node's triangles are split at the
-  median centroid along the longest axis of their centroid bounds until at most ``leaf_size`` remain.
+  median centroid along the longest axis of their centroid bounds until at most ``leaf_size`` remain
+  (the compiled core builds it).
 """
 
 from __future__ import annotations
@@ -12,8 +13,9 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
+
+from pfield._core import geometry as _geometry
 
 LEAF_SIZE = 4
 
@@ -127,47 +129,10 @@ def pseudo_normals(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> N
     return out
 
 
-@njit(cache=True)
-def _build(centroids: np.ndarray, lows: np.ndarray, highs: np.ndarray, leaf_size: int) -> tuple[
-        np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    count = centroids.shape[0]
-    capacity = max(1, 2 * count)
-    order = np.arange(count)
-    lower, upper = np.empty((capacity, 3)), np.empty((capacity, 3))
-    nodes = np.empty((capacity, 3), np.int64)
-    pending = np.empty((256, 4), np.int64)  # (first, count, parent, child slot); depth ≤ log2(count) + 1
-    pending[0] = (0, count, -1, 0)
-    top, used = 1, 0
-    while top > 0:
-        top -= 1
-        first, size, parent, slot = pending[top, 0], pending[top, 1], pending[top, 2], pending[top, 3]
-        index = used
-        used += 1
-        if parent >= 0:
-            nodes[parent, slot] = index
-        members = order[first:first + size]
-        for axis in range(3):
-            lower[index, axis] = lows[members, axis].min()
-            upper[index, axis] = highs[members, axis].max()
-        if size <= leaf_size:
-            nodes[index, 0], nodes[index, 1], nodes[index, 2] = first, size, 1
-            continue
-        nodes[index, 0], nodes[index, 1], nodes[index, 2] = -1, -1, 0
-        spread = np.empty(3)
-        for axis in range(3):
-            spread[axis] = centroids[members, axis].max() - centroids[members, axis].min()
-        axis = int(np.argmax(spread))
-        order[first:first + size] = members[np.argsort(centroids[members, axis], kind="mergesort")]
-        half = size // 2
-        pending[top] = (first + half, size - half, index, 1)
-        pending[top + 1] = (first, half, index, 0)
-        top += 2
-    return order, lower[:used].copy(), upper[:used].copy(), nodes[:used].copy()
-
-
 def build_bvh(triangles: NDArray[np.float64], leaf_size: int = LEAF_SIZE) -> Bvh:
-    """Median-split AABB tree over ``triangles`` (T, 3, 3); nodes in depth-first order (compiled build)."""
-    order, lower, upper, nodes = _build(np.ascontiguousarray(triangles.mean(axis=1)),
-                                        np.ascontiguousarray(triangles.min(axis=1)),
-                                        np.ascontiguousarray(triangles.max(axis=1)), leaf_size)
+    """Median-split AABB tree over ``triangles`` (T ≥ 1, 3, 3); nodes in depth-first order, built by the compiled
+    core (``src/core/geometry/bvh_build.cpp``)."""
+    order, lower, upper, nodes = _geometry.build_bvh(np.ascontiguousarray(triangles.mean(axis=1)),
+                                                     np.ascontiguousarray(triangles.min(axis=1)),
+                                                     np.ascontiguousarray(triangles.max(axis=1)), leaf_size)
     return Bvh(order, lower, upper, nodes)
