@@ -166,7 +166,8 @@ def _plot_paths(target: Path, paths: dict[str, list[list[float]]], markers: list
     # the first plan as a wide translucent band, the next ones thin and dashed on it: where they coincide, both show
     styles = [{"color": "tab:blue", "linestyle": "-", "linewidth": 6.0, "alpha": 0.35},
               {"color": "tab:orange", "linestyle": "--", "linewidth": 1.6, "marker": ".", "markevery": 12}]
-    colours = plt.get_cmap("tab10").colors
+    palette = plt.get_cmap("tab10")
+    colours = [palette(k) for k in range(10)]
     names = sorted({str(m.get("text")) for m in markers if m["ns"] == "obstacles" and m.get("text")})
     for axis, (i, j), label in zip(axes, ((0, 1), (0, 2)), ("top view (x–y)", "side view (x–z)"), strict=True):
         for marker in markers:
