@@ -88,7 +88,7 @@ ONE_LOOP_PER_PLANNER = """
 import numpy as np
 from pfield import FieldConfig, PotentialField, Pose
 from pfield.planning import CancelToken, PlanOptions
-from pfield.planning import _task_space_loop, _track_kernel, _whole_body_loop
+from pfield.planning import _track_kernel, _whole_body_loop
 from pfield.robot import RobotModel
 xarm = RobotModel.builtin("xarm7")
 q0 = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0])
@@ -96,7 +96,7 @@ field = PotentialField(FieldConfig(), xarm.forward_kinematics(q0 + 0.05))
 for options in (None, PlanOptions(cancel=CancelToken())):
     field.plan(Pose((0.2, 0.0, 0.2)), max_iterations=5, options=options)
     field.plan_whole_body(xarm, q0, max_iterations=5, options=options)
-print("LOOPS", [len(k.signatures) for k in (_task_space_loop.plan_loop, _whole_body_loop.plan_loop)])
+print("LOOPS", [len(k.signatures) for k in (_whole_body_loop.plan_loop,)])  # the task-space loop is compiled C++
 """
 
 
@@ -105,7 +105,7 @@ def test_a_plan_with_a_cancel_token_runs_the_loop_the_warm_up_compiled() -> None
     must call the same specialisation, or the node's first plan compiles for seconds after a warm-up."""
     done = _python(ONE_LOOP_PER_PLANNER)
     assert done.returncode == 0, done.stderr
-    assert "LOOPS [1, 1]" in done.stdout, done.stdout
+    assert "LOOPS [1]" in done.stdout, done.stdout
 
 
 def test_first_compile_says_so_once(tmp_path: Path) -> None:

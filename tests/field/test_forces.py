@@ -11,25 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pfield._spatial_kernels import rotation_error
-from pfield.field._evaluate import (
-    ATTRACTIVE_GAIN,
-    ATTRACTIVE_THRESHOLD,
-    CIRCULATION_GAIN,
-    DAMPER_GAIN,
-    INFLUENCE_DISTANCE,
-    MAX_ANGULAR_ACCELERATION,
-    MAX_ANGULAR_VELOCITY,
-    MAX_LINEAR_ACCELERATION,
-    MAX_LINEAR_VELOCITY,
-    MAX_REPULSIVE_FORCE,
-    REPULSIVE_GAIN,
-    ROTATION_TOLERANCE,
-    ROTATIONAL_GAIN,
-    SAFETY_DISTANCE,
-    STAGNATION_PROGRESS,
-    STAGNATION_WINDOW,
-)
-from pfield.field.config import PARAM_NAMES
+from pfield.field.config import PARAM_NAMES, PARAMS
 from pfield.field.forces import (
     attraction,
     braking_rate_limit,
@@ -42,22 +24,25 @@ from pfield.field.forces import (
 )
 from pfield.spatial import quaternion_exp, quaternion_inverse, quaternion_log, quaternion_multiply
 
+(ATTRACTIVE_GAIN, ATTRACTIVE_THRESHOLD, CIRCULATION_GAIN, DAMPER_GAIN, INFLUENCE_DISTANCE, MAX_ANGULAR_ACCELERATION,
+ MAX_ANGULAR_VELOCITY, MAX_LINEAR_ACCELERATION, MAX_LINEAR_VELOCITY, MAX_REPULSIVE_FORCE, REPULSIVE_GAIN,
+ ROTATION_TOLERANCE, ROTATIONAL_GAIN, SAFETY_DISTANCE, STAGNATION_PROGRESS, STAGNATION_WINDOW) = (
+    PARAMS.index(name) for name in (
+        "attractive_gain", "attractive_threshold", "circulation_gain", "damper_gain", "influence_distance",
+        "max_angular_acceleration", "max_angular_velocity", "max_linear_acceleration", "max_linear_velocity",
+        "max_repulsive_force", "repulsive_gain", "rotation_tolerance", "rotational_attractive_gain",
+        "safety_distance", "stagnation_progress", "stagnation_window"))
+
 finite = st.floats(-10.0, 10.0, allow_nan=False)
 vectors = st.tuples(finite, finite, finite)
 
 
-def test_kernel_parameter_positions_match_the_config_fields() -> None:
-    positions = {
-        "attractive_gain": ATTRACTIVE_GAIN, "rotational_attractive_gain": ROTATIONAL_GAIN,
-        "repulsive_gain": REPULSIVE_GAIN, "max_linear_velocity": MAX_LINEAR_VELOCITY,
-        "max_angular_velocity": MAX_ANGULAR_VELOCITY, "max_linear_acceleration": MAX_LINEAR_ACCELERATION,
-        "max_angular_acceleration": MAX_ANGULAR_ACCELERATION, "influence_distance": INFLUENCE_DISTANCE,
-        "attractive_threshold": ATTRACTIVE_THRESHOLD, "rotation_tolerance": ROTATION_TOLERANCE,
-        "max_repulsive_force": MAX_REPULSIVE_FORCE, "safety_distance": SAFETY_DISTANCE,
-        "damper_gain": DAMPER_GAIN, "circulation_gain": CIRCULATION_GAIN,
-        "stagnation_window": STAGNATION_WINDOW, "stagnation_progress": STAGNATION_PROGRESS,
-    }
-    assert {name: PARAM_NAMES.index(name) for name in PARAM_NAMES} == positions
+def test_the_core_parameter_struct_is_the_config_fields_in_order() -> None:
+    """FieldConfig.packed() is read in place as the core's FieldParams struct: its members (offsetof, exported by
+    the binding) must be the config's fields in declaration order."""
+    from pfield._core import field as core
+
+    assert core.PARAM_OFFSETS == {name: PARAM_NAMES.index(name) for name in PARAM_NAMES}
 
 
 @pytest.mark.parametrize("threshold", [2.0, 5.0])

@@ -17,6 +17,8 @@
 #include <cstdint>
 #include <string>
 
+#include "math/vec3.hpp"
+
 namespace pfield::geometry {
 
 enum class Kind : std::int64_t { Sphere = 0, Box = 1, Cylinder = 2, Ellipsoid = 3, Capsule = 4, Mesh = 5 };
@@ -28,11 +30,7 @@ constexpr std::size_t kMeshTableWidth = 5;
 // has depth ceil(log2 T), so 96 levels are far beyond any mesh; check_packed refuses deeper trees.
 constexpr std::size_t kStackSize = 96;
 
-struct Vec3 {
-  double x = 0.0;
-  double y = 0.0;
-  double z = 0.0;
-};
+using Vec3 = math::Vec3;  // the core's one 3-vector
 
 // The outcome of every signed-distance query: d (m, negative inside) and the unit normal n = grad d (world frame
 // for obstacles, the mesh's local frame for mesh_signed_distance).

@@ -17,19 +17,13 @@
 #include "geometry/packed.hpp"
 #include "geometry/sdf.hpp"
 #include "python/arrays.hpp"
+#include "python/packed.hpp"
 
 namespace pfield::python {
 namespace {
 
 using namespace nb::literals;
 using geometry::PackedView;
-
-using Kinds = nb::ndarray<const std::int64_t, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
-using Rows16 = Rows<16>;
-using Triangles = nb::ndarray<const double, nb::shape<-1, 3, 3>, nb::c_contig, nb::device::cpu>;
-using PseudoNormals = nb::ndarray<const double, nb::shape<-1, 7, 3>, nb::c_contig, nb::device::cpu>;
-using Nodes = nb::ndarray<const std::int64_t, nb::shape<-1, 3>, nb::c_contig, nb::device::cpu>;
-using MeshTable = nb::ndarray<const std::int64_t, nb::shape<-1, 5>, nb::c_contig, nb::device::cpu>;
 
 // Points that are not all finite: pfield.geometry raises InvalidInput for them (the check runs here, in the loop's
 // pass over the points, rather than as a separate NumPy pass before the call).
@@ -43,23 +37,6 @@ bool all_finite(const double* values, std::size_t count) {
   return finite;
 }
 
-// The view over the arrays, refused with a ValueError when their lengths or indices disagree (a hand-built set).
-PackedView packed_view(const Kinds& kinds, const Rows16& rows, const Triangles& triangles,
-                       const PseudoNormals& pseudo_normals, const Rows<3>& lower, const Rows<3>& upper,
-                       const Nodes& nodes, const MeshTable& table) {
-  if (rows.shape(0) != kinds.shape(0)) throw std::invalid_argument("packed: kinds and rows differ in length");
-  if (pseudo_normals.shape(0) != triangles.shape(0))
-    throw std::invalid_argument("packed: triangles and pseudo_normals differ in length");
-  if (lower.shape(0) != nodes.shape(0) || upper.shape(0) != nodes.shape(0))
-    throw std::invalid_argument("packed: bvh_lower, bvh_upper and bvh_nodes differ in length");
-  const PackedView view{kinds.data(),     rows.data(),  kinds.shape(0), triangles.data(), pseudo_normals.data(),
-                        triangles.shape(0), lower.data(), upper.data(),   nodes.data(),     nodes.shape(0),
-                        table.data(),     table.shape(0)};
-  const std::string problem = geometry::check_packed(view);
-  if (!problem.empty()) throw std::invalid_argument(problem);
-  return view;
-}
-
 }  // namespace
 
 void bind_geometry(nb::module_& m) {
@@ -68,7 +45,7 @@ void bind_geometry(nb::module_& m) {
 
   m.def(
       "signed_distances",
-      [](const Kinds& kinds, const Rows16& rows, const Triangles& triangles, const PseudoNormals& pseudo_normals,
+      [](const Kinds& kinds, const Rows<16>& rows, const Triangles& triangles, const PseudoNormals& pseudo_normals,
          const Rows<3>& bvh_lower, const Rows<3>& bvh_upper, const Nodes& bvh_nodes, const MeshTable& mesh_table,
          const Rows<3>& points, double cutoff) {
         const PackedView packed =

@@ -8,6 +8,8 @@ namespace pfield::python {
 void bind_mobile(nb::module_& m);
 void bind_costmap(nb::module_& m);
 void bind_geometry(nb::module_& m);
+void bind_field(nb::module_& m);
+void bind_safety(nb::module_& m);
 }  // namespace pfield::python
 
 NB_MODULE(_core, m) {
@@ -18,4 +20,8 @@ NB_MODULE(_core, m) {
   pfield::python::bind_costmap(costmap);
   nb::module_ geometry = m.def_submodule("geometry");
   pfield::python::bind_geometry(geometry);
+  nb::module_ field = m.def_submodule("field");
+  pfield::python::bind_field(field);
+  nb::module_ safety = m.def_submodule("safety");
+  pfield::python::bind_safety(safety);
 }

@@ -1,8 +1,9 @@
 """The 3D potential field: attraction, rotation, repulsion, velocity dampers and limits.
 
 ``FieldConfig`` holds the parameters; ``PotentialField`` evaluates wrenches and constrained twists and
-plans task-space paths. The compiled laws live in :mod:`pfield.field.forces`, their evaluation over an
-obstacle set in :mod:`pfield.field._evaluate`.
+plans task-space paths. The evaluation over an obstacle set and the planning loop run in the compiled core
+(``src/core/field``, ``src/core/planning``); :mod:`pfield.field.forces` keeps the laws for the numba kernels that
+still use them (whole body, assistance).
 """
 
 from pfield.field.config import FieldConfig

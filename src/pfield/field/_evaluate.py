@@ -1,4 +1,9 @@
-"""Compiled evaluation of the field at a pose: the raw wrench and the constrained twist (numba).
+"""The field at a pose in numba: the raw wrench and the constrained twist, for the lane-wise batches.
+
+One pose, the planning loop and :class:`~pfield.field.PreparedTwist` run in the compiled core
+(``src/core/field/evaluate.cpp``, the same steps in the same order: the same bits). These numba versions remain
+for :mod:`pfield.field._batch_parallel`, whose lanes evaluate eight poses side by side in SIMD instructions, until
+that moves to the core too.
 
 Inputs shared by every kernel here:
 
@@ -25,7 +30,6 @@ import numpy as np
 from numba import njit
 
 from pfield._spatial_kernels import rotation_error
-from pfield.field._unowned import unowned, unowned_arrays
 from pfield.field.config import PARAMS
 from pfield.field.forces import (
     attraction,
@@ -37,7 +41,7 @@ from pfield.field.forces import (
     rate_limit,
     soft_saturate,
 )
-from pfield.geometry._packed import SPHERE, PackedObstacles, bounding_radius
+from pfield.geometry._packed import PackedObstacles
 from pfield.geometry._sdf import obstacle_signed_distance
 
 # Slots of FieldConfig.packed(), by name from its layout (numba freezes these module constants).
@@ -54,29 +58,6 @@ STAGNATION_PROGRESS = PARAMS.index("stagnation_progress")
 SPHERE_ROWS = 5  # a sphere's sweep-0 geometry in the batch kernels' cache (see damper_sweeps): rows
 DISTANCE_ROW, NX_ROW, NY_ROW, NZ_ROW, ALLOWANCE_ROW = range(SPHERE_ROWS)
 _SWEEPS = 16  # damper sweeps: one deflecting, then alternating projections (narrow wedges converge slowly)
-
-
-def obstacle_aux(packed: PackedObstacles, goal_position: np.ndarray) -> np.ndarray:
-    """(M, 8) circulation axes, bounding radii, centres and sphere flags of packed obstacles for a goal.
-
-    The circulation axis of obstacle i is c_i = normalize((g − centre_i) × ẑ) (× x̂ when the goal lies
-    straight above or below the centre): the tangential motion n × c_i then runs in the vertical plane
-    through the centre and the goal, over the top of the obstacle when approaching it head-on.
-    """
-    count = packed.kinds.shape[0]
-    aux = np.zeros((count, 8))
-    for i in range(count):
-        centre = packed.rows[i, :3]
-        toward_goal = goal_position - centre
-        axis = np.cross(toward_goal, (0.0, 0.0, 1.0))
-        if np.linalg.norm(axis) <= 1e-9 * max(float(np.linalg.norm(toward_goal)), 1e-9):
-            axis = np.cross(toward_goal, (1.0, 0.0, 0.0))
-        norm = float(np.linalg.norm(axis))
-        aux[i, :3] = axis / norm if norm > 1e-12 else (1.0, 0.0, 0.0)
-        aux[i, 3] = bounding_radius(packed, i)
-        aux[i, 4:7] = centre
-        aux[i, 7] = 1.0 if int(packed.kinds[i]) == SPHERE else 0.0
-    return aux
 
 
 @njit(cache=True, inline="always")
@@ -293,45 +274,3 @@ def constrained_twist(
         wx, wy, wz = rate_limit(wx, wy, wz, previous[3], previous[4], previous[5],
                                 params[MAX_ANGULAR_ACCELERATION] * dt)
     return vx, vy, vz, wx, wy, wz, clearance, nearest
-
-
-# ---------------------------------------------------------------------------------------------------
-# Entry points called from Python. They take the eight arrays of PackedObstacles one by one (``*packed``
-# in Python) because numba's dispatcher types a named tuple slowly; see pfield.field._unowned.
-
-
-@njit(cache=True)
-def twist_at(
-    position: np.ndarray, orientation: np.ndarray, goal: np.ndarray, params: np.ndarray, aux: np.ndarray,
-    previous_linear: np.ndarray, previous_angular: np.ndarray, use_previous: bool, dt: float,
-    kinds: np.ndarray, rows: np.ndarray, triangles: np.ndarray, pseudo_normals: np.ndarray,
-    bvh_lower: np.ndarray, bvh_upper: np.ndarray, bvh_nodes: np.ndarray, mesh_table: np.ndarray,
-) -> np.ndarray:
-    """:func:`constrained_twist` at one pose (position (3,), quaternion (4,)); returns (6,).
-
-    The previous twist comes as its linear and angular parts (3,) each (used when ``use_previous``).
-    """
-    packed = unowned_arrays(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table)
-    out = np.empty(6)
-    out[:3] = previous_linear
-    out[3:] = previous_angular
-    q = orientation
-    out[0], out[1], out[2], out[3], out[4], out[5], _, _ = constrained_twist(
-        unowned(position), q[0], q[1], q[2], q[3], unowned(goal), unowned(params), packed, unowned(aux),
-        unowned(out), use_previous, dt)
-    return out
-
-
-@njit(cache=True)
-def wrench_at(
-    position: np.ndarray, orientation: np.ndarray, goal: np.ndarray, params: np.ndarray, aux: np.ndarray,
-    kinds: np.ndarray, rows: np.ndarray, triangles: np.ndarray, pseudo_normals: np.ndarray,
-    bvh_lower: np.ndarray, bvh_upper: np.ndarray, bvh_nodes: np.ndarray, mesh_table: np.ndarray,
-) -> np.ndarray:
-    """:func:`field_wrench` at one pose (position (3,), quaternion (4,)); returns (6,)."""
-    packed = unowned_arrays(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table)
-    out = np.empty(6)
-    q = orientation
-    out[0], out[1], out[2], out[3], out[4], out[5] = field_wrench(
-        unowned(position), q[0], q[1], q[2], q[3], unowned(goal), unowned(params), packed, unowned(aux))
-    return out

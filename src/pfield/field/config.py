@@ -123,5 +123,6 @@ class FieldConfig:
 PARAM_NAMES: tuple[str, ...] = tuple(spec.name for spec in fields(FieldConfig))
 """Field order of :meth:`FieldConfig.packed`."""
 PARAMS = Layout("field parameters", [(name, ()) for name in PARAM_NAMES])
-"""The packed parameter vector: one scalar slot per field, in declaration order; :mod:`pfield.field._evaluate`
-takes its slot constants from here by name."""
+"""The packed parameter vector: one scalar slot per field, in declaration order — the memory of the core's
+``FieldParams`` struct (``src/core/field/evaluate.hpp``); the numba kernels take their slot constants from here by
+name."""

@@ -1,8 +1,9 @@
 """The 3D potential field over a goal pose and an obstacle set (:class:`PotentialField`).
 
 The object is immutable: it validates its inputs, packs the obstacles and the parameters once into
-arrays, and every query is one call of a compiled kernel (:mod:`pfield.field._evaluate`). Changing the
-goal, the obstacles or the parameters gives a new field (:meth:`PotentialField.with_goal` …).
+arrays, binds them to the compiled core once (``src/core/field``, :mod:`pfield._core`), and every query is one
+call of the core. Changing the goal, the obstacles or the parameters gives a new field
+(:meth:`PotentialField.with_goal` …).
 """
 
 from __future__ import annotations
@@ -16,12 +17,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pfield import safety
+from pfield._core import field as _core_field
 from pfield._validation import as_points, finite
 from pfield.errors import InvalidInput
 from pfield.field._batch_parallel import batch_twists, batch_wrenches
-from pfield.field._evaluate import obstacle_aux, twist_at, wrench_at
 from pfield.field.config import FieldConfig
 from pfield.geometry import Obstacle, PackedObstacles, pack_obstacles, signed_distances
+from pfield.geometry._packed import SPHERE, bounding_radius
 from pfield.spatial import Pose, Twist, Wrench
 
 if TYPE_CHECKING:
@@ -30,14 +32,12 @@ if TYPE_CHECKING:
 
 __all__ = ["FieldArrays", "PotentialField"]
 
-_LOG = logging.getLogger(__name__)
-_ZERO = np.zeros(3)
-_ZERO.setflags(write=False)  # the same (read-only) array type as Twist.linear: one compiled specialisation
 _NO_PREVIOUS = np.zeros(6)  # the batch twists' previous twist: read by the kernel, never written
+_LOG = logging.getLogger(__name__)
 
 
 class FieldArrays(NamedTuple):
-    """What the compiled kernels of :mod:`pfield.field._evaluate` take (C-contiguous float64 arrays).
+    """What the compiled core (and the whole-body kernels) take: C-contiguous float64 arrays.
 
     ``goal`` (7,) position + quaternion (x, y, z, w); ``params`` (16,) :meth:`FieldConfig.packed`;
     ``packed`` the obstacles; ``aux`` (M, 8) circulation axes, bounding radii, centres and sphere flags.
@@ -70,14 +70,28 @@ def _fast_wrench(values: NDArray[np.float64]) -> Wrench:
     return wrench
 
 
-def _previous_within_limits(previous: Twist, config: FieldConfig) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The previous twist's (linear, angular) parts, scaled within the speed limits when beyond them
-    (:mod:`pfield.safety` rule 3), read-only as a Twist's parts are (one compiled specialisation)."""
-    values = np.concatenate([previous.linear, previous.angular])
-    if safety.twist_scale(values.tolist(), config.max_linear_velocity, config.max_angular_velocity) == 1.0:
-        return previous.linear, previous.angular
-    clipped, _ = safety.clip_twist(values, config.max_linear_velocity, config.max_angular_velocity)
-    return _readonly(clipped[:3]), _readonly(clipped[3:])
+def obstacle_aux(packed: PackedObstacles, goal_position: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(M, 8) circulation axes, bounding radii, centres and sphere flags of packed obstacles for a goal (the core's
+    ``ObstacleAux`` rows, ``src/core/field/evaluate.hpp``).
+
+    The circulation axis of obstacle i is c_i = normalize((g − centre_i) × ẑ) (× x̂ when the goal lies
+    straight above or below the centre): the tangential motion n × c_i then runs in the vertical plane
+    through the centre and the goal, over the top of the obstacle when approaching it head-on.
+    """
+    count = packed.kinds.shape[0]
+    aux = np.zeros((count, 8))
+    for i in range(count):
+        centre = packed.rows[i, :3]
+        toward_goal = goal_position - centre
+        axis = np.cross(toward_goal, (0.0, 0.0, 1.0))
+        if np.linalg.norm(axis) <= 1e-9 * max(float(np.linalg.norm(toward_goal)), 1e-9):
+            axis = np.cross(toward_goal, (1.0, 0.0, 0.0))
+        norm = float(np.linalg.norm(axis))
+        aux[i, :3] = axis / norm if norm > 1e-12 else (1.0, 0.0, 0.0)
+        aux[i, 3] = bounding_radius(packed, i)
+        aux[i, 4:7] = centre
+        aux[i, 7] = 1.0 if int(packed.kinds[i]) == SPHERE else 0.0
+    return aux
 
 
 def _check_pose(name: str, pose: Any) -> Pose:
@@ -93,7 +107,7 @@ class PotentialField:
     unique. See ``docs/field.md`` for the laws; the parameters are those of :class:`FieldConfig`.
     """
 
-    __slots__ = ("_arrays", "_config", "_goal", "_obstacles")
+    __slots__ = ("_arrays", "_config", "_core", "_goal", "_obstacles")
 
     def __init__(self, config: FieldConfig, goal: Pose, obstacles: Sequence[Obstacle] = ()) -> None:
         if not isinstance(config, FieldConfig):
@@ -114,6 +128,7 @@ class PotentialField:
         goal_array = _readonly(np.concatenate([goal.position, goal.orientation]))
         aux = _readonly(obstacle_aux(packed, goal_array[:3]))
         self._arrays = FieldArrays(goal_array, _readonly(config.packed()), packed, aux)
+        self._core = _core_field.Field(goal_array, self._arrays.params, aux, *packed)
 
     @classmethod
     def _from_parts(
@@ -169,8 +184,7 @@ class PotentialField:
         torque = k_rot · log(q_goal ⊗ q⁻¹). Units N and N·m (unit mass and inertia).
         """
         pose = _check_pose("pose", pose)
-        goal, params, packed, aux = self._arrays
-        return _fast_wrench(wrench_at(pose.position, pose.orientation, goal, params, aux, *packed))
+        return _fast_wrench(self._core.wrench(pose.position, pose.orientation))
 
     def twist(self, pose: Pose, previous: Twist | None = None, dt: float = 0.0) -> Twist:
         """The constrained twist at ``pose``: the task-space autonomy vector (m/s, rad/s, world frame).
@@ -180,20 +194,17 @@ class PotentialField:
         ‖v − v_prev‖ ≤ a_max·``dt`` and ‖ω − ω_prev‖ ≤ α_max·``dt`` (``dt`` > 0 s required then).
         """
         pose = _check_pose("pose", pose)
-        goal, params, packed, aux = self._arrays
-        config = self._config
         if previous is None:
-            values = twist_at(pose.position, pose.orientation, goal, params, aux, _ZERO, _ZERO, False, 0.0, *packed)
+            values, outcome = self._core.twist(pose.position, pose.orientation)
         else:
             if not isinstance(previous, Twist):
                 raise InvalidInput("previous", previous, "expected a pfield.Twist or None")
             step = finite("dt", dt)
             if step <= 0.0:
                 raise InvalidInput("dt", dt, "must be > 0 when a previous twist is given")
-            linear, angular = _previous_within_limits(previous, config)
-            values = twist_at(pose.position, pose.orientation, goal, params, aux, linear, angular, True, step,
-                              *packed)
-        if safety.limit_twist(values, config.max_linear_velocity, config.max_angular_velocity) == safety.HALTED:
+            values, outcome = self._core.twist(pose.position, pose.orientation,
+                                               np.concatenate([previous.linear, previous.angular]), step)
+        if outcome == safety.HALTED:  # the core applied the output contract (pfield.safety)
             _LOG.warning("twist at %r was not finite: answered zero (%s)", pose, safety.describe(safety.HALTED))
         return _fast_twist(values)
 
@@ -244,7 +255,8 @@ class PotentialField:
         """Constrained twists (N, 6) = linear, angular at N poses, without a previous twist; orientations as
         :meth:`wrenches`.
 
-        Large batches run on every core (:mod:`pfield.field._batch_parallel`), with the same values."""
+        Large batches run on every core (:mod:`pfield.field._batch_parallel`: eight poses side by side in SIMD
+        instructions), with one pose's values to rounding."""
         points, quats = self._batch(positions, orientations)
         goal, params, packed, aux = self._arrays
         values = self._rows_checked(batch_twists(points, quats, goal, params, aux, _NO_PREVIOUS, *packed),

@@ -1,9 +1,9 @@
 """Compiled force and limit laws of the 3D potential field (the functional core; numba, ``cache=True``).
 
 Every kernel takes and returns plain floats (tuples for vectors), allocates nothing, and is meant to be
-called from other compiled code — :mod:`pfield.field._evaluate` (wrench and constrained twist),
-:mod:`pfield.planning.task_space` (the planning loop) and the whole-body planner. All vectors are in the
-world frame, SI units.
+called from other compiled code: the whole-body planner and the assistance. The task-space field and its
+planning loop run in the compiled core, whose ``src/core/field/forces.hpp`` holds the same laws in the same
+operation order (the same bits) until these kernels move there too. All vectors are in the world frame, SI units.
 
 Laws (see ``docs/field.md`` for the reasoning):
 

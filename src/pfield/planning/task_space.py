@@ -1,8 +1,8 @@
 """Task-space planning: integrate the field's constrained twist from a start pose to the goal.
 
-The path is produced by one call of the compiled loop :func:`~pfield.planning._task_space_loop.plan_loop`
-(RK4 over R³ × SO(3) with the exponential map, timestamps i·dt, the start recorded). Every waypoint
-carries its clearance, and every segment between waypoints is checked against the obstacles. A plan
+The path is produced by one call of the compiled core's loop (``src/core/planning/task_space.hpp``: RK4 over
+R³ × SO(3) with the exponential map, timestamps i·dt, the start recorded; the GIL is released while it runs).
+Every waypoint carries its clearance, and every segment between waypoints is checked against the obstacles. A plan
 that stops short says why in ``failure_reason``: stagnation (no progress toward the goal over
 ``stagnation_window`` seconds), collision, or the iteration limit.
 """
@@ -14,10 +14,10 @@ import math
 
 import numpy as np
 
+from pfield._core import field as _core_field
 from pfield.errors import InvalidInput
 from pfield.field.field import PotentialField
 from pfield.geometry import signed_distances
-from pfield.planning._task_space_loop import plan_loop
 from pfield.planning.cancel import cancel_flag
 from pfield.planning.fallback import FALLBACK_PLANNER, FIELD_PLANNER, task_space_fallback
 from pfield.planning.global_search import GlobalOptions
@@ -67,14 +67,15 @@ def plan_task_space(
     blocked = _goal_blocked(field)
     if blocked:
         return _single_point(field, start, blocked, PlanStatus.GOAL_INVALID)
-    goal, params, packed, aux = field.arrays
+    _, params, packed, aux = field.arrays
     iterations, step, window = settings.max_iterations, settings.dt, settings.stagnation_steps
     poses, twists, clearances = np.empty((iterations + 1, 7)), np.empty((iterations + 1, 6)), np.empty(iterations + 1)
     start_array = np.concatenate([start.position, start.orientation])
     cancel = cancel_flag(settings.cancel)
-    count, status, obstacle = plan_loop(start_array, goal, params, packed, aux, step, settings.goal_tolerance,
-                                        settings.rotation_tolerance, iterations, window,
-                                        settings.stagnation_progress, cancel, poses, twists, clearances)
+    count, code, obstacle = field._core.plan(start_array, step, settings.goal_tolerance, settings.rotation_tolerance,
+                                             iterations, window, settings.stagnation_progress, cancel, poses, twists,
+                                             clearances)
+    status = PlanStatus(code)
     if status == PlanStatus.COLLISION and count == 1 and field.clearances(poses[:1, :3])[0] <= 0.0:
         status = PlanStatus.START_INVALID
     reason = "" if status == PlanStatus.REACHED else _reason(field, status, obstacle, poses[count - 1],
@@ -88,9 +89,11 @@ def plan_task_space(
         def run_to(state: np.ndarray, target: Pose, final: bool) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
             sub_poses, sub_twists, sub_clear = np.empty_like(poses), np.empty_like(twists), np.empty_like(clearances)
             sub_tolerance = tolerance if final else max(2.0 * tolerance, 0.5 * global_options.point_step)
-            sub_count, sub_status, _ = plan_loop(
-                state, field.with_goal(target).arrays.goal, params, packed, aux, step, sub_tolerance,
-                angle if final else math.pi - 1e-6, iterations, window, progress, cancel,
+            # the field toward this vertex: its goal, the plan's obstacles and circulation axes (those of the
+            # plan's own goal, so the field turns around each obstacle the same way at every vertex)
+            toward = _core_field.Field(np.concatenate([target.position, target.orientation]), params, aux, *packed)
+            sub_count, sub_status, _ = toward.plan(
+                state, step, sub_tolerance, angle if final else math.pi - 1e-6, iterations, window, progress, cancel,
                 sub_poses, sub_twists, sub_clear)
             return (int(sub_status), sub_poses[:sub_count].copy(), sub_twists[:sub_count].copy(),
                     sub_clear[:sub_count].copy())

@@ -1,0 +1,147 @@
+// The force and limit laws of the 3D potential field: the one home of these laws in the core (docs/field.md says
+// why each has its form). Vectors in the world frame, SI units. The formulas and their operation order are those of
+// pfield/field/forces.py, which the kernels not yet moved to the core still use: the results agree to the last bit.
+//
+// * attraction, quadratic within G and conical beyond (Choset et al. 2005, sec. 4.1, eqs. 4.2-4.3);
+// * Khatib repulsion m = eta (1/d - 1/Q)/d^2 for 0 < d < Q (Khatib 1986, eq. 19), saturated as m/sqrt(1 + (m/F)^2);
+// * velocity dampers (Faverjon & Tournassoud 1987; Haviland & Corke 2021, NEO, eq. 20);
+// * soft saturation v <- v_max tanh(|v|/v_max) v/|v| and the rate limit |v - v_prev| <= a_max dt.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+
+#include "math/vec3.hpp"
+
+namespace pfield::field {
+
+using math::Vec3;
+
+constexpr double kTiny = 1e-12;
+
+// Attractive force for the goal error e = g - p: k e within G = threshold, k G e/|e| beyond (continuous at |e| = G).
+inline Vec3 attraction(const Vec3& e, double gain, double threshold) {
+  const double distance = std::sqrt(e.x * e.x + e.y * e.y + e.z * e.z);
+  const double scale = distance <= threshold ? gain : gain * threshold / distance;
+  return {scale * e.x, scale * e.y, scale * e.z};
+}
+
+// The saturated Khatib magnitude (N) at signed distance d: 0 beyond Q, F_cap inside.
+inline double khatib_magnitude(double distance, double gain, double influence, double cap) {
+  if (distance >= influence) return 0.0;
+  if (distance <= 0.0) return cap;
+  const double raw = gain * (1.0 / distance - 1.0 / influence) / (distance * distance);
+  const double ratio = raw / cap;
+  return raw / std::sqrt(1.0 + ratio * ratio);
+}
+
+// v <- limit tanh(|v|/limit) v/|v|: the same direction, a norm always below limit.
+inline Vec3 soft_saturate(const Vec3& v, double limit) {
+  const double norm = std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
+  if (norm < kTiny) return v;
+  const double scale = limit * std::tanh(norm / limit) / norm;
+  return {scale * v.x, scale * v.y, scale * v.z};
+}
+
+// The point of the ball |v - v_prev| <= max_change nearest to v.
+inline Vec3 rate_limit(const Vec3& v, const Vec3& previous, double max_change) {
+  const double dx = v.x - previous.x, dy = v.y - previous.y, dz = v.z - previous.z;
+  const double norm = std::sqrt(dx * dx + dy * dy + dz * dz);
+  if (norm <= max_change) return v;
+  const double scale = max_change / norm;
+  return {previous.x + scale * dx, previous.y + scale * dy, previous.z + scale * dz};
+}
+
+// Largest allowed approach speed (m/s) toward an obstacle at d < Q (task space): xi (d - d_s)/(Q - d_s), capped by
+// sqrt(a_max (d - d_s)) so that a rate-limited twist can still stop before d_s; never below -max_speed.
+inline double damper_speed(double distance, double influence, double safety, double gain, double max_speed,
+                           double max_acceleration) {
+  const double margin = distance - safety;
+  double speed = gain * margin / (influence - safety);
+  if (margin > 0.0) speed = std::min(speed, std::sqrt(max_acceleration * margin));
+  return std::max(speed, -max_speed);
+}
+
+struct Limited {
+  Vec3 v;
+  bool changed = false;
+};
+
+// Enforce the damper n.v >= -allowed and turn the removed approach speed into tangential motion about the
+// obstacle's circulation axis c (docs/field.md, "velocity dampers"); at zero excess the result is v.
+inline Limited deflect(const Vec3& v, const Vec3& n, const Vec3& c, double allowed, double circulation) {
+  const double normal_speed = v.x * n.x + v.y * n.y + v.z * n.z;
+  const double excess = -normal_speed - allowed;
+  if (excess <= 0.0) return {v, false};
+  double px = v.x - normal_speed * n.x, py = v.y - normal_speed * n.y, pz = v.z - normal_speed * n.z;
+  const double tx = n.y * c.z - n.z * c.y, ty = n.z * c.x - n.x * c.z, tz = n.x * c.y - n.y * c.x;
+  const double speed_sq = v.x * v.x + v.y * v.y + v.z * v.z;
+  const double t_sq = tx * tx + ty * ty + tz * tz;
+  const double against = px * tx + py * ty + pz * tz;
+  if (against < 0.0 && t_sq > kTiny) {
+    const double share = 2.0 * excess * excess >= 0.5 * speed_sq ? 1.0 : 2.0 * excess / std::sqrt(speed_sq);
+    const double drop = share * against / t_sq;
+    px = px - drop * tx;
+    py = py - drop * ty;
+    pz = pz - drop * tz;
+  }
+  const double weight = circulation * excess;
+  const double wx = px + weight * tx, wy = py + weight * ty, wz = pz + weight * tz;
+  const double w_norm = std::sqrt(wx * wx + wy * wy + wz * wz);
+  const double tangential = std::sqrt(std::max(speed_sq - allowed * allowed, 0.0));
+  double ox = -allowed * n.x, oy = -allowed * n.y, oz = -allowed * n.z;
+  if (w_norm > kTiny) {
+    const double scale = tangential / w_norm;
+    ox = ox + scale * wx;
+    oy = oy + scale * wy;
+    oz = oz + scale * wz;
+  }
+  return {{ox, oy, oz}, true};
+}
+
+// The nearest twist with approach speed -n.v <= allowed (projection onto the damper's half-space).
+inline Limited project_damper(const Vec3& v, const Vec3& n, double allowed) {
+  const double excess = -(v.x * n.x + v.y * n.y + v.z * n.z) - allowed;
+  if (excess <= 0.0) return {v, false};
+  return {{v.x + excess * n.x, v.y + excess * n.y, v.z + excess * n.z}, true};
+}
+
+// Rate limit |v - v_prev| <= max_change that spends the budget on braking along the unit n first, then projects
+// onto the ball |v| <= limit (v_prev must lie in it: the output contract clips it there).
+inline Vec3 braking_rate_limit(const Vec3& v, const Vec3& previous, double max_change, const Vec3& n, double limit) {
+  double dx = v.x - previous.x, dy = v.y - previous.y, dz = v.z - previous.z;
+  const double norm = std::sqrt(dx * dx + dy * dy + dz * dz);
+  if (norm <= max_change) return v;
+  const double along = dx * n.x + dy * n.y + dz * n.z;
+  if (along <= 0.0) {
+    const double scale = max_change / norm;
+    dx = scale * dx;
+    dy = scale * dy;
+    dz = scale * dz;
+  } else {
+    const double ax = along * n.x, ay = along * n.y, az = along * n.z;
+    const double tx = dx - ax, ty = dy - ay, tz = dz - az;
+    double scale, rest;
+    if (along >= max_change) {
+      scale = max_change / along;
+      rest = 0.0;
+    } else {
+      const double t_norm = std::sqrt(tx * tx + ty * ty + tz * tz);
+      scale = 1.0;
+      rest = t_norm > kTiny ? std::sqrt(std::max(max_change * max_change - along * along, 0.0)) / t_norm : 0.0;
+    }
+    dx = scale * ax + rest * tx;
+    dy = scale * ay + rest * ty;
+    dz = scale * az + rest * tz;
+  }
+  double vx = previous.x + dx, vy = previous.y + dy, vz = previous.z + dz;
+  const double speed = std::sqrt(vx * vx + vy * vy + vz * vz);
+  if (speed > limit) {
+    vx = vx * limit / speed;
+    vy = vy * limit / speed;
+    vz = vz * limit / speed;
+  }
+  return {vx, vy, vz};
+}
+
+}  // namespace pfield::field

@@ -1,0 +1,312 @@
+// Bindings of the 3D potential field (pfield.field) and its task-space planning loop: a thin list of defs over
+// field/evaluate.hpp and planning/task_space.hpp. A Field binds a PotentialField's arrays once (goal, parameters,
+// per-obstacle data, the packed obstacles), so each call passes only the pose.
+#include <nanobind/nanobind.h>
+#include <nanobind/stl/optional.h>
+#include <nanobind/stl/tuple.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <stdexcept>
+#include <thread>
+#include <tuple>
+#include <utility>
+#include <vector>
+
+#include "field/evaluate.hpp"
+#include "planning/task_space.hpp"
+#include "python/arrays.hpp"
+#include "python/packed.hpp"
+#include "safety/limits.hpp"
+
+namespace pfield::python {
+namespace {
+
+using namespace nb::literals;
+using field::ConstrainedTwist;
+using field::FieldParams;
+using field::ObstacleAux;
+using math::Quat;
+using math::Vec3;
+
+static_assert(sizeof(FieldParams) == 16 * sizeof(double), "FieldParams is FieldConfig.packed()'s 16 doubles");
+static_assert(sizeof(ObstacleAux) == 8 * sizeof(double), "ObstacleAux is a row of obstacle_aux's (M, 8)");
+
+using Out6 = nb::ndarray<double, nb::shape<6>, nb::c_contig, nb::device::cpu>;
+using Pose7 = nb::ndarray<const double, nb::shape<7>, nb::c_contig, nb::device::cpu>;
+using Cancel = nb::ndarray<const std::uint8_t, nb::shape<1>, nb::c_contig, nb::device::cpu>;
+template <int Columns>
+using OutRows = nb::ndarray<double, nb::shape<-1, Columns>, nb::c_contig, nb::device::cpu>;
+using OutVector = nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+
+constexpr std::size_t kParallelFrom = 8192;  // poses: below, the calling thread alone (threads cost more)
+constexpr double kMinQuaternionNorm = 1e-9;  // pfield.spatial.MIN_QUATERNION_NORM
+
+Vec3 vec3(const double* v) { return {v[0], v[1], v[2]}; }
+Quat quat(const double* v) { return {v[0], v[1], v[2], v[3]}; }
+
+void write_twist(const field::Twist& t, double* out) {
+  out[0] = t.linear.x, out[1] = t.linear.y, out[2] = t.linear.z;
+  out[3] = t.angular.x, out[4] = t.angular.y, out[5] = t.angular.z;
+}
+
+// (valid, q / |q|): finite with a norm of at least kMinQuaternionNorm (the batch checks each row itself).
+bool unit_quaternion(const double* o, Quat& q) {
+  const double norm = std::sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2] + o[3] * o[3]);
+  if (!(std::isfinite(norm) && norm >= kMinQuaternionNorm)) return false;
+  const double inverse = 1.0 / norm;
+  q = {o[0] * inverse, o[1] * inverse, o[2] * inverse, o[3] * inverse};
+  return true;
+}
+
+class BoundField {
+ public:
+  BoundField(const Vector& goal, const Vector& params, const Rows<8>& aux, const Kinds& kinds, const Rows<16>& rows,
+             const Triangles& triangles, const PseudoNormals& pseudo_normals, const Rows<3>& bvh_lower,
+             const Rows<3>& bvh_upper, const Nodes& bvh_nodes, const MeshTable& mesh_table)
+      : goal_(goal), params_(params), aux_(aux), kinds_(kinds), rows_(rows), triangles_(triangles),
+        pseudo_normals_(pseudo_normals), bvh_lower_(bvh_lower), bvh_upper_(bvh_upper), bvh_nodes_(bvh_nodes),
+        mesh_table_(mesh_table),
+        packed_(packed_view(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table)) {
+    if (goal.shape(0) != 7) throw std::invalid_argument("goal: expected 7 numbers (position, quaternion)");
+    if (params.shape(0) != 16) throw std::invalid_argument("params: expected FieldConfig.packed()'s 16 numbers");
+    if (aux.shape(0) != kinds.shape(0)) throw std::invalid_argument("aux: expected one row per obstacle");
+    const double* g = goal.data();
+    field_ = {&packed_, reinterpret_cast<const ObstacleAux*>(aux.data()), aux.shape(0), vec3(g), quat(g + 3),
+              reinterpret_cast<const FieldParams*>(params.data())};
+  }
+
+  // The constrained twist (6,) and the output contract's outcome: a previous twist beyond the speed limits is
+  // scaled within them first (safety rule 3), the answer is finite and within them (rules 1 and 2).
+  std::tuple<NumpyArray, int> twist(const Vector& position, const Vector& orientation, std::optional<Vector> previous,
+                                    double dt) const {
+    auto [out, data] = new_array({6});
+    const int outcome = limited_twist(position.data(), orientation.data(), previous ? previous->data() : nullptr,
+                                      dt, data);
+    return {out, outcome};
+  }
+
+  // PreparedTwist's call: the bound pose (7,) and previous twist (6,) in, the twist into `out` (6,) under the
+  // output contract; 0, or the input's defect, leaving `out` unchanged: 1 position not finite, 2 not a unit
+  // quaternion within 1e-9, 3 a previous twist that is not finite.
+  int evaluate(const Pose7& pose, const Vector& previous, bool use_previous, double dt, Out6& out) const {
+    const double* p = pose.data();
+    if (!(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]))) return 1;
+    const double norm2 = p[3] * p[3] + p[4] * p[4] + p[5] * p[5] + p[6] * p[6];
+    if (!(std::abs(norm2 - 1.0) <= 2.0 * 1e-9)) return 2;
+    if (use_previous && std::isnan(safety::twist_scale(previous.data(), params().max_linear_velocity,
+                                                      params().max_angular_velocity)))
+      return 3;
+    limited_twist(p, p + 3, use_previous ? previous.data() : nullptr, dt, out.data());
+    return 0;
+  }
+
+  NumpyArray wrench(const Vector& position, const Vector& orientation) const {
+    auto [out, data] = new_array({6});
+    const field::Wrench w = field::field_wrench(field_, vec3(position.data()), quat(orientation.data()));
+    data[0] = w.force.x, data[1] = w.force.y, data[2] = w.force.z;
+    data[3] = w.torque.x, data[4] = w.torque.y, data[5] = w.torque.z;
+    return out;
+  }
+
+  // Twists (wrenches) at N poses, on every core from kParallelFrom poses; one orientation row may serve every
+  // position. Returns (values (N, 6), the first row that is not finite or has no rotation, -1 for none).
+  std::tuple<NumpyArray, std::int64_t> batch(const Rows<3>& positions, const Rows<4>& orientations,
+                                             bool wrenches) const {
+    const std::size_t n = positions.shape(0), shared = orientations.shape(0) == 1;
+    if (!shared && orientations.shape(0) != n) throw std::invalid_argument("orientations: expected N rows or one");
+    auto [out, data] = new_array({n, 6});
+    std::int64_t bad = -1;
+    {
+      nb::gil_scoped_release release;
+      const auto range = [&](std::size_t begin, std::size_t end) -> std::int64_t {
+        for (std::size_t k = begin; k < end; ++k) {
+          const double* p = positions.data() + 3 * k;
+          Quat q;
+          if (!(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2])) ||
+              !unit_quaternion(orientations.data() + 4 * (shared ? 0 : k), q))
+            return static_cast<std::int64_t>(k);
+          if (wrenches) {
+            const field::Wrench w = field::field_wrench(field_, vec3(p), q);
+            double* row = data + 6 * k;
+            row[0] = w.force.x, row[1] = w.force.y, row[2] = w.force.z;
+            row[3] = w.torque.x, row[4] = w.torque.y, row[5] = w.torque.z;
+          } else {
+            write_twist(field::constrained_twist(field_, vec3(p), q, nullptr, 0.0).twist, data + 6 * k);
+          }
+        }
+        return -1;
+      };
+      const unsigned threads = n < kParallelFrom ? 1u : std::max(1u, std::thread::hardware_concurrency());
+      if (threads == 1) {
+        bad = range(0, n);
+      } else {
+        std::vector<std::int64_t> first(threads, -1);
+        std::vector<std::thread> workers;
+        const std::size_t chunk = (n + threads - 1) / threads;
+        for (unsigned t = 0; t < threads; ++t)
+          workers.emplace_back([&, t] { first[t] = range(t * chunk, std::min(n, (t + 1) * chunk)); });
+        for (std::thread& worker : workers) worker.join();
+        for (std::int64_t row : first)
+          if (row >= 0) {
+            bad = row;
+            break;
+          }
+      }
+    }
+    return {out, bad};
+  }
+
+  std::tuple<std::int64_t, std::int64_t, std::int64_t> plan(const Pose7& start, double dt, double goal_tolerance,
+                                                            double rotation_tolerance, std::int64_t max_iterations,
+                                                            std::int64_t window, double progress,
+                                                            const Cancel& cancel, OutRows<7>& poses,
+                                                            OutRows<6>& twists, OutVector& clearances) const {
+    const std::size_t rows = static_cast<std::size_t>(max_iterations) + 1;
+    if (max_iterations < 0 || window < 1) throw std::invalid_argument("max_iterations >= 0 and window >= 1");
+    if (poses.shape(0) < rows || twists.shape(0) < rows || clearances.shape(0) < rows)
+      throw std::invalid_argument("poses, twists, clearances: expected max_iterations + 1 rows");
+    planning::LoopResult result;
+    {
+      nb::gil_scoped_release release;
+      result = planning::plan_task_space(field_, start.data(),
+                                         {dt, goal_tolerance, rotation_tolerance, max_iterations, window, progress},
+                                         cancel.data(), poses.data(), twists.data(), clearances.data());
+    }
+    return {result.count, static_cast<std::int64_t>(result.status), result.obstacle};
+  }
+
+ private:
+  static field::Twist twist_of(const double* v) { return {{v[0], v[1], v[2]}, {v[3], v[4], v[5]}}; }
+  const FieldParams& params() const { return *field_.params; }
+
+  // The twist under the output contract into out (6): previous (6, or null) clipped to the speed limits first.
+  int limited_twist(const double* position, const double* orientation, const double* previous, double dt,
+                    double* out) const {
+    const double vmax = params().max_linear_velocity, wmax = params().max_angular_velocity;
+    field::Twist before{};
+    if (previous != nullptr) {
+      double clipped[6] = {previous[0], previous[1], previous[2], previous[3], previous[4], previous[5]};
+      safety::limit_twist(clipped, vmax, wmax);  // a previous command beyond the limits was never sent
+      before = twist_of(clipped);
+    }
+    const ConstrainedTwist t = field::constrained_twist(field_, vec3(position), quat(orientation),
+                                                        previous != nullptr ? &before : nullptr, dt);
+    write_twist(t.twist, out);
+    return static_cast<int>(safety::limit_twist(out, vmax, wmax));
+  }
+
+  // the arrays the views point into, kept alive as long as this object
+  Vector goal_, params_;
+  Rows<8> aux_;
+  Kinds kinds_;
+  Rows<16> rows_;
+  Triangles triangles_;
+  PseudoNormals pseudo_normals_;
+  Rows<3> bvh_lower_, bvh_upper_;
+  Nodes bvh_nodes_;
+  MeshTable mesh_table_;
+  geometry::PackedView packed_;
+  field::Field field_{};
+};
+
+// PreparedTwist's state: the pose (7), the previous twist (6) and the answer (6) live here, seen from Python as
+// NumPy arrays over this memory, so a control loop's call passes nothing but dt.
+class Prepared {
+ public:
+  explicit Prepared(nb::object field) : owner_(std::move(field)), field_(&nb::cast<const BoundField&>(owner_)) {}
+
+  int evaluate(double dt) {
+    Pose7 pose(pose_, {7});
+    Vector previous(previous_, {6});
+    Out6 out(twist_, {6});
+    return field_->evaluate(pose, previous, dt > 0.0, dt, out);
+  }
+
+  double pose_[7] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0};
+  double previous_[6] = {};
+  double twist_[6] = {};
+
+ private:
+  nb::object owner_;  // the bound field, kept alive
+  const BoundField* field_;
+};
+
+template <std::size_t N>
+nb::ndarray<nb::numpy, double, nb::shape<N>> view(double (&buffer)[N], nb::handle owner) {
+  return nb::ndarray<nb::numpy, double, nb::shape<N>>(buffer, {N}, owner);
+}
+
+}  // namespace
+
+void bind_field(nb::module_& m) {
+  m.doc() = "The 3D potential field and its task-space planning loop (pfield.field's compiled core).";
+  m.attr("PARALLEL_FROM") = kParallelFrom;
+  // FieldParams member -> its index in FieldConfig.packed(), from the struct's own layout (a test holds it equal
+  // to FieldConfig's field order)
+  nb::dict offsets;
+#define PFIELD_OFFSET(member) offsets[#member] = offsetof(FieldParams, member) / sizeof(double)
+  PFIELD_OFFSET(attractive_gain);
+  PFIELD_OFFSET(rotational_attractive_gain);
+  PFIELD_OFFSET(repulsive_gain);
+  PFIELD_OFFSET(max_linear_velocity);
+  PFIELD_OFFSET(max_angular_velocity);
+  PFIELD_OFFSET(max_linear_acceleration);
+  PFIELD_OFFSET(max_angular_acceleration);
+  PFIELD_OFFSET(influence_distance);
+  PFIELD_OFFSET(attractive_threshold);
+  PFIELD_OFFSET(rotation_tolerance);
+  PFIELD_OFFSET(max_repulsive_force);
+  PFIELD_OFFSET(safety_distance);
+  PFIELD_OFFSET(damper_gain);
+  PFIELD_OFFSET(circulation_gain);
+  PFIELD_OFFSET(stagnation_window);
+  PFIELD_OFFSET(stagnation_progress);
+#undef PFIELD_OFFSET
+  m.attr("PARAM_OFFSETS") = offsets;
+  nb::class_<BoundField>(m, "Field")
+      .def(nb::init<const Vector&, const Vector&, const Rows<8>&, const Kinds&, const Rows<16>&, const Triangles&,
+                    const PseudoNormals&, const Rows<3>&, const Rows<3>&, const Nodes&, const MeshTable&>(),
+           "goal"_a, "params"_a, "aux"_a, "kinds"_a, "rows"_a, "triangles"_a, "pseudo_normals"_a, "bvh_lower"_a,
+           "bvh_upper"_a, "bvh_nodes"_a, "mesh_table"_a,
+           "Bind a field's arrays (FieldArrays): goal (7,), FieldConfig.packed() (16,), obstacle_aux (M, 8) and the "
+           "eight arrays of PackedObstacles; they are read in place for the object's life.")
+      .def("twist", &BoundField::twist, "position"_a, "orientation"_a, "previous"_a.none() = nb::none(),
+           "dt"_a = 0.0, "The constrained twist (6,) at a pose (unit quaternion); rate-limited against previous (6,).")
+      .def("evaluate", &BoundField::evaluate, "pose"_a, "previous"_a, "use_previous"_a, "dt"_a, "out"_a,
+           "PreparedTwist's call: 0, or 1/2 for a pose whose position / quaternion is not valid.")
+      .def("wrench", &BoundField::wrench, "position"_a, "orientation"_a, "The raw wrench (6,) at a pose.")
+      .def(
+          "twists",
+          [](const BoundField& self, const Rows<3>& positions, const Rows<4>& orientations) {
+            return self.batch(positions, orientations, false);
+          },
+          "positions"_a, "orientations"_a, "(twists (N, 6), first invalid row or -1), on every core.")
+      .def(
+          "wrenches",
+          [](const BoundField& self, const Rows<3>& positions, const Rows<4>& orientations) {
+            return self.batch(positions, orientations, true);
+          },
+          "positions"_a, "orientations"_a, "(wrenches (N, 6), first invalid row or -1), on every core.")
+      .def("plan", &BoundField::plan, "start"_a, "dt"_a, "goal_tolerance"_a, "rotation_tolerance"_a,
+           "max_iterations"_a, "window"_a, "progress"_a, "cancel"_a, "poses"_a, "twists"_a, "clearances"_a,
+           "The task-space plan into poses/twists/clearances: (waypoint count, PlanStatus value, obstacle or -1); "
+           "the GIL is released and cancel[0] read every step.");
+  nb::class_<Prepared>(m, "Prepared")
+      .def(nb::init<nb::object>(), "field"_a, "The state of a PreparedTwist over a bound Field.")
+      .def_prop_ro("pose", [](nb::handle_t<Prepared> self) { return view(nb::cast<Prepared&>(self).pose_, self); },
+                   "(7,) position then unit quaternion, a NumPy view of the object's memory")
+      .def_prop_ro("previous",
+                   [](nb::handle_t<Prepared> self) { return view(nb::cast<Prepared&>(self).previous_, self); },
+                   "(6,) the previous twist, a view")
+      .def_prop_ro("twist", [](nb::handle_t<Prepared> self) { return view(nb::cast<Prepared&>(self).twist_, self); },
+                   "(6,) the answer, a view")
+      .def("evaluate", &Prepared::evaluate, "dt"_a,
+           "The twist at pose into twist (rate-limited against previous when dt > 0) under the output contract; 0, "
+           "or 1/2/3 for a position / quaternion / previous twist it refused.");
+}
+
+}  // namespace pfield::python
