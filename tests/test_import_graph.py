@@ -176,5 +176,5 @@ def test_the_exceptions_are_still_needed() -> None:
 def test_the_walker_sees_function_level_and_aliased_imports() -> None:
     edges = {(a, b) for a, b, _ in _edges()}
     assert ("pfield.field.field", "pfield.planning.task_space") in edges  # inside PotentialField.plan
-    assert ("pfield.spatial", "pfield._spatial_kernels") in edges  # ``from pfield import _spatial_kernels``
+    assert ("pfield.spatial", "pfield._core") in edges  # ``from pfield._core import spatial``
     assert ("pfield.field.field", "pfield.planning.result") not in edges  # only under TYPE_CHECKING

@@ -3,12 +3,11 @@
 Quaternions are in ROS order ``(x, y, z, w)``. Rotation vectors ("rotvec") are axis * angle in radians
 (the so(3) exponential coordinates, Sola et al. 2018, "A micro Lie theory", eqs. 101-102).
 
-The SO(3) maths lives here once, in two forms side by side: *scalar* kernels on plain floats and tuples
-(:func:`so3_exp`, :func:`so3_log`, :func:`hamilton`, :func:`rotation_error`, :func:`left_increment`),
-which the planners' inner loops call without allocating (inlined into their callers: a call that
-returns a tuple costs as much as the arithmetic), and *array* kernels on 3- and 4-arrays
-(:func:`quat_exp`, :func:`quat_log`, :func:`quat_mul` …) that wrap them for the batched functions of
-:mod:`pfield.spatial`.
+These are the *scalar* kernels on plain floats and tuples (:func:`so3_exp`, :func:`so3_log`, :func:`hamilton`,
+:func:`rotation_error`, :func:`left_increment`, :func:`matrix_to_quat`) that the numba kernels not yet moved to the
+compiled core (whole body, IK, the assistance, the field's batches) inline. The batched functions of
+:mod:`pfield.spatial` and the core's own loops use ``src/core/math/so3.hpp``, the same formulas in the same order
+(the same bits, tested in tests/test_spatial_kernels.py).
 """
 
 from __future__ import annotations
@@ -85,70 +84,6 @@ def left_increment(
 
 
 @njit(cache=True)
-def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Hamilton product ``a ⊗ b`` (apply ``b`` first, then ``a``); array form of :func:`hamilton`."""
-    out = np.empty(4)
-    out[0], out[1], out[2], out[3] = hamilton(a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3])
-    return out
-
-
-@njit(cache=True)
-def quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Rotate vector ``v`` by unit quaternion ``q``: v' = v + 2w (u × v) + 2 u × (u × v)."""
-    ux, uy, uz, w = q[0], q[1], q[2], q[3]
-    tx = 2.0 * (uy * v[2] - uz * v[1])
-    ty = 2.0 * (uz * v[0] - ux * v[2])
-    tz = 2.0 * (ux * v[1] - uy * v[0])
-    out = np.empty(3)
-    out[0] = v[0] + w * tx + (uy * tz - uz * ty)
-    out[1] = v[1] + w * ty + (uz * tx - ux * tz)
-    out[2] = v[2] + w * tz + (ux * ty - uy * tx)
-    return out
-
-
-@njit(cache=True)
-def quat_exp(rotvec: np.ndarray) -> np.ndarray:
-    """Exponential map so(3) -> S3; array form of :func:`so3_exp`."""
-    out = np.empty(4)
-    out[0], out[1], out[2], out[3] = so3_exp(rotvec[0], rotvec[1], rotvec[2])
-    return out
-
-
-@njit(cache=True)
-def quat_log(q: np.ndarray) -> np.ndarray:
-    """Logarithm map S3 -> so(3) on the short arc; array form of :func:`so3_log`."""
-    out = np.empty(3)
-    out[0], out[1], out[2] = so3_log(q[0], q[1], q[2], q[3])
-    return out
-
-
-@njit(cache=True)
-def quat_angle(a: np.ndarray, b: np.ndarray) -> float:
-    """Geodesic angle between two unit quaternions, in [0, π]."""
-    d = abs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3])
-    if d > 1.0:
-        d = 1.0
-    return 2.0 * math.acos(d)
-
-
-@njit(cache=True)
-def quat_to_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrix of a unit quaternion (maps local vectors to the parent frame)."""
-    x, y, z, w = q[0], q[1], q[2], q[3]
-    r = np.empty((3, 3))
-    r[0, 0] = 1.0 - 2.0 * (y * y + z * z)
-    r[0, 1] = 2.0 * (x * y - z * w)
-    r[0, 2] = 2.0 * (x * z + y * w)
-    r[1, 0] = 2.0 * (x * y + z * w)
-    r[1, 1] = 1.0 - 2.0 * (x * x + z * z)
-    r[1, 2] = 2.0 * (y * z - x * w)
-    r[2, 0] = 2.0 * (x * z - y * w)
-    r[2, 1] = 2.0 * (y * z + x * w)
-    r[2, 2] = 1.0 - 2.0 * (x * x + y * y)
-    return r
-
-
-@njit(cache=True)
 def matrix_to_quat(r: np.ndarray) -> np.ndarray:
     """Unit quaternion (w >= 0) of a rotation matrix, by Shepperd's method (numerically stable)."""
     out = np.empty(4)
@@ -179,64 +114,4 @@ def matrix_to_quat(r: np.ndarray) -> np.ndarray:
         out[2] = 0.25 * s
     if out[3] < 0.0:
         out = -out
-    return out
-
-
-# ----------------------------------------------------------------------------------------------------
-# Batched loops over the kernels above, used by the vectorised functions of pfield.spatial.
-
-
-@njit(cache=True)
-def batch_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    out = np.empty((a.shape[0], 4))
-    for i in range(a.shape[0]):
-        out[i] = quat_mul(a[i], b[i])
-    return out
-
-
-@njit(cache=True)
-def batch_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    out = np.empty((q.shape[0], 3))
-    for i in range(q.shape[0]):
-        out[i] = quat_rotate(q[i], v[i])
-    return out
-
-
-@njit(cache=True)
-def batch_exp(rotvec: np.ndarray) -> np.ndarray:
-    out = np.empty((rotvec.shape[0], 4))
-    for i in range(rotvec.shape[0]):
-        out[i] = quat_exp(rotvec[i])
-    return out
-
-
-@njit(cache=True)
-def batch_log(q: np.ndarray) -> np.ndarray:
-    out = np.empty((q.shape[0], 3))
-    for i in range(q.shape[0]):
-        out[i] = quat_log(q[i])
-    return out
-
-
-@njit(cache=True)
-def batch_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    out = np.empty(a.shape[0])
-    for i in range(a.shape[0]):
-        out[i] = quat_angle(a[i], b[i])
-    return out
-
-
-@njit(cache=True)
-def batch_to_matrix(q: np.ndarray) -> np.ndarray:
-    out = np.empty((q.shape[0], 3, 3))
-    for i in range(q.shape[0]):
-        out[i] = quat_to_matrix(q[i])
-    return out
-
-
-@njit(cache=True)
-def batch_from_matrix(r: np.ndarray) -> np.ndarray:
-    out = np.empty((r.shape[0], 4))
-    for i in range(r.shape[0]):
-        out[i] = matrix_to_quat(r[i])
     return out

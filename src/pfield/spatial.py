@@ -16,7 +16,7 @@ from typing import Any, TypeAlias
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pfield import _spatial_kernels as _k
+from pfield._core import spatial as _core
 from pfield._validation import as_vector
 from pfield.errors import InvalidInput
 
@@ -56,9 +56,8 @@ def _batched(value: ArrayLike, width: int) -> tuple[NDArray[np.float64], bool]:
 
 
 def _kernel_input(array: NDArray[np.float64]) -> NDArray[np.float64]:
-    """A writable C-contiguous array (copied only when needed: a Pose's arrays are read-only), so that each
-    kernel sees one array type whatever the caller passes, and compiles once."""
-    return np.require(array, dtype=np.float64, requirements=["C", "W"])
+    """A C-contiguous float64 array (copied only when needed), as the compiled core reads it in place."""
+    return np.require(array, dtype=np.float64, requirements=["C"])
 
 
 def _unbatch(array: NDArray[np.float64], single: bool) -> NDArray[np.float64]:
@@ -87,7 +86,7 @@ def quaternion_multiply(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
     qa, single_a = _batched(a, 4)
     qb, single_b = _batched(b, 4)
     qa, qb = np.broadcast_arrays(qa, qb)
-    return _unbatch(_k.batch_mul(_kernel_input(qa), _kernel_input(qb)), single_a and single_b)
+    return _unbatch(_core.multiply(_kernel_input(qa), _kernel_input(qb)), single_a and single_b)
 
 
 def quaternion_inverse(q: ArrayLike) -> NDArray[np.float64]:
@@ -103,20 +102,20 @@ def rotate_vectors(q: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
     vec, single_v = _batched(v, 3)
     quat, _ = np.broadcast_arrays(quat, np.empty((vec.shape[0], 4)))
     vec, _ = np.broadcast_arrays(vec, np.empty((quat.shape[0], 3)))
-    out = _k.batch_rotate(_kernel_input(quat), _kernel_input(vec))
+    out = _core.rotate(_kernel_input(quat), _kernel_input(vec))
     return _unbatch(out, single_q and single_v)
 
 
 def quaternion_exp(rotvec: ArrayLike) -> NDArray[np.float64]:
     """Exponential map: rotation vector(s) (axis·angle, rad) to unit quaternion(s)."""
     vec, single = _batched(rotvec, 3)
-    return _unbatch(_k.batch_exp(vec), single)
+    return _unbatch(_core.exp(vec), single)
 
 
 def quaternion_log(q: ArrayLike) -> NDArray[np.float64]:
     """Logarithm map: unit quaternion(s) to rotation vector(s) with angle in [0, π] (short arc)."""
     quat, single = _batched(q, 4)
-    return _unbatch(_k.batch_log(quat), single)
+    return _unbatch(_core.log(quat), single)
 
 
 def geodesic_angle(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64] | float:
@@ -124,21 +123,21 @@ def geodesic_angle(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64] | float:
     qa, single_a = _batched(a, 4)
     qb, single_b = _batched(b, 4)
     qa, qb = np.broadcast_arrays(qa, qb)
-    out = _k.batch_angle(_kernel_input(qa), _kernel_input(qb))
+    out = _core.angle(_kernel_input(qa), _kernel_input(qb))
     return float(out[0]) if single_a and single_b else out
 
 
 def matrix_from_quaternion(q: ArrayLike) -> NDArray[np.float64]:
     """Rotation matrix (3×3, or N×3×3) of unit quaternion(s)."""
     quat, single = _batched(q, 4)
-    return _unbatch(_k.batch_to_matrix(quat), single)
+    return _unbatch(_core.to_matrix(quat), single)
 
 
 def quaternion_from_matrix(r: ArrayLike) -> NDArray[np.float64]:
     """Unit quaternion(s) (w ≥ 0) of rotation matrix (matrices), Shepperd's method."""
     mat = np.ascontiguousarray(r, dtype=np.float64)
     single = mat.ndim == 2
-    out = _k.batch_from_matrix(_kernel_input(mat.reshape(-1, 3, 3)))
+    out = _core.from_matrix(_kernel_input(mat.reshape(-1, 3, 3)))
     return _unbatch(out, single)
 
 

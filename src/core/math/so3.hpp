@@ -62,4 +62,49 @@ inline Quat left_increment(const Quat& q, const Vec3& omega, double h) {
   return {r.x / norm, r.y / norm, r.z / norm, r.w / norm};
 }
 
+// v rotated by the unit quaternion q: v + 2w (u x v) + 2 u x (u x v).
+inline Vec3 rotate(const Quat& q, const Vec3& v) {
+  const double tx = 2.0 * (q.y * v.z - q.z * v.y), ty = 2.0 * (q.z * v.x - q.x * v.z),
+               tz = 2.0 * (q.x * v.y - q.y * v.x);
+  return {v.x + q.w * tx + (q.y * tz - q.z * ty), v.y + q.w * ty + (q.z * tx - q.x * tz),
+          v.z + q.w * tz + (q.x * ty - q.y * tx)};
+}
+
+// The geodesic angle between two unit quaternions, 2 acos(|<a, b>|) in [0, pi].
+inline double angle(const Quat& a, const Quat& b) {
+  double d = std::abs(a.x * b.x + a.y * b.y + a.z * b.z + a.w * b.w);
+  if (d > 1.0) d = 1.0;
+  return 2.0 * std::acos(d);
+}
+
+// The rotation matrix (row-major, local -> parent) of a unit quaternion.
+inline void to_matrix(const Quat& q, double* r) {
+  const double x = q.x, y = q.y, z = q.z, w = q.w;
+  r[0] = 1.0 - 2.0 * (y * y + z * z), r[1] = 2.0 * (x * y - z * w), r[2] = 2.0 * (x * z + y * w);
+  r[3] = 2.0 * (x * y + z * w), r[4] = 1.0 - 2.0 * (x * x + z * z), r[5] = 2.0 * (y * z - x * w);
+  r[6] = 2.0 * (x * z - y * w), r[7] = 2.0 * (y * z + x * w), r[8] = 1.0 - 2.0 * (x * x + y * y);
+}
+
+// The unit quaternion (w >= 0) of a rotation matrix (row-major), by Shepperd's method (Shepperd 1978): the
+// largest of the trace and the diagonal decides which component is found from a square root, the stable one.
+inline Quat from_matrix(const double* r) {
+  Quat q;
+  const double trace = r[0] + r[4] + r[8];
+  if (trace > 0.0) {
+    const double s = 2.0 * std::sqrt(1.0 + trace);
+    q = {(r[7] - r[5]) / s, (r[2] - r[6]) / s, (r[3] - r[1]) / s, 0.25 * s};
+  } else if (r[0] > r[4] && r[0] > r[8]) {
+    const double s = 2.0 * std::sqrt(1.0 + r[0] - r[4] - r[8]);
+    q = {0.25 * s, (r[1] + r[3]) / s, (r[2] + r[6]) / s, (r[7] - r[5]) / s};
+  } else if (r[4] > r[8]) {
+    const double s = 2.0 * std::sqrt(1.0 + r[4] - r[0] - r[8]);
+    q = {(r[1] + r[3]) / s, 0.25 * s, (r[5] + r[7]) / s, (r[2] - r[6]) / s};
+  } else {
+    const double s = 2.0 * std::sqrt(1.0 + r[8] - r[0] - r[4]);
+    q = {(r[2] + r[6]) / s, (r[5] + r[7]) / s, 0.25 * s, (r[3] - r[1]) / s};
+  }
+  if (q.w < 0.0) q = {-q.x, -q.y, -q.z, -q.w};
+  return q;
+}
+
 }  // namespace pfield::math

@@ -10,6 +10,7 @@ void bind_costmap(nb::module_& m);
 void bind_geometry(nb::module_& m);
 void bind_field(nb::module_& m);
 void bind_safety(nb::module_& m);
+void bind_spatial(nb::module_& m);
 }  // namespace pfield::python
 
 NB_MODULE(_core, m) {
@@ -24,4 +25,6 @@ NB_MODULE(_core, m) {
   pfield::python::bind_field(field);
   nb::module_ safety = m.def_submodule("safety");
   pfield::python::bind_safety(safety);
+  nb::module_ spatial = m.def_submodule("spatial");
+  pfield::python::bind_spatial(spatial);
 }

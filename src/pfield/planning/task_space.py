@@ -19,17 +19,15 @@ from pfield.errors import InvalidInput
 from pfield.field.field import PotentialField
 from pfield.geometry import signed_distances
 from pfield.planning.cancel import cancel_flag
-from pfield.planning.fallback import FALLBACK_PLANNER, FIELD_PLANNER, task_space_fallback
-from pfield.planning.global_search import GlobalOptions
 from pfield.planning.options import DEFAULT_MAX_ITERATIONS, MAX_ITERATIONS_LIMIT, PlanOptions
-from pfield.planning.result import PlannedPath
+from pfield.planning.result import PLANNERS, PlannedPath
 from pfield.planning.status import ROOT_CAUSES, PlanStatus
-from pfield.planning.whole_body import make_scene
 from pfield.spatial import Pose
 
 __all__ = ["DEFAULT_MAX_ITERATIONS", "MAX_ITERATIONS_LIMIT", "plan_task_space"]
 
 _log = logging.getLogger(__name__)
+FIELD_PLANNER, FALLBACK_PLANNER = PLANNERS
 
 
 def plan_task_space(
@@ -83,6 +81,12 @@ def plan_task_space(
     planner = FIELD_PLANNER
     # --- global fallback: the field stopped short; search positions, then let the field run to each vertex
     if settings.global_fallback and status in (PlanStatus.STAGNATION, PlanStatus.ITERATION_LIMIT):
+        # imported here: the global search's kernels load only for the plans that need them, so a plan the
+        # field completes alone never waits for them
+        from pfield.planning.fallback import task_space_fallback
+        from pfield.planning.global_search import GlobalOptions
+        from pfield.planning.whole_body import make_scene
+
         global_options = GlobalOptions(time_limit=settings.global_time_limit)
         tolerance, angle, progress = settings.goal_tolerance, settings.rotation_tolerance, settings.stagnation_progress
 
