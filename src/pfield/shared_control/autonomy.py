@@ -12,6 +12,10 @@
   |q̇_j − q̇_prev,j| ≤ a_j·dt, with a_j = ``max_angular_acceleration`` (revolute) or
   ``max_linear_acceleration`` (prismatic), unless that would break an obstacle damper (safety first).
   Link–obstacle and self pairs already closer than ``safety_distance`` at q may not approach further.
+  The answer keeps the output contract (:mod:`pfield.safety`): q̇ within the URDF velocity limits and J q̇
+  within ``max_linear_velocity`` / ``max_angular_velocity``, by one factor (the planner's own steps are not
+  scaled: where the null-space motion makes the end effector faster than those limits, the autonomy vector is
+  a scaled copy of the planner's first step).
 
 The whole-body evaluation is one compiled call of :class:`pfield.planning.WholeBodyStepper` (planning's
 public whole-body step), cached per (field, robot) and thread.
