@@ -27,8 +27,8 @@ def test_parameters_get_set_dump(node_server: NodeServer) -> None:
     assert dumped["/pfield_manager"]["ros__parameters"]["repulsive_gain"] == 0.5
     assert node_server.cli("param", "set", "/pfield_manager", "repulsive_gain", "0.3").returncode == 0
     missing = node_server.cli("param", "get", "/pfield_manager", "nope")
-    assert missing.returncode == 1 and "nope" in missing.stderr
-    assert node_server.cli("param", "get", "/nobody", "x").returncode == 1
+    assert missing.returncode == 2 and "nope" in missing.stderr  # a wrong command: exit 2 (docs/node.md)
+    assert node_server.cli("param", "get", "/nobody", "x").returncode == 2
 
 
 def test_publish_goal_and_echo_it(node_server: NodeServer) -> None:
@@ -50,7 +50,7 @@ def test_interface_show_prints_the_definition(node_server: NodeServer) -> None:
     assert 'string PLANNING_METHOD_TASK_SPACE="task_space"' in shown.stdout and "\n---\n" in shown.stdout
     pose = node_server.cli("interface", "show", "geometry_msgs/msg/Pose").stdout.splitlines()
     assert "Point position" in pose and "Quaternion orientation" in pose
-    assert node_server.cli("interface", "show", "nope/msg/Nope").returncode == 1
+    assert node_server.cli("interface", "show", "nope/msg/Nope").returncode == 2
 
 
 def test_unreachable_server_is_a_clear_error() -> None:

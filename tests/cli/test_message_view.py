@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import json
+
 import pytest
+import yaml
 
 from pfield.cli._message_view import MessageView, format_yaml, outcome_line
 from pfield.errors import InvalidInput
@@ -60,3 +63,21 @@ def test_outcome_line() -> None:
 def test_long_strings_stay_on_one_line() -> None:
     text = format_yaml({"error_message": "x " * 100})
     assert len(text.splitlines()) == 1
+
+
+def test_an_integer_that_stands_for_a_constant_shows_its_name_and_stays_the_number() -> None:
+    """Issue 33 item 1: FindValidPose's ``state: 1`` said nothing to a user who expects INSCRIBED."""
+    view = MessageView("potential_fields_interfaces/srv/FindValidPose_Response")
+    response = {"state": 1, "cost": 5, "pose": {"header": {"frame_id": "map"}}}
+    text = format_yaml(view.show(response))
+    assert text.splitlines()[0] == "state: 1  # INSCRIBED" and "cost: 5\n" in text
+    assert yaml.safe_load(text) == response  # a YAML reader sees the number
+    assert format_yaml(view.show(response, "state")) == "1  # INSCRIBED"
+    assert view.show(response, "state") == 1 and json.dumps(view.show(response)["state"]) == "1"
+    assert format_yaml(view.show({"state": 9}, "state")) == "9"  # no such constant: the number alone
+    flags = MessageView("potential_fields_interfaces/srv/ComputeAssistance_Response")
+    assert format_yaml(flags.show({"flags": 6}, "flags")) == "6  # FLAG_NEAR_OBSTACLE|FLAG_AT_GOAL"
+    assert format_yaml(flags.show({"flags": 4096}, "flags")) == "4096"
+    # Marker's id, type and action are all int32: nothing says which field ARROW, CUBE … belong to
+    markers = MessageView("visualization_msgs/msg/MarkerArray").show({"markers": [{"id": 1, "type": 2}]})
+    assert format_yaml(markers) == "markers:\n- id: 1\n  type: 2"

@@ -22,7 +22,7 @@ def test_param_set_takes_a_negative_value_like_ros2() -> None:
                                            "--", "-0.5"])
         assert after_dashes.exit_code == 0 and node.get_parameters()["kr_dist"] == -0.5
         bad = runner.invoke(app, ["param", "set", "/base_controller", "kr_slope", "-2.5", "--url", server.url])
-        assert bad.exit_code == 1 and "kr_slope" in bad.output
+        assert bad.exit_code == 2 and "kr_slope" in bad.output
         assert node.get_parameters()["kr_slope"] == 30.0  # refused: unchanged
 
 
@@ -32,7 +32,7 @@ def test_param_set_nan_is_refused_by_the_node_naming_the_parameter() -> None:
     with ServerThread(create_app([node])) as server:
         for value in (".nan", ".inf"):
             result = runner.invoke(app, ["param", "set", "/base_controller", "kr_slope", value, "--url", server.url])
-            assert result.exit_code == 1, result.output
+            assert result.exit_code == 2, result.output
             assert "kr_slope" in result.output and "Traceback" not in result.output
     assert node.get_parameters()["kr_slope"] == 30.0
 
@@ -45,7 +45,7 @@ def test_param_set_an_absurd_value_is_refused_in_one_short_line_naming_the_param
     with ServerThread(create_app([node])) as server:
         for name, value in (("kr_slope", "1" * 400), ("kr_slope", "-" + "1" * 400), ("odom_frame", "o" * 10_000)):
             result = runner.invoke(app, ["param", "set", "/base_controller", name, value, "--url", server.url])
-            assert result.exit_code == 1, result.output
+            assert result.exit_code == 2, result.output
             assert result.output.startswith(f"error: {name}=") and result.output.count("\n") == 1, result.output
             assert len(result.output) < 400 and "Traceback" not in result.output
     assert node.get_parameters() == before

@@ -9,6 +9,7 @@ from typing import Annotated
 import typer
 import yaml
 
+from pfield.cli._exit_codes import FAILED, USAGE
 from pfield.cli._node import ServeContext, load_ros_parameters, register_node_factory
 from pfield.demo.tools import run_find_valid_pose
 from pfield.errors import PfieldError
@@ -43,7 +44,10 @@ def register(app: typer.Typer) -> None:
         params: Annotated[Path | None, typer.Option(help="ROS 2 parameters YAML (section costmap)")] = None,
         output: Annotated[Path, typer.Option("--output", "-o", help="PNG to write")] = Path("find_valid_pose.png"),
     ) -> None:
-        """Find the closest valid pose for a footprint on a map (FindValidPose) and draw the search."""
+        """Find the closest valid pose for a footprint on a map (FindValidPose) and draw the search.
+
+        Exit status 1 when no pose was found (state LETHAL), 2 for bad options or files."""
+        from pfield.costmap import PoseState
         from pfield.costmap._example import example_map_path
 
         try:
@@ -55,6 +59,8 @@ def register(app: typer.Typer) -> None:
             answer, png = run_find_valid_pose(map_file or example_map_path(), (x, y, yaw), request, values, output)
         except PfieldError as exc:
             typer.echo(f"error: {exc}", err=True)
-            raise typer.Exit(2) from None
+            raise typer.Exit(USAGE) from None
         typer.echo(yaml.safe_dump(answer, sort_keys=False).rstrip())
         typer.echo(f"wrote {png}", err=True)
+        if answer["state"] == PoseState.LETHAL:  # FindValidPose's "no pose": the search found none
+            raise typer.Exit(FAILED)

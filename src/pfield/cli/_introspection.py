@@ -18,6 +18,7 @@ import typer
 
 from pfield._validation import positive
 from pfield.cli import _node_client as _c
+from pfield.cli._exit_codes import USAGE
 from pfield.cli._node import load_ros_parameters
 from pfield.errors import PfieldError
 from pfield.transport import DEFAULT_URL
@@ -39,7 +40,7 @@ def _nodes(client: httpx.Client) -> list[str]:
 def _known_node(client: httpx.Client, node: str) -> str:
     name, nodes = _node_name(node), _nodes(client)
     if name not in nodes:
-        _c._fail(f"node {name} not found; known: {', '.join(nodes) or 'none'} (`pfield node list`)")
+        _c._fail(f"node {name} not found; known: {', '.join(nodes) or 'none'} (`pfield node list`)", USAGE)
     return name
 
 
@@ -79,7 +80,7 @@ def _topic_entry(client: httpx.Client, topic: str) -> dict[str, Any]:
     for entry in _c._request(client, "GET", "/topics"):
         if entry["name"] == name:
             return dict(entry)
-    _c._fail(f"unknown topic {name} (`pfield topic list` lists the topics)")
+    _c._fail(f"unknown topic {name} (`pfield topic list` lists the topics)", USAGE)
 
 
 @_c.topic_app.command("type")
@@ -182,14 +183,14 @@ def param_load(node: str, file: Annotated[Path, typer.Argument(metavar="FILE.yam
     try:
         sections = load_ros_parameters(file, "FILE")
     except PfieldError as exc:
-        _c._fail(str(exc))
+        _c._fail(str(exc), USAGE)
     with _c._client(url, token) as client:
         name = _known_node(client, node)
         current = _c._request(client, "GET", _c._node_path(name))
         values = {k: v for k, v in sections.get("/**", {}).items() if k in current} | sections.get(name, {})
         if not values:
             _c._fail(f"{file} has no parameters for {name} (expected a '{name.lstrip('/')}:' or '/**:' section "
-                     "with ros__parameters)")
+                     "with ros__parameters)", USAGE)
         _c._request(client, "PUT", _c._node_path(name), _c.json.dumps(values))
     for key in values:
         typer.echo(f"Set parameter {key} successful")
@@ -210,7 +211,7 @@ def param_describe(node: str, names: Annotated[list[str], typer.Argument(metavar
                  "plain values): update pfield on the server")
     unknown = [n for n in names if n not in described]
     if unknown:
-        _c._fail(f"{name} has no parameter {', '.join(map(repr, unknown))}; known: {', '.join(described)}")
+        _c._fail(f"{name} has no parameter {', '.join(map(repr, unknown))}; known: {', '.join(described)}", USAGE)
     for parameter in names:
         _print_description(parameter, described[parameter])
 

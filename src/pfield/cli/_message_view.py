@@ -7,11 +7,17 @@
   for a fixed-size one. Types are the IDL names ROS prints (float64 → ``double``, float32 → ``float``).
 * :func:`outcome_line` is the one line that says whether a service call worked (``success`` and its
   ``error_message``/``message``), printed after the response so that it is visible without scrolling.
+* An integer field that stands for one of its message's constants is shown with the constant's name as a YAML
+  comment, ``state: 1  # INSCRIBED`` (bit flags: ``flags: 6  # FLAG_NEAR_OBSTACLE|FLAG_AT_GOAL``): the value
+  stays the number for a YAML reader. A field stands for the constants of its type when it is the message's
+  only field of that type (FindValidPose's ``state``, ComputeAssistance's ``flags``); a message with several
+  (Marker's ``id``, ``type`` and ``action`` are all int32) names none, as nothing links a constant to a field.
 """
 
 from __future__ import annotations
 
 import json
+import secrets
 from dataclasses import dataclass
 from typing import Any
 
@@ -19,9 +25,9 @@ import yaml
 
 from pfield.errors import InvalidInput
 from pfield.interfaces import RosMessage, lookup_type
-from pfield.interfaces._idl import PRIMITIVES, model_definition
+from pfield.interfaces._idl import PRIMITIVES, Constant, model_definition
 
-__all__ = ["MessageView", "format_yaml", "outcome_line"]
+__all__ = ["ConstantValue", "MessageView", "format_yaml", "outcome_line"]
 
 _IDL_NAMES = {"float32": "float", "float64": "double", "bool": "boolean", "byte": "octet"}
 
@@ -33,6 +39,8 @@ class _Slot:
 
     base: str
     array: str = ""
+    constants: tuple[Constant, ...] = ()
+    """The message's constants this (integer) field stands for, if any."""
 
     @classmethod
     def parse(cls, type_name: str) -> _Slot:
@@ -50,7 +58,27 @@ class _Slot:
         model = self.model
         if model is None or self.array:
             return {}
-        return {f.name: _Slot.parse(f.type) for f in model_definition(model).fields}
+        definition = model_definition(model)
+        slots = {f.name: _Slot.parse(f.type) for f in definition.fields}
+        for constant_type in {c.type for c in definition.constants if _is_integer(c.value)}:
+            typed = [name for name, slot in slots.items() if slot.base == constant_type and not slot.array]
+            if len(typed) == 1:  # the only field the constants can belong to
+                slots[typed[0]] = _Slot(constant_type, constants=tuple(
+                    c for c in definition.constants if c.type == constant_type))
+        return slots
+
+    def constant_names(self, value: int) -> str | None:
+        """The constants ``value`` stands for: equal ones (``A/B`` when two share it), else, when every constant
+        is a distinct bit, the set bits (``A|B``); None when the field has no constants or they do not add up."""
+        equal = [c.name for c in self.constants if c.value == value]
+        if equal:
+            return "/".join(equal)
+        bits = [c.value for c in self.constants]
+        if value <= 0 or not bits or any(b <= 0 or b & (b - 1) for b in bits) or len(set(bits)) < len(bits):
+            return None
+        if value & ~sum(bits):
+            return None
+        return "|".join(c.name for c in self.constants if value & c.value)
 
     def summary(self, length: int) -> str:
         model = self.model
@@ -75,11 +103,42 @@ class MessageView:
         return _Slot(lookup_type(self.type_name).ros_type.replace("/msg/", "/", 1))
 
     def show(self, data: Any, field: str | None = None, no_arr: bool = False) -> Any:
-        """``data`` or the field at ``field`` (dotted path), with arrays summarised when ``no_arr``."""
+        """``data`` or the field at ``field`` (dotted path), with arrays summarised when ``no_arr`` and integers
+        that stand for constants as :class:`ConstantValue` (equal to their numbers)."""
         slot = self._root()
         if field:
             data, slot = _select(data, slot, field)
+        data = _name_constants(data, slot)
         return _abbreviate(data, slot) if no_arr else data
+
+
+class ConstantValue(int):
+    """An integer field with the names of the constants it stands for (``names``); it compares, hashes and
+    serialises (JSON) as its number, and :func:`format_yaml` writes it as ``1  # INSCRIBED``."""
+
+    names: str
+
+    def __new__(cls, value: int, names: str) -> ConstantValue:
+        number = super().__new__(cls, value)
+        number.names = names
+        return number
+
+
+def _is_integer(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _name_constants(data: Any, slot: _Slot | None) -> Any:
+    if slot is None:
+        return data
+    if isinstance(data, list):
+        return [_name_constants(item, slot.element()) for item in data] if slot.array else data
+    if isinstance(data, dict):
+        fields = slot.fields()
+        return {key: _name_constants(value, fields.get(key)) for key, value in data.items()}
+    if _is_integer(data) and slot.constants and (names := slot.constant_names(data)) is not None:
+        return ConstantValue(data, names)
+    return data
 
 
 def _select(data: Any, slot: _Slot | None, path: str) -> tuple[Any, _Slot | None]:
@@ -125,7 +184,27 @@ def outcome_line(response: Any) -> str | None:
 
 
 def format_yaml(data: Any) -> str:
-    """``data`` as block YAML, one line per scalar (no wrapping of long strings); a scalar alone as itself."""
+    """``data`` as block YAML, one line per scalar (no wrapping of long strings); a scalar alone as itself; a
+    :class:`ConstantValue` as its number and a comment naming its constants."""
+    if isinstance(data, ConstantValue):
+        return f"{int(data)}  # {data.names}"
     if not isinstance(data, dict | list):
         return json.dumps(data) if data is None or isinstance(data, bool) else str(data)
-    return yaml.safe_dump(data, sort_keys=False, default_flow_style=False, width=2**31 - 1).rstrip("\n")
+    marked: dict[str, ConstantValue] = {}
+    suffix = secrets.token_hex(8)  # no value of the message can spell the placeholders
+
+    def mark(value: Any) -> Any:
+        if isinstance(value, ConstantValue):
+            placeholder = f"pfield-constant-{len(marked)}-{suffix}"
+            marked[placeholder] = value
+            return placeholder
+        if isinstance(value, dict):
+            return {key: mark(item) for key, item in value.items()}
+        if isinstance(value, list):
+            return [mark(item) for item in value]
+        return value
+
+    text = yaml.safe_dump(mark(data), sort_keys=False, default_flow_style=False, width=2**31 - 1).rstrip("\n")
+    for placeholder, value in marked.items():  # block style: each placeholder ends its line
+        text = text.replace(placeholder, f"{int(value)}  # {value.names}")
+    return text

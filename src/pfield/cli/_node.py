@@ -19,6 +19,8 @@ import typer
 
 from pfield._validation import is_loopback_host
 from pfield.cli import _node_client
+from pfield.cli._exit_codes import USAGE
+from pfield.cli._port import check_port_free
 from pfield.errors import InvalidInput, PfieldError
 from pfield.interfaces._yaml import load_yaml_file
 from pfield.node._base import Bus, Node
@@ -111,13 +113,23 @@ def load_ros_parameters(path: Path, option: str = "--params") -> dict[str, dict[
 
 
 def load_robot(robot: str, end_effector: str | None, package_paths: Mapping[str, Path] | None = None) -> Any:
-    """A built-in robot by name, or a URDF whose ``package://`` mesh URIs resolve through ``package_paths``."""
-    from pfield.robot import RobotModel
+    """A built-in robot by name, or a URDF whose ``package://`` mesh URIs resolve through ``package_paths``.
 
-    if robot.lower() in ("xarm7", "panda"):
-        return RobotModel.builtin(robot.lower())
+    ``--robot`` is judged first: a value that is neither a built-in name nor a file is refused as such (listing
+    the built-in names), before a missing ``--end-effector`` of a URDF is."""
+    from pfield.robot import RobotModel
+    from pfield.robot.catalog import BUILTIN_ROBOTS
+
+    key = robot.strip().lower()
+    if key in BUILTIN_ROBOTS:
+        return RobotModel.builtin(key)
+    names = ", ".join(sorted(BUILTIN_ROBOTS))
+    if not Path(robot).is_file():
+        raise InvalidInput("--robot", robot, f"neither a built-in robot ({names}) nor a URDF file: give a built-in "
+                                             "name, or --robot FILE.urdf --end-effector LINK")
     if not end_effector:
-        raise InvalidInput("--end-effector", None, "a URDF robot needs --end-effector LINK")
+        raise InvalidInput("--end-effector", None, f"the URDF robot {robot} needs --end-effector LINK (the link "
+                                                   "whose pose is planned, e.g. tool0)")
     return RobotModel.from_urdf(robot, end_effector=end_effector, package_paths=dict(package_paths or {}))
 
 
@@ -151,12 +163,13 @@ def _check_host(host: str, token: str | None) -> None:
 
 @contextmanager
 def cli_errors() -> Iterator[None]:
-    """Turn a :class:`PfieldError` raised inside into one line ``error: ...`` on stderr and exit status 2."""
+    """Turn a :class:`PfieldError` raised inside into one line ``error: ...`` on stderr and exit status 2
+    (``USAGE``: the command is wrong as given)."""
     try:
         yield
     except PfieldError as exc:
         typer.echo("error: " + " ".join(str(exc).splitlines()), err=True)
-        raise typer.Exit(2) from None
+        raise typer.Exit(USAGE) from None
 
 
 def nodes_from_options(robot: str, end_effector: str | None, params: Path | None, package_path: list[str] | None,
@@ -185,7 +198,8 @@ def serve(
     footprint: FootprintOption = None,
     static_transform: StaticTransformOption = None,
     host: Annotated[str, typer.Option(help="address to bind; other than loopback needs --token")] = DEFAULT_HOST,
-    port: Annotated[int, typer.Option(help="TCP port")] = DEFAULT_PORT,
+    port: Annotated[int, typer.Option(min=1, max=65535, help="TCP port (checked free before anything starts)")]
+    = DEFAULT_PORT,
     token: Annotated[str | None, typer.Option(envvar="PFIELD_TOKEN", help="bearer token clients must send")]
     = None,
     csv_dir: CsvDirOption = None,
@@ -198,12 +212,15 @@ def serve(
     header_timeout: Annotated[float, typer.Option(help="s a client may take to send a request head")]
     = ServerLimits.header_timeout,
 ) -> None:
-    """Start the pfield node (HTTP + WebSocket) with the ROS names of the seed's interfaces."""
+    """Start the pfield node (HTTP + WebSocket) with the ROS names of the seed's interfaces.
+
+    Exit status 2, before anything is printed or started, for bad options or a port in use."""
     from pfield.transport.http import create_app, run_server
 
     logging.basicConfig(level=log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
     with cli_errors():
         _check_host(host, token)
+        check_port_free(host, port)
         limits = ServerLimits(max_connections=max_connections, header_timeout=header_timeout)
         nodes = nodes_from_options(robot, end_effector, params, package_path, mesh_root, map, footprint, csv_dir,
                                    static_transform)

@@ -2,8 +2,10 @@
 
 They talk to a running ``pfield serve`` found through ``--url``, ``PFIELD_URL`` or http://127.0.0.1:8357
 (token from ``--token``/``PFIELD_TOKEN``). YAML arguments are validated locally first (ROS's flow syntax
-and default filling), so a typo is reported before anything is sent. Answers print as YAML; any failure
-prints ``error: ...`` on stderr and exits with status 1.
+and default filling), so a typo is reported before anything is sent. Answers print as YAML; a failure prints
+``error: ...`` on stderr and exits with status 2 when the command is wrong as given (a local check, or the node's
+4xx refusal) or 1 when its outcome failed (:mod:`pfield.cli._exit_codes`); ``service call`` exits 1 when the
+response says ``success: false``.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import yaml
 
 import pfield.interfaces.all  # noqa: F401 - registers every message type
 from pfield._validation import positive
+from pfield.cli._exit_codes import FAILED, USAGE, for_http_status
 from pfield.cli._message_view import MessageView, format_yaml, outcome_line
 from pfield.errors import PfieldError
 from pfield.interfaces import interface_text, lookup_service, lookup_type, message_from_yaml, registered_types
@@ -44,9 +47,10 @@ param_app = typer.Typer(help="Get, set and dump node parameters.", no_args_is_he
 interface_app = typer.Typer(help="Show message and service definitions.", no_args_is_help=True)
 
 
-def _fail(message: str) -> NoReturn:
+def _fail(message: str, code: int = FAILED) -> NoReturn:
+    """Print ``error: message`` on stderr and exit with ``code`` (``USAGE`` when the command is wrong as given)."""
     typer.echo(f"error: {message}", err=True)
-    raise typer.Exit(1)
+    raise typer.Exit(code)
 
 
 def _print_yaml(data: Any) -> None:
@@ -72,19 +76,21 @@ def _request(client: httpx.Client, method: str, path: str, json_text: str | None
         kwargs |= {"content": json_text, "headers": {"content-type": "application/json"}}
     response = client.request(method, path, **kwargs)
     if response.status_code >= 400:
+        code = for_http_status(response.status_code)
         try:
             body = response.json()
-            _fail(body.get("error") or json.dumps(body))
         except ValueError:
-            _fail(f"HTTP {response.status_code}: {response.text}")
+            _fail(f"HTTP {response.status_code}: {response.text}", code)
+        _fail((body.get("error") if isinstance(body, dict) else None) or json.dumps(body), code)
     return response.json()
 
 
 def _local(parse: Any, *args: Any) -> Any:
+    """``parse(*args)``, a check made before anything is sent: its error exits with ``USAGE``."""
     try:
         return parse(*args)
     except PfieldError as exc:
-        _fail(str(exc))
+        _fail(str(exc), USAGE)
 
 
 TimeoutOption = Annotated[float | None, typer.Option(
@@ -194,11 +200,15 @@ def topic_list(show_types: ShowTypes = False, url: Url = DEFAULT_URL, token: Tok
 def service_call(service: str, type_name: Annotated[str, typer.Argument(metavar="TYPE")],
                  values: Annotated[str, typer.Argument(metavar="YAML")] = "",
                  field: FieldOption = None, no_arr: NoArrOption = False,
+                 exit_zero: Annotated[bool, typer.Option(
+                     "--exit-zero", help="exit 0 even when the response says success: false (as ros2 service "
+                                         "call does); errors still exit 1 or 2")] = False,
                  url: Url = DEFAULT_URL, token: Token = None) -> None:
     """Call a service with a request given as YAML; print the response as YAML (stdout).
 
     A response with a ``success`` field is followed by one line on stderr, ``success: false
-    (error_message: ...)``, so the outcome of a long answer is the last line on the terminal.
+    (error_message: ...)``, so the outcome of a long answer is the last line on the terminal; a false
+    ``success`` exits with status 1 (0 with --exit-zero), so ``pfield service call ... && next`` stops there.
     """
     service_type = _local(lookup_service, type_name)
     request = _local(message_from_yaml, service_type.request, values)
@@ -206,7 +216,7 @@ def service_call(service: str, type_name: Annotated[str, typer.Argument(metavar=
     with _client(url, token) as client:
         served = {s["name"]: s["type"] for s in _request(client, "GET", "/services")}
         if name in served and lookup_service(served[name]).name != service_type.name:
-            _fail(f"{name} is a {served[name]} service, not {type_name}")
+            _fail(f"{name} is a {served[name]} service, not {type_name}", USAGE)
         typer.echo(f"requester: making request: {service_type.request.ros_type}", err=True)
         response = _request(client, "POST", f"/srv{name}", request.model_dump_json())
     shown = _local(MessageView(service_type.response.ros_type).show, response, field, no_arr)
@@ -216,6 +226,8 @@ def service_call(service: str, type_name: Annotated[str, typer.Argument(metavar=
     outcome = outcome_line(response)
     if outcome is not None:
         typer.echo(outcome, err=True)
+    if isinstance(response, dict) and response.get("success") is False and not exit_zero:
+        raise typer.Exit(FAILED)
 
 
 @service_app.command("list")
@@ -242,7 +254,7 @@ def param_get(node: str, name: str, url: Url = DEFAULT_URL, token: Token = None)
     with _client(url, token) as client:
         values = _request(client, "GET", _node_path(node))
     if name not in values:
-        _fail(f"{node} has no parameter {name!r}; known: {', '.join(values)}")
+        _fail(f"{node} has no parameter {name!r}; known: {', '.join(values)}", USAGE)
     _print_yaml(values[name])
 
 
