@@ -81,11 +81,18 @@ class BoundField {
 
   // The constrained twist (6,) and the output contract's outcome: a previous twist beyond the speed limits is
   // scaled within them first (safety rule 3), the answer is finite and within them (rules 1 and 2).
-  std::tuple<NumpyArray, int> twist(const Vector& position, const Vector& orientation, std::optional<Vector> previous,
+  // (The previous twist comes as its two parts, a Twist's arrays, so the caller joins nothing.)
+  std::tuple<NumpyArray, int> twist(const Vector& position, const Vector& orientation,
+                                    std::optional<Vector> previous_linear, std::optional<Vector> previous_angular,
                                     double dt) const {
     auto [out, data] = new_array({6});
-    const int outcome = limited_twist(position.data(), orientation.data(), previous ? previous->data() : nullptr,
-                                      dt, data);
+    double previous[6];
+    const bool given = previous_linear.has_value() && previous_angular.has_value();
+    if (given) {
+      std::copy(previous_linear->data(), previous_linear->data() + 3, previous);
+      std::copy(previous_angular->data(), previous_angular->data() + 3, previous + 3);
+    }
+    const int outcome = limited_twist(position.data(), orientation.data(), given ? previous : nullptr, dt, data);
     return {out, outcome};
   }
 
@@ -274,8 +281,10 @@ void bind_field(nb::module_& m) {
            "bvh_upper"_a, "bvh_nodes"_a, "mesh_table"_a,
            "Bind a field's arrays (FieldArrays): goal (7,), FieldConfig.packed() (16,), obstacle_aux (M, 8) and the "
            "eight arrays of PackedObstacles; they are read in place for the object's life.")
-      .def("twist", &BoundField::twist, "position"_a, "orientation"_a, "previous"_a.none() = nb::none(),
-           "dt"_a = 0.0, "The constrained twist (6,) at a pose (unit quaternion); rate-limited against previous (6,).")
+      .def("twist", &BoundField::twist, "position"_a, "orientation"_a, "previous_linear"_a.none() = nb::none(),
+           "previous_angular"_a.none() = nb::none(), "dt"_a = 0.0,
+           "(the constrained twist (6,) at a pose (unit quaternion), the output contract's outcome); rate-limited "
+           "against the previous twist's linear and angular parts (3,) when given")
       .def("evaluate", &BoundField::evaluate, "pose"_a, "previous"_a, "use_previous"_a, "dt"_a, "out"_a,
            "PreparedTwist's call: 0, or 1/2 for a pose whose position / quaternion is not valid.")
       .def("wrench", &BoundField::wrench, "position"_a, "orientation"_a, "The raw wrench (6,) at a pose.")

@@ -202,8 +202,8 @@ class PotentialField:
             step = finite("dt", dt)
             if step <= 0.0:
                 raise InvalidInput("dt", dt, "must be > 0 when a previous twist is given")
-            values, outcome = self._core.twist(pose.position, pose.orientation,
-                                               np.concatenate([previous.linear, previous.angular]), step)
+            values, outcome = self._core.twist(pose.position, pose.orientation, previous.linear, previous.angular,
+                                               step)
         if outcome == safety.HALTED:  # the core applied the output contract (pfield.safety)
             _LOG.warning("twist at %r was not finite: answered zero (%s)", pose, safety.describe(safety.HALTED))
         return _fast_twist(values)
