@@ -7,6 +7,7 @@
 #include "field/forces.hpp"
 #include "harness.hpp"
 #include "math/so3.hpp"
+#include "planning/retime.hpp"
 
 namespace {
 
@@ -101,4 +102,24 @@ TEST(the_constrained_twist_slows_the_approach_to_a_sphere) {
   CHECK(std::isinf(free.clearance) && free.nearest == -1);
   const Wrench wrench = field_wrench(field, p, Quat{});
   CHECK(wrench.force.x < 3.0 * 0.66);  // repulsion pushes back against the attraction
+}
+
+TEST(retiming_keeps_the_limits_and_never_shortens_an_interval) {
+  using namespace pfield::planning;
+  // one joint: rest, a jump of 1 rad in one 0.02 s step, rest
+  const double q[4] = {0.0, 0.0, 1.0, 1.0};
+  const double h0[3] = {0.02, 0.02, 0.02};
+  const double v_max[1] = {2.0}, a_max[1] = {1.4};
+  const Timing timing = stretch_intervals({q, 4, 1}, h0, v_max, a_max, 2000);
+  for (double h : timing.h) CHECK(h >= 0.02);
+  for (std::size_t k = 0; k < 4; ++k) {
+    CHECK(std::abs(timing.velocities[k]) <= 2.0 * (1 + 1e-8));
+    CHECK(std::abs(timing.accelerations[k]) <= 1.4 * (1 + 1e-8));
+  }
+  const double arc[5] = {0.0, 0.01, 0.07, 0.08, 0.2};
+  const std::vector<std::int64_t> knots = knot_indices(arc, 5, 0.05);
+  CHECK(knots.size() == 3 && knots[0] == 0 && knots[1] == 2 && knots[2] == 4);
+  double times[3] = {0.0, 0.0, 0.5};
+  strictly_increasing(times, 3);
+  CHECK(times[1] > 0.0 && times[1] < 1e-300);
 }

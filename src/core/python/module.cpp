@@ -11,6 +11,7 @@ void bind_geometry(nb::module_& m);
 void bind_field(nb::module_& m);
 void bind_safety(nb::module_& m);
 void bind_spatial(nb::module_& m);
+void bind_planning(nb::module_& m);
 }  // namespace pfield::python
 
 NB_MODULE(_core, m) {
@@ -27,4 +28,6 @@ NB_MODULE(_core, m) {
   pfield::python::bind_safety(safety);
   nb::module_ spatial = m.def_submodule("spatial");
   pfield::python::bind_spatial(spatial);
+  nb::module_ planning = m.def_submodule("planning");
+  pfield::python::bind_planning(planning);
 }

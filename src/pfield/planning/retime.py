@@ -10,7 +10,7 @@ along the path (the first and last always) carry the timing, chosen as follows:
   two neighbouring knots (exact for quadratic motion on a non-uniform grid), zero velocity at both ends;
 * wherever a sample exceeds |q̇_j| ≤ v_j (URDF) or |q̈_j| ≤ a_j (configured), the two intervals around
   it are lengthened by the violation ratio r = max(|q̇|/v, √(|q̈|/a)) (q̇ scales with 1/r, q̈ with 1/r²),
-  round after round (:mod:`._retime_kernel`, compiled), and a last uniform stretch removes any remainder;
+  round after round (compiled: ``src/core/planning/retime.cpp``), and a last uniform stretch removes any remainder;
 * the waypoints between two knots get times in proportion to their arc length, and velocities and
   accelerations interpolated linearly between the knots' (so they stay within the limits too).
 
@@ -33,14 +33,15 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pfield._core import planning as _core
 from pfield._validation import positive
 from pfield.errors import InvalidInput
-from pfield.planning._retime_kernel import knot_indices, stretch_intervals, strictly_increasing
 
 __all__ = ["TimedJointTrajectory", "retime_joint_path"]
 
 KNOT_SPACING = 0.05
-"""rad (or m): least joint-space arc length between consecutive knots (see :func:`._retime_kernel.knot_indices`)."""
+"""rad (or m): least joint-space arc length between consecutive knots (``planning::knot_indices``,
+``src/core/planning/retime.hpp``)."""
 _ROUNDS = 2000
 
 
@@ -106,9 +107,9 @@ def retime_joint_path(joint_names: tuple[str, ...], waypoints: ArrayLike, veloci
         zeros = np.zeros_like(points)
         resting = np.arange(len(points), dtype=np.float64) * step
         return TimedJointTrajectory(joint_names, resting, points, zeros, zeros, v_max, a_max)
-    knots = knot_indices(arc, KNOT_SPACING)
-    h, knot_v, knot_a = stretch_intervals(np.ascontiguousarray(points[knots]), np.full(len(knots) - 1, step),
-                                          v_max, a_max, _ROUNDS)
+    knots = _core.knot_indices(arc, KNOT_SPACING)
+    h, knot_v, knot_a = _core.stretch_intervals(np.ascontiguousarray(points[knots]), np.full(len(knots) - 1, step),
+                                                v_max, a_max, _ROUNDS)
     scale = max(1.0, float(np.max(np.abs(knot_v) / v_max)), float(np.sqrt(np.max(np.abs(knot_a) / a_max))))
     if scale > 1.0:  # the rounds stop within 1e-9 of the limits (or at their count): remove the rest uniformly
         h, knot_v, knot_a = h * scale, knot_v / scale, knot_a / scale**2
@@ -121,6 +122,7 @@ def retime_joint_path(joint_names: tuple[str, ...], waypoints: ArrayLike, veloci
     times = knot_t[segment] + share[:, 0] * h[segment]
     velocities = (1.0 - share) * knot_v[segment] + share * knot_v[segment + 1]
     accelerations = (1.0 - share) * knot_a[segment] + share * knot_a[segment + 1]
-    times = strictly_increasing(times)
+    times = np.ascontiguousarray(times)
+    _core.strictly_increasing(times)
     return TimedJointTrajectory(joint_names, times, points, velocities, accelerations, v_max, a_max)
 
