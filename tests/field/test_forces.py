@@ -10,16 +10,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from pfield._core.field import braking_rate_limit, rate_limit
 from pfield._spatial_kernels import rotation_error
 from pfield.field.config import PARAM_NAMES, PARAMS
 from pfield.field.forces import (
     attraction,
-    braking_rate_limit,
     damper_speed,
     deflect,
     khatib_magnitude,
     project_damper,
-    rate_limit,
     soft_saturate,
 )
 from pfield.spatial import quaternion_exp, quaternion_inverse, quaternion_log, quaternion_multiply

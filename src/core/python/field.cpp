@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "field/evaluate.hpp"
+#include "field/forces.hpp"
 #include "planning/task_space.hpp"
 #include "python/arrays.hpp"
 #include "python/packed.hpp"
@@ -251,6 +252,24 @@ nb::ndarray<nb::numpy, double, nb::shape<N>> view(double (&buffer)[N], nb::handl
 
 void bind_field(nb::module_& m) {
   m.doc() = "The 3D potential field and its task-space planning loop (pfield.field's compiled core).";
+  // the two rate limits alone, for their property tests (the other laws keep numba twins, tested there)
+  m.def(
+      "rate_limit",
+      [](double x, double y, double z, double px, double py, double pz, double max_change) {
+        const Vec3 v = field::rate_limit({x, y, z}, {px, py, pz}, max_change);
+        return std::make_tuple(v.x, v.y, v.z);
+      },
+      "x"_a, "y"_a, "z"_a, "px"_a, "py"_a, "pz"_a, "max_change"_a,
+      "The point of the ball |v - v_prev| <= max_change nearest to v.");
+  m.def(
+      "braking_rate_limit",
+      [](double x, double y, double z, double px, double py, double pz, double max_change, double nx, double ny,
+         double nz, double limit) {
+        const Vec3 v = field::braking_rate_limit({x, y, z}, {px, py, pz}, max_change, {nx, ny, nz}, limit);
+        return std::make_tuple(v.x, v.y, v.z);
+      },
+      "x"_a, "y"_a, "z"_a, "px"_a, "py"_a, "pz"_a, "max_change"_a, "nx"_a, "ny"_a, "nz"_a, "limit"_a,
+      "The rate limit that spends its budget on braking along n first, then |v| <= limit.");
   m.attr("PARALLEL_FROM") = kParallelFrom;
   // FieldParams member -> its index in FieldConfig.packed(), from the struct's own layout (a test holds it equal
   // to FieldConfig's field order)

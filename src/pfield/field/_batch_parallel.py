@@ -7,7 +7,7 @@ not depend on the thread count or the batch size, and equals ``twist_at`` / ``wr
 (LLVM may contract a multiply-add differently in another function).
 
 **Lanes.** The twist kernel takes :data:`LANES` poses at a time and runs the first damper sweep of
-:func:`~pfield.field._evaluate._avoid` obstacle by obstacle across them: a sphere's signed distance,
+the damper sweeps (``avoid``, ``src/core/field/evaluate.cpp``) obstacle by obstacle across them: a sphere's signed distance,
 normal and allowed approach speed are straight-line arithmetic over the lanes, which LLVM turns into SIMD
 instructions (``error_model="numpy"``: no Python zero-division check to branch on); the branchy rest
 (:func:`~pfield.field._evaluate.first_sweep_obstacle`, then the later sweeps of
@@ -182,7 +182,7 @@ def _sphere_sweep(st: np.ndarray, geo: np.ndarray, at: int, width: int, i: int, 
                   aux: np.ndarray) -> None:
     """Sphere i's part of sweep 0 at every lane, from :func:`_sphere_lanes`'s values.
 
-    The steps of :func:`~pfield.field._evaluate._avoid`'s loop body: the nearest obstacle so far and the
+    The steps of the damper sweeps' loop body: the nearest obstacle so far and the
     projection of the previous twist run over all lanes (SIMD, with selects), with the approach excess of
     the twist; :func:`~pfield.field.forces.deflect` then runs only at the lanes where the excess is positive
     (elsewhere it returns the twist unchanged; on a field sampled in space these are a few per cent, and

@@ -33,12 +33,10 @@ from pfield._spatial_kernels import rotation_error
 from pfield.field.config import PARAMS
 from pfield.field.forces import (
     attraction,
-    braking_rate_limit,
     damper_speed,
     deflect,
     khatib_magnitude,
     project_damper,
-    rate_limit,
     soft_saturate,
 )
 from pfield.geometry._packed import PackedObstacles
@@ -135,7 +133,8 @@ def damper_sweeps(
     active_previous: int, clearance: float, mx: float, my: float, mz: float, first: int,
     params: np.ndarray, packed: PackedObstacles, aux: np.ndarray, spheres: np.ndarray, lane: int, lanes: int,
 ) -> tuple[float, float, float, float, float, float, int, int, float, int, float, float, float]:
-    """The damper sweeps of :func:`_avoid` from sweep ``first`` on (0: all of them) and its last step.
+    """The damper sweeps of the constrained twist (``avoid`` in ``src/core/field/evaluate.cpp``) from sweep ``first`` on
+    (0: all of them) and its last step.
 
     Sweep 0 runs :func:`first_sweep_obstacle` per obstacle; later sweeps, while two or more dampers bind,
     project v and the previous linear twist s onto every damper's half-space until nothing changes; then, if
@@ -188,38 +187,6 @@ def damper_sweeps(
 
 
 @njit(cache=True, inline="always")
-def brake_direction(sx: float, sy: float, sz: float, previous: np.ndarray) -> tuple[float, float, float]:
-    """Unit vector from the previous linear twist to its projection s (zero when it obeys every damper)."""
-    bx, by, bz = sx - previous[0], sy - previous[1], sz - previous[2]
-    brake = math.sqrt(bx * bx + by * by + bz * bz)
-    if brake > 0.0:
-        bx, by, bz = bx / brake, by / brake, bz / brake
-    return bx, by, bz
-
-
-@njit(cache=True, inline="always")
-def _avoid(
-    p: np.ndarray, vx: float, vy: float, vz: float, params: np.ndarray, packed: PackedObstacles,
-    aux: np.ndarray, previous: np.ndarray,
-) -> tuple[float, float, float, float, int, float, float, float]:
-    """Apply every obstacle's velocity damper to v; also the exact clearance and the braking direction.
-
-    Sweep 0 deflects v (:func:`~pfield.field.forces.deflect`); when two or more dampers bind, up to fifteen
-    more sweeps project v onto the dampers' half-spaces until all hold (if they cannot all hold, the
-    nearest obstacle's damper is enforced last, so the clearance cannot shrink). The previous linear twist is
-    projected alongside: the unit vector from it to its projection is the direction in which the rate
-    limit brakes first (zero when the previous twist obeys every damper). Returns (v, clearance, nearest,
-    brake direction). All in :func:`damper_sweeps`; the batch kernels (:mod:`pfield.field._batch_parallel`)
-    run its sweep 0 lane-wise with the same steps.
-    """
-    vx, vy, vz, sx, sy, sz, _, _, clearance, nearest, _, _, _ = damper_sweeps(
-        p, vx, vy, vz, previous[0], previous[1], previous[2], 0, 0, math.inf, 0.0, 0.0, 0.0, 0, params, packed,
-        aux, previous, 0, 0)
-    bx, by, bz = brake_direction(sx, sy, sz, previous)
-    return vx, vy, vz, clearance, nearest, bx, by, bz
-
-
-@njit(cache=True, inline="always")
 def attraction_twist(p: np.ndarray, goal: np.ndarray, params: np.ndarray) -> tuple[float, float, float]:
     """v = soft-saturated attraction toward the goal (m/s), before obstacles."""
     vx, vy, vz = attraction(goal[0] - p[0], goal[1] - p[1], goal[2] - p[2],
@@ -246,31 +213,3 @@ def cap_speed(vx: float, vy: float, vz: float, vmax: float) -> tuple[float, floa
     return vx, vy, vz
 
 
-@njit(cache=True, inline="always")
-def constrained_twist(
-    p: np.ndarray, qx: float, qy: float, qz: float, qw: float,
-    goal: np.ndarray, params: np.ndarray, packed: PackedObstacles, aux: np.ndarray,
-    previous: np.ndarray, use_previous: bool, dt: float,
-) -> tuple[float, float, float, float, float, float, float, int]:
-    """The autonomy twist at pose (p, q) and the clearance: (vx, vy, vz, ωx, ωy, ωz, clearance, nearest).
-
-    1. v = soft-saturated attraction (:func:`attraction_twist`), ω = soft-saturated k_rot · log(q_g ⊗ q⁻¹)
-       (:func:`goal_rotation`);
-    2. each obstacle within Q limits the approach speed (velocity damper) and turns the excess into
-       tangential motion (:func:`~pfield.field.forces.deflect`), then projections settle several dampers;
-       ‖v‖ ≤ v_max still holds after them (:func:`cap_speed`);
-    3. with ``use_previous``, rate limits ‖v − v_prev‖ ≤ a_max dt (braking first,
-       :func:`~pfield.field.forces.braking_rate_limit`) and ‖ω − ω_prev‖ ≤ α_max dt.
-    ``clearance`` is the smallest signed distance over all obstacles (inf without any), ``nearest`` its
-    index (−1).
-    """
-    vx, vy, vz = attraction_twist(p, goal, params)
-    wx, wy, wz = goal_rotation(qx, qy, qz, qw, goal, params)
-    vx, vy, vz, clearance, nearest, bx, by, bz = _avoid(p, vx, vy, vz, params, packed, aux, previous)
-    vx, vy, vz = cap_speed(vx, vy, vz, params[MAX_LINEAR_VELOCITY])
-    if use_previous:
-        vx, vy, vz = braking_rate_limit(vx, vy, vz, previous[0], previous[1], previous[2],
-                                        params[MAX_LINEAR_ACCELERATION] * dt, bx, by, bz, params[MAX_LINEAR_VELOCITY])
-        wx, wy, wz = rate_limit(wx, wy, wz, previous[3], previous[4], previous[5],
-                                params[MAX_ANGULAR_ACCELERATION] * dt)
-    return vx, vy, vz, wx, wy, wz, clearance, nearest

@@ -16,7 +16,8 @@ Laws (see ``docs/field.md`` for the reasoning):
 * velocity dampers (Faverjon & Tournassoud 1987; Haviland & Corke 2021, NEO, eq. 20): the approach speed
   toward an obstacle is at most ξ v_max (d − d_s)/(Q − d_s), capped in one of two ways — this module
   is their one home, and :func:`damper_speed` / :func:`stepped_damper_speed` say why there are two;
-* soft saturation v ← v_max · tanh(‖v‖/v_max) · v/‖v‖, and the rate limit ‖v − v_prev‖ ≤ a_max · dt.
+* soft saturation v ← v_max · tanh(‖v‖/v_max) · v/‖v‖ (the twist's rate limits ‖v − v_prev‖ ≤ a_max · dt live in
+  the core alone, ``src/core/field/forces.hpp``: no numba kernel uses them any more).
 """
 
 from __future__ import annotations
@@ -27,12 +28,10 @@ from numba import njit
 
 __all__ = [
     "attraction",
-    "braking_rate_limit",
     "damper_speed",
     "deflect",
     "khatib_magnitude",
     "project_damper",
-    "rate_limit",
     "soft_saturate",
     "stepped_damper_speed",
 ]
@@ -80,19 +79,6 @@ def soft_saturate(x: float, y: float, z: float, limit: float) -> tuple[float, fl
 
 
 @njit(cache=True)
-def rate_limit(
-    x: float, y: float, z: float, px: float, py: float, pz: float, max_change: float
-) -> tuple[float, float, float]:
-    """The point of the ball ‖v − v_prev‖ ≤ ``max_change`` nearest to v (= a_max · dt)."""
-    dx, dy, dz = x - px, y - py, z - pz
-    norm = math.sqrt(dx * dx + dy * dy + dz * dz)
-    if norm <= max_change:
-        return x, y, z
-    scale = max_change / norm
-    return px + scale * dx, py + scale * dy, pz + scale * dz
-
-
-@njit(cache=True)
 def damper_speed(
     distance: float, influence: float, safety: float, gain: float, max_speed: float, max_acceleration: float
 ) -> float:
@@ -102,7 +88,7 @@ def damper_speed(
     half the acceleration limit stops within the margin, leaving the other half for a second obstacle
     or for turning, so a rate-limited twist can still stop before d_s. Negative below d_s (the twist must
     move away), never below −``max_speed``. Only meaningful for d < Q. The acceleration cap is what a
-    rate-limited twist needs (:func:`braking_rate_limit` can only brake at a_max); for velocities that are
+    rate-limited twist needs (the core's braking rate limit can only brake at a_max); for velocities that are
     not rate-limited near obstacles see :func:`stepped_damper_speed`.
     """
     margin = distance - safety
@@ -189,41 +175,3 @@ def project_damper(
     return vx + excess * nx, vy + excess * ny, vz + excess * nz, True
 
 
-@njit(cache=True)
-def braking_rate_limit(
-    x: float, y: float, z: float, px: float, py: float, pz: float, max_change: float,
-    nx: float, ny: float, nz: float, limit: float,
-) -> tuple[float, float, float]:
-    """Rate limit ‖v − v_prev‖ ≤ ``max_change`` that spends the budget on braking along n first.
-
-    n is the unit braking direction: from the previous twist toward the nearest twist obeying every
-    damper (zero vector when the previous twist obeys them; then this is :func:`rate_limit`). The
-    change Δ = v − v_prev is split into its part along n and the rest; when Δ·n > 0 (braking) the part
-    along n is served first and the rest gets what is left of the budget, so a turn does not delay the
-    stop. The result is finally projected onto
-    the ball ‖v‖ ≤ ``limit``, which keeps ‖v − v_prev‖ ≤ ``max_change`` (projection is non-expansive
-    and v_prev lies in the ball).
-    """
-    dx, dy, dz = x - px, y - py, z - pz
-    norm = math.sqrt(dx * dx + dy * dy + dz * dz)
-    if norm <= max_change:
-        return x, y, z
-    along = dx * nx + dy * ny + dz * nz
-    if along <= 0.0:
-        scale = max_change / norm
-        dx, dy, dz = scale * dx, scale * dy, scale * dz
-    else:
-        ax, ay, az = along * nx, along * ny, along * nz
-        tx, ty, tz = dx - ax, dy - ay, dz - az
-        if along >= max_change:
-            scale, rest = max_change / along, 0.0
-        else:
-            t_norm = math.sqrt(tx * tx + ty * ty + tz * tz)
-            scale = 1.0
-            rest = math.sqrt(max(max_change * max_change - along * along, 0.0)) / t_norm if t_norm > _TINY else 0.0
-        dx, dy, dz = scale * ax + rest * tx, scale * ay + rest * ty, scale * az + rest * tz
-    vx, vy, vz = px + dx, py + dy, pz + dz
-    speed = math.sqrt(vx * vx + vy * vy + vz * vz)
-    if speed > limit:
-        vx, vy, vz = vx * limit / speed, vy * limit / speed, vz * limit / speed
-    return vx, vy, vz
