@@ -6,8 +6,8 @@ costs more than it saves). Either way the threaded and the plain loop give the s
 not depend on the thread count or the batch size, and equals ``twist_at`` / ``wrench_at`` to rounding
 (LLVM may contract a multiply-add differently in another function).
 
-**Lanes.** The twist kernel takes :data:`LANES` poses at a time and runs the first damper sweep of
-the damper sweeps (``avoid``, ``src/core/field/evaluate.cpp``) obstacle by obstacle across them: a sphere's signed distance,
+**Lanes.** The twist kernel takes :data:`LANES` poses at a time and runs the first of the damper sweeps
+(``avoid``, ``src/core/field/evaluate.cpp``) obstacle by obstacle across them: a sphere's signed distance,
 normal and allowed approach speed are straight-line arithmetic over the lanes, which LLVM turns into SIMD
 instructions (``error_model="numpy"``: no Python zero-division check to branch on); the branchy rest
 (:func:`~pfield.field._evaluate.first_sweep_obstacle`, then the later sweeps of
