@@ -10,7 +10,10 @@ types) as real use: the first real request then finds its kernels compiled or ca
   field, the costmap.
 * :func:`warm` — run them (once per process; ``progress(done, total, step)`` after each step).
 * :func:`start_background` — :func:`warm` in a daemon thread (``pfield serve``, ``pfield ros2 node``).
-* :func:`ready` — thread-safe: has :func:`warm` finished in this process (what ``GET /health`` reports)?
+* :func:`fit_in_background` — build a robot's fitted link model (``robot.geometry``) in a daemon thread: the
+  node's robot, whose first fit takes seconds (a URDF robot's, or after an edit of the fitting code).
+* :func:`ready` — thread-safe: has :func:`warm` finished in this process, and has every robot handed to
+  :func:`fit_in_background` its link model (what ``GET /health`` reports)?
 * :func:`kernels` — every compiled dispatcher of pfield, to check what compiled and how often.
 
 A failing step is logged and counted in :class:`WarmupReport`; the kernels it did not reach compile on
@@ -37,7 +40,8 @@ import numpy as np
 
 from pfield import _compile_notice
 
-__all__ = ["LANES", "STEPS", "WarmupReport", "WarmupStep", "kernels", "ready", "start_background", "warm"]
+__all__ = ["LANES", "STEPS", "WarmupReport", "WarmupStep", "fit_in_background", "kernels", "ready",
+           "start_background", "warm"]
 
 _LOG = logging.getLogger(__name__)
 
@@ -203,6 +207,20 @@ def _global_fallback(scratch: Path) -> None:
                                                                    max_iterations=20000)
 
 
+def _link_fitting(scratch: Path) -> None:
+    """Fit spheres and capsules to a small box (not cached): the kernels a robot's first fit uses."""
+    from scipy.spatial import ConvexHull
+
+    from pfield.robot._cover import inside_hull
+    from pfield.robot._fit import LinkSurface, fit_link
+
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * np.array([0.04, 0.02, 0.01])
+    hull = ConvexHull(corners)
+    fit_link(LinkSurface(corners, np.asarray(hull.simplices, dtype=np.int64), 0.08 * 0.04 * 0.02, "warm-up box"), 0.01)
+    facets = np.ascontiguousarray(hull.equations)
+    inside_hull(facets, facets, corners, 1e-12)  # what an open mesh's fit adds
+
+
 def _mobile(scratch: Path) -> None:
     import math
 
@@ -254,13 +272,14 @@ STEPS: tuple[WarmupStep, ...] = (
     WarmupStep("inverse kinematics", _inverse_kinematics),
     WarmupStep("autonomy vector and assistance", _autonomy),
     WarmupStep("global fallback and retiming", _global_fallback),
+    WarmupStep("robot link fitting", _link_fitting),
     WarmupStep("mobile field and controller", _mobile),
     WarmupStep("costmap and find_valid_pose", _costmap),
 )
 
 LANES: tuple[tuple[str, ...], ...] = (
     ("task-space field and planner", "mobile field and controller", "costmap and find_valid_pose",
-     "autonomy vector and assistance"),
+     "autonomy vector and assistance", "robot link fitting"),
     ("whole-body planner (xarm7)", "whole-body planner (panda)", "inverse kinematics", "global fallback and retiming"),
 )
 """How :func:`warm` shares the steps after the first between processes when the cache is cold (``jobs`` ≥ 2).
@@ -275,11 +294,37 @@ _RUN_LOCK = threading.Lock()
 _REPORT: WarmupReport | None = None
 _THREAD: threading.Thread | None = None
 _THREAD_LOCK = threading.Lock()
+_FITTED: list[threading.Event] = []  # one per fit_in_background call, set when its fit has ended
 
 
 def ready() -> bool:
-    """True once :func:`warm` has finished in this process (thread-safe; never blocks)."""
-    return _READY.is_set()
+    """True once :func:`warm` has finished in this process and every :func:`fit_in_background` fit has ended
+    (thread-safe; never blocks)."""
+    return _READY.is_set() and all(done.is_set() for done in tuple(_FITTED))
+
+
+def fit_in_background(robot: Any) -> threading.Thread:
+    """Build ``robot.geometry`` (a :class:`~pfield.robot.RobotModel`'s fitted link model) in a daemon thread;
+    :func:`ready` stays false until it has. Each link that is actually fitted (not read from the fit cache)
+    is logged at INFO by :mod:`pfield.robot._fit`; a failure is logged as an error and raised again by the
+    first request that needs the geometry."""
+    done = threading.Event()
+    _FITTED.append(done)
+
+    def run() -> None:
+        began = time.perf_counter()
+        try:
+            _ = robot.geometry  # a cached_property: reading it fits the links
+        except Exception as exc:  # the node keeps serving what needs no link model
+            _LOG.error("fitting the link model of robot %s failed: %s", robot.name, exc)
+        else:
+            _LOG.info("robot %s: link model ready (%.1f s)", robot.name, time.perf_counter() - began)
+        finally:
+            done.set()
+
+    thread = threading.Thread(target=run, name="pfield-robot-fit", daemon=True)
+    thread.start()
+    return thread
 
 
 def warm(progress: Progress | None = None, steps: Sequence[WarmupStep] = STEPS, jobs: int = 1) -> WarmupReport:

@@ -178,14 +178,19 @@ def nodes_from_options(robot: str, end_effector: str | None, params: Path | None
     """The nodes of the options ``pfield serve`` and ``pfield ros2 node`` share (one new :class:`Bus`):
     the robot, ``--package-path``/``--mesh-root`` for mesh URIs, ``--map``/``--footprint`` for the
     factories' nodes, ``--static-transform`` for the manager's frames and the ``--params`` YAML applied to
-    them. Bad options raise :class:`InvalidInput`."""
+    them. Bad options raise :class:`InvalidInput`. The robot's link model is then fitted in the background
+    (:func:`pfield.warmup.fit_in_background`: ``GET /health`` is ready once it is)."""
     packages = parse_package_paths(package_path or [])
     transforms = parse_static_transforms(static_transform or [])
     parameters = load_ros_parameters(params) if params else {}
     context = ServeContext(Bus(), load_robot(robot, end_effector, packages), packages,
                            [p.resolve() for p in mesh_root or []], map_file, footprint,
                            static_transforms=transforms)
-    return build_nodes(context, parameters, csv_dir)
+    nodes = build_nodes(context, parameters, csv_dir)
+    from pfield import warmup
+
+    warmup.fit_in_background(context.robot)
+    return nodes
 
 
 def serve(

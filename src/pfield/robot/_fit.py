@@ -25,12 +25,19 @@ import hashlib
 import logging
 import math
 import os
-from dataclasses import dataclass
+import time
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
+
+from pfield.robot._cover import cell_side, coverage, enclosing_circle, greedy_cover, min_depth
+from pfield.robot._solid import SignedDistance, mesh_distance, signed_distance_of, surface_obstacle
+
+if TYPE_CHECKING:
+    from pfield.geometry import Obstacle
 
 _LOG = logging.getLogger(__name__)
 
@@ -41,15 +48,26 @@ _VOLUME_SAMPLES = 60_000
 _COVER_SAMPLES = 2500  # area samples covered besides the vertices
 _INTERIOR_TRIES, _INTERIOR_CANDIDATES = 8000, 1200
 _PAIR_TRIES, _PAIR_REACH = 4000, 0.2
+_INTERIOR_CHUNK = 1000  # interior tries asked of the solid at a time
+_SEGMENT_ORDER = (0.5, 0.25, 0.75, 0.125, 0.375, 0.625, 0.875, 1.0)  # a pair capsule's depth samples, as asked
+_CIRCLE_ITERATIONS = 400  # Bădoiu–Clarkson steps for a capsule's radius
 
 
 @dataclass(frozen=True)
 class LinkSurface:
-    """A link's collision surface in the link frame: ``vertices`` (V, 3), ``triangles`` (T, 3) and volume."""
+    """A link's collision surface in the link frame: ``vertices`` (V, 3), ``triangles`` (T, 3) and volume;
+    ``link`` and ``sources`` (its elements' mesh files, or shape kinds) name it in messages, not in the cache key."""
 
     vertices: NDArray[np.float64]
     triangles: NDArray[np.int64]
     volume: float
+    link: str = "link"
+    sources: tuple[str, ...] = field(default=())
+
+    @property
+    def label(self) -> str:
+        """``link (file, …)``: how log messages and the mesh built from this surface name it."""
+        return f"{self.link} ({', '.join(self.sources)})" if self.sources else self.link
 
     def key(self, target_gap: float) -> str:
         digest = hashlib.sha256()
@@ -107,22 +125,6 @@ def depth_outside(points: NDArray[np.float64], prims: Primitives) -> NDArray[np.
                      for j in range(len(prims))], axis=1)
 
 
-@njit(cache=True)
-def _coverage(a, b, radii, points):  # type: ignore[no-untyped-def]
-    """(K, N) booleans: candidate k (segment a_k–b_k, radius r_k) contains point n."""
-    covered = np.zeros((a.shape[0], points.shape[0]), dtype=np.bool_)
-    for k in range(a.shape[0]):
-        dx, dy, dz = b[k, 0] - a[k, 0], b[k, 1] - a[k, 1], b[k, 2] - a[k, 2]
-        length2 = dx * dx + dy * dy + dz * dz
-        r2 = radii[k] * radii[k]
-        for n in range(points.shape[0]):
-            px, py, pz = points[n, 0] - a[k, 0], points[n, 1] - a[k, 1], points[n, 2] - a[k, 2]
-            t = 0.0 if length2 == 0.0 else min(max((px * dx + py * dy + pz * dz) / length2, 0.0), 1.0)
-            ex, ey, ez = px - t * dx, py - t * dy, pz - t * dz
-            covered[k, n] = ex * ex + ey * ey + ez * ez <= r2
-    return covered
-
-
 def _surface_samples(surface: LinkSurface, count: int, rng: np.random.Generator) -> NDArray[np.float64]:
     corners = surface.vertices[surface.triangles]
     areas = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
@@ -134,24 +136,18 @@ def _surface_samples(surface: LinkSurface, count: int, rng: np.random.Generator)
     return np.asarray(tri[:, 0] + u[:, :1] * (tri[:, 1] - tri[:, 0]) + u[:, 1:] * (tri[:, 2] - tri[:, 0]))
 
 
-def _candidates(surface: LinkSurface, samples: NDArray[np.float64], gap: float,
+def _candidates(surface: LinkSurface, solid: SignedDistance, samples: NDArray[np.float64], gap: float,
                 rng: np.random.Generator) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Candidate spheres and capsules whose every point lies within ``gap`` of the solid (module docstring)."""
-    solid = _solid(surface)
     lower, upper = surface.vertices.min(axis=0), surface.vertices.max(axis=0)
-    points = lower + rng.random((_INTERIOR_TRIES, 3)) * (upper - lower)
-    depth = -solid(points)
-    inside = depth > 0.0
-    centres, depth = points[inside][:_INTERIOR_CANDIDATES], depth[inside][:_INTERIOR_CANDIDATES]
+    centres, depth = _interior(solid, lower + rng.random((_INTERIOR_TRIES, 3)) * (upper - lower))
     a, b, r = [centres, samples], [centres, samples], [depth + gap, np.full(len(samples), gap)]
     if len(centres) > 1:
         i = rng.integers(0, len(centres), _PAIR_TRIES)
         j = rng.integers(0, len(centres), _PAIR_TRIES)
         keep = (i != j) & (np.linalg.norm(centres[i] - centres[j], axis=1) < _PAIR_REACH)
         i, j = i[keep], j[keep]
-        t = np.linspace(0.0, 1.0, 9)
-        along = centres[i][:, None] + t[None, :, None] * (centres[j] - centres[i])[:, None]
-        radius = -solid(along.reshape(-1, 3)).reshape(len(i), len(t)).max(axis=1)
+        radius = _least_depth_along(solid, centres[i], centres[j], depth[i])
         keep = radius > 0.0
         a.append(centres[i][keep])
         b.append(centres[j][keep])
@@ -159,53 +155,61 @@ def _candidates(surface: LinkSurface, samples: NDArray[np.float64], gap: float,
     return np.concatenate(a), np.concatenate(b), np.concatenate(r)
 
 
-def fit_primitives(surface: LinkSurface, gap: float) -> Primitives:
+def _interior(solid: SignedDistance, tries: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The first :data:`_INTERIOR_CANDIDATES` of ``tries`` that lie inside the solid, and their depths. The
+    solid is asked in chunks until enough are found (a third of the tries on most links)."""
+    centres, depths, found = [], [], 0
+    for start in range(0, len(tries), _INTERIOR_CHUNK):
+        chunk = tries[start:start + _INTERIOR_CHUNK]
+        depth = -solid(chunk)
+        inside = depth > 0.0
+        centres.append(chunk[inside])
+        depths.append(depth[inside])
+        found += int(np.count_nonzero(inside))
+        if found >= _INTERIOR_CANDIDATES:
+            break
+    return np.concatenate(centres)[:_INTERIOR_CANDIDATES], np.concatenate(depths)[:_INTERIOR_CANDIDATES]
+
+
+def _least_depth_along(solid: SignedDistance, a: NDArray[np.float64], b: NDArray[np.float64],
+                       depth_a: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(P,): the least depth of the solid at 9 evenly spaced points of each segment a_p–b_p (t = 0: a_p, whose
+    depth ``depth_a`` is known), or a value ≤ 0 once some point is outside. The points are asked middle first,
+    and a segment stops being asked at its first point outside: the caller keeps only positive values."""
+    least = depth_a.copy()
+    alive = np.flatnonzero(least > 0.0)
+    for t in _SEGMENT_ORDER:
+        if len(alive) == 0:
+            break
+        along = a[alive] + t * (b[alive] - a[alive])
+        least[alive] = np.minimum(least[alive], -solid(along))
+        alive = alive[least[alive] > 0.0]
+    return least
+
+
+def fit_primitives(surface: LinkSurface, gap: float, solid: SignedDistance | None = None) -> Primitives:
     """Spheres/capsules whose union covers every vertex of ``surface`` and stands off it by at most ``gap``.
 
     Candidates: a sphere of radius d(c) + gap at an interior point c at depth d(c) lies within ``gap`` of the
     ball of radius d(c) ⊂ solid; a capsule between two interior points with radius (least depth along the
     segment, 9 samples) + gap likewise; a sphere of radius ``gap`` at every surface point covers it alone.
-    Greedy set cover (Chvátal 1979) of the vertices and area samples, then redundant picks are dropped.
+    Greedy set cover (Chvátal 1979, compiled: :func:`pfield.robot._cover.greedy_cover`) of the vertices and
+    area samples, then redundant picks are dropped, smallest first. ``solid``: the surface's signed distance
+    (:func:`signed_distance_of`), when the caller has it already.
     """
     rng = np.random.default_rng(7)
     targets = np.concatenate([surface.vertices, _surface_samples(surface, _COVER_SAMPLES, rng)])
-    a, b, radii = _candidates(surface, targets, gap, rng)
-    covered = _coverage(a, b, radii, targets)
-    uncovered = np.ones(len(targets), dtype=bool)
-    chosen: list[int] = []
-    while uncovered.any():
-        gain = covered[:, uncovered].sum(axis=1)
-        k = int(np.argmax(gain))
-        chosen.append(k)
-        uncovered &= ~covered[k]
-    counts = covered[chosen].sum(axis=0)
-    for k in sorted(chosen, key=lambda c: int(covered[c].sum())):
-        if np.all(counts[covered[k]] > 1):
-            chosen.remove(k)
-            counts -= covered[k]
-    order = np.array(chosen, dtype=np.int64)
+    a, b, radii = _candidates(surface, solid or signed_distance_of(surface), targets, gap, rng)
+    picked = greedy_cover(a, b, radii, targets, cell_side(targets, gap))
+    covered = coverage(a[picked], b[picked], radii[picked], targets)  # (picks, targets)
+    counts = covered.sum(axis=0)
+    keep = np.ones(len(picked), dtype=bool)
+    for p in sorted(range(len(picked)), key=lambda p: int(covered[p].sum())):
+        if np.all(counts[covered[p]] > 1):
+            keep[p] = False
+            counts -= covered[p]
+    order = picked[keep]
     return Primitives(a[order].copy(), b[order].copy(), radii[order].copy())
-
-
-def _solid(surface: LinkSurface):  # type: ignore[no-untyped-def]
-    """Signed distance to the link's solid (negative inside): the mesh's when it is closed, else its hull's
-    inside test with the distance to the surface."""
-    from pfield.geometry import Obstacle
-    from pfield.geometry.mesh import Mesh
-    from pfield.spatial import Pose
-
-    mesh = Obstacle("link", Mesh.from_arrays(surface.vertices, surface.triangles, name="link"), Pose())
-    if mesh.shape.watertight:  # type: ignore[union-attr]
-        return lambda points: mesh.signed_distance(points)[0]
-    from scipy.spatial import ConvexHull, Delaunay  # only when fitting: a cached fit needs no scipy.spatial
-
-    hull = Delaunay(surface.vertices[ConvexHull(surface.vertices).vertices])
-
-    def signed(points: NDArray[np.float64]) -> NDArray[np.float64]:
-        distance = np.abs(mesh.signed_distance(points)[0])
-        return np.where(hull.find_simplex(points) >= 0, -distance, distance)
-
-    return signed
 
 
 def _sample_capsule_surface(a: NDArray[np.float64], b: NDArray[np.float64], r: float, count: int,
@@ -230,62 +234,44 @@ def _sample_capsule_surface(a: NDArray[np.float64], b: NDArray[np.float64], r: f
     return np.asarray(np.where(on_side[:, None], side_points, caps))
 
 
-def _surface_distance(surface: LinkSurface, points: NDArray[np.float64]) -> NDArray[np.float64]:
-    from pfield.geometry import Obstacle
-    from pfield.geometry.mesh import Mesh
-    from pfield.spatial import Pose
-
-    mesh = Obstacle("link", Mesh.from_arrays(surface.vertices, surface.triangles, name="link"), Pose())
-    return np.asarray(np.abs(mesh.signed_distance(points)[0]))
-
-
 def union_volume(prims: Primitives, rng: np.random.Generator, samples: int = _VOLUME_SAMPLES) -> float:
     """Monte Carlo volume (m³) of the union of ``prims``."""
     lower = np.minimum(prims.a, prims.b).min(axis=0) - prims.radii.max()
     upper = np.maximum(prims.a, prims.b).max(axis=0) + prims.radii.max()
     points = lower + rng.random((samples, 3)) * (upper - lower)
-    inside = np.any(depth_outside(points, prims) <= 0.0, axis=1)
+    inside = min_depth(prims.a, prims.b, prims.radii, points, -1) <= 0.0
     return float(np.prod(upper - lower) * np.count_nonzero(inside) / samples)
 
 
-def measure(surface: LinkSurface, prims: Primitives) -> tuple[float, float, float]:
-    """(mean gap, max gap, volume ratio) of ``prims`` for ``surface`` (module docstring)."""
+def measure(surface: LinkSurface, prims: Primitives, mesh: Obstacle | None = None) -> tuple[float, float, float]:
+    """(mean gap, max gap, volume ratio) of ``prims`` for ``surface`` (module docstring); ``mesh``: the
+    surface as an obstacle, when the caller has it already."""
     rng = np.random.default_rng(12)
     exposed = []
     for j in range(len(prims)):
         points = _sample_capsule_surface(prims.a[j], prims.b[j], float(prims.radii[j]), _GAP_SAMPLES, rng)
-        depth = depth_outside(points, prims)
-        depth[:, j] = np.inf
-        exposed.append(points[np.all(depth > -1e-9, axis=1)])
+        exposed.append(points[min_depth(prims.a, prims.b, prims.radii, points, j) > -1e-9])
     samples = np.concatenate(exposed)
-    gaps = _surface_distance(surface, samples)
+    gaps = np.abs(mesh_distance(mesh or surface_obstacle(surface), samples))
     ratio = union_volume(prims, rng) / surface.volume if surface.volume > 0 else math.inf
     return float(gaps.mean()), float(gaps.max()), ratio
 
 
 def fit_link(surface: LinkSurface, target_gap: float = TARGET_GAP) -> LinkFit:
     """:func:`fit_primitives` with the stand-off bound ``target_gap`` (m), measured."""
-    prims = fit_primitives(surface, target_gap)
-    mean_gap, max_gap, ratio = measure(surface, prims)
+    mesh = surface_obstacle(surface)
+    prims = fit_primitives(surface, target_gap, signed_distance_of(surface, mesh))
+    mean_gap, max_gap, ratio = measure(surface, prims, mesh)
     a, b, r, bound_ratio, bound_gap = fit_single_capsule(surface.vertices)
     return LinkFit(prims, mean_gap, max_gap, ratio, Primitives(a[None], b[None], np.array([r])), bound_ratio,
                    bound_gap)
-
-
-def _enclosing_circle(points: NDArray[np.float64], iterations: int = 400) -> NDArray[np.float64]:
-    """Approximate centre of the smallest circle (any dimension) enclosing ``points`` (Bădoiu–Clarkson)."""
-    centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
-    for k in range(1, iterations + 1):
-        far = points[np.argmax(np.linalg.norm(points - centre, axis=1))]
-        centre = centre + (far - centre) / (k + 1)
-    return centre
 
 
 def _capsule_along(points: NDArray[np.float64], axis: NDArray[np.float64]
                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
     basis = np.linalg.svd(np.eye(3) - np.outer(axis, axis))[0][:, :2]
     planar = points @ basis
-    centre2 = _enclosing_circle(planar)
+    centre2 = enclosing_circle(np.ascontiguousarray(planar), _CIRCLE_ITERATIONS)
     rho = np.linalg.norm(planar - centre2, axis=1)
     radius = float(rho.max()) + 1e-9
     t = points @ axis
@@ -344,8 +330,11 @@ def cache_directory() -> Path | None:
     return directory if os.access(directory, os.W_OK) else None
 
 
-def cached_fit(surface: LinkSurface, target_gap: float = TARGET_GAP) -> LinkFit:
-    """:func:`fit_link`, remembered in memory and on disk under a hash of the surface and the settings."""
+def cached_fit(surface: LinkSurface, target_gap: float = TARGET_GAP, progress: str = "") -> LinkFit:
+    """:func:`fit_link`, remembered in memory and on disk under a hash of the surface and the settings.
+
+    A link that is actually fitted is logged at INFO before and after (``progress``, e.g. ``"3/18"``, says
+    where it stands among the robot's links), so a first fit shows which link it is on."""
     key = surface.key(target_gap)
     if key in _MEMORY:
         return _MEMORY[key]
@@ -362,7 +351,13 @@ def cached_fit(surface: LinkSurface, target_gap: float = TARGET_GAP) -> LinkFit:
         except (OSError, KeyError, ValueError) as exc:
             _LOG.warning("ignoring unreadable robot fit cache %s: %s", path, exc)
     if fit is None:
+        where = f" {progress}" if progress else ""
+        _LOG.info("fitting link%s %s: %d triangles", where, surface.label, len(surface.triangles))
+        began = time.perf_counter()
         fit = fit_link(surface, target_gap)
+        count = len(fit.primitives)
+        _LOG.info("fitted link%s %s in %.2f s: %d %s, mean gap %.2f cm", where, surface.link,
+                  time.perf_counter() - began, count, "primitive" if count == 1 else "primitives", 100 * fit.mean_gap)
         if path is not None:
             tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
             try:

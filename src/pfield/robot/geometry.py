@@ -142,12 +142,16 @@ def _primitive_points(shape: object) -> NDArray[np.float64]:
     raise NotImplementedError(f"collision shape {kind} is not supported for capsule fitting")
 
 
+def _corners(triangle: object) -> tuple[int, int, int]:
+    return triangle[0], triangle[1], triangle[2]  # type: ignore[index]
+
+
 def _element_surface(obj: pin.GeometryObject) -> tuple[NDArray[np.float64], NDArray[np.int64], float]:
     """Vertices (element frame), triangles and volume of one collision element."""
     shape = obj.geometry
     if hasattr(shape, "vertices"):
         vertices = np.asarray(shape.vertices(), dtype=np.float64).reshape(-1, 3)
-        triangles = np.array([[shape.tri_indices(i)[k] for k in range(3)] for i in range(shape.num_tris)],
+        triangles = np.array([_corners(shape.tri_indices(i)) for i in range(shape.num_tris)],  # one call each
                              dtype=np.int64).reshape(-1, 3)
         corners = vertices[triangles]
         volume = abs(float(np.einsum("ij,ij->i", corners[:, 0], np.cross(corners[:, 1], corners[:, 2])).sum())) / 6
@@ -162,21 +166,22 @@ def _element_surface(obj: pin.GeometryObject) -> tuple[NDArray[np.float64], NDAr
 def _link_surfaces(robot: RobotModel) -> dict[str, tuple[int, pin.SE3, LinkSurface]]:
     """Per link: (joint index, the link frame in its joint frame, the collision surface in the link frame)."""
     model = robot.pinocchio_model
-    parts: dict[str, tuple[int, pin.SE3, list[tuple[NDArray[np.float64], NDArray[np.int64], float]]]] = {}
+    parts: dict[str, tuple[int, pin.SE3, list[tuple[NDArray[np.float64], NDArray[np.int64], float, str]]]] = {}
     for obj in robot.collision_model.geometryObjects:
         frame = model.frames[obj.parentFrame]
         entry = parts.setdefault(frame.name, (int(obj.parentJoint) - 1, frame.placement, []))
         vertices, triangles, volume = _element_surface(obj)
         in_link = entry[1].inverse() * obj.placement
+        source = str(obj.meshPath) if hasattr(obj.geometry, "vertices") else type(obj.geometry).__name__.lower()
         entry[2].append((vertices @ np.asarray(in_link.rotation).T + np.asarray(in_link.translation), triangles,
-                         volume))
+                         volume, source))
     surfaces = {}
     for link, (joint, placement, elements) in parts.items():
-        offsets = np.cumsum([0] + [len(v) for v, _, _ in elements])
+        offsets = np.cumsum([0] + [len(e[0]) for e in elements])
         surfaces[link] = (joint, placement, LinkSurface(
-            np.concatenate([v for v, _, _ in elements]),
-            np.concatenate([t + offsets[i] for i, (_, t, _) in enumerate(elements)]),
-            float(sum(volume for _, _, volume in elements))))
+            np.concatenate([e[0] for e in elements]),
+            np.concatenate([e[1] + offsets[i] for i, e in enumerate(elements)]),
+            float(sum(e[2] for e in elements)), link, tuple(dict.fromkeys(e[3] for e in elements))))
     return surfaces
 
 
@@ -229,9 +234,10 @@ def fit_robot_geometry(robot: RobotModel, target_gap: float = TARGET_GAP, *,
     ``one_capsule=True`` models each link by its single covering capsule alone (no spheres/capsules fit,
     ``fits`` reports that capsule): the coarse model, for comparisons."""
     capsules, primitives, reports, starts, covering = [], [], [], [0], []
-    for link, (joint, placement, surface) in _link_surfaces(robot).items():
+    surfaces = _link_surfaces(robot)
+    for index, (link, (joint, placement, surface)) in enumerate(surfaces.items(), 1):
         rotation, translation = np.asarray(placement.rotation), np.asarray(placement.translation)
-        fit = cached_fit(surface, target_gap)
+        fit = cached_fit(surface, target_gap, progress=f"{index}/{len(surfaces)}")
         if one_capsule:
             fit = LinkFit(fit.bound, *measure(surface, fit.bound), fit.bound, fit.bound_volume_ratio,
                           fit.bound_mean_gap)
