@@ -4,8 +4,8 @@ exit status 2 and one line on stderr, no traceback, within 30 s and 500 MB.
 Each file is made in ``tmp_path`` from a few kilobytes: YAML aliases that expand to a billion nodes, YAML nested
 10 000 deep, bytes that are not UTF-8, a 50 MB scene, a FIFO, a link to ``/dev/zero``, archives that expand far
 beyond their size or hold too many members, a truncated archive, a member that climbs out of the destination,
-and output paths that cannot be written. The process's peak memory is read from ``wait4``'s resource usage of
-that very child (``RUSAGE_CHILDREN`` would mix in every process the test session waited for before).
+and output paths that cannot be written. The process's peak memory is measured by a small parent process of its
+own (:data:`MEASURE`): Linux counts a child's copy of its parent's memory before ``exec`` in the child's peak.
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ import io
 import json
 import os
 import subprocess
+import sys
 import tarfile
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -42,21 +42,32 @@ class Finished:
     peak_mb: float
 
 
+# A small parent for the measured process: the peak RSS that Linux reports for a child includes its parent's
+# memory at the fork (the child's copy of it until exec), so a child of the test session would report the session's
+# size. Forked from this parent instead, the child's peak is its own (at least this parent's few MB). The parent
+# also ends a hang: it kills the child after its timeout.
+MEASURE = """
+import resource, subprocess, sys
+timeout, peak_file = float(sys.argv[1]), sys.argv[2]
+try:
+    code = subprocess.run(sys.argv[3:], timeout=timeout).returncode
+except subprocess.TimeoutExpired:
+    code = -9
+with open(peak_file, "w") as out:
+    out.write(str(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss))
+sys.exit(code if code >= 0 else 128 - code)
+"""
+
+
 def run_pfield(*args: str, cwd: Path) -> Finished:
     """``pfield ARGS`` in ``cwd``: exit status, output, wall time and the process's own peak RSS."""
-    out, err = cwd / "stdout.txt", cwd / "stderr.txt"
+    out, err, peak = cwd / "stdout.txt", cwd / "stderr.txt", cwd / "peak_kb.txt"
     with out.open("wb") as stdout, err.open("wb") as stderr:
         start = time.monotonic()
-        process = subprocess.Popen([str(PFIELD), *args], stdout=stdout, stderr=stderr, cwd=cwd)
-        watchdog = threading.Timer(4 * SECONDS, process.kill)  # a hang fails the time bound, not the session
-        watchdog.start()
-        try:
-            _, status, usage = os.wait4(process.pid, 0)
-        finally:
-            watchdog.cancel()
+        code = subprocess.run([sys.executable, "-c", MEASURE, str(4 * SECONDS), str(peak), str(PFIELD), *args],
+                              stdout=stdout, stderr=stderr, cwd=cwd, check=False).returncode
         seconds = time.monotonic() - start
-    process.returncode = os.waitstatus_to_exitcode(status)  # reaped by wait4: tell Popen
-    return Finished(process.returncode, out.read_text(), err.read_text(), seconds, usage.ru_maxrss / 1024)
+    return Finished(code, out.read_text(), err.read_text(), seconds, int(peak.read_text()) / 1024)
 
 
 def assert_refused(done: Finished, *phrases: str) -> None:
