@@ -332,7 +332,8 @@ def warm(progress: Progress | None = None, steps: Sequence[WarmupStep] = STEPS, 
 
     ``progress(done, total, name)`` is called before the first step and after each one. Compiles are
     logged by :mod:`pfield._compile_notice` at INFO; a failing step is logged as an error and skipped.
-    ``jobs`` ≥ 2 (all steps only): when the first step compiles (a cold cache), the others first run in
+    ``jobs`` ≥ 2 (all steps only): when numba's cache is cold (:func:`_cache_is_cold`), the steps after the
+    first first run in
     :data:`LANES`, one process per lane, filling numba's on-disk cache side by side; this process then runs them
     too, loading what the lanes compiled, so that it ends warm either way.
     """
@@ -352,10 +353,10 @@ def warm(progress: Progress | None = None, steps: Sequence[WarmupStep] = STEPS, 
                 progress(shown, len(steps), name)
 
         tell(0, steps[0].name if steps else "")
+        side_by_side = jobs >= 2 and steps is STEPS and _cache_is_cold()
         with _compile_notice.quiet(), _own_info_dropped(), \
                 tempfile.TemporaryDirectory(prefix="pfield-warmup-") as scratch:
             for done, step in enumerate(steps, 1):
-                compiled_before = _compile_notice.compiles()
                 began = time.perf_counter()
                 try:
                     step.run(Path(scratch))
@@ -363,7 +364,7 @@ def warm(progress: Progress | None = None, steps: Sequence[WarmupStep] = STEPS, 
                     failures[step.name] = f"{type(exc).__name__}: {exc}"
                     _LOG.error("warm-up step %r failed (its kernels compile on first use): %s", step.name, exc)
                 seconds[step.name] = time.perf_counter() - began
-                if done == 1 and jobs >= 2 and steps is STEPS and _compile_notice.compiles() > compiled_before:
+                if done == 1 and side_by_side:
                     lanes = len(LANES)
                     _run_lanes(tell)
                 tell(done, steps[done].name if done < len(steps) else step.name)
@@ -372,6 +373,18 @@ def warm(progress: Progress | None = None, steps: Sequence[WarmupStep] = STEPS, 
             _REPORT = report
             _READY.set()
         return report
+
+
+def _cache_is_cold() -> bool:
+    """Whether numba's on-disk cache is empty for pfield (a fresh install, or a cleared cache): one small kernel
+    every warm-up compiles anyway is called, and it is cold when that call compiles. The first step no longer
+    tells (its geometry is the compiled C++ core)."""
+    from pfield._spatial_kernels import matrix_to_quat
+
+    before = _compile_notice.compiles()
+    with _compile_notice.quiet():
+        matrix_to_quat(np.eye(3))
+    return _compile_notice.compiles() > before
 
 
 def _run_lanes(report: Callable[[int, str], None]) -> None:

@@ -61,7 +61,7 @@ def test_the_ur5_mesh_warning_names_the_link_and_its_file(fresh_fits: Path, capl
     with caplog.at_level(logging.INFO):
         fit = _fit.cached_fit(surface, progress="9/18")
     warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
-    mesh = str(UR5 / "meshes" / "robotiq_fts300.stl")
+    mesh = str((UR5 / "meshes" / "robotiq_fts300.stl").resolve())
     assert warnings == [f"mesh memory://fts_robotside ({mesh}) is not watertight: its distance is unsigned "
                         "(never negative)"]  # once a link (the fit and its measures share the mesh)
     assert f"fitting link 9/18 fts_robotside ({mesh}): 43473 triangles" in caplog.messages

@@ -202,7 +202,7 @@ def _above_with(value, k, gains, j):  # type: ignore[no-untyped-def]
     return value > gains[j] or (value == gains[j] and k < j)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # one specialisation: compiled into greedy_cover, not for each call's types
 def _sift_down(heap, size, slot, gains):  # type: ignore[no-untyped-def]
     while True:
         top, left, right = slot, 2 * slot + 1, 2 * slot + 2
