@@ -16,18 +16,16 @@ void bind_planning(nb::module_& m);
 
 NB_MODULE(_core, m) {
   m.doc() = "pfield's compiled core (C++17): the per-step kernels; inputs are validated by the Python layer.";
-  nb::module_ mobile = m.def_submodule("mobile");
-  pfield::python::bind_mobile(mobile);
-  nb::module_ costmap = m.def_submodule("costmap");
-  pfield::python::bind_costmap(costmap);
-  nb::module_ geometry = m.def_submodule("geometry");
-  pfield::python::bind_geometry(geometry);
-  nb::module_ field = m.def_submodule("field");
-  pfield::python::bind_field(field);
-  nb::module_ safety = m.def_submodule("safety");
-  pfield::python::bind_safety(safety);
-  nb::module_ spatial = m.def_submodule("spatial");
-  pfield::python::bind_spatial(spatial);
-  nb::module_ planning = m.def_submodule("planning");
-  pfield::python::bind_planning(planning);
+  using namespace pfield::python;
+  struct Part {
+    const char* name;
+    void (*bind)(nb::module_&);
+  };
+  const Part parts[] = {{"mobile", bind_mobile},   {"costmap", bind_costmap}, {"geometry", bind_geometry},
+                        {"field", bind_field},     {"safety", bind_safety},   {"spatial", bind_spatial},
+                        {"planning", bind_planning}};
+  for (const Part& part : parts) {
+    nb::module_ sub = m.def_submodule(part.name);
+    part.bind(sub);
+  }
 }

@@ -133,10 +133,6 @@ def assist_point(p, packed, velocities, user, auto, params, out):  # type: ignor
     out[LIMITED] = 1.0 if changed else 0.0
 
 
-def empty_output() -> np.ndarray:
-    return np.zeros(N_OUT)
-
-
 @njit(cache=True)
 def nearest_link(rotations, origins, model, packed, centres, bounds, scratch, segments, hint_c, hint_i,  # type: ignore[no-untyped-def]
                  segments_ready):
