@@ -76,9 +76,11 @@ $(BENCH_STAMP): pyproject.toml | $(STAMP)
 	$(PY) -m pip install --quiet --no-build-isolation -e '.[dev,ros2,viewer,ray,bench]'
 	@touch $@
 
+# BENCH_ARGS: e.g. --no-old (no numba engine columns), --rounds 3, --quick, --only field task_space
 bench: $(STAMP) $(CORE_STAMP) $(BENCH_STAMP) ros2-interfaces
 	-@$(MAKE) --no-print-directory anchor
-	$(PY) -m benchmarks.run
+	$(if $(findstring --no-old,$(BENCH_ARGS)),@:,-@$(MAKE) --no-print-directory old-engine)
+	$(PY) -m benchmarks.run $(BENCH_ARGS)
 
 # The C++ original (argallab/potential_fields' library) and its timing program, built once into
 # build/anchor-cpp (git-ignored) so that `make bench` times it side by side; ~2-6 min, needs cmake, g++
@@ -93,6 +95,38 @@ $(ANCHOR_WORK)/install/bin/pf_anchor_bench:
 	@test -e $(ANCHOR_SOURCE) || git clone --quiet --bare https://github.com/argallab/potential_fields $(ANCHOR_SOURCE)
 	PYTHON=$(PYTHON) RUN_TESTS=0 $(ANCHOR_CPP)/build.sh $(ANCHOR_SOURCE) $(ANCHOR_WORK) > build/anchor-build.log 2>&1 \
 		|| { echo "C++ anchor build failed, see build/anchor-build.log"; exit 1; }
+
+# The numba engine: the last commit before the compiled core (ebecf3d, the parent of 8ee82a7 "The compiled core,
+# stage 1") in its own git worktree and virtual environment, build/old-engine (git-ignored), installed by that
+# commit's own Makefile (its venv and bench extras, its ROS 2 interfaces) and warmed up (`pfield warmup`, so that
+# numba's compile is never timed). `make bench` runs each module there too, alternating old and new, and gives
+# every row its new/old ratio (docs/core.md, "Comparing with the numba engine"). Once: ~10-20 min on 2 cores,
+# log in build/old-engine.log; `make bench BENCH_ARGS=--no-old` runs without it.
+OLD_ENGINE_COMMIT ?= ebecf3d37b3cf7703a6465eb818098e2756d745f
+OLD_ENGINE        := build/old-engine
+OLD_ENGINE_STAMP  := $(OLD_ENGINE)/.venv/.old-engine-ready
+OLD_ENGINE_LOG    := build/old-engine.log
+.PHONY: old-engine
+old-engine: $(OLD_ENGINE_STAMP)
+
+$(OLD_ENGINE_STAMP):
+	@mkdir -p build && : > $(OLD_ENGINE_LOG)
+	@test -e $(OLD_ENGINE)/.git || { git worktree prune && git worktree add --detach $(OLD_ENGINE) \
+		$(OLD_ENGINE_COMMIT) >> $(OLD_ENGINE_LOG) 2>&1; } || { echo "numba engine: no git worktree of" \
+		"$(OLD_ENGINE_COMMIT) in $(OLD_ENGINE) (see $(OLD_ENGINE_LOG)); make bench runs without old/new columns"; exit 1; }
+	@echo "numba engine: installing $(OLD_ENGINE)/.venv (its Makefile's venv and bench extras), log in $(OLD_ENGINE_LOG)"
+	@env -u PYTHONPATH -u VIRTUAL_ENV $(MAKE) --no-print-directory -C $(OLD_ENGINE) PYTHON=$(PYTHON) \
+		.venv/.bench-installed >> $(OLD_ENGINE_LOG) 2>&1 || { echo "numba engine: its virtual environment did" \
+		"not install (see $(OLD_ENGINE_LOG)); make bench runs without old/new columns"; exit 1; }
+	@env -u PYTHONPATH -u VIRTUAL_ENV $(MAKE) --no-print-directory -C $(OLD_ENGINE) PYTHON=$(PYTHON) \
+		ros2-interfaces >> $(OLD_ENGINE_LOG) 2>&1 || echo "numba engine: its ROS 2 interfaces did not build" \
+		"(see $(OLD_ENGINE_LOG)); bench_ros2 will have no old figures"
+	@echo "numba engine: pfield warmup (numba compiles every kernel once; minutes)"
+	@cd $(OLD_ENGINE) && env -u PYTHONPATH -u VIRTUAL_ENV .venv/bin/pfield warmup >> $(abspath $(OLD_ENGINE_LOG)) 2>&1 \
+		|| { echo "numba engine: pfield warmup failed (see $(OLD_ENGINE_LOG)); make bench runs without" \
+		"old/new columns"; exit 1; }
+	@git -C $(OLD_ENGINE) rev-parse HEAD > $@
+	@echo "numba engine ready: $(OLD_ENGINE) at $$(cat $@)"
 
 # numba re-checks a cached kernel only against its own file; after editing a kernel that others inline
 # (geometry/_sdf.py, field/forces.py, ...), drop the compiled cache so every dependant recompiles.

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
@@ -14,6 +15,9 @@ class BenchRow:
 
     ``value`` is in ``unit``; ``reference`` is the C++ original's figure in the same unit (REFERENCE.md),
     ``target`` the issue's target; either may be None. Lower is better unless ``higher_is_better``.
+    ``old_value`` is the numba engine's figure of the same row, measured in the same run
+    (``benchmarks/_old_engine.py``); None when it was not run. A row only the numba engine has keeps its figure
+    there and NaN as ``value``.
     """
 
     section: str
@@ -24,20 +28,31 @@ class BenchRow:
     target: float | None = None
     higher_is_better: bool = False
     note: str = ""
+    old_value: float | None = None
 
     def ratio(self) -> float | None:
         """value / reference (speed-up factor is 1/ratio for time-like figures)."""
-        if self.reference is None or self.reference == 0:
+        if self.reference is None or self.reference == 0 or math.isnan(self.value):
             return None
         return self.value / self.reference
 
+    def new_old(self) -> float | None:
+        """The new engine against the numba engine, oriented so that ≤ 1 means no worse: value / old_value, or
+        old_value / value where higher is better (plans/s, success). None without both figures or with a zero."""
+        if self.old_value is None or math.isnan(self.value) or math.isnan(self.old_value):
+            return None
+        top, bottom = (self.old_value, self.value) if self.higher_is_better else (self.value, self.old_value)
+        if bottom == 0:
+            return 1.0 if top == 0 else None
+        return top / bottom
+
     def meets_target(self) -> bool | None:
-        if self.target is None:
+        if self.target is None or math.isnan(self.value):
             return None
         return self.value >= self.target if self.higher_is_better else self.value <= self.target
 
     def as_dict(self) -> dict[str, Any]:
-        return asdict(self) | {"ratio": self.ratio(), "meets_target": self.meets_target()}
+        return asdict(self) | {"ratio": self.ratio(), "meets_target": self.meets_target(), "new_old": self.new_old()}
 
 
 def median_time(fn: Callable[[], object], *, repeat: int = 7, number: int = 1, warmup: int = 2,

@@ -35,6 +35,7 @@ import numpy as np
 
 from benchmarks._anchor import cpp_figures, cpp_median
 from benchmarks._common import BenchRow, auto_number, cpu_time, median_time
+from pfield._core import field as core_field
 from pfield.field import PotentialField, PreparedTwist
 from pfield.geometry import Mesh, Obstacle, ResourceResolver
 from pfield.planning.scenes import BENCH_GOAL, DEFAULT_PARAMS, EVALUATION_SCENES, evaluation_query, evaluation_scene
@@ -128,7 +129,8 @@ def _batch_rows(quick: bool) -> list[BenchRow]:
         cpu = cpu_time(fn, repeat) * 1e3
         rows.append(BenchRow("field batch (ms)", f"100 000 {label} vs 10 spheres", wall, "ms",
                              target=5.0 if label == "limited twists" else 50.0,
-                             note=f"CPU {cpu:.3g} ms; {os.cpu_count()} threads (the core's, from 8192 poses)"))
+                             note=f"CPU {cpu:.3g} ms; {os.cpu_count()} threads (the core's, from "
+                                  f"{core_field.PARALLEL_FROM} poses)"))
     return rows
 
 

@@ -28,7 +28,7 @@ from pfield.planning.scenes import DEFAULT_PARAMS, SEED_GOAL, seed_obstacles, sp
 from pfield.planning.whole_body import joint_velocity_sign_flips
 from pfield.robot import RobotModel
 from pfield.robot import _kinematics as kin
-from pfield.robot.ik import IKSolver, ik_kernel, solve_ik
+from pfield.robot.ik import IKSolver, ik_settings, solve_ik
 from pfield.shared_control.autonomy import whole_body_autonomy_vector
 from pfield.spatial import Pose
 
@@ -147,13 +147,12 @@ def _kinematics_rows(robot: RobotModel, repeat: int) -> list[BenchRow]:
                          k.support, k.ee_joint, k.ee_rot, k.ee_pos, rotations, origins, jac)
     start = robot.forward_kinematics(Q0)
     target = Pose(start.position + np.array([0.01, 0.0, 0.0]), start.orientation)
-    settings = np.array([200, 1e-4, 1e-3, 1e-4, 0.3])
-    lower, upper = np.array(robot.lower_limits), np.array(robot.upper_limits)
+    settings = ik_settings(200, 1e-4, 1e-3, 1e-4, 0.3)
+    core, q_out = robot._core_kinematics, np.empty(n)
     tp, tq = np.array(target.position), np.array(target.orientation)
 
-    def ik_compiled() -> object:
-        return ik_kernel(Q0, tp, tq, k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, k.support, k.ee_joint,
-                         k.ee_rot, k.ee_pos, lower, upper, settings)
+    def ik_compiled() -> object:  # the core's solve from Python, without solve_ik's result object
+        return core.solve_ik(Q0, tp, tq, settings, q_out)
 
     ik = median_time(ik_compiled, repeat=repeat, number=auto_number(ik_compiled))
     solver = IKSolver(robot)

@@ -109,3 +109,47 @@ def test_teleop_time_target_is_left_out_only_where_no_mode_can_meet_it() -> None
     assert _time_target(Summary(0.35, 50, 0, 0.0, 0.44, 13.88, 1.0), fastest)[0] == pytest.approx(11.104)
     target, note = _time_target(Summary(0.35, 50, 0, 0.0, 0.0, math.inf, 1.0), fastest)
     assert target is None and "no Servo time" in note
+
+
+def _row(name: str, value: float, section: str = "s", **more: object) -> dict[str, object]:
+    return {"section": section, "name": name, "value": value, "unit": "ms", **more}
+
+
+def test_old_and_new_rows_pair_by_section_and_name_with_the_median_of_their_rounds() -> None:
+    from benchmarks._old_engine import merge, middle
+
+    assert middle([3.0, None, 1.0, 2.0]) == 2.0 and middle([]) is None
+    assert middle([5.0, 1.0]) == 1.0 and middle([5.0, 1.0], higher_is_better=True) == 5.0  # the better of two
+    olds = [[_row("a", 4.0), _row("gone", 1.0), _row("x", 9.0, "t")], [_row("a", 6.0), _row("gone", 3.0)]]
+    news = [[_row("a", 1.0, reference=2.0), _row("new", 5.0)], [_row("a", 3.0, reference=4.0), _row("new", 7.0)],
+            [_row("a", 2.0, reference=3.0), _row("new", 6.0)]]
+    rows, figures = merge(olds, news)
+    assert [(r.section, r.name) for r in rows] == [("s", "a"), ("s", "new"), ("s", "gone"), ("t", "x")]
+    a, new, gone, x = rows
+    assert (a.value, a.reference, a.old_value, a.new_old()) == (2.0, 3.0, 4.0, 0.5)
+    assert new.value == 6.0 and new.old_value is None and new.new_old() is None
+    assert math.isnan(gone.value) and gone.old_value == 1.0 and gone.new_old() is None and "only in" in gone.note
+    assert x.old_value == 9.0 and gone.meets_target() is None
+    assert figures["s / a"] == {"new": [1.0, 3.0, 2.0], "old": [4.0, 6.0]}
+
+
+def test_new_old_is_oriented_so_that_at_most_one_is_no_worse() -> None:
+    assert BenchRow("s", "t", 2.0, "ms", old_value=4.0).new_old() == 0.5
+    assert BenchRow("s", "plans", 2.0, "plans/s", higher_is_better=True, old_value=4.0).new_old() == 2.0
+    assert BenchRow("s", "zero", 0.0, "%", higher_is_better=True, old_value=0.0).new_old() == 1.0
+
+
+def test_the_table_gains_the_old_engine_columns_only_when_paired() -> None:
+    plain = bench_run.to_markdown([BenchRow("s", "t", 2.0, "ms")])
+    assert "numba engine" not in plain and "new/old" not in plain
+    rows = [BenchRow("s", "fast", 2.0, "ms", old_value=4.0), BenchRow("s", "slow", 5.0, "ms", old_value=4.0),
+            BenchRow("s", "rate", 3.0, "plans/s", higher_is_better=True, old_value=4.0),
+            BenchRow("s", "gone", math.nan, "ms", old_value=1.0), BenchRow("s", "new only", 1.0, "ms")]
+    lines = bench_run.to_markdown(rows).splitlines()
+    assert lines[0] == bench_run.OLD_LEGEND and "| numba engine | new/old |" in lines[4]
+    cells = {line.split(" | ")[0].strip("| "): line.split(" | ")[1:5] for line in lines[6:]}
+    assert cells["fast"] == ["2.00", "ms", "4.00", "0.50"]
+    assert cells["slow"] == ["5.00", "ms", "4.00", "**1.25**"]
+    assert cells["rate"] == ["3.00", "plans/s", "4.00", "**1.33** (old/new)"]
+    assert cells["gone"] == ["—", "ms", "1.00", "—"]
+    assert cells["new only"] == ["1.00", "ms", "—", "—"]

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from pfield._core import field as batch
 from pfield.errors import InvalidInput
 from pfield.field import PotentialField
-from pfield.field import _batch_parallel as batch
 from pfield.planning.scenes import BENCH_GOAL, DEFAULT_PARAMS, evaluation_scene
 from pfield.spatial import Pose
 

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from _ur5 import BASE_HEIGHT, START, UR5, joint_plan, load_ur5, look_at_camera, project, skeleton_box, table_scene
 from typer.testing import CliRunner
 
 from pfield import Box, Capsule, Cylinder, Ellipsoid, FieldConfig, Mesh, Obstacle, Pose, PotentialField, Sphere
@@ -303,3 +304,191 @@ def test_show_plan_serves_the_plan() -> None:
         assert httpx.get(viewer.url, trust_env=False, timeout=30).status_code == 200
     finally:
         viewer.close()
+
+
+# ---- a URDF robot of the user's own: the UR5 with its Robotiq gripper (issue 33, item 4) ------------------------
+
+needs_ur5 = pytest.mark.skipif(not UR5.exists(), reason="the UR5 files are not in ../shared")
+
+
+@needs_ur5
+def test_a_ur5_exports_with_its_package_paths_from_another_directory(tmp_path: Path,
+                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """Loaded with relative package paths in its own folder, the robot draws from anywhere: its package paths
+    (made absolute) travel with the model; the viewer guesses none."""
+    monkeypatch.chdir(UR5)
+    robot = load_ur5({"meshes": "meshes"}, Path("ur5.urdf"))
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    target = export_html(tmp_path / "ur5.html", joint_plan(robot), table_scene(), robot)
+    assert "window.__VISER_EMBED_DATA__=" in target.read_text()
+    assert robot.resolver.package_paths == {"meshes": (UR5 / "meshes").resolve()}
+    assert robot.resolve_mesh("meshes/robotiq/outer_knuckle_fine.STL") == \
+        (UR5 / "meshes" / "robotiq" / "outer_knuckle_fine.STL").resolve()  # relative: from the URDF's folder
+    with Viewer(robot, port=0) as viewer:  # the same robot drawn: every link's visual mesh is in the scene
+        assert viewer.scene.has_robot
+        meshes = viewer.scene._visual.scene.geometry
+        assert len(meshes) >= 7 and all(len(mesh.vertices) > 0 for mesh in meshes.values())
+
+
+def _ur5_copy(tmp_path: Path) -> Path:
+    """A copy of the UR5's folder (the URDF, the SRDF and the meshes) that a test may break."""
+    import shutil
+
+    folder = tmp_path / "ur5"
+    shutil.copytree(UR5 / "meshes", folder / "meshes")
+    for name in ("ur5.urdf", "ur5.srdf"):
+        shutil.copy(UR5 / name, folder / name)
+    return folder
+
+
+@needs_ur5
+def test_a_zero_byte_robot_mesh_names_the_file_and_the_link(tmp_path: Path) -> None:
+    """The visual mesh of the UR5's last wrist link is empty: the viewer says which file of which link and what
+    to do (it was pycollada's raw traceback naming no file)."""
+    folder = _ur5_copy(tmp_path)
+    broken = folder / "meshes" / "ur5" / "visual" / "wrist3.dae"
+    broken.chmod(0o644)
+    broken.write_bytes(b"")
+    robot = load_ur5({"meshes": folder / "meshes"}, folder / "ur5.urdf")  # pinocchio reads collision meshes only
+    with pytest.raises(InvalidInput) as error:
+        export_html(tmp_path / "ur5.html", joint_plan(robot), [], robot)
+    message = str(error.value)
+    assert "'wrist_3_link'" in message and str(broken.resolve()) in message
+    assert "package://meshes/ur5/visual/wrist3.dae" in message
+    assert "empty (0 bytes)" in message and "replace the file with a valid mesh" in message
+    # no collada traceback behind it
+    assert error.value.__cause__ is None and (error.value.__context__ is None or error.value.__suppress_context__)
+    assert not (tmp_path / "ur5.html").exists()
+
+
+def _one_link_robot(folder: Path, mesh: str) -> Path:
+    """A two-link URDF whose moving link ``hand`` has the visual mesh ``mesh`` (a path relative to the URDF)."""
+    urdf = folder / "arm.urdf"
+    urdf.write_text(f"""<robot name="arm">
+  <link name="base"/>
+  <link name="hand">
+    <visual><geometry><mesh filename="{mesh}"/></geometry></visual>
+    <collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision>
+  </link>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="hand"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+</robot>""")
+    return urdf
+
+
+@pytest.mark.parametrize(("content", "error_type", "reason"), [
+    (None, "ResourceNotFound", "no such file"),
+    (b"", "InvalidInput", "the file is empty (0 bytes)"),
+    (b"solid nothing here\nendsolid\n", "InvalidInput", "holds no triangles"),
+    (b"this is not a mesh at all", "InvalidInput", "holds no triangles"),
+])
+def test_an_unreadable_robot_mesh_names_the_file_and_the_link(tmp_path: Path, content: bytes | None,
+                                                              error_type: str, reason: str) -> None:
+    """Missing (removed after the model was loaded), empty, or not a mesh: a pfield error naming the link and the
+    file, raised before any page is served."""
+    import trimesh
+
+    from pfield import errors
+    from pfield.robot import RobotModel
+
+    part = tmp_path / "meshes" / "part.stl"
+    part.parent.mkdir()
+    trimesh.creation.box(extents=(0.05, 0.05, 0.05)).export(part)
+    robot = RobotModel.from_urdf(_one_link_robot(tmp_path, "meshes/part.stl"), "hand")
+    if content is None:
+        part.unlink()
+    else:
+        part.write_bytes(content)
+    with pytest.raises(errors.PfieldError) as error:
+        Viewer(robot, port=0)
+    assert type(error.value).__name__ == error_type
+    message = str(error.value)
+    assert "link 'hand'" in message and str(part) in message and reason in message
+
+
+def test_a_missing_robot_mesh_names_its_link_when_the_model_loads(tmp_path: Path) -> None:
+    from pfield import errors
+    from pfield.robot import RobotModel
+
+    with pytest.raises(errors.ResourceNotFound) as error:
+        RobotModel.from_urdf(_one_link_robot(tmp_path, "meshes/gone.stl"), "hand")
+    assert "link 'hand'" in str(error.value) and "gone.stl" in str(error.value)
+    with pytest.raises(errors.ResourceNotFound, match=r"link 'hand' of .*package 'parts' is unknown"):
+        RobotModel.from_urdf(_one_link_robot(tmp_path, "package://parts/gone.stl"), "hand")
+
+
+def _in_view(viewer: Viewer, points: np.ndarray, width: int = 1280, height: int = 720) -> list[bool]:
+    camera = viewer.server.initial_camera
+    rotation = look_at_camera(camera.position, camera.look_at)
+    inside = []
+    for point in points:
+        pixel = project(camera.position, rotation, camera.fov, point, width, height)
+        inside.append(pixel is not None and 0 <= pixel[0] < width and 0 <= pixel[1] < height)
+    return inside
+
+
+@needs_ur5
+def test_the_view_frames_a_raised_ur5_and_its_scene() -> None:
+    """The UR5 on its 0.91 m base, pointing up to 1.92 m, over a table scene: the initial camera (where the page
+    and the HTML export open) sees the whole arm and every obstacle; the slice-height slider spans the scene."""
+    robot = load_ur5()
+    obstacles = table_scene()
+    with Viewer(robot, port=0) as viewer:
+        arm = skeleton_box(robot, np.zeros(6))  # as first drawn: every joint at 0 (the arm stretched out)
+        assert all(_in_view(viewer, arm)), "the UR5 on its pedestal is not in the initial view"
+        viewer.show_plan(joint_plan(robot), obstacles)
+        arm = skeleton_box(robot, START)
+        assert arm[:, 2].max() > 1.9 and arm[:, 2].min() == 0.0
+        assert all(_in_view(viewer, arm)), "the raised UR5 is not in the initial view"
+        corners = np.vstack([viewer.scene._obstacle_boxes[o.id] for o in obstacles])
+        assert all(_in_view(viewer, corners)), "an obstacle is not in the initial view"
+        low, high = viewer.slice_height.min, viewer.slice_height.max
+        assert low <= 0.0 and high >= arm[:, 2].max() and high <= arm[:, 2].max() + 0.2
+        # The slice follows the goal (the plan's end, over the table) until the user moves it.
+        assert viewer.slice_height.value == pytest.approx(viewer.goal.position[2], abs=0.006)
+        viewer.refresh_field()
+        arrows = viewer.scene._field_handle
+        assert arrows is not None
+        starts = np.asarray(arrows.points)[:, 0]
+        table = next(o for o in obstacles if o.id == "table_top")
+        lower, upper = viewer.scene._obstacle_boxes[table.id]
+        assert starts[:, 0].min() <= lower[0] and starts[:, 0].max() >= upper[0]  # the field covers the table
+        assert starts[:, 1].min() <= lower[1] and starts[:, 1].max() >= upper[1]
+        assert BASE_HEIGHT < high
+
+
+def test_the_view_frames_a_table_top_arm_close_up(offline_viewer: Viewer) -> None:
+    """A small scene is not lost in a large view: the xArm7's box fills a good part of the picture."""
+    robot = offline_viewer.robot
+    box = skeleton_box(robot, np.zeros(robot.n_joints), pedestal=None)
+    camera = offline_viewer.server.initial_camera
+    assert np.linalg.norm(np.asarray(camera.position) - np.asarray(camera.look_at)) < 2.0
+    assert all(_in_view(offline_viewer, box))
+
+
+def test_a_slice_height_the_user_chose_stays(offline_viewer: Viewer) -> None:
+    offline_viewer.slice_height.value = 0.12  # type: ignore[misc]
+    offline_viewer.set_goal(Pose((0.4, 0.0, 0.5)))
+    assert offline_viewer.slice_height.value == pytest.approx(0.12)
+
+
+def test_framing_of_a_box() -> None:
+    """The camera sees every corner of a box from where its bounding sphere fills the field of view; the grid lies
+    under it and the slice heights span it, from the ground (a base plate 1 cm under it does not count)."""
+    from pfield.viz._viewer_frame import camera_pose, grid_placement, height_range
+
+    box = np.array([[-1.9, -1.0, -0.01], [0.1, 1.1, 1.95]])
+    position, look_at = camera_pose(box, np.radians(75))
+    assert look_at == pytest.approx(box.mean(axis=0))
+    corners = np.array([[x, y, z] for x in box[:, 0] for y in box[:, 1] for z in box[:, 2]])
+    rotation = look_at_camera(position, look_at)
+    pixels = [project(position, rotation, np.radians(75), corner, 1280, 720) for corner in corners]
+    assert all(p is not None and 0 <= p[0] < 1280 and 0 <= p[1] < 720 for p in pixels)
+    assert max(p[1] for p in pixels if p) - min(p[1] for p in pixels if p) > 0.5 * 720  # not lost in the distance
+    centre, width, height = grid_placement(box)
+    assert centre[2] == 0.0 and centre[0] - width / 2 <= -1.9 - 0.5 and centre[0] + width / 2 >= 0.1 + 0.5
+    assert centre[1] - height / 2 <= -1.0 - 0.5 and centre[1] + height / 2 >= 1.1 + 0.5
+    assert height_range(box) == (0.0, 2.0)
+    assert height_range(np.array([[0.0, 0.0, -0.3], [1.0, 1.0, 0.42]])) == (-0.3, 0.5)

@@ -3,7 +3,8 @@
 
 Obstacles must appear at their projected centres in their colours, a newly published obstacle must appear,
 dragging the goal gizmo with the mouse must publish a goal the node receives, and the robot must be drawn
-and move with the time slider.
+and move with the time slider. A URDF robot of the user's own (the UR5 standing on a 0.91 m pedestal) must be
+in the camera's view, live and in the HTML export, with the slice-height slider spanning its scene.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import httpx
 import numpy as np
 import pytest
 from _chromium import Browser, chromium_available
+from _ur5 import START, UR5, joint_plan, load_ur5, look_at_camera, project, skeleton_box, table_scene
 from numpy.typing import NDArray
 
 from serve_process import pfield_serve
@@ -112,6 +114,17 @@ def _camera(viewer: Any) -> Any:
 
     camera = next(iter(viewer.server.get_clients().values())).camera
     return SimpleNamespace(position=np.array(camera.position), wxyz=np.array(camera.wxyz), fov=float(camera.fov))
+
+
+def _initial_camera(viewer: Any) -> Any:
+    """The viewer's initial camera (where a page and the HTML export open) as :func:`_camera` gives one."""
+    from types import SimpleNamespace
+
+    from pfield.spatial import quaternion_from_matrix
+
+    initial = viewer.server.initial_camera
+    x, y, z, w = quaternion_from_matrix(look_at_camera(initial.position, initial.look_at))
+    return SimpleNamespace(position=np.array(initial.position), wxyz=np.array([w, x, y, z]), fov=float(initial.fov))
 
 
 def _project(camera: Any, point: NDArray[np.float64], width: int, height: int) -> tuple[int, int] | None:
@@ -304,8 +317,9 @@ def test_readme_screenshot_and_html_export(live: Any, browser: Browser, tmp_path
     target = live.export_html(ARTIFACTS / "viewer_export.html")
     text = target.read_text()
     assert "__VISER_EMBED_DATA__" in text and "http://" not in text.split("__VISER_EMBED_DATA__")[1][:200]
-    # The page opens at the viewer's initial camera, the one the live page started with (and leaves now).
-    camera = _camera(live)
+    # The page opens at the viewer's initial camera: the view of everything shown now (the live page's camera
+    # stayed where that page opened, before the plan was made and the goal dragged).
+    camera = _initial_camera(live)
     browser.open(target.as_uri())
 
     def shown(im: NDArray[np.uint8]) -> dict[str, bool]:
@@ -322,3 +336,88 @@ def test_a_page_with_a_token_loads_in_the_browser(browser: Browser) -> None:
     with Viewer(None, port=0, token="s3cret") as viewer:
         browser.open(viewer.url)
         _until(lambda: len(viewer.server.get_clients()) == 1, "the page never connected through the gate")
+
+
+SLIDER_RANGE = """(() => { for (const label of document.querySelectorAll('label, p, div')) {
+    if (label.textContent.trim() === 'Slice height (m)' && label.children.length === 0) {
+      let box = label.parentElement; for (let i = 0; i < 4 && box; i++, box = box.parentElement) {
+        const thumb = box.querySelector('[role=slider]');
+        if (thumb) return ['aria-valuemin', 'aria-valuemax', 'aria-valuenow'].map(a => thumb.getAttribute(a)); } } }
+    return null; })()"""
+"""The page's *Slice height (m)* slider: its min, max and value as the browser shows them."""
+
+
+def _drawn(image: NDArray[np.uint8], pixel: tuple[float, float]) -> bool:
+    """True when the 7×7 patch at ``pixel`` is darker than the page's white background (something is drawn)."""
+    col, row = round(pixel[0]), round(pixel[1])
+    return bool(image[row - 3:row + 4, col - 3:col + 4].mean() < 235)
+
+
+@pytest.mark.skipif(not UR5.exists(), reason="the UR5 files are not in ../shared")
+def test_a_raised_ur5_is_in_view_and_the_slider_covers_its_scene(browser: Browser) -> None:
+    """The UR5 stands on a 0.91 m pedestal and points up to 1.92 m over a MotionBenchMaker table: the page opens
+    with the whole arm in view (every corner of its box projects inside the canvas and the arm is drawn at its
+    joints), the slice-height slider spans the scene, and the HTML export opens on the same view."""
+    from pfield.viz.viewer import Viewer
+
+    robot = load_ur5()
+    with Viewer(robot, port=0) as viewer:
+        viewer.show_plan(joint_plan(robot), table_scene())
+        viewer.refresh_field()
+        browser.open(viewer.url)
+        _until(lambda: len(viewer.server.get_clients()) == 1, "the page never connected to the viewer")
+
+        initial = viewer.server.initial_camera
+
+        def camera_at_start() -> Any:
+            """The page's camera once it stands where the page opens (its first report may precede that)."""
+            try:
+                camera = _camera(viewer)
+            except AssertionError:  # the page has not reported its camera yet
+                return None
+            return camera if np.allclose(camera.position, initial.position, atol=0.02) else None
+
+        camera = _until(camera_at_start, "the page's camera never stood at the viewer's initial camera")
+        left, top, width, height = _canvas(browser)
+        joints_at_start = robot.joint_frames(START)[1]
+
+        def pixels_of(points: NDArray[np.float64]) -> list[tuple[float, float] | None]:
+            found = [_project(camera, point, round(width), round(height)) for point in points]
+            return [None if p is None else (p[0] + left, p[1] + top) for p in found]
+
+        def arm_drawn(image: NDArray[np.uint8]) -> bool:
+            return all(p is not None and _drawn(image, p) for p in pixels_of(joints_at_start))
+
+        image = _screens_until(browser, viewer, "viewer_ur5.png", arm_drawn)
+        corners = pixels_of(skeleton_box(robot, START))
+        assert all(p is not None and left <= p[0] < left + width and top <= p[1] < top + height for p in corners), \
+            f"the raised UR5 leaves the picture: corners at {corners} in a {width}x{height} canvas"
+        assert arm_drawn(image), "the UR5 is not drawn where its joints project"
+
+        low, high, value = (float(v) for v in _until(lambda: browser.evaluate(SLIDER_RANGE),
+                                                     "no Slice height (m) slider on the page"))
+        top_of_arm = float(skeleton_box(robot, START)[:, 2].max())
+        assert low <= 0.0 and high >= top_of_arm > 1.9, (low, high)
+        assert low <= value <= high
+        target = viewer.export_html(ARTIFACTS / "viewer_ur5_export.html")
+        position, look_at, fov = initial.position, initial.look_at, initial.fov
+
+    browser.open(target.as_uri())
+    rotation = look_at_camera(position, look_at)
+
+    # The page plays the plan: the shoulder (which barely moves) must be drawn, and the arm's box at every
+    # waypoint must project inside the picture (the canvas, above the page's time bar, once it exists).
+    shoulder = joints_at_start[:2]
+
+    def exported_arm_drawn(image: NDArray[np.uint8]) -> bool:
+        left, top, width, height = _canvas(browser)
+        pixels = [project(position, rotation, fov, point, round(width), round(height)) for point in shoulder]
+        return all(p is not None and _drawn(image, (p[0] + left, p[1] + top)) for p in pixels)
+
+    exported = _screens_until(browser, None, "viewer_ur5_export.png", exported_arm_drawn)
+    assert exported_arm_drawn(exported), "the exported page does not show the UR5 where its shoulder projects"
+    left, top, width, height = _canvas(browser)
+    for q in joint_plan(robot).joint_positions:
+        for corner in skeleton_box(robot, q):
+            pixel = project(position, rotation, fov, corner, round(width), round(height))
+            assert pixel is not None and 0 <= pixel[0] < width and 0 <= pixel[1] < height

@@ -54,12 +54,17 @@ inline Vec3 rate_limit(const Vec3& v, const Vec3& previous, double max_change) {
 
 // Largest allowed approach speed (m/s) toward an obstacle at d < Q (task space): xi (d - d_s)/(Q - d_s), capped by
 // sqrt(a_max (d - d_s)) so that a rate-limited twist can still stop before d_s; never below -max_speed.
+// Selects, not branches (the min/max of Python's rule: the first argument unless the second is smaller/larger), so
+// that the batches' lanes take this same function in SIMD instructions (batch.cpp): the square root of a negative
+// margin is computed there and not selected.
 inline double damper_speed(double distance, double influence, double safety, double gain, double max_speed,
                            double max_acceleration) {
   const double margin = distance - safety;
-  double speed = gain * margin / (influence - safety);
-  if (margin > 0.0) speed = std::min(speed, std::sqrt(max_acceleration * margin));
-  return std::max(speed, -max_speed);
+  const double speed = gain * margin / (influence - safety);
+  const double braking = std::sqrt(max_acceleration * margin);
+  const double capped = margin > 0.0 && braking < speed ? braking : speed;  // min(speed, braking) where margin > 0
+  const double floor = -max_speed;
+  return capped < floor ? floor : capped;  // max(capped, -max_speed)
 }
 
 struct Limited {
@@ -99,11 +104,13 @@ inline Limited deflect(const Vec3& v, const Vec3& n, const Vec3& c, double allow
   return {{ox, oy, oz}, true};
 }
 
-// The nearest twist with approach speed -n.v <= allowed (projection onto the damper's half-space).
+// The nearest twist with approach speed -n.v <= allowed (projection onto the damper's half-space). Selects, not a
+// branch, so that the batches' lanes take it in SIMD instructions (GCC does not if-convert the branch's return).
 inline Limited project_damper(const Vec3& v, const Vec3& n, double allowed) {
   const double excess = -(v.x * n.x + v.y * n.y + v.z * n.z) - allowed;
-  if (excess <= 0.0) return {v, false};
-  return {{v.x + excess * n.x, v.y + excess * n.y, v.z + excess * n.z}, true};
+  const bool changed = excess > 0.0;
+  return {{changed ? v.x + excess * n.x : v.x, changed ? v.y + excess * n.y : v.y, changed ? v.z + excess * n.z : v.z},
+          changed};
 }
 
 // Rate limit |v - v_prev| <= max_change that spends the budget on braking along the unit n first, then projects

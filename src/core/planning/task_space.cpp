@@ -6,6 +6,7 @@
 
 #include "geometry/sdf.hpp"
 #include "math/so3.hpp"
+#include "planning/segment_free.hpp"
 
 namespace pfield::planning {
 namespace {
@@ -14,7 +15,7 @@ using field::Twist;
 using math::Quat;
 using math::Vec3;
 
-constexpr int kSegmentSamples = 16;
+constexpr std::int64_t kSegmentSamples = 16;
 
 struct Stage {
   Twist twist;
@@ -52,18 +53,17 @@ Stage rk4_twist(const field::Field& field, const Vec3& p, const Quat& q, const T
 }
 
 // The straight segment a -> b stays outside every obstacle: certified by 1-Lipschitz distances when
-// |b - a| < d(a) + d(b), else sampled densely.
+// |b - a| < d(a) + d(b), else sampled at t = 1/16 .. 15/16 (planning/segment_free.hpp; b is the next waypoint,
+// which the loop checks itself). A sample collides when its distance is <= 0 (NaN does not).
 bool segment_is_free(const geometry::PackedView& packed, const double* a, const Vec3& b, double clearance_a,
                      double clearance_b) {
   const double ax = a[0], ay = a[1], az = a[2];
   const double length = std::sqrt((b.x - ax) * (b.x - ax) + (b.y - ay) * (b.y - ay) + (b.z - az) * (b.z - az));
   if (clearance_a > 0.0 && clearance_b > 0.0 && length < clearance_a + clearance_b) return true;
-  for (int s = 1; s < kSegmentSamples; ++s) {
-    const double t = static_cast<double>(s) / kSegmentSamples;
+  return samples_valid(kSegmentSamples, kSegmentSamples - 1, [&](double t) {
     const geometry::Vec3 point{ax + t * (b.x - ax), ay + t * (b.y - ay), az + t * (b.z - az)};
-    if (geometry::min_signed_distance(packed, point).nearest.distance <= 0.0) return false;
-  }
-  return true;
+    return !(geometry::min_signed_distance(packed, point).nearest.distance <= 0.0);
+  });
 }
 
 }  // namespace

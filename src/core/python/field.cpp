@@ -1,6 +1,6 @@
 // Bindings of the 3D potential field (pfield.field) and its task-space planning loop: a thin list of defs over
-// field/evaluate.hpp and planning/task_space.hpp. A Field binds a PotentialField's arrays once (goal, parameters,
-// per-obstacle data, the packed obstacles), so each call passes only the pose.
+// field/evaluate.hpp, field/batch.hpp and planning/task_space.hpp. A Field binds a PotentialField's arrays once
+// (goal, parameters, per-obstacle data, the packed obstacles), so each call passes only the pose.
 #include <nanobind/nanobind.h>
 #include <nanobind/stl/optional.h>
 #include <nanobind/stl/tuple.h>
@@ -11,11 +11,10 @@
 #include <cstdint>
 #include <optional>
 #include <stdexcept>
-#include <thread>
 #include <tuple>
 #include <utility>
-#include <vector>
 
+#include "field/batch.hpp"
 #include "field/evaluate.hpp"
 #include "field/forces.hpp"
 #include "planning/task_space.hpp"
@@ -43,24 +42,12 @@ template <int Columns>
 using OutRows = nb::ndarray<double, nb::shape<-1, Columns>, nb::c_contig, nb::device::cpu>;
 using OutVector = nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
 
-constexpr std::size_t kParallelFrom = 8192;  // poses: below, the calling thread alone (threads cost more)
-constexpr double kMinQuaternionNorm = 1e-9;  // pfield.spatial.MIN_QUATERNION_NORM
-
 Vec3 vec3(const double* v) { return {v[0], v[1], v[2]}; }
 Quat quat(const double* v) { return {v[0], v[1], v[2], v[3]}; }
 
 void write_twist(const field::Twist& t, double* out) {
   out[0] = t.linear.x, out[1] = t.linear.y, out[2] = t.linear.z;
   out[3] = t.angular.x, out[4] = t.angular.y, out[5] = t.angular.z;
-}
-
-// (valid, q / |q|): finite with a norm of at least kMinQuaternionNorm (the batch checks each row itself).
-bool unit_quaternion(const double* o, Quat& q) {
-  const double norm = std::sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2] + o[3] * o[3]);
-  if (!(std::isfinite(norm) && norm >= kMinQuaternionNorm)) return false;
-  const double inverse = 1.0 / norm;
-  q = {o[0] * inverse, o[1] * inverse, o[2] * inverse, o[3] * inverse};
-  return true;
 }
 
 class BoundField {
@@ -120,52 +107,23 @@ class BoundField {
     return out;
   }
 
-  // Twists (wrenches) at N poses, on every core from kParallelFrom poses; one orientation row may serve every
+  // Twists (under the output contract, as twist()) or wrenches at N poses (field/batch.hpp), on every core from
+  // field::kParallelFrom poses (threads: 0 for that rule, else how many); one orientation row may serve every
   // position. Returns (values (N, 6), the first row that is not finite or has no rotation, -1 for none).
-  std::tuple<NumpyArray, std::int64_t> batch(const Rows<3>& positions, const Rows<4>& orientations,
-                                             bool wrenches) const {
-    const std::size_t n = positions.shape(0), shared = orientations.shape(0) == 1;
-    if (!shared && orientations.shape(0) != n) throw std::invalid_argument("orientations: expected N rows or one");
+  std::tuple<NumpyArray, std::int64_t> batch(const Rows<3>& positions, const Rows<4>& orientations, bool wrenches,
+                                             unsigned threads) const {
+    const std::size_t n = positions.shape(0);
+    const bool one = orientations.shape(0) == 1;
+    if (!one && orientations.shape(0) != n) throw std::invalid_argument("orientations: expected N rows or one");
     auto [out, data] = new_array({n, 6});
-    std::int64_t bad = -1;
+    const field::Poses poses{positions.data(), orientations.data(), n, one};
+    field::BatchResult result;
     {
       nb::gil_scoped_release release;
-      const auto range = [&](std::size_t begin, std::size_t end) -> std::int64_t {
-        for (std::size_t k = begin; k < end; ++k) {
-          const double* p = positions.data() + 3 * k;
-          Quat q;
-          if (!(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2])) ||
-              !unit_quaternion(orientations.data() + 4 * (shared ? 0 : k), q))
-            return static_cast<std::int64_t>(k);
-          if (wrenches) {
-            const field::Wrench w = field::field_wrench(field_, vec3(p), q);
-            double* row = data + 6 * k;
-            row[0] = w.force.x, row[1] = w.force.y, row[2] = w.force.z;
-            row[3] = w.torque.x, row[4] = w.torque.y, row[5] = w.torque.z;
-          } else {
-            write_twist(field::constrained_twist(field_, vec3(p), q, nullptr, 0.0).twist, data + 6 * k);
-          }
-        }
-        return -1;
-      };
-      const unsigned threads = n < kParallelFrom ? 1u : std::max(1u, std::thread::hardware_concurrency());
-      if (threads == 1) {
-        bad = range(0, n);
-      } else {
-        std::vector<std::int64_t> first(threads, -1);
-        std::vector<std::thread> workers;
-        const std::size_t chunk = (n + threads - 1) / threads;
-        for (unsigned t = 0; t < threads; ++t)
-          workers.emplace_back([&, t] { first[t] = range(t * chunk, std::min(n, (t + 1) * chunk)); });
-        for (std::thread& worker : workers) worker.join();
-        for (std::int64_t row : first)
-          if (row >= 0) {
-            bad = row;
-            break;
-          }
-      }
+      result = wrenches ? field::batch_wrenches(field_, poses, data, {threads})
+                        : field::batch_twists(field_, poses, data, {threads, contract_row});
     }
-    return {out, bad};
+    return {out, result.invalid_row};
   }
 
   std::tuple<std::int64_t, std::int64_t, std::int64_t> plan(const Pose7& start, double dt, double goal_tolerance,
@@ -191,6 +149,14 @@ class BoundField {
   static field::Twist twist_of(const double* v) { return {{v[0], v[1], v[2]}, {v[3], v[4], v[5]}}; }
   const FieldParams& params() const { return *field_.params; }
 
+  // The output contract on a twist (6) in place. twist(), evaluate() and the batch's rows (in its threads) all take
+  // it from here, one build of safety::limit_twist: its std::hypot takes fused multiply-adds under this file's
+  // -ffp-contract=fast and not in the core's files, so a build elsewhere could differ in a last bit.
+  static safety::Outcome contract(double* twist, const FieldParams& params) {
+    return safety::limit_twist(twist, params.max_linear_velocity, params.max_angular_velocity);
+  }
+  static void contract_row(double* twist, const FieldParams& params) { contract(twist, params); }
+
   // The twist under the output contract into out (6): previous (6, or null) clipped to the speed limits first.
   int limited_twist(const double* position, const double* orientation, const double* previous, double dt,
                     double* out) const {
@@ -204,7 +170,7 @@ class BoundField {
     const ConstrainedTwist t = field::constrained_twist(field_, vec3(position), quat(orientation),
                                                         previous != nullptr ? &before : nullptr, dt);
     write_twist(t.twist, out);
-    return static_cast<int>(safety::limit_twist(out, vmax, wmax));
+    return static_cast<int>(contract(out, params()));
   }
 
   // the arrays the views point into, kept alive as long as this object
@@ -270,7 +236,8 @@ void bind_field(nb::module_& m) {
       },
       "x"_a, "y"_a, "z"_a, "px"_a, "py"_a, "pz"_a, "max_change"_a, "nx"_a, "ny"_a, "nz"_a, "limit"_a,
       "The rate limit that spends its budget on braking along n first, then |v| <= limit.");
-  m.attr("PARALLEL_FROM") = kParallelFrom;
+  m.attr("PARALLEL_FROM") = field::kParallelFrom;  // the batches' threads start here
+  m.attr("CHUNK") = field::kChunk;
   // FieldParams member -> its index in FieldConfig.packed(), from the struct's own layout (a test holds it equal
   // to FieldConfig's field order)
   nb::dict offsets;
@@ -309,16 +276,19 @@ void bind_field(nb::module_& m) {
       .def("wrench", &BoundField::wrench, "position"_a, "orientation"_a, "The raw wrench (6,) at a pose.")
       .def(
           "twists",
-          [](const BoundField& self, const Rows<3>& positions, const Rows<4>& orientations) {
-            return self.batch(positions, orientations, false);
+          [](const BoundField& self, const Rows<3>& positions, const Rows<4>& orientations, unsigned threads) {
+            return self.batch(positions, orientations, false, threads);
           },
-          "positions"_a, "orientations"_a, "(twists (N, 6), first invalid row or -1), on every core.")
+          "positions"_a, "orientations"_a, "threads"_a = 0,
+          "(constrained twists (N, 6) without a previous twist, under the output contract; the first invalid row "
+          "or -1): quaternions normalised here; on every core from PARALLEL_FROM poses (threads=0).")
       .def(
           "wrenches",
-          [](const BoundField& self, const Rows<3>& positions, const Rows<4>& orientations) {
-            return self.batch(positions, orientations, true);
+          [](const BoundField& self, const Rows<3>& positions, const Rows<4>& orientations, unsigned threads) {
+            return self.batch(positions, orientations, true, threads);
           },
-          "positions"_a, "orientations"_a, "(wrenches (N, 6), first invalid row or -1), on every core.")
+          "positions"_a, "orientations"_a, "threads"_a = 0,
+          "(raw wrenches (N, 6), the first invalid row or -1), as twists.")
       .def("plan", &BoundField::plan, "start"_a, "dt"_a, "goal_tolerance"_a, "rotation_tolerance"_a,
            "max_iterations"_a, "window"_a, "progress"_a, "cancel"_a, "poses"_a, "twists"_a, "clearances"_a,
            "The task-space plan into poses/twists/clearances: (waypoint count, PlanStatus value, obstacle or -1); "

@@ -29,8 +29,7 @@ from pfield.field import FieldConfig, PotentialField
 from pfield.geometry import Obstacle, Sphere, pack_obstacles, signed_distances
 from pfield.node._manager_state import Held
 from pfield.node._obstacle_motion import updated_held
-from pfield.shared_control._assistance_kernel import servo_scale
-from pfield.shared_control.assistance import AssistanceScene, task_space_assistance
+from pfield.shared_control.assistance import AssistanceScene, servo_scale, task_space_assistance
 from pfield.spatial import Pose, Twist
 
 MODES = ("none", "servo", "pfield")

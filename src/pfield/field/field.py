@@ -20,7 +20,6 @@ from pfield import safety
 from pfield._core import field as _core_field
 from pfield._validation import as_points, finite
 from pfield.errors import InvalidInput
-from pfield.field._batch_parallel import batch_twists, batch_wrenches
 from pfield.field.config import FieldConfig
 from pfield.geometry import Obstacle, PackedObstacles, pack_obstacles, signed_distances
 from pfield.geometry._packed import SPHERE, bounding_radius
@@ -32,7 +31,6 @@ if TYPE_CHECKING:
 
 __all__ = ["FieldArrays", "PotentialField"]
 
-_NO_PREVIOUS = np.zeros(6)  # the batch twists' previous twist: read by the kernel, never written
 _LOG = logging.getLogger(__name__)
 
 
@@ -211,14 +209,14 @@ class PotentialField:
     # ---------------------------------------------------------------- batches
 
     def _batch(self, positions: ArrayLike, orientations: ArrayLike | None) -> tuple[NDArray[Any], NDArray[Any]]:
-        """Positions (N, 3) and orientations (N or 1, 4) as the batch kernels take them: shapes checked here,
-        rows checked (finite, nonzero quaternion) and quaternions normalised by the kernels."""
-        # Writable C-contiguous copies when needed, so that the kernels see one array type (one compilation).
-        points = np.require(as_points("positions", positions, check_finite=False), requirements=["C", "W"])
+        """Positions (N, 3) and orientations (N or 1, 4) as the core's batches take them (C-contiguous float64, read
+        in place): shapes checked here, rows checked (finite, nonzero quaternion) and quaternions normalised by the
+        core."""
+        points = as_points("positions", positions, check_finite=False)
         if orientations is None:
-            return points, np.require(self._goal.orientation.reshape(1, 4), requirements=["C", "W"])
+            return points, self._goal.orientation.reshape(1, 4)
         try:
-            quats = np.require(orientations, dtype=np.float64, requirements=["C", "W"])
+            quats = np.require(orientations, dtype=np.float64, requirements=["C"])
         except (TypeError, ValueError) as exc:
             raise InvalidInput("orientations", orientations,
                                f"expected an array of shape ({points.shape[0]}, 4)") from exc
@@ -229,13 +227,11 @@ class PotentialField:
         return points, quats
 
     @staticmethod
-    def _rows_checked(result: tuple[NDArray[np.float64], NDArray[np.int64]], points: NDArray[Any],
+    def _rows_checked(result: tuple[NDArray[np.float64], int], points: NDArray[Any],
                       quats: NDArray[Any]) -> NDArray[np.float64]:
-        """The kernel's values, or the error naming the first row it refused."""
-        values, bad = result
-        refused = bad[bad >= 0]
-        if refused.size:
-            row = int(refused.min())
+        """The core's values, or the error naming the first row it refused."""
+        values, row = result
+        if row >= 0:
             if not np.all(np.isfinite(points[row])):
                 raise InvalidInput(f"positions[{row}]", points[row].tolist(), "must be finite (no NaN or inf)")
             quat = quats[row if quats.shape[0] > 1 else 0]
@@ -246,23 +242,21 @@ class PotentialField:
         """Raw wrenches (N, 6) = force, torque at N poses; orientations (N, 4) or one (4,) for all (normalised),
         default the goal's.
 
-        Large batches run on every core (:mod:`pfield.field._batch_parallel`), with the same values."""
+        One call of the core (``src/core/field/batch.hpp``: poses side by side in SIMD instructions, on every core
+        from ``pfield._core.field.PARALLEL_FROM`` poses). Each row is :meth:`wrench`'s value to the bit at the same
+        position and unit quaternion (the batch normalises q as q · (1/‖q‖), :class:`~pfield.spatial.Pose` as
+        q/‖q‖: the unit quaternions themselves may differ in a last bit)."""
         points, quats = self._batch(positions, orientations)
-        goal, params, packed, aux = self._arrays
-        return self._rows_checked(batch_wrenches(points, quats, goal, params, aux, *packed), points, quats)
+        return self._rows_checked(self._core.wrenches(points, quats), points, quats)
 
     def twists(self, positions: ArrayLike, orientations: ArrayLike | None = None) -> NDArray[np.float64]:
-        """Constrained twists (N, 6) = linear, angular at N poses, without a previous twist; orientations as
-        :meth:`wrenches`.
+        """Constrained twists (N, 6) = linear, angular at N poses, without a previous twist, under the output
+        contract (:mod:`pfield.safety`); orientations as :meth:`wrenches`.
 
-        Large batches run on every core (:mod:`pfield.field._batch_parallel`: eight poses side by side in SIMD
-        instructions), with one pose's values to rounding."""
+        One call of the core, as :meth:`wrenches`; each row is :meth:`twist`'s value (without ``previous``) as
+        :meth:`wrenches` says."""
         points, quats = self._batch(positions, orientations)
-        goal, params, packed, aux = self._arrays
-        values = self._rows_checked(batch_twists(points, quats, goal, params, aux, _NO_PREVIOUS, *packed),
-                                    points, quats)
-        safety.limit_twists(values, self._config.max_linear_velocity, self._config.max_angular_velocity)
-        return values
+        return self._rows_checked(self._core.twists(points, quats), points, quats)
 
     def clearances(self, positions: ArrayLike) -> NDArray[np.float64]:
         """Signed distance (m) of each point (N, 3) to the nearest obstacle (inf without obstacles)."""

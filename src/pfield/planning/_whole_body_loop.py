@@ -1,6 +1,10 @@
 """Compiled whole-body loops on top of :func:`~pfield.planning._whole_body_kernel.joint_velocity_step`: the
-planning loop and the single step of the autonomy vector (numba, cache=True); the link clearances come
-from :mod:`pfield.robot._clearance`.
+planning loop and the single step of the autonomy vector (numba, cache=True).
+
+The planner and :class:`~pfield.planning.WholeBodyStepper` run the compiled core's port
+(``src/core/planning/whole_body``, :mod:`pfield.planning._whole_body_core`); these stay as its twins
+(tests/planning/test_core_whole_body.py) until they go. The link clearances (``pair_distances``) are in
+:mod:`pfield.planning._whole_body_core`.
 """
 
 from __future__ import annotations
@@ -40,7 +44,6 @@ from pfield.planning._whole_body_layout import (
     unowned_workspace,
 )
 from pfield.planning.status import PlanStatus
-from pfield.robot._clearance import clearances_at
 from pfield.robot._kinematics import joint_transforms
 
 
@@ -129,11 +132,3 @@ def autonomy_step(q: np.ndarray, previous: np.ndarray, has_prev: bool, robot: Ro
     _segments_near(robot, scene, ws)
     _task(robot, goal_p, goal_q, params, ws)
     return velocity_from_segments(q, previous, has_prev, robot, scene, params, ws, params[DAMPING], True)
-
-
-def pair_distances(q: np.ndarray, robot: RobotArrays, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
-    """Clearances (m) of the fitted model at ``q``: link × obstacle (L, M) and self pairs (P,)."""
-    return clearances_at(q, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds,
-                         robot.cap_joint, robot.cap_a, robot.cap_b, robot.cap_r, robot.self_r, robot.link_start,
-                         robot.prim_joint, robot.prim_a, robot.prim_b, robot.prim_r, robot.self_pairs, scene.packed,
-                         scene.centres, scene.bounds)

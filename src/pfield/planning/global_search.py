@@ -8,7 +8,7 @@ that happens and ``global_fallback`` is on, the planners call this module:
    generator seeded by ``seed`` — and keeps up to ``goal_configurations`` distinct solutions within the
    joint limits: those whose link capsules keep the search margin first, then those the exact mesh
    check (coal) clears. None found → ``goal invalid`` at once, never a long search.
-2. **Search**: compiled RRT-Connect (:mod:`pfield.planning._rrt_kernel`) in joint space against the
+2. **Search**: compiled RRT-Connect (the core's ``planning/rrt``, ``pfield._core.rrt``) in joint space against the
    link capsules and the packed obstacles (whole body; the goal tree is rooted at every goal
    configuration), or in R³ against the obstacles' signed distance (task space). Task space searches
    positions only: its collision model is the end-effector *point*, so the orientation cannot make a
@@ -17,7 +17,7 @@ that happens and ``global_fallback`` is on, the planners call this module:
    follows it.
 3. **Shortcutting** of the found path (same compiled checks).
 4. **Tracking by the field**: whole body, the damper-constrained QP follows a moving joint-space
-   attractor (:mod:`pfield.planning._track_kernel`); task space, the field's own compiled loop runs to
+   attractor (the core's ``planning/track``); task space, the field's own compiled loop runs to
    each path vertex in turn as its goal. The motion keeps the dampers' clearance.
 
 Search margin: a state is valid when every capsule keeps ``safety_distance + GlobalOptions.extra_margin``;
@@ -34,24 +34,26 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pfield._core import rrt as _core
 from pfield._validation import nonnegative, positive
 from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
 from pfield.geometry import Obstacle
-from pfield.planning import _rrt_kernel as _rrt
-from pfield.planning import _whole_body_layout as _wb
-from pfield.planning._track_kernel import overlapping_waypoints, track_path
-from pfield.planning._whole_body_loop import pair_distances
+from pfield.planning._whole_body_core import culprit, pair_distances
 from pfield.planning.cancel import cancel_flag
 from pfield.planning.options import DEFAULT_GLOBAL_TIME_LIMIT
 from pfield.planning.status import PlanStatus
 from pfield.robot.ik import solve_ik
 from pfield.robot.model import RobotModel
 from pfield.spatial import Pose, quaternion_exp, quaternion_inverse, quaternion_log, quaternion_multiply
+
+if TYPE_CHECKING:
+    from pfield.planning import _whole_body_layout as _wb
 
 __all__ = ["GlobalOptions", "SearchResult", "goal_configurations", "joint_space_search",
            "point_space_search"]
@@ -157,11 +159,19 @@ def endpoint_scene(scene: _wb.Scene, arrays: _wb.RobotArrays, ends: Sequence[NDA
                           self_offsets=self_offsets - _ROUNDING * (self_offsets < 0.0))
 
 
-def _joint_checker(arrays: _wb.RobotArrays, scene: _wb.Scene, margin: float, resolution: float) -> _rrt.Checker:
-    n, caps, obstacles, pairs = len(arrays.parents), len(arrays.cap_joint), len(scene.bounds), len(arrays.self_pairs)
-    ws = _wb.make_workspace(n, caps, obstacles, pairs, len(arrays.prim_r))
-    return _rrt.Checker(_rrt.JOINT_SPACE, arrays, scene, ws, np.empty((caps, obstacles)), np.empty(pairs),
-                        float(margin), float(resolution), np.zeros(1, dtype=np.int64))
+def _core_robot(arrays: _wb.RobotArrays) -> _core.Robot:
+    """The core's view of ``arrays`` (read in place while it lives)."""
+    return _core.Robot(*arrays)
+
+
+def _core_scene(robot: _core.Robot, scene: _wb.Scene) -> _core.Scene:
+    """The core's view of ``scene`` for ``robot`` (read in place while it lives)."""
+    return _core.Scene(robot, *scene.packed, scene.centres, scene.bounds, scene.obstacle_offsets, scene.self_offsets)
+
+
+def _joint_checker(arrays: _wb.RobotArrays, scene: _wb.Scene, margin: float, resolution: float) -> _core.Checker:
+    robot = _core_robot(arrays)
+    return _core.Checker(robot, _core_scene(robot, scene), float(margin), float(resolution))
 
 
 def _capsules_clear(arrays: _wb.RobotArrays, scene: _wb.Scene, q: NDArray[np.float64], margin: float) -> bool:
@@ -245,39 +255,40 @@ def _sampling_box(robot: RobotModel) -> tuple[NDArray[np.float64], NDArray[np.fl
     return np.ascontiguousarray(lower, dtype=np.float64), np.ascontiguousarray(upper, dtype=np.float64)
 
 
-def _search(checker: _rrt.Checker, start: NDArray[np.float64], goals: NDArray[np.float64], lower: NDArray[np.float64],
-            upper: NDArray[np.float64], step: float, options: GlobalOptions,
+def _search(checker: _core.Checker, start: NDArray[np.float64], goals: NDArray[np.float64],
+            lower: NDArray[np.float64], upper: NDArray[np.float64], step: float, options: GlobalOptions,
             cancel: NDArray[np.uint8] | None) -> SearchResult:
-    """RRT-Connect from ``start`` to any row of ``goals`` in chunks of compiled work until found, full or
-    ``options.time_limit``; then shortcutting."""
+    """RRT-Connect from ``start`` to any row of ``goals`` in chunks of compiled work (the GIL released; ``cancel``
+    read every iteration) until found, full or ``options.time_limit``; then shortcutting."""
     begin = time.perf_counter()
-    if not _rrt.state_valid(checker, start):
+    if not checker.state_valid(start):
         return SearchResult(False, start[None], PlanStatus.START_INVALID,
                             "start invalid: the start violates the search margin",
-                            int(checker.counter[0]), time.perf_counter() - begin)
-    valid = [g for g in goals if _rrt.state_valid(checker, g)]
+                            checker.states_checked, time.perf_counter() - begin)
+    valid = [g for g in goals if checker.state_valid(g)]
     if not valid:
         return SearchResult(False, start[None], PlanStatus.GOAL_INVALID,
                             "goal invalid: the goal violates the search margin",
-                            int(checker.counter[0]), time.perf_counter() - begin)
-    trees = _rrt.make_trees(start, np.array(valid), options.capacity, options.seed)
-    status, path = _rrt.SEARCHING, start[None]
-    while status == _rrt.SEARCHING:
-        status, path = _rrt.rrt_connect(checker, trees, lower, upper, step, 2000)
-        if status == _rrt.SEARCHING and cancel is not None and cancel[0] != 0:
+                            checker.states_checked, time.perf_counter() - begin)
+    trees = _core.Trees(start, np.array(valid), int(options.capacity), int(options.seed))
+    searching = _core.SearchStatus.SEARCHING
+    status, path = searching, start[None]
+    while status == searching:
+        status, path = checker.connect(trees, lower, upper, step, 2000, cancel)
+        if status == searching and cancel is not None and cancel[0] != 0:
             return SearchResult(False, start[None], PlanStatus.CANCELLED, "cancelled during the global search",
-                                int(checker.counter[0]), time.perf_counter() - begin)
-        if status == _rrt.SEARCHING and time.perf_counter() - begin > options.time_limit:
+                                checker.states_checked, time.perf_counter() - begin)
+        if status == searching and time.perf_counter() - begin > options.time_limit:
             break
-    if status != _rrt.FOUND:
-        timed_out = status == _rrt.SEARCHING
+    if status != _core.SearchStatus.FOUND:
+        timed_out = status == searching
         why = "time limit" if timed_out else "tree capacity"
         outcome = PlanStatus.GLOBAL_TIME_LIMIT if timed_out else PlanStatus.GLOBAL_NO_PATH
         return SearchResult(False, start[None], outcome, f"global search: no path within the {why} "
                             f"({options.time_limit:g} s, {options.capacity} nodes per tree)",
-                            int(checker.counter[0]), time.perf_counter() - begin)
-    short = _rrt.shortcut(checker, path, options.shortcut_attempts, trees.state)
-    return SearchResult(True, short, PlanStatus.REACHED, "", int(checker.counter[0]), time.perf_counter() - begin)
+                            checker.states_checked, time.perf_counter() - begin)
+    short = checker.shortcut(path, int(options.shortcut_attempts), trees)
+    return SearchResult(True, short, PlanStatus.REACHED, "", checker.states_checked, time.perf_counter() - begin)
 
 
 def joint_space_search(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, start: NDArray[np.float64],
@@ -295,12 +306,24 @@ def joint_space_search(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Sc
 def track(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, path: NDArray[np.float64], goal: Pose,
           params: NDArray[np.float64], max_iterations: int, options: GlobalOptions,
           cancel: NDArray[np.uint8] | None = None) -> tuple:  # type: ignore[type-arg]
-    """The field's damper QP following ``path`` (see :mod:`pfield.planning._track_kernel`); ``cancel`` is a
-    :class:`~pfield.planning.CancelToken`'s flag, polled every step."""
+    """The field's damper QP following ``path`` (the core's ``planning/track``; the GIL is released); ``cancel`` is
+    a :class:`~pfield.planning.CancelToken`'s flag, polled every step.
+
+    Returns ``(status, count, q, qdot, positions, quaternions, twists, clearances, culprit)`` as the field's loop
+    (:func:`pfield.planning._whole_body_core.plan_loop`)."""
     flag = cancel_flag(None) if cancel is None else cancel
-    return track_path(path[0].copy(), np.ascontiguousarray(path), arrays, scene,
-                      np.array(goal.position, dtype=np.float64), np.array(goal.orientation, dtype=np.float64), params,
-                      max_iterations, options.tracking_gain, options.tracking_lead, flag)
+    waypoints = np.ascontiguousarray(path, dtype=np.float64)
+    n, total = waypoints.shape[1], max_iterations + 1
+    qs, qds = np.empty((total, n)), np.empty((total, n))
+    positions, quats, twists, clear = np.empty((total, 3)), np.empty((total, 4)), np.empty((total, 6)), np.empty(total)
+    bound = _core_robot(arrays)
+    result = _core.track_path(bound, _core_scene(bound, scene), waypoints[0].copy(), waypoints,
+                              np.array(goal.position, dtype=np.float64), np.array(goal.orientation, dtype=np.float64),
+                              params, max_iterations, float(options.tracking_gain), float(options.tracking_lead), flag,
+                              qs, qds, positions, quats, twists, clear)
+    count = result.count
+    return PlanStatus(result.status), count, qs[:count], qds[:count], positions[:count], quats[:count], \
+        twists[:count], clear[:count], culprit(result.last)
 
 
 def exact_contact(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, qs: NDArray[np.float64],
@@ -309,7 +332,9 @@ def exact_contact(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, 
     capsules overlap something, and on the motion into and out of them (every ``resolution`` rad)."""
     raw = scene._replace(obstacle_offsets=np.zeros_like(scene.obstacle_offsets),
                          self_offsets=np.zeros_like(scene.self_offsets))
-    flagged = np.flatnonzero(overlapping_waypoints(np.ascontiguousarray(qs), arrays, raw))
+    bound = _core_robot(arrays)
+    flagged = np.flatnonzero(_core.overlapping_waypoints(bound, _core_scene(bound, raw),
+                                                         np.ascontiguousarray(qs, dtype=np.float64)))
     if flagged.size == 0:
         return ""
     from pfield.robot.collision import CollisionChecker
@@ -344,20 +369,10 @@ def point_space_search(scene: _wb.Scene, start: NDArray[np.float64], goal: NDArr
     points = np.vstack([start[None], goal[None], centres - radii[:, None], centres + radii[:, None]])
     pad = 10.0 * options.point_step
     lower, upper = points.min(axis=0) - pad, points.max(axis=0) + pad
-    ws = _wb.make_workspace(3, 0, len(radii), 0, 0)
-    checker = _rrt.Checker(_rrt.POINT_SPACE, _point_robot(), scene, ws, np.empty((0, len(radii))), np.empty(0),
-                           float(margin), float(options.point_resolution), np.zeros(1, dtype=np.int64))
-    # writable copies: a Pose's arrays are read-only, and numba would compile the search a second time for them
-    return _search(checker, np.array(start, dtype=np.float64), np.array(goal, dtype=np.float64)[None], lower, upper,
+    checker = _core.Checker(_core.Obstacles(*scene.packed), float(margin), float(options.point_resolution))
+    return _search(checker, np.array(start, dtype=np.float64), np.array(goal, dtype=np.float64)[None],
+                   np.ascontiguousarray(lower, dtype=np.float64), np.ascontiguousarray(upper, dtype=np.float64),
                    options.point_step, options, cancel)
-
-
-def _point_robot() -> _wb.RobotArrays:
-    """A :class:`RobotArrays` with no joints or capsules (the point space needs none; same array types)."""
-    f, i = np.zeros, np.zeros
-    return _wb.RobotArrays(i(0, np.int64), f((0, 3, 3)), f((0, 3)), f((0, 3)), i(0, np.int64), i((0, 0), np.int64),
-                           -1, np.eye(3), f(3), i(0, np.int64), f((0, 3)), f((0, 3)), f(0), i((0, 2), np.int64),
-                           f(0), f(0), f(0), f(0), i(1, np.int64), i(0, np.int64), f((0, 3)), f((0, 3)), f(0), f(0))
 
 
 def orientations_along(path: NDArray[np.float64], start: Pose, goal: Pose) -> list[Pose]:

@@ -19,7 +19,7 @@ from pfield.errors import InvalidInput
 from pfield.planning.result import PlannedPath
 from pfield.planning.retime import retime_joint_path
 from pfield.planning.status import PlanStatus
-from pfield.robot.ik import ik_path_kernel, ik_settings
+from pfield.robot.ik import ik_settings, solve_ik_path
 from pfield.robot.model import RobotModel
 
 __all__ = ["attach_joint_trajectory"]
@@ -43,11 +43,8 @@ def attach_joint_trajectory(path: PlannedPath, robot: RobotModel, q_seed: ArrayL
         raise InvalidInput("path", path, "expected a pfield PlannedPath")
     seed = robot.check_joint_angles(q_seed, "q_seed")
     settings = ik_settings(max_iterations, position_tolerance, rotation_tolerance, damping=1e-4, max_step=0.3)
-    qs, failed, pos_err, rot_err = ik_path_kernel(
-        # writable copies, as solve_ik passes: one specialisation of ik_kernel for both
-        seed, np.require(path.positions, requirements=["C", "W"]),
-        np.require(path.orientations, requirements=["C", "W"]), *robot.kinematics,
-        np.array(robot.lower_limits), np.array(robot.upper_limits), settings)
+    qs, outcome = solve_ik_path(robot, seed, path.positions, path.orientations, settings)
+    failed, pos_err, rot_err = outcome.failed, outcome.position_error, outcome.rotation_error
     if failed >= 0:
         reason = (f"inverse kinematics failed at waypoint {failed} of {len(path)} (position error {pos_err:.4g} m, "
                   f"rotation error {rot_err:.4g} rad): the robot cannot follow the planned path")

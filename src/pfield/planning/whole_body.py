@@ -1,9 +1,9 @@
 """Whole-body planning: the potential field acting on every link of a robot, integrated in joint space.
 
 ``plan_whole_body(field, robot, q0, dt, goal_tolerance, max_iterations)`` starts from joint angles ``q0`` and
-integrates the joint velocity of :mod:`pfield.planning._whole_body_kernel` (one compiled loop,
-:mod:`pfield.planning._whole_body_loop`) until the end
-effector is within ``goal_tolerance`` (m) and ``rotation_tolerance`` (rad) of the field's goal pose.
+integrates the joint velocity of the compiled core (``src/core/planning/whole_body``: one call per plan, through
+:mod:`pfield.planning._whole_body_core`) until the end effector is within ``goal_tolerance`` (m) and
+``rotation_tolerance`` (rad) of the field's goal pose.
 
 Why a damped least-squares QP rather than the plain transpose map q̇ = Jᵀ F: the transpose map moves the
 end effector along J Jᵀ F, which is not the field's direction and converges at rates that differ by the
@@ -37,8 +37,8 @@ from pfield.field.config import FieldConfig
 from pfield.geometry import Obstacle, pack_obstacles
 from pfield.geometry._packed import PackedObstacles, bounding_radius
 from pfield.geometry._sdf import empty_packed
+from pfield.planning import _whole_body_core as _core_loop
 from pfield.planning import _whole_body_layout as _wb
-from pfield.planning import _whole_body_loop as _loop
 from pfield.planning.cancel import cancel_flag
 from pfield.planning.fallback import FALLBACK_PLANNER, FIELD_PLANNER, whole_body_fallback
 from pfield.planning.global_search import GlobalOptions
@@ -138,7 +138,7 @@ def make_scene(packed: PackedObstacles | None, robot: _wb.RobotArrays | None = N
     scene = _wb.Scene(packed, centres, radii, np.zeros((n_caps, len(radii))), np.zeros(n_pairs))
     if robot is None or q0 is None:
         return scene
-    obstacle, own = _loop.pair_distances(q0, robot, scene)
+    obstacle, own = _core_loop.pair_distances(q0, robot, scene)
     return scene._replace(obstacle_offsets=np.minimum(obstacle - safety_distance, 0.0),
                           self_offsets=np.minimum(own - safety_distance, 0.0))
 
@@ -201,7 +201,7 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
     if touching:
         return _single_waypoint(robot, start, f"collision: the start configuration collides ({touching})", distance)
     cancel = cancel_flag(settings.cancel)
-    status, count, qs, qds, pos, quats, twists, clear, culprit = _loop.plan_loop(
+    status, count, qs, qds, pos, quats, twists, clear, culprit = _core_loop.plan_loop(
         start, arrays, scene, np.array(goal.position, dtype=np.float64),
         np.array(goal.orientation, dtype=np.float64), params, settings.max_iterations, cancel)
     # --- global fallback: the field stopped short; search, then let the field track the found path

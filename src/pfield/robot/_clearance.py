@@ -11,23 +11,26 @@ and is reported as not exact (no closer than it).
 Segment ends are in the world frame (:func:`world_segments`). The closest point returned is on the
 primitive's segment (its axis), where the kernels take the point Jacobian; ``n`` points from the obstacle
 (or from the second link) towards the link.
+
+The compiled core holds the same functions (``src/core/robot/clearance``, bound as
+:mod:`pfield._core.robot_distance`), bit for bit (tests/robot/test_core_distance.py), and computes the clearances
+Python asks for (:func:`pfield.robot.collision.capsule_clearances`, the planners' start offsets); these numba twins
+remain for the numba kernels that still inline them (the whole-body step, the assistance, the RRT's state check).
 """
 
 from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit
 
 from pfield.geometry._packed import CAPSULE, SPHERE
-from pfield.geometry._sdf import mesh_addresses, row_signed_distance
+from pfield.geometry._sdf import row_signed_distance
 from pfield.robot._distance import (
     closest_segment_points_xyz,
     point_segment_distance_xyz,
     segment_row_distance_xyz,
 )
-from pfield.robot._kinematics import joint_transforms
 
 FINE_RANGE = 0.1  # m: pairs whose bounding capsules are at least this far apart use the capsules' distance
 
@@ -217,39 +220,3 @@ def link_pair_distance(l1, l2, cap_a, cap_b, self_r):  # type: ignore[no-untyped
     x2, y2, z2 = a2x + t * (b2x - a2x), a2y + t * (b2y - a2y), a2z + t * (b2z - a2z)
     d = math.sqrt((x1 - x2) ** 2 + (y1 - y2) ** 2 + (z1 - z2) ** 2) - self_r[l1] - self_r[l2]
     return d, x1, y1, z1, x2, y2, z2
-
-
-@njit(cache=True)
-def fill_clearances(  # type: ignore[no-untyped-def]
-        cap_a, cap_b, cap_r, self_r, link_start, prim_a, prim_b, prim_r, self_pairs, packed, centres, bounds,
-        scratch, obstacle, own, cutoff):
-    """Link–obstacle clearances into ``obstacle`` (L, M) and self-pair clearances into ``own`` (P,), from
-    world segments; pairs whose bound is ≥ ``cutoff`` get the bound (also a fine-level one:
-    :func:`link_obstacle_distance_below`)."""
-    kinds, rows, meshes = packed.kinds, packed.rows, mesh_addresses(packed)
-    for link in range(obstacle.shape[0]):
-        for i in range(obstacle.shape[1]):
-            obstacle[link, i] = link_obstacle_distance_below(link, i, kinds, rows, meshes, centres, bounds, cap_a,
-                                                             cap_b, cap_r, link_start, prim_a, prim_b, prim_r, scratch,
-                                                             cutoff, cutoff)[0]
-    for k in range(self_pairs.shape[0]):
-        own[k] = link_pair_distance(self_pairs[k, 0], self_pairs[k, 1], cap_a, cap_b, self_r)[0]
-
-
-@njit(cache=True)
-def clearances_at(  # type: ignore[no-untyped-def]
-        q, parents, place_rot, place_pos, axes, kinds, joints, cap_a, cap_b, cap_r, self_r, link_start, prim_joint,
-        prim_a, prim_b, prim_r, self_pairs, packed, centres, bounds):
-    """Exact clearances (m) at ``q``: link × obstacle (L, M) and self pairs (P,) of the fitted model."""
-    n, links, prims = q.shape[0], joints.shape[0], prim_joint.shape[0]
-    rotations, origins = np.empty((n, 3, 3)), np.empty((n, 3))
-    joint_transforms(q, parents, place_rot, place_pos, axes, kinds, rotations, origins)
-    seg_a, seg_b = np.empty((links, 3)), np.empty((links, 3))
-    pa, pb = np.empty((prims, 3)), np.empty((prims, 3))
-    world_segments(rotations, origins, joints, cap_a, cap_b, seg_a, seg_b)
-    world_segments(rotations, origins, prim_joint, prim_a, prim_b, pa, pb)
-    obstacle, own = np.empty((links, bounds.shape[0])), np.empty(self_pairs.shape[0])
-    fill_clearances(seg_a, seg_b, cap_r, self_r, link_start, pa, pb, prim_r, self_pairs, packed, centres, bounds,
-                    np.empty((2, 3)), obstacle, own, math.inf)
-    return obstacle, own
-

@@ -12,6 +12,11 @@ distance to an obstacle is ``min_t d_O(s(t)) − r`` with d_O the obstacle's exa
   f'(t) = ∇d_O · (b − a), whose gradient is the kernel's normal;
 * meshes (possibly non-convex): the best of 9 samples, refined by golden-section search in the
   bracket around it.
+
+The compiled core holds the same functions (``src/core/robot/distance``, bound as
+:mod:`pfield._core.robot_distance`), bit for bit (tests/robot/test_core_distance.py); these numba twins remain
+for the numba kernels that still inline them. :func:`segment_segment_distance`, which no kernel calls, is the
+core's.
 """
 
 from __future__ import annotations
@@ -20,6 +25,7 @@ import math
 
 from numba import njit
 
+from pfield._core.robot_distance import segment_segment_distance as segment_segment_distance  # re-exported
 from pfield.geometry._packed import BOX, CAPSULE, MESH, SPHERE
 from pfield.geometry._sdf import mesh_addresses, primitive_local, row_signed_distance
 
@@ -67,17 +73,6 @@ def closest_segment_points_xyz(  # type: ignore[no-untyped-def]
         t = 1.0
         s = min(max((b - c) / a, 0.0), 1.0)
     return s, t
-
-
-@njit(cache=True)
-def segment_segment_distance(p1, q1, p2, q2):  # type: ignore[no-untyped-def]
-    """Euclidean distance (m) between segments p1–q1 and p2–q2."""
-    s, t = closest_segment_points(p1, q1, p2, q2)
-    total = 0.0
-    for k in range(3):
-        diff = (p1[k] + s * (q1[k] - p1[k])) - (p2[k] + t * (q2[k] - p2[k]))
-        total += diff * diff
-    return math.sqrt(total)
 
 
 @njit(cache=True, inline="always")

@@ -1,4 +1,8 @@
-"""Compiled forward kinematics and point Jacobians of a serial/tree robot with 1-DoF joints.
+"""Compiled forward kinematics and point Jacobians of a serial/tree robot with 1-DoF joints (numba).
+
+The numba twins of the core's ``src/core/robot/kinematics`` (which :class:`pfield.robot.RobotModel` calls): the
+numba kernels not yet ported (whole body, assistance, RRT, clearance) inline these; both compute in the same
+order without fused multiply-adds, so both give the same bits (tests/robot/test_core_kinematics.py).
 
 The robot is packed once (from the pinocchio model, see :mod:`pfield.robot.model`) into arrays:
 
@@ -179,21 +183,6 @@ def end_effector_kinematics(  # type: ignore[no-untyped-def]
     r, p = frame_pose(rotations, origins, ee_joint, ee_rotation, ee_position)
     point_jacobian(rotations, origins, axes, kinds, support, ee_joint, p, jacobian)
     return r, p
-
-
-@njit(cache=True)
-def batch_end_effector_positions(  # type: ignore[no-untyped-def]
-        qs, parents, place_rot, place_pos, axes, kinds, ee_joint, ee_rotation, ee_position):
-    """End-effector world positions (N, 3) for N configurations (plots, path lengths)."""
-    n = parents.shape[0]
-    rotations = np.empty((n, 3, 3))
-    origins = np.empty((n, 3))
-    out = np.empty((qs.shape[0], 3))
-    for k in range(qs.shape[0]):
-        joint_transforms(qs[k], parents, place_rot, place_pos, axes, kinds, rotations, origins)
-        _, p = frame_pose(rotations, origins, ee_joint, ee_rotation, ee_position)
-        out[k] = p
-    return out
 
 
 @njit(cache=True)

@@ -17,10 +17,10 @@ import numpy as np
 import pinocchio as pin
 
 from pfield._validation import finite
-from pfield.errors import InvalidInput, ResourceNotFound
+from pfield.errors import InvalidInput, ResourceNotAllowed, ResourceNotFound
 from pfield.geometry.resources import ResourceResolver
 
-__all__ = ["LoadedRobot", "load_urdf", "read_disabled_pairs"]
+__all__ = ["LoadedRobot", "load_urdf", "read_disabled_pairs", "resolve_mesh_uri"]
 
 _LOG = logging.getLogger(__name__)
 _ONE_DOF_JOINTS = ("JointModelR", "JointModelP", "JointModelRevoluteUnaligned", "JointModelPrismaticUnaligned",
@@ -29,12 +29,14 @@ _ONE_DOF_JOINTS = ("JointModelR", "JointModelP", "JointModelRevoluteUnaligned", 
 
 @dataclass(frozen=True)
 class LoadedRobot:
-    """Pinocchio kinematic + collision models after locking the requested joints."""
+    """Pinocchio kinematic + collision models after locking the requested joints, and the resolver their
+    mesh URIs were read through (its package paths travel with the model: the viewer reads the same files)."""
 
     model: pin.Model
     collision_model: pin.GeometryModel
     urdf_path: Path
     robot_name: str
+    resolver: ResourceResolver
 
 
 def _read_text(field: str, path: Path) -> str:
@@ -44,18 +46,29 @@ def _read_text(field: str, path: Path) -> str:
         raise ResourceNotFound(f"{field}: cannot read {str(path)!r}: {exc}") from exc
 
 
-def _resolve_uris(text: str, urdf_dir: Path, resolver: ResourceResolver) -> str:
-    """Replace every ``filename="…"`` (mesh URI) by the absolute file ``resolver`` maps it to.
+def resolve_mesh_uri(uri: str, urdf_dir: Path, resolver: ResourceResolver) -> Path:
+    """The file a URDF's mesh URI names: ``package://`` URIs through the resolver's package paths (then the
+    ament index); ``file://`` URIs and paths (relative ones are relative to the URDF's folder ``urdf_dir``)
+    inside its allowed roots. The one rule for the robot's meshes (the loader's and the viewer's)."""
+    if not uri.startswith(("package://", "file://", "/")):
+        uri = str(urdf_dir / uri)
+    return resolver.resolve(uri)
 
-    ``package://`` URIs go through the resolver's package paths (then the ament index); ``file://`` URIs and
-    paths (relative ones are relative to the URDF's folder) must lie inside its allowed roots.
-    """
+
+_LINK = re.compile(r"""<link\b[^>]*?\bname\s*=\s*(["'])(.*?)\1""")
+
+
+def _resolve_uris(text: str, urdf_path: Path, resolver: ResourceResolver) -> str:
+    """Replace every ``filename="…"`` (mesh URI) by the absolute file ``resolver`` maps it to
+    (:func:`resolve_mesh_uri`); an error names the link whose mesh it is."""
 
     def absolute(match: re.Match[str]) -> str:
-        uri = match.group(2)
-        if not uri.startswith(("package://", "file://", "/")):
-            uri = str(urdf_dir / uri)
-        return f'filename="{resolver.resolve(uri)}"'
+        try:
+            return f'filename="{resolve_mesh_uri(match.group(2), urdf_path.parent, resolver)}"'
+        except (ResourceNotFound, ResourceNotAllowed) as exc:
+            links = _LINK.findall(text, 0, match.start())
+            owner = f"link {links[-1][1]!r}" if links else "a mesh"
+            raise type(exc)(f"{owner} of {urdf_path}: {exc}") from None
 
     return re.sub(r"""filename\s*=\s*(["'])(.+?)\1""", absolute, text)
 
@@ -90,7 +103,7 @@ def load_urdf(urdf_path: str | Path, package_paths: dict[str, str | Path] | None
     if resolver is None:
         resolver = ResourceResolver(package_paths=roots, allowed_roots=[path.parent, *roots.values()],
                                     use_ament=True)
-    resolved = _resolve_uris(text, path.parent, resolver)
+    resolved = _resolve_uris(text, path, resolver)
     try:
         model = pin.buildModelFromXML(resolved)
         geometry = pin.buildGeomFromUrdfString(model, resolved, pin.COLLISION)
@@ -102,7 +115,7 @@ def load_urdf(urdf_path: str | Path, package_paths: dict[str, str | Path] | None
         robot_name = ET.fromstring(text).get("name", path.stem)
     except ET.ParseError:
         robot_name = path.stem
-    return LoadedRobot(model, geometry, path, robot_name)
+    return LoadedRobot(model, geometry, path, robot_name, resolver)
 
 
 def _lock(model: pin.Model, geometry: pin.GeometryModel,

@@ -21,10 +21,10 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
+from pfield._core import robot_distance as _distance
 from pfield._validation import nonnegative
 from pfield.geometry import Box, Capsule, Cylinder, Ellipsoid, Mesh, Obstacle, Sphere, pack_obstacles
 from pfield.geometry._sdf import empty_packed
-from pfield.robot._clearance import clearances_at
 from pfield.robot.geometry import adjacent_joints
 from pfield.robot.model import RobotModel
 
@@ -80,9 +80,11 @@ def capsule_clearances(robot: RobotModel, q: ArrayLike, obstacles: Sequence[Obst
     k, g = robot.kinematics, robot.geometry
     # exact values everywhere: infinite bounding radii never cull a pair
     centres, bounds = np.ascontiguousarray(packed.rows[:, 0:3]), np.full(len(packed.kinds), np.inf)
-    obstacle, own = clearances_at(values, k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, g.joints, g.a, g.b,
-                                  g.radii, g.self_radii, g.link_start, g.prim_joint, g.prim_a, g.prim_b, g.prim_r,
-                                  g.self_pairs, packed, centres, bounds)
+    model = _distance.LinkModel(g.joints, g.a, g.b, g.radii, g.self_radii, g.self_pairs, g.link_start, g.prim_joint,
+                                g.prim_a, g.prim_b, g.prim_r)
+    clearances = model.clearances_at(values, k.parents, k.place_rot, k.place_pos, k.axes, k.kinds,
+                                     _distance.Obstacles(*packed, centres, bounds))
+    obstacle, own = clearances.obstacle, clearances.own
     links = robot.geometry.link_names
     pairs = tuple((links[int(a)], links[int(b)]) for a, b in robot.geometry.self_pairs)
     return CapsuleClearances(obstacle, own, links, tuple(o.id for o in obstacles), pairs)

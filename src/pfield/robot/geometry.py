@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from pfield.robot._distance import segment_segment_distance
+from pfield._core.robot_distance import segment_segment_distance
 from pfield.robot._fit import TARGET_GAP, LinkFit, LinkSurface, cached_fit, fit_single_capsule, measure
 
 if TYPE_CHECKING:

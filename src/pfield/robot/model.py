@@ -1,7 +1,9 @@
 """The robot model: a URDF loaded with pinocchio, packed into arrays for the compiled kinematics.
 
 Pinocchio (Carpentier et al., "The Pinocchio C++ library", SII 2019) parses the URDF, locks joints and
-stays the reference the compiled kernels of :mod:`pfield.robot._kinematics` are tested against.
+stays the reference the compiled kinematics are tested against: the core's (``src/core/robot/kinematics``, bound
+once per model, which every public method here calls) and its numba twin :mod:`pfield.robot._kinematics` (inlined
+by the numba kernels not yet ported; both give the same bits).
 
 Joint angles policy (every public entry point): a wrong count or a non-finite value raises
 :class:`~pfield.errors.InvalidInput`; an angle outside the URDF limits by more than
@@ -23,11 +25,17 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from pfield._spatial_kernels import matrix_to_quat
+from pfield._core import robot_kinematics as _core_kinematics
 from pfield._validation import as_vector, positive
 from pfield.errors import InvalidInput
-from pfield.robot import _kinematics as _k
-from pfield.robot._loader import LoadedRobot, _read_text, joint_axis, load_urdf, read_disabled_pairs
+from pfield.robot._loader import (
+    LoadedRobot,
+    _read_text,
+    joint_axis,
+    load_urdf,
+    read_disabled_pairs,
+    resolve_mesh_uri,
+)
 from pfield.robot.catalog import builtin_spec, example_robot_data_root
 from pfield.robot.limits import default_accelerations, read_joint_limits
 from pfield.spatial import Pose
@@ -40,6 +48,7 @@ __all__ = ["LIMIT_TOLERANCE", "KinematicArrays", "RobotModel"]
 
 _LOG = logging.getLogger(__name__)
 LIMIT_TOLERANCE = 1e-4
+_NOT_FINITE, _BEYOND_LIMITS = _core_kinematics.LimitStatus.NotFinite, _core_kinematics.LimitStatus.BeyondLimits
 
 _BUILTIN_ALIASES: dict[str, dict[str, str]] = {"panda": {"ready": "default"}}
 """Extra names of SRDF group states of the built-in robots: the Panda SRDF's ``default`` state
@@ -144,17 +153,14 @@ class RobotModel:
         lower = np.where(self._continuous, -np.inf, model.lowerPositionLimit[idx_q])
         upper = np.where(self._continuous, np.inf, model.upperPositionLimit[idx_q])
         self._lower, self._upper = _frozen(lower), _frozen(upper)
-        # writable twins for the compiled limit check: the other callers pass writable arrays, and numba
-        # would compile it a second time for read-only ones
-        self._check_lower, self._check_upper = np.array(lower, dtype=np.float64), np.array(upper, dtype=np.float64)
         self._velocity = _frozen(np.asarray(model.velocityLimit)[idx_v])
         self._acceleration = _frozen(default_accelerations(self.kinematics.kinds))
         if joint_limits is not None:
             limits = read_joint_limits(joint_limits, self._joint_names, self._velocity, self.kinematics.kinds)
             self._velocity, self._acceleration = _frozen(limits.velocity), _frozen(limits.acceleration)
         self._idx_q = np.array(idx_q)
-        self._rotations = np.empty((n, 3, 3))
-        self._origins = np.empty((n, 3))
+        # the core's view of the tree and the limits, bound once: each kinematics call passes only q
+        self._core_kinematics = _core_kinematics.Robot(*self.kinematics, self._lower, self._upper, LIMIT_TOLERANCE)
         self._named = {str(key): _frozen(self.check_joint_angles(value, f"named_configurations[{key!r}]"))
                        for key, value in (named_configurations or {}).items()}
 
@@ -248,6 +254,18 @@ class RobotModel:
     def urdf_path(self) -> Path:
         return self._loaded.urdf_path
 
+    @property
+    def resolver(self) -> ResourceResolver:
+        """The :class:`~pfield.geometry.ResourceResolver` the URDF's mesh URIs were read through: its package
+        paths (absolute) and allowed roots travel with the model (the viewer and its HTML export use it)."""
+        return self._loaded.resolver
+
+    def resolve_mesh(self, uri: str) -> Path:
+        """The file a mesh URI of this robot's URDF names, as the loader read it: ``package://`` through
+        :attr:`resolver`, relative paths from the URDF's folder. Raises :class:`~pfield.errors.ResourceNotFound`
+        / :class:`~pfield.errors.ResourceNotAllowed` as loading does."""
+        return resolve_mesh_uri(uri, self._loaded.urdf_path.parent, self._loaded.resolver)
+
     @cached_property
     def geometry(self) -> RobotGeometry:
         """The fitted link model (spheres/capsules and bounding capsules) and self-collision pairs, fitted on
@@ -289,10 +307,10 @@ class RobotModel:
         if values.shape != (self.n_joints,):
             as_vector(field, q, self.n_joints)  # raises the standard message (count / not numbers)
             values = np.array(values, dtype=np.float64).reshape(-1)
-        bad = _k.check_limits(values, self._check_lower, self._check_upper, LIMIT_TOLERANCE)
-        if bad <= -2:
+        status, bad = self._core_kinematics.check_limits(values, LIMIT_TOLERANCE)
+        if status is _NOT_FINITE:
             raise InvalidInput(field, q, "must be finite (no NaN or inf)")
-        if bad >= 0:
+        if status is _BEYOND_LIMITS:
             raise InvalidInput(f"{field}[{bad}]", float(values[bad]),
                                f"outside the limits of {self._joint_names[bad]} "
                                f"[{self._lower[bad]:.6g}, {self._upper[bad]:.6g}]")
@@ -312,47 +330,51 @@ class RobotModel:
     # ---- kinematics -----------------------------------------------------------------------------------
     def joint_frames(self, q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """World rotations (n, 3, 3) and origins (n, 3) of every joint frame at validated ``q``."""
-        values = self.check_joint_angles(q)
-        k = self.kinematics
-        rotations, origins = np.empty((self.n_joints, 3, 3)), np.empty((self.n_joints, 3))
-        _k.joint_transforms(values, k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, rotations, origins)
+        rotations, origins = self._core_kinematics.joint_frames(self.check_joint_angles(q))
         return rotations, origins
 
     def forward_kinematics(self, q: ArrayLike) -> Pose:
         """End-effector pose in the world (robot root) frame at joint angles ``q``."""
-        rotation, position = self._ee_kinematics(self.check_joint_angles(q), np.empty((6, self.n_joints)))
-        return _trusted_pose(position, matrix_to_quat(rotation))
+        pose = np.empty(7)
+        # the core checks q as check_joint_angles does (False when q breaks the rule, TypeError when it is not an
+        # array the core reads as float64, e.g. a list): then check_joint_angles raises its error or converts
+        try:
+            done = self._core_kinematics.forward_kinematics(q, pose)
+        except TypeError:
+            done = False
+        if not done:
+            self._core_kinematics.forward_kinematics(self.check_joint_angles(q), pose)
+        return _trusted_pose(pose)
 
     def jacobian(self, q: ArrayLike) -> NDArray[np.float64]:
         """6×n end-effector Jacobian, world-aligned axes, linear rows first: ``[v; ω] = J(q) q̇``."""
-        jac = np.empty((6, self.n_joints))
-        self._ee_kinematics(self.check_joint_angles(q), jac)
+        jac = np.empty((6, len(self._joint_names)))
+        try:  # as forward_kinematics
+            done = self._core_kinematics.jacobian(q, jac)
+        except TypeError:
+            done = False
+        if not done:
+            self._core_kinematics.jacobian(self.check_joint_angles(q), jac)
         return jac
 
     def end_effector_positions(self, qs: ArrayLike) -> NDArray[np.float64]:
         """End-effector positions (N, 3) of N configurations (not validated: trajectory post-processing)."""
-        k = self.kinematics
-        # writable and C-contiguous (a copy only when not): the kernel's one argument type
-        array = np.require(np.asarray(qs, dtype=np.float64).reshape(-1, self.n_joints), requirements=("C", "W"))
-        return _k.batch_end_effector_positions(array, k.parents, k.place_rot, k.place_pos, k.axes, k.kinds,
-                                               k.ee_joint, k.ee_rot, k.ee_pos)
-
-    def _ee_kinematics(self, q: NDArray[np.float64],
-                       jac: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        rotation, position = _k.end_effector_kinematics(q, *self.kinematics, self._rotations, self._origins, jac)
-        return rotation, position
+        array = np.ascontiguousarray(np.asarray(qs, dtype=np.float64).reshape(-1, self.n_joints))
+        positions: NDArray[np.float64] = self._core_kinematics.end_effector_positions(array)
+        return positions
 
     def __repr__(self) -> str:
         return f"RobotModel({self.name!r}, joints={list(self._joint_names)}, end_effector={self.end_effector!r})"
 
 
-def _trusted_pose(position: NDArray[np.float64], quaternion: NDArray[np.float64]) -> Pose:
-    """A Pose from fresh kernel outputs (finite position, unit quaternion), skipping re-validation."""
+def _trusted_pose(values: NDArray[np.float64]) -> Pose:
+    """A Pose from a fresh kernel output (7: finite position, unit quaternion), skipping re-validation; its two
+    arrays are read-only views of ``values``."""
+    values.setflags(write=False)
     pose = object.__new__(Pose)
-    position.setflags(write=False)
-    quaternion.setflags(write=False)
-    object.__setattr__(pose, "position", position)
-    object.__setattr__(pose, "orientation", quaternion)
+    fields = pose.__dict__
+    fields["position"] = values[:3]
+    fields["orientation"] = values[3:]
     return pose
 
 

@@ -32,6 +32,7 @@ time to collision use them; the autonomy vector and plans treat every obstacle a
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 import threading
 from collections.abc import Mapping, Sequence
@@ -42,26 +43,31 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pfield import safety
-from pfield._bound import BoundArrays
-from pfield._validation import finite, in_range, kernel_vector, optional_vector
+from pfield._core import assistance as _core
+from pfield._validation import finite, in_range, optional_vector
 from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
 from pfield.field.field import _fast_twist
 from pfield.geometry import Obstacle, pack_obstacles
 from pfield.geometry._sdf import empty_packed
-from pfield.planning._whole_body_layout import OUT_TWIST
-from pfield.planning.whole_body import obstacle_bounds
-from pfield.robot.model import RobotModel
-from pfield.shared_control import _assistance_kernel as _k
+from pfield.planning.whole_body import WholeBodyOptions, obstacle_bounds, pack_robot
+from pfield.robot.model import LIMIT_TOLERANCE, RobotModel
 from pfield.shared_control.autonomy import whole_body_stepper
 from pfield.spatial import Pose, Twist
 
-__all__ = ["ARBITRATIONS", "Assistance", "AssistanceOptions", "AssistanceScene", "Flag", "task_space_assistance",
-           "whole_body_assistance"]
+__all__ = ["ARBITRATIONS", "Assistance", "AssistanceOptions", "AssistanceScene", "Flag", "servo_scale",
+           "task_space_assistance", "whole_body_assistance"]
 
 ARBITRATIONS = ("linear", "linear_goal", "safety_only")
-_TWIST = slice(*OUT_TWIST)
-_MODES = {name: i for i, name in enumerate(ARBITRATIONS)}
+_MODES = {name: getattr(_core.Arbitration, name) for name in ARBITRATIONS}
+_LOG = logging.getLogger(__name__)
+
+
+def servo_scale(distance: float, threshold: float) -> float:
+    """MoveIt Servo's collision velocity scale exp(k (d − d_t)), k = −ln(0.001)/d_t, for 0 < d < d_t: 1 beyond the
+    threshold d_t, 0.001 at contact, 0 in collision (d ≤ 0), where Servo halts (module docstring)."""
+    scale: float = _core.servo_scale(distance, threshold)
+    return scale
 
 
 class Flag:
@@ -154,15 +160,14 @@ class AssistanceScene:
                 table[i] = safety.check_obstacle_velocity(f"velocities[{key!r}]", self.velocities[key])
         config = self.config
         assert config is not None
-        params = np.zeros(_k.N_PARAMS)
-        params[_k.INFLUENCE], params[_k.SAFETY] = config.influence_distance, config.safety_distance
-        params[_k.GAIN], params[_k.MAX_SPEED] = config.damper_gain, config.max_linear_velocity
-        params[_k.MAX_ACCELERATION] = config.max_linear_acceleration
-        params[_k.SCALE_THRESHOLD] = self.options.scene_threshold
-        object.__setattr__(self, "_packed", packed)
-        object.__setattr__(self, "_bounds", obstacle_bounds(packed))
+        params = _core.Params(
+            influence_distance=config.influence_distance, safety_distance=config.safety_distance,
+            damper_gain=config.damper_gain, max_linear_velocity=config.max_linear_velocity,
+            max_linear_acceleration=config.max_linear_acceleration, max_angular_velocity=config.max_angular_velocity,
+            scale_threshold=self.options.scene_threshold)
+        # the compiled scene reads the packed obstacles, their bounding spheres and the velocity table in place
+        object.__setattr__(self, "_core", _core.Scene(*packed, *obstacle_bounds(packed), table, params))
         object.__setattr__(self, "_table", table)
-        object.__setattr__(self, "_params", params)
         object.__setattr__(self, "_ids", ids)
 
     @property
@@ -217,7 +222,7 @@ def _limited(outcome: int) -> int:
     return (Flag.VELOCITY_LIMITED if outcome == safety.SCALED else 0) | (Flag.HALTED if outcome == safety.HALTED else 0)
 
 
-def _goal_flags(scene: AssistanceScene, pose: Pose, autonomy: NDArray[np.float64]) -> tuple[int, float]:
+def _goal_flags(scene: AssistanceScene, pose: Pose, autonomy: Twist) -> tuple[int, float]:
     """(AT_GOAL | STALLED | NO_GOAL bits, goal share of ``linear_goal``) at the end-effector ``pose``."""
     if scene.field is None:
         return Flag.NO_GOAL, 0.0
@@ -226,7 +231,7 @@ def _goal_flags(scene: AssistanceScene, pose: Pose, autonomy: NDArray[np.float64
     flags = 0
     if distance <= options.goal_tolerance and pose.rotation_distance(goal) <= scene.field.config.rotation_tolerance:
         flags |= Flag.AT_GOAL
-    elif math.hypot(*autonomy[:3]) < options.stall_speed and math.hypot(*autonomy[3:]) < options.stall_speed:
+    elif math.hypot(*autonomy.linear) < options.stall_speed and math.hypot(*autonomy.angular) < options.stall_speed:
         flags |= Flag.STALLED
     return flags, min(max(1.0 - distance / options.goal_radius, 0.0), 1.0)
 
@@ -258,6 +263,7 @@ def task_space_assistance(scene: AssistanceScene, pose: Pose, user_command: Twis
     ``user_command``: the operator's twist (world frame; None or zero: none); ``arbitration``: a mode of
     :data:`ARBITRATIONS` (empty: the scene's default); ``previous``/``dt``: the autonomy vector's rate limit
     (:meth:`PotentialField.twist`); ``input_age``: s since the operator's command was issued (stale flag).
+    The laws run in one compiled call (``src/core/shared_control/assist``), the output contract included.
     """
     if not isinstance(pose, Pose):
         raise InvalidInput("query_pose", pose, "expected a pfield.Pose")
@@ -265,120 +271,82 @@ def task_space_assistance(scene: AssistanceScene, pose: Pose, user_command: Twis
     user, flags = _user_twist(scene, user_command)
     flags |= _input_flags(input_age, scene.options)
     autonomy = Twist() if scene.field is None else scene.field.twist(pose, previous, dt)
-    auto = autonomy.as_array()
-    goal_flags, goal_share = _goal_flags(scene, pose, auto)
-    params = scene._params.copy()  # type: ignore[attr-defined]
-    params[_k.MODE], params[_k.GOAL_SHARE] = mode, goal_share
-    out = np.empty(_k.N_OUT)
-    _k.assist_point(pose.position, scene._packed, scene.velocity_table, user, auto, params, out)  # type: ignore[attr-defined]
-    config = scene.config
-    assert config is not None
-    flags |= _limited(safety.limit_twist(out[_k.BLENDED:_k.BLENDED + 6], config.max_linear_velocity,
-                                         config.max_angular_velocity))
-    return _answer(scene, out, autonomy, np.zeros(0), pose.position, flags | goal_flags)
+    goal_flags, goal_share = _goal_flags(scene, pose, autonomy)
+    result = scene._core.assist_point(pose.position, user, autonomy.linear, autonomy.angular,  # type: ignore[attr-defined]
+                                      mode, goal_share)
+    return _answer(scene, result, autonomy, np.zeros(0), pose.position, flags | goal_flags | _limited(result.outcome))
 
 
-def _answer(scene: AssistanceScene, out: NDArray[np.float64], autonomy: Twist, joint_velocities: NDArray[np.float64],
+def _answer(scene: AssistanceScene, result: Any, autonomy: Twist, joint_velocities: NDArray[np.float64],
             robot_point: NDArray[np.float64], flags: int) -> Assistance:
-    """The answer from a compiled call's fresh ``out``: its vectors are read-only views of it; the scalars
-    come through one tolist() (exact float64 values); the obstacle point p − d n̂ in the same IEEE operations
-    as the array expression, without numpy's per-operation overhead."""
-    out.setflags(write=False)
-    values = out.tolist()
-    nearest, distance = int(values[_k.NEAREST]), values[_k.DISTANCE]
-    point = robot_point.tolist()
+    """The answer from a compiled call's fresh result (``_core.assistance.PointAssistance`` or
+    ``JointAssistance``): its vectors are read-only views of the result's own memory."""
+    nearest, distance = result.nearest, result.distance
     if nearest >= 0:
         flags |= Flag.IN_COLLISION if distance <= 0.0 else 0
         flags |= Flag.NEAR_OBSTACLE if distance < scene.config.influence_distance else 0  # type: ignore[union-attr]
-        n0, n1, n2 = values[_k.NORMAL], values[_k.NORMAL + 1], values[_k.NORMAL + 2]
-        obstacle_point = np.array((point[0] - distance * n0, point[1] - distance * n1, point[2] - distance * n2))
-    else:
-        obstacle_point = np.array(point)
-    alpha = values[_k.ALPHA]
+    alpha = result.alpha
     # the frozen answer filled in one step: its __init__ would call object.__setattr__ once per field
     answer = object.__new__(Assistance)
     answer.__dict__.update(
-        autonomy_vector=autonomy, joint_velocities=joint_velocities,
-        blended_command=_fast_twist(out[_k.BLENDED:_k.BLENDED + 6]), alpha=alpha, speed_scale=values[_k.SCALE],
+        autonomy_vector=autonomy, joint_velocities=joint_velocities, blended_command=_fast_twist(result.blended),
+        alpha=alpha, speed_scale=result.speed_scale,
         nearest_obstacle_id=scene._ids[nearest] if nearest >= 0 else "",  # type: ignore[attr-defined]
-        nearest_distance=distance, nearest_normal=out[_k.NORMAL:_k.NORMAL + 3], robot_point=robot_point,
-        obstacle_point=obstacle_point, time_to_collision=values[_k.TTC], flags=flags,
-        message=_message(flags, alpha, values[_k.LIMITED] > 0))
+        nearest_distance=distance, nearest_normal=result.normal, robot_point=robot_point,
+        obstacle_point=result.obstacle_point, time_to_collision=result.time_to_collision, flags=flags,
+        message=_message(flags, alpha, result.limited))
     return answer
 
 
 # ---------------------------------------------------------------------------------------------- whole body
 
 
-class _Workspace:
-    """The arrays of :func:`pfield.shared_control._assistance_kernel.bound_assist` for one (scene, robot), bound once.
-
-    Slots: the robot's kinematics (0–8), its link model (9–17), the scene's packed obstacles (18–25), the
-    joint limits (26, 27), obstacle centres, bounding radii and velocities (28–30), then the workspace:
-    joint frames (31, 32), Jacobians (33, 34), world segments (35–38), scratch (39).
-    """
-
-    def __init__(self, scene: AssistanceScene, robot: RobotModel) -> None:
-        n, g, k = robot.n_joints, robot.geometry, robot.kinematics
-        self.scene, self.robot = scene, robot
-        links, prims = len(g.joints), len(g.prim_r)
-        centres, bounds = scene._bounds  # type: ignore[attr-defined]
-        arrays = [k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, k.support, np.array([k.ee_joint]), k.ee_rot,
-                  k.ee_pos, g.joints, g.a, g.b, g.radii, g.link_start, g.prim_joint, g.prim_a, g.prim_b, g.prim_r,
-                  *scene._packed, robot.lower_limits, robot.upper_limits, centres, bounds,  # type: ignore[attr-defined]
-                  scene.velocity_table, np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((6, n)), np.empty((3, n)),
-                  np.empty((links, 3)), np.empty((links, 3)), np.empty((prims, 3)), np.empty((prims, 3)),
-                  np.empty((2, 3))]
-        self._bound = BoundArrays([np.ascontiguousarray(a) for a in arrays])
-        self.table = self._bound.table
-        self.zeros = np.zeros(n)
-        # the parameter vector of the compiled call: the scene's, then the whole-body options (MODE and
-        # GOAL_SHARE are written per call)
-        options = scene.options
-        self.params = np.zeros(_k.N_PARAMS_WHOLE_BODY)
-        self.params[:_k.N_PARAMS] = scene._params  # type: ignore[attr-defined]
-        self.params[_k.DAMPING], self.params[_k.LIMIT_MARGIN] = options.damping, options.joint_limit_margin
-        self.params[_k.SINGULARITY], self.params[_k.STALL_SPEED] = options.singularity_threshold, options.stall_speed
-        self.params[_k.GOAL_TOLERANCE], self.params[_k.GOAL_RADIUS] = options.goal_tolerance, options.goal_radius
-        self.params[_k.HINT_LINK] = self.params[_k.HINT_OBSTACLE] = -1.0  # none: bound_assist_step sets them
-        if scene.field is not None:
-            self.params[_k.ROTATION_TOLERANCE] = scene.field.config.rotation_tolerance
-            self.stepper = whole_body_stepper(scene.field, robot)
+def _whole_body(scene: AssistanceScene, robot: RobotModel) -> Any:
+    """The compiled whole-body assistance of (scene, robot) (``_core.assistance.WholeBody``: the robot's arrays,
+    the scene's obstacles, the options and, with a goal, the field's step bound once; it owns its workspace)."""
+    options = scene.options
+    config = scene.config
+    assert config is not None
+    params = _core.JointParams(
+        damping=options.damping, joint_limit_margin=options.joint_limit_margin,
+        singularity_threshold=options.singularity_threshold, goal_tolerance=options.goal_tolerance,
+        rotation_tolerance=config.rotation_tolerance, stall_speed=options.stall_speed, goal_radius=options.goal_radius)
+    if scene.field is None:
+        arrays = pack_robot(robot, config, WholeBodyOptions())
+        return _core.WholeBody(_core.Robot(*arrays), scene._core, params, LIMIT_TOLERANCE)  # type: ignore[attr-defined]
+    # the field's step of the autonomy vector (its stepper's robot arrays, goal and parameters): the same step
+    # whole_body_autonomy takes, fused in front of the assistance
+    stepper = whole_body_stepper(scene.field, robot)
+    return _core.WholeBody(_core.Robot(*stepper._arrays), scene._core, params,  # type: ignore[attr-defined]
+                           LIMIT_TOLERANCE, stepper._goal_p, stepper._goal_q, stepper._params)
 
 
 _CACHE = threading.local()
 
 
-def _workspace(scene: AssistanceScene, robot: RobotModel) -> _Workspace:
-    """The bound workspace of (scene, robot) for this thread (the last one used is kept)."""
-    entry: _Workspace | None = getattr(_CACHE, "entry", None)
-    if entry is None or entry.scene is not scene or entry.robot is not robot:
-        entry = _CACHE.entry = _Workspace(scene, robot)
-    return entry
+def _workspace(scene: AssistanceScene, robot: RobotModel) -> Any:
+    """The compiled whole-body assistance of (scene, robot) for this thread (the last one used is kept)."""
+    entry = getattr(_CACHE, "entry", None)
+    if entry is None or entry[0] is not scene or entry[1] is not robot:
+        entry = _CACHE.entry = (scene, robot, _whole_body(scene, robot))
+    return entry[2]
 
 
-def _assist_step(work: _Workspace, robot: RobotModel, joint_angles: ArrayLike, previous: ArrayLike | None,
-                 dt: float, user: NDArray[np.float64], qd: NDArray[np.float64],
-                 out: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The step's row, with ``qd`` and ``out`` filled by one compiled call
-    (:func:`pfield.shared_control._assistance_kernel.bound_assist_step`). Kernel vectors
-    (:func:`pfield._validation.kernel_vector`) go in as they are (the call checks their values); anything else
-    is validated first, and a value the call refuses is validated again for its error."""
-    for attempt in range(2):
-        fast = kernel_vector(joint_angles) and (previous is None or kernel_vector(previous))
-        if attempt or not fast:
-            joint_angles = robot.check_joint_angles(joint_angles, "joint_angles")
-            previous = optional_vector("prev_joint_velocities", previous, robot.n_joints)
-        given = previous is not None
-        if given and len(previous) == robot.n_joints:  # type: ignore[arg-type]
-            # rule 3 of pfield.safety (a NaN stays, for the compiled check to refuse)
-            previous = safety.clip_joint_velocities(previous, robot.velocity_limits)  # type: ignore[arg-type]
-        row: NDArray[np.float64] = _k.bound_assist_step(
-            joint_angles, previous if given else work.zeros, given, given and dt > 0.0,
-            work.stepper.bound_table(dt), user, work.params, qd, out, work.table)
-        if row.shape[0]:
-            return row
-    raise InvalidInput("joint_angles", joint_angles, "refused by the compiled step")  # not reached: checked above
+def _assist_step(work: Any, robot: RobotModel, joint_angles: ArrayLike, previous: ArrayLike | None, dt: float,
+                 user: NDArray[np.float64], mode: Any) -> Any:
+    """The field's step and the assistance on its q̇ in one compiled call (``WholeBody.step``). C-contiguous float64
+    vectors go in as they are (the call checks their values: n joint angles within the limits, finite previous
+    velocities); anything else, or a value the call refuses, is validated first, for its error."""
+    try:
+        result = work.step(joint_angles, previous, dt, user, mode)
+    except TypeError:  # another type (a list, a strided view, float32): the validating path converts it
+        result = None
+    if result is None:
+        q = robot.check_joint_angles(joint_angles, "joint_angles")
+        result = work.step(q, optional_vector("prev_joint_velocities", previous, robot.n_joints), dt, user, mode)
+        if result is None:  # not reached: every input was checked above
+            raise InvalidInput("joint_angles", joint_angles, "refused by the compiled step")
+    return result
 
 
 def whole_body_assistance(scene: AssistanceScene, robot: RobotModel, joint_angles: ArrayLike,
@@ -393,29 +361,24 @@ def whole_body_assistance(scene: AssistanceScene, robot: RobotModel, joint_angle
     the damper by the minimum-norm correction Δq̇ = J_pᵀ n̂ e / ‖J_pᵀ n̂‖² (e the excess).
     ``blended_command`` = J q̇; ``time_to_collision`` is that of the nearest link point under q̇_user.
     The field's step (the autonomy's q̇) and all of this run in one compiled call
-    (:func:`pfield.shared_control._assistance_kernel.bound_assist_step`); without a goal, the assistance alone.
+    (``src/core/shared_control/assist``, the output contract included); without a goal, the assistance alone.
     """
     mode = _mode(scene, arbitration)
     step = in_range("delta_time", dt, 0.0, math.inf, "s") if dt else 0.0
     user, flags = _user_twist(scene, user_command)
     flags |= _input_flags(input_age, scene.options)
     work = _workspace(scene, robot)
-    params = work.params
-    params[_k.MODE] = mode
-    qd, out = np.empty(robot.n_joints), np.empty(_k.N_OUT_WHOLE_BODY)
     if scene.field is None:
         q = robot.check_joint_angles(joint_angles, "joint_angles")
         autonomy = Twist()
-        goal_flags, params[_k.GOAL_SHARE] = _goal_flags(scene, robot.forward_kinematics(q), autonomy.as_array())
-        _k.bound_assist(q, work.zeros, user, params, qd, out, work.table)
+        result = work.assist(q, user, mode, 0.0)  # linear_goal's share is 0 without a goal
+        goal_flags = Flag.NO_GOAL
     else:
-        row = work.stepper.limited(_assist_step(work, robot, joint_angles, prev_joint_velocities, step, user, qd, out))
-        autonomy = _fast_twist(row[_TWIST])
-        goal_flags = (Flag.AT_GOAL if out[_k.AT_GOAL] else 0) | (Flag.STALLED if out[_k.STALLED] else 0)
-    flags |= goal_flags | (Flag.AT_JOINT_LIMIT if out[_k.AT_LIMIT] else 0) | \
-        (Flag.NEAR_SINGULARITY if out[_k.SINGULAR] else 0)
-    config = scene.config
-    assert config is not None
-    flags |= _limited(safety.limit_joint_command(qd, out[_k.BLENDED:_k.BLENDED + 6], robot.velocity_limits,
-                                                 config.max_linear_velocity, config.max_angular_velocity))
-    return _answer(scene, out, autonomy, qd, out[_k.POINT:_k.POINT + 3], flags)
+        result = _assist_step(work, robot, joint_angles, prev_joint_velocities, step, user, mode)
+        if result.autonomy_outcome == safety.HALTED:
+            _LOG.warning("whole-body step: %s", safety.describe(safety.HALTED))
+        autonomy = _fast_twist(result.autonomy)
+        goal_flags = (Flag.AT_GOAL if result.at_goal else 0) | (Flag.STALLED if result.stalled else 0)
+    flags |= goal_flags | (Flag.AT_JOINT_LIMIT if result.at_limit else 0) | \
+        (Flag.NEAR_SINGULARITY if result.singular else 0) | _limited(result.outcome)
+    return _answer(scene, result, autonomy, result.joint_velocities, result.robot_point, flags)

@@ -63,8 +63,7 @@ class LiveState:
             self._on_markers(data, reload=True)
         elif topic == "/pfield/planned_path":
             positions, orientations = path_arrays(data)
-            self.viewer.path_arrays = (positions, orientations)
-            self.viewer.scene.set_path(positions, orientations)
+            self.viewer.show_path_arrays(positions, orientations)
         elif topic == "/pfield/query_pose":
             self.query = pose_of(data.get("pose", {}))
             self.viewer.scene.set_query(self.query, self.autonomy)

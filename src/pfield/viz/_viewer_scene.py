@@ -7,13 +7,15 @@ called from any thread (one lock). Quaternions are pfield's (x, y, z, w); viser'
 Scene names: ``/obstacles/<id>``, ``/influence/<id>``, ``/goal`` (transform gizmo), ``/path`` (line and
 ``/path/triad_<k>`` frames), ``/robot`` (URDF meshes), ``/field`` (arrows), ``/query`` (frame and
 ``/query/autonomy`` arrow), ``/costmap`` (textured ground plane) and ``/valid_pose``.
+
+:meth:`ViewerScene.bounds` is the box the viewer frames: the robot as drawn (and at the end of its
+trajectory), the obstacles, the goal and the path.
 """
 
 from __future__ import annotations
 
 import threading
-from collections.abc import Callable, Mapping, Sequence
-from pathlib import Path
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -40,11 +42,11 @@ def wxyz(pose: Pose) -> NDArray[np.float64]:
 class ViewerScene:
     """The scene nodes of one viewer (see the module docstring).
 
-    ``robot``: a :class:`~pfield.robot.RobotModel` to draw from its URDF meshes (None: no robot);
-    ``package_paths``: ``{package: folder}`` for the URDF's ``package://`` mesh URIs.
+    ``robot``: a :class:`~pfield.robot.RobotModel` to draw from its URDF's visual meshes, read through the
+    model's own resolver (:meth:`~pfield.robot.RobotModel.resolve_mesh`); None: no robot.
     """
 
-    def __init__(self, server: Any, robot: Any = None, package_paths: Mapping[str, Path] | None = None) -> None:
+    def __init__(self, server: Any, robot: Any = None) -> None:
         self.server = server
         self._lock = threading.RLock()
         self._obstacles: dict[str, Any] = {}
@@ -56,6 +58,12 @@ class ViewerScene:
         self._path_nodes: list[Any] = []
         self._robot = robot
         self._urdf: Any = None
+        self._visual: Any = None
+        """The yourdfpy URDF behind the drawn robot (its meshes and scene graph)."""
+        self._obstacle_boxes: dict[str, NDArray[np.float64]] = {}
+        self._goal_position: NDArray[np.float64] | None = None
+        self._path_points: NDArray[np.float64] | None = None
+        self._trajectory_end_box: NDArray[np.float64] | None = None
         self._joint_order: NDArray[np.int64] | None = None
         self._joint_fill: NDArray[np.float64] | None = None
         self._trajectory: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
@@ -65,7 +73,7 @@ class ViewerScene:
         self.configuration: NDArray[np.float64] | None = None
         """The joint angles the robot is drawn at (None without a robot)."""
         if robot is not None:
-            self._load_robot(robot, package_paths or {})
+            self._load_robot(robot)
 
     # ---- obstacles ------------------------------------------------------------------------------------
     @property
@@ -95,12 +103,15 @@ class ViewerScene:
 
     def _remove_obstacle(self, key: str) -> None:
         self._obstacles.pop(key, None)
+        self._obstacle_boxes.pop(key, None)
         self.server.scene.remove_by_name(f"/obstacles/{key}")
         self.server.scene.remove_by_name(f"/influence/{key}")
 
     def _draw_obstacle(self, obstacle: Any) -> None:
         self._obstacles[obstacle.id] = obstacle
         vertices, faces = shape_mesh(obstacle.shape)
+        world = vertices @ np.asarray(obstacle.pose.rotation).T + np.asarray(obstacle.pose.position)
+        self._obstacle_boxes[obstacle.id] = np.array([world.min(axis=0), world.max(axis=0)])
         placement = {"position": np.asarray(obstacle.pose.position), "wxyz": wxyz(obstacle.pose)}
         self.server.scene.add_mesh_simple(f"/obstacles/{obstacle.id}", vertices, faces,
                                           color=self.colour_of(obstacle.id), **placement)
@@ -152,6 +163,7 @@ class ViewerScene:
         with self._lock:
             if self._goal_handle is None:
                 self.enable_goal_gizmo(None)
+            self._goal_position = None if pose is None else np.asarray(pose.position, dtype=np.float64)
             if pose is None:
                 self._goal_handle.visible = False
                 return
@@ -166,9 +178,11 @@ class ViewerScene:
             for node in self._path_nodes:
                 node.remove()
             self._path_nodes = []
+            self._path_points = None
             if positions is None or len(positions) < 2:
                 return
             points = np.asarray(positions, dtype=np.float64)
+            self._path_points = points
             segments = np.stack([points[:-1], points[1:]], axis=1)
             self._path_nodes.append(self.server.scene.add_line_segments("/path/line", segments, colors=PATH_COLOUR,
                                                                         thickness=3.0, thickness_units="screen"))
@@ -182,26 +196,13 @@ class ViewerScene:
                     position=points[k], wxyz=(w, x, y, z)))
 
     # ---- robot ----------------------------------------------------------------------------------------
-    def _load_robot(self, robot: Any, package_paths: Mapping[str, Path]) -> None:
-        import yourdfpy
+    def _load_robot(self, robot: Any) -> None:
         from viser.extras import ViserUrdf
 
-        from pfield.geometry import ResourceResolver
+        from pfield.viz._viewer_robot import load_visual_urdf
 
-        urdf_path = Path(robot.urdf_path)
-        roots = {name: Path(folder) for name, folder in package_paths.items()}
-        resolver = ResourceResolver(package_paths=roots, allowed_roots=[urdf_path.parent, *roots.values()],
-                                    use_ament=True)
-
-        def resolve(fname: str) -> str:
-            uri = fname
-            if not uri.startswith(("package://", "file://", "/")):
-                uri = str(urdf_path.parent / uri)
-            return str(resolver.resolve(uri))
-
-        urdf = yourdfpy.URDF.load(urdf_path, filename_handler=resolve, build_collision_scene_graph=False,
-                                  load_collision_meshes=False)
-        self._urdf = ViserUrdf(self.server, urdf, root_node_name="/robot")
+        self._visual = load_visual_urdf(robot)
+        self._urdf = ViserUrdf(self.server, self._visual, root_node_name="/robot")
         names = list(self._urdf.get_actuated_joint_names())
         limits = self._urdf.get_actuated_joint_limits()
         own = {name: i for i, name in enumerate(robot.joint_names)}
@@ -213,6 +214,25 @@ class ViewerScene:
         self._joint_fill = np.array(fill)
         self.set_configuration(np.clip(np.zeros(robot.n_joints), robot.lower_limits, robot.upper_limits))
 
+    def _full_configuration(self, q: NDArray[np.float64]) -> NDArray[np.float64]:
+        assert self._joint_order is not None and self._joint_fill is not None
+        values = np.asarray(q, dtype=np.float64)
+        return np.where(self._joint_order >= 0, values[np.maximum(self._joint_order, 0)], self._joint_fill)
+
+    def robot_bounds(self, q: NDArray[np.float64] | None = None) -> NDArray[np.float64] | None:
+        """(2, 3) lower and upper corners (m, world) of the robot's visual meshes at joint angles ``q``
+        (default: as drawn); None without a robot or meshes."""
+        with self._lock:
+            if self._visual is None:
+                return None
+            if q is None or self.configuration is None:
+                bounds = self._visual.scene.bounds
+            else:  # pose the mesh model at q, measure, and put it back (the drawn robot does not move)
+                self._visual.update_cfg(self._full_configuration(q))
+                bounds = self._visual.scene.bounds
+                self._visual.update_cfg(self._full_configuration(self.configuration))
+            return None if bounds is None else np.array(bounds, dtype=np.float64)
+
     @property
     def has_robot(self) -> bool:
         return self._urdf is not None
@@ -223,8 +243,7 @@ class ViewerScene:
             if self._urdf is None or self._joint_order is None or self._joint_fill is None:
                 return
             values = np.asarray(q, dtype=np.float64)
-            cfg = np.where(self._joint_order >= 0, values[np.maximum(self._joint_order, 0)], self._joint_fill)
-            self._urdf.update_cfg(cfg)
+            self._urdf.update_cfg(self._full_configuration(values))
             self.configuration = values.copy()
 
     def set_trajectory(self, times: NDArray[np.float64] | None, joint_positions: NDArray[np.float64] | None) -> None:
@@ -232,9 +251,11 @@ class ViewerScene:
         with self._lock:
             if times is None or joint_positions is None or len(times) == 0:
                 self._trajectory = None
+                self._trajectory_end_box = None
                 return
             self._trajectory = (np.asarray(times, dtype=np.float64), np.asarray(joint_positions, dtype=np.float64))
             self.set_time(0.0)
+            self._trajectory_end_box = self.robot_bounds(self._trajectory[1][-1])
 
     @property
     def duration(self) -> float:
@@ -249,6 +270,25 @@ class ViewerScene:
             times, positions = self._trajectory
             q = np.array([np.interp(t, times, positions[:, j]) for j in range(positions.shape[1])])
             self.set_configuration(q)
+
+    # ---- what the camera frames ------------------------------------------------------------------------
+    def bounds(self) -> NDArray[np.float64] | None:
+        """(2, 3) lower and upper corners (m, world) of what is shown: the robot as drawn and at the end of its
+        trajectory, the obstacles, the goal and the path; None when nothing is."""
+        with self._lock:
+            boxes = [*self._obstacle_boxes.values()]
+            robot = self.robot_bounds()
+            for box in (robot, self._trajectory_end_box):
+                if box is not None:
+                    boxes.append(box)
+            for points in (self._goal_position, self._path_points):
+                if points is not None:
+                    cloud = np.atleast_2d(points)
+                    boxes.append(np.array([cloud.min(axis=0), cloud.max(axis=0)]))
+        if not boxes:
+            return None
+        stacked = np.stack(boxes)
+        return np.array([stacked[:, 0].min(axis=0), stacked[:, 1].max(axis=0)])
 
     # ---- field ----------------------------------------------------------------------------------------
     def set_field_arrows(self, starts: NDArray[np.float64] | None, vectors: NDArray[np.float64] | None,

@@ -6,11 +6,15 @@
   the influence distance Q, translucent; toggle),
 * the goal as a draggable transform gizmo (live: dragging publishes ``/pfield/planning_goal_pose``),
 * the last planned end-effector path with an orientation triad every few waypoints,
-* the robot from its URDF meshes, posed along a whole-body plan by a time slider (and "Play"),
+* the robot from its URDF meshes (read through the robot model's own package paths), posed along a
+  whole-body plan by a time slider (and "Play"),
 * the field's limited linear twist as arrows on a horizontal slice (toggle; slice height and arrows per
   side in the GUI), computed in the viewer with :meth:`PotentialField.twists` (batched, compiled),
 * the query pose and its autonomy vector, and a costmap as a textured ground plane with the
   FindValidPose answer.
+
+The camera frames the scene's bounds (the robot as drawn, the obstacles, the goal and the path), and the
+ground grid, the field arrows' extent and the slice-height slider follow them (:meth:`Viewer.frame_scene`).
 
 Live (:meth:`Viewer.connect`): the viewer is a client of a running node's HTTP/WebSocket API in its own
 threads, so the node never waits for it. Offline (:meth:`Viewer.show_plan`, :func:`show_plan`): a plan
@@ -38,6 +42,7 @@ from pfield.field.config import FieldConfig
 from pfield.planning.result import PlannedPath
 from pfield.spatial import Pose
 from pfield.viz._viewer_field import field_slice, scene_bounds
+from pfield.viz._viewer_frame import DEFAULT_BOUNDS, camera_pose, grid_placement, height_range
 from pfield.viz._viewer_scene import ViewerScene
 from pfield.viz._viewer_state import ObstacleTracker, path_arrays, pose_of, read_plan_csv
 
@@ -48,15 +53,17 @@ _log = logging.getLogger(__name__)
 LIVE_TOPICS = ("/pfield/markers", "/pfield/obstacles", "/pfield/planned_path", "/pfield/query_pose",
                "/pfield/autonomy_vector", "/costmap/costmap")
 """The node topics a live viewer streams."""
-CAMERA_POSITION, CAMERA_LOOK_AT = (0.75, -0.95, 0.8), (0.62, 0.3, 0.12)
+SLICE_HEIGHT = 0.3
+"""m: the field slice's height before a goal is shown (then it follows the goal until it is moved)."""
 
 
 class Viewer:
     """A viser page of the pfield scene (see the module docstring).
 
-    ``robot``: :class:`~pfield.robot.RobotModel` drawn from its URDF (None: none); ``package_paths``:
-    ``{package: folder}`` for its ``package://`` URIs (the built-in robots' are known); ``host``/``port``:
-    where the page is served (port 0: a free one); ``config``: field parameters until a node gives its own.
+    ``robot``: :class:`~pfield.robot.RobotModel` drawn from its URDF's visual meshes, read through the paths
+    the model was loaded with (:attr:`~pfield.robot.RobotModel.resolver`; None: no robot); ``package_paths``
+    is ignored (kept so that older calls still work: the model carries its own); ``host``/``port``: where the
+    page is served (port 0: a free one); ``config``: field parameters until a node gives its own.
     """
 
     def __init__(self, robot: Any = None, package_paths: Mapping[str, Path] | None = None, *,
@@ -76,12 +83,12 @@ class Viewer:
         else:
             self.server = viser.ViserServer(host=host, port=port, label="pfield", verbose=False)
         self.server.scene.set_up_direction("+z")
-        self.server.initial_camera.position = CAMERA_POSITION
-        self.server.initial_camera.look_at = CAMERA_LOOK_AT
-        self.server.scene.add_grid("/ground", width=2.0, height=2.0, cell_size=0.1, position=(0.4, 0.0, 0.0),
-                                   plane="xy")
         self.robot = robot
-        self.scene = ViewerScene(self.server, robot, _package_paths(robot, package_paths))
+        try:
+            self.scene = ViewerScene(self.server, robot)
+        except BaseException:
+            self._stop_server()
+            raise
         self.config = config or FieldConfig()
         self.goal: Pose | None = None
         self.link: Any = None
@@ -98,7 +105,12 @@ class Viewer:
         self._workers: list[threading.Thread] = []
         self.field_generation = 0
         """Incremented each time the field arrows are redrawn."""
+        self.bounds = DEFAULT_BOUNDS.copy()
+        """(2, 3) corners (m) of the box the camera frames (see :meth:`frame_scene`)."""
+        self._frame_lock = threading.RLock()
+        self._framed: dict[str, Any] = {}
         self._build_gui()
+        self.frame_scene()
         self.scene.enable_goal_gizmo(self._on_goal_dragged)
         self._start(self._field_worker, "pfield-view-field")
         self._start(self._play_worker, "pfield-view-play")
@@ -121,7 +133,9 @@ class Viewer:
         with gui.add_folder("Scene"):
             self.influence_toggle = gui.add_checkbox("Influence zones", True)
             self.arrows_toggle = gui.add_checkbox("Field arrows", True)
-            self.slice_height = gui.add_slider("Slice height (m)", min=0.0, max=1.2, step=0.01, initial_value=0.3)
+            self.slice_height = gui.add_slider("Slice height (m)", min=0.0, max=1.2, step=0.01,
+                                               initial_value=SLICE_HEIGHT)
+            self._auto_slice: float | None = SLICE_HEIGHT  # the height the viewer chose (None: the user chose)
             self.arrow_density = gui.add_slider("Arrows per side", min=4, max=40, step=1, initial_value=14)
         with gui.add_folder("Plan"):
             self.method = gui.add_dropdown("Method", ("whole_body", "task_space"), initial_value="whole_body")
@@ -147,14 +161,69 @@ class Viewer:
     def _say(self, text: str) -> None:
         self.status.content = text
 
+    # ---- framing --------------------------------------------------------------------------------------
+    def frame_scene(self) -> NDArray[np.float64]:
+        """Fit the view to what is shown and return its bounds (see :attr:`bounds`).
+
+        The initial camera (where a page opens, where "Reset view" returns, and the HTML export's view) frames
+        the box of the robot as drawn (and at the end of its trajectory), the obstacles, the goal, the path
+        and the origin (the robot's root, on the ground); the ground grid lies under it, the field arrows
+        cover its footprint and the *Slice height* slider spans its heights. An open page's camera is left
+        where its user put it. Called whenever the shown content changes (not as the robot plays).
+        """
+        with self._frame_lock:
+            bounds = self.scene.bounds()
+            if bounds is None:
+                bounds = DEFAULT_BOUNDS.copy()
+            else:  # and the origin: the robot's root, where it stands (a pedestal has no mesh of its own)
+                bounds = np.array([np.minimum(bounds[0], 0.0), np.maximum(bounds[1], 0.0)])
+            self.bounds = bounds
+            camera = self.server.initial_camera
+            position, look_at = camera_pose(bounds, camera.fov)
+            if self._changed("camera", np.concatenate([position, look_at])):
+                camera.position = position
+                camera.look_at = look_at
+            centre, width, height = grid_placement(bounds)
+            if self._changed("grid", np.array([*centre, width, height])):
+                self.server.scene.add_grid("/ground", width=width, height=height, cell_size=0.1, position=centre,
+                                           plane="xy")
+            self._fit_slice_slider(bounds)
+            return bounds
+
+    def _changed(self, key: str, value: NDArray[np.float64]) -> bool:
+        old = self._framed.get(key)
+        if old is not None and np.allclose(old, value, atol=1e-3):
+            return False
+        self._framed[key] = value
+        return True
+
+    def _fit_slice_slider(self, bounds: NDArray[np.float64]) -> None:
+        low, high = height_range(bounds)
+        slider = self.slice_height
+        value = float(slider.value)
+        if self._auto_slice is not None and abs(value - self._auto_slice) > 1e-9:
+            self._auto_slice = None  # moved by the user: keep it there
+        if self._auto_slice is not None and self.goal is not None:
+            value = float(self.goal.position[2])
+        value = round(float(np.clip(value, low, high)), 2)
+        if (slider.min, slider.max) != (low, high):
+            slider.min, slider.max = low, high  # type: ignore[misc]
+        if value != float(slider.value):
+            slider.value = value  # type: ignore[misc]
+            self._field_dirty.set()
+        if self._auto_slice is not None:
+            self._auto_slice = value
+
     # ---- scene content --------------------------------------------------------------------------------
     def set_obstacles(self, obstacles: Sequence[Any]) -> None:
         self.scene.set_obstacles(obstacles)
+        self.frame_scene()
         self._field_dirty.set()
 
     def set_goal(self, pose: Pose | None) -> None:
         self.goal = pose
         self.scene.set_goal(pose)
+        self.frame_scene()
         self._field_dirty.set()
 
     def set_path(self, path: PlannedPath) -> None:
@@ -163,6 +232,14 @@ class Viewer:
         self.scene.set_path(path.positions, path.orientations)
         if path.joint_positions is not None and self.scene.has_robot:
             self._set_trajectory(path.times, path.joint_positions)
+        self.frame_scene()
+        self._field_dirty.set()
+
+    def show_path_arrays(self, positions: NDArray[np.float64], orientations: NDArray[np.float64]) -> None:
+        """Show an end-effector path given as arrays (a node's ``nav_msgs/Path``), without a trajectory."""
+        self.path_arrays = (positions, orientations)
+        self.scene.set_path(positions, orientations)
+        self.frame_scene()
         self._field_dirty.set()
 
     def _set_trajectory(self, times: NDArray[np.float64], joints: NDArray[np.float64]) -> None:
@@ -196,11 +273,7 @@ class Viewer:
         if field is None:
             self.scene.set_field_arrows(None, None)
         else:
-            content = [np.asarray(o.pose.position) for o in self.scene.obstacles]
-            content += [np.asarray(field.goal.position), np.zeros(3)]
-            if self.path_arrays is not None:
-                content.append(self.path_arrays[0])
-            bounds = scene_bounds(content)
+            bounds = scene_bounds([self.bounds])  # the framed scene's footprint (and a margin)
             starts, vectors = field_slice(field, bounds, float(self.slice_height.value),
                                           int(self.arrow_density.value))
             self.scene.set_field_arrows(starts, vectors)
@@ -330,8 +403,7 @@ class Viewer:
             times = np.array([p["time_from_start"]["sec"] + 1e-9 * p["time_from_start"]["nanosec"] for p in points])
             self._set_trajectory(times, joints)
         positions, orientations = path_arrays(response.get("end_effector_path", {}))
-        self.path_arrays = (positions, orientations)
-        self.scene.set_path(positions, orientations)
+        self.show_path_arrays(positions, orientations)
         self._say(f"{method}: {'reached' if response.get('success') else response.get('error_message')}")
 
     def clear_obstacles(self) -> None:
@@ -364,6 +436,9 @@ class Viewer:
             self.link.close()
         for thread in self._workers:
             thread.join(timeout=3.0)
+        self._stop_server()
+
+    def _stop_server(self) -> None:
         if self._gate is not None:
             self._gate.stop()
         self.server.stop()
@@ -373,19 +448,6 @@ class Viewer:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-def _package_paths(robot: Any, given: Mapping[str, Path] | None) -> dict[str, Path]:
-    """``given`` plus ``example-robot-data`` (the built-in robots' package)."""
-    paths = dict(given or {})
-    if robot is not None and "example-robot-data" not in paths:
-        try:
-            from pfield.robot.catalog import example_robot_data_root
-
-            paths["example-robot-data"] = example_robot_data_root()
-        except Exception:
-            pass
-    return paths
 
 
 def show_plan(path: PlannedPath, obstacles: Sequence[Any] = (), robot: Any = None, *, goal: Pose | None = None,

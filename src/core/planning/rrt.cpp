@@ -1,0 +1,272 @@
+// RRT-Connect and shortcutting (rrt.hpp), statement for statement as pfield/planning/_rrt_kernel.py: the same sums
+// in the same order and Python's min/max tie rules, compiled without fused multiply-adds (CMakeLists.txt), so the
+// same draws, the same trees and the same paths.
+#include "planning/rrt.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "geometry/sdf.hpp"
+#include "planning/segment_free.hpp"
+#include "robot/distance.hpp"
+#include "robot/kinematics.hpp"
+
+namespace pfield::planning {
+namespace {
+
+using math::Vec3;
+using robot::detail::py_max;
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+enum class Extension { Trapped, Advanced, Reached };
+
+struct Extended {
+  Extension outcome;
+  std::int64_t node;  // the new node, -1 when trapped
+};
+
+// The node of tree t's first `count` nodes nearest to q (the first of equals) and its Euclidean distance.
+struct Nearest {
+  std::int64_t node;
+  double distance;
+};
+
+Nearest nearest(const Trees& trees, std::int64_t t, std::int64_t count, const double* q) {
+  const std::size_t n = trees.dimension;
+  double best = kInf;
+  std::int64_t best_k = 0;
+  for (std::int64_t k = 0; k < count; ++k) {
+    const double* node = trees.node(t, k);
+    double s = 0.0;
+    for (std::size_t j = 0; j < n; ++j) {
+      const double diff = node[j] - q[j];
+      s += diff * diff;
+    }
+    if (s < best) best = s, best_k = k;
+  }
+  return {best_k, std::sqrt(best)};
+}
+
+// Grow tree t by at most `step` toward target: a new node at the candidate when the edge to it is valid.
+Extended extend(StateChecker& checker, Trees& trees, std::int64_t t, const double* target, double step,
+                double* candidate) {
+  const std::int64_t count = trees.counts[t];
+  if (count >= static_cast<std::int64_t>(trees.capacity)) return {Extension::Trapped, -1};
+  const Nearest near = nearest(trees, t, count, target);
+  const bool reached = near.distance <= step;
+  const double scale = reached ? 1.0 : step / near.distance;
+  const double* from = trees.node(t, near.node);
+  for (std::size_t j = 0; j < trees.dimension; ++j) candidate[j] = from[j] + scale * (target[j] - from[j]);
+  if (!checker.edge_valid(from, candidate)) return {Extension::Trapped, -1};
+  std::copy(candidate, candidate + trees.dimension, trees.node(t, count));
+  trees.parents[t * trees.capacity + count] = near.node;
+  trees.counts[t] = count + 1;
+  return {reached ? Extension::Reached : Extension::Advanced, count};
+}
+
+// The nodes from the root of tree t to node k, root first.
+std::vector<const double*> branch(const Trees& trees, std::int64_t t, std::int64_t k) {
+  std::vector<const double*> out;
+  for (std::int64_t j = k; j >= 0; j = trees.parents[t * trees.capacity + j]) out.push_back(trees.node(t, j));
+  std::reverse(out.begin(), out.end());
+  return out;
+}
+
+}  // namespace
+
+std::uint64_t seeded_state(std::uint64_t seed) {
+  std::uint64_t z = seed + 0x9E3779B97F4A7C15ULL;  // unsigned arithmetic wraps, as numba's uint64
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  z = z ^ (z >> 31);
+  return z != 0 ? z : 1;
+}
+
+void uniforms(std::uint64_t& state, double* out, std::size_t count) {
+  for (std::size_t k = 0; k < count; ++k) out[k] = uniform(state);
+}
+
+CapsuleWorkspace::CapsuleWorkspace(const robot::RobotView& robot)
+    : rotations(9 * robot.kinematics.joint_count),
+      origins(3 * robot.kinematics.joint_count),
+      segment_ends(6 * (robot.links.capsule_count + robot.links.primitive_count)),
+      placed(robot.links.capsule_count),
+      frames{rotations.data(), origins.data()} {
+  const std::size_t caps = robot.links.capsule_count, prims = robot.links.primitive_count;
+  double* ends = segment_ends.data();
+  world = {ends, ends + 3 * caps, ends + 6 * caps, ends + 6 * caps + 3 * prims};
+}
+
+bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, const double* q, double margin,
+                    CapsuleWorkspace& ws) {
+  const robot::LinkModelView& links = robot.links;
+  const robot::ObstacleSet& obstacles = scene.obstacles;
+  const geometry::PackedView& packed = *obstacles.packed;
+  const std::size_t count = obstacles.count();
+  robot::joint_transforms(robot.kinematics, q, ws.frames);
+  robot::capsule_segments(links, ws.frames, ws.world);
+  std::fill(ws.placed.begin(), ws.placed.end(), 0);
+  for (std::size_t c = 0; c < links.capsule_count; ++c) {
+    const Vec3 a = ws.world.capsule_a(c), b = ws.world.capsule_b(c);
+    const double radius = links.cap_r[c];
+    const Vec3 middle{0.5 * (a.x + b.x), 0.5 * (a.y + b.y), 0.5 * (a.z + b.z)};
+    double half = 0.0;
+    half += (b.x - a.x) * (b.x - a.x);
+    half += (b.y - a.y) * (b.y - a.y);
+    half += (b.z - a.z) * (b.z - a.z);
+    half = 0.5 * std::sqrt(half);
+    for (std::size_t i = 0; i < count; ++i) {
+      const double need = margin + scene.obstacle_offsets[c * count + i];
+      const double lower = robot::capsule_lower_bound(obstacles, i, ws.world, links, c);
+      if (lower >= need) continue;
+      if (geometry::obstacle_signed_distance(packed, i, middle, kInf).distance - half - radius >= need) continue;
+      // the two-level distance; its fine level reads the link's primitives (robot/clearance.hpp's rule for when)
+      if (!ws.placed[c] && lower < robot::kFineRange + robot::kFineMargin) {
+        robot::world_segment_range(ws.frames, links.prim_joint, links.prim_a, links.prim_b,
+                                   static_cast<std::size_t>(links.link_start[c]),
+                                   static_cast<std::size_t>(links.link_start[c + 1]), ws.world.prim_a,
+                                   ws.world.prim_b);
+        ws.placed[c] = 1;
+      }
+      if (robot::link_obstacle_distance_below(links, ws.world, obstacles, c, i, need, need).distance < need)
+        return false;
+    }
+  }
+  for (std::size_t k = 0; k < links.pair_count; ++k) {
+    const auto l1 = static_cast<std::size_t>(links.self_pairs[2 * k]);
+    const auto l2 = static_cast<std::size_t>(links.self_pairs[2 * k + 1]);
+    if (robot::link_pair_distance(links, ws.world, l1, l2).distance - scene.self_offsets[k] < margin) return false;
+  }
+  return true;
+}
+
+StateChecker::StateChecker(const robot::RobotView& robot, const WholeBodyScene& scene, double margin,
+                           double resolution)
+    : space_(StateSpace::Joint),
+      dimension_(robot.kinematics.joint_count),
+      robot_(&robot),
+      scene_(&scene),
+      packed_(scene.obstacles.packed),
+      margin_(margin),
+      resolution_(resolution),
+      point_(dimension_),
+      capsules_(std::make_unique<CapsuleWorkspace>(robot)) {}
+
+StateChecker::StateChecker(const geometry::PackedView& packed, double margin, double resolution)
+    : space_(StateSpace::Point),
+      dimension_(3),
+      packed_(&packed),
+      margin_(margin),
+      resolution_(resolution),
+      point_(3) {}
+
+bool StateChecker::state_valid(const double* q) {
+  ++states_checked_;
+  if (space_ == StateSpace::Point)
+    return geometry::min_signed_distance(*packed_, {q[0], q[1], q[2]}).nearest.distance >= margin_;
+  return capsules_valid(*robot_, *scene_, q, margin_, *capsules_);
+}
+
+bool StateChecker::edge_valid(const double* a, const double* b) {
+  double largest = 0.0;
+  for (std::size_t j = 0; j < dimension_; ++j) largest = py_max(largest, std::abs(b[j] - a[j]));
+  const double ratio = std::ceil(largest / resolution_);
+  if (!(ratio < 9.0e18)) return false;  // a non-finite end (numba raises there): no edge, and no overflowing cast
+  const auto steps = std::max<std::int64_t>(1, static_cast<std::int64_t>(ratio));
+  double* point = point_.data();
+  return samples_valid(steps, steps, [&](double t) {
+    for (std::size_t j = 0; j < dimension_; ++j) point[j] = a[j] + t * (b[j] - a[j]);
+    return state_valid(point);
+  });
+}
+
+Trees::Trees(const double* start, const double* goals, std::size_t goal_count, std::size_t dimension,
+             std::size_t capacity, std::uint64_t seed)
+    : dimension(dimension),
+      capacity(capacity),
+      nodes(2 * capacity * dimension),
+      parents(2 * capacity, -1),
+      counts{1, static_cast<std::int64_t>(goal_count)},
+      random(seeded_state(seed)) {
+  std::copy(start, start + dimension, node(0, 0));
+  std::copy(goals, goals + goal_count * dimension, node(1, 0));
+}
+
+SearchOutcome rrt_connect(StateChecker& checker, Trees& trees, const double* lower, const double* upper, double step,
+                          std::int64_t budget, const std::uint8_t* cancel) {
+  const std::size_t n = trees.dimension;
+  const auto capacity = static_cast<std::int64_t>(trees.capacity);
+  std::vector<double> sample(n), candidate(n), target(n);
+  const std::int64_t stop = checker.states_checked() + budget;
+  SearchOutcome outcome;
+  while (checker.states_checked() < stop) {
+    if (cancel != nullptr && __atomic_load_n(cancel, __ATOMIC_RELAXED) != 0) return outcome;  // Searching
+    if (trees.counts[0] >= capacity || trees.counts[1] >= capacity) {
+      outcome.status = SearchStatus::Exhausted;
+      return outcome;
+    }
+    const std::int64_t a = trees.next, b = 1 - a;
+    trees.next = b;
+    for (std::size_t j = 0; j < n; ++j) sample[j] = lower[j] + uniform(trees.random) * (upper[j] - lower[j]);
+    const Extended grown = extend(checker, trees, a, sample.data(), step, candidate.data());
+    if (grown.outcome == Extension::Trapped) continue;
+    std::copy(trees.node(a, grown.node), trees.node(a, grown.node) + n, target.begin());
+    Extended connected{Extension::Advanced, -1};
+    std::int64_t other = -1;
+    while (connected.outcome == Extension::Advanced) {
+      connected = extend(checker, trees, b, target.data(), step, candidate.data());
+      if (connected.outcome != Extension::Trapped) other = connected.node;
+    }
+    if (connected.outcome != Extension::Reached) continue;
+    // tree 0's branch, then tree 1's reversed without its last node (the meeting point, already in the first)
+    const std::vector<const double*> from_a = branch(trees, a, grown.node), from_b = branch(trees, b, other);
+    const std::vector<const double*>& first = a == 0 ? from_a : from_b;
+    const std::vector<const double*>& second = a == 0 ? from_b : from_a;
+    outcome.rows = first.size() + second.size() - 1;
+    outcome.path.resize(outcome.rows * n);
+    double* out = outcome.path.data();
+    for (const double* row : first) out = std::copy(row, row + n, out);
+    for (std::size_t i = 0; i + 1 < second.size(); ++i) out = std::copy(second[second.size() - 2 - i],
+                                                                       second[second.size() - 2 - i] + n, out);
+    outcome.status = SearchStatus::Found;
+    return outcome;
+  }
+  return outcome;
+}
+
+std::vector<double> shortcut(StateChecker& checker, const double* path, std::size_t rows, std::int64_t attempts,
+                             std::uint64_t& random) {
+  const std::size_t n = checker.dimension();
+  if (rows == 0) return {};
+  std::vector<unsigned char> keep(rows, 1);
+  std::vector<std::size_t> index(rows);
+  for (std::size_t k = 0; k < rows; ++k) index[k] = k;
+  std::size_t count = rows;
+  const auto vertex = [&](std::size_t k) { return path + index[k] * n; };
+  for (std::int64_t attempt = 0; attempt < attempts; ++attempt) {
+    if (count <= 2) break;
+    auto i = static_cast<std::size_t>(uniform(random) * static_cast<double>(count));
+    auto j = static_cast<std::size_t>(uniform(random) * static_cast<double>(count));
+    if (i > j) std::swap(i, j);
+    if (j - i < 2) continue;
+    if (checker.edge_valid(vertex(i), vertex(j))) {
+      for (std::size_t k = i + 1; k < j; ++k) keep[index[k]] = 0;
+      count = 0;
+      for (std::size_t k = 0; k < rows; ++k)
+        if (keep[k]) index[count++] = k;
+    }
+  }
+  std::vector<double> out(vertex(0), vertex(0) + n);
+  std::size_t i = 0;
+  while (i + 1 < count) {
+    std::size_t j = count - 1;
+    while (j > i + 1 && !checker.edge_valid(vertex(i), vertex(j))) --j;
+    out.insert(out.end(), vertex(j), vertex(j) + n);
+    i = j;
+  }
+  return out;
+}
+
+}  // namespace pfield::planning

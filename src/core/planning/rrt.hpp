@@ -1,0 +1,152 @@
+// The global fallback's search: RRT-Connect with compiled state and edge checks, then shortcutting.
+//
+// RRT-Connect (Kuffner & LaValle, "RRT-Connect: an efficient approach to single-query path planning", ICRA 2000):
+// two trees grow from the start and the goal; each iteration extends one tree by at most `step` toward a uniform
+// sample of the box [lower, upper] and then greedily connects the other tree toward the new node; the trees swap
+// roles every iteration. The path found is shortened by random shortcutting (Geraerts & Overmars, "Creating
+// high-quality paths for motion planning", IJRR 2007) and a final greedy pass.
+//
+// Two state spaces share the code (StateChecker):
+//   * joint space: a state is valid when every link keeps margin + the pair's offset from every obstacle and every
+//     self pair keeps margin + its offset (capsules_valid, on the whole-body planner's two-level link model);
+//   * point space: an end-effector position in R^3, valid when its signed distance to every obstacle is at least
+//     margin.
+// An edge is valid when every state on it, interpolated so that no coordinate moves more than `resolution` (rad or
+// m) between checks, is valid (planning/segment_free.hpp gives the order).
+//
+// The random numbers are a xorshift64* stream (Vigna, "An experimental exploration of Marsaglia's xorshift
+// generators", 2016) seeded by splitmix64, so a search is a pure function of its seed. Everything here keeps the
+// operation order of pfield/planning/_rrt_kernel.py (numba): the same draws, trees, paths and check counts
+// (tests/planning/test_core_rrt.py).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "geometry/packed.hpp"
+#include "planning/whole_body.hpp"
+#include "robot/clearance.hpp"
+#include "robot/robot.hpp"
+
+namespace pfield::planning {
+
+// The splitmix64 mix of `seed` (Steele, Lea & Flood, "Fast splittable pseudorandom number generators", OOPSLA
+// 2014): a well-mixed xorshift state, never 0 (a zero state would stay 0).
+std::uint64_t seeded_state(std::uint64_t seed);
+
+// The next number in [0, 1) of the xorshift64* stream in `state` (advanced): the top 53 bits of the product.
+inline double uniform(std::uint64_t& state) {
+  std::uint64_t x = state;
+  x ^= x >> 12;
+  x ^= x << 25;
+  x ^= x >> 27;
+  state = x;
+  return static_cast<double>((x * 0x2545F4914F6CDD1DULL) >> 11) * (1.0 / 9007199254740992.0);
+}
+
+// `count` numbers of the stream into out (the test of the draws against numba's).
+void uniforms(std::uint64_t& state, double* out, std::size_t count);
+
+// The scratch of the joint-space state check, sized once per robot: joint frames and world segments; the fitted
+// primitives of a link are moved into the world only when some pair of that link reaches the fine level.
+struct CapsuleWorkspace {
+  explicit CapsuleWorkspace(const robot::RobotView& robot);
+  CapsuleWorkspace(const CapsuleWorkspace&) = delete;  // the views point into it
+  CapsuleWorkspace& operator=(const CapsuleWorkspace&) = delete;
+
+  std::vector<double> rotations, origins;  // (n, 3, 3), (n, 3)
+  std::vector<double> segment_ends;        // capsules a, b (caps, 3) each, then primitives a, b (prims, 3)
+  std::vector<unsigned char> placed;       // (caps,) whether the link's primitives are in `world` for this q
+  robot::Frames frames;
+  robot::WorldSegments world;
+};
+
+// Whether configuration q keeps every link-obstacle pair (c, i) at least margin + obstacle_offsets[c, i] apart and
+// every self pair k at least margin + self_offsets[k], stopping at the first pair that is not. Pairs are decided by
+// exact lower bounds first, cheapest first: the obstacle's bounding sphere against the link's bounding capsule, the
+// signed distance at the capsule axis's midpoint less half its length and the radius (d is 1-Lipschitz), then the
+// two-level distance robot::link_obstacle_distance_below with cutoff = fine_cutoff = that need (which decides
+// "below the need" as exact values would). Self pairs on the covering capsules (robot::link_pair_distance).
+bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, const double* q, double margin,
+                    CapsuleWorkspace& ws);
+
+enum class StateSpace : std::int64_t { Joint = 0, Point = 1 };
+
+// The validity test of one search, counting the states it checks. Views must outlive it.
+class StateChecker {
+ public:
+  // Joint space: the robot's configurations among the scene's obstacles, with its offsets.
+  StateChecker(const robot::RobotView& robot, const WholeBodyScene& scene, double margin, double resolution);
+  // Point space: positions in R^3 among the packed obstacles.
+  StateChecker(const geometry::PackedView& packed, double margin, double resolution);
+  StateChecker(const StateChecker&) = delete;
+  StateChecker& operator=(const StateChecker&) = delete;
+
+  StateSpace space() const { return space_; }
+  std::size_t dimension() const { return dimension_; }
+  std::int64_t states_checked() const { return states_checked_; }
+
+  // Whether state q (dimension,) is valid; counts one check.
+  bool state_valid(const double* q);
+  // Whether the straight edge a -> b is valid (a is assumed valid): samples every `resolution`, coarse to fine.
+  bool edge_valid(const double* a, const double* b);
+
+ private:
+  StateSpace space_;
+  std::size_t dimension_;
+  const robot::RobotView* robot_ = nullptr;
+  const WholeBodyScene* scene_ = nullptr;
+  const geometry::PackedView* packed_ = nullptr;
+  double margin_, resolution_;
+  std::int64_t states_checked_ = 0;
+  std::vector<double> point_;  // an edge's sample
+  std::unique_ptr<CapsuleWorkspace> capsules_;  // joint space only
+};
+
+// Both trees of one search: node k of tree t is nodes[(t * capacity + k) * dimension ..], its parent parents[t *
+// capacity + k] (-1: a root), counts[t] nodes; `next` the tree that extends next, `random` the xorshift state.
+struct Trees {
+  // Tree 0 rooted at start (dimension,), tree 1 at every row of goals (goal_count, dimension): several goal
+  // configurations of one goal pose, whichever the search reaches first. goal_count <= capacity.
+  Trees(const double* start, const double* goals, std::size_t goal_count, std::size_t dimension, std::size_t capacity,
+        std::uint64_t seed);
+
+  std::size_t dimension, capacity;
+  std::vector<double> nodes;            // (2, capacity, dimension); rows beyond counts[t] unset
+  std::vector<std::int64_t> parents;    // (2, capacity)
+  std::int64_t counts[2];
+  std::int64_t next = 0;
+  std::uint64_t random;
+
+  double* node(std::int64_t t, std::int64_t k) { return nodes.data() + (t * capacity + k) * dimension; }
+  const double* node(std::int64_t t, std::int64_t k) const { return nodes.data() + (t * capacity + k) * dimension; }
+};
+
+enum class SearchStatus : std::int64_t {
+  Found = 0,      // a path was found
+  Searching = 1,  // the chunk's budget ran out, or *cancel was set (call again, or stop)
+  Exhausted = 2,  // a tree is full
+};
+
+struct SearchOutcome {
+  SearchStatus status = SearchStatus::Searching;
+  std::vector<double> path;  // (rows, dimension) from start to a goal root when Found, else empty
+  std::size_t rows = 0;
+};
+
+// RRT-Connect on `trees` until `budget` more state checks are done (checked before each iteration, so a chunk may
+// overrun it by one iteration's checks). lower, upper (dimension,): the sampling box;
+// step: the largest extension (Euclidean norm). cancel (or null) is read atomically every iteration: when set, the
+// chunk ends (Searching) at once.
+SearchOutcome rrt_connect(StateChecker& checker, Trees& trees, const double* lower, const double* upper, double step,
+                          std::int64_t budget, const std::uint8_t* cancel);
+
+// A shorter valid path through a subset of path's vertices (rows, dimension): `attempts` random shortcuts i -> j
+// (drawn from `random`, continuing the search's stream), then a greedy pass joining each kept vertex to the farthest
+// later one it sees. Returns the rows of the shortened path.
+std::vector<double> shortcut(StateChecker& checker, const double* path, std::size_t rows, std::int64_t attempts,
+                             std::uint64_t& random);
+
+}  // namespace pfield::planning

@@ -1,0 +1,156 @@
+// The path tracking (track.hpp), statement for statement as pfield/planning/_track_kernel.py: the same sums in the
+// same order and Python's min/max tie rules, compiled without fused multiply-adds (CMakeLists.txt), so the same bits.
+#include "planning/track.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "planning/rrt.hpp"
+#include "robot/distance.hpp"
+#include "robot/kinematics.hpp"
+
+namespace pfield::planning {
+namespace {
+
+using robot::detail::py_max;
+using robot::detail::py_min;
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr std::size_t kTaskRows = 6;
+
+// The largest sigma' and sigma'' (1/s, 1/s^2) of q*(sigma) = w_k + sigma d within the profile's share of the limits.
+struct SegmentRates {
+  double rate;
+  double acceleration;
+};
+
+SegmentRates segment_rates(const double* direction, const robot::JointLimitsView& limits, std::size_t n) {
+  double rate = kInf, accel = kInf;
+  for (std::size_t j = 0; j < n; ++j) {
+    const double size = std::abs(direction[j]);
+    if (size > 1e-12) {
+      rate = py_min(rate, limits.max_velocity[j] / size);
+      accel = py_min(accel, limits.max_acceleration[j] / size);
+    }
+  }
+  return {kProfileShare * rate, kProfileShare * accel};
+}
+
+}  // namespace
+
+void tracking_step(const double* q, const double* previous, const double* reference, const robot::RobotView& robot,
+                   const WholeBodyScene& scene, const Goal& goal, const WholeBodyParams& params,
+                   WholeBodyWorkspace& ws) {
+  robot::joint_transforms(robot.kinematics, q, ws.frames);
+  task(robot, goal, params, ws);  // the pose, Jacobian and goal errors; its normal equations are replaced below
+  const std::size_t n = ws.joint_count;
+  double* h = ws.h.data();
+  for (std::size_t i = 0; i < n; ++i) {
+    std::fill(h + i * n, h + (i + 1) * n, 0.0);
+    h[i * n + i] = 1.0 + params.damping;
+    ws.rhs[i] = reference[i];
+  }
+  constrained_velocity(q, previous, robot, scene, params, ws, 0.0);
+}
+
+WholeBodyPlanResult track_path(const double* q0, const double* waypoints, std::size_t count,
+                               const robot::RobotView& robot, const WholeBodyScene& scene, const Goal& goal,
+                               const WholeBodyParams& params, const TrackSettings& settings,
+                               const std::uint8_t* cancel, const WholeBodyPath& path) {
+  const std::size_t n = robot.kinematics.joint_count;
+  const robot::JointLimitsView& limits = robot.limits;
+  WholeBodyWorkspace ws(robot, scene);
+  const StepResult& out = ws.result;
+  const std::int64_t total = settings.max_iterations + 1;
+  std::vector<double> q(q0, q0 + n), previous(n, 0.0);
+  std::vector<double> target(waypoints, waypoints + n), direction(n, 0.0), reference(n, 0.0);
+  const double dt = params.dt;
+  const auto vertex = [&](std::int64_t k) { return waypoints + k * static_cast<std::int64_t>(n); };
+  std::int64_t segment = 0;
+  double sigma = 1.0, rate = 0.0;  // sigma = 1: start the first segment at the first step
+  double top = 0.0, accel = 0.0;
+  const std::int64_t settle_limit = std::max<std::int64_t>(settings.max_iterations / 4, 1);
+  std::int64_t settled_for = 0;
+  WholeBodyPlanResult result;
+  result.count = total;
+  const std::int64_t last = static_cast<std::int64_t>(count) - 1;
+  const auto zero = [&](std::int64_t k) {
+    std::fill(path.velocities + k * n, path.velocities + (k + 1) * n, 0.0);
+    std::fill(path.twists + kTaskRows * k, path.twists + kTaskRows * (k + 1), 0.0);
+  };
+  for (std::int64_t k = 0; k < total; ++k) {
+    if (sigma >= 1.0 && segment < last) {
+      ++segment;
+      for (std::size_t j = 0; j < n; ++j) direction[j] = vertex(segment)[j] - vertex(segment - 1)[j];
+      sigma = 0.0, rate = 0.0;
+      const SegmentRates rates = segment_rates(direction.data(), limits, n);
+      top = rates.rate, accel = rates.acceleration;
+      if (!std::isfinite(top)) sigma = 1.0, top = 0.0, accel = 0.0;  // a repeated vertex (and inf * 0 would be NaN)
+    }
+    double lag = 0.0;
+    for (std::size_t j = 0; j < n; ++j) lag = py_max(lag, std::abs(target[j] - q[j]));
+    if (sigma < 1.0 && lag <= settings.lead) {
+      rate = py_min(py_min(rate + accel * dt, top), std::sqrt(2.0 * accel * (1.0 - sigma)));
+      sigma = py_min(sigma + rate * dt, 1.0);
+    } else {
+      rate = 0.0;
+    }
+    for (std::size_t j = 0; j < n; ++j) {
+      target[j] = segment > 0 ? vertex(segment - 1)[j] + sigma * direction[j] : vertex(0)[j];
+      // the lag correction k_p e, no faster than the joint can brake to rest within |e| at the acceleration the
+      // profile leaves: a stronger pull overshoots into a limit cycle
+      const double error = target[j] - q[j];
+      const double braking = 2.0 * (1.0 - kProfileShare) * limits.max_acceleration[j];
+      const double pull = py_min(settings.gain * std::abs(error), std::sqrt(braking * std::abs(error)));
+      reference[j] = rate * direction[j] + std::copysign(pull, error);
+    }
+    tracking_step(q.data(), k > 0 ? previous.data() : nullptr, reference.data(), robot, scene, goal, params, ws);
+    std::copy(q.begin(), q.end(), path.joints + k * n);
+    std::copy(out.position, out.position + 3, path.positions + 3 * k);
+    std::copy(out.orientation, out.orientation + 4, path.orientations + 4 * k);
+    path.clearances[k] = out.clearance;
+    if (out.nearest_distance < 0.0 || out.self_clearance < 0.0) {
+      result.status = out.nearest_distance < 0.0 ? PlanStatus::Collision : PlanStatus::SelfCollision;
+      result.count = std::max<std::int64_t>(k, 1);
+      zero(result.count - 1);
+      break;
+    }
+    const bool finished = segment == last && sigma >= 1.0;
+    if (finished && out.position_error <= params.goal_tolerance && out.rotation_error <= params.rotation_tolerance) {
+      result.status = PlanStatus::Reached;
+      result.count = k + 1;
+      zero(k);
+      break;
+    }
+    std::copy(ws.x.begin(), ws.x.end(), path.velocities + k * n);
+    std::copy(out.twist, out.twist + kTaskRows, path.twists + kTaskRows * k);
+    if (k == total - 1) break;
+    if (__atomic_load_n(cancel, __ATOMIC_RELAXED) != 0) {
+      result.status = PlanStatus::Cancelled;
+      result.count = k + 1;
+      break;
+    }
+    if (finished && ++settled_for > settle_limit) {
+      result.status = PlanStatus::Stagnation;
+      result.count = k + 1;
+      break;
+    }
+    for (std::size_t j = 0; j < n; ++j) {
+      q[j] = py_min(py_max(q[j] + ws.x[j] * dt, limits.lower[j]), limits.upper[j]);
+      previous[j] = ws.x[j];
+    }
+  }
+  result.last = out;
+  return result;
+}
+
+void overlapping_waypoints(const double* qs, std::size_t count, const robot::RobotView& robot,
+                           const WholeBodyScene& scene, bool* out) {
+  const std::size_t n = robot.kinematics.joint_count;
+  CapsuleWorkspace ws(robot);
+  for (std::size_t k = 0; k < count; ++k) out[k] = !capsules_valid(robot, scene, qs + k * n, 0.0, ws);
+}
+
+}  // namespace pfield::planning

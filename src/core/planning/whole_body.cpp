@@ -1,0 +1,416 @@
+// The whole-body step, loop and stepper (whole_body.hpp), statement for statement as
+// pfield/planning/_whole_body_kernel.py, _whole_body_loop.py and _whole_body_flat.py (numba): the same sums in the
+// same order and Python's min/max tie rules, compiled without fused multiply-adds (CMakeLists.txt), so the same bits.
+#include "planning/whole_body.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "field/forces.hpp"
+#include "math/linalg.hpp"
+#include "robot/distance.hpp"
+#include "robot/kinematics.hpp"
+
+namespace pfield::planning {
+namespace {
+
+using math::Quat;
+using math::Vec3;
+using robot::detail::py_max;
+using robot::detail::py_min;
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr std::size_t kTaskRows = 6;  // the end-effector twist: linear, then angular
+const math::QpSettings kQpSettings{200, 1e-7};
+
+// Largest allowed approach speed (m/s or rad/s) at `distance` for a step of dt (pfield.field.forces's
+// stepped_damper_speed): s = min(v (d - d_s)/(Q - d_s), (d - d_s)/(2 dt)) with v = max_speed; below d_s the
+// required retreat max((d - d_s)/(2 dt), -v). The QP's rows constrain joint velocities applied for one step whose
+// rate limit is dropped when it would break a damper, so no braking distance is needed (field::damper_speed's cap):
+// a link moving at s for dt covers at most half its margin, so d_s is approached geometrically, never crossed.
+// (Its one use in the core; it joins field/forces.hpp when another caller needs it.)
+double stepped_damper_speed(double distance, double influence, double safety, double max_speed, double dt) {
+  const double margin = distance - safety;
+  if (margin <= 0.0) return py_max(0.5 * margin / dt, -max_speed);
+  return py_min(max_speed * margin / (influence - safety), 0.5 * margin / dt);
+}
+
+// The QP's constraint rows A qd >= b as the constraints fill them (each kind of damper adds its own rows through
+// this one interface; the QP never knows which constraint a row came from).
+struct ConstraintRows {
+  double* a;        // (capacity, n) row-major
+  double* b;        // (capacity,)
+  std::size_t n;
+  std::size_t count;
+
+  // A new row with bound `bound`; its n coefficients are the caller's to write.
+  double* add(double bound) {
+    b[count] = bound;
+    return a + n * count++;
+  }
+
+  // The row n^T J_p of the world point p carried by `joint` (its linear Jacobian into jlin, 3 x n), bound `bound`.
+  double* add_point_row(const robot::KinematicsView& kinematics, const robot::Frames& frames, std::int64_t joint,
+                        Vec3 point, Vec3 normal, double bound, double* jlin) {
+    robot::linear_point_jacobian(kinematics, frames, joint, point, jlin);
+    double* row = add(bound);
+    for (std::size_t j = 0; j < n; ++j) row[j] = normal.x * jlin[j] + normal.y * jlin[n + j] + normal.z * jlin[2 * n + j];
+    return row;
+  }
+};
+
+// Damper rows and null-space repulsion (ws.free) of every link-obstacle pair within Q: one row per pair, at the
+// closest point of the link's deciding segment (robot::link_obstacle_distance_below with cutoff = fine_cutoff = Q).
+// A pair's distance less its start offset, or with `hold` max(d, d_s). The clearance takes every pair's value (a
+// lower bound beyond Q), the nearest pair every pair that passed the cheap bound.
+void obstacle_rows(const robot::RobotView& robot, const WholeBodyScene& scene, const WholeBodyParams& p,
+                   WholeBodyWorkspace& ws, ConstraintRows& rows, bool hold) {
+  const robot::LinkModelView& links = robot.links;
+  const robot::ObstacleSet& obstacles = scene.obstacles;
+  const std::size_t count = obstacles.count(), n = ws.joint_count;
+  const double influence = p.influence_distance, dt = p.dt, safety = p.safety_distance;
+  const double speed = p.damper_gain * p.max_linear_velocity, null_scale = p.null_space_gain * p.max_linear_velocity;
+  double clearance = kInf, worst = kInf;
+  std::int64_t culprit_c = -1, culprit_o = -1;
+  for (std::size_t c = 0; c < links.capsule_count; ++c) {
+    for (std::size_t i = 0; i < count; ++i) {
+      // the cheap bound first, inline: most pairs end here (link_obstacle_distance_below's own first test)
+      const double lower = robot::capsule_lower_bound(obstacles, i, ws.world, links, c);
+      if (lower >= influence) {
+        clearance = py_min(clearance, lower);
+        continue;
+      }
+      const robot::LinkObstacleDistance pair =
+          robot::link_obstacle_distance_below(links, ws.world, obstacles, c, i, influence, influence);
+      double d = pair.distance;
+      clearance = py_min(clearance, d);
+      d = hold ? py_max(d, safety) : d - scene.obstacle_offsets[c * count + i];
+      if (d < worst) {
+        worst = d;
+        culprit_c = static_cast<std::int64_t>(c);
+        culprit_o = static_cast<std::int64_t>(i);
+      }
+      const std::int64_t joint = links.cap_joint[c];
+      if (!pair.exact || d >= influence || joint < 0) continue;  // not exact: a lower bound, at least Q
+      const double bound = -stepped_damper_speed(d, influence, safety, speed, dt);
+      const double* row =
+          rows.add_point_row(robot.kinematics, ws.frames, joint, pair.point, pair.normal, bound, ws.jlin.data());
+      const double push =
+          null_scale * field::khatib_magnitude(d, p.repulsive_gain, influence, p.max_repulsive_force) /
+          p.max_repulsive_force;
+      for (std::size_t j = 0; j < n; ++j) ws.free[j] += push * row[j];
+    }
+  }
+  ws.result.clearance = clearance;
+  ws.result.nearest_capsule = static_cast<double>(culprit_c);
+  ws.result.nearest_obstacle = static_cast<double>(culprit_o);
+  ws.result.nearest_distance = worst;
+}
+
+// Damper rows of the self pairs within Q, on the covering capsules: n^T (J_1(p1) - J_2(p2)) qd >= -s with n from
+// the second link's closest point to the first's. Offsets and hold as obstacle_rows.
+void self_rows(const robot::RobotView& robot, const WholeBodyScene& scene, const WholeBodyParams& p,
+               WholeBodyWorkspace& ws, ConstraintRows& rows, bool hold) {
+  const robot::LinkModelView& links = robot.links;
+  const std::size_t n = ws.joint_count;
+  const double influence = p.influence_distance, dt = p.dt, safety = p.safety_distance;
+  const double speed = p.damper_gain * p.max_linear_velocity;
+  double clearance = kInf;
+  std::int64_t nearest = -1;
+  double* jlin2 = ws.jlin2.data();
+  for (std::size_t k = 0; k < links.pair_count; ++k) {
+    const auto c1 = static_cast<std::size_t>(links.self_pairs[2 * k]);
+    const auto c2 = static_cast<std::size_t>(links.self_pairs[2 * k + 1]);
+    const robot::LinkPairDistance pair = robot::link_pair_distance(links, ws.world, c1, c2);
+    const double d = hold ? py_max(pair.distance, safety) : pair.distance - scene.self_offsets[k];
+    if (d < clearance) {
+      clearance = d;
+      nearest = static_cast<std::int64_t>(k);
+    }
+    if (d >= influence) continue;
+    const Vec3& p1 = pair.first;
+    const Vec3& p2 = pair.second;
+    const double dx = p1.x - p2.x, dy = p1.y - p2.y, dz = p1.z - p2.z;
+    const double dist = std::sqrt(dx * dx + dy * dy + dz * dz);
+    if (dist < 1e-12) continue;
+    const Vec3 normal{dx / dist, dy / dist, dz / dist};
+    const double bound = -stepped_damper_speed(d, influence, safety, speed, dt);
+    double* row = rows.add_point_row(robot.kinematics, ws.frames, links.cap_joint[c1], p1, normal, bound,
+                                     ws.jlin.data());
+    robot::linear_point_jacobian(robot.kinematics, ws.frames, links.cap_joint[c2], p2, jlin2);
+    for (std::size_t j = 0; j < n; ++j)
+      row[j] -= normal.x * jlin2[j] + normal.y * jlin2[n + j] + normal.z * jlin2[2 * n + j];
+  }
+  ws.result.self_clearance = clearance;
+  ws.result.nearest_self_pair = static_cast<double>(nearest);
+}
+
+// Damper rows +-qd_j >= -s_j(gap) of the joints within joint_influence of a finite limit (lower, then upper).
+void joint_limit_rows(const double* q, const robot::RobotView& robot, const WholeBodyParams& p, ConstraintRows& rows) {
+  const std::size_t n = rows.n;
+  const robot::JointLimitsView& limits = robot.limits;
+  for (std::size_t j = 0; j < n; ++j) {
+    for (const double side : {1.0, -1.0}) {
+      const double limit = side > 0.0 ? limits.lower[j] : limits.upper[j];
+      if (!std::isfinite(limit)) continue;
+      const double gap = side * (q[j] - limit);
+      if (gap >= p.joint_influence) continue;
+      double* row =
+          rows.add(-stepped_damper_speed(gap, p.joint_influence, p.joint_safety, limits.max_velocity[j], p.dt));
+      std::fill(row, row + n, 0.0);
+      row[j] = side;
+    }
+  }
+}
+
+// Uniform scaling of ws.x into the velocity limits, then the rate limit |qd_j - previous_j| <= a_j dt unless it
+// makes a damper row fail that the unlimited qd kept (previous null: no rate limit).
+void limit_speed(const double* previous, const robot::RobotView& robot, const WholeBodyParams& p,
+                 WholeBodyWorkspace& ws, const ConstraintRows& rows) {
+  const std::size_t n = ws.joint_count;
+  const robot::JointLimitsView& limits = robot.limits;
+  double* x = ws.x.data();
+  double scale = 1.0;
+  for (std::size_t j = 0; j < n; ++j)
+    if (std::abs(x[j]) * scale > limits.max_velocity[j]) scale = limits.max_velocity[j] / std::abs(x[j]);
+  for (std::size_t j = 0; j < n; ++j) x[j] *= scale;
+  if (previous == nullptr) return;
+  double* limited = ws.limited.data();
+  for (std::size_t j = 0; j < n; ++j) {
+    const double step = limits.max_acceleration[j] * p.dt;
+    limited[j] = py_min(py_max(x[j], previous[j] - step), previous[j] + step);
+  }
+  for (std::size_t k = 0; k < rows.count; ++k) {
+    const double* a = rows.a + k * n;
+    double with_limit = 0.0, without = 0.0;
+    for (std::size_t j = 0; j < n; ++j) {
+      with_limit += a[j] * limited[j];
+      without += a[j] * x[j];
+    }
+    if (with_limit < rows.b[k] - 1e-9 && with_limit < without) return;
+  }
+  std::copy(limited, limited + n, x);
+}
+
+}  // namespace
+
+WholeBodyWorkspace::WholeBodyWorkspace(std::size_t joints, std::size_t capsules, std::size_t obstacle_count,
+                                       std::size_t pairs, std::size_t primitives)
+    : joint_count(joints),
+      max_rows(capsules * obstacle_count + pairs + 2 * joints),
+      rotations(9 * joints),
+      origins(3 * joints),
+      jacobian(kTaskRows * joints),
+      jlin(3 * joints),
+      jlin2(3 * joints),
+      rows(max_rows * joints),
+      bounds(max_rows),
+      h(joints * joints),
+      rhs(joints),
+      x(joints),
+      free(joints),
+      limited(joints),
+      segment_ends(6 * (capsules + primitives)),
+      qp(max_rows, joints),
+      frames{rotations.data(), origins.data()},
+      world{segment_ends.data(), segment_ends.data() + 3 * capsules, segment_ends.data() + 6 * capsules,
+            segment_ends.data() + 6 * capsules + 3 * primitives} {}
+
+WholeBodyWorkspace::WholeBodyWorkspace(const robot::RobotView& robot, const WholeBodyScene& scene)
+    : WholeBodyWorkspace(robot.kinematics.joint_count, robot.links.capsule_count, scene.obstacles.count(),
+                         robot.links.pair_count, robot.links.primitive_count) {}
+
+void task(const robot::RobotView& robot, const Goal& goal, const WholeBodyParams& params, WholeBodyWorkspace& ws) {
+  const robot::KinematicsView& kinematics = robot.kinematics;
+  const std::size_t n = ws.joint_count;
+  const robot::FramePose pose = robot::end_effector_pose(kinematics, ws.frames);
+  double* jac = ws.jacobian.data();
+  robot::point_jacobian(kinematics, ws.frames, kinematics.ee_joint, pose.position, jac);
+  const Quat quat = math::from_matrix(pose.rotation);
+  const double ex = goal.position.x - pose.position.x, ey = goal.position.y - pose.position.y,
+               ez = goal.position.z - pose.position.z;
+  const Vec3 force = field::attraction({ex, ey, ez}, params.attractive_gain, params.attractive_threshold);
+  const Vec3 v = field::soft_saturate(force, params.max_linear_velocity);
+  const Vec3 r = math::rotation_error(quat, goal.orientation);
+  const double k = params.rotational_attractive_gain;
+  const Vec3 w = field::soft_saturate({k * r.x, k * r.y, k * r.z}, params.max_angular_velocity);
+  const double twist[kTaskRows] = {v.x, v.y, v.z, w.x, w.y, w.z};
+  const double rw = params.rotation_weight;
+  const double weights[kTaskRows] = {1.0, 1.0, 1.0, rw, rw, rw};
+  // normal equations of the weighted least squares: H = J^T W J + lambda^2 I, rhs = J^T W xd
+  double* h = ws.h.data();
+  for (std::size_t i = 0; i < n; ++i) {
+    double s = 0.0;
+    for (std::size_t row = 0; row < kTaskRows; ++row) s += jac[row * n + i] * weights[row] * twist[row];
+    ws.rhs[i] = s;
+    for (std::size_t j = 0; j <= i; ++j) {
+      s = 0.0;
+      for (std::size_t row = 0; row < kTaskRows; ++row) s += jac[row * n + i] * weights[row] * jac[row * n + j];
+      h[i * n + j] = s;
+      h[j * n + i] = s;
+    }
+    h[i * n + i] += params.damping;
+  }
+  StepResult& out = ws.result;
+  out.position[0] = pose.position.x, out.position[1] = pose.position.y, out.position[2] = pose.position.z;
+  out.orientation[0] = quat.x, out.orientation[1] = quat.y, out.orientation[2] = quat.z, out.orientation[3] = quat.w;
+  out.position_error = std::sqrt(ex * ex + ey * ey + ez * ez);
+  out.rotation_error = std::sqrt(r.x * r.x + r.y * r.y + r.z * r.z);
+}
+
+void all_segments(const robot::RobotView& robot, WholeBodyWorkspace& ws) {
+  robot::capsule_segments(robot.links, ws.frames, ws.world);
+  robot::primitive_segments(robot.links, ws.frames, ws.world);
+}
+
+void step_segments(const robot::RobotView& robot, const WholeBodyScene& scene, WholeBodyWorkspace& ws) {
+  robot::capsule_segments(robot.links, ws.frames, ws.world);
+  robot::near_segments(robot.links, ws.frames, scene.obstacles, ws.world);
+}
+
+std::size_t velocity_from_segments(const double* q, const double* previous, const robot::RobotView& robot,
+                                   const WholeBodyScene& scene, const WholeBodyParams& params, WholeBodyWorkspace& ws,
+                                   double free_weight, bool hold) {
+  const std::size_t n = ws.joint_count;
+  std::fill(ws.free.begin(), ws.free.end(), 0.0);
+  ConstraintRows rows{ws.rows.data(), ws.bounds.data(), n, 0};
+  obstacle_rows(robot, scene, params, ws, rows, hold);
+  self_rows(robot, scene, params, ws, rows, hold);
+  joint_limit_rows(q, robot, params, rows);
+  for (std::size_t j = 0; j < n; ++j) ws.rhs[j] += free_weight * ws.free[j];
+  math::solve_qp(ws.h.data(), n, ws.rhs.data(), {rows.a, n, rows.b, rows.count}, n, ws.x.data(), ws.qp, kQpSettings);
+  limit_speed(previous, robot, params, ws, rows);
+  const double* jac = ws.jacobian.data();
+  for (std::size_t r = 0; r < kTaskRows; ++r) {
+    double s = 0.0;
+    for (std::size_t j = 0; j < n; ++j) s += jac[r * n + j] * ws.x[j];
+    ws.result.twist[r] = s;
+  }
+  return rows.count;
+}
+
+std::size_t constrained_velocity(const double* q, const double* previous, const robot::RobotView& robot,
+                                 const WholeBodyScene& scene, const WholeBodyParams& params, WholeBodyWorkspace& ws,
+                                 double free_weight) {
+  step_segments(robot, scene, ws);
+  return velocity_from_segments(q, previous, robot, scene, params, ws, free_weight, false);
+}
+
+std::size_t joint_velocity_step(const double* q, const double* previous, const robot::RobotView& robot,
+                                const WholeBodyScene& scene, const Goal& goal, const WholeBodyParams& params,
+                                WholeBodyWorkspace& ws) {
+  robot::joint_transforms(robot.kinematics, q, ws.frames);
+  task(robot, goal, params, ws);
+  return constrained_velocity(q, previous, robot, scene, params, ws, params.damping);
+}
+
+std::size_t autonomy_step(const double* q, const double* previous, const robot::RobotView& robot,
+                          const WholeBodyScene& scene, const Goal& goal, const WholeBodyParams& params,
+                          WholeBodyWorkspace& ws) {
+  robot::joint_transforms(robot.kinematics, q, ws.frames);
+  step_segments(robot, scene, ws);
+  task(robot, goal, params, ws);
+  return velocity_from_segments(q, previous, robot, scene, params, ws, params.damping, true);
+}
+
+WholeBodyPlanResult plan_whole_body(const double* q0, const robot::RobotView& robot, const WholeBodyScene& scene,
+                                    const Goal& goal, const WholeBodyParams& params, std::int64_t max_iterations,
+                                    const std::uint8_t* cancel, const WholeBodyPath& path) {
+  const std::size_t n = robot.kinematics.joint_count;
+  WholeBodyWorkspace ws(robot, scene);
+  std::vector<double> q(q0, q0 + n), previous(n, 0.0);
+  const std::int64_t total = max_iterations + 1;
+  const auto window = static_cast<std::int64_t>(params.stagnation_steps);
+  const double dt = params.dt;
+  const robot::JointLimitsView& limits = robot.limits;
+  const StepResult& out = ws.result;
+  Progress progress{kInf, kInf, kInf, kInf};
+  WholeBodyPlanResult result;
+  result.count = total;
+  const auto zero = [n](double* row_n, double* row_6) {
+    std::fill(row_n, row_n + n, 0.0);
+    std::fill(row_6, row_6 + kTaskRows, 0.0);
+  };
+  for (std::int64_t k = 0; k < total; ++k) {
+    // the rate limit from the previous step's velocity (zero at the start), as the numba loop (dt > 0 always here)
+    joint_velocity_step(q.data(), dt > 0.0 ? previous.data() : nullptr, robot, scene, goal, params, ws);
+    std::copy(q.begin(), q.end(), path.joints + k * n);
+    std::copy(out.position, out.position + 3, path.positions + 3 * k);
+    std::copy(out.orientation, out.orientation + 4, path.orientations + 4 * k);
+    path.clearances[k] = out.clearance;
+    if (out.nearest_distance < 0.0 || out.self_clearance < 0.0) {
+      // the last step brought capsules into contact (an infeasible squeeze): stop before it
+      result.status = out.nearest_distance < 0.0 ? PlanStatus::Collision : PlanStatus::SelfCollision;
+      result.count = std::max<std::int64_t>(k, 1);
+      zero(path.velocities + (result.count - 1) * n, path.twists + kTaskRows * (result.count - 1));
+      break;
+    }
+    if (out.position_error <= params.goal_tolerance && out.rotation_error <= params.rotation_tolerance) {
+      result.status = PlanStatus::Reached;
+      result.count = k + 1;
+      zero(path.velocities + k * n, path.twists + kTaskRows * k);
+      break;
+    }
+    std::copy(ws.x.begin(), ws.x.end(), path.velocities + k * n);
+    std::copy(out.twist, out.twist + kTaskRows, path.twists + kTaskRows * k);
+    if (k == total - 1) break;
+    if (__atomic_load_n(cancel, __ATOMIC_RELAXED) != 0) {
+      result.status = PlanStatus::Cancelled;
+      result.count = k + 1;
+      break;
+    }
+    if (progress.stuck(k, window, params.stagnation_progress, out.position_error, out.rotation_error)) {
+      result.status = PlanStatus::Stagnation;
+      result.count = k + 1;
+      break;
+    }
+    for (std::size_t j = 0; j < n; ++j) {
+      q[j] = py_min(py_max(q[j] + ws.x[j] * dt, limits.lower[j]), limits.upper[j]);
+      previous[j] = ws.x[j];
+    }
+  }
+  result.last = out;
+  return result;
+}
+
+WholeBodyStepper::WholeBodyStepper(const robot::RobotView& robot, const WholeBodyScene& scene, const Goal& goal,
+                                   const WholeBodyParams& params)
+    : robot_(robot),
+      scene_(scene),
+      goal_(goal),
+      params_(params),
+      ws_(robot, scene),
+      q_(robot.kinematics.joint_count),
+      previous_(robot.kinematics.joint_count) {}
+
+bool WholeBodyStepper::step(const double* q, std::size_t q_size, const double* previous, std::size_t previous_size,
+                            double dt, double limit_tolerance) {
+  const std::size_t n = ws_.joint_count;
+  if (!(std::isfinite(dt) && dt >= 0.0) || q_size != n) return false;
+  std::copy(q, q + n, q_.begin());
+  const robot::JointLimitsView& limits = robot_.limits;
+  if (robot::check_limits(q_.data(), limits.lower, limits.upper, n, limit_tolerance).status !=
+      robot::LimitCheck::Status::Ok)
+    return false;
+  const double* prev = nullptr;
+  if (previous != nullptr) {
+    if (previous_size != n) return false;
+    for (std::size_t j = 0; j < n; ++j)
+      if (!std::isfinite(previous[j])) return false;
+    // rule 3 of the output contract: a previous command beyond the velocity limits was never sent; joints without
+    // a positive finite limit keep theirs
+    for (std::size_t j = 0; j < n; ++j) {
+      const double limit = limits.max_velocity[j], v = previous[j];
+      const bool bounded = limit > 0.0 && limit < kInf;
+      previous_[j] = bounded && v > limit ? limit : (bounded && v < -limit ? -limit : v);
+    }
+    if (dt > 0.0) prev = previous_.data();
+  }
+  WholeBodyParams params = params_;
+  if (dt > 0.0) params.dt = dt;
+  autonomy_step(q_.data(), prev, robot_, scene_, goal_, params, ws_);
+  return true;
+}
+
+}  // namespace pfield::planning

@@ -1,0 +1,102 @@
+// Bindings of the velocity QP (math/qp.hpp) for the tests that hold it to numba's pfield._linalg.hildreth and to
+// the KKT conditions: not a public pfield API (the whole-body step calls the QP inside the core).
+#include <nanobind/nanobind.h>
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <stdexcept>
+#include <utility>
+#include <vector>
+
+#include "math/qp.hpp"
+#include "python/arrays.hpp"
+
+namespace pfield::python {
+namespace {
+
+using namespace nb::literals;
+using Matrix = nb::ndarray<const double, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
+
+// One solve's outcome: the solution, the multipliers and row curvatures the workspace holds afterwards (numba's
+// x, mu and curvature arrays after hildreth), and the result.
+struct Solution {
+  nb::object x, multipliers, curvatures;  // NumPy arrays
+  math::QpResult result;
+};
+
+// The shapes the QP reads: a square (n, n) matrix, x or c of n, rows (m, n) and b of m.
+void check_shapes(const Matrix& square, const Vector& vector, const Matrix& rows, const Vector& b) {
+  const std::size_t n = square.shape(0);
+  if (square.shape(1) != n || vector.shape(0) != n || rows.shape(1) != n || b.shape(0) != rows.shape(0))
+    throw std::invalid_argument("expected an (n, n) matrix, a vector of n, rows (m, n) and b (m,)");
+}
+
+// Copies the workspace's multipliers and curvatures out next to x and the result.
+Solution solution_of(std::pair<NumpyArray, double*> x, const math::QpWorkspace& ws, std::size_t m,
+                     const math::QpResult& result) {
+  auto [multipliers, mu] = new_array({m});
+  auto [curvatures, curvature] = new_array({m});
+  std::copy(ws.multipliers(), ws.multipliers() + m, mu);
+  std::copy(ws.curvatures(), ws.curvatures() + m, curvature);
+  return {nb::cast(std::move(x.first)), nb::cast(std::move(multipliers)), nb::cast(std::move(curvatures)), result};
+}
+
+}  // namespace
+
+void bind_qp(nb::module_& m) {
+  m.doc() = "The velocity QP (Hildreth with the active-set finish) of the compiled core, for its tests.";
+
+  nb::class_<math::QpResult>(m, "Result")
+      .def_ro("sweeps", &math::QpResult::sweeps, "Sweeps run, the last included.")
+      .def_ro("active_set", &math::QpResult::active_set, "The active-set finish found the optimum.")
+      .def_ro("violation", &math::QpResult::violation, "Largest violation the last sweep met (0 within tolerance).");
+
+  nb::class_<Solution>(m, "Solution")
+      .def_ro("x", &Solution::x)
+      .def_ro("multipliers", &Solution::multipliers)
+      .def_ro("curvatures", &Solution::curvatures, "a^T H^-1 a per row; -1 where never needed.")
+      .def_ro("result", &Solution::result);
+
+  m.def(
+      "hildreth",
+      [](const Matrix& factor, const Vector& x0, const Matrix& rows, const Vector& b, std::int64_t max_sweeps,
+         double tolerance) {
+        check_shapes(factor, x0, rows, b);
+        const std::size_t n = factor.shape(0), count = rows.shape(0);
+        auto x = new_array({n});
+        math::QpWorkspace ws(count, n);
+        math::QpResult result;
+        {
+          nb::gil_scoped_release release;
+          std::copy(x0.data(), x0.data() + n, x.second);
+          const math::QpProblem problem{factor.data(), n, {rows.data(), n, b.data(), count}, n};
+          result = math::hildreth(problem, x.second, ws, {max_sweeps, tolerance});
+        }
+        return solution_of(std::move(x), ws, count, result);
+      },
+      "factor"_a, "x"_a, "rows"_a, "b"_a, "max_sweeps"_a = 200, "tolerance"_a = 1e-7,
+      "Enforce rows @ x >= b from the unconstrained optimum x, H = factor factor^T (pfield._linalg.hildreth).");
+
+  m.def(
+      "solve",
+      [](const Matrix& h, const Vector& c, const Matrix& rows, const Vector& b, std::int64_t max_sweeps,
+         double tolerance) {
+        check_shapes(h, c, rows, b);
+        const std::size_t n = h.shape(0), count = rows.shape(0);
+        auto x = new_array({n});
+        math::QpWorkspace ws(count, n);
+        math::QpResult result;
+        {
+          nb::gil_scoped_release release;
+          std::vector<double> factor(h.data(), h.data() + n * n);
+          result = math::solve_qp(factor.data(), n, c.data(), {rows.data(), n, b.data(), count}, n, x.second, ws,
+                                  {max_sweeps, tolerance});
+        }
+        return solution_of(std::move(x), ws, count, result);
+      },
+      "h"_a, "c"_a, "rows"_a, "b"_a, "max_sweeps"_a = 200, "tolerance"_a = 1e-7,
+      "minimise 1/2 x^T H x - c^T x subject to rows @ x >= b (H symmetric positive definite).");
+}
+
+}  // namespace pfield::python

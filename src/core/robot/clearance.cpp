@@ -1,0 +1,190 @@
+// Every expression keeps the operand order of pfield/robot/_clearance.py, Python's min keeps its tie rule, and this
+// file is compiled without fused multiply-adds (CMakeLists.txt): the numba kernels that still inline that module
+// and this core give the same bits (tests/robot/test_core_distance.py).
+#include "robot/clearance.hpp"
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include "geometry/sdf.hpp"
+#include "robot/kinematics.hpp"
+
+namespace pfield::robot {
+namespace {
+
+using detail::py_min;
+using geometry::Kind;
+using geometry::PackedView;
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+Vec3 point_at(const double* rows, std::size_t k) { return {rows[3 * k], rows[3 * k + 1], rows[3 * k + 2]}; }
+
+// A result that is not exact: a lower bound, no point, normal (0, 0, 1).
+LinkObstacleDistance bound_only(double distance, ClearanceLevel level) {
+  LinkObstacleDistance out;
+  out.distance = distance;
+  out.exact = false;
+  out.level = level;
+  return out;
+}
+
+}  // namespace
+
+void world_segment_range(const Frames& frames, const std::int64_t* joints, const double* a, const double* b,
+                         std::size_t start, std::size_t stop, double* out_a, double* out_b) {
+  for (std::size_t c = start; c < stop; ++c) {
+    const Vec3 wa = transform_point(frames, joints[c], point_at(a, c));  // joint -1: the base, the end as is
+    const Vec3 wb = transform_point(frames, joints[c], point_at(b, c));
+    out_a[3 * c] = wa.x, out_a[3 * c + 1] = wa.y, out_a[3 * c + 2] = wa.z;
+    out_b[3 * c] = wb.x, out_b[3 * c + 1] = wb.y, out_b[3 * c + 2] = wb.z;
+  }
+}
+
+void capsule_segments(const LinkModelView& links, const Frames& frames, WorldSegments& world) {
+  world_segment_range(frames, links.cap_joint, links.cap_a, links.cap_b, 0, links.capsule_count, world.cap_a,
+                      world.cap_b);
+}
+
+void primitive_segments(const LinkModelView& links, const Frames& frames, WorldSegments& world) {
+  world_segment_range(frames, links.prim_joint, links.prim_a, links.prim_b, 0, links.primitive_count, world.prim_a,
+                      world.prim_b);
+}
+
+void near_segments(const LinkModelView& links, const Frames& frames, const ObstacleSet& obstacles,
+                   WorldSegments& world) {
+  const std::size_t count = obstacles.count();
+  for (std::size_t link = 0; link < links.capsule_count; ++link) {
+    bool near = false;
+    for (std::size_t i = 0; i < count && !near; ++i)
+      near = capsule_lower_bound(obstacles, i, world, links, link) < kFineRange + kFineMargin;
+    if (near)
+      world_segment_range(frames, links.prim_joint, links.prim_a, links.prim_b,
+                          static_cast<std::size_t>(links.link_start[link]),
+                          static_cast<std::size_t>(links.link_start[link + 1]), world.prim_a, world.prim_b);
+  }
+}
+
+LinkObstacleDistance capsule_level_distance(const PackedView& packed, std::size_t i, Vec3 a, Vec3 b, double radius) {
+  const SegmentDistance s = segment_obstacle_distance(packed, i, a, b);
+  const double d = s.distance - radius;
+  if (!(d >= kFineRange)) return bound_only(d, ClearanceLevel::Capsule);
+  // far: the bounding capsule's distance (a lower bound of the fitted model's) stands for the pair
+  LinkObstacleDistance out;
+  out.distance = d;
+  out.exact = true;
+  out.level = ClearanceLevel::Capsule;
+  out.point = {a.x + s.t * (b.x - a.x), a.y + s.t * (b.y - a.y), a.z + s.t * (b.z - a.z)};
+  out.normal = s.normal;
+  return out;
+}
+
+LinkObstacleDistance fitted_distance_below(const PackedView& packed, std::size_t i, Vec3 centre, double reach,
+                                           const LinkModelView& links, const WorldSegments& world,
+                                           std::size_t start, std::size_t stop, double fine_cutoff) {
+  LinkObstacleDistance out;  // best: distance inf, point 0, normal (0, 0, 1)
+  out.exact = true;
+  out.level = ClearanceLevel::Primitives;
+  const auto kind = static_cast<Kind>(packed.kinds[i]);
+  const bool round_obstacle = kind == Kind::Sphere || kind == Kind::Capsule;
+  // nothing whose lower bound exceeds `limit` can be the minimum: the best exact value so far, or an upper bound
+  // (a segment's midpoint is one of its points, so d(midpoint) - r_p >= the minimum)
+  double limit = fine_cutoff;
+  for (std::size_t p = start; p < stop; ++p) {
+    const Vec3 a = point_at(world.prim_a, p), b = point_at(world.prim_b, p);
+    const double radius = links.prim_r[p];
+    const Vec3 e = b - a;
+    const double length2 = math::dot(e, e);
+    // the bounding spheres' bound: the residual of the obstacle's centre off the primitive's axis, taken as
+    // (c - a) - u e (the point-segment distance takes c - (a + u e): a different rounding; kept as numba has it)
+    const Vec3 o = centre - a;
+    const double u = closest_parameter(o, e, length2);
+    const double fx = o.x - u * e.x, fy = o.y - u * e.y, fz = o.z - u * e.z;
+    if (std::sqrt(fx * fx + fy * fy + fz * fz) - reach - radius > limit) continue;
+    if (!round_obstacle) {
+      // a signed distance is 1-Lipschitz: d(s(t)) >= d(midpoint) - half the segment's length; and the midpoint's
+      // own value bounds the minimum from above
+      const Vec3 middle_point{a.x + 0.5 * e.x, a.y + 0.5 * e.y, a.z + 0.5 * e.z};
+      const double middle = geometry::obstacle_signed_distance(packed, i, middle_point, kInf).distance - radius;
+      limit = py_min(limit, middle);
+      if (middle - 0.5 * std::sqrt(length2) > limit) continue;
+    }
+    const SegmentDistance s = segment_obstacle_distance(packed, i, a, b);
+    const double d = s.distance - radius;
+    if (d < out.distance) {
+      out.distance = d;
+      out.normal = s.normal;
+      out.point = {a.x + s.t * e.x, a.y + s.t * e.y, a.z + s.t * e.z};
+      out.primitive = static_cast<std::int64_t>(p);
+      limit = py_min(limit, out.distance);
+    }
+  }
+  if (out.distance == kInf && fine_cutoff < kInf) return bound_only(fine_cutoff, ClearanceLevel::Primitives);
+  return out;
+}
+
+LinkObstacleDistance link_obstacle_distance_below(const LinkModelView& links, const WorldSegments& world,
+                                                  const ObstacleSet& obstacles, std::size_t link, std::size_t i,
+                                                  double cutoff, double fine_cutoff) {
+  LinkObstacleDistance out;
+  const double lower = capsule_lower_bound(obstacles, i, world, links, link);
+  if (lower >= cutoff) {
+    out = bound_only(lower, ClearanceLevel::Culled);
+  } else {
+    out = capsule_level_distance(*obstacles.packed, i, world.capsule_a(link), world.capsule_b(link),
+                                 links.cap_r[link]);
+    if (!out.exact && !(out.distance >= fine_cutoff))
+      out = fitted_distance_below(*obstacles.packed, i, obstacles.centre(i), obstacles.bounds[i], links, world,
+                                  static_cast<std::size_t>(links.link_start[link]),
+                                  static_cast<std::size_t>(links.link_start[link + 1]), fine_cutoff);
+  }
+  out.link = static_cast<std::int64_t>(link);
+  out.obstacle = static_cast<std::int64_t>(i);
+  return out;
+}
+
+LinkPairDistance link_pair_distance(const LinkModelView& links, const WorldSegments& world, std::size_t l1,
+                                    std::size_t l2) {
+  const Vec3 a1 = world.capsule_a(l1), b1 = world.capsule_b(l1), a2 = world.capsule_a(l2), b2 = world.capsule_b(l2);
+  const SegmentParameters st = closest_segment_points(a1, b1, a2, b2);
+  const Vec3 p1{a1.x + st.s * (b1.x - a1.x), a1.y + st.s * (b1.y - a1.y), a1.z + st.s * (b1.z - a1.z)};
+  const Vec3 p2{a2.x + st.t * (b2.x - a2.x), a2.y + st.t * (b2.y - a2.y), a2.z + st.t * (b2.z - a2.z)};
+  const double dx = p1.x - p2.x, dy = p1.y - p2.y, dz = p1.z - p2.z;
+  const double d = std::sqrt(dx * dx + dy * dy + dz * dz) - links.self_r[l1] - links.self_r[l2];
+  return {d, p1, p2};
+}
+
+void fill_clearances(const LinkModelView& links, const WorldSegments& world, const ObstacleSet& obstacles,
+                     double cutoff, double* obstacle, double* own) {
+  const std::size_t count = obstacles.count();
+  for (std::size_t link = 0; link < links.capsule_count; ++link)
+    for (std::size_t i = 0; i < count; ++i)
+      obstacle[link * count + i] =
+          link_obstacle_distance_below(links, world, obstacles, link, i, cutoff, cutoff).distance;
+  for (std::size_t k = 0; k < links.pair_count; ++k)
+    own[k] = link_pair_distance(links, world, static_cast<std::size_t>(links.self_pairs[2 * k]),
+                                static_cast<std::size_t>(links.self_pairs[2 * k + 1]))
+                 .distance;
+}
+
+void clearances(const LinkModelView& links, const Frames& frames, const ObstacleSet& obstacles, WorldSegments& world,
+                double* obstacle, double* own) {
+  capsule_segments(links, frames, world);
+  primitive_segments(links, frames, world);
+  fill_clearances(links, world, obstacles, kInf, obstacle, own);
+}
+
+void clearances_at(const KinematicsView& kinematics, const LinkModelView& links, const double* q,
+                   const ObstacleSet& obstacles, double* obstacle, double* own) {
+  std::vector<double> rotations(9 * kinematics.joint_count), origins(3 * kinematics.joint_count);
+  std::vector<double> caps(6 * links.capsule_count), prims(6 * links.primitive_count);
+  Frames frames{rotations.data(), origins.data()};
+  joint_transforms(kinematics, q, frames);
+  WorldSegments world{caps.data(), caps.data() + 3 * links.capsule_count, prims.data(),
+                      prims.data() + 3 * links.primitive_count};
+  clearances(links, frames, obstacles, world, obstacle, own);
+}
+
+}  // namespace pfield::robot

@@ -1,0 +1,104 @@
+// Closest points between a link's segment and an obstacle, and between two segments: the distances every
+// robot-level clearance is built from (robot/clearance.hpp). The same operations in the same order as
+// pfield/robot/_distance.py (numba), which the kernels not yet ported still inline: both give the same bits
+// (tests/robot/test_core_distance.py).
+//
+// A link capsule is a segment s(t) = a + t (b - a), t in [0, 1], swept by a sphere of radius r, so its signed
+// distance to an obstacle is min_t d_O(s(t)) - r with d_O the obstacle's exact signed distance
+// (geometry::obstacle_signed_distance). The minimisation over t is continuous:
+//
+//   * spheres and capsules: closed form (point-segment, segment-segment; Ericson, "Real-Time Collision
+//     Detection" 2005, sections 5.1.2 and 5.1.9);
+//   * boxes: closed form (box_minimiser: d^2 is piecewise quadratic along the segment);
+//   * cylinders, ellipsoids: the signed distance of a convex set is convex, so f(t) = d_O(s(t)) is convex and its
+//     minimiser is found by bisection on the sign of f'(t) = grad d_O . (b - a) (convex_minimiser);
+//   * meshes (possibly non-convex): the best of 9 samples, refined by golden-section search in the bracket around
+//     it (mesh_minimiser).
+//
+// The point-segment closest parameter (closest_parameter) is the one home of that formula in the core: the
+// point-segment distance, the sphere obstacle's closed form and the fitted primitives' culling bound
+// (clearance.cpp) all take their t from it.
+//
+// closest_parameter is inline (the culling loops inline it) and does arithmetic: call it only from files compiled
+// with -ffp-contract=off (every file under src/core/{field,planning,robot,math,shared_control}), not from the
+// binding files, or the bits may differ; everything else here is defined in distance.cpp.
+#pragma once
+
+#include <cstddef>
+
+#include "geometry/packed.hpp"
+#include "math/vec3.hpp"
+
+namespace pfield::robot {
+
+using math::Vec3;
+
+namespace detail {
+// Python's min and max (numba keeps them): the second argument wins only when strictly beyond the first.
+inline double py_min(double a, double b) { return b < a ? b : a; }
+inline double py_max(double a, double b) { return b > a ? b : a; }
+inline double clamp01(double x) { return py_min(py_max(x, 0.0), 1.0); }  // min(max(x, 0), 1)
+}  // namespace detail
+
+// Segments shorter than sqrt(1e-14) m (1e-7 m) count as points.
+constexpr double kDegenerateLength2 = 1e-14;
+
+// The parameter t in [0, 1] of the point of the segment a + t e closest to a + offset (offset = c - a, e = b - a,
+// length2 = e . e): the projection clamped onto the segment (Ericson 5.1.2); 0 for a degenerate segment.
+inline double closest_parameter(Vec3 offset, Vec3 e, double length2) {
+  return length2 <= kDegenerateLength2 ? 0.0 : detail::clamp01(math::dot(offset, e) / length2);
+}
+
+// Euclidean distance (m) from point c to segment a-b: |c - (a + t e)| with t = closest_parameter.
+double point_segment_distance(Vec3 c, Vec3 a, Vec3 b);
+
+// Parameters s (on p1-q1) and t (on p2-q2) in [0, 1] of the closest points of two segments.
+struct SegmentParameters {
+  double s = 0.0;
+  double t = 0.0;
+};
+
+// Ericson 5.1.9: the unconstrained minimiser clamped onto s, t recomputed from it and clamped, s recomputed when
+// t was clamped; degenerate segments (length^2 <= 1e-14) reduce to point-segment, parallel ones (a e - b^2 <=
+// 1e-14) take s = 0.
+SegmentParameters closest_segment_points(Vec3 p1, Vec3 q1, Vec3 p2, Vec3 q2);
+
+// Euclidean distance (m) between segments p1-q1 and p2-q2.
+double segment_segment_distance(Vec3 p1, Vec3 q1, Vec3 p2, Vec3 q2);
+
+// The minimum over t in [0, 1] of the signed distance of a + t (b - a) to an obstacle: d (m, negative inside), the
+// minimising t and the obstacle's outward unit normal (grad d) at that point.
+struct SegmentDistance {
+  double distance = 0.0;
+  double t = 0.0;
+  Vec3 normal;
+};
+
+// min_t d_i(a + t (b - a)) to packed obstacle i, by the obstacle's kind (see the top of this file). Unknown kind
+// codes are treated as the signed-distance dispatch treats them (as spheres, minimised by bisection); a mesh row
+// naming no packed mesh gives NaN.
+SegmentDistance segment_obstacle_distance(const geometry::PackedView& packed, std::size_t i, Vec3 a, Vec3 b);
+
+// The pieces, for tests and for callers that know the obstacle's kind.
+//
+// Spheres and capsules (kinds[i] Sphere or Capsule) in closed form. On the centre or axis (distance below 1e-12)
+// any direction perpendicular to the segment is a gradient: (-e_y, e_x, 0) normalised when |e_z| < max(|e_x|,
+// |e_y|), else (0, -e_z, e_y), and local (0, 0, 1) for a degenerate segment.
+SegmentDistance round_segment_distance(const geometry::PackedView& packed, std::size_t i, Vec3 a, Vec3 b);
+
+// The t minimising the signed distance of a + t (b - a) to box i, in closed form. In the box frame the segment is
+// p(t) = p0 + t u with excesses e_k(t) = |p_k(t)| - h_k. Outside, g = d^2 = sum_k max(e_k, 0)^2 is convex and C^1,
+// g' linear between the breakpoints where some p_k(t) = +-h_k (at most six): the minimiser is an end, or the zero
+// of g' interpolated between the last candidate (ends and breakpoints) with g' < 0 and the first with g' >= 0.
+// When g is zero there the segment reaches the box, where d = max_k e_k, the largest of six affine functions
+// +-p_k(t) - h_k: its minimum is at an end or where two of them cross (ties: the smallest t).
+double box_minimiser(const geometry::PackedView& packed, std::size_t i, Vec3 a, Vec3 b);
+
+// Bisection (24 halvings) on the sign of the slope grad d . u in the obstacle's frame: exact for convex kinds.
+SegmentDistance convex_minimum(const geometry::PackedView& packed, std::size_t i, Vec3 a, Vec3 b);
+
+// The best of 9 evenly spaced samples, refined by 18 golden-section steps in the bracket of its neighbours (kept
+// when the refined bracket is worse: a flat or noisy f).
+SegmentDistance mesh_minimum(const geometry::PackedView& packed, std::size_t i, Vec3 a, Vec3 b);
+
+}  // namespace pfield::robot
