@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test bench anchor lint venv core core-test clean clean-numba-cache ros2-interfaces chromium
+.PHONY: demo test bench anchor lint venv core core-test clean ros2-interfaces chromium
 
 # The compiled core pfield._core (C++17 in src/core, nanobind, scikit-build-core) is built by an editable
 # install without build isolation, so that its build tree (build/cp311-*) is kept and an edit of a C++ file
@@ -52,7 +52,7 @@ $(ROS2_STAMP): $(ROS2_PKG)/CMakeLists.txt $(ROS2_PKG)/package.xml $(ROS2_PKG)/ms
 
 ros2-interfaces: $(ROS2_STAMP)
 
-# warmup first: it compiles every numba kernel once with a progress bar (seconds when cached)
+# warmup first: a self-check of the install (seconds; on a new machine it fits the built-in robots' link models)
 demo: $(STAMP) $(CORE_STAMP)
 	$(VENV)/bin/pfield warmup
 	$(VENV)/bin/pfield demo
@@ -127,11 +127,6 @@ $(OLD_ENGINE_STAMP):
 		"old/new columns"; exit 1; }
 	@git -C $(OLD_ENGINE) rev-parse HEAD > $@
 	@echo "numba engine ready: $(OLD_ENGINE) at $$(cat $@)"
-
-# numba re-checks a cached kernel only against its own file; after editing a kernel that others inline
-# (geometry/_sdf.py, field/forces.py, ...), drop the compiled cache so every dependant recompiles.
-clean-numba-cache:
-	find src -name '*.nbi' -delete -o -name '*.nbc' -delete
 
 clean:
 	rm -rf $(VENV) build demo_output .pytest_cache .mypy_cache .ruff_cache

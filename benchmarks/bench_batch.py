@@ -3,16 +3,16 @@
 * **MBM plans/s**: the first problems of each of the four scenes of ``../shared/benchmarks/mbm/`` (3 per scene
   with ``--quick``, 25 otherwise), planned by :func:`pfield.batch.plan_many` with the process backend and
   1 or 2 workers. Two figures per worker count: the whole call (worker start-up included: spawning, importing
-  pfield, building the Panda, loading the compiled kernels from numba's cache), and the steady rate: the
+  pfield, building the Panda, reading its fitted link model from pfield's cache), and the steady rate: the
   problems over the whole call less the pool's start-up, which is what a long batch sees. The start-up is
   timed on one copy of the set's first problem per worker (so the workers build the same robot and load the
-  same kernels as for the set), less that problem's own planning time. Target: the steady rate with
+  same link model as for the set), less that problem's own planning time. Target: the steady rate with
   2 workers ≥ 1.8 × the rate with 1 (on an otherwise idle 2-core machine; CPU time is in the note, since
   other processes sharing the machine slow the wall clock).
 * **Ray overhead per problem**: 100 tiny task-space problems (a few steps each) on a local Ray cluster of
   2 actors, started inside a private network namespace (``unshare -n``, loopback only) as the tests do;
   the time per record on Ray once both actors have delivered, less the in-process time per problem; the
-  actors' start-up (new processes importing pfield and loading kernels) is reported apart.
+  actors' start-up (new processes importing pfield and building the robot) is reported apart.
 
 Scriptable: ``python -m benchmarks.bench_batch [--quick]`` prints the rows; ``--ray-overhead N`` (used by
 ``run`` inside the namespace) prints the Ray figures as JSON.
@@ -48,7 +48,7 @@ def _rates(problems: list[Problem], workers: int) -> tuple[float, float, float]:
 
     The steady rate leaves out the pool's start-up: N / (whole call − start-up), where the start-up is the
     whole call for ``workers`` copies of the first problem with the same worker count (spawning, imports, the
-    problems' robot, kernels) less that problem's planning time. Records arrive in input order, so the rate
+    problems' robot) less that problem's planning time. Records arrive in input order, so the rate
     between arrivals would depend on where the long problems sit.
     """
     copies = [dataclasses.replace(problems[0], scene="start-up", index=i) for i in range(workers)]
@@ -89,13 +89,13 @@ def ray_overhead(count: int) -> dict[str, float]:
     import ray
 
     problems = _tiny_problems(count)
-    list(plan_many(problems[:5]))  # kernels loaded
+    list(plan_many(problems[:5]))  # imports done, the robot's link model read
     begin = time.perf_counter()
     list(plan_many(problems))
     local = time.perf_counter() - begin
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, _node_ip_address="127.0.0.1")
     try:
-        list(plan_many(problems[:4], workers=2, backend="ray"))  # workers' imports and kernels warm
+        list(plan_many(problems[:4], workers=2, backend="ray"))  # workers' imports and robots built
         begin = time.perf_counter()
         arrivals = [time.perf_counter() for _ in plan_many(problems, workers=2, backend="ray")]
         total = time.perf_counter() - begin

@@ -1,18 +1,18 @@
-"""Signed-distance speed: per point, inside a compiled loop, for meshes and every primitive shape.
+"""Signed-distance speed per point, in the compiled core's batch, for meshes and every primitive shape.
 
-The loop calls :func:`pfield.geometry.obstacle_signed_distance` (or ``min_signed_distance`` over ten
-obstacles) for each of a few thousand query points and sums the distances, the way the field's and the
-planners' kernels use it. Query points fill a cube three times the obstacle's size around it, so about
-a quarter are near the surface and some are inside. C++ figures (REFERENCE.md §3) are whole wrench
+:func:`pfield.geometry.signed_distances` evaluates a few thousand query points against the obstacles in one call
+(the core's loop, outside the GIL), the way the field's and the planners' loops query the core; the time per
+point is the call's median over the points. Query points fill a cube three times the obstacle's size around it,
+so about a quarter are near the surface and some are inside. C++ figures (REFERENCE.md §3) are whole wrench
 evaluations (distance + repulsion + attraction) of the named scene, the closest comparable figure.
 """
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
-from numba import njit
 
 from benchmarks._common import BenchRow, median_time
 from pfield.geometry import (
@@ -25,10 +25,8 @@ from pfield.geometry import (
     ResourceResolver,
     Shape,
     Sphere,
-    min_signed_distance,
-    obstacle_signed_distance,
-    obstacle_signed_distance_within,
     pack_obstacles,
+    signed_distances,
 )
 from pfield.geometry._packed import PackedObstacles
 from pfield.planning.scenes import evaluation_scene
@@ -38,33 +36,9 @@ SECTION = "geometry: signed distance per point (compiled loop)"
 MESHES = Path(__file__).resolve().parents[1] / "tests" / "data" / "meshes"
 
 
-@njit(cache=True)
-def _distance_loop(packed: PackedObstacles, points: np.ndarray) -> float:
-    total = 0.0
-    for k in range(points.shape[0]):
-        total += obstacle_signed_distance(packed, 0, points[k])[0]
-    return total
-
-
-@njit(cache=True)
-def _within_loop(packed: PackedObstacles, points: np.ndarray) -> float:
-    total = 0.0
-    for k in range(points.shape[0]):
-        for i in range(packed.kinds.shape[0]):
-            total += obstacle_signed_distance_within(packed, i, points[k], 0.1)[0]
-    return total
-
-
-@njit(cache=True)
-def _min_loop(packed: PackedObstacles, points: np.ndarray) -> float:
-    total = 0.0
-    for k in range(points.shape[0]):
-        total += min_signed_distance(packed, points[k])[0]
-    return total
-
-
-def _per_point_us(loop, packed: PackedObstacles, points: np.ndarray, quick: bool) -> float:  # type: ignore[no-untyped-def]
-    seconds = median_time(lambda: loop(packed, points), repeat=3 if quick else 9, number=1 if quick else 3)
+def _per_point_us(packed: PackedObstacles, points: np.ndarray, quick: bool, cutoff: float = math.inf) -> float:
+    seconds = median_time(lambda: signed_distances(packed, points, cutoff), repeat=3 if quick else 9,
+                          number=1 if quick else 3)
     return seconds / len(points) * 1e6
 
 
@@ -90,7 +64,7 @@ def _mesh_rows(rng: np.random.Generator, quick: bool) -> list[BenchRow]:
         mesh = Mesh(str(MESHES / file_name), resolver=resolver)
         packed = pack_obstacles([Obstacle("m", mesh, Pose((1.0, 0.0, 0.5)))])
         points = _points(rng, np.array([1.0, 0.0, 0.5]), 1.5 * mesh.bounding_radius(), 2000 if quick else 20000)
-        value = _per_point_us(_distance_loop, packed, points, quick)
+        value = _per_point_us(packed, points, quick)
         rows.append(BenchRow(SECTION, label, value, "µs/point", reference, target,
                              note="C++ figure: one wrench with this mesh"))
     return rows
@@ -103,15 +77,16 @@ def _primitive_rows(rng: np.random.Generator, quick: bool) -> list[BenchRow]:
         single = pack_obstacles([Obstacle("o", shape, Pose((0.0, 0.0, 0.0), quaternion_exp(np.multiply(axis, 0.3))))])
         points = _points(rng, np.zeros(3), 1.5 * shape.bounding_radius(), count)
         label = "box" if name == "boxes" else name[:-1]
-        rows.append(BenchRow(SECTION, f"one {label}", _per_point_us(_distance_loop, single, points, quick) * 1e3,
-                             "ns/point"))
+        rows.append(BenchRow(SECTION, f"one {label}", _per_point_us(single, points, quick) * 1e3, "ns/point"))
         ten = pack_obstacles(evaluation_scene(f"{name}_10"))  # the REFERENCE §2 scene
         scene_points = _points(rng, np.array([0.45, 0.15, 0.40]), 0.4, count // 5)
-        rows.append(BenchRow(SECTION, f"{name}_10: nearest of 10", _per_point_us(_min_loop, ten, scene_points, quick),
-                             "µs/point", reference, None, note="C++ figure: whole wrench of the scene"))
-        rows.append(BenchRow(SECTION, f"{name}_10: all 10, cutoff 0.1 m", _per_point_us(_within_loop, ten,
-                             scene_points, quick), "µs/point", reference, None,
-                             note="obstacle_signed_distance_within (exact up to the influence distance)"))
+        nearest = median_time(lambda: signed_distances(ten, scene_points)[0].min(axis=1),  # noqa: B023
+                              repeat=3 if quick else 9, number=1 if quick else 3) / len(scene_points) * 1e6
+        rows.append(BenchRow(SECTION, f"{name}_10: nearest of 10", nearest, "µs/point", reference, None,
+                             note="all 10 exact, then each point's minimum; C++ figure: whole wrench of the scene"))
+        within = _per_point_us(ten, scene_points, quick, 0.1)
+        rows.append(BenchRow(SECTION, f"{name}_10: all 10, cutoff 0.1 m", within, "µs/point", reference, None,
+                             note="exact up to the influence distance (a lower bound beyond, as the field needs)"))
     return rows
 
 

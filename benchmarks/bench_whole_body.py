@@ -5,8 +5,8 @@ orientation Rx(π), dt 0.01, tolerance 0.01 m, at most 30000 steps; no obstacles
 lateral offset 0.15 m); parameters "default" and "rosYaml". µs per step = median wall time of the whole
 ``plan_whole_body`` call / steps taken (pfield needs far fewer steps, so ms per plan is also shown).
 Autonomy vector: ``whole_body_autonomy_vector`` from Python at q0 (previous velocities zero, dt 0.01).
-Kinematics: FK, end-effector Jacobian and one IK solve (+1 cm) — the compiled kernels called from a
-compiled loop (comparable with the C++ library's C++ calls) and the public Python API.
+Kinematics: FK, end-effector Jacobian and one IK solve (+1 cm) through the public Python API (target ≤ 2× the
+C++ library's in-process calls, issue 32), and the IK solve also through the core's entry without the result object.
 Notes add the median CPU time (the machine is shared; wall time includes waiting for a core).
 The C++ column is the anchor program run in the same ``make bench`` (:mod:`benchmarks._anchor`), else REFERENCE §3.
 Prepared calls: :class:`~pfield.robot.ik.IKSolver` (bound arrays, one compiled call) next to the kernel.
@@ -15,11 +15,9 @@ Prepared calls: :class:`~pfield.robot.ik.IKSolver` (bound arrays, one compiled c
 from __future__ import annotations
 
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
-from numba import njit
 
 from benchmarks._anchor import cpp_figures, cpp_median
 from benchmarks._common import BenchRow, auto_number, cpu_time, median_time
@@ -27,7 +25,6 @@ from pfield.field import FieldConfig, PotentialField
 from pfield.planning.scenes import DEFAULT_PARAMS, SEED_GOAL, seed_obstacles, sphere_line_scene
 from pfield.planning.whole_body import joint_velocity_sign_flips
 from pfield.robot import RobotModel
-from pfield.robot import _kinematics as kin
 from pfield.robot.ik import IKSolver, ik_settings, solve_ik
 from pfield.shared_control.autonomy import whole_body_autonomy_vector
 from pfield.spatial import Pose
@@ -109,42 +106,8 @@ def _vector_rows(robot: RobotModel, repeat: int) -> list[BenchRow]:
     return rows
 
 
-@njit(cache=True)
-def _fk_loop(count, q, k_parents, k_rot, k_pos, k_axes, k_kinds, rotations, origins):  # type: ignore[no-untyped-def]
-    for _ in range(count):
-        q[0] += 1e-9
-        kin.joint_transforms(q, k_parents, k_rot, k_pos, k_axes, k_kinds, rotations, origins)
-    return origins[6, 0]
-
-
-@njit(cache=True)
-def _jacobian_loop(count, q, k_parents, k_rot, k_pos, k_axes, k_kinds, k_support, ee, ee_rot, ee_pos, rotations,
-                   origins, jac):  # type: ignore[no-untyped-def]
-    for _ in range(count):
-        q[0] += 1e-9
-        kin.end_effector_kinematics(q, k_parents, k_rot, k_pos, k_axes, k_kinds, k_support, ee, ee_rot, ee_pos,
-                                    rotations, origins, jac)
-    return jac[0, 0]
-
-
-def _per_call(loop: object, count: int, *args: object) -> float:
-    loop(10, *args)  # type: ignore[operator]
-    best = np.inf
-    for _ in range(5):
-        start = time.perf_counter()
-        loop(count, *args)  # type: ignore[operator]
-        best = min(best, (time.perf_counter() - start) / count)
-    return best
-
-
 def _kinematics_rows(robot: RobotModel, repeat: int) -> list[BenchRow]:
-    k = robot.kinematics
     n = robot.n_joints
-    rotations, origins, jac = np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((6, n))
-    fk = _per_call(_fk_loop, 200000, Q0.copy(), k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, rotations,
-                   origins)
-    jacobian = _per_call(_jacobian_loop, 200000, Q0.copy(), k.parents, k.place_rot, k.place_pos, k.axes, k.kinds,
-                         k.support, k.ee_joint, k.ee_rot, k.ee_pos, rotations, origins, jac)
     start = robot.forward_kinematics(Q0)
     target = Pose(start.position + np.array([0.01, 0.0, 0.0]), start.orientation)
     settings = ik_settings(200, 1e-4, 1e-3, 1e-4, 0.3)
@@ -169,11 +132,10 @@ def _kinematics_rows(robot: RobotModel, repeat: int) -> list[BenchRow]:
     api_ik = median_time(lambda: solve_ik(robot, target, Q0), repeat=repeat, number=500)
     iterations = solve_ik(robot, target, Q0).iterations
     return [
-        BenchRow(SECTION_KIN, "FK (all joints, compiled loop)", fk * 1e6, "µs", cpp_fk, target=cpp_fk,
-                 note=f"public forward_kinematics() from Python: {api_fk * 1e6:.3g} µs (returns a validated Pose); "
-                      f"{fk_source}"),
-        BenchRow(SECTION_KIN, "FK + end-effector Jacobian (compiled loop)", jacobian * 1e6, "µs", cpp_jac,
-                 target=cpp_jac, note=f"public jacobian() from Python: {api_jac * 1e6:.3g} µs; {fk_source}"),
+        BenchRow(SECTION_KIN, "FK (public forward_kinematics from Python)", api_fk * 1e6, "µs", cpp_fk,
+                 target=2.0 * cpp_fk, note=f"returns a validated Pose; target ≤ 2× the C++; {fk_source}"),
+        BenchRow(SECTION_KIN, "FK + end-effector Jacobian (public jacobian from Python)", api_jac * 1e6, "µs",
+                 cpp_jac, target=2.0 * cpp_jac, note=f"target ≤ 2× the C++; {fk_source}"),
         BenchRow(SECTION_KIN, "IK solve, +1 cm (prepared IKSolver.solve from Python)", prepared * 1e6, "µs", cpp_ik,
                  target=cpp_ik, note=f"CPU {prepared_cpu * 1e6:.3g} µs; {iterations} DLS iterations; {ik_source}; "
                                      "target ≤ 1.0× the C++"),

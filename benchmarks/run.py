@@ -14,10 +14,10 @@ Reference figures: ``../shared/benchmarks/REFERENCE.md``.
 Beside the numba engine: when ``make old-engine`` has built it (``build/old-engine``: the last all-numba commit in
 a git worktree with its own virtual environment) and unless ``--no-old``, every module that exists in both trees
 runs in new processes, old and new alternating, ``--rounds`` times each (default 2); each figure is the median of
-its rounds and the table gains the columns ``numba engine`` and ``new/old`` (≤ 1 is no worse, see
-:meth:`BenchRow.new_old`). Rows are matched by (section, name); a row one engine lacks shows "—". A module the
-old commit lacks runs once in this process, as without the numba engine. ``benchmarks/_old_engine.py``;
-docs/core.md, "Comparing with the numba engine".
+its rounds (of two, the better: :func:`benchmarks._old_engine.middle`) and the table gains the columns
+``numba engine`` and ``new/old`` (≤ 1 is no worse, see :meth:`BenchRow.new_old`). Rows are matched by (section,
+name); a row one engine lacks shows "—". A module the old commit lacks runs once in this process, as without the
+numba engine. ``benchmarks/_old_engine.py``; docs/core.md, "Comparing with the numba engine".
 """
 
 from __future__ import annotations
@@ -50,8 +50,9 @@ HEADER = ("| figure | pfield | unit | C++ original | ratio | target | met | note
 PAIRED_HEADER = ("| figure | pfield | unit | numba engine | new/old | C++ original | ratio | target | met | note |",
                  "|---|---:|---|---:|---:|---:|---:|---:|:---:|---|")
 OLD_LEGEND = ("numba engine: the same row of the last all-numba commit, measured in the same run (old and new "
-              "alternating, each figure the median of its rounds). new/old ≤ 1.00: the new engine is no slower "
-              "(no worse); where higher is better (plans/s, success) the cell is old/new. Bold: above 1.00.")
+              "alternating, each figure the median of its rounds, of two the better). new/old ≤ 1.00: the new engine "
+              "is no slower (no worse); where higher is better (plans/s, success) the cell is old/new. Bold: above "
+              "1.00.")
 
 
 def _fmt(value: float | None) -> str:

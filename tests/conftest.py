@@ -3,9 +3,15 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 # Keep matplotlib headless in every test process.
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+# The fitted robot link models of the test run (and of every server, worker and example process it starts, which
+# inherit the environment) go under build/ of this checkout, not into the user's ~/.cache/pfield; they persist
+# between runs there, as a user's cache does (pfield.robot._fit.cache_root).
+os.environ.setdefault("PFIELD_CACHE_DIR", str(Path(__file__).resolve().parents[1] / "build" / "test-cache"))
 
 from hypothesis import settings
 
@@ -14,13 +20,3 @@ from hypothesis import settings
 settings.register_profile("ci", derandomize=True, print_blob=True)
 if os.environ.get("CI"):
     settings.load_profile("ci")
-
-# The cold-compile test of `pfield warmup` runs first. On a fresh checkout numba's cache is empty, so that test
-# compiles every kernel into it (tests/cli/test_warmup.py) and every later test, server and worker process loads
-# the kernels instead of compiling them again.
-COLD_WARMUP_TEST = "tests/cli/test_warmup.py::test_warmup_command_compiles_every_kernel_with_progress"
-
-
-def pytest_collection_modifyitems(items: list) -> None:  # type: ignore[type-arg]
-    first = [item for item in items if item.nodeid == COLD_WARMUP_TEST]
-    items[:] = first + [item for item in items if item.nodeid != COLD_WARMUP_TEST]

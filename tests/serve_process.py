@@ -25,8 +25,8 @@ PFIELD = Path(sys.executable).with_name("pfield")
 REPO = Path(__file__).resolve().parents[1]
 SRC = REPO / "src"
 MESH_PACKAGE = REPO / "tests" / "data" / "my_robot_description"
-START_TIMEOUT_S = 300.0
-"""s a server may take to answer (a cold numba cache makes the first start slow)."""
+START_TIMEOUT_S = 120.0
+"""s a server may take to answer (generous: it answers within seconds, on a loaded 2-core machine too)."""
 
 
 def free_port() -> int:

@@ -4,8 +4,7 @@ Each script runs with the venv's Python, ``MPLBACKEND=Agg``, its working directo
 (so a script that writes next to itself or into ``demo_output/`` of the current directory is caught), and
 its pictures sent to ``--output-dir`` under ``tmp_path``. Long scripts get their short-horizon option
 (``--steps``, ``--seconds``, ``--resolution``, documented in each docstring). The scripts run two at a time
-in a thread pool; the whole file takes some 10–15 s once numba's cache is warm (about 100 s when every
-kernel compiles first).
+in a thread pool; the whole file takes some 10–15 s.
 """
 
 from __future__ import annotations

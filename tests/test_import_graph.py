@@ -19,7 +19,7 @@ ROOT = Path(pfield.__file__).resolve().parent
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("cli",),
     ("demo",),  # the built-in demonstration: drives a real node through its transport
-    ("warmup",),  # compiles every kernel once: uses every computational package below
+    ("warmup",),  # the self-check: uses every computational package below
     ("transport",),
     ("node",),
     ("batch",),  # many plans on every core or a Ray cluster: problems from scene, the planners' public API
@@ -31,12 +31,11 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("planning",),
     ("robot",),
     ("field",),
-    ("_bound",),  # bound-array tables of the prepared calls, over geometry._raw's pointer intrinsics
     ("geometry",),
     ("mobile", "costmap"),  # 2D packages: spatial and the bottom layer only
     ("spatial",),
     ("safety",),  # the output contract: every command finite and within its limits (numpy and the bottom layer)
-    ("_spatial_kernels", "_linalg", "_layout", "_validation", "_compile_notice", "_files"),
+    ("_layout", "_validation", "_files"),
     ("_core",),  # the compiled core (C++, nanobind): imports nothing of pfield
     ("_enums",),  # enums that print their names (outcomes: PlanStatus, PoseState)
     ("errors",),

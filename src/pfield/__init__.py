@@ -2,9 +2,6 @@
 
 __version__ = "0.1.0"
 
-# First, before any kernel can compile: a first compile says so (and how long; `pfield warmup`).
-from pfield import _compile_notice  # noqa: F401, I001
-
 from pfield.errors import (
     InvalidInput,
     PfieldError,

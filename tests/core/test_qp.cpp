@@ -1,6 +1,6 @@
 // The velocity QP (src/core/math/qp.hpp): closed-form optima, the active-set finish on nearly parallel rows,
 // infeasible rows, strided buffers and workspace reuse. Also run under AddressSanitizer and UBSan (make core-test);
-// tests/test_core_qp.py holds it to numba's hildreth bit for bit.
+// tests/test_core_qp.py holds it to the values it had when it replaced the Python solver, bit for bit.
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -136,4 +136,19 @@ TEST(qp_rejects_a_problem_larger_than_its_workspace) {
   }
   CHECK(thrown);
   CHECK(h[0] == 1.0);  // refused before H was factored
+}
+
+TEST(cholesky_reports_its_smallest_relative_pivot) {
+  // The factor of [[4, 2], [2, 2]] is [[2, 0], [1, 1]]; its second squared pivot is 2 - 1 = 1, half its diagonal
+  // entry. Dependent rows give 0 and an indefinite block a negative value (the factor stays finite).
+  std::vector<double> h = {4.0, 2.0, 2.0, 2.0};
+  CHECK(cholesky_in_place(h.data(), 2, 2) == 0.5);
+  CHECK(h[0] == 2.0 && h[2] == 1.0 && h[3] == 1.0);
+  std::vector<double> ones = {1.0, 1.0, 1.0, 1.0};
+  CHECK(cholesky_in_place(ones.data(), 2, 2) == 0.0);
+  std::vector<double> indefinite = {1.0, 2.0, 2.0, 1.0};
+  CHECK(cholesky_in_place(indefinite.data(), 2, 2) == -3.0);
+  CHECK(std::all_of(indefinite.begin(), indefinite.end(), [](double v) { return std::isfinite(v); }));
+  std::vector<double> diagonal = {3.0, 0.0, 0.0, 0.0, 5.0, 0.0, 0.0, 0.0, 7.0};
+  CHECK(cholesky_in_place(diagonal.data(), 3, 3) == 1.0);
 }

@@ -1,9 +1,16 @@
-"""The compiled force and limit laws of pfield.field.forces: exact values, continuity, bounds."""
+"""The force and limit laws of pfield.field.forces (the compiled core's ``src/core/field/forces.hpp``): exact
+values, continuity, bounds, and the numba kernels' bits.
+
+Until issue 32 removed them, numba kernels computed these laws for the whole-body planner and the assistance; the
+core's laws were held equal to them bit for bit. :data:`NUMBA_DIGEST` holds the laws' outputs on the seeded inputs
+of :func:`_outputs`, recorded when every one of them equalled numba's."""
 
 from __future__ import annotations
 
+import hashlib
 import itertools
 import math
+from collections.abc import Iterator
 
 import numpy as np
 import pytest
@@ -11,7 +18,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pfield._core.field import braking_rate_limit, rate_limit
-from pfield._spatial_kernels import rotation_error
 from pfield.field.config import PARAM_NAMES, PARAMS
 from pfield.field.forces import (
     attraction,
@@ -21,7 +27,6 @@ from pfield.field.forces import (
     project_damper,
     soft_saturate,
 )
-from pfield.spatial import quaternion_exp, quaternion_inverse, quaternion_log, quaternion_multiply
 
 (ATTRACTIVE_GAIN, ATTRACTIVE_THRESHOLD, CIRCULATION_GAIN, DAMPER_GAIN, INFLUENCE_DISTANCE, MAX_ANGULAR_ACCELERATION,
  MAX_ANGULAR_VELOCITY, MAX_LINEAR_ACCELERATION, MAX_LINEAR_VELOCITY, MAX_REPULSIVE_FORCE, REPULSIVE_GAIN,
@@ -64,22 +69,6 @@ def test_attraction_magnitude_never_exceeds_gain_times_threshold(error: tuple[fl
     force = np.array(attraction(*error, 3.0, 0.5))
     assert np.linalg.norm(force) <= 3.0 * 0.5 * (1 + 1e-12)
     assert np.dot(force, error) >= 0.0
-
-
-@settings(max_examples=100, deadline=None)
-@given(vectors, vectors)
-def test_rotation_error_is_the_world_frame_log(a: tuple[float, float, float], b: tuple[float, float, float]) -> None:
-    q = quaternion_exp(np.array(a) * 0.3)
-    g = quaternion_exp(np.array(b) * 0.3)
-    expected = quaternion_log(quaternion_multiply(g, quaternion_inverse(q)))
-    np.testing.assert_allclose(rotation_error(*q, *g), expected, atol=1e-9)
-    # applying exp(error) on the left of q lands on the goal
-    np.testing.assert_allclose(abs(np.dot(quaternion_multiply(quaternion_exp(expected), q), g)), 1.0, atol=1e-9)
-
-
-def test_rotation_error_at_half_a_turn_has_angle_pi() -> None:
-    error = rotation_error(0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0)
-    assert math.isclose(float(np.linalg.norm(error)), math.pi, rel_tol=1e-12)
 
 
 def test_khatib_magnitude_matches_the_formula_and_is_capped_smoothly() -> None:
@@ -197,3 +186,60 @@ def test_project_damper_is_the_half_space_projection(v: tuple[float, float, floa
         np.testing.assert_array_equal(out, v)
     else:
         np.testing.assert_allclose(np.cross(out - np.array(v), normal), 0.0, atol=1e-12)
+
+
+# ---- the numba kernels' values -------------------------------------------------------------------------------
+
+LAWS = (("attraction", 5), ("khatib_magnitude", 4), ("soft_saturate", 4), ("damper_speed", 6),
+        ("stepped_damper_speed", 5), ("deflect", 11), ("project_damper", 7))
+"""Each law of :mod:`pfield.field.forces` and its number of arguments."""
+
+
+def _arguments(rng: np.random.Generator, count: int, arity: int) -> np.ndarray:
+    """(count, arity) arguments over twelve decades, a fifth of them exact values (zeros, ties, the 1e-12 cut)."""
+    values = rng.normal(size=(count, arity)) * 10.0 ** rng.integers(-6, 2, (count, arity))
+    special = rng.random((count, arity)) < 0.2
+    values[special] = rng.choice([0.0, -0.0, 1.0, -1.0, 0.5, 1e-12, 1e-13, 2.0, 0.1, 0.01], int(special.sum()))
+    return values
+
+
+def _outputs() -> Iterator[tuple[float, ...]]:
+    """Every law on 3000 seeded argument rows each (the last argument positive where it divides: a limit, a cap
+    or dt); rows where numba divided by zero (it raised ZeroDivisionError, the core gives inf or NaN) left out."""
+    from pfield.field import forces
+
+    rng = np.random.default_rng(32)
+    for name, arity in LAWS:
+        law = getattr(forces, name)
+        rows = _arguments(rng, 3000, arity)
+        if name in ("khatib_magnitude", "soft_saturate", "stepped_damper_speed"):
+            rows[:, -1] = np.abs(rows[:, -1]) + 1e-3
+        for row in rows.tolist():
+            if _divides_by_zero(name, row):
+                continue
+            out = law(*row)
+            yield tuple(float(v) for v in out) if isinstance(out, tuple) else (float(out),)
+
+
+def _divides_by_zero(name: str, row: list[float]) -> bool:
+    if name == "attraction":
+        return math.sqrt(row[0] ** 2 + row[1] ** 2 + row[2] ** 2) == 0.0 and row[4] < 0.0
+    if name in ("damper_speed", "stepped_damper_speed"):
+        return row[1] == row[2]
+    return False
+
+
+def _digest(outputs: Iterator[tuple[float, ...]]) -> str:
+    digest = hashlib.sha256()
+    for out in outputs:
+        digest.update(np.array(out, dtype=np.float64).tobytes())
+    return digest.hexdigest()
+
+
+NUMBA_DIGEST = "e9faae5dadf98f984c17a88da9a7aa2958168afa4e6967dd539d3b6118d4ac7b"
+"""``_digest(_outputs())`` when each output equalled, bit for bit, the numba kernel's of the same law on the same
+arguments (issue 32, before numba was removed)."""
+
+
+def test_the_laws_give_the_numba_kernels_bits() -> None:
+    assert _digest(_outputs()) == NUMBA_DIGEST

@@ -1,30 +1,32 @@
-"""The compiled core's signed distances and numba's give the same bits.
+"""The compiled core's signed distances: the numba kernels' exact values, and independent oracles.
 
-Until the field, the planners and the robot distance move to the core, pfield carries two implementations of
-every signed distance: the numba kernels those consumers inline (:mod:`pfield.geometry._sdf`, ``_ellipsoid``,
-``_bvh``) and the core's port (``src/core/geometry``), which :func:`pfield.geometry.signed_distances` runs. A plan
-and a clearance printed by Python must not disagree in the last digit, so the distance and the normal are held
-equal bit for bit (signed zeros included), not within a tolerance: both keep the same operand order, Python's
-min/max tie rule, and neither fuses multiply-adds (CMakeLists.txt compiles src/core/geometry with
--ffp-contract=off; numba emits no fused multiply-add without fastmath).
+:func:`pfield.geometry.signed_distances` runs the core (``src/core/geometry``); the Python faces
+:func:`~pfield.geometry.obstacle_signed_distance`, ``_within`` and :func:`~pfield.geometry.min_signed_distance`
+route to it. Two kinds of check:
 
-The cases aim at where the two could part: every shape and mesh (watertight, non-convex, open) in random and in
-exact (identity, half-turn) poses; points inside, outside, on the surface, at the centre, on axes and symmetry
-planes, on the medial axis (equally deep faces, cylinder cap-and-wall ties), on mesh vertices and edges (ties
-between triangles, decided by the BVH traversal order); the exact query and the cutoff bound.
+* **the numba kernels' bits**: until issue 32 removed them, numba kernels computed every signed distance too, and
+  the core was held equal to them bit for bit (signed zeros included) on every shape and mesh (watertight,
+  non-convex, open) in random and exact (identity, half-turn) poses, at points inside, outside, on surfaces, at
+  centres, on axes and symmetry planes, on the medial axis (equally deep faces, cylinder cap-and-wall ties) and
+  on mesh vertices and edges (ties between triangles, decided by the BVH traversal order), exact and with a
+  cutoff. :data:`NUMBA_DIGEST` is the digest of those outputs on the seeded cases of :func:`_cases`, recorded
+  when the core and numba still agreed on every one of them: a plan or a clearance keeps its last digit.
+* **oracles**: trimesh's closest points and signed distances for meshes, the closed forms of the primitives
+  (``_helpers``), and the normal as a finite-difference gradient; the closest surface point ``p − d n`` found
+  from the normal lies on the surface.
 """
 
 from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Iterator
 
 import numpy as np
 import pytest
 import trimesh
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
 
+from digests import digest
 from pfield.geometry import (
     Box,
     Capsule,
@@ -33,17 +35,27 @@ from pfield.geometry import (
     Mesh,
     Obstacle,
     ResourceResolver,
+    Shape,
     Sphere,
+    empty_packed,
+    min_signed_distance,
     obstacle_signed_distance,
     obstacle_signed_distance_within,
     pack_obstacles,
     signed_distances,
 )
 from pfield.geometry._packed import MESH
-from pfield.geometry._sdf import empty_packed
 from pfield.spatial import Pose
 
-from ._helpers import MESHES
+from ._helpers import (
+    MESHES,
+    box_reference,
+    capsule_reference,
+    cylinder_reference,
+    finite_difference_gradient,
+    to_local,
+    triangle_distance_reference,
+)
 
 RESOLVER = ResourceResolver(allowed_roots=[MESHES])
 
@@ -65,106 +77,108 @@ def _meshes() -> tuple[Mesh, ...]:
     return meshes
 
 
-# Dyadic sizes give exact ties (equal box faces, a cylinder as wide as it is half tall); the floats the rest.
-DYADIC = st.sampled_from([0.125, 0.25, 0.5])
-SIZE = st.one_of(DYADIC, st.floats(0.02, 0.6))
-PRIMITIVES = st.one_of(
-    st.builds(Sphere, SIZE),
-    st.builds(Box, SIZE, SIZE, SIZE),
-    st.builds(Cylinder, SIZE, SIZE),
-    st.builds(Ellipsoid, SIZE, SIZE, SIZE),
-    st.builds(Capsule, SIZE, SIZE),
-)
-SHAPES = st.one_of(PRIMITIVES, st.deferred(lambda: st.sampled_from(_meshes())))
+# ---- the seeded cases ----------------------------------------------------------------------------------------
 
-# Identity and half-turns keep local coordinates exact (so the points below land exactly on axes and ties).
-EXACT_QUATERNIONS = [(0.0, 0.0, 0.0, 1.0), (1.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0)]
-QUATERNIONS = st.one_of(
-    st.sampled_from(EXACT_QUATERNIONS),
-    st.tuples(*[st.floats(-1.0, 1.0)] * 4).filter(lambda q: np.linalg.norm(q) > 0.1),
-)
-POSITIONS = st.one_of(st.just((0.0, 0.0, 0.0)), st.tuples(*[st.floats(-1.0, 1.0)] * 3))
+DYADIC = (0.125, 0.25, 0.5)  # exact ties: equal box faces, a cylinder as wide as it is half tall
+EXACT_QUATERNIONS = ((0.0, 0.0, 0.0, 1.0), (1.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0))
+"""Identity and half-turns keep local coordinates exact, so the points below land exactly on axes and ties."""
+CUTOFFS = (0.0, 0.01, 0.1, math.inf)
+POINT_KINDS = ("random", "vertex", "edge", "face", "centre", "off-vertex")
 
 
-def _extent(shape: object) -> float:
-    return shape.bounding_radius()  # type: ignore[attr-defined, no-any-return]
+def _size(rng: np.random.Generator) -> float:
+    return float(rng.choice(DYADIC)) if rng.random() < 0.5 else float(rng.uniform(0.02, 0.6))
 
 
-@st.composite
-def _local_point(draw: st.DrawFn, shape: object) -> tuple[float, float, float]:
+def _shape(rng: np.random.Generator) -> Shape:
+    kind = int(rng.integers(6))
+    if kind == 5:
+        return _meshes()[int(rng.integers(len(_meshes())))]
+    sizes = [_size(rng) for _ in range(3)]
+    return (Sphere(sizes[0]), Box(*sizes), Cylinder(*sizes[:2]), Ellipsoid(*sizes), Capsule(*sizes[:2]))[kind]
+
+
+def _pose(rng: np.random.Generator) -> Pose:
+    position = (0.0, 0.0, 0.0) if rng.random() < 0.3 else tuple(rng.uniform(-1.0, 1.0, 3))
+    if rng.random() < 0.4:
+        return Pose(position, EXACT_QUATERNIONS[int(rng.integers(4))])
+    quaternion = rng.uniform(-1.0, 1.0, 4)
+    while np.linalg.norm(quaternion) <= 0.1:
+        quaternion = rng.uniform(-1.0, 1.0, 4)
+    return Pose(position, quaternion)
+
+
+def _local_point(rng: np.random.Generator, shape: Shape) -> np.ndarray:
     """A point in the shape's frame: random, or built from the shape's own numbers so that ties are exact."""
-    extent = _extent(shape)
+    extent = shape.bounding_radius()
     if isinstance(shape, Mesh):
-        vertices = shape.data.vertices
-        faces = shape.data.faces
-        face = faces[draw(st.integers(0, len(faces) - 1))]
-        a, b, c = vertices[face[0]], vertices[face[1]], vertices[face[2]]
-        kind = draw(st.sampled_from(["random", "vertex", "edge", "face", "centre", "off-vertex"]))
-        point = {
-            "random": lambda: np.array(draw(st.tuples(*[st.floats(-1.5 * extent, 1.5 * extent)] * 3))),
+        vertices, faces = shape.data.vertices, shape.data.faces
+        a, b, c = vertices[faces[int(rng.integers(len(faces)))]]
+        kind = POINT_KINDS[int(rng.integers(len(POINT_KINDS)))]
+        return {
+            "random": lambda: rng.uniform(-1.5 * extent, 1.5 * extent, 3),
             "vertex": lambda: a,
             "edge": lambda: 0.5 * (a + b),
             "face": lambda: (a + b + c) / 3.0,
             "centre": lambda: np.zeros(3),
-            "off-vertex": lambda: a * draw(st.sampled_from([0.5, 0.9, 1.1, 2.0])),
+            "off-vertex": lambda: a * float(rng.choice([0.5, 0.9, 1.1, 2.0])),
         }[kind]()
-        return (float(point[0]), float(point[1]), float(point[2]))
-    sizes = [value for value in shape.packed_sizes() if value > 0.0]  # type: ignore[attr-defined]
+    sizes = [value for value in shape.packed_sizes() if value > 0.0]
     special = [0.0, *sizes, *(-s for s in sizes), *(0.5 * s for s in sizes), *(s - 0.0625 for s in sizes),
                1e-101, -1e-101, 1e-12, 2.0 * extent]
-    coordinate = st.one_of(st.floats(-1.5 * extent, 1.5 * extent), st.sampled_from(special))
-    return draw(st.tuples(coordinate, coordinate, coordinate))
+    return np.array([float(rng.choice(special)) if rng.random() < 0.5 else float(rng.uniform(-1.5 * extent,
+                                                                                               1.5 * extent))
+                     for _ in range(3)])
 
 
-@st.composite
-def _case(draw: st.DrawFn) -> tuple[list[Obstacle], np.ndarray, float]:
-    obstacles = [Obstacle(f"o{k}", draw(SHAPES), Pose(draw(POSITIONS), draw(QUATERNIONS))) for k in range(2)]
-    points = []
-    for _ in range(4):
-        obstacle = obstacles[draw(st.integers(0, 1))]
-        local = np.array(draw(_local_point(obstacle.shape)))
-        points.append(obstacle.pose.transform_points(local[None, :])[0])
-    cutoff = draw(st.sampled_from([0.0, 0.01, 0.1, math.inf]))
-    return obstacles, np.array(points), cutoff
+def _cases(count: int = 600) -> Iterator[tuple[list[Obstacle], np.ndarray, float]]:
+    """``count`` seeded cases: two obstacles, six points about them (world frame) and a cutoff."""
+    rng = np.random.default_rng(20260301)
+    for _ in range(count):
+        obstacles = [Obstacle(f"o{k}", _shape(rng), _pose(rng)) for k in range(2)]
+        points = []
+        for _ in range(6):
+            obstacle = obstacles[int(rng.integers(2))]
+            points.append(obstacle.pose.transform_points(_local_point(rng, obstacle.shape)[None, :])[0])
+        yield obstacles, np.array(points), CUTOFFS[int(rng.integers(len(CUTOFFS)))]
 
 
-def _bits(values: object) -> np.ndarray:
-    return np.asarray(values, dtype=np.float64).view(np.uint64)
+def _outputs() -> Iterator[np.ndarray]:
+    """The core's distances and normals on every case, exact and with the case's cutoff, in a fixed order."""
+    for obstacles, points, cutoff in _cases():
+        packed = pack_obstacles(obstacles)
+        yield from signed_distances(packed, points)
+        yield from signed_distances(packed, points, cutoff)
 
 
-@settings(max_examples=1500, deadline=None, derandomize=True, database=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
-@given(case=_case())
-def test_core_and_numba_agree_to_the_bit(case):
-    obstacles, points, cutoff = case
-    packed = pack_obstacles(obstacles)
-    distances, normals = signed_distances(packed, points)
-    bounded, bounded_normals = signed_distances(packed, points, cutoff)
-    for k, point in enumerate(points):
-        for i in range(len(obstacles)):
-            exact = obstacle_signed_distance(packed, i, point)
-            assert _bits([distances[k, i], *normals[k, i]]).tolist() == _bits(exact).tolist(), (k, i, exact)
-            within = obstacle_signed_distance_within(packed, i, point, cutoff)
-            assert _bits([bounded[k, i], *bounded_normals[k, i]]).tolist() == _bits(within).tolist(), (k, i)
+
+NUMBA_DIGEST = "2f3bb416ab745264ab8ff5b089cf78a59aaee7a8f8c3b71a7ad8d14a806dd2b0"
+"""``digest(_outputs())`` when each of its values was checked equal, bit for bit, to numba's
+``obstacle_signed_distance`` / ``obstacle_signed_distance_within`` (issue 32, before numba was removed)."""
 
 
-def test_every_shape_and_both_mesh_kinds_are_drawn():
-    """The property above sees each shape and watertight and open meshes (a guard on the strategy)."""
-    seen: set[str] = set()
+def test_the_distances_are_the_numba_kernels_bit_for_bit() -> None:
+    assert digest(_outputs()) == NUMBA_DIGEST
 
-    @settings(max_examples=300, deadline=None, derandomize=True, database=None)
-    @given(case=_case())
-    def collect(case):  # type: ignore[no-untyped-def]
-        for obstacle in case[0]:
+
+def test_the_cases_draw_every_shape_both_mesh_kinds_and_every_point_kind() -> None:
+    """A guard on :func:`_cases`: it sees each shape, watertight and open meshes, exact poses and every cutoff."""
+    shapes, cutoffs, exact = set(), set(), 0
+    for obstacles, _, cutoff in _cases():
+        cutoffs.add(cutoff)
+        for obstacle in obstacles:
             shape = obstacle.shape
-            seen.add(shape.data.source if isinstance(shape, Mesh) else type(shape).__name__)
+            shapes.add(shape.data.source if isinstance(shape, Mesh) else type(shape).__name__)
+            exact += tuple(obstacle.pose.orientation) in EXACT_QUATERNIONS
+    assert {"Sphere", "Box", "Cylinder", "Ellipsoid", "Capsule"} <= shapes
+    assert {"memory://torus", "memory://open-cube", "memory://open-cap"} <= shapes
+    assert cutoffs == set(CUTOFFS) and exact > 100
 
-    collect()
-    assert {"Sphere", "Box", "Cylinder", "Ellipsoid", "Capsule"} <= seen
-    assert {"memory://torus", "memory://open-cube", "memory://open-cap"} <= seen
 
+# ---- the Python faces --------------------------------------------------------------------------------------
 
-def test_many_points_and_the_empty_set():
+def test_the_python_faces_are_the_batch_row_for_row() -> None:
+    """obstacle_signed_distance(_within) and min_signed_distance give the batch's values, bit for bit."""
     rng = np.random.default_rng(7)
     shapes = [Sphere(0.3), Box(0.4, 0.2, 0.6), Cylinder(0.15, 0.5), Capsule(0.1, 0.3), Ellipsoid(0.3, 0.1, 0.2),
               *_meshes()]
@@ -173,15 +187,97 @@ def test_many_points_and_the_empty_set():
     packed = pack_obstacles(obstacles)
     points = rng.uniform(-1.0, 1.0, (300, 3))
     distances, normals = signed_distances(packed, points)
+    bounded, bounded_normals = signed_distances(packed, points, 0.05)
     for k in range(0, 300, 7):
         for i in range(len(obstacles)):
-            assert _bits([distances[k, i], *normals[k, i]]).tolist() == _bits(
-                obstacle_signed_distance(packed, i, points[k])).tolist()
+            assert obstacle_signed_distance(packed, i, points[k]) == (distances[k, i], *normals[k, i])
+            assert obstacle_signed_distance_within(packed, i, points[k], 0.05) == (bounded[k, i],
+                                                                                  *bounded_normals[k, i])
+        best = int(np.argmin(distances[k]))
+        assert min_signed_distance(packed, points[k]) == (distances[k, best], *normals[k, best], best)
     empty_d, empty_n = signed_distances(empty_packed(), points)
     assert empty_d.shape == (300, 0) and empty_n.shape == (300, 0, 3)
+    assert min_signed_distance(empty_packed(), points[0]) == (math.inf, 0.0, 0.0, 0.0, -1)
+    with pytest.raises(IndexError):
+        obstacle_signed_distance(packed, len(obstacles), points[0])
 
 
-def test_hand_built_packed_sets_give_nan_or_a_value_error():
+# ---- oracles -----------------------------------------------------------------------------------------------
+
+def _trimesh(mesh: Mesh) -> trimesh.Trimesh:
+    return trimesh.Trimesh(mesh.data.vertices, mesh.data.faces, process=False)
+
+
+@pytest.mark.parametrize("index", range(5), ids=["cube", "cylinder_448", "torus", "open-cube", "open-cap"])
+def test_mesh_distances_are_trimesh_closest_points_and_signs(index: int) -> None:
+    """|d| is the distance to the nearest triangle (brute force over all of them) and never more than trimesh's
+    closest point's (an upper bound: trimesh's own search is approximate, 1e-7 m off inside the 448-triangle
+    cylinder); the sign is trimesh's inside test on a watertight mesh (negative inside), none on an open one; the
+    point p − d n lies on the surface (the normal points at the closest point)."""
+    mesh = _meshes()[index]
+    pose = Pose((0.2, -0.1, 0.3), (0.3, -0.2, 0.5, 0.8))
+    packed = pack_obstacles([Obstacle("m", mesh, pose)])
+    rng = np.random.default_rng(index)
+    extent = mesh.bounding_radius()
+    local = rng.uniform(-1.5 * extent, 1.5 * extent, (400, 3))
+    distances, normals = signed_distances(packed, pose.transform_points(local))
+    d, n = distances[:, 0], to_local(pose, normals[:, 0] + pose.position)
+    reference = _trimesh(mesh)
+    _, unsigned, _ = trimesh.proximity.closest_point(reference, local)
+    assert np.all(np.abs(d) <= unsigned + 1e-12)
+    triangles = mesh.data.vertices[mesh.data.faces]
+    brute_force = [triangle_distance_reference(triangles, point) for point in local]
+    np.testing.assert_allclose(np.abs(d), brute_force, rtol=0, atol=1e-12)
+    if mesh.watertight:
+        inside = trimesh.proximity.signed_distance(reference, local) > 1e-9  # trimesh: positive inside
+        assert np.all(d[inside] < 0.0) and np.all(d[~inside] >= -1e-12)
+        assert inside.any() and (~inside).any()
+    else:
+        assert np.all(d >= 0.0)
+    np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0, rtol=0, atol=1e-12)
+    on_surface = trimesh.proximity.closest_point(reference, local - d[:, None] * n)[1]
+    np.testing.assert_allclose(on_surface, 0.0, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("index", range(5), ids=["cube", "cylinder_448", "torus", "open-cube", "open-cap"])
+def test_mesh_normals_are_the_finite_difference_gradient(index: int) -> None:
+    mesh = _meshes()[index]
+    packed = pack_obstacles([Obstacle("m", mesh, Pose((0.1, 0.0, -0.2), (0.0, 0.6, 0.0, 0.8)))])
+    rng = np.random.default_rng(10 + index)
+    extent = mesh.bounding_radius()
+    points = rng.uniform(-1.5 * extent, 1.5 * extent, (120, 3)) + np.array([0.1, 0.0, -0.2])
+    _, normals = signed_distances(packed, points)
+    checked = 0
+    for point, normal in zip(points, normals[:, 0], strict=True):
+        gradient = finite_difference_gradient(lambda x: signed_distances(packed, x)[0][0, 0], point)
+        if abs(np.linalg.norm(gradient) - 1.0) > 1e-4:
+            continue  # the stencil straddles the medial axis (or an open mesh's surface), where d has a kink
+        checked += 1
+        np.testing.assert_allclose(normal, gradient, atol=1e-5)
+    assert checked > 100
+
+
+def test_primitive_distances_on_the_seeded_cases_are_the_closed_forms() -> None:
+    """The points of :func:`_cases` (ties, axes, the surface) against the clamp constructions of ``_helpers``."""
+    references = {
+        Sphere: lambda q, s: np.linalg.norm(q, axis=1) - s.radius,
+        Box: lambda q, s: box_reference(q, np.array(s.packed_sizes())),
+        Cylinder: lambda q, s: cylinder_reference(q, s.radius, 0.5 * s.height),
+        Capsule: lambda q, s: capsule_reference(q, s.radius, 0.5 * s.height),
+    }
+    checked = 0
+    for obstacles, points, _ in _cases(200):
+        distances, _ = signed_distances(pack_obstacles(obstacles), points)
+        for i, obstacle in enumerate(obstacles):
+            reference = references.get(type(obstacle.shape))  # type: ignore[call-overload]
+            if reference is not None:
+                expected = reference(to_local(obstacle.pose, points), obstacle.shape)
+                np.testing.assert_allclose(distances[:, i], expected, rtol=0, atol=1e-12)
+                checked += len(points)
+    assert checked > 1000
+
+
+def test_hand_built_packed_sets_give_nan_or_a_value_error() -> None:
     row = np.zeros((1, 16))
     row[0, 3:12] = np.eye(3).reshape(-1)
     no_mesh = empty_packed()._replace(kinds=np.array([MESH]), rows=row)  # names mesh 0, which is not packed
@@ -195,7 +291,6 @@ def test_hand_built_packed_sets_give_nan_or_a_value_error():
         signed_distances(looping, np.zeros((1, 3)))
     with pytest.raises(ValueError, match="differ in length"):
         signed_distances(cube._replace(kinds=np.zeros(2, np.int64)), np.zeros((1, 3)))
-
 
 
 def _check_subtree(bvh, triangles: np.ndarray, k: int) -> tuple[int, int]:  # type: ignore[no-untyped-def]
@@ -214,7 +309,7 @@ def _check_subtree(bvh, triangles: np.ndarray, k: int) -> tuple[int, int]:  # ty
     return first, n_left + n_right
 
 
-def test_mesh_bvh_is_a_median_split_over_all_triangles():
+def test_mesh_bvh_is_a_median_split_over_all_triangles() -> None:
     """The core's BVH build (pfield.geometry._mesh_build.build_bvh): leaves partition the triangles in the stored
     order, every box holds its triangles and children, children follow their parent, halves differ by at most one.
     (It matched the numba build it replaced array for array on these meshes and on random ones.)"""

@@ -209,16 +209,3 @@ def test_inconsistent_hand_built_mesh_row_gives_nan_not_a_crash():
     packed = empty_packed()._replace(kinds=np.array([MESH]), rows=row)  # mesh 0 does not exist
     assert all(np.isnan(obstacle_signed_distance(packed, 0, np.zeros(3))))
 
-
-def test_mesh_addresses_keep_their_type_on_a_round_trip_through_python():
-    """The tuple compiled code builds and the one Python hands back type alike, so a kernel taking it compiles
-    once whether a compiled loop or a caller in Python (tests, tools) passes it."""
-    import numba
-
-    from pfield.geometry._sdf import mesh_addresses
-
-    packed = pack_obstacles([Obstacle("a", Sphere(0.1), Pose())])
-    from_python = mesh_addresses(packed)
-    compiled = mesh_addresses.nopython_signatures[-1].return_type
-    assert numba.typeof(from_python) == compiled == numba.types.UniTuple(numba.types.int64, 9)
-    assert from_python[0] == packed.triangles.ctypes.data and from_python[8] == len(packed.mesh_table)

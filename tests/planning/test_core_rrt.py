@@ -1,10 +1,15 @@
-"""The compiled global fallback (search, shortcutting, tracking) gives numba's bits, draw for draw.
+"""The compiled global fallback (``src/core/planning/rrt`` and ``track``): numba's draws and bits, and what a search
+must be.
 
-Until every numba caller has moved, pfield carries two global fallbacks: the numba kernels
-(:mod:`pfield.planning._rrt_kernel`, :mod:`pfield.planning._track_kernel`) and the core's port
-(``src/core/planning/rrt`` and ``track``), which :mod:`pfield.planning.global_search` now runs. A seed names one
-search: the random stream, every state check (so the trees, their node order and the check count), the shortcut's
-draws and the tracked motion must come out the same, held equal bit for bit with ``np.array_equal``.
+:mod:`pfield.planning.global_search` runs this core; it replaced numba kernels (``_rrt_kernel``, ``_track_kernel``,
+issue 32) draw for draw: a seed names one search, and the random stream, every state check (so the trees, their
+node order and the check count), the shortcut's draws and the tracked motion came out the same bits. Those kernels
+are gone; what they computed stays here as digests (the first 16 hex digits of the sha256 of every output, per
+seeded case), computed from the core's outputs after the core was checked equal to numba's kernels on exactly these
+cases (``np.array_equal``, chunk by chunk): they are numba's results. Beside them, oracles that need no numba: the
+random stream written out in Python integers, every state check against the link model's exact clearances, every
+edge check against its interpolated states, the trees' and paths' invariants (each node within a step of its
+parent, every path edge valid for a fresh checker, a shortcut a shorter subsequence), the tracking's integration.
 
 The scenes: the Panda and a URDF robot (the UR5 of MotionBenchMaker) among random obstacles of all six kinds
 around the arm, random valid start and goal configurations, the search's endpoint offsets (pairs closer than the
@@ -15,8 +20,11 @@ margin at an end); the point space among random obstacles; state checks on rando
 from __future__ import annotations
 
 import functools
+import itertools
+import math
 import threading
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -24,10 +32,13 @@ import numpy as np
 import pytest
 import trimesh
 
+from digests import digest
+from pfield._core import robot as bound
 from pfield._core import rrt as core
 from pfield.field.config import FieldConfig
-from pfield.geometry import Box, Capsule, Cylinder, Ellipsoid, Mesh, Obstacle, Sphere, pack_obstacles
+from pfield.geometry import Box, Capsule, Cylinder, Ellipsoid, Mesh, Obstacle, Sphere, pack_obstacles, signed_distances
 from pfield.planning import _whole_body_layout as wb
+from pfield.planning._whole_body_core import core_obstacles, core_robot, core_scene, pair_distances
 from pfield.planning.cancel import cancel_flag
 from pfield.planning.global_search import GlobalOptions, endpoint_scene, track
 from pfield.planning.options import PlanOptions
@@ -38,6 +49,7 @@ from pfield.spatial import Pose, quaternion_exp
 
 UR5 = Path(__file__).resolve().parents[3] / "shared" / "benchmarks" / "mbm" / "ur5"
 MARGIN = 0.011  # safety_distance + extra_margin, the fallback's defaults
+MASK = 2**64 - 1
 
 
 @functools.cache
@@ -84,32 +96,8 @@ def _box(robot: RobotModel) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(lower, dtype=np.float64), np.ascontiguousarray(upper, dtype=np.float64)
 
 
-def _numba_checker(arrays: wb.RobotArrays, scene: wb.Scene, margin: float, resolution: float) -> Any:
-    """The numba search's joint-space checker, as global_search built it before the port."""
-    from pfield.planning import _rrt_kernel as rrt
-
-    n, caps, obstacles, pairs = len(arrays.parents), len(arrays.cap_joint), len(scene.bounds), len(arrays.self_pairs)
-    ws = wb.make_workspace(n, caps, obstacles, pairs, len(arrays.prim_r))
-    return rrt.Checker(rrt.JOINT_SPACE, arrays, scene, ws, np.empty((caps, obstacles)), np.empty(pairs),
-                       float(margin), float(resolution), np.zeros(1, dtype=np.int64))
-
-
-def _numba_point_checker(scene: wb.Scene, margin: float, resolution: float) -> Any:
-    from pfield.planning import _rrt_kernel as rrt
-
-    f, i = np.zeros, np.zeros
-    robot = wb.RobotArrays(i(0, np.int64), f((0, 3, 3)), f((0, 3)), f((0, 3)), i(0, np.int64), i((0, 0), np.int64),
-                           -1, np.eye(3), f(3), i(0, np.int64), f((0, 3)), f((0, 3)), f(0), i((0, 2), np.int64),
-                           f(0), f(0), f(0), f(0), i(1, np.int64), i(0, np.int64), f((0, 3)), f((0, 3)), f(0), f(0))
-    ws = wb.make_workspace(3, 0, len(scene.bounds), 0, 0)
-    return rrt.Checker(rrt.POINT_SPACE, robot, scene, ws, np.empty((0, len(scene.bounds))), np.empty(0),
-                       float(margin), float(resolution), np.zeros(1, dtype=np.int64))
-
-
 def _core_checker(arrays: wb.RobotArrays, scene: wb.Scene, margin: float, resolution: float) -> Any:
-    robot = core.Robot(*arrays)
-    return core.Checker(robot, core.Scene(robot, *scene.packed, scene.centres, scene.bounds, scene.obstacle_offsets,
-                                          scene.self_offsets), margin, resolution)
+    return core.Checker(core_scene(arrays, scene), margin, resolution)
 
 
 class Problem:
@@ -132,154 +120,303 @@ class Problem:
         self.rng = rng
 
 
-def _connect_both(numba_checker: Any, ours: Any, start: np.ndarray, goals: np.ndarray, lower: np.ndarray,
-                  upper: np.ndarray, step: float, capacity: int, seed: int, chunks: int) -> tuple[Any, ...]:
-    """Both searches in the same chunks, compared chunk by chunk; then both shortcuts."""
-    from pfield.planning import _rrt_kernel as rrt
-
-    trees = rrt.make_trees(start, goals, capacity, seed)
-    mine = core.Trees(start, goals, capacity, seed)
-    assert int(trees.state[1]) == mine.random == core.seeded_state(seed)
-    for _ in range(chunks):
-        status, path = rrt.rrt_connect(numba_checker, trees, lower, upper, step, 2000)
-        our_status, our_path = ours.connect(mine, lower, upper, step, 2000)
-        assert our_status.value == status and np.array_equal(our_path, path)
-        assert ours.states_checked == numba_checker.counter[0]
-        assert mine.counts == tuple(trees.counts) and mine.next == trees.state[0] and mine.random == trees.state[1]
-        for t in (0, 1):
-            count = trees.counts[t]
-            assert np.array_equal(mine.nodes(t), trees.nodes[t, :count])
-            assert np.array_equal(mine.parents(t), trees.parents[t, :count])
-        if status != rrt.SEARCHING:
-            break
-    if status != rrt.FOUND:
-        return status, None, None
-    short = rrt.shortcut(numba_checker, path, 50, trees.state)
-    our_short = ours.shortcut(path, 50, mine)
-    assert np.array_equal(our_short, short) and mine.random == trees.state[1]
-    assert ours.states_checked == numba_checker.counter[0]
-    return status, path, short
+def _digest(values: Iterator[Any]) -> str:
+    """The first 16 hex digits of :func:`digests.digest`."""
+    return digest(values)[:16]
 
 
-def test_the_random_stream_is_numbas_draw_for_draw() -> None:
-    from pfield.planning import _rrt_kernel as rrt
+# ---- the random stream ------------------------------------------------------------------------------------------
 
-    for seed in (0, 1, 7, 2**31, 2**63 - 1):  # numba takes int64 seeds
-        state = rrt.make_trees(np.zeros(2), np.ones((1, 2)), 2, seed).state
-        draws, after = core.uniforms(core.seeded_state(seed), 2000)
-        expected = np.array([rrt.uniform(state) for _ in range(2000)])
-        assert np.array_equal(draws, expected) and after == state[1]
+def _splitmix64(seed: int) -> int:
+    """The search's seeding (Steele, Lea & Flood, "Fast splittable pseudorandom number generators", OOPSLA 2014):
+    splitmix64's first output for ``seed`` (its int64 bits), 1 if that is 0 (a xorshift state must not be)."""
+    z = (seed + 0x9E3779B97F4A7C15) & MASK
+    z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & MASK
+    z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & MASK
+    z ^= z >> 31
+    return z or 1
+
+
+def _xorshift64_star(state: int, count: int) -> tuple[list[float], int]:
+    """``count`` numbers in [0, 1) of xorshift64* (Vigna, "An experimental exploration of Marsaglia's xorshift
+    generators, scrambled", ACM TOMS 2016) and the state after them: the state shifted by 12, 25 and 27, the top 53
+    bits of its product with 0x2545F4914F6CDD1D over 2^53."""
+    draws = []
+    for _ in range(count):
+        state ^= state >> 12
+        state ^= (state << 25) & MASK
+        state ^= state >> 27
+        draws.append((((state * 0x2545F4914F6CDD1D) & MASK) >> 11) / 9007199254740992.0)
+    return draws, state
+
+
+def test_the_random_stream_is_xorshift64_star_seeded_by_splitmix64() -> None:
+    """Numba's stream was this generator, and the core's equalled it draw for draw on these seeds."""
+    for seed in (0, 1, 7, 2**31, 2**63 - 1):  # int64 seeds
+        state = core.seeded_state(seed)
+        assert state == _splitmix64(seed)
+        draws, after = core.uniforms(state, 2000)
+        expected, expected_after = _xorshift64_star(state, 2000)
+        assert draws.tolist() == expected and after == expected_after
         assert np.all((draws >= 0.0) & (draws < 1.0))
 
 
-@pytest.mark.parametrize("name", ["panda", "ur5"])
-def test_the_state_and_edge_checks_equal_numba(name: str) -> None:
-    """Random configurations, many near contact, decided alike at every level of the capsule test; edges of every
-    length checked in the same order (the same count)."""
-    from pfield.planning import _rrt_kernel as rrt
+# ---- state and edge checks --------------------------------------------------------------------------------------
 
-    decided = {True: 0, False: 0}
-    for seed in range(6):
-        problem = Problem(name, 500 + seed, count=12)
-        for margin in (0.0, MARGIN, 0.05):
-            theirs = _numba_checker(problem.arrays, problem.scene, margin, 0.02)
-            ours = _core_checker(problem.arrays, problem.scene, margin, 0.02)
-            rng = np.random.default_rng(seed)
-            for _ in range(150):
-                q = rng.uniform(problem.lower, problem.upper)
-                verdict = ours.state_valid(q)
-                assert verdict == rrt.state_valid(theirs, q), (name, seed, margin)
-                decided[verdict] += 1
-            for _ in range(30):
-                a = problem.start if rng.uniform() < 0.5 else rng.uniform(problem.lower, problem.upper)
-                b = a + rng.normal(scale=rng.choice([0.01, 0.1, 1.0]), size=len(a))
-                assert ours.edge_valid(a, b) == rrt.edge_valid(theirs, a, b, np.empty(len(a)))
-                assert ours.states_checked == theirs.counter[0]
-    assert min(decided.values()) > 200, decided  # the scenes block and clear configurations alike
-    # the tracking's overlap test: the capsule test at margin 0 on the raw scene
-    from pfield.planning._track_kernel import overlapping_waypoints
+def _slack(arrays: wb.RobotArrays, scene: wb.Scene, q: np.ndarray) -> float:
+    """The smallest link-model clearance at q less its offset (exact: every pair measured to the fitted level)."""
+    obstacle, own = pair_distances(q, arrays, scene)
+    return float(min(np.min(obstacle - scene.obstacle_offsets, initial=math.inf),
+                     np.min(own - scene.self_offsets, initial=math.inf)))
 
+
+def _interpolated(a: np.ndarray, b: np.ndarray, resolution: float) -> list[np.ndarray]:
+    """The states an edge check visits (a excluded), no coordinate moving more than ``resolution`` between two."""
+    steps = max(1, math.ceil(float(np.max(np.abs(b - a))) / resolution))
+    return [a + (i / steps) * (b - a) for i in range(1, steps + 1)]
+
+
+class Check:
+    """One state check (``b`` None) or edge check of a checker, its verdict and the states checked after it."""
+
+    def __init__(self, checker: Any, problem: Problem, margin: float, a: np.ndarray, b: np.ndarray | None) -> None:
+        self.problem, self.margin, self.a, self.b = problem, margin, a, b
+        self.before = checker.states_checked
+        self.verdict = bool(checker.state_valid(a) if b is None else checker.edge_valid(a, b))
+        self.after = checker.states_checked
+
+
+def _checks(name: str, seed: int) -> Iterator[Check]:
+    """150 random states and 30 random edges (from the start or anywhere, of every length) of one problem, at
+    three margins."""
+    problem = Problem(name, 500 + seed, count=12)
+    for margin in (0.0, MARGIN, 0.05):
+        ours = _core_checker(problem.arrays, problem.scene, margin, 0.02)
+        rng = np.random.default_rng(seed)
+        for _ in range(150):
+            yield Check(ours, problem, margin, rng.uniform(problem.lower, problem.upper), None)
+        for _ in range(30):
+            a = problem.start if rng.uniform() < 0.5 else rng.uniform(problem.lower, problem.upper)
+            yield Check(ours, problem, margin, a, a + rng.normal(scale=rng.choice([0.01, 0.1, 1.0]), size=len(a)))
+
+
+def _check_digest(name: str) -> str:
+    return _digest(value for seed in range(6) for check in _checks(name, seed)
+                   for value in (np.bool_(check.verdict), np.int64(check.after)))
+
+
+def _overlaps(name: str) -> tuple[Problem, np.ndarray, np.ndarray]:
+    """The tracking's overlap test (the capsule test at margin 0 on the raw scene) on 300 random configurations."""
     problem = Problem(name, 600, count=12)
     qs = np.random.default_rng(1).uniform(problem.lower, problem.upper, (300, len(problem.start)))
-    robot = core.Robot(*problem.arrays)
-    raw = problem.raw
-    ours = core.overlapping_waypoints(robot, core.Scene(robot, *raw.packed, raw.centres, raw.bounds,
-                                                        raw.obstacle_offsets, raw.self_offsets), qs)
-    expected = overlapping_waypoints(qs, problem.arrays, raw)
-    assert np.array_equal(ours, expected) and 0 < np.count_nonzero(ours) < len(qs)
+    return problem, qs, core.overlapping_waypoints(core_scene(problem.arrays, problem.raw), qs)
+
+
+# numba's state_valid and edge_valid (pfield.planning._rrt_kernel) on _checks' cases, every verdict and the count of
+# states checked after it, digested (_check_digest) per robot after the core was checked equal to them on each;
+# numba's overlapping_waypoints (pfield.planning._track_kernel) on _overlaps' configurations
+CHECK_DIGESTS = {"panda": "b1fd3ccb4cf2aa5c", "ur5": "bc5da7989e5339f1"}
+OVERLAP_DIGESTS = {"panda": "58e45b0f6cccd1d8", "ur5": "360a574222a83a77"}
 
 
 @pytest.mark.parametrize("name", ["panda", "ur5"])
-def test_the_searches_and_shortcuts_equal_numba_draw_for_draw(name: str) -> None:
-    found = 0
-    for seed in range(5):  # 24 obstacles: searches of hundreds to thousands of nodes over several chunks
+def test_the_state_and_edge_checks_are_numbas_and_the_link_models(name: str) -> None:
+    """Random configurations, many near contact, decided as the link model's exact clearances decide them (at every
+    level of the capsule test); edges valid exactly when their interpolated states are (a valid one checks each)."""
+    decided = {True: 0, False: 0}
+    for seed in range(6):
+        for check in _checks(name, seed):
+            problem = check.problem
+            if check.b is None:
+                slack = _slack(problem.arrays, problem.scene, check.a) - check.margin
+                assert check.verdict == (slack >= 0.0) or abs(slack) < 1e-12, (seed, check.margin, slack)
+                assert check.after == check.before + 1
+                decided[check.verdict] += 1
+                continue
+            states = _interpolated(check.a, check.b, 0.02)
+            fresh = _core_checker(problem.arrays, problem.scene, check.margin, 0.02)
+            assert check.verdict == all(fresh.state_valid(q) for q in states)
+            assert check.before < check.after <= check.before + len(states)
+            assert not check.verdict or check.after == check.before + len(states)
+    assert min(decided.values()) > 200, decided  # the scenes block and clear configurations alike
+    assert _check_digest(name) == CHECK_DIGESTS[name]
+    problem, qs, overlapping = _overlaps(name)
+    assert overlapping.tolist() == [_slack(problem.arrays, problem.raw, q) < 0.0 for q in qs]
+    assert 0 < np.count_nonzero(overlapping) < len(qs)
+    assert _digest(iter([overlapping])) == OVERLAP_DIGESTS[name]
+
+
+# ---- searches and shortcuts -------------------------------------------------------------------------------------
+
+class Search:
+    """One search in chunks of 2000 state checks (at most ``chunks``), then 50 shortcut attempts if it found a path;
+    ``record`` holds every output: per chunk the status, path, count of states checked, tree sizes, the tree to
+    extend next and the random state; then both trees; then the shortcut, the random state and the count."""
+
+    def __init__(self, checker: Any, start: np.ndarray, goals: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+                 step: float, capacity: int, seed: int, chunks: int) -> None:
+        self.checker, self.step, self.lower, self.upper = checker, step, lower, upper
+        trees = self.trees = core.Trees(start, goals, capacity, seed)
+        assert trees.random == core.seeded_state(seed) and trees.counts == (1, len(goals))
+        record: list[Any] = []
+        status, path = core.SearchStatus.SEARCHING, np.empty((0, len(start)))
+        for _ in range(chunks):
+            status, path = checker.connect(trees, lower, upper, step, 2000)
+            record += [np.int64(status.value), path, np.int64(checker.states_checked), np.array(trees.counts),
+                       np.int64(trees.next), np.uint64(trees.random)]
+            if status != core.SearchStatus.SEARCHING:
+                break
+        record += [value for t in (0, 1) for value in (trees.nodes(t), trees.parents(t))]
+        self.status, self.path, self.short = status, path, None
+        if status == core.SearchStatus.FOUND:
+            self.short = checker.shortcut(path, 50, trees)
+            record += [self.short, np.uint64(trees.random), np.int64(checker.states_checked)]
+        self.record = record
+
+    def check(self, fresh: Any) -> None:
+        """The trees' and paths' invariants; ``fresh`` a new checker of the same scene."""
+        for t in (0, 1):
+            nodes, parents = self.trees.nodes(t), self.trees.parents(t)
+            roots = parents < 0
+            assert np.all(parents[~roots] < np.flatnonzero(~roots)) and np.all(parents[roots] == -1)
+            steps = np.linalg.norm(nodes[~roots] - nodes[parents[~roots]], axis=1)
+            assert np.all(steps <= self.step * (1 + 1e-12))
+            assert np.all(nodes >= self.lower - 1e-12) and np.all(nodes <= self.upper + 1e-12)
+        if self.status != core.SearchStatus.FOUND:
+            return
+        path, short = self.path, self.short
+        assert short is not None
+        assert np.array_equal(path[0], self.trees.nodes(0)[0]) and np.array_equal(short[0], path[0])
+        assert np.array_equal(short[-1], path[-1])
+        assert any(np.array_equal(path[-1], goal) for goal in self.trees.nodes(1)[self.trees.parents(1) < 0])
+        assert np.all(np.linalg.norm(np.diff(path, axis=0), axis=1) <= self.step * (1 + 1e-12))
+        rows = [next(k for k, row in enumerate(path) if np.array_equal(row, vertex)) for vertex in short]
+        assert rows == sorted(rows) and len(short) <= len(path)  # a subsequence of the path's vertices
+        length = float(np.sum(np.linalg.norm(np.diff(short, axis=0), axis=1)))
+        assert length <= float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1))) + 1e-12
+        for a, b in itertools.pairwise(short):
+            assert fresh.edge_valid(a, b)
+        for a, b in itertools.pairwise(path):
+            assert fresh.edge_valid(a, b)
+
+
+def _joint_searches(name: str) -> Iterator[tuple[Problem, Search]]:
+    """Five searches among 24 obstacles: hundreds to thousands of nodes over several chunks."""
+    for seed in range(5):
         problem = Problem(name, 700 + seed, count=24)
-        theirs = _numba_checker(problem.arrays, problem.scene, MARGIN, 0.02)
         ours = _core_checker(problem.arrays, problem.scene, MARGIN, 0.02)
-        goals = np.array([problem.goal])
-        status, _, _ = _connect_both(theirs, ours, problem.start, goals, problem.lower, problem.upper, 0.5, 4000,
-                                     seed, 20)
-        found += status == 0
+        yield problem, Search(ours, problem.start, np.array([problem.goal]), problem.lower, problem.upper, 0.5, 4000,
+                              seed, 20)
+
+
+# numba's rrt_connect and shortcut (pfield.planning._rrt_kernel) on _joint_searches' cases, Search.record digested
+# per seed after the core was checked equal to them chunk by chunk
+SEARCH_DIGESTS = {
+    "panda": {0: "8eb062fa51f7e3e1", 1: "2fe320072b52f1e5", 2: "e179d4558aeb1a61", 3: "5f0768f59f0c90cd",
+              4: "0be584e7895ff936"},
+    "ur5": {0: "7720703b6359b28a", 1: "65d94b0e9495f41c", 2: "96e698b90a62b6c4", 3: "a3244766d0e9727e",
+            4: "fad0855f1ac996a0"},
+}
+
+
+@pytest.mark.parametrize("name", ["panda", "ur5"])
+def test_the_searches_and_shortcuts_are_numbas(name: str) -> None:
+    found, digests = 0, {}
+    for seed, (problem, search) in enumerate(_joint_searches(name)):
+        search.check(_core_checker(problem.arrays, problem.scene, MARGIN, 0.02))
+        found += search.status == core.SearchStatus.FOUND
+        digests[seed] = _digest(iter(search.record))
     assert found >= 3, found
+    assert digests == SEARCH_DIGESTS[name]
 
 
-def test_a_search_with_several_goals_and_small_trees_equals_numba() -> None:
-    """Several goal roots; trees that fill up (EXHAUSTED)."""
+def _several_goals() -> Iterator[tuple[Problem, Search]]:
+    """Several goal roots (those of five candidates that are valid); trees that fill up (EXHAUSTED)."""
     problem = Problem("panda", 800, count=14)
     rng = np.random.default_rng(3)
-    from pfield.planning import _rrt_kernel as rrt
-
     candidates = [problem.goal, *(rng.uniform(problem.lower, problem.upper, (4, len(problem.goal))))]
     ours = _core_checker(problem.arrays, problem.scene, MARGIN, 0.02)
-    theirs = _numba_checker(problem.arrays, problem.scene, MARGIN, 0.02)
-    verdicts = [(ours.state_valid(g), rrt.state_valid(theirs, g)) for g in candidates]
-    assert all(a == b for a, b in verdicts)
-    goals = np.array([g for g, (valid, _) in zip(candidates, verdicts, strict=True) if valid])
-    statuses = {_connect_both(theirs, ours, problem.start, goals, problem.lower, problem.upper, step, capacity, seed,
-                              40)[0] for step, capacity, seed in ((0.3, 40, 11), (1.0, 4000, 12), (0.5, 400, 13))}
-    assert 2 in statuses, statuses  # a tree filled up
+    goals = np.array([g for g in candidates if ours.state_valid(g)])
+    for step, capacity, seed in ((0.3, 40, 11), (1.0, 4000, 12), (0.5, 400, 13)):
+        yield problem, Search(ours, problem.start, goals, problem.lower, problem.upper, step, capacity, seed, 40)
 
 
-def test_the_point_search_equals_numba() -> None:
-    found = 0
+# numba's searches on _several_goals' cases (Search.record), digested after the core was checked equal to them
+SEVERAL_GOALS_DIGEST = "5cac0f8544fedef9"
+
+
+def test_a_search_with_several_goals_and_small_trees_is_numbas() -> None:
+    statuses, record = set(), []
+    for problem, search in _several_goals():
+        assert np.count_nonzero(search.trees.parents(1) < 0) >= 2  # several goal roots
+        search.check(_core_checker(problem.arrays, problem.scene, MARGIN, 0.02))
+        statuses.add(search.status)
+        record += search.record
+    assert core.SearchStatus.EXHAUSTED in statuses, statuses  # a tree filled up
+    assert _digest(iter(record)) == SEVERAL_GOALS_DIGEST
+
+
+CUP = [Obstacle("bottom", Box(0.05, 0.7, 0.7), Pose((0.3, 0.0, 0.0))),
+       Obstacle("left", Box(0.55, 0.05, 0.7), Pose((0.05, 0.35, 0.0))),
+       Obstacle("right", Box(0.55, 0.05, 0.7), Pose((0.05, -0.35, 0.0))),
+       Obstacle("top", Box(0.55, 0.7, 0.05), Pose((0.05, 0.0, 0.35))),
+       Obstacle("floor", Box(0.55, 0.7, 0.05), Pose((0.05, 0.0, -0.35)))]
+"""A box "cup" open toward -x around the start, the goal behind its bottom: the trees must leave the cup."""
+
+
+def _point_searches() -> Iterator[tuple[wb.Scene, Search]]:
+    """Eight searches among 10 random obstacles, four out of the cup."""
     for seed in range(8):
         rng = np.random.default_rng(900 + seed)
         scene = make_scene(pack_obstacles(_obstacles(rng, 10, np.zeros(3))))
         points: list[np.ndarray] = []
-        checker = core.Checker(core.Obstacles(*scene.packed), 0.02, 0.005)
+        checker = core.Checker(core_obstacles(scene), 0.02, 0.005)
         while len(points) < 2:
             p = rng.uniform(-0.8, 0.8, 3) + np.array([0.0, 0.0, 0.4])
             if checker.state_valid(p):
                 points.append(p)
         lower, upper = np.full(3, -1.0), np.full(3, 1.5)
-        theirs = _numba_point_checker(scene, 0.02, 0.005)
-        ours = core.Checker(core.Obstacles(*scene.packed), 0.02, 0.005)
-        status, _, _ = _connect_both(theirs, ours, points[0], points[1][None], lower, upper, 0.1, 3000, seed, 40)
-        found += status == 0
-    assert found >= 5, found
-    # a box "cup" open toward -x around the start, the goal behind its bottom: the trees must leave the cup
-    cup = [Obstacle("bottom", Box(0.05, 0.7, 0.7), Pose((0.3, 0.0, 0.0))),
-           Obstacle("left", Box(0.55, 0.05, 0.7), Pose((0.05, 0.35, 0.0))),
-           Obstacle("right", Box(0.55, 0.05, 0.7), Pose((0.05, -0.35, 0.0))),
-           Obstacle("top", Box(0.55, 0.7, 0.05), Pose((0.05, 0.0, 0.35))),
-           Obstacle("floor", Box(0.55, 0.7, 0.05), Pose((0.05, 0.0, -0.35)))]
-    scene = make_scene(pack_obstacles(cup))
+        ours = core.Checker(core_obstacles(scene), 0.02, 0.005)
+        yield scene, Search(ours, points[0], points[1][None], lower, upper, 0.1, 3000, seed, 40)
+    scene = make_scene(pack_obstacles(CUP))
     for seed in range(4):
-        theirs = _numba_point_checker(scene, 0.02, 0.005)
-        ours = core.Checker(core.Obstacles(*scene.packed), 0.02, 0.005)
-        status, path, _ = _connect_both(theirs, ours, np.zeros(3), np.array([[0.8, 0.0, 0.0]]), np.full(3, -1.5),
-                                        np.full(3, 1.8), 0.1, 5000, seed, 40)
-        assert status == 0 and len(path) > 10
+        ours = core.Checker(core_obstacles(scene), 0.02, 0.005)
+        yield scene, Search(ours, np.zeros(3), np.array([[0.8, 0.0, 0.0]]), np.full(3, -1.5), np.full(3, 1.8), 0.1,
+                            5000, seed, 40)
 
 
-@pytest.mark.parametrize("name", ["panda", "ur5"])
-def test_the_tracked_paths_equal_numba_bit_for_bit(name: str) -> None:
-    from pfield.planning._track_kernel import track_path
+# numba's point-space searches (pfield.planning._rrt_kernel, POINT_SPACE) on _point_searches' cases, Search.record
+# digested per case after the core was checked equal to them chunk by chunk
+POINT_DIGESTS = {0: "5d6c09f3e47ee9bf", 1: "4e5ba54bf26f6545", 2: "e562df8906086b1f", 3: "31e21ecff0b9c6d0",
+                 4: "90ff87500a7e93b8", 5: "271f79837a77f018", 6: "56ae478daea118d2", 7: "5ca07dbcd2535553",
+                 8: "f2fa98078895ee15", 9: "9544ced103fd20cb", 10: "59dff101a2aba478", 11: "7657cc02b3a863ed"}
 
+
+def test_the_point_searches_are_numbas() -> None:
+    """A point state is valid when its signed distance to every obstacle is at least the margin."""
+    found, digests = 0, {}
+    for k, (scene, search) in enumerate(_point_searches()):
+        fresh = core.Checker(core_obstacles(scene), 0.02, 0.005)
+        search.check(fresh)
+        nodes = search.trees.nodes(0)
+        assert np.array_equal([fresh.state_valid(p) for p in nodes],
+                              signed_distances(scene.packed, nodes)[0].min(axis=1) >= 0.02)
+        found += search.status == core.SearchStatus.FOUND
+        if k >= 8:  # out of the cup
+            assert search.status == core.SearchStatus.FOUND and search.path is not None and len(search.path) > 10
+        digests[k] = _digest(iter(search.record))
+    assert found >= 5 + 4, found
+    assert digests == POINT_DIGESTS
+
+
+# ---- tracking ---------------------------------------------------------------------------------------------------
+
+def _tracked(name: str) -> Iterator[tuple[Problem, np.ndarray, np.ndarray, tuple[Any, ...]]]:
+    """(problem, path, params, outputs) of the tracking of a searched path (a straight line when none was found)
+    for 3000 and 40 steps, and cancelled at once."""
     config = FieldConfig()
     params = kernel_parameters(config, PlanOptions(dt=0.02).resolved(config), WholeBodyOptions())
     options = GlobalOptions()
-    statuses = set()
     for seed in range(4):
         problem = Problem(name, 1000 + seed)
         ours = _core_checker(problem.arrays, problem.scene, MARGIN, 0.02)
@@ -296,23 +433,50 @@ def test_the_tracked_paths_equal_numba_bit_for_bit(name: str) -> None:
         for max_iterations, cancelled in ((3000, False), (40, False), (3000, True)):
             flag = cancel_flag(None)
             flag[0] = cancelled
-            expected = track_path(path[0].copy(), path, problem.arrays, problem.scene, np.array(goal.position),
-                                  np.array(goal.orientation), params, max_iterations, options.tracking_gain,
-                                  options.tracking_lead, flag.copy())
-            loop = track(problem.robot, problem.arrays, problem.scene, path, goal, params, max_iterations, options,
-                         flag)
-            assert loop[0] == expected[0] and loop[1] == expected[1], (name, seed, loop[0], expected[0])
-            for a, b in zip(loop[2:], expected[2:], strict=True):
-                assert a.shape == b.shape and np.array_equal(a, b, equal_nan=True), (name, seed)
-            statuses.add(PlanStatus(loop[0]))
+            yield problem, path, params, track(problem.robot, problem.arrays, problem.scene, path, goal, params,
+                                               max_iterations, options, flag)
+
+
+def _track_digest(outputs: tuple[Any, ...]) -> str:
+    return _digest(np.int64(value) if k < 2 else value for k, value in enumerate(outputs))
+
+
+def _check_track(robot: RobotModel, start: np.ndarray, dt: float, outputs: tuple[Any, ...]) -> None:
+    """Each waypoint is the last plus its q̇ dt clipped into the limits, from the start; poses are the kinematics'."""
+    _, count, qs, qds, positions = outputs[:5]
+    assert len(qs) == count >= 1 and np.array_equal(qs[0], start)
+    assert np.array_equal(qs[1:], np.minimum(np.maximum(qs[:-1] + qds[:-1] * dt, robot.lower_limits),
+                                             robot.upper_limits))
+    for k in range(0, count, 100):
+        np.testing.assert_allclose(positions[k], robot.forward_kinematics(qs[k]).position, rtol=0, atol=1e-12)
+
+
+# numba's track_path (pfield.planning._track_kernel) on _tracked's cases, digested in order after the core's tracking
+# was checked equal to it bit for bit, output for output
+TRACK_DIGESTS = {
+    "panda": ["48fff81c640cecb1", "ddd4bf651bfac21b", "4ce78cc99c4204f9", "4ec9ad28b1c4289b", "01b1b1501c45e74e",
+              "8f599ab9e4f8c8a1", "9b5c0e23317b5b54", "1967b9e4378d5aed", "8a1d0d03113667e3", "b0fa35d8674fc3df",
+              "65d930d1e52c651c", "4b0aa0c4c28420cd"],
+    "ur5": ["d752744dbff35091", "1739681f82a6e775", "3e669649bb08c455", "8f62823842f4a643", "01435a0945d111e9",
+            "c0bef4e4f942371f", "cd29b22d79192605", "3ae0d4167da3ed47", "7c1c126a52add154", "50f4117b565495d1",
+            "3f213230b686d869", "b30bbeee9b4dae08"],
+}
+
+
+@pytest.mark.parametrize("name", ["panda", "ur5"])
+def test_the_tracked_paths_are_numbas(name: str) -> None:
+    statuses, digests = set(), []
+    for problem, path, params, outputs in _tracked(name):
+        _check_track(problem.robot, path[0], params[wb.DT], outputs)
+        statuses.add(PlanStatus(outputs[0]))
+        digests.append(_track_digest(outputs))
     assert {PlanStatus.REACHED, PlanStatus.ITERATION_LIMIT, PlanStatus.CANCELLED} <= statuses, statuses
+    assert digests == TRACK_DIGESTS[name]
 
 
-def test_tracking_a_lagging_joint_equals_numba() -> None:
-    """test_global_search's lagging joint (the pull capped at the braking speed, a joint-limited acceleration) on the
-    core: the same motion as numba's, step for step."""
-    from pfield.planning._track_kernel import track_path
-
+def _lagging() -> tuple[RobotModel, np.ndarray, np.ndarray, tuple[Any, ...]]:
+    """test_global_search's lagging joint (the pull capped at the braking speed, a joint-limited acceleration): the
+    xArm7 1.5 rad behind its target on the base joint, toward an unreachable pose."""
     xarm = RobotModel.builtin("xarm7")
     start = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0])
     config = FieldConfig(max_angular_acceleration=1.0)
@@ -323,21 +487,26 @@ def test_tracking_a_lagging_joint_equals_numba() -> None:
     unreachable = Pose((3.0, 0.0, 0.0))
     params = kernel_parameters(config, PlanOptions(dt=0.01).resolved(config), WholeBodyOptions())
     options = GlobalOptions()
-    expected = track_path(lagging, np.stack([start, start]), arrays, scene, np.array(unreachable.position),
-                          np.array(unreachable.orientation), params, 1500, options.tracking_gain,
-                          options.tracking_lead, np.zeros(1, dtype=np.uint8))
-    # the numba call starts at `lagging` with the waypoints (start, start); the same through the core
-    robot = core.Robot(*arrays)
-    where = core.Scene(robot, *scene.packed, scene.centres, scene.bounds, scene.obstacle_offsets, scene.self_offsets)
     n, total = len(start), 1501
     outputs = (np.empty((total, n)), np.empty((total, n)), np.empty((total, 3)), np.empty((total, 4)),
                np.empty((total, 6)), np.empty(total))
-    result = core.track_path(robot, where, lagging, np.stack([start, start]), np.array(unreachable.position),
-                             np.array(unreachable.orientation), params, 1500, options.tracking_gain,
-                             options.tracking_lead, np.zeros(1, dtype=np.uint8), *outputs)
-    assert (result.status, result.count) == (expected[0], expected[1])
-    for ours, theirs in zip(outputs, expected[2:8], strict=True):
-        assert np.array_equal(ours[:result.count], theirs)
+    result = core.track_path(core_scene(arrays, scene), lagging, np.stack([start, start]),
+                             np.array(unreachable.position), np.array(unreachable.orientation), params, 1500,
+                             options.tracking_gain, options.tracking_lead, np.zeros(1, dtype=np.uint8), *outputs)
+    count = result.count
+    return xarm, lagging, params, (result.status, count, *(out[:count] for out in outputs))
+
+
+# numba's track_path on _lagging's case (status, count, then every output), digested after the core's was checked
+# equal to it step for step
+LAGGING_DIGEST = "d6dffa53dd8a98ea"
+
+
+def test_tracking_a_lagging_joint_is_numbas() -> None:
+    xarm, lagging, params, outputs = _lagging()
+    _check_track(xarm, lagging, params[wb.DT], outputs)
+    assert PlanStatus(outputs[0]) in (PlanStatus.STAGNATION, PlanStatus.ITERATION_LIMIT)
+    assert _track_digest(outputs) == LAGGING_DIGEST
 
 
 def test_the_tracking_releases_the_gil_and_reads_the_cancel_flag() -> None:
@@ -385,7 +554,6 @@ def test_the_bindings_refuse_mismatched_inputs() -> None:
     trees = core.Trees(np.zeros(3), np.ones((1, 3)), 10, 0)
     with pytest.raises(ValueError, match="another state space"):
         ours.connect(trees, problem.lower, problem.upper, 1.0, 10)
-    robot = core.Robot(*_arrays("panda"))
     with pytest.raises(ValueError, match="obstacle_offsets"):
-        core.Scene(robot, *problem.scene.packed, problem.scene.centres, problem.scene.bounds,
-                   np.zeros((1, 1)), problem.scene.self_offsets)
+        bound.Scene(core_robot(_arrays("panda")), core_obstacles(problem.scene), np.zeros((1, 1)),
+                    problem.scene.self_offsets)

@@ -199,7 +199,8 @@ def test_goal_configurations_inside_the_joint_margin_come_first(xarm: RobotModel
 def test_tracking_a_lagging_joint_does_not_overshoot_its_target(xarm: RobotModel) -> None:
     """The tracking's pull on a joint that lags its target is capped at the speed it can brake from
     (√(2·a·e)): under the acceleration limit a stronger pull overshoots into a limit cycle."""
-    from pfield.planning import _track_kernel
+    from pfield._core import rrt as core
+    from pfield.planning._whole_body_core import core_scene
     from pfield.planning.whole_body import kernel_parameters
 
     config = FieldConfig(max_angular_acceleration=1.0)  # rad/s²: joints take a while to brake
@@ -211,9 +212,12 @@ def test_tracking_a_lagging_joint_does_not_overshoot_its_target(xarm: RobotModel
     unreachable = Pose((3.0, 0.0, 0.0))  # the run never ends early: the whole motion toward the target shows
     params = kernel_parameters(config, PlanOptions(dt=0.01).resolved(config), WholeBodyOptions())
     options = GlobalOptions()
-    loop = _track_kernel.track_path(start, np.stack([target, target]), arrays, scene,
-                                    np.array(unreachable.position), np.array(unreachable.orientation), params, 1500,
-                                    options.tracking_gain, options.tracking_lead, np.zeros(1, dtype=np.uint8))
+    qs = np.empty((1501, 7))  # the tracking from a start off its path's first waypoint: the core's own entry
+    outputs = (qs, np.empty((1501, 7)), np.empty((1501, 3)), np.empty((1501, 4)), np.empty((1501, 6)), np.empty(1501))
+    result = core.track_path(core_scene(arrays, scene), start, np.stack([target, target]),
+                             np.array(unreachable.position), np.array(unreachable.orientation), params, 1500,
+                             options.tracking_gain, options.tracking_lead, np.zeros(1, dtype=np.uint8), *outputs)
+    loop = (result.status, result.count, qs[:result.count])
     assert PlanStatus(loop[0]) in (PlanStatus.STAGNATION, PlanStatus.ITERATION_LIMIT)
     joint = loop[2][:, 0]
     assert abs(joint[-1] - target[0]) < 0.01  # it got there

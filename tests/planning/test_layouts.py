@@ -1,4 +1,5 @@
-"""Named kernel layouts: every packed structure is one (name, shape) spec; packing and views follow from it."""
+"""Named layouts: every packed structure is one (name, shape) spec, packing and views follow from it, and what
+Python packs for the compiled core is what the core reads, by name."""
 
 from __future__ import annotations
 
@@ -57,10 +58,29 @@ def test_the_whole_body_parameters_are_packed_by_name() -> None:
 
 def test_the_typed_views_have_exactly_the_layouts_entries() -> None:
     assert wb.StepResult._fields == wb.STEP_OUT.names
-    assert wb.Workspace._fields == wb.WORKSPACE.names
-    robot_fields = set(wb.ROBOT_FLOATS.names) | set(wb.ROBOT_INTS.names) | {"ee_joint"}
-    assert set(wb.RobotArrays._fields) == robot_fields
-    assert set(wb.Scene._fields) == set(wb.SCENE_FLOATS.names) | {"packed"}
+
+
+def test_the_packed_robot_and_scene_are_what_the_core_reads_by_name() -> None:
+    """RobotArrays, PackedObstacles and Scene bind into the core's Robot, Obstacles and Scene keyword for keyword
+    (the C++ structs are the layouts' truth: a field renamed or moved on either side fails here), and the core
+    reads the sizes Python packed."""
+    from pfield._core import robot as core
+    from pfield.geometry import Obstacle, Sphere, pack_obstacles
+    from pfield.planning.whole_body import make_scene, pack_robot
+    from pfield.robot import RobotModel
+    from pfield.spatial import Pose
+
+    robot = RobotModel.builtin("xarm7")
+    arrays = pack_robot(robot, FieldConfig(), WholeBodyOptions())
+    scene = make_scene(pack_obstacles([Obstacle("ball", Sphere(0.1), Pose((0.4, 0.0, 0.3)))]), arrays,
+                       np.zeros(7), 0.01)
+    bound = core.Robot(**arrays._asdict())
+    assert (bound.joint_count, bound.capsule_count, bound.pair_count, bound.primitive_count) == (
+        7, len(arrays.cap_r), len(arrays.self_pairs), len(arrays.prim_r))
+    obstacles = core.Obstacles(**scene.packed._asdict(), centres=scene.centres, bounds=scene.bounds)
+    assert obstacles.count == 1
+    fields = {name: value for name, value in scene._asdict().items() if name not in ("packed", "centres", "bounds")}
+    assert core.Scene(robot=bound, obstacles=obstacles, **fields).robot is bound
 
 
 def test_step_result_reads_the_slots_by_name() -> None:
@@ -69,65 +89,3 @@ def test_step_result_reads_the_slots_by_name() -> None:
     np.testing.assert_array_equal(result.twist, row[0:6])
     np.testing.assert_array_equal(result.orientation, row[9:13])
     assert result.clearance == row[wb.OUT_CLEARANCE] and result.nearest_self_pair == row[wb.OUT_SIZE - 1]
-
-
-def test_the_compiled_workspaces_follow_the_layout() -> None:
-    n, caps, obstacles, pairs, prims = 7, 8, 3, 5, 11
-    m = caps * obstacles + pairs + 2 * n
-    dims = {"n": n, "caps": caps, "m": m, "prims": prims}
-    shapes = {name: tuple(dims[d] if isinstance(d, str) else d for d in shape) for name, shape in wb.WORKSPACE.entries}
-    allocated = wb.make_workspace(n, caps, obstacles, pairs, prims)  # one array per entry (the planning loop)
-    for name, view in allocated._asdict().items():
-        assert view.shape == (shapes[name] or (1,)), name
-    work = np.zeros(wb.WORKSPACE.size(**dims))
-    viewed = wb.workspace_views(work, n, caps, m, prims)  # views of one buffer (the autonomy step)
-    offsets = wb.WORKSPACE.offsets(**dims)
-    base = work.__array_interface__["data"][0]
-    for name, view in viewed._asdict().items():
-        start, _ = offsets[name]
-        assert view.shape == (shapes[name] or (1,)), name
-        assert view.__array_interface__["data"][0] - base == 8 * start, name
-
-
-def test_the_compiled_robot_views_round_trip_the_packed_robot() -> None:
-    from pfield.planning._whole_body_flat import FlatStep
-    from pfield.planning.whole_body import make_scene, pack_robot
-    from pfield.robot import RobotModel
-
-    robot = RobotModel.builtin("xarm7")
-    arrays = pack_robot(robot, FieldConfig(), WholeBodyOptions())
-    scene = make_scene(None, arrays)
-    flat = FlatStep(arrays, scene)
-    n, caps, _, pairs, _, ee, prims = (int(v) for v in flat.dims)
-    viewed = wb.robot_views(flat.floats, flat.ints, n, caps, pairs, prims, caps + 1, ee)
-    for name, value in arrays._asdict().items():
-        np.testing.assert_array_equal(getattr(viewed, name), value, err_msg=name)
-
-
-def test_the_unowned_copies_view_the_same_memory() -> None:
-    """``unowned_robot``/``unowned_scene``/``unowned_workspace`` keep every field's memory, shape and values
-    (writes go through), and a named tuple whose fields the layouts do not cover exactly is refused."""
-    from pfield._layout import compile_unowned
-    from pfield.geometry import Obstacle, Sphere, pack_obstacles
-    from pfield.planning.whole_body import make_scene, pack_robot
-    from pfield.robot import RobotModel
-    from pfield.spatial import Pose
-
-    robot = RobotModel.builtin("xarm7")
-    arrays = pack_robot(robot, FieldConfig(), WholeBodyOptions())
-    scene = make_scene(pack_obstacles([Obstacle("ball", Sphere(0.1), Pose((0.4, 0.0, 0.3)))]), arrays)
-    workspace = wb.make_workspace(7, len(arrays.cap_r), 1, len(arrays.self_pairs), len(arrays.prim_r))
-    pairs = [(arrays, wb.unowned_robot(arrays)), (scene, wb.unowned_scene(scene)),
-             (scene.packed, wb.unowned_scene(scene).packed), (workspace, wb.unowned_workspace(workspace))]
-    for owner, view in pairs:
-        for name, value in owner._asdict().items():
-            if isinstance(value, np.ndarray):
-                seen = getattr(view, name)
-                assert seen.shape == value.shape and seen.dtype == value.dtype, name
-                assert seen.size == 0 or seen.ctypes.data == value.ctypes.data, name
-                np.testing.assert_array_equal(seen, value, err_msg=name)
-    assert wb.unowned_robot(arrays).ee_joint == arrays.ee_joint
-    wb.unowned_workspace(workspace).out[:] = 7.0
-    assert np.all(workspace.out == 7.0)
-    with pytest.raises(ValueError, match="not covered exactly"):
-        compile_unowned("partial", wb.Scene, {"unowned": [wb.SCENE_FLOATS]}, {})

@@ -153,7 +153,7 @@ def test_sign_flip_counter() -> None:
 
 
 def test_velocity_qp_matches_a_reference_solver() -> None:
-    from pfield._linalg import cholesky_inplace, cholesky_solve, hildreth
+    from pfield._core import qp
 
     rng = np.random.default_rng(12)
     n = 7
@@ -164,12 +164,9 @@ def test_velocity_qp_matches_a_reference_solver() -> None:
         m = int(rng.integers(1, 6))
         rows = rng.normal(size=(m, n))
         bounds = rng.normal(size=m) * 0.5 - 0.2
-        factor = hessian.copy()
-        cholesky_inplace(factor, n)
-        x = np.empty(n)
-        cholesky_solve(factor, c, x, n)
-        np.testing.assert_allclose(hessian @ x, c, atol=1e-9)
-        hildreth(factor, x, rows, bounds, m, n, np.empty((m, n)), np.empty(m), np.empty(m), 100000, 1e-12)
+        free = qp.solve(hessian, c, np.empty((0, n)), np.empty(0)).x
+        np.testing.assert_allclose(hessian @ free, c, atol=1e-9)
+        x = qp.solve(hessian, c, rows, bounds, 100000, 1e-12).x
         reference = _reference_qp(hessian, c, rows, bounds)
         assert np.all(rows @ x >= bounds - 1e-9)
         assert 0.5 * x @ hessian @ x - c @ x == pytest.approx(reference, rel=1e-6, abs=1e-6)
@@ -178,36 +175,17 @@ def test_velocity_qp_matches_a_reference_solver() -> None:
 def test_velocity_qp_is_exact_on_nearly_parallel_rows() -> None:
     """Two links pressing on one surface give nearly parallel damper rows, where coordinate ascent alone
     gains ~θ² per sweep; the active-set finish reaches the KKT point within the sweeps a step allows."""
-    from pfield._linalg import cholesky_inplace, cholesky_solve, hildreth
+    from pfield._core import qp
 
     theta = 0.01
     rows = np.array([[1.0, 0.0, 0.0], [math.cos(theta), math.sin(theta), 0.0], [0.0, 0.0, -1.0]])
     bounds = np.array([1.0, 1.0, -5.0])  # the third row holds at the optimum: it must stay inactive
-    hessian, c = np.eye(3), np.zeros(3)
-    factor, x = hessian.copy(), np.empty(3)
-    cholesky_inplace(factor, 3)
-    cholesky_solve(factor, c, x, 3)
-    mu = np.empty(3)
-    worst = hildreth(factor, x, rows, bounds, 3, 3, np.empty((3, 3)), mu, np.empty(3), 200, 1e-12)
+    solution = qp.solve(np.eye(3), np.zeros(3), rows, bounds, 200, 1e-12)
+    x, mu = solution.x, solution.multipliers
     # both rows active: x = (1, (1 − cos θ)/sin θ, 0); λ = (A Aᵀ)⁻¹ b for H = I, c = 0
     np.testing.assert_allclose(x, [1.0, (1.0 - math.cos(theta)) / math.sin(theta), 0.0], rtol=0, atol=1e-12)
     np.testing.assert_allclose(mu[:2], np.linalg.solve(rows[:2] @ rows[:2].T, bounds[:2]), rtol=1e-9)
-    assert mu[2] == 0.0 and worst == 0.0
-
-
-def test_cholesky_reports_its_smallest_relative_pivot() -> None:
-    """The factor of [[4, 2], [2, 2]] is [[2, 0], [1, 1]]; its second squared pivot is 2 − 1 = 1, half its
-    diagonal entry. Dependent rows give 0 and an indefinite block a negative value (the factor stays finite)."""
-    from pfield._linalg import cholesky_inplace
-
-    h = np.array([[4.0, 2.0], [2.0, 2.0]])
-    assert cholesky_inplace(h, 2) == 0.5
-    np.testing.assert_array_equal(np.tril(h), [[2.0, 0.0], [1.0, 1.0]])
-    assert cholesky_inplace(np.ones((2, 2)), 2) == 0.0
-    indefinite = np.array([[1.0, 2.0], [2.0, 1.0]])
-    assert cholesky_inplace(indefinite, 2) == -3.0
-    assert np.all(np.isfinite(indefinite))
-    assert cholesky_inplace(np.diag([3.0, 5.0, 7.0]), 3) == 1.0
+    assert mu[2] == 0.0 and solution.result.violation == 0.0
 
 
 def _reference_qp(hessian: np.ndarray, c: np.ndarray, rows: np.ndarray, bounds: np.ndarray) -> float:

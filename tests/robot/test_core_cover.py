@@ -11,7 +11,6 @@ of the depths.
 
 from __future__ import annotations
 
-import hashlib
 import itertools
 from collections.abc import Iterator
 
@@ -19,6 +18,7 @@ import numpy as np
 import pytest
 from scipy.spatial import Delaunay
 
+from digests import digest
 from pfield.robot import _cover
 from pfield.robot._solid import _hull_facets
 
@@ -235,20 +235,13 @@ def _outputs(kernels: object) -> Iterator[np.ndarray]:
             yield kernels.enclosing_circle(points, iterations)  # type: ignore[attr-defined]
 
 
-def _digest(outputs: Iterator[np.ndarray]) -> str:
-    digest = hashlib.sha256()
-    for out in outputs:
-        digest.update(f"{out.dtype.str}{out.shape}".encode())
-        digest.update(np.ascontiguousarray(out).tobytes())
-    return digest.hexdigest()
 
-
-# _digest(_outputs(pfield.robot._cover)) when its five functions were numba's kernels, before they were removed
+# digest(_outputs(pfield.robot._cover)) when its five functions were numba's kernels, before they were removed
 NUMBA_DIGEST = "d09514e7cb5c9de8787cb7311df5bf76d254298e4a09cf44b0aca0c624b9e2f9"
 
 
 def test_the_outputs_are_the_numba_kernels_bit_for_bit() -> None:
-    assert _digest(_outputs(_cover)) == NUMBA_DIGEST
+    assert digest(_outputs(_cover)) == NUMBA_DIGEST
 
 
 def test_greedy_cover_takes_what_the_numba_kernel_took() -> None:

@@ -99,10 +99,10 @@ def test_fits_are_cached_on_disk(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
     from scipy.spatial import ConvexHull
 
     surface = _fit.LinkSurface(corners, np.asarray(ConvexHull(corners).simplices), 0.04**3)
-    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv("PFIELD_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(_fit, "_MEMORY", {})
     first = _fit.cached_fit(surface, 0.012)
-    files = list((tmp_path / "pfield-robot-fits").glob("*.npz"))
+    files = list((tmp_path / "robot-fits").glob("*.npz"))
     assert len(files) == 1
     monkeypatch.setattr(_fit, "_MEMORY", {})
     monkeypatch.setattr(_fit, "fit_link", lambda *args: pytest.fail("refitted instead of reading the cache"))
@@ -143,16 +143,18 @@ def test_locked_fingers_move_the_finger_links(panda: RobotModel) -> None:
 
 
 def test_clearances_are_the_minimum_over_each_links_primitives(xarm: RobotModel) -> None:
+    from pfield._core import robot_distance
     from pfield.geometry import pack_obstacles
-    from pfield.robot._clearance import FINE_RANGE
-    from pfield.robot._distance import segment_obstacle_distance
+    from pfield.planning._whole_body_core import core_obstacles
+    from pfield.planning.whole_body import make_scene
 
+    fine_range = 0.1  # (m) src/core/robot/clearance.hpp's kFineRange: nearer, the fitted primitives answer
     q = np.array([0.0, -0.6, 0.0, 0.9, 0.0, 1.5, 0.0])
     obstacles = [Obstacle("ball", Sphere(0.03), Pose((0.35, 0.05, 0.4))),
                  Obstacle("box", Box(0.1, 0.2, 0.05), Pose((0.3, -0.1, 0.3), (0.0, 0.0, 0.38268343, 0.92387953)))]
     clearances = capsule_clearances(xarm, q, obstacles)
     obstacle, own = clearances.obstacle, clearances.self_pairs
-    packed = pack_obstacles(obstacles)
+    obstacle_set = core_obstacles(make_scene(pack_obstacles(obstacles)))
     g = xarm.geometry
     rotations, origins = xarm.joint_frames(q)
     near = 0
@@ -163,10 +165,10 @@ def test_clearances_are_the_minimum_over_each_links_primitives(xarm: RobotModel)
                 j = g.prim_joint[p]
                 a = g.prim_a[p] if j < 0 else rotations[j] @ g.prim_a[p] + origins[j]
                 b = g.prim_b[p] if j < 0 else rotations[j] @ g.prim_b[p] + origins[j]
-                d = segment_obstacle_distance(packed, i, a, b, np.empty((2, 3)))[0]
+                d = robot_distance.segment_obstacle_distance(obstacle_set, i, a, b).distance
                 best = min(best, d - g.prim_r[p])
             assert obstacle[link, i] <= best + 1e-9  # never more than the fitted model's distance
-            if obstacle[link, i] < FINE_RANGE:  # near: exactly the fitted model's
+            if obstacle[link, i] < fine_range:  # near: exactly the fitted model's
                 assert obstacle[link, i] == pytest.approx(best, abs=1e-9)
                 near += 1
     assert near >= 2

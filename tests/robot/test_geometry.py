@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
 from pfield import errors
+from pfield._core import robot_distance as _distance
+from pfield.field import FieldConfig
 from pfield.geometry import (
     Box,
     Capsule,
@@ -20,18 +23,29 @@ from pfield.geometry import (
     Sphere,
     pack_obstacles,
 )
+from pfield.geometry._packed import PackedObstacles
+from pfield.planning._whole_body_core import core_obstacles, core_robot
+from pfield.planning.whole_body import WholeBodyOptions, make_scene, pack_robot
 from pfield.robot import RobotModel
-from pfield.robot._clearance import world_segment_range, world_segments
-from pfield.robot._distance import (
-    point_segment_distance_xyz,
-    segment_obstacle_distance,
-    segment_segment_distance,
-)
 from pfield.robot.collision import CollisionChecker, capsule_clearances
 from pfield.robot.geometry import fit_capsule
 from pfield.spatial import Pose, quaternion_exp
 
 DATA = Path(__file__).resolve().parents[1] / "data"
+FINE_RANGE = 0.1
+"""(m) From here on a link's bounding capsule stands for its fitted primitives (src/core/robot/clearance.hpp)."""
+
+
+def _obstacle_set(packed: PackedObstacles) -> Any:
+    """The core's obstacles with their bounding spheres (as the planners bind them)."""
+    return core_obstacles(make_scene(packed))
+
+
+def segment_obstacle_distance(obstacles: Any, i: int, a: np.ndarray, b: np.ndarray) -> tuple[float, ...]:
+    """(d, t, normal) of the core's segment–obstacle distance to obstacle i of ``obstacles`` (:func:`_obstacle_set`)."""
+    found = _distance.segment_obstacle_distance(obstacles, i, np.asarray(a, dtype=np.float64),
+                                                np.asarray(b, dtype=np.float64))
+    return (found.distance, found.t, *found.normal)
 
 
 def _segment_distance_to_points(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -96,16 +110,15 @@ def _obstacles() -> list[Obstacle]:
 
 
 def test_segment_obstacle_distance_is_the_minimum_along_the_segment() -> None:
-    obstacles = _obstacles()
-    packed = pack_obstacles(obstacles)
+    shapes = _obstacles()
+    obstacles = _obstacle_set(pack_obstacles(shapes))
     rng = np.random.default_rng(3)
-    scratch = np.zeros((2, 3))
     samples = np.linspace(0.0, 1.0, 2001)
     for _ in range(40):
         a, b = rng.uniform(-0.1, 0.8, 3), rng.uniform(-0.1, 0.8, 3)
         points = a + samples[:, None] * (b - a)
-        for i, obstacle in enumerate(obstacles):
-            d, t, *normal = segment_obstacle_distance(packed, i, a, b, scratch)
+        for i, obstacle in enumerate(shapes):
+            d, t, *normal = segment_obstacle_distance(obstacles, i, a, b)
             dense, _ = obstacle.signed_distance(points)
             # never above the true minimum by more than the sampling error, never below it
             assert d <= dense.min() + 1e-6
@@ -116,39 +129,37 @@ def test_segment_obstacle_distance_is_the_minimum_along_the_segment() -> None:
 
 
 def test_box_segment_distance_in_closed_form() -> None:
-    """Boxes are minimised in closed form: exact values where geometry gives them, and never above the
-    general convex minimiser (bisection on the slope) over random segments, penetrating ones included."""
-    from pfield.geometry._sdf import mesh_addresses
-    from pfield.robot._distance import _convex_minimum
-
+    """Boxes are minimised in closed form: exact values where geometry gives them, and over random segments,
+    penetrating ones included, never above a dense sampling's minimum nor below it by more than half a step (the
+    signed distance is 1-Lipschitz)."""
     turn = Pose(orientation=quaternion_exp([0.3, -0.2, 0.5])).orientation
     box = Obstacle("box", Box(0.6, 0.4, 0.2), Pose((0.1, -0.2, 0.3), turn))
-    packed = pack_obstacles([box])
-    scratch = np.zeros((2, 3))
+    obstacles = _obstacle_set(pack_obstacles([box]))
     rotation, centre = box.pose.rotation, np.array(box.pose.position)
 
     def world(*local: float) -> np.ndarray:
         return centre + rotation @ np.array(local)
 
     # parallel to the +z face, 0.05 above it (a flat minimum: rounding picks the t)
-    d, t, *normal = segment_obstacle_distance(packed, 0, world(-0.2, 0.0, 0.15), world(0.2, 0.0, 0.15), scratch)
+    d, t, *normal = segment_obstacle_distance(obstacles, 0, world(-0.2, 0.0, 0.15), world(0.2, 0.0, 0.15))
     assert d == pytest.approx(0.05, abs=1e-12) and 0.0 <= t <= 1.0
     np.testing.assert_allclose(normal, rotation[:, 2], atol=1e-12)
     # passing the edge x = 0.3, z = 0.1 diagonally: nearest at t = 0.4, (0.42, 0.16), 0.06/√0.2 from the edge
-    d, t, *_ = segment_obstacle_distance(packed, 0, world(0.5, 0.0, 0.0), world(0.3, 0.0, 0.4), scratch)
+    d, t, *_ = segment_obstacle_distance(obstacles, 0, world(0.5, 0.0, 0.0), world(0.3, 0.0, 0.4))
     assert d == pytest.approx(0.06 / np.sqrt(0.2), abs=1e-12) and t == pytest.approx(0.4, abs=1e-12)
     # through the box along x: deepest where it is 0.1 from the ±z faces
-    d, _, *_ = segment_obstacle_distance(packed, 0, world(-1.0, 0.0, 0.0), world(1.0, 0.0, 0.0), scratch)
+    d, _, *_ = segment_obstacle_distance(obstacles, 0, world(-1.0, 0.0, 0.0), world(1.0, 0.0, 0.0))
     assert d == pytest.approx(-0.1, abs=1e-12)
     # a point (a == b) is the point's own distance
-    d, t, *_ = segment_obstacle_distance(packed, 0, world(0.0, 0.5, 0.0), world(0.0, 0.5, 0.0), scratch)
+    d, t, *_ = segment_obstacle_distance(obstacles, 0, world(0.0, 0.5, 0.0), world(0.0, 0.5, 0.0))
     assert d == pytest.approx(0.3, abs=1e-12) and t == 0.0
     rng = np.random.default_rng(8)
+    samples = np.linspace(0.0, 1.0, 2001)
     for _ in range(500):
         a, b = centre + rng.normal(size=3) * 0.4, centre + rng.normal(size=3) * 0.4
-        d, t, *_ = segment_obstacle_distance(packed, 0, a, b, scratch)
-        bisected = _convex_minimum(packed.kinds, packed.rows, mesh_addresses(packed), 0, a, b)[0]
-        assert bisected - 1e-7 * np.linalg.norm(b - a) - 1e-12 <= d <= bisected + 1e-12
+        d, t, *_ = segment_obstacle_distance(obstacles, 0, a, b)
+        dense = float(box.signed_distance(a + samples[:, None] * (b - a))[0].min())
+        assert dense - np.linalg.norm(b - a) / 4000 - 1e-12 <= d <= dense + 1e-12
         assert d == pytest.approx(float(box.signed_distance(a + t * (b - a))[0][0]), abs=1e-12)
 
 
@@ -160,7 +171,7 @@ def test_segment_segment_distance_matches_sampling() -> None:
         first = p1 + s[:, None] * (q1 - p1)
         second = p2 + s[:, None] * (q2 - p2)
         dense = np.linalg.norm(first[:, None] - second[None], axis=2).min()
-        exact = segment_segment_distance(p1, q1, p2, q2)
+        exact = _distance.segment_segment_distance(p1, q1, p2, q2)
         assert exact <= dense + 1e-12
         assert exact >= dense - 0.01
 
@@ -178,35 +189,18 @@ def _point_segment_reference(c: np.ndarray, a: np.ndarray, b: np.ndarray) -> flo
     return math.sqrt(total)
 
 
-def test_point_segment_distance_in_scalars_keeps_the_culling_bit_for_bit() -> None:
-    """The culling loops read scalars now; plans must not change by a bit with the form."""
+def test_point_segment_distance_keeps_the_culling_bit_for_bit() -> None:
+    """The core's point–segment distance (the culling's) is the array form's, operation for operation: plans do not
+    change by a bit with the form."""
     rng = np.random.default_rng(5)
     for _ in range(300):
         c, a, b = rng.normal(size=(3, 3))
         if rng.random() < 0.2:
             b = a.copy()  # a point segment
         dense = np.linalg.norm(a + np.linspace(0.0, 1.0, 2001)[:, None] * (b - a) - c, axis=1).min()
-        scalar = point_segment_distance_xyz(*c, *a, *b)
+        scalar = _distance.point_segment_distance(c, a, b)
         assert scalar == _point_segment_reference(c, a, b)
         assert dense - 1e-3 <= scalar <= dense + 1e-12
-
-
-def test_world_segment_range_transforms_only_its_range(xarm: RobotModel) -> None:
-    q = np.array([0.3, -0.2, 0.1, 0.9, 0.0, -0.6, 0.4])
-    rotations, origins = xarm.joint_frames(q)
-    g = xarm.geometry
-    everything_a, everything_b = np.empty_like(g.prim_a), np.empty_like(g.prim_b)
-    world_segments(rotations, origins, g.prim_joint, g.prim_a, g.prim_b, everything_a, everything_b)
-    start, stop = int(g.link_start[2]), int(g.link_start[3])
-    part_a, part_b = np.full_like(g.prim_a, np.nan), np.full_like(g.prim_b, np.nan)
-    world_segment_range(rotations, origins, g.prim_joint, g.prim_a, g.prim_b, part_a, part_b, start, stop)
-    np.testing.assert_array_equal(part_a[start:stop], everything_a[start:stop])
-    np.testing.assert_array_equal(part_b[start:stop], everything_b[start:stop])
-    assert np.isnan(part_a[:start]).all() and np.isnan(part_a[stop:]).all()
-    # against the joint frames directly: R a + o for every primitive of the range
-    for c in range(start, stop):
-        j = g.prim_joint[c]
-        np.testing.assert_allclose(part_a[c], rotations[j] @ g.prim_a[c] + origins[j], atol=1e-15)
 
 
 def test_capsule_clearances_are_conservative_against_coal(xarm: RobotModel) -> None:
@@ -271,47 +265,34 @@ def test_without_srdf_only_adjacent_links_are_excluded() -> None:
 def test_the_two_distance_levels_against_each_primitive(xarm: RobotModel) -> None:
     """``capsule_level_distance`` is the bounding capsule's distance, a lower bound of every primitive's and the
     pair's value (exact) from FINE_RANGE on; ``fitted_distance_below`` is the minimum of the link's primitives'
-    own distances, bit for bit; ``link_obstacle_distance_below`` composes the two as documented."""
-    from pfield.geometry._sdf import mesh_addresses
-    from pfield.planning.whole_body import obstacle_bounds
-    from pfield.robot._clearance import (
-        FINE_RANGE,
-        capsule_level_distance,
-        fitted_distance_below,
-        link_obstacle_distance_below,
-    )
-
+    own distances, bit for bit; ``link_obstacle_distance`` composes the two as documented."""
     packed = pack_obstacles(_obstacles())
-    kinds, rows, meshes = packed.kinds, packed.rows, mesh_addresses(packed)
-    centres, bounds = obstacle_bounds(packed)
-    g, scratch = xarm.geometry, np.empty((2, 3))
-    cap_a, cap_b = np.empty_like(g.a), np.empty_like(g.b)
-    prim_a, prim_b = np.empty_like(g.prim_a), np.empty_like(g.prim_b)
+    obstacles = _obstacle_set(packed)
+    robot = core_robot(pack_robot(xarm, FieldConfig(), WholeBodyOptions()))
+    g = xarm.geometry
     seen = {"far": 0, "near": 0, "cut": 0}
     rng = np.random.default_rng(3)
     for q in rng.uniform(np.maximum(xarm.lower_limits, -2.5), np.minimum(xarm.upper_limits, 2.5), size=(6, 7)):
         rotations, origins = xarm.joint_frames(q)
-        world_segments(rotations, origins, g.joints, g.a, g.b, cap_a, cap_b)
-        world_segments(rotations, origins, g.prim_joint, g.prim_a, g.prim_b, prim_a, prim_b)
+        world = _distance.world_segments(robot, rotations, origins)
         for c in range(1, len(g.radii)):  # the base link is fixed
             start, stop = int(g.link_start[c]), int(g.link_start[c + 1])
-            for i in range(len(kinds)):
-                own = [segment_obstacle_distance(packed, i, prim_a[p], prim_b[p], scratch)[0] - g.prim_r[p]
+            for i in range(len(packed.kinds)):
+                own = [segment_obstacle_distance(obstacles, i, world.prim_a[p], world.prim_b[p])[0] - g.prim_r[p]
                        for p in range(start, stop)]
-                coarse = capsule_level_distance(kinds, rows, meshes, i, *cap_a[c], *cap_b[c], g.radii[c], scratch)
-                assert coarse[0] <= min(own) + 1e-12 and coarse[1] == (coarse[0] >= FINE_RANGE)
-                fine = fitted_distance_below(kinds, rows, meshes, i, *centres[i], bounds[i], start, stop, prim_a,
-                                             prim_b, g.prim_r, scratch, math.inf)
-                assert fine[0] == min(own) and fine[1]
-                pair = link_obstacle_distance_below(c, i, kinds, rows, meshes, centres, bounds, cap_a, cap_b, g.radii,
-                                                    g.link_start, prim_a, prim_b, g.prim_r, scratch, math.inf, 0.05)
-                if coarse[1]:  # far: the bounding capsule stands for the pair
+                coarse = _distance.capsule_level_distance(obstacles, i, world.cap_a[c], world.cap_b[c], g.radii[c])
+                assert coarse.distance <= min(own) + 1e-12 and coarse.exact == (coarse.distance >= FINE_RANGE)
+                fine = _distance.fitted_distance_below(robot, world, obstacles, c, i)
+                assert fine.distance == min(own) and fine.exact
+                pair = _distance.link_obstacle_distance(robot, world, obstacles, c, i, math.inf, 0.05)
+                if coarse.exact:  # far: the bounding capsule stands for the pair
                     seen["far"] += 1
-                    assert pair == coarse
+                    assert (pair.distance, pair.exact, pair.point, pair.normal) == \
+                        (coarse.distance, coarse.exact, coarse.point, coarse.normal)
                 elif min(own) < 0.05:  # near and below the cutoff: the primitives, exactly
                     seen["near"] += 1
-                    assert pair[0] == min(own) and pair[1]
+                    assert pair.distance == min(own) and pair.exact
                 else:  # at or beyond the cutoff: only that it is, never a value below it
                     seen["cut"] += 1
-                    assert pair[0] >= 0.05 and pair[0] >= coarse[0]
+                    assert pair.distance >= 0.05 and pair.distance >= coarse.distance
     assert min(seen.values()) > 0, seen

@@ -12,7 +12,6 @@ import pytest
 
 from pfield import errors
 from pfield.robot import RobotModel
-from pfield.robot import _kinematics as kin
 from pfield.robot.catalog import example_robot_data_root
 from pfield.spatial import Pose
 
@@ -54,14 +53,13 @@ def test_panda_has_seven_arm_joints_and_tcp(panda: RobotModel) -> None:
 @pytest.mark.parametrize("name", ["xarm7", "panda"])
 def test_compiled_kinematics_equal_pinocchio(name: str, xarm: RobotModel, panda: RobotModel) -> None:
     robot = xarm if name == "xarm7" else panda
-    model, k = robot.pinocchio_model, robot.kinematics
+    model, core = robot.pinocchio_model, robot._core_kinematics
     data = model.createData()
     frame = model.getFrameId(robot.end_effector)
-    rotations, origins, jac = np.empty((robot.n_joints, 3, 3)), np.empty((robot.n_joints, 3)), np.empty((6, 7))
     worst_pose, worst_jac = 0.0, 0.0
     for q in _random_configurations(robot, 1000, seed=1):
-        rot, pos = kin.end_effector_kinematics(q, k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, k.support,
-                                               k.ee_joint, k.ee_rot, k.ee_pos, rotations, origins, jac)
+        rot, pos, jac = core.end_effector_kinematics(q)
+        origins = core.joint_frames(q)[1]
         reference = pin.computeFrameJacobian(model, data, q, frame, pin.LOCAL_WORLD_ALIGNED)
         placement = data.oMf[frame]
         worst_pose = max(worst_pose, np.abs(pos - placement.translation).max(), np.abs(rot - placement.rotation).max())

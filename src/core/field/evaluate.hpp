@@ -1,7 +1,7 @@
 // The field at one pose: the raw wrench and the constrained twist (the task-space autonomy vector).
 //
-// Laws in docs/field.md and pfield/field/field.py; the steps and their order are those of
-// pfield/field/_evaluate.py (numba), so the results agree to the last bit while both exist.
+// Laws in docs/field.md and field/forces.hpp; the steps and their order are those of the Python kernel this
+// replaced (issue 32), so the results kept their last bit.
 #pragma once
 
 #include <cstddef>

@@ -1,10 +1,11 @@
-// The force and limit laws of the 3D potential field: the one home of these laws in the core (docs/field.md says
-// why each has its form). Vectors in the world frame, SI units. The formulas and their operation order are those of
-// pfield/field/forces.py, which the kernels not yet moved to the core still use: the results agree to the last bit.
+// The force and limit laws of the 3D potential field: their one home (docs/field.md says why each has its form);
+// pfield.field.forces is their Python face (bound in python/field.cpp). Vectors in the world frame, SI units. The
+// operation order is that of the Python kernels they replaced (issue 32), so results kept their last bit.
 //
 // * attraction, quadratic within G and conical beyond (Choset et al. 2005, sec. 4.1, eqs. 4.2-4.3);
 // * Khatib repulsion m = eta (1/d - 1/Q)/d^2 for 0 < d < Q (Khatib 1986, eq. 19), saturated as m/sqrt(1 + (m/F)^2);
-// * velocity dampers (Faverjon & Tournassoud 1987; Haviland & Corke 2021, NEO, eq. 20);
+// * velocity dampers (Faverjon & Tournassoud 1987; Haviland & Corke 2021, NEO, eq. 20), in two forms: damper_speed
+//   for a rate-limited twist, stepped_damper_speed for the whole-body QP's one-step rows;
 // * soft saturation v <- v_max tanh(|v|/v_max) v/|v| and the rate limit |v - v_prev| <= a_max dt.
 #pragma once
 
@@ -65,6 +66,21 @@ inline double damper_speed(double distance, double influence, double safety, dou
   const double capped = margin > 0.0 && braking < speed ? braking : speed;  // min(speed, braking) where margin > 0
   const double floor = -max_speed;
   return capped < floor ? floor : capped;  // max(capped, -max_speed)
+}
+
+// Largest allowed approach speed (m/s or rad/s) at distance d < Q for a step of dt (the whole-body QP's damper
+// rows): s = min(v (d - d_s)/(Q - d_s), (d - d_s)/(2 dt)) with v = max_speed; below d_s the required retreat
+// max((d - d_s)/(2 dt), -v). Why not damper_speed: the QP's rows constrain joint velocities applied for one step
+// whose rate limit is dropped when it would break a damper (safety first), so no braking distance is needed; what
+// must hold is the discrete step: a link moving at s for dt covers at most half its margin, so d_s is approached
+// geometrically and never crossed by a step. Python's min/max tie rule (the first argument unless the second is
+// smaller/larger).
+inline double stepped_damper_speed(double distance, double influence, double safety, double max_speed, double dt) {
+  const double margin = distance - safety;
+  const double step = 0.5 * margin / dt;
+  if (margin <= 0.0) return -max_speed > step ? -max_speed : step;  // max(step, -max_speed)
+  const double linear = max_speed * margin / (influence - safety);
+  return step < linear ? step : linear;  // min(linear, step)
 }
 
 struct Limited {
@@ -150,5 +166,19 @@ inline Vec3 braking_rate_limit(const Vec3& v, const Vec3& previous, double max_c
   }
   return {vx, vy, vz};
 }
+
+// The laws one call at a time for pfield.field.forces (python/field.cpp binds these). Compiled out of line in
+// forces.cpp, with the core's flags (no fused multiply-adds): inlined into a binding file they would take its
+// -ffp-contract=fast and could part from the core's own loops in a last bit.
+namespace out_of_line {
+Vec3 attraction(const Vec3& e, double gain, double threshold);
+double khatib_magnitude(double distance, double gain, double influence, double cap);
+Vec3 soft_saturate(const Vec3& v, double limit);
+double damper_speed(double distance, double influence, double safety, double gain, double max_speed,
+                    double max_acceleration);
+double stepped_damper_speed(double distance, double influence, double safety, double max_speed, double dt);
+Limited deflect(const Vec3& v, const Vec3& n, const Vec3& c, double allowed, double circulation);
+Limited project_damper(const Vec3& v, const Vec3& n, double allowed);
+}  // namespace out_of_line
 
 }  // namespace pfield::field

@@ -186,4 +186,49 @@ inline Vec3 cap_speed(const Vec3& v, double vmax) {
   return v;
 }
 
+struct Avoided {
+  Vec3 v;
+  double clearance;
+  std::int64_t nearest;
+  Vec3 brake;  // unit, from the previous linear twist toward its projection (zero when it obeys every damper)
+};
+
+// Every obstacle's damper on v (sweep 0 deflects; later sweeps project while two or more bind; if they cannot all
+// hold, the nearest obstacle's wins), the previous linear twist s projected alongside.
+inline Avoided avoid(const Field& field, const Vec3& p, const Vec3& v, const Vec3& previous) {
+  DamperState st;
+  st.v = v;
+  st.s = previous;
+  damper_sweeps(st, field, 0, [&](std::size_t i, int sweep, double clearance, Sighting& seen) {
+    return sighting_at(field, i, p, sweep, clearance, seen);
+  });
+  double bx = st.s.x - previous.x, by = st.s.y - previous.y, bz = st.s.z - previous.z;
+  const double brake = std::sqrt(bx * bx + by * by + bz * bz);
+  if (brake > 0.0) {
+    bx = bx / brake;
+    by = by / brake;
+    bz = bz / brake;
+  }
+  return {st.v, st.clearance, st.nearest, {bx, by, bz}};
+}
+
+// field::constrained_twist (evaluate.hpp), here so that the task-space loop inlines it into its RK4 stages
+// (planning/task_space.cpp): out of line, every stage passed its pose and twist through memory.
+inline ConstrainedTwist constrained_twist(const Field& field, const Vec3& p, const Quat& q, const Twist* previous,
+                                          double dt) {
+  const FieldParams& params = *field.params;
+  Vec3 w = rotation_twist(field, q);
+  // without a previous twist, zeros steer the dampers' tangential side
+  const Twist none{};
+  const Twist& before = previous != nullptr ? *previous : none;
+  const Avoided avoided = avoid(field, p, attraction_twist(field, p), before.linear);
+  Vec3 v = cap_speed(avoided.v, params.max_linear_velocity);
+  if (previous != nullptr) {
+    v = braking_rate_limit(v, previous->linear, params.max_linear_acceleration * dt, avoided.brake,
+                           params.max_linear_velocity);
+    w = rate_limit(w, previous->angular, params.max_angular_acceleration * dt);
+  }
+  return {{v, w}, avoided.clearance, avoided.nearest};
+}
+
 }  // namespace pfield::field::steps

@@ -1,5 +1,5 @@
-// Every expression keeps the operand order of pfield.geometry._bvh, and this file is compiled without fused
-// multiply-adds (CMakeLists.txt), so the numba kernels that still inline _bvh and this core give the same bits.
+// Every expression keeps the operand order of the Python kernel this file replaced (issue 32), and this file is
+// compiled without fused multiply-adds (CMakeLists.txt), so the distances kept their last bit.
 #include "geometry/mesh_bvh.hpp"
 
 #include <cmath>
@@ -11,7 +11,7 @@ namespace {
 
 constexpr double kOnSurface = 1e-12;
 
-// Python's max(a, b) and min(a, b) as numba compiles them: the later argument wins only when strictly beyond.
+// Python's max(a, b) and min(a, b): the later argument wins only when strictly beyond.
 inline double max_of(double a, double b) { return b > a ? b : a; }
 
 double box_distance_squared(const PackedView& packed, std::int64_t k, Vec3 p) {

@@ -1,4 +1,4 @@
-// Point-mesh signed distance over a packed mesh's bounding-box hierarchy (pfield.geometry._bvh, same order).
+// Point-mesh signed distance over a packed mesh's bounding-box hierarchy (the numba kernel's order: issue 32).
 //
 // The closest point over all triangles of one mesh is found by a depth-first traversal of its median-split AABB
 // tree that skips every node whose box is not nearer than the best triangle so far (the box distance is a lower

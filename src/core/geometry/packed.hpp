@@ -26,7 +26,7 @@ enum class Kind : std::int64_t { Sphere = 0, Box = 1, Cylinder = 2, Ellipsoid = 
 constexpr std::size_t kRowWidth = 16;
 constexpr std::size_t kPseudoNormals = 7;
 constexpr std::size_t kMeshTableWidth = 5;
-// Depth bound of the mesh query's traversal stack (numba's _raw.STACK_SIZE): a median-split tree over T triangles
+// Depth bound of the mesh query's traversal stack: a median-split tree over T triangles
 // has depth ceil(log2 T), so 96 levels are far beyond any mesh; check_packed refuses deeper trees.
 constexpr std::size_t kStackSize = 96;
 
@@ -61,7 +61,7 @@ struct PackedView {
 // Empty when every index the queries follow stays inside its array (mesh roots and node counts, children, leaf
 // triangle ranges) and every tree is shallower than kStackSize; otherwise what is wrong, for the binding's
 // ValueError. Children must come after their parent (depth-first order, as pack_obstacles stores them), which
-// also rules out cycles. Mesh indices in rows are checked per query (NaN out), as numba does.
+// also rules out cycles. Mesh indices in rows are checked per query (NaN out).
 std::string check_packed(const PackedView& packed);
 
 }  // namespace pfield::geometry

@@ -1,7 +1,7 @@
-// Every expression keeps the operand order of pfield.geometry._sdf and _ellipsoid, Python's min and max keep
-// their tie rule (the later argument wins only when strictly beyond), and this file is compiled without fused
-// multiply-adds (CMakeLists.txt): the numba kernels that still inline those modules and this core give the same
-// bits (tests/geometry/test_core_sdf.py).
+// Every expression keeps the operand order of the Python kernels this file replaced (issue 32), Python's min and
+// max keep their tie rule (the later argument wins only when strictly beyond), and this file is compiled without
+// fused multiply-adds (CMakeLists.txt): the distances kept their last bit (tests/geometry/test_core_sdf.py holds
+// them to the recorded values).
 #include "geometry/sdf.hpp"
 
 #include <cmath>
@@ -31,7 +31,7 @@ Radial radial(double qx, double qy) {
   return {rho, qx / rho, qy / rho};
 }
 
-// --- The ellipsoid (Eberly). Constants of pfield.geometry._ellipsoid. ---
+// --- The ellipsoid (Eberly). The numba kernel's constants. ---
 constexpr int kMaxIterations = 128;
 constexpr double kRelTol = 1e-15;
 constexpr double kHalleyTol = 1e-9;
@@ -195,13 +195,13 @@ inline double pick(int k, double a, double b, double c) { return k == 0 ? a : (k
       if (bound.distance <= cutoff) return ellipsoid_local(q, s0, s1, s2);
       return bound;
     }
-    default:  // Sphere, and any unknown code (as numba's dispatch)
+    default:  // Sphere, and any unknown code
       return sphere_at(q, s0);
   }
 }
 
 SignedDistance mesh_local(const PackedView& packed, double mesh, Vec3 q, double cutoff) {
-  if (!(mesh > -1.0 && mesh < static_cast<double>(packed.mesh_count)))  // numba: int(mesh) outside [0, count)
+  if (!(mesh > -1.0 && mesh < static_cast<double>(packed.mesh_count)))  // int(mesh) outside [0, count)
     return {kNaN, {kNaN, kNaN, kNaN}};
   const std::int64_t* table = packed.mesh(static_cast<std::int64_t>(mesh));
   if (cutoff < kInf) {

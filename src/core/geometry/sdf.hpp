@@ -1,4 +1,4 @@
-// Exact signed distances of points to the packed obstacles (pfield.geometry._sdf and _ellipsoid, same bits).
+// Exact signed distances of points to the packed obstacles (the numba kernels' bits: issue 32, sdf.cpp).
 //
 // d is the Euclidean signed distance in metres, negative inside. The normal is the unit gradient grad d in the
 // world frame: outside it points from the closest surface point to p, inside it is the outward surface normal at
@@ -15,7 +15,7 @@
 //
 // A point is taken into the obstacle's frame, q = R^T (p - c), the local formula runs there and the normal comes
 // back as R n_local (distances are invariant under rigid motion). Sphere points off the centre are computed in
-// the world frame directly, as pfield's numba kernels do.
+// the world frame directly (no rotation: fewer roundings).
 #pragma once
 
 #include <cstddef>

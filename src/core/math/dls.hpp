@@ -6,8 +6,8 @@
 // (Wampler 1986; Buss, "Introduction to inverse kinematics with Jacobian transpose, pseudoinverse and damped least
 // squares methods", 2004, eq. 11) for an m x n Jacobian J (m <= kMaxDlsRows task rows, row-major), where J_f is J
 // with the columns of frozen joints removed (their x_j is 0) and `damping` is lambda^2. The m x m system is solved
-// by math/linalg.hpp's Cholesky. Same operation order as the numba kernels (robot/ik.py's _dls_step_into, the
-// assistance's user-velocity map), so the same bits.
+// by math/linalg.hpp's Cholesky. Same operation order as the Python kernels it replaced (issue 32: the IK's DLS
+// step, the assistance's user-velocity map), so the same bits.
 //
 // In two steps for callers that inspect the undamped Gram matrix first (the assistance's singularity test on
 // J J^T): dls_gram, then dls_from_gram; damped_least_squares does both.
@@ -22,9 +22,9 @@ namespace pfield::math {
 
 constexpr std::size_t kMaxDlsRows = 6;
 
-// How the x_j = sum_k J_kj y_k sums start. The two numba twins differ only here, and only in the sign of a zero
-// (0.0 + (-0.0) is +0.0): the IK starts from its first term, the assistance from 0.0. Kept so both ports keep
-// their twins' bits; one form is enough once the twins are gone.
+// How the x_j = sum_k J_kj y_k sums start. The two kernels this replaced differed only here, and only in the sign of
+// a zero (0.0 + (-0.0) is +0.0): the IK starts from its first term, the assistance from 0.0. Kept so both keep their
+// recorded bits; one form would do, at the cost of those values' signed zeros.
 enum class DlsSum { FromFirstTerm, FromZero };
 
 // gram (m x m, row-major, every entry written) = J_f J_f^T; frozen (n,) nonzero marks a removed column, or null.

@@ -1,6 +1,6 @@
 // Hildreth's dual coordinate ascent with the active-set finish (qp.hpp explains both), step for step as
-// pfield._linalg.hildreth, _row_curvature, _polish and _active_solve (numba): the same sums in the same order and
-// Python's max tie rule, compiled without fused multiply-adds (CMakeLists.txt), so the same bits.
+// the Python kernels it replaced (issue 32: hildreth, _row_curvature, _polish and _active_solve): the same sums in the
+// same order and Python's max tie rule, compiled without fused multiply-adds (CMakeLists.txt), so the same bits.
 #include "math/qp.hpp"
 
 #include <stdexcept>
@@ -10,7 +10,7 @@
 namespace pfield::math {
 namespace {
 
-// The workspace's buffers as numba's kernels see them.
+// The workspace's buffers as the solve sees them.
 struct Scratch {
   double* hinv_rows;  // (m, n), row stride n
   double* mu;
@@ -69,7 +69,7 @@ bool active_solve(const QpProblem& p, const Scratch& s, std::size_t count) {
 // lambda drops its row (the most negative first), else the most violated row joins, until the KKT conditions hold
 // (lambda >= 0, every row within tolerance: then x and mu take the optimum and the result is true) or after 2n + 1
 // changes. More than n active rows, or a singular S, are left to the sweeps; on false x and mu are unchanged (the
-// joining rows' H^-1 a_k and curvatures stay computed, as in numba).
+// joining rows' H^-1 a_k and curvatures stay computed).
 bool polish(const QpProblem& p, double* x, const Scratch& s, double tolerance) {
   const std::size_t m = p.rows.m, n = p.n;
   for (std::size_t j = 0; j < n; ++j) s.free[j] = x[j];

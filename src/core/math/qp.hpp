@@ -14,8 +14,9 @@
 // eq. 16.5 and the primal active-set method of sec. 16.5): when its multipliers are >= 0 and every row holds, the
 // KKT conditions hold and the sweeps stop.
 //
-// The same operations in the same order as pfield._linalg.hildreth (numba), so the same bits; the Cholesky factor
-// and solve are math/linalg.hpp's (the one home of both).
+// The same operations in the same order as the Python kernel it replaced (issue 32), so the same bits
+// (tests/test_core_qp.py holds the recorded values); the Cholesky factor and solve are math/linalg.hpp's (the one
+// home of both).
 #pragma once
 
 #include <cstddef>
@@ -49,16 +50,15 @@ struct QpSettings {
 struct QpResult {
   std::int64_t sweeps = 0;   // sweeps run (the last one included; 0 when max_sweeps <= 0)
   bool active_set = false;   // the active-set finish found the optimum (then violation is 0)
-  // The largest slack b_k - a_k x the last sweep met, each row's taken before its own update (numba's return value):
+  // The largest slack b_k - a_k x the last sweep met, each row's taken before its own update (the kernel's return):
   // the updates after a row's are not re-checked, so on an ill-conditioned H the solution may violate a row by more
   // (tests/test_core_qp.py, the xfail). 0 after the active-set finish, which checks every row at its solution.
   double violation = 0.0;
 };
 
 // The QP's scratch, sized once for at most max_rows rows and max_variables variables and reused by every solve
-// (the whole-body stepper keeps one, as numba's Workspace kept hinv/mu/curvature): no allocation per solve, where
-// numba's finish allocated six arrays per call. After a solve it also holds the multipliers and the row
-// curvatures, which tests and diagnostics read.
+// (the whole-body stepper keeps one): no allocation per solve, where the Python kernel's finish allocated six arrays
+// per call. After a solve it also holds the multipliers and the row curvatures, which tests and diagnostics read.
 class QpWorkspace {
  public:
   QpWorkspace(std::size_t max_rows, std::size_t max_variables);

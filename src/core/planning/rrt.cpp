@@ -1,6 +1,6 @@
-// RRT-Connect and shortcutting (rrt.hpp), statement for statement as pfield/planning/_rrt_kernel.py: the same sums
-// in the same order and Python's min/max tie rules, compiled without fused multiply-adds (CMakeLists.txt), so the
-// same draws, the same trees and the same paths.
+// RRT-Connect and shortcutting (rrt.hpp), statement for statement as the numba kernels it replaced (issue 32): the
+// same sums in the same order and Python's min/max tie rules, compiled without fused multiply-adds
+// (CMakeLists.txt), so the same draws, the same trees and the same paths.
 #include "planning/rrt.hpp"
 
 #include <algorithm>
@@ -77,7 +77,7 @@ std::vector<const double*> branch(const Trees& trees, std::int64_t t, std::int64
 }  // namespace
 
 std::uint64_t seeded_state(std::uint64_t seed) {
-  std::uint64_t z = seed + 0x9E3779B97F4A7C15ULL;  // unsigned arithmetic wraps, as numba's uint64
+  std::uint64_t z = seed + 0x9E3779B97F4A7C15ULL;  // unsigned arithmetic wraps, as the numba engine's uint64 did
   z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
   z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
   z = z ^ (z >> 31);
@@ -173,7 +173,7 @@ bool StateChecker::edge_valid(const double* a, const double* b) {
   double largest = 0.0;
   for (std::size_t j = 0; j < dimension_; ++j) largest = py_max(largest, std::abs(b[j] - a[j]));
   const double ratio = std::ceil(largest / resolution_);
-  if (!(ratio < 9.0e18)) return false;  // a non-finite end (numba raises there): no edge, and no overflowing cast
+  if (!(ratio < 9.0e18)) return false;  // a non-finite end (numba raised there): no edge, no overflowing cast
   const auto steps = std::max<std::int64_t>(1, static_cast<std::int64_t>(ratio));
   double* point = point_.data();
   return samples_valid(steps, steps, [&](double t) {

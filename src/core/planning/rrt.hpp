@@ -16,8 +16,9 @@
 //
 // The random numbers are a xorshift64* stream (Vigna, "An experimental exploration of Marsaglia's xorshift
 // generators", 2016) seeded by splitmix64, so a search is a pure function of its seed. Everything here keeps the
-// operation order of pfield/planning/_rrt_kernel.py (numba): the same draws, trees, paths and check counts
-// (tests/planning/test_core_rrt.py).
+// operation order of the numba kernels it replaced (issue 32), so a seed gives the same draws, trees, paths and
+// check counts as it did there (tests/planning/test_core_rrt.py holds digests of those kernels' results, beside
+// oracles).
 #pragma once
 
 #include <cstddef>
@@ -46,7 +47,8 @@ inline double uniform(std::uint64_t& state) {
   return static_cast<double>((x * 0x2545F4914F6CDD1DULL) >> 11) * (1.0 / 9007199254740992.0);
 }
 
-// `count` numbers of the stream into out (the test of the draws against numba's).
+// `count` numbers of the stream into out (for the test that holds the draws to the generator written out in Python
+// integers).
 void uniforms(std::uint64_t& state, double* out, std::size_t count);
 
 // The scratch of the joint-space state check, sized once per robot: joint frames and world segments; the fitted

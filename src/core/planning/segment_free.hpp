@@ -11,9 +11,9 @@
 //
 // The samples are visited coarse to fine — every largest power of two <= last, then the odd multiples of each
 // smaller power down to 1 — so a blocked segment is usually refused after a few checks; the verdict is that of
-// any order (all samples valid), so only the number of checks depends on it. This order is
-// pfield/planning/_rrt_kernel.py edge_valid's, whose `done` flags mark exactly the multiples of twice the stride
-// (visited one level up): the states are checked in the same sequence, so the search counts the same checks.
+// any order (all samples valid), so only the number of checks depends on it. This order is that of the numba
+// engine's edge check it replaced (issue 32), whose `done` flags marked exactly the multiples of twice the stride
+// (visited one level up): the states are checked in the same sequence, so a search counts the same checks as there.
 #pragma once
 
 #include <cstdint>

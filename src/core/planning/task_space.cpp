@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "field/steps.hpp"
 #include "geometry/sdf.hpp"
 #include "math/so3.hpp"
 #include "planning/segment_free.hpp"
@@ -26,16 +27,21 @@ struct Stage {
 // The RK4 mean twist of one step of dt from (p, q), and the clearance at p with its obstacle. `k` holds the stage
 // twists, kept from step to step: stage 0 moves by 0 along the previous step's first stage, as the numba loop
 // does (the same signed zeros, the same bits).
+// Speed: the field's steps are inlined here (field/steps.hpp) and each stage starts from the previous stage's twist
+// held in registers (`from`), not read back from k: a plan is one chain of dependent stages, and a call per stage
+// with k in memory made the obstacle-free plans 12% slower. (Unrolling the stages gains 8% more there but
+// costs 7% on the seed example's primitives and mesh, whose distances are calls: the loop stays rolled.)
 Stage rk4_twist(const field::Field& field, const Vec3& p, const Quat& q, const Twist& previous, double dt,
                 Twist (&k)[4]) {
   double clearance = std::numeric_limits<double>::infinity();
   std::int64_t nearest = -1;
+  Twist from = k[0];
   for (int s = 0; s < 4; ++s) {
     const double h = s == 0 ? 0.0 : (s == 3 ? dt : 0.5 * dt);
-    const Twist& from = k[std::max(s - 1, 0)];
     const Vec3 stage{p.x + h * from.linear.x, p.y + h * from.linear.y, p.z + h * from.linear.z};
     const Quat turned = math::left_increment(q, from.angular, h);
-    const field::ConstrainedTwist result = field::constrained_twist(field, stage, turned, &previous, dt);
+    const field::ConstrainedTwist result = field::steps::constrained_twist(field, stage, turned, &previous, dt);
+    from = result.twist;
     k[s] = result.twist;
     if (s == 0) {
       clearance = result.clearance;

@@ -1,5 +1,6 @@
-// The path tracking (track.hpp), statement for statement as pfield/planning/_track_kernel.py: the same sums in the
-// same order and Python's min/max tie rules, compiled without fused multiply-adds (CMakeLists.txt), so the same bits.
+// The path tracking (track.hpp), statement for statement as the numba kernel it replaced (issue 32): the same sums
+// in the same order and Python's min/max tie rules, compiled without fused multiply-adds (CMakeLists.txt), so the
+// same bits.
 #include "planning/track.hpp"
 
 #include <algorithm>
@@ -18,7 +19,6 @@ using robot::detail::py_max;
 using robot::detail::py_min;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr std::size_t kTaskRows = 6;
 
 // The largest sigma' and sigma'' (1/s, 1/s^2) of q*(sigma) = w_k + sigma d within the profile's share of the limits.
 struct SegmentRates {
@@ -76,10 +76,6 @@ WholeBodyPlanResult track_path(const double* q0, const double* waypoints, std::s
   WholeBodyPlanResult result;
   result.count = total;
   const std::int64_t last = static_cast<std::int64_t>(count) - 1;
-  const auto zero = [&](std::int64_t k) {
-    std::fill(path.velocities + k * n, path.velocities + (k + 1) * n, 0.0);
-    std::fill(path.twists + kTaskRows * k, path.twists + kTaskRows * (k + 1), 0.0);
-  };
   for (std::int64_t k = 0; k < total; ++k) {
     if (sigma >= 1.0 && segment < last) {
       ++segment;
@@ -107,40 +103,14 @@ WholeBodyPlanResult track_path(const double* q0, const double* waypoints, std::s
       reference[j] = rate * direction[j] + std::copysign(pull, error);
     }
     tracking_step(q.data(), k > 0 ? previous.data() : nullptr, reference.data(), robot, scene, goal, params, ws);
-    std::copy(q.begin(), q.end(), path.joints + k * n);
-    std::copy(out.position, out.position + 3, path.positions + 3 * k);
-    std::copy(out.orientation, out.orientation + 4, path.orientations + 4 * k);
-    path.clearances[k] = out.clearance;
-    if (out.nearest_distance < 0.0 || out.self_clearance < 0.0) {
-      result.status = out.nearest_distance < 0.0 ? PlanStatus::Collision : PlanStatus::SelfCollision;
-      result.count = std::max<std::int64_t>(k, 1);
-      zero(result.count - 1);
-      break;
-    }
     const bool finished = segment == last && sigma >= 1.0;
-    if (finished && out.position_error <= params.goal_tolerance && out.rotation_error <= params.rotation_tolerance) {
-      result.status = PlanStatus::Reached;
-      result.count = k + 1;
-      zero(k);
-      break;
-    }
-    std::copy(ws.x.begin(), ws.x.end(), path.velocities + k * n);
-    std::copy(out.twist, out.twist + kTaskRows, path.twists + kTaskRows * k);
-    if (k == total - 1) break;
-    if (__atomic_load_n(cancel, __ATOMIC_RELAXED) != 0) {
-      result.status = PlanStatus::Cancelled;
-      result.count = k + 1;
-      break;
-    }
+    if (record_step(k, total, q, ws, params, finished, cancel, path, result)) break;
     if (finished && ++settled_for > settle_limit) {
       result.status = PlanStatus::Stagnation;
       result.count = k + 1;
       break;
     }
-    for (std::size_t j = 0; j < n; ++j) {
-      q[j] = py_min(py_max(q[j] + ws.x[j] * dt, limits.lower[j]), limits.upper[j]);
-      previous[j] = ws.x[j];
-    }
+    advance(q, previous, ws, limits, dt);
   }
   result.last = out;
   return result;

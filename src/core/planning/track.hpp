@@ -14,8 +14,8 @@
 // link-obstacle, self and joint-limit dampers, then the speed scaling and rate limit), so the tracked motion keeps
 // the field's clearance guarantees even where the polyline cuts close.
 //
-// The same operations in the same order as pfield/planning/_track_kernel.py (numba): the same waypoints to the
-// last bit (tests/planning/test_core_rrt.py).
+// The same operations in the same order as the numba kernel it replaced (issue 32): the same waypoints to the
+// last bit (tests/planning/test_core_rrt.py holds digests of that kernel's tracked paths).
 #pragma once
 
 #include <cstddef>

@@ -1,6 +1,6 @@
-// The whole-body step, loop and stepper (whole_body.hpp), statement for statement as
-// pfield/planning/_whole_body_kernel.py, _whole_body_loop.py and _whole_body_flat.py (numba): the same sums in the
-// same order and Python's min/max tie rules, compiled without fused multiply-adds (CMakeLists.txt), so the same bits.
+// The whole-body step, loop and stepper (whole_body.hpp), statement for statement as the numba kernels they
+// replaced (issue 32: the step, the plan loop and the flat stepper): the same sums in the same order and Python's
+// min/max tie rules, compiled without fused multiply-adds (CMakeLists.txt), so the same bits.
 #include "planning/whole_body.hpp"
 
 #include <algorithm>
@@ -15,6 +15,7 @@
 namespace pfield::planning {
 namespace {
 
+using field::stepped_damper_speed;
 using math::Quat;
 using math::Vec3;
 using robot::detail::py_max;
@@ -23,18 +24,6 @@ using robot::detail::py_min;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr std::size_t kTaskRows = 6;  // the end-effector twist: linear, then angular
 const math::QpSettings kQpSettings{200, 1e-7};
-
-// Largest allowed approach speed (m/s or rad/s) at `distance` for a step of dt (pfield.field.forces's
-// stepped_damper_speed): s = min(v (d - d_s)/(Q - d_s), (d - d_s)/(2 dt)) with v = max_speed; below d_s the
-// required retreat max((d - d_s)/(2 dt), -v). The QP's rows constrain joint velocities applied for one step whose
-// rate limit is dropped when it would break a damper, so no braking distance is needed (field::damper_speed's cap):
-// a link moving at s for dt covers at most half its margin, so d_s is approached geometrically, never crossed.
-// (Its one use in the core; it joins field/forces.hpp when another caller needs it.)
-double stepped_damper_speed(double distance, double influence, double safety, double max_speed, double dt) {
-  const double margin = distance - safety;
-  if (margin <= 0.0) return py_max(0.5 * margin / dt, -max_speed);
-  return py_min(max_speed * margin / (influence - safety), 0.5 * margin / dt);
-}
 
 // The QP's constraint rows A qd >= b as the constraints fill them (each kind of damper adds its own rows through
 // this one interface; the QP never knows which constraint a row came from).
@@ -314,6 +303,48 @@ std::size_t autonomy_step(const double* q, const double* previous, const robot::
   return velocity_from_segments(q, previous, robot, scene, params, ws, params.damping, true);
 }
 
+bool record_step(std::int64_t k, std::int64_t total, const std::vector<double>& q, const WholeBodyWorkspace& ws,
+                 const WholeBodyParams& params, bool may_reach, const std::uint8_t* cancel, const WholeBodyPath& path,
+                 WholeBodyPlanResult& result) {
+  const std::size_t n = ws.joint_count;
+  const StepResult& out = ws.result;
+  // the plan ends at waypoint `last` with a zero velocity and twist there
+  const auto end_at = [&](PlanStatus status, std::int64_t last) {
+    result.status = status;
+    result.count = last + 1;
+    std::fill(path.velocities + last * n, path.velocities + (last + 1) * n, 0.0);
+    std::fill(path.twists + kTaskRows * last, path.twists + kTaskRows * (last + 1), 0.0);
+    return true;
+  };
+  std::copy(q.begin(), q.end(), path.joints + k * n);
+  std::copy(out.position, out.position + 3, path.positions + 3 * k);
+  std::copy(out.orientation, out.orientation + 4, path.orientations + 4 * k);
+  path.clearances[k] = out.clearance;
+  // the last step brought capsules into contact (an infeasible squeeze): stop before it
+  if (out.nearest_distance < 0.0 || out.self_clearance < 0.0)
+    return end_at(out.nearest_distance < 0.0 ? PlanStatus::Collision : PlanStatus::SelfCollision,
+                  std::max<std::int64_t>(k, 1) - 1);
+  if (may_reach && out.position_error <= params.goal_tolerance && out.rotation_error <= params.rotation_tolerance)
+    return end_at(PlanStatus::Reached, k);
+  std::copy(ws.x.begin(), ws.x.end(), path.velocities + k * n);
+  std::copy(out.twist, out.twist + kTaskRows, path.twists + kTaskRows * k);
+  if (k == total - 1) return true;  // the iteration limit: result's status and count as they start
+  if (__atomic_load_n(cancel, __ATOMIC_RELAXED) != 0) {
+    result.status = PlanStatus::Cancelled;
+    result.count = k + 1;
+    return true;
+  }
+  return false;
+}
+
+void advance(std::vector<double>& q, std::vector<double>& previous, const WholeBodyWorkspace& ws,
+             const robot::JointLimitsView& limits, double dt) {
+  for (std::size_t j = 0; j < ws.joint_count; ++j) {
+    q[j] = py_min(py_max(q[j] + ws.x[j] * dt, limits.lower[j]), limits.upper[j]);
+    previous[j] = ws.x[j];
+  }
+}
+
 WholeBodyPlanResult plan_whole_body(const double* q0, const robot::RobotView& robot, const WholeBodyScene& scene,
                                     const Goal& goal, const WholeBodyParams& params, std::int64_t max_iterations,
                                     const std::uint8_t* cancel, const WholeBodyPath& path) {
@@ -323,52 +354,20 @@ WholeBodyPlanResult plan_whole_body(const double* q0, const robot::RobotView& ro
   const std::int64_t total = max_iterations + 1;
   const auto window = static_cast<std::int64_t>(params.stagnation_steps);
   const double dt = params.dt;
-  const robot::JointLimitsView& limits = robot.limits;
   const StepResult& out = ws.result;
   Progress progress{kInf, kInf, kInf, kInf};
   WholeBodyPlanResult result;
   result.count = total;
-  const auto zero = [n](double* row_n, double* row_6) {
-    std::fill(row_n, row_n + n, 0.0);
-    std::fill(row_6, row_6 + kTaskRows, 0.0);
-  };
   for (std::int64_t k = 0; k < total; ++k) {
-    // the rate limit from the previous step's velocity (zero at the start), as the numba loop (dt > 0 always here)
+    // the rate limit from the previous step's velocity (zero at the start), as the numba loop had it (dt > 0 here)
     joint_velocity_step(q.data(), dt > 0.0 ? previous.data() : nullptr, robot, scene, goal, params, ws);
-    std::copy(q.begin(), q.end(), path.joints + k * n);
-    std::copy(out.position, out.position + 3, path.positions + 3 * k);
-    std::copy(out.orientation, out.orientation + 4, path.orientations + 4 * k);
-    path.clearances[k] = out.clearance;
-    if (out.nearest_distance < 0.0 || out.self_clearance < 0.0) {
-      // the last step brought capsules into contact (an infeasible squeeze): stop before it
-      result.status = out.nearest_distance < 0.0 ? PlanStatus::Collision : PlanStatus::SelfCollision;
-      result.count = std::max<std::int64_t>(k, 1);
-      zero(path.velocities + (result.count - 1) * n, path.twists + kTaskRows * (result.count - 1));
-      break;
-    }
-    if (out.position_error <= params.goal_tolerance && out.rotation_error <= params.rotation_tolerance) {
-      result.status = PlanStatus::Reached;
-      result.count = k + 1;
-      zero(path.velocities + k * n, path.twists + kTaskRows * k);
-      break;
-    }
-    std::copy(ws.x.begin(), ws.x.end(), path.velocities + k * n);
-    std::copy(out.twist, out.twist + kTaskRows, path.twists + kTaskRows * k);
-    if (k == total - 1) break;
-    if (__atomic_load_n(cancel, __ATOMIC_RELAXED) != 0) {
-      result.status = PlanStatus::Cancelled;
-      result.count = k + 1;
-      break;
-    }
+    if (record_step(k, total, q, ws, params, true, cancel, path, result)) break;
     if (progress.stuck(k, window, params.stagnation_progress, out.position_error, out.rotation_error)) {
       result.status = PlanStatus::Stagnation;
       result.count = k + 1;
       break;
     }
-    for (std::size_t j = 0; j < n; ++j) {
-      q[j] = py_min(py_max(q[j] + ws.x[j] * dt, limits.lower[j]), limits.upper[j]);
-      previous[j] = ws.x[j];
-    }
+    advance(q, previous, ws, robot.limits, dt);
   }
   result.last = out;
   return result;

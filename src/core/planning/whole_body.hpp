@@ -19,9 +19,9 @@
 // the joint speeds are scaled uniformly into the velocity limits and rate-limited by the acceleration limits,
 // unless the rate limit would break a damper row (safety first).
 //
-// Every function here keeps the operation order of pfield/planning/_whole_body_kernel.py and _whole_body_loop.py
-// (numba), which the kernels not yet ported (the global search's tracking, the assistance) still inline: the
-// same bits (tests/planning/test_core_whole_body.py).
+// Every function here keeps the operation order of the numba kernels it replaced (issue 32), so the same bits and
+// the test suite's exact figures carried over (tests/planning/test_core_whole_body.py holds digests of those
+// kernels' results, beside invariants).
 #pragma once
 
 #include <cstddef>
@@ -176,6 +176,19 @@ struct WholeBodyPlanResult {
   std::int64_t count = 0;  // waypoints recorded, the start included
   StepResult last{};       // the last step evaluated: its nearest pairs name the culprit of a failure
 };
+
+// The waypoint rules every plan loop shares (plan_whole_body, track_path), after the step at q = q_k (in ws):
+// waypoint k's q, pose and clearance; a contact (Collision / SelfCollision: the plan stops before it, at waypoint
+// max(k, 1) - 1) or, when may_reach, the goal within both tolerances (Reached, at k) ends the plan with a zero
+// velocity and twist at its last waypoint; otherwise waypoint k's velocity and twist, and the iteration limit (k the
+// last row) or *cancel != 0 (Cancelled, read atomically) end it. True when the plan ends at k (result set).
+bool record_step(std::int64_t k, std::int64_t total, const std::vector<double>& q, const WholeBodyWorkspace& ws,
+                 const WholeBodyParams& params, bool may_reach, const std::uint8_t* cancel, const WholeBodyPath& path,
+                 WholeBodyPlanResult& result);
+
+// The step from waypoint k to k + 1: q <- clip(q + qd dt, lower, upper) and previous <- qd, with qd = ws.x.
+void advance(std::vector<double>& q, std::vector<double>& previous, const WholeBodyWorkspace& ws,
+             const robot::JointLimitsView& limits, double dt);
 
 // Integrates q <- clip(q + qd dt, lower, upper) from q0 until the goal (Reached), a step that brought capsules into
 // contact (Collision / SelfCollision: the plan stops before that waypoint), the stagnation rule (Progress), the

@@ -1,27 +1,22 @@
 // Bindings of shared-control assistance (pfield.shared_control.assistance): a thin list of defs over
-// shared_control/assist.hpp. A Scene is an AssistanceScene's core (its packed obstacles, bounding spheres and
-// velocities read in place, its parameters copied); a WholeBody binds a robot (RobotArrays) to a scene, owns the
-// workspace and, with a goal, the field's step. (Their C++ names differ from other binding files' classes: nanobind
-// knows a type by its mangled name, and an anonymous namespace's Scene is the same name in every file.) Answers are
-// structs with named read-only fields; their vectors are read-only NumPy views of the answer's own memory. No
-// arithmetic here beyond the output contract, applied to the core's commands as pfield.safety applies it (this file
-// is compiled like python/safety.cpp: the same bits); the core computes.
+// shared_control/assist.hpp. An AssistanceScene is an AssistanceScene's core: its obstacles (a robot.Obstacles,
+// python/robot_arrays.hpp) with their velocities, read in place, and its parameters, copied; a WholeBody binds a
+// robot.Robot to a scene, owns the workspace and, with a goal, the field's step. Answers are structs with named
+// read-only fields; their vectors are read-only NumPy views of the answer's own memory. The output contract
+// (safety/limits.hpp) is applied to the core's commands here, by its one compiled copy; the core computes.
 #include <nanobind/nanobind.h>
 #include <nanobind/stl/optional.h>
 
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
-#include <cstring>
 #include <optional>
-#include <stdexcept>
 #include <utility>
 #include <vector>
 
 #include "math/vec3.hpp"
 #include "planning/whole_body.hpp"
 #include "python/arrays.hpp"
-#include "python/packed.hpp"
 #include "python/robot_arrays.hpp"
 #include "safety/limits.hpp"
 #include "shared_control/assist.hpp"
@@ -41,19 +36,11 @@ struct PointAnswer : PointAssistance {
   safety::Outcome outcome = safety::Outcome::Within;
 };
 
-using Point = nb::ndarray<const double, nb::shape<3>, nb::c_contig, nb::device::cpu>;
 using Twist6 = nb::ndarray<const double, nb::shape<6>, nb::c_contig, nb::device::cpu>;
-using Quaternion = nb::ndarray<const double, nb::shape<4>, nb::c_contig, nb::device::cpu>;
 template <std::size_t N>
 using ReadOnly = nb::ndarray<nb::numpy, const double, nb::shape<N>>;
 
 static_assert(sizeof(math::Vec3) == 3 * sizeof(double), "a Vec3 is three contiguous doubles (viewed as (3,))");
-constexpr std::size_t kStepParams = sizeof(planning::WholeBodyParams) / sizeof(double);
-static_assert(kStepParams == 20, "WholeBodyParams is _whole_body_layout.PARAMS's 20 doubles");
-
-void require(bool condition, const char* message) {
-  if (!condition) throw std::invalid_argument(message);
-}
 
 // A read-only (N,) NumPy view of N doubles owned by the Python object `owner`.
 template <std::size_t N>
@@ -66,24 +53,17 @@ ReadOnly<N> view(const math::Vec3& v, nb::handle owner) {
   return ReadOnly<N>(&v.x, {N}, owner);
 }
 
-// An AssistanceScene's core: the packed obstacles (PackedObstacles' eight arrays), their bounding spheres and
-// velocities (M, 3), read in place; the parameters copied.
+// An AssistanceScene's core: its obstacles (held: read in place) and their velocities (M, 3); the parameters
+// copied.
 class AssistScene {
  public:
-  AssistScene(const Kinds& kinds, const Rows<16>& rows, const Triangles& triangles, const PseudoNormals& pseudo_normals,
-        const Rows<3>& bvh_lower, const Rows<3>& bvh_upper, const Nodes& bvh_nodes, const MeshTable& mesh_table,
-        const Rows<3>& centres, const Vector& bounds, const Rows<3>& velocities, const AssistParams& params)
-      : kinds_(kinds), rows_(rows), triangles_(triangles), pseudo_normals_(pseudo_normals), bvh_lower_(bvh_lower),
-        bvh_upper_(bvh_upper), bvh_nodes_(bvh_nodes), mesh_table_(mesh_table), centres_(centres), bounds_(bounds),
-        velocities_(velocities), params_(params),
-        packed_(packed_view(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table)) {
-    const std::size_t count = kinds.shape(0);
-    require(centres.shape(0) == count && bounds.shape(0) == count && velocities.shape(0) == count,
-            "scene: centres, bounds and velocities need one row per obstacle");
-    obstacles_ = {{&packed_, centres.data(), bounds.data()}, velocities.data()};
+  AssistScene(nb::handle_t<ObstacleArrays> obstacles, const Rows<3>& velocities, const AssistParams& params)
+      : obstacles_(obstacles), velocities_(velocities), params_(params),
+        moving_{obstacles_->set(), velocities.data()} {
+    require(velocities.shape(0) == obstacles_->count(), "scene: velocities need one row per obstacle");
   }
 
-  const shared_control::MovingObstacles& obstacles() const { return obstacles_; }
+  const shared_control::MovingObstacles& obstacles() const { return moving_; }
   const AssistParams& params() const { return params_; }
 
   PointAnswer assist_point(const Point& position, const Twist6& user, const Point& autonomy_linear,
@@ -94,25 +74,16 @@ class AssistScene {
     std::copy_n(autonomy_angular.data(), 3, autonomy + 3);
     PointAnswer answer;
     static_cast<PointAssistance&>(answer) = shared_control::assist_point(
-        packed_, velocities_.data(), {p[0], p[1], p[2]}, user.data(), autonomy, params_, mode, goal_share);
+        obstacles_->packed(), velocities_.data(), {p[0], p[1], p[2]}, user.data(), autonomy, params_, mode, goal_share);
     answer.outcome = safety::limit_twist(answer.blended, params_.max_linear_velocity, params_.max_angular_velocity);
     return answer;
   }
 
  private:
-  Kinds kinds_;
-  Rows<16> rows_;
-  Triangles triangles_;
-  PseudoNormals pseudo_normals_;
-  Rows<3> bvh_lower_, bvh_upper_;
-  Nodes bvh_nodes_;
-  MeshTable mesh_table_;
-  Rows<3> centres_;
-  Vector bounds_;
+  Held<ObstacleArrays> obstacles_;
   Rows<3> velocities_;
   AssistParams params_;
-  geometry::PackedView packed_;
-  shared_control::MovingObstacles obstacles_;
+  shared_control::MovingObstacles moving_;
 };
 
 // A whole-body answer: the core's struct, the joint velocities (a new NumPy array of its own) and the output
@@ -126,28 +97,20 @@ struct JointAnswer : JointAssistance {
 // The whole-body assistance of one robot in one scene (robot and scene kept alive: the core views their arrays).
 class WholeBodyAssist {
  public:
-  WholeBodyAssist(nb::object robot, nb::object scene, const JointAssistParams& joint_params, double limit_tolerance,
-            std::optional<Point> goal_position, std::optional<Quaternion> goal_orientation,
-            std::optional<Vector> step_params)
-      : robot_owner_(std::move(robot)), scene_owner_(std::move(scene)),
-        scene_(&nb::cast<const AssistScene&>(scene_owner_)), limit_tolerance_(limit_tolerance) {
-    const RobotArrays& arrays = nb::cast<const RobotArrays&>(robot_owner_);
-    const AssistScene& where = *scene_;
-    autonomy_qd_.resize(arrays.joints());
+  WholeBodyAssist(nb::handle_t<RobotArrays> robot, nb::handle_t<AssistScene> scene,
+                  const JointAssistParams& joint_params, double limit_tolerance, std::optional<Point> goal_position,
+                  std::optional<Quaternion> goal_orientation, std::optional<Vector> step_params)
+      : robot_(robot), scene_(scene), limit_tolerance_(limit_tolerance) {
+    autonomy_qd_.resize(robot_->joints());
     const bool goal = goal_position.has_value();
     require(goal == goal_orientation.has_value() && goal == step_params.has_value(),
             "whole body: give the goal position, orientation and step parameters together, or none");
     if (!goal) {
-      core_.emplace(arrays.view(), where.obstacles(), where.params(), joint_params);
+      core_.emplace(robot_->view(), scene_->obstacles(), scene_->params(), joint_params);
       return;
     }
-    require(step_params->shape(0) == kStepParams, "step_params: expected _whole_body_layout.PARAMS's 20 numbers");
-    planning::WholeBodyParams params{};
-    std::memcpy(&params, step_params->data(), sizeof(params));
-    const double* g = goal_position->data();
-    const double* o = goal_orientation->data();
-    core_.emplace(arrays.view(), where.obstacles(), where.params(), joint_params,
-                  planning::Goal{{g[0], g[1], g[2]}, {o[0], o[1], o[2], o[3]}}, params);
+    core_.emplace(robot_->view(), scene_->obstacles(), scene_->params(), joint_params,
+                  goal_pose(*goal_position, *goal_orientation), whole_body_params(*step_params));
   }
 
   std::size_t joints() const { return core_->joint_count(); }
@@ -189,8 +152,8 @@ class WholeBodyAssist {
                                        params.max_linear_velocity, params.max_angular_velocity);
   }
 
-  nb::object robot_owner_, scene_owner_;
-  const AssistScene* scene_;
+  Held<RobotArrays> robot_;  // the core views their arrays
+  Held<AssistScene> scene_;
   double limit_tolerance_;
   std::optional<shared_control::WholeBodyAssistance> core_;
   std::vector<double> autonomy_qd_;  // the step's qd_auto under the output contract (its twist is reported)
@@ -273,30 +236,13 @@ void bind_assistance(nb::module_& m) {
       .def_prop_ro("outcome", [](const PointAnswer& a) { return static_cast<int>(a.outcome); },
                    "the output contract's outcome on the command (0 within, 1 scaled, 2 halted)");
 
-  nb::class_<AssistScene>(m, "Scene", "An AssistanceScene's obstacles (read in place) and parameters.")
-      .def(nb::init<const Kinds&, const Rows<16>&, const Triangles&, const PseudoNormals&, const Rows<3>&,
-                    const Rows<3>&, const Nodes&, const MeshTable&, const Rows<3>&, const Vector&, const Rows<3>&,
-                    const AssistParams&>(),
-           "kinds"_a, "rows"_a, "triangles"_a, "pseudo_normals"_a, "bvh_lower"_a, "bvh_upper"_a, "bvh_nodes"_a,
-           "mesh_table"_a, "centres"_a, "bounds"_a, "velocities"_a, "params"_a,
-           "Scene(*packed, centres, bounds, velocities, params): bounding spheres (M, 3), (M,), velocities (M, 3).")
+  nb::class_<AssistScene>(m, "AssistanceScene", "An AssistanceScene's obstacles (read in place) and parameters.")
+      .def(nb::init<nb::handle_t<ObstacleArrays>, const Rows<3>&, const AssistParams&>(), "obstacles"_a,
+           "velocities"_a, "params"_a, "obstacles: a robot.Obstacles; velocities (M, 3) m/s, one row per obstacle.")
       .def("assist_point", &AssistScene::assist_point, "position"_a, "user"_a, "autonomy_linear"_a,
            "autonomy_angular"_a, "mode"_a, "goal_share"_a,
            "The task-space assistance at a robot point (3,) for the operator's twist (6,) and the autonomy twist's "
            "parts (3,) each.");
-
-  nb::class_<RobotArrays>(m, "Robot", "A robot's RobotArrays (pfield.planning._whole_body_layout), read in place.")
-      .def(nb::init<const RobotArrays::Ints&, const RobotArrays::Rotations&, const Rows<3>&, const Rows<3>&,
-                    const RobotArrays::Ints&, const RobotArrays::IntMatrix&, std::int64_t, const RobotArrays::Matrix3&,
-                    const RobotArrays::Point&, const RobotArrays::Ints&, const Rows<3>&, const Rows<3>&,
-                    const Vector&, const RobotArrays::Pairs&, const Vector&, const Vector&, const Vector&,
-                    const Vector&, const RobotArrays::Ints&, const RobotArrays::Ints&, const Rows<3>&, const Rows<3>&,
-                    const Vector&, const Vector&>(),
-           "parents"_a, "place_rot"_a, "place_pos"_a, "axes"_a, "kinds"_a, "support"_a, "ee_joint"_a, "ee_rot"_a,
-           "ee_pos"_a, "cap_joint"_a, "cap_a"_a, "cap_b"_a, "cap_r"_a, "self_pairs"_a, "lower"_a, "upper"_a,
-           "max_velocity"_a, "max_acceleration"_a, "link_start"_a, "prim_joint"_a, "prim_a"_a, "prim_b"_a,
-           "prim_r"_a, "self_r"_a, "RobotArrays' fields in order (Robot(*arrays)).")
-      .def_prop_ro("joint_count", &RobotArrays::joints);
 
   nb::class_<JointAnswer>(m, "JointAssistance", "The whole-body answer.")
       .def_prop_ro("joint_velocities", [](const JointAnswer& a) { return a.joint_velocities; },
@@ -345,12 +291,12 @@ void bind_assistance(nb::module_& m) {
 
   nb::class_<WholeBodyAssist>(m, "WholeBody",
                               "A robot's whole-body assistance in a scene: its workspace and field step.")
-      .def(nb::init<nb::object, nb::object, const JointAssistParams&, double, std::optional<Point>,
-                    std::optional<Quaternion>, std::optional<Vector>>(),
+      .def(nb::init<nb::handle_t<RobotArrays>, nb::handle_t<AssistScene>, const JointAssistParams&, double,
+                    std::optional<Point>, std::optional<Quaternion>, std::optional<Vector>>(),
            "robot"_a, "scene"_a, "params"_a, "limit_tolerance"_a, "goal_position"_a.none() = nb::none(),
            "goal_orientation"_a.none() = nb::none(), "step_params"_a.none() = nb::none(),
-           "robot: a Robot, scene: a Scene; with the goal (3,), (4,) (x, y, z, w) and the step's parameters "
-           "(_whole_body_layout.PARAMS, copied), the field's step as well.")
+           "robot: a robot.Robot, scene: an AssistanceScene; with the goal (3,), (4,) (x, y, z, w) and the step's "
+           "parameters (_whole_body_layout.PARAMS, copied), the field's step as well.")
       .def_prop_ro("joint_count", &WholeBodyAssist::joints)
       .def("assist", &WholeBodyAssist::assist, "q"_a, "user"_a, "mode"_a, "goal_share"_a,
            "The assistance alone at a validated q (the autonomy vector zero).")

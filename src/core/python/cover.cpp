@@ -15,7 +15,6 @@ namespace pfield::python {
 namespace {
 
 using namespace nb::literals;
-using Matrix = nb::ndarray<const double, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
 
 robot::CapsuleSet capsule_set(const Rows<3>& a, const Rows<3>& b, const Vector& radii) {
   const std::size_t count = a.shape(0);
@@ -35,12 +34,8 @@ void bind_cover(nb::module_& m) {
       "coverage",
       [](const Rows<3>& a, const Rows<3>& b, const Vector& radii, const Rows<3>& points) {
         const robot::CapsuleSet capsules = capsule_set(a, b, radii);
-        auto [covered, out] = new_array_of<bool>({capsules.count, points.shape(0)});
-        {
-          nb::gil_scoped_release release;
-          robot::coverage(capsules, point_set(points), out);
-        }
-        return covered;
+        return filled_array<bool>({capsules.count, points.shape(0)},
+                                  [&](bool* out) { robot::coverage(capsules, point_set(points), out); });
       },
       "a"_a, "b"_a, "radii"_a, "points"_a, "(K, N) booleans: capsule k (segment a_k-b_k, radius r_k) contains point n.");
 
@@ -65,12 +60,8 @@ void bind_cover(nb::module_& m) {
       "min_depth",
       [](const Rows<3>& a, const Rows<3>& b, const Vector& radii, const Rows<3>& points, std::int64_t skip) {
         const robot::CapsuleSet capsules = capsule_set(a, b, radii);
-        auto [depth, out] = new_array({points.shape(0)});
-        {
-          nb::gil_scoped_release release;
-          robot::min_depth(capsules, point_set(points), skip, out);
-        }
-        return depth;
+        return filled_array({points.shape(0)},
+                            [&](double* out) { robot::min_depth(capsules, point_set(points), skip, out); });
       },
       "a"_a, "b"_a, "radii"_a, "points"_a, "skip"_a,
       "(N,): min over capsules k != skip of dist(point, segment a_k-b_k) - r_k (<= 0: inside their union; +inf\n"
@@ -79,13 +70,10 @@ void bind_cover(nb::module_& m) {
   m.def(
       "inside_hull",
       [](const Rows<4>& equations, const Rows<4>& inner, const Rows<3>& points, double tolerance) {
-        auto [inside, out] = new_array_of<bool>({points.shape(0)});
-        {
-          nb::gil_scoped_release release;
+        return filled_array<bool>({points.shape(0)}, [&](bool* out) {
           robot::inside_hull({equations.data(), equations.shape(0)}, {inner.data(), inner.shape(0)}, point_set(points),
                              tolerance, out);
-        }
-        return inside;
+        });
       },
       "equations"_a, "inner"_a, "points"_a, "tolerance"_a,
       "(N,) booleans: the point satisfies every facet n.x + c <= tolerance of a convex hull (equations (F, 4),\n"
@@ -96,12 +84,9 @@ void bind_cover(nb::module_& m) {
       [](const Matrix& points, int iterations) {
         const std::size_t count = points.shape(0), dimension = points.shape(1);
         if (count == 0) throw std::invalid_argument("enclosing_circle: needs at least one point");
-        auto [centre, out] = new_array({dimension});
-        {
-          nb::gil_scoped_release release;
+        return filled_array({dimension}, [&](double* out) {
           robot::enclosing_circle(points.data(), count, dimension, iterations, out);
-        }
-        return centre;
+        });
       },
       "points"_a, "iterations"_a,
       "Approximate centre (D,) of the smallest ball enclosing points (N, D): Badoiu-Clarkson's iterations from the\n"

@@ -37,10 +37,6 @@ static_assert(sizeof(ObstacleAux) == 8 * sizeof(double), "ObstacleAux is a row o
 
 using Out6 = nb::ndarray<double, nb::shape<6>, nb::c_contig, nb::device::cpu>;
 using Pose7 = nb::ndarray<const double, nb::shape<7>, nb::c_contig, nb::device::cpu>;
-using Cancel = nb::ndarray<const std::uint8_t, nb::shape<1>, nb::c_contig, nb::device::cpu>;
-template <int Columns>
-using OutRows = nb::ndarray<double, nb::shape<-1, Columns>, nb::c_contig, nb::device::cpu>;
-using OutVector = nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
 
 Vec3 vec3(const double* v) { return {v[0], v[1], v[2]}; }
 Quat quat(const double* v) { return {v[0], v[1], v[2], v[3]}; }
@@ -55,15 +51,13 @@ class BoundField {
   BoundField(const Vector& goal, const Vector& params, const Rows<8>& aux, const Kinds& kinds, const Rows<16>& rows,
              const Triangles& triangles, const PseudoNormals& pseudo_normals, const Rows<3>& bvh_lower,
              const Rows<3>& bvh_upper, const Nodes& bvh_nodes, const MeshTable& mesh_table)
-      : goal_(goal), params_(params), aux_(aux), kinds_(kinds), rows_(rows), triangles_(triangles),
-        pseudo_normals_(pseudo_normals), bvh_lower_(bvh_lower), bvh_upper_(bvh_upper), bvh_nodes_(bvh_nodes),
-        mesh_table_(mesh_table),
-        packed_(packed_view(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table)) {
+      : goal_(goal), params_(params), aux_(aux),
+        packed_(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table) {
     if (goal.shape(0) != 7) throw std::invalid_argument("goal: expected 7 numbers (position, quaternion)");
     if (params.shape(0) != 16) throw std::invalid_argument("params: expected FieldConfig.packed()'s 16 numbers");
     if (aux.shape(0) != kinds.shape(0)) throw std::invalid_argument("aux: expected one row per obstacle");
     const double* g = goal.data();
-    field_ = {&packed_, reinterpret_cast<const ObstacleAux*>(aux.data()), aux.shape(0), vec3(g), quat(g + 3),
+    field_ = {&packed_.view(), reinterpret_cast<const ObstacleAux*>(aux.data()), aux.shape(0), vec3(g), quat(g + 3),
               reinterpret_cast<const FieldParams*>(params.data())};
   }
 
@@ -149,9 +143,8 @@ class BoundField {
   static field::Twist twist_of(const double* v) { return {{v[0], v[1], v[2]}, {v[3], v[4], v[5]}}; }
   const FieldParams& params() const { return *field_.params; }
 
-  // The output contract on a twist (6) in place. twist(), evaluate() and the batch's rows (in its threads) all take
-  // it from here, one build of safety::limit_twist: its std::hypot takes fused multiply-adds under this file's
-  // -ffp-contract=fast and not in the core's files, so a build elsewhere could differ in a last bit.
+  // The output contract on a twist (6) in place: twist(), evaluate() and the batch's rows (in its threads) take it
+  // from here (safety::limit_twist, its one compiled copy, the one pfield.safety calls too).
   static safety::Outcome contract(double* twist, const FieldParams& params) {
     return safety::limit_twist(twist, params.max_linear_velocity, params.max_angular_velocity);
   }
@@ -176,14 +169,7 @@ class BoundField {
   // the arrays the views point into, kept alive as long as this object
   Vector goal_, params_;
   Rows<8> aux_;
-  Kinds kinds_;
-  Rows<16> rows_;
-  Triangles triangles_;
-  PseudoNormals pseudo_normals_;
-  Rows<3> bvh_lower_, bvh_upper_;
-  Nodes bvh_nodes_;
-  MeshTable mesh_table_;
-  geometry::PackedView packed_;
+  PackedArrays packed_;
   field::Field field_{};
 };
 
@@ -191,7 +177,7 @@ class BoundField {
 // NumPy arrays over this memory, so a control loop's call passes nothing but dt.
 class Prepared {
  public:
-  explicit Prepared(nb::object field) : owner_(std::move(field)), field_(&nb::cast<const BoundField&>(owner_)) {}
+  explicit Prepared(nb::handle_t<BoundField> field) : field_(field) {}
 
   int evaluate(double dt) {
     Pose7 pose(pose_, {7});
@@ -205,8 +191,7 @@ class Prepared {
   double twist_[6] = {};
 
  private:
-  nb::object owner_;  // the bound field, kept alive
-  const BoundField* field_;
+  Held<BoundField> field_;  // the bound field, kept alive
 };
 
 template <std::size_t N>
@@ -218,7 +203,48 @@ nb::ndarray<nb::numpy, double, nb::shape<N>> view(double (&buffer)[N], nb::handl
 
 void bind_field(nb::module_& m) {
   m.doc() = "The 3D potential field and its task-space planning loop (pfield.field's compiled core).";
-  // the two rate limits alone, for their property tests (the other laws keep numba twins, tested there)
+  // The laws one call at a time, out of line (forces.hpp): pfield.field.forces's Python face. And the two rate limits,
+  // for their property tests.
+  m.def(
+      "attraction",
+      [](double ex, double ey, double ez, double gain, double threshold) {
+        const Vec3 f = field::out_of_line::attraction({ex, ey, ez}, gain, threshold);
+        return std::make_tuple(f.x, f.y, f.z);
+      },
+      "ex"_a, "ey"_a, "ez"_a, "gain"_a, "threshold"_a,
+      "Attractive force for the goal error e = g - p: k e within threshold, k threshold e/|e| beyond.");
+  m.def("khatib_magnitude", &field::out_of_line::khatib_magnitude, "distance"_a, "gain"_a, "influence"_a, "cap"_a,
+        "The saturated Khatib repulsion magnitude at a signed distance: 0 beyond influence, cap inside.");
+  m.def(
+      "soft_saturate",
+      [](double x, double y, double z, double limit) {
+        const Vec3 v = field::out_of_line::soft_saturate({x, y, z}, limit);
+        return std::make_tuple(v.x, v.y, v.z);
+      },
+      "x"_a, "y"_a, "z"_a, "limit"_a, "v <- limit tanh(|v|/limit) v/|v|.");
+  m.def("damper_speed", &field::out_of_line::damper_speed, "distance"_a, "influence"_a, "safety"_a, "gain"_a,
+        "max_speed"_a, "max_acceleration"_a,
+        "The largest allowed approach speed of a rate-limited twist at a distance < influence.");
+  m.def("stepped_damper_speed", &field::out_of_line::stepped_damper_speed, "distance"_a, "influence"_a, "safety"_a,
+        "max_speed"_a, "dt"_a, "The largest allowed approach speed for one step of dt (the whole-body QP's rows).");
+  m.def(
+      "deflect",
+      [](double vx, double vy, double vz, double nx, double ny, double nz, double cx, double cy, double cz,
+         double allowed, double circulation) {
+        const field::Limited out =
+            field::out_of_line::deflect({vx, vy, vz}, {nx, ny, nz}, {cx, cy, cz}, allowed, circulation);
+        return std::make_tuple(out.v.x, out.v.y, out.v.z, out.changed);
+      },
+      "vx"_a, "vy"_a, "vz"_a, "nx"_a, "ny"_a, "nz"_a, "cx"_a, "cy"_a, "cz"_a, "allowed"_a, "circulation"_a,
+      "The damper n.v >= -allowed, the removed approach speed turned about the axis c: (vx, vy, vz, active).");
+  m.def(
+      "project_damper",
+      [](double vx, double vy, double vz, double nx, double ny, double nz, double allowed) {
+        const field::Limited out = field::out_of_line::project_damper({vx, vy, vz}, {nx, ny, nz}, allowed);
+        return std::make_tuple(out.v.x, out.v.y, out.v.z, out.changed);
+      },
+      "vx"_a, "vy"_a, "vz"_a, "nx"_a, "ny"_a, "nz"_a, "allowed"_a,
+      "The nearest twist with approach speed -n.v <= allowed: (vx, vy, vz, changed).");
   m.def(
       "rate_limit",
       [](double x, double y, double z, double px, double py, double pz, double max_change) {
@@ -294,7 +320,7 @@ void bind_field(nb::module_& m) {
            "The task-space plan into poses/twists/clearances: (waypoint count, PlanStatus value, obstacle or -1); "
            "the GIL is released and cancel[0] read every step.");
   nb::class_<Prepared>(m, "Prepared")
-      .def(nb::init<nb::object>(), "field"_a, "The state of a PreparedTwist over a bound Field.")
+      .def(nb::init<nb::handle_t<BoundField>>(), "field"_a, "The state of a PreparedTwist over a bound Field.")
       .def_prop_ro("pose", [](nb::handle_t<Prepared> self) { return view(nb::cast<Prepared&>(self).pose_, self); },
                    "(7,) position then unit quaternion, a NumPy view of the object's memory")
       .def_prop_ro("previous",

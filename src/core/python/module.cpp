@@ -14,6 +14,7 @@ void bind_spatial(nb::module_& m);
 void bind_planning(nb::module_& m);
 void bind_qp(nb::module_& m);
 void bind_cover(nb::module_& m);
+void bind_robot(nb::module_& m);
 void bind_robot_kinematics(nb::module_& m);
 void bind_robot_distance(nb::module_& m);
 void bind_whole_body(nb::module_& m);
@@ -31,7 +32,7 @@ NB_MODULE(_core, m) {
   const Part parts[] = {{"mobile", bind_mobile},   {"costmap", bind_costmap}, {"geometry", bind_geometry},
                         {"field", bind_field},     {"safety", bind_safety},   {"spatial", bind_spatial},
                         {"planning", bind_planning}, {"qp", bind_qp},
-                        {"cover", bind_cover}, {"robot_kinematics", bind_robot_kinematics},
+                        {"cover", bind_cover}, {"robot", bind_robot}, {"robot_kinematics", bind_robot_kinematics},
                         {"robot_distance", bind_robot_distance}, {"whole_body", bind_whole_body}, {"rrt", bind_rrt},
                         {"assistance", bind_assistance}};
   for (const Part& part : parts) {

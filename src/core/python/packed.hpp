@@ -1,5 +1,6 @@
 // The packed obstacle set at the Python boundary: its eight arrays (PackedObstacles' field order), read in place,
 // and the view over them, refused with a ValueError when their lengths or indices disagree (a hand-built set).
+// PackedArrays holds the eight for as long as a bound object views them (pfield._core.robot.Obstacles, field.Field).
 #pragma once
 
 #include <cstdint>
@@ -32,5 +33,29 @@ inline geometry::PackedView packed_view(const Kinds& kinds, const Rows<16>& rows
   if (!problem.empty()) throw std::invalid_argument(problem);
   return view;
 }
+
+// The eight arrays, held (their buffers stay alive and in place) and checked once; view() points into them.
+class PackedArrays {
+ public:
+  PackedArrays(const Kinds& kinds, const Rows<16>& rows, const Triangles& triangles,
+               const PseudoNormals& pseudo_normals, const Rows<3>& bvh_lower, const Rows<3>& bvh_upper,
+               const Nodes& bvh_nodes, const MeshTable& mesh_table)
+      : kinds_(kinds), rows_(rows), triangles_(triangles), pseudo_normals_(pseudo_normals), bvh_lower_(bvh_lower),
+        bvh_upper_(bvh_upper), bvh_nodes_(bvh_nodes), mesh_table_(mesh_table),
+        view_(packed_view(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table)) {}
+
+  const geometry::PackedView& view() const { return view_; }
+  std::size_t count() const { return view_.obstacle_count; }
+
+ private:
+  Kinds kinds_;
+  Rows<16> rows_;
+  Triangles triangles_;
+  PseudoNormals pseudo_normals_;
+  Rows<3> bvh_lower_, bvh_upper_;
+  Nodes bvh_nodes_;
+  MeshTable mesh_table_;
+  geometry::PackedView view_;
+};
 
 }  // namespace pfield::python

@@ -14,8 +14,6 @@ namespace pfield::python {
 namespace {
 
 using namespace nb::literals;
-using Matrix = nb::ndarray<const double, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
-using OutVector = nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
 
 }  // namespace
 

@@ -1,5 +1,6 @@
-// Bindings of the velocity QP (math/qp.hpp) for the tests that hold it to numba's pfield._linalg.hildreth and to
-// the KKT conditions: not a public pfield API (the whole-body step calls the QP inside the core).
+// Bindings of the velocity QP (math/qp.hpp) for tests/test_core_qp.py, which holds it to a digest of the results of
+// the numba solver it replaced (issue 32) and to the KKT conditions: not a public pfield API (the whole-body step
+// calls the QP inside the core).
 #include <nanobind/nanobind.h>
 
 #include <algorithm>
@@ -16,10 +17,9 @@ namespace pfield::python {
 namespace {
 
 using namespace nb::literals;
-using Matrix = nb::ndarray<const double, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
 
-// One solve's outcome: the solution, the multipliers and row curvatures the workspace holds afterwards (numba's
-// x, mu and curvature arrays after hildreth), and the result.
+// One solve's outcome: the solution, the multipliers and row curvatures the workspace holds afterwards (what the
+// numba solver's x, mu and curvature arrays held after hildreth), and the result.
 struct Solution {
   nb::object x, multipliers, curvatures;  // NumPy arrays
   math::QpResult result;
@@ -32,14 +32,24 @@ void check_shapes(const Matrix& square, const Vector& vector, const Matrix& rows
     throw std::invalid_argument("expected an (n, n) matrix, a vector of n, rows (m, n) and b (m,)");
 }
 
-// Copies the workspace's multipliers and curvatures out next to x and the result.
-Solution solution_of(std::pair<NumpyArray, double*> x, const math::QpWorkspace& ws, std::size_t m,
-                     const math::QpResult& result) {
+// One solve: the shapes checked, run(rows, x, workspace) with the GIL released (x (n,) a new array), then the
+// workspace's multipliers and curvatures copied out next to x and the result.
+template <typename Run>
+Solution solve_with(const Matrix& square, const Vector& vector, const Matrix& rows, const Vector& b, Run run) {
+  check_shapes(square, vector, rows, b);
+  const std::size_t n = square.shape(0), m = rows.shape(0);
+  auto [x, data] = new_array({n});
+  math::QpWorkspace ws(m, n);
+  math::QpResult result;
+  {
+    nb::gil_scoped_release release;
+    result = run(math::QpRows{rows.data(), n, b.data(), m}, data, ws);
+  }
   auto [multipliers, mu] = new_array({m});
   auto [curvatures, curvature] = new_array({m});
   std::copy(ws.multipliers(), ws.multipliers() + m, mu);
   std::copy(ws.curvatures(), ws.curvatures() + m, curvature);
-  return {nb::cast(std::move(x.first)), nb::cast(std::move(multipliers)), nb::cast(std::move(curvatures)), result};
+  return {nb::cast(std::move(x)), nb::cast(std::move(multipliers)), nb::cast(std::move(curvatures)), result};
 }
 
 }  // namespace
@@ -62,38 +72,24 @@ void bind_qp(nb::module_& m) {
       "hildreth",
       [](const Matrix& factor, const Vector& x0, const Matrix& rows, const Vector& b, std::int64_t max_sweeps,
          double tolerance) {
-        check_shapes(factor, x0, rows, b);
-        const std::size_t n = factor.shape(0), count = rows.shape(0);
-        auto x = new_array({n});
-        math::QpWorkspace ws(count, n);
-        math::QpResult result;
-        {
-          nb::gil_scoped_release release;
-          std::copy(x0.data(), x0.data() + n, x.second);
-          const math::QpProblem problem{factor.data(), n, {rows.data(), n, b.data(), count}, n};
-          result = math::hildreth(problem, x.second, ws, {max_sweeps, tolerance});
-        }
-        return solution_of(std::move(x), ws, count, result);
+        return solve_with(factor, x0, rows, b, [&](const math::QpRows& constraints, double* x, math::QpWorkspace& ws) {
+          const std::size_t n = factor.shape(0);
+          std::copy(x0.data(), x0.data() + n, x);
+          return math::hildreth({factor.data(), n, constraints, n}, x, ws, {max_sweeps, tolerance});
+        });
       },
       "factor"_a, "x"_a, "rows"_a, "b"_a, "max_sweeps"_a = 200, "tolerance"_a = 1e-7,
-      "Enforce rows @ x >= b from the unconstrained optimum x, H = factor factor^T (pfield._linalg.hildreth).");
+      "Enforce rows @ x >= b from the unconstrained optimum x, H = factor factor^T.");
 
   m.def(
       "solve",
       [](const Matrix& h, const Vector& c, const Matrix& rows, const Vector& b, std::int64_t max_sweeps,
          double tolerance) {
-        check_shapes(h, c, rows, b);
-        const std::size_t n = h.shape(0), count = rows.shape(0);
-        auto x = new_array({n});
-        math::QpWorkspace ws(count, n);
-        math::QpResult result;
-        {
-          nb::gil_scoped_release release;
-          std::vector<double> factor(h.data(), h.data() + n * n);
-          result = math::solve_qp(factor.data(), n, c.data(), {rows.data(), n, b.data(), count}, n, x.second, ws,
-                                  {max_sweeps, tolerance});
-        }
-        return solution_of(std::move(x), ws, count, result);
+        return solve_with(h, c, rows, b, [&](const math::QpRows& constraints, double* x, math::QpWorkspace& ws) {
+          const std::size_t n = h.shape(0);
+          std::vector<double> factor(h.data(), h.data() + n * n);  // solve_qp factors H in place
+          return math::solve_qp(factor.data(), n, c.data(), constraints, n, x, ws, {max_sweeps, tolerance});
+        });
       },
       "h"_a, "c"_a, "rows"_a, "b"_a, "max_sweeps"_a = 200, "tolerance"_a = 1e-7,
       "minimise 1/2 x^T H x - c^T x subject to rows @ x >= b (H symmetric positive definite).");

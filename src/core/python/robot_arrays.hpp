@@ -1,29 +1,33 @@
-// A robot's RobotArrays (pfield.planning._whole_body_layout: kinematics, link model, limits) at the Python boundary:
-// the 24 arrays read in place for the holder's life, every length and index checked once (a ValueError for an
-// array that disagrees), and the robot::RobotView over them. Any binding that takes a whole robot can hold one
-// (python/assistance.cpp does; python/whole_body.cpp's Robot checks the same things).
+// A robot, its obstacles and its scene at the Python boundary, bound once each (python/robot.cpp registers them in
+// pfield._core.robot) and taken by every binding that needs them: the kinematics and IK, the clearances, the
+// whole-body planner and stepper, the global search and tracking, the assistance.
+//
+// * RobotArrays (robot.Robot): pfield.planning._whole_body_layout.RobotArrays' 24 arrays (kinematics, link model,
+//   limits), or the kinematics and limits alone (a RobotModel before its link model is fitted), read in place for
+//   the object's life, every length and index checked once (a ValueError for an array that disagrees), and the
+//   robot::RobotView over them.
+// * ObstacleArrays (robot.Obstacles): the packed obstacles (PackedObstacles' eight arrays) and their bounding
+//   spheres (centres (M, 3), radii (M,)): robot::ObstacleSet.
+// * SceneArrays (robot.Scene): a robot among obstacles with the start offsets of its pairs (<= 0, m; obstacle
+//   offsets (caps, M), self offsets (pairs,)): planning::WholeBodyScene. It keeps its robot and obstacles alive.
+//
+// The C++ names are unique in pfield::python: nanobind tells bound types apart by name, and a class of the same
+// name in two binding files' anonymous namespaces would be the same name to it.
 #pragma once
 
-#include <algorithm>
 #include <cstddef>
 #include <cstdint>
-#include <stdexcept>
-#include <string>
 
+#include "planning/whole_body.hpp"
 #include "python/arrays.hpp"
+#include "python/packed.hpp"
+#include "robot/clearance.hpp"
 #include "robot/robot.hpp"
 
 namespace pfield::python {
 
 class RobotArrays {
  public:
-  using Ints = nb::ndarray<const std::int64_t, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
-  using IntMatrix = nb::ndarray<const std::int64_t, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
-  using Pairs = nb::ndarray<const std::int64_t, nb::shape<-1, 2>, nb::c_contig, nb::device::cpu>;
-  using Rotations = nb::ndarray<const double, nb::shape<-1, 3, 3>, nb::c_contig, nb::device::cpu>;
-  using Matrix3 = nb::ndarray<const double, nb::shape<3, 3>, nb::c_contig, nb::device::cpu>;
-  using Point = nb::ndarray<const double, nb::shape<3>, nb::c_contig, nb::device::cpu>;
-
   // RobotArrays' fields in order.
   RobotArrays(const Ints& parents, const Rotations& place_rot, const Rows<3>& place_pos, const Rows<3>& axes,
               const Ints& kinds, const IntMatrix& support, std::int64_t ee_joint, const Matrix3& ee_rot,
@@ -31,57 +35,24 @@ class RobotArrays {
               const Vector& cap_r, const Pairs& self_pairs, const Vector& lower, const Vector& upper,
               const Vector& max_velocity, const Vector& max_acceleration, const Ints& link_start,
               const Ints& prim_joint, const Rows<3>& prim_a, const Rows<3>& prim_b, const Vector& prim_r,
-              const Vector& self_r)
-      : parents_(parents), place_rot_(place_rot), place_pos_(place_pos), axes_(axes), kinds_(kinds),
-        support_(support), ee_rot_(ee_rot), ee_pos_(ee_pos), cap_joint_(cap_joint), cap_a_(cap_a), cap_b_(cap_b),
-        cap_r_(cap_r), self_pairs_(self_pairs), lower_(lower), upper_(upper), max_velocity_(max_velocity),
-        max_acceleration_(max_acceleration), link_start_(link_start), prim_joint_(prim_joint), prim_a_(prim_a),
-        prim_b_(prim_b), prim_r_(prim_r), self_r_(self_r) {
-    const std::size_t n = parents.shape(0), caps = cap_joint.shape(0), prims = prim_joint.shape(0);
-    require(n > 0, "needs at least one joint");
-    require(place_rot.shape(0) == n && place_pos.shape(0) == n && axes.shape(0) == n && kinds.shape(0) == n &&
-                support.shape(0) == n && support.shape(1) == n && lower.shape(0) == n && upper.shape(0) == n &&
-                max_velocity.shape(0) == n && max_acceleration.shape(0) == n,
-            "the kinematic arrays and limits need one entry per joint (support: n x n)");
-    for (std::size_t i = 0; i < n; ++i) {
-      require(parents.data()[i] >= -1 && parents.data()[i] < static_cast<std::int64_t>(i),
-              "parents must list joints in tree order (-1 <= parent < child)");
-      require(kinds.data()[i] == 0 || kinds.data()[i] == 1, "kinds must be 0 (revolute) or 1 (prismatic)");
-    }
-    require(ee_joint >= -1 && ee_joint < static_cast<std::int64_t>(n), "ee_joint out of range");
-    require(cap_a.shape(0) == caps && cap_b.shape(0) == caps && cap_r.shape(0) == caps && self_r.shape(0) == caps,
-            "cap_a, cap_b (caps, 3), cap_r, self_r (caps,) must match cap_joint");
-    require(prim_a.shape(0) == prims && prim_b.shape(0) == prims && prim_r.shape(0) == prims,
-            "prim_a, prim_b (prims, 3), prim_r (prims,) must match prim_joint");
-    require(joints_within(cap_joint.data(), caps, n) && joints_within(prim_joint.data(), prims, n),
-            "a capsule's or primitive's joint is out of range");
-    require(link_start.shape(0) == caps + 1, "link_start must have caps + 1 entries");
-    const std::int64_t* start = link_start.data();
-    require(start[0] >= 0 && start[caps] <= static_cast<std::int64_t>(prims),
-            "link_start must lie within the primitives");
-    for (std::size_t l = 0; l < caps; ++l) require(start[l] <= start[l + 1], "link_start must not decrease");
-    const std::int64_t* pairs = self_pairs.data();
-    for (std::size_t k = 0; k < 2 * self_pairs.shape(0); ++k)
-      require(pairs[k] >= 0 && pairs[k] < static_cast<std::int64_t>(caps), "self pair out of range");
-    view_.kinematics = {n,           parents.data(), place_rot.data(), place_pos.data(), axes.data(), kinds.data(),
-                        support.data(), ee_joint,     ee_rot.data(),    ee_pos.data()};
-    view_.links = {caps,          cap_joint.data(),    cap_a.data(),     cap_b.data(),   cap_r.data(),
-                   self_r.data(), self_pairs.shape(0), pairs,            prims,          link_start.data(),
-                   prim_joint.data(), prim_a.data(),   prim_b.data(),    prim_r.data()};
-    view_.limits = {lower.data(), upper.data(), max_velocity.data(), max_acceleration.data()};
-  }
+              const Vector& self_r);
+  // The kinematics (a RobotModel's KinematicArrays, in order) and the limits, without a link model.
+  RobotArrays(const Ints& parents, const Rotations& place_rot, const Rows<3>& place_pos, const Rows<3>& axes,
+              const Ints& kinds, const IntMatrix& support, std::int64_t ee_joint, const Matrix3& ee_rot,
+              const Point& ee_pos, const Vector& lower, const Vector& upper, const Vector& max_velocity,
+              const Vector& max_acceleration);
+  RobotArrays(const RobotArrays&) = delete;
+  RobotArrays& operator=(const RobotArrays&) = delete;
 
   const robot::RobotView& view() const { return view_; }
   std::size_t joints() const { return view_.kinematics.joint_count; }
+  std::size_t capsules() const { return view_.links.capsule_count; }
+  std::size_t pairs() const { return view_.links.pair_count; }
+  std::size_t primitives() const { return view_.links.primitive_count; }
 
  private:
-  static void require(bool condition, const char* message) {
-    if (!condition) throw std::invalid_argument(std::string("robot: ") + message);
-  }
-  static bool joints_within(const std::int64_t* joints, std::size_t count, std::size_t n) {
-    return std::all_of(joints, joints + count,
-                       [n](std::int64_t j) { return j >= -1 && j < static_cast<std::int64_t>(n); });
-  }
+  void bind_kinematics(std::int64_t ee_joint);
+  void bind_links();
 
   Ints parents_;
   Rotations place_rot_;
@@ -90,15 +61,80 @@ class RobotArrays {
   IntMatrix support_;
   Matrix3 ee_rot_;
   Point ee_pos_;
+  Vector lower_, upper_, max_velocity_, max_acceleration_;
+  // the link model (empty handles without one)
   Ints cap_joint_;
   Rows<3> cap_a_, cap_b_;
-  Vector cap_r_;
+  Vector cap_r_, self_r_;
   Pairs self_pairs_;
-  Vector lower_, upper_, max_velocity_, max_acceleration_;
   Ints link_start_, prim_joint_;
   Rows<3> prim_a_, prim_b_;
-  Vector prim_r_, self_r_;
+  Vector prim_r_;
   robot::RobotView view_;
+};
+
+class ObstacleArrays {
+ public:
+  ObstacleArrays(const Kinds& kinds, const Rows<16>& rows, const Triangles& triangles,
+                 const PseudoNormals& pseudo_normals, const Rows<3>& bvh_lower, const Rows<3>& bvh_upper,
+                 const Nodes& bvh_nodes, const MeshTable& mesh_table, const Rows<3>& centres, const Vector& bounds);
+  ObstacleArrays(const ObstacleArrays&) = delete;  // set_ points into this object
+  ObstacleArrays& operator=(const ObstacleArrays&) = delete;
+
+  const robot::ObstacleSet& set() const { return set_; }
+  const geometry::PackedView& packed() const { return packed_.view(); }
+  std::size_t count() const { return packed_.count(); }
+  // i as an obstacle index, refused when out of range.
+  std::size_t index(std::int64_t i) const;
+
+ private:
+  PackedArrays packed_;
+  Rows<3> centres_;
+  Vector bounds_;
+  robot::ObstacleSet set_;
+};
+
+class SceneArrays {
+ public:
+  SceneArrays(nb::handle_t<RobotArrays> robot, nb::handle_t<ObstacleArrays> obstacles, const Matrix& obstacle_offsets,
+              const Vector& self_offsets);
+
+  const planning::WholeBodyScene& view() const { return view_; }
+  const RobotArrays& robot() const { return *robot_; }
+  const ObstacleArrays& obstacles() const { return *obstacles_; }
+  const nb::object& robot_object() const { return robot_.object(); }
+  const nb::object& obstacles_object() const { return obstacles_.object(); }
+
+ private:
+  Held<RobotArrays> robot_;
+  Held<ObstacleArrays> obstacles_;
+  Matrix obstacle_offsets_;
+  Vector self_offsets_;
+  planning::WholeBodyScene view_;
+};
+
+// ---- the whole-body inputs and outputs every consumer of a Scene takes (whole_body, rrt, assistance)
+
+// _whole_body_layout.PARAMS's vector as the struct (copied); a ValueError unless it has its 20 numbers.
+planning::WholeBodyParams whole_body_params(const Vector& params);
+
+// The goal pose: position (3,), unit quaternion (4,) (x, y, z, w).
+planning::Goal goal_pose(const Point& position, const Quaternion& orientation);
+
+// A plan's or a tracking's outputs (max_iterations + 1 rows each; joints and velocities n columns), checked, as
+// the core's path.
+planning::WholeBodyPath path_outputs(std::int64_t max_iterations, std::size_t n, OutMatrix& joints,
+                                     OutMatrix& velocities, OutRows<3>& positions, OutRows<4>& orientations,
+                                     OutRows<6>& twists, OutVector& clearances);
+
+// How a plan or a tracking ended (bound once, as pfield._core.whole_body.PlanResult).
+struct PathOutcome {
+  std::int64_t status;  // the PlanStatus value
+  std::int64_t count;   // waypoints recorded, the start included
+  planning::StepResult last;
+
+  explicit PathOutcome(const planning::WholeBodyPlanResult& result)
+      : status(static_cast<std::int64_t>(result.status)), count(result.count), last(result.last) {}
 };
 
 }  // namespace pfield::python

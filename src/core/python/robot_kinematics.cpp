@@ -1,7 +1,8 @@
 // Bindings of the robot's kinematics and IK (pfield.robot.model, pfield.robot.ik): a thin list of defs over
-// robot/kinematics.hpp and robot/ik.hpp. A Robot binds a RobotModel's arrays once (its KinematicArrays and
-// limits), so each call passes only q. No arithmetic here: this file is compiled with fused multiply-adds allowed,
-// the core's robot files are not, and every number comes from them.
+// robot/kinematics.hpp and robot/ik.hpp. A Kinematics views a robot.Robot (python/robot_arrays.hpp: a RobotModel's
+// KinematicArrays and limits, bound once) with the scratch of its calls, so each call passes only q. No arithmetic
+// here: this file is compiled with fused multiply-adds allowed, the core's robot files are not, and every number
+// comes from them.
 #include <nanobind/nanobind.h>
 #include <nanobind/stl/optional.h>
 #include <nanobind/stl/tuple.h>
@@ -16,6 +17,7 @@
 #include <vector>
 
 #include "python/arrays.hpp"
+#include "python/robot_arrays.hpp"
 #include "robot/ik.hpp"
 #include "robot/kinematics.hpp"
 #include "robot/robot.hpp"
@@ -34,15 +36,8 @@ using robot::KinematicsView;
 using robot::LimitCheck;
 using robot::Vec3;
 
-using Indices = nb::ndarray<const std::int64_t, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
-using IndexMatrix = nb::ndarray<const std::int64_t, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
-using Rotations = nb::ndarray<const double, nb::shape<-1, 3, 3>, nb::c_contig, nb::device::cpu>;
-using Matrix3 = nb::ndarray<const double, nb::shape<3, 3>, nb::c_contig, nb::device::cpu>;
-using Point = nb::ndarray<const double, nb::shape<3>, nb::c_contig, nb::device::cpu>;
-using Quaternion = nb::ndarray<const double, nb::shape<4>, nb::c_contig, nb::device::cpu>;
 using Values = nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
 using Out7 = nb::ndarray<double, nb::shape<7>, nb::c_contig, nb::device::cpu>;
-using OutMatrix = nb::ndarray<double, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
 
 Vec3 vec3(const double* v) { return {v[0], v[1], v[2]}; }
 
@@ -58,45 +53,27 @@ NumpyArray copy_point(const Vec3& p) {
   return out;
 }
 
-// A RobotModel's kinematic tree and limits, read in place for the object's life, and the workspace of the calls
-// that hold the GIL (forward kinematics, Jacobians: one step each).
+// The kinematics of a robot.Robot (kept alive: its tree and limits are read in place) and the workspace of the
+// calls that hold the GIL (forward kinematics, Jacobians: one step each).
 //
 // The public calls (forward_kinematics, jacobian, solve_ik) take q as the caller gave it and apply
 // RobotModel.check_joint_angles's rule themselves, by the core's check_limits (n values, finite, within the limits
 // up to limit_tolerance, clamped onto them): they answer false / None when q breaks it, and Python then raises the
 // error check_joint_angles words. One pass over q instead of a NumPy copy and a second call.
-class BoundRobot {
+class Kinematics {
  public:
-  BoundRobot(const Indices& parents, const Rotations& place_rot, const Rows<3>& place_pos, const Rows<3>& axes,
-             const Indices& kinds, const IndexMatrix& support, std::int64_t ee_joint, const Matrix3& ee_rot,
-             const Point& ee_pos, const Vector& lower, const Vector& upper, double limit_tolerance)
-      : parents_(parents), place_rot_(place_rot), place_pos_(place_pos), axes_(axes), kinds_(kinds),
-        support_(support), ee_rot_(ee_rot), ee_pos_(ee_pos), lower_(lower), upper_(upper),
-        limit_tolerance_(limit_tolerance) {
-    const std::size_t n = parents.shape(0);
-    if (place_rot.shape(0) != n || place_pos.shape(0) != n || axes.shape(0) != n || kinds.shape(0) != n ||
-        support.shape(0) != n || support.shape(1) != n || lower.shape(0) != n || upper.shape(0) != n)
-      throw std::invalid_argument("Robot: every array needs one row per joint (support: n x n)");
-    if (n == 0) throw std::invalid_argument("Robot: needs at least one joint");
-    for (std::size_t i = 0; i < n; ++i) {
-      if (parents.data()[i] < -1 || parents.data()[i] >= static_cast<std::int64_t>(i))
-        throw std::invalid_argument("Robot: parents must list joints in tree order (-1 <= parent < child)");
-      if (kinds.data()[i] != 0 && kinds.data()[i] != 1)
-        throw std::invalid_argument("Robot: kinds must be 0 (revolute) or 1 (prismatic)");
-    }
-    if (ee_joint < -1 || ee_joint >= static_cast<std::int64_t>(n))
-      throw std::invalid_argument("Robot: ee_joint must be a joint index or -1 (the base)");
-    view_ = {n,           parents.data(), place_rot.data(), place_pos.data(), axes.data(), kinds.data(),
-             support.data(), ee_joint,     ee_rot.data(),    ee_pos.data()};
+  Kinematics(nb::handle_t<RobotArrays> robot, double limit_tolerance)
+      : robot_(robot), limit_tolerance_(limit_tolerance) {
+    const std::size_t n = joints();
     rotations_.resize(9 * n);
     origins_.resize(3 * n);
     q_.resize(n);
   }
 
-  const KinematicsView& view() const { return view_; }
-  const double* lower() const { return lower_.data(); }
-  const double* upper() const { return upper_.data(); }
-  std::size_t joints() const { return view_.joint_count; }
+  const KinematicsView& view() const { return robot_->view().kinematics; }
+  const double* lower() const { return robot_->view().limits.lower; }
+  const double* upper() const { return robot_->view().limits.upper; }
+  std::size_t joints() const { return robot_->joints(); }
 
   void check_q(const Vector& q, const char* name = "q") const {
     if (q.shape(0) != joints())
@@ -131,7 +108,7 @@ class BoundRobot {
     auto [origins, o] = new_array({n, 3});
     check_q(q);
     Frames frames{r, o};
-    robot::joint_transforms(view_, q.data(), frames);
+    robot::joint_transforms(view(), q.data(), frames);
     return {rotations, origins};
   }
 
@@ -140,7 +117,7 @@ class BoundRobot {
   bool forward_kinematics(const Vector& q, Out7& out) {
     if (!accept(q, q_.data())) return false;
     Frames frames{rotations_.data(), origins_.data()};
-    robot::end_effector_pose7(view_, q_.data(), frames, out.data());
+    robot::end_effector_pose7(view(), q_.data(), frames, out.data());
     return true;
   }
 
@@ -149,7 +126,7 @@ class BoundRobot {
     if (out.shape(0) != 6 || out.shape(1) != joints()) throw std::invalid_argument("out: expected a 6 x n array");
     if (!accept(q, q_.data())) return false;
     Frames frames{rotations_.data(), origins_.data()};
-    robot::end_effector_kinematics(view_, q_.data(), frames, out.data());
+    robot::end_effector_kinematics(view(), q_.data(), frames, out.data());
     return true;
   }
 
@@ -158,11 +135,11 @@ class BoundRobot {
     check_q(q);
     auto [jac, data] = new_array({6, joints()});
     Frames frames{rotations_.data(), origins_.data()};
-    const FramePose pose = robot::end_effector_kinematics(view_, q.data(), frames, data);
+    const FramePose pose = robot::end_effector_kinematics(view(), q.data(), frames, data);
     return {copy_rotation(pose.rotation), copy_point(pose.position), jac};
   }
 
-  NumpyArray end_effector_positions(const nb::ndarray<const double, nb::ndim<2>, nb::c_contig, nb::device::cpu>& qs) {
+  NumpyArray end_effector_positions(const Matrix& qs) {
     if (qs.shape(1) != joints()) throw std::invalid_argument("qs: expected (N, n) joint values");
     const std::size_t count = qs.shape(0), n = joints();
     auto [out, data] = new_array({count, 3});
@@ -170,7 +147,7 @@ class BoundRobot {
       nb::gil_scoped_release release;
       std::vector<double> rotations(9 * n), origins(3 * n);
       Frames frames{rotations.data(), origins.data()};
-      robot::batch_end_effector_positions(view_, qs.data(), count, frames, data);
+      robot::batch_end_effector_positions(view(), qs.data(), count, frames, data);
     }
     return out;
   }
@@ -198,9 +175,9 @@ class BoundRobot {
     const Frames frames = given_frames(rotations, origins);
     auto [out, data] = new_array({linear_only ? std::size_t{3} : std::size_t{6}, joints()});
     if (linear_only)
-      robot::linear_point_jacobian(view_, frames, joint, vec3(point.data()), data);
+      robot::linear_point_jacobian(view(), frames, joint, vec3(point.data()), data);
     else
-      robot::point_jacobian(view_, frames, joint, vec3(point.data()), data);
+      robot::point_jacobian(view(), frames, joint, vec3(point.data()), data);
     return out;
   }
 
@@ -213,7 +190,7 @@ class BoundRobot {
     {
       nb::gil_scoped_release release;
       if (!accept(seed, q.data())) return std::nullopt;
-      robot::IKSolver solver(view_, lower(), upper(), settings);
+      robot::IKSolver solver(view(), lower(), upper(), settings);
       const double* o = orientation.data();
       outcome = solver.solve(q.data(), {vec3(position.data()), {o[0], o[1], o[2], o[3]}}, q.data());
     }
@@ -231,23 +208,15 @@ class BoundRobot {
     IKPathOutcome outcome;
     {
       nb::gil_scoped_release release;
-      robot::IKSolver solver(view_, lower(), upper(), settings);
+      robot::IKSolver solver(view(), lower(), upper(), settings);
       outcome = solver.solve_path(seed.data(), positions.data(), orientations.data(), count, data);
     }
     return {qs, outcome};
   }
 
  private:
-  Indices parents_;
-  Rotations place_rot_;
-  Rows<3> place_pos_, axes_;
-  Indices kinds_;
-  IndexMatrix support_;
-  Matrix3 ee_rot_;
-  Point ee_pos_;
-  Vector lower_, upper_;
+  Held<RobotArrays> robot_;
   double limit_tolerance_;
-  KinematicsView view_;
   std::vector<double> rotations_, origins_, q_;
 };
 
@@ -255,9 +224,8 @@ class BoundRobot {
 // this memory, so a control loop's call passes nothing.
 class PreparedIK {
  public:
-  PreparedIK(nb::object robot, const IKSettings& settings)
-      : owner_(std::move(robot)),
-        robot_(&nb::cast<const BoundRobot&>(owner_)),
+  PreparedIK(nb::handle_t<Kinematics> kinematics, const IKSettings& settings)
+      : robot_(kinematics),
         solver_(robot_->view(), robot_->lower(), robot_->upper(), settings),
         limit_tolerance_(robot_->limit_tolerance()),
         seed_(robot_->joints(), 0.0),
@@ -277,8 +245,7 @@ class PreparedIK {
   std::vector<double>& q() { return q_; }
 
  private:
-  nb::object owner_;  // the bound robot, kept alive
-  const BoundRobot* robot_;
+  Held<Kinematics> robot_;
   robot::IKSolver solver_;
   double limit_tolerance_;
   std::vector<double> seed_, q_;
@@ -330,52 +297,48 @@ void bind_robot_kinematics(nb::module_& m) {
       .def_ro("position_error", &IKPathOutcome::position_error, "m, at the failed waypoint")
       .def_ro("rotation_error", &IKPathOutcome::rotation_error, "rad, at the failed waypoint");
 
-  nb::class_<BoundRobot>(m, "Robot")
-      .def(nb::init<const Indices&, const Rotations&, const Rows<3>&, const Rows<3>&, const Indices&,
-                    const IndexMatrix&, std::int64_t, const Matrix3&, const Point&, const Vector&, const Vector&,
-                    double>(),
-           "parents"_a, "place_rot"_a, "place_pos"_a, "axes"_a, "kinds"_a, "support"_a, "ee_joint"_a, "ee_rot"_a,
-           "ee_pos"_a, "lower"_a, "upper"_a, "limit_tolerance"_a,
-           "Bind a RobotModel's KinematicArrays (field order), joint limits and LIMIT_TOLERANCE; the arrays are read "
-           "in place for the object's life.")
-      .def_prop_ro("joint_count", &BoundRobot::joints)
-      .def("check_limits", &BoundRobot::check_limits, "values"_a, "tolerance"_a,
+  nb::class_<Kinematics>(m, "Kinematics")
+      .def(nb::init<nb::handle_t<RobotArrays>, double>(), "robot"_a, "limit_tolerance"_a,
+           "The kinematics of a robot.Robot (its tree and joint limits, read in place for this object's life) with "
+           "RobotModel's LIMIT_TOLERANCE.")
+      .def_prop_ro("joint_count", &Kinematics::joints)
+      .def("check_limits", &Kinematics::check_limits, "values"_a, "tolerance"_a,
            "(LimitStatus, index of the first bad value or -1); values (n,) are clamped onto the limits in place.")
-      .def("joint_frames", &BoundRobot::joint_frames, "q"_a, "World rotations (n, 3, 3) and origins (n, 3) at q.")
-      .def("forward_kinematics", &BoundRobot::forward_kinematics, "q"_a, "out"_a,
+      .def("joint_frames", &Kinematics::joint_frames, "q"_a, "World rotations (n, 3, 3) and origins (n, 3) at q.")
+      .def("forward_kinematics", &Kinematics::forward_kinematics, "q"_a, "out"_a,
            "The end effector's world pose at q into out (7: position, unit quaternion x y z w, w >= 0); False "
            "(out untouched) when q is not n finite values within the limits (RobotModel.check_joint_angles).")
-      .def("jacobian", &BoundRobot::jacobian, "q"_a, "out"_a,
+      .def("jacobian", &Kinematics::jacobian, "q"_a, "out"_a,
            "The end effector's 6 x n world-aligned Jacobian at q into out; False (out untouched) when q is not n "
            "finite values within the limits.")
-      .def("end_effector_kinematics", &BoundRobot::end_effector_kinematics, "q"_a,
+      .def("end_effector_kinematics", &Kinematics::end_effector_kinematics, "q"_a,
            "The end effector's (rotation (3, 3), position (3,), Jacobian (6, n)) at q.")
-      .def("end_effector_positions", &BoundRobot::end_effector_positions, "qs"_a,
+      .def("end_effector_positions", &Kinematics::end_effector_positions, "qs"_a,
            "End-effector world positions (N, 3) of N configurations (N, n).")
-      .def("frame_pose", &BoundRobot::frame_pose, "rotations"_a, "origins"_a, "joint"_a, "local_rotation"_a,
+      .def("frame_pose", &Kinematics::frame_pose, "rotations"_a, "origins"_a, "joint"_a, "local_rotation"_a,
            "local_position"_a, "World (rotation, position) of a frame fixed to joint (-1: the base), given frames.")
       .def(
           "point_jacobian",
-          [](const BoundRobot& self, const Rotations& r, const Rows<3>& o, std::int64_t joint, const Point& p) {
+          [](const Kinematics& self, const Rotations& r, const Rows<3>& o, std::int64_t joint, const Point& p) {
             return self.point_jacobian(r, o, joint, p, false);
           },
           "rotations"_a, "origins"_a, "joint"_a, "point"_a,
           "6 x n world-aligned Jacobian of the world point carried by joint, given frames.")
       .def(
           "linear_point_jacobian",
-          [](const BoundRobot& self, const Rotations& r, const Rows<3>& o, std::int64_t joint, const Point& p) {
+          [](const Kinematics& self, const Rotations& r, const Rows<3>& o, std::int64_t joint, const Point& p) {
             return self.point_jacobian(r, o, joint, p, true);
           },
           "rotations"_a, "origins"_a, "joint"_a, "point"_a, "The linear rows (3 x n) of point_jacobian.")
-      .def("solve_ik", &BoundRobot::solve_ik, "seed"_a, "position"_a, "orientation"_a, "settings"_a, "q"_a,
+      .def("solve_ik", &Kinematics::solve_ik, "seed"_a, "position"_a, "orientation"_a, "settings"_a, "q"_a,
            "DLS IK from seed to a target pose (unit quaternion) into q (n,): the IKOutcome, or None (q untouched) "
            "when the seed is not n finite values within the limits.")
-      .def("solve_ik_path", &BoundRobot::solve_ik_path, "seed"_a, "positions"_a, "orientations"_a, "settings"_a,
+      .def("solve_ik_path", &Kinematics::solve_ik_path, "seed"_a, "positions"_a, "orientations"_a, "settings"_a,
            "(qs (count, n), IKPathOutcome): the IK of every waypoint, each seeded from the previous solution.");
 
   nb::class_<PreparedIK>(m, "IKSolver")
-      .def(nb::init<nb::object, const IKSettings&>(), "robot"_a, "settings"_a,
-           "An IK solver over a bound Robot that owns its target, seed and answer.")
+      .def(nb::init<nb::handle_t<Kinematics>, const IKSettings&>(), "kinematics"_a, "settings"_a,
+           "An IK solver over a Kinematics that owns its target, seed and answer.")
       .def_prop_ro(
           "target",
           [](nb::handle_t<PreparedIK> self) { return view_of(nb::cast<PreparedIK&>(self).target_, 7, self); },

@@ -17,7 +17,6 @@ using namespace nb::literals;
 using Twist6 = nb::ndarray<const double, nb::shape<6>, nb::c_contig, nb::device::cpu>;
 using OutTwist6 = nb::ndarray<double, nb::shape<6>, nb::c_contig, nb::device::cpu>;
 using OutTwists = nb::ndarray<double, nb::shape<-1, 6>, nb::c_contig, nb::device::cpu>;
-using OutVector = nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
 
 }  // namespace
 

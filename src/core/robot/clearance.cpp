@@ -1,6 +1,6 @@
-// Every expression keeps the operand order of pfield/robot/_clearance.py, Python's min keeps its tie rule, and this
-// file is compiled without fused multiply-adds (CMakeLists.txt): the numba kernels that still inline that module
-// and this core give the same bits (tests/robot/test_core_distance.py).
+// Every expression keeps the operand order of the numba kernels this file replaced (issue 32), Python's min keeps its
+// tie rule, and this file is compiled without fused multiply-adds (CMakeLists.txt): the same bits as those kernels
+// (tests/robot/test_core_distance.py holds digests of their results).
 #include "robot/clearance.hpp"
 
 #include <cmath>
@@ -98,7 +98,7 @@ LinkObstacleDistance fitted_distance_below(const PackedView& packed, std::size_t
     const Vec3 e = b - a;
     const double length2 = math::dot(e, e);
     // the bounding spheres' bound: the residual of the obstacle's centre off the primitive's axis, taken as
-    // (c - a) - u e (the point-segment distance takes c - (a + u e): a different rounding; kept as numba has it)
+    // (c - a) - u e (the point-segment distance takes c - (a + u e): a different rounding; kept as numba had it)
     const Vec3 o = centre - a;
     const double u = closest_parameter(o, e, length2);
     const double fx = o.x - u * e.x, fy = o.y - u * e.y, fz = o.z - u * e.z;

@@ -1,6 +1,6 @@
 // Clearances of the two-level link model: link-obstacle and link-link (self) distances, over the robot view of
-// robot/robot.hpp. The same operations in the same order as pfield/robot/_clearance.py (numba), which the kernels
-// not yet ported still inline: both give the same bits (tests/robot/test_core_distance.py).
+// robot/robot.hpp. The same operations in the same order as the numba kernels they replaced (issue 32), so the same
+// bits (tests/robot/test_core_distance.py holds digests of those kernels' results, beside oracles).
 //
 // Each link l has a bounding capsule (cap_a[l]-cap_b[l], cap_r[l], containing everything below) and its fitted
 // primitives link_start[l] .. link_start[l + 1] (pfield.robot.geometry); self_r[l] is the radius of the ungrown
@@ -15,25 +15,26 @@
 // the primitive's axis), where the kernels take the point Jacobian; the normal points from the obstacle (or from
 // the second link) towards the link.
 //
-// ONE link-obstacle distance for every caller: link_obstacle_distance_below. Its users in pfield today (each gets
-// the same bits from it as from its own copy of the two levels; tests/robot/test_core_distance.py replays the
-// assistance's and the whole body's loops on it):
+// ONE link-obstacle distance for every caller: link_obstacle_distance_below. Its users in pfield (the numba engine
+// gave each its own copy of the two levels; tests/robot/test_core_distance.py replays the assistance's and the whole
+// body's loops on it and gets their results to the bit):
 //
 //   * the clearances (fill_clearances here: pfield.robot.collision, the planners' start offsets): cutoff =
 //     fine_cutoff = the value beyond which only "not below it" matters (inf: every pair exact); the RRT's state
-//     check (planning/_rrt_kernel.py capsules_valid) likewise with cutoff = its margin + the pair's offset, after
-//     its own cheaper tests (numba passes fine_cutoff = inf there; fine_cutoff = cutoff decides `distance <
+//     check (planning/rrt.cpp capsules_valid) likewise with cutoff = its margin + the pair's offset, after its own
+//     cheaper tests (the numba kernel passed fine_cutoff = inf there; fine_cutoff = cutoff decides `distance <
 //     cutoff` the same way, with fewer primitives evaluated);
-//   * the whole-body step's damper rows (planning/_whole_body_kernel.py _obstacle_rows), cutoff = fine_cutoff = the
+//   * the whole-body step's damper rows (planning/whole_body.cpp obstacle_rows), cutoff = fine_cutoff = the
 //     influence distance Q: a result with level Culled adds only its distance to the step's clearance (min) and is
 //     not a candidate for the nearest pair; any other result is (distance less the pair's start offset); exact
 //     results still below Q after the offset give a damper row, for links carried by a joint, at `point` along
 //     `normal` (the Jacobian of `point` on the link's joint);
-//   * the assistance's nearest pair (shared_control/_assistance_kernel.py nearest_link), cutoff = fine_cutoff = the
+//   * the assistance's nearest pair (shared_control/assist.cpp nearest_link), cutoff = fine_cutoff = the
 //     best distance so far: a pair replaces the best when exact && distance < best (the hinted pair alone when the
 //     caller knows it); its witness point on the link's surface is then point - (d_O(point) - distance) normal,
 //     with d_O the obstacle's signed distance at point (d_O(point) - distance is the deciding segment's radius up
-//     to rounding; numba takes it that way, so the port keeps that expression rather than prim_r[primitive]).
+//     to rounding; the numba kernel took it that way, so the port keeps that expression rather than
+//     prim_r[primitive]).
 #pragma once
 
 #include <cstddef>

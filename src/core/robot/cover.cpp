@@ -1,4 +1,4 @@
-// Every expression keeps the operand order of the numba kernels this replaces (pfield.robot._cover), and Python's
+// Every expression keeps the operand order of the numba kernels this replaced (issue 32), and Python's
 // min/max tie rule (min(a, b) is a unless b < a), so the cover takes the same capsules and the depths and the
 // centre come out with the same bits.
 #include "robot/cover.hpp"

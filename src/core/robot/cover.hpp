@@ -1,8 +1,9 @@
 // Covering points by capsules, for fitting a link's primitives (pfield.robot._fit.fit_primitives): Chvátal's
 // greedy set cover over a grid of the points, the dense coverage matrix, the depth in a union of capsules, the
-// inside test of a convex hull and the Bădoiu–Clarkson enclosing ball. These replace the numba kernels of
-// pfield.robot._cover with the same operations in the same order (no fused multiply-adds: CMakeLists.txt compiles
-// src/core/robot with -ffp-contract=off), so every fit keeps its primitives to the bit.
+// inside test of a convex hull and the Bădoiu–Clarkson enclosing ball. These replaced pfield.robot._cover's numba
+// kernels (issue 32; the module now calls this core) with the same operations in the same order (no fused
+// multiply-adds: CMakeLists.txt compiles src/core/robot with -ffp-contract=off), so every fit kept its primitives to
+// the bit (tests/robot/test_core_cover.py holds digests of those kernels' outputs, beside NumPy oracles).
 //
 // Containment. A capsule (segment a-b, radius r) contains a point p when |q - t d|^2 <= r^2 with q = p - a,
 // d = b - a and t = clamp(q.d / |d|^2, 0, 1) (t = 0 when |d|^2 = 0: a sphere). The cover and the coverage matrix

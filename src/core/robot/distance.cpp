@@ -1,6 +1,6 @@
-// Every expression keeps the operand order of pfield/robot/_distance.py, Python's min and max keep their tie rule,
-// and this file is compiled without fused multiply-adds (CMakeLists.txt): the numba kernels that still inline
-// that module and this core give the same bits (tests/robot/test_core_distance.py).
+// Every expression keeps the operand order of the numba kernels this file replaced (issue 32), Python's min and max
+// keep their tie rule, and this file is compiled without fused multiply-adds (CMakeLists.txt): the same bits as
+// those kernels (tests/robot/test_core_distance.py holds digests of their results).
 #include "robot/distance.hpp"
 
 #include <cmath>
@@ -152,7 +152,7 @@ double segment_segment_distance(Vec3 p1, Vec3 q1, Vec3 p2, Vec3 q2) {
   const double dx = (p1.x + st.s * (q1.x - p1.x)) - (p2.x + st.t * (q2.x - p2.x));
   const double dy = (p1.y + st.s * (q1.y - p1.y)) - (p2.y + st.t * (q2.y - p2.y));
   const double dz = (p1.z + st.s * (q1.z - p1.z)) - (p2.z + st.t * (q2.z - p2.z));
-  return std::sqrt(0.0 + dx * dx + dy * dy + dz * dz);  // numba's loop sums from 0.0
+  return std::sqrt(0.0 + dx * dx + dy * dy + dz * dz);  // summed from 0.0, as the numba loop did
 }
 
 double box_minimiser(const PackedView& packed, std::size_t i, Vec3 a, Vec3 b) {

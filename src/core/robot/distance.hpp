@@ -1,7 +1,7 @@
 // Closest points between a link's segment and an obstacle, and between two segments: the distances every
-// robot-level clearance is built from (robot/clearance.hpp). The same operations in the same order as
-// pfield/robot/_distance.py (numba), which the kernels not yet ported still inline: both give the same bits
-// (tests/robot/test_core_distance.py).
+// robot-level clearance is built from (robot/clearance.hpp). The same operations in the same order as the numba
+// kernels they replaced (issue 32), so the same bits (tests/robot/test_core_distance.py holds digests of those
+// kernels' results, beside oracles).
 //
 // A link capsule is a segment s(t) = a + t (b - a), t in [0, 1], swept by a sphere of radius r, so its signed
 // distance to an obstacle is min_t d_O(s(t)) - r with d_O the obstacle's exact signed distance
@@ -34,7 +34,8 @@ namespace pfield::robot {
 using math::Vec3;
 
 namespace detail {
-// Python's min and max (numba keeps them): the second argument wins only when strictly beyond the first.
+// Python's min and max, whose tie rule the numba kernels kept and the ports keep: the second argument wins only when
+// strictly beyond the first.
 inline double py_min(double a, double b) { return b < a ? b : a; }
 inline double py_max(double a, double b) { return b > a ? b : a; }
 inline double clamp01(double x) { return py_min(py_max(x, 0.0), 1.0); }  // min(max(x, 0), 1)

@@ -73,7 +73,7 @@ IKOutcome IKSolver::iterate(double* q, const IKTarget& target) {
       }
       if (!changed) break;
     }
-    // numba's np.max(np.abs(step)): the first NaN, else the largest
+    // np.max(np.abs(step)), as the numba kernel took it: the first NaN, else the largest
     double largest = std::abs(step[0]);
     for (std::size_t j = 1; j < n && !std::isnan(largest); ++j) {
       const double v = std::abs(step[j]);

@@ -8,7 +8,7 @@
 // Jacobian column removed) and the step recomputed, up to three times, so the remaining joints make the progress
 // (a projected DLS). The step is scaled so that no joint moves more than max_step per iteration. It stops when
 // |p* - p| <= position_tolerance and the rotation angle <= rotation_tolerance. The same operations in the same
-// order as pfield/robot/ik.py's numba kernels did, so the same iterates to the bit.
+// order as the numba kernels of pfield.robot.ik that it replaced (issue 32), so the same iterates to the bit.
 #pragma once
 
 #include <cstddef>

@@ -1,4 +1,4 @@
-// The robot's forward kinematics and point Jacobians (kinematics.hpp): pfield/robot/_kinematics.py's kernels
+// The robot's forward kinematics and point Jacobians (kinematics.hpp): the numba kernels they replaced (issue 32)
 // statement for statement, so the sums run in the same order and give the same bits.
 #include "robot/kinematics.hpp"
 
@@ -36,7 +36,7 @@ void joint_transforms(const KinematicsView& kinematics, const double* q, Frames&
     const double x = kinematics.axes[3 * i], y = kinematics.axes[3 * i + 1], z = kinematics.axes[3 * i + 2];
     double* out = frames.rotations + 9 * i;
     if (kinematics.kind(i) == JointKind::Revolute) {
-      // Rodrigues: L = c I + (1 - c) a a^T + s [a]x, entries written as the numba kernel writes them
+      // Rodrigues: L = c I + (1 - c) a a^T + s [a]x, entries written as the numba kernel wrote them
       const double c = std::cos(q[i]), s = std::sin(q[i]);
       const double t = 1.0 - c;
       const double l[9] = {c + x * x * t,     x * y * t - z * s, x * z * t + y * s,
@@ -73,30 +73,35 @@ FramePose frame_pose(const Frames& frames, std::int64_t joint, const double* loc
   return pose;
 }
 
-void point_jacobian(const KinematicsView& kinematics, const Frames& frames, std::int64_t joint, Vec3 point,
-                    double* out) {
+namespace {
+
+// The Jacobian rows of the world point carried by `joint` into out (rows x n: the 3 linear rows, then with
+// Angular the 3 angular ones), zero for the joints that do not move it (all of them for the base, joint -1).
+template <bool Angular>
+void point_jacobian_rows(const KinematicsView& kinematics, const Frames& frames, std::int64_t joint, Vec3 point,
+                         double* out) {
   const std::size_t n = kinematics.joint_count;
-  std::fill(out, out + 6 * n, 0.0);
+  std::fill(out, out + (Angular ? 6 : 3) * n, 0.0);
   if (joint < 0) return;
   for (std::size_t j = 0; j < n; ++j) {
     if (!kinematics.supports(joint, j)) continue;
     const JointColumn column = joint_column(kinematics, frames, j, point);
     out[j] = column.linear.x, out[n + j] = column.linear.y, out[2 * n + j] = column.linear.z;
-    if (kinematics.kind(j) == JointKind::Revolute)
+    if (Angular && kinematics.kind(j) == JointKind::Revolute)
       out[3 * n + j] = column.axis.x, out[4 * n + j] = column.axis.y, out[5 * n + j] = column.axis.z;
   }
 }
 
+}  // namespace
+
+void point_jacobian(const KinematicsView& kinematics, const Frames& frames, std::int64_t joint, Vec3 point,
+                    double* out) {
+  point_jacobian_rows<true>(kinematics, frames, joint, point, out);
+}
+
 void linear_point_jacobian(const KinematicsView& kinematics, const Frames& frames, std::int64_t joint, Vec3 point,
                            double* out) {
-  const std::size_t n = kinematics.joint_count;
-  std::fill(out, out + 3 * n, 0.0);
-  if (joint < 0) return;
-  for (std::size_t j = 0; j < n; ++j) {
-    if (!kinematics.supports(joint, j)) continue;
-    const Vec3 v = joint_column(kinematics, frames, j, point).linear;
-    out[j] = v.x, out[n + j] = v.y, out[2 * n + j] = v.z;
-  }
+  point_jacobian_rows<false>(kinematics, frames, joint, point, out);
 }
 
 FramePose end_effector_pose(const KinematicsView& kinematics, const Frames& frames) {

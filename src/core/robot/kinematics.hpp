@@ -1,6 +1,7 @@
 // Forward kinematics and point Jacobians of a tree robot with 1-DoF joints, over the KinematicsView of
-// robot/robot.hpp. The same operations in the same order as pfield/robot/_kinematics.py (numba), which the
-// kernels not yet ported still inline: both give the same bits (tests/robot/test_core_kinematics.py).
+// robot/robot.hpp. The same operations in the same order as the numba kernels they replaced (issue 32), so the same
+// bits, signed zeros included (tests/robot/test_core_kinematics.py holds digests of those kernels' results, beside
+// pinocchio and finite-difference oracles).
 //
 // Forward kinematics composes T_i = T_parent(i) X_i exp(a_i q_i) (Featherstone, "Rigid Body Dynamics Algorithms"
 // 2008, section 4.1), the rotation about the axis by Rodrigues' formula. The world-aligned Jacobian of a point p

@@ -1,8 +1,8 @@
-// Every expression keeps the operand order of the numba kernels this replaces (pfield/shared_control/
-// _assistance_kernel.py, gone), Python's min/max keep their tie rules (robot::detail::py_min / py_max), and this file
-// is compiled without fused multiply-adds (CMakeLists.txt): the same bits. Before the twin went, a test ran both on
-// the same random inputs (task space among obstacles of every kind, whole body on the Panda with and without the
-// field's step) and found every output equal bit for bit, signed zeros included.
+// Every expression keeps the operand order of the numba kernels this replaced (issue 32), Python's min/max keep
+// their tie rules (robot::detail::py_min / py_max), and this file is compiled without fused multiply-adds
+// (CMakeLists.txt): the same bits. Before numba was removed, a test ran both on the same random inputs (task space
+// among obstacles of every kind, whole body on the Panda with and without the field's step) and found every output
+// equal bit for bit, signed zeros included.
 #include "shared_control/assist.hpp"
 
 #include <algorithm>
@@ -39,7 +39,7 @@ double damper_allowance(double distance, const AssistParams& params) {
 
 // alpha by the arbitration mode from the nearest distance (found: some obstacle was) and the goal share. The task
 // space takes linear_goal's goal share with or without obstacles; the whole body only with a nearest pair (without
-// one, alpha stays 0): the numba kernels differed so, and so do these (share_without_obstacles).
+// one, alpha stays 0): the numba kernels differed so, and so do their ports (share_without_obstacles).
 double arbitrated_share(Arbitration mode, bool found, double distance, const AssistParams& params, double goal_share,
                         bool share_without_obstacles) {
   if (mode == Arbitration::SafetyOnly || (!found && !share_without_obstacles)) return 0.0;
@@ -122,7 +122,7 @@ PointAssistance assist_point(const geometry::PackedView& packed, const double* v
       ttc = 0.0;
     else if (approach > 0.0)
       ttc = py_min(ttc, d / approach);
-    // within Q (written as the numba kernel's skip of d >= Q, so a NaN distance keeps its damper as there)
+    // within Q (written as the numba kernel's skip of d >= Q, so a NaN distance keeps its damper as it did there)
     if (!(d >= params.influence_distance)) dampers.push_back({n, damper_allowance(d, params), {o[0], o[1], o[2]}});
   }
   const double alpha = arbitrated_share(mode, nearest >= 0, best, params, goal_share, true);

@@ -10,8 +10,8 @@
 //   dqd = J_p^T n e / |J_p^T n|^2 (whole body, assist_joints).
 // * MoveIt Servo's collision velocity scale (servo_scale), reported, not applied; the first-order time to collision.
 //
-// The same operations in the same order as the numba kernels this replaces (shared_control/_assistance_kernel.py
-// until it went), so the same bits; every file here is compiled without fused multiply-adds (CMakeLists.txt).
+// The same operations in the same order as the numba kernels this replaced (issue 32), so the same bits; every
+// file here is compiled without fused multiply-adds (CMakeLists.txt).
 // The commands here come before the output contract (safety/limits.hpp): the caller applies it (pfield's binding,
 // python/assistance.cpp, as pfield.safety does: compiled with the same flags, which let GCC fuse the multiply-adds
 // of the contract's inline norms, so the same bits as pfield.safety's).

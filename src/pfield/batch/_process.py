@@ -1,8 +1,8 @@
 """The process backend: a ``spawn`` pool of worker processes, each with its own :class:`Workspace`.
 
-``spawn`` (not ``fork``) so that a worker never inherits the parent's threads or locks (numba's, a Ray
-client's, a web server's); each worker imports pfield afresh and loads the compiled kernels from numba's
-cache on disk (the cache lives beside the source, so workers of one tree share it and do not recompile).
+``spawn`` (not ``fork``) so that a worker never inherits the parent's threads or locks (the compiled core's, a
+Ray client's, a web server's); each worker imports pfield afresh and reads the robots' fitted link models from
+pfield's cache on disk (``$PFIELD_CACHE_DIR``, default ``~/.cache/pfield``), so workers do not refit them.
 The robots are built once per worker by the pool's initializer; each problem then travels alone.
 """
 

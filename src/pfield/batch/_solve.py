@@ -48,9 +48,8 @@ class Workspace:
     """What one worker keeps between problems: the robots built so far (by spec).
 
     With ``warm``, each robot given is built and makes a short plan through the field and its global
-    fallback at once (:func:`_warm_plan`), so the worker loads the planners' compiled kernels (from numba's
-    cache) before its first problem, not while timing it (the fallback's alone took ≈ 0.15 s in a worker's
-    first fallback problem).
+    fallback at once (:func:`_warm_plan`), so the worker imports the planners, reads the robot's fitted link model
+    and sets up the fallback's search before its first problem, not while timing it.
     """
 
     def __init__(self, robots: Iterable[RobotSpec] = (), warm: bool = False) -> None:
@@ -79,8 +78,8 @@ _WARM_OPTIONS = PlanOptions(max_iterations=2000, stagnation_window=0.02, stagnat
 def _warm_plan(robot: RobotModel) -> PlannedPath:
     """A plan of ``robot`` from the middle of its joint ranges to the pose 0.3 rad further on its first joint,
     past a box far away: the field's loop runs two steps and stagnates by :data:`_WARM_OPTIONS`, then the
-    global fallback solves IK for goal configurations, searches, tracks the path and retimes it, which loads
-    those kernels (a pose goal takes every step a joint goal takes, and IK)."""
+    global fallback solves IK for goal configurations, searches, tracks the path and retimes it, so each of those
+    has run once before the first timed problem (a pose goal takes every step a joint goal takes, and IK)."""
     q = robot.mid_configuration
     goal = q.copy()
     goal[0] += 0.3 if q[0] + 0.3 <= robot.upper_limits[0] else -0.3

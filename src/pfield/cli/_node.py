@@ -231,7 +231,7 @@ def serve(
                                    static_transform)
     from pfield import warmup
 
-    warmup.start_background()  # GET /health says "ready" once every kernel is compiled or loaded
+    warmup.start_background()  # GET /health says "ready" once the self-check has run and the robot is fitted
     app = create_app(nodes, token=token, ready=warmup.ready, allowed_origins=allow_origin or ())
     typer.echo(f"pfield node on http://{host}:{port} ({', '.join(n.name for n in nodes)})", err=True)
     sys.stderr.flush()

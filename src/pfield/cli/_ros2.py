@@ -75,7 +75,7 @@ def node(
     from pfield import warmup
     from pfield.transport.ros2 import run
 
-    warmup.start_background()  # logs "kernels ready" (pfield.warmup, INFO) when every kernel is compiled
+    warmup.start_background()  # logs "self-check passed" (pfield.warmup, INFO) once the engine has planned
     typer.echo(f"pfield ROS 2 nodes: {', '.join(n.name for n in nodes)} (Ctrl-C stops)", err=True)
     with cli_errors():  # a bad --ros-args parameter value
         try:

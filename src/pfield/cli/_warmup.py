@@ -1,46 +1,43 @@
-"""``pfield warmup``: compile every numba kernel now, with a progress bar, instead of on first use."""
+"""``pfield warmup``: a fast self-check of this installation (the compiled core, the built-in robots' link models,
+one task-space and one whole-body plan), with what each step checked."""
 
 from __future__ import annotations
-
-import os
-import time
-from typing import Annotated
 
 import typer
 
 
-def warmup(jobs: Annotated[int, typer.Option(
-        min=1, help="2 or more: compile in two processes side by side when the cache is cold (default: on 2+ cores)")]
-        = min(os.cpu_count() or 1, 2)) -> None:
-    """Compile every numba kernel of pfield once (field, planners, IK, autonomy, mobile, costmap, SDFs).
+def warmup() -> None:
+    """Check that pfield works here: the compiled core imports, signed distances of every shape are right, the
+    built-in robots' link models load (fitted once on a new machine, seconds each; then read from the cache,
+    $PFIELD_CACHE_DIR or ~/.cache/pfield), and a task-space and a whole-body plan reach their goals.
 
-    With a filled cache this takes seconds; after an install or an edit of pfield, 3-10 minutes (two processes
-    compile side by side on a 2-core machine). `make demo` runs it first.
+    Prints what each step checked; exit status 1 when a step fails. `make demo` runs it first.
     """
     from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.table import Table
 
-    from pfield import warmup as warm_up
+    from pfield import warmup as self_check
 
     console = Console(stderr=True)
-    start = time.perf_counter()
-    with Progress(TextColumn("compiling kernels: {task.description}"), BarColumn(), MofNCompleteColumn(),
-                  TimeElapsedColumn(), console=console) as progress:
-        task = progress.add_task("", total=len(warm_up.STEPS))
-
+    with console.status("checking") as status:
         def report(done: int, total: int, name: str) -> None:
-            progress.update(task, completed=done, description=name if done < total else "done")
+            if done < total:
+                status.update(f"checking {name} ({done + 1}/{total})")
 
-        result = warm_up.warm(report, jobs=jobs)
-    for name, error in result.failures.items():
-        console.print(f"[red]{name} failed:[/red] {error}", markup=True, highlight=False)
-    compiled = sum(1 for kernel in warm_up.kernels().values() if kernel.signatures)
-    console.print(f"warm-up done in {time.perf_counter() - start:.1f} s "
-                  f"({len(warm_up.STEPS) - len(result.failures)}/{len(warm_up.STEPS)} areas, "
-                  f"{compiled} kernels loaded or compiled"
-                  + (f"; {result.lanes} processes compiled side by side" if result.lanes else "")
-                  + ")", highlight=False)
-    if result.failures:
+        result = self_check.check(report)
+    table = Table(show_header=True, header_style="bold", box=None)
+    for column in ("", "step", "checked", "s"):
+        table.add_column(column, justify="right" if column == "s" else "left")
+    for step in self_check.STEPS:
+        failure = result.failures.get(step.name)
+        table.add_row("[red]✗[/red]" if failure else "[green]✓[/green]", step.name,
+                      f"[red]{failure}[/red]" if failure else result.checked[step.name],
+                      f"{result.seconds[step.name]:.2f}")
+    console.print(table)
+    passed = len(self_check.STEPS) - len(result.failures)
+    console.print(f"self-check {'passed' if result.ok else 'FAILED'}: {passed}/{len(self_check.STEPS)} steps in "
+                  f"{result.total_seconds:.1f} s", style=None if result.ok else "bold red", highlight=False)
+    if not result.ok:
         raise typer.Exit(1)
 
 

@@ -2,8 +2,8 @@
 
 ``FieldConfig`` holds the parameters; ``PotentialField`` evaluates wrenches and constrained twists and
 plans task-space paths. The evaluation over an obstacle set and the planning loop run in the compiled core
-(``src/core/field``, ``src/core/planning``); :mod:`pfield.field.forces` keeps the laws for the numba kernels that
-still use them (whole body, assistance).
+(``src/core/field``, ``src/core/planning``); :mod:`pfield.field.forces` evaluates the core's laws one call at a
+time.
 """
 
 from pfield.field.config import FieldConfig

@@ -116,7 +116,7 @@ class FieldConfig:
         return asdict(self)
 
     def packed(self) -> NDArray[np.float64]:
-        """The parameters as the float64 array the compiled kernels take (layout :data:`PARAMS`)."""
+        """The parameters as the float64 array the compiled core reads (layout :data:`PARAMS`)."""
         return PARAMS.pack({name: getattr(self, name) for name in PARAM_NAMES})
 
 
@@ -124,5 +124,5 @@ PARAM_NAMES: tuple[str, ...] = tuple(spec.name for spec in fields(FieldConfig))
 """Field order of :meth:`FieldConfig.packed`."""
 PARAMS = Layout("field parameters", [(name, ()) for name in PARAM_NAMES])
 """The packed parameter vector: one scalar slot per field, in declaration order — the memory of the core's
-``FieldParams`` struct (``src/core/field/evaluate.hpp``); the numba kernels take their slot constants from here by
-name."""
+``FieldParams`` struct (``src/core/field/evaluate.hpp``), whose member offsets the binding exports
+(``pfield._core.field.PARAM_OFFSETS``, held equal to this order by tests/field/test_forces.py)."""

@@ -1,30 +1,29 @@
-"""Compiled force and limit laws of the 3D potential field (the functional core; numba, ``cache=True``).
+"""The force and limit laws of the 3D potential field, one call at a time (the compiled core's laws).
 
-Every kernel takes and returns plain floats (tuples for vectors), allocates nothing, and is meant to be
-called from other compiled code: the whole-body planner and the assistance. The task-space field and its
-planning loop run in the compiled core, whose ``src/core/field/forces.hpp`` holds the same laws in the same
-operation order (the same bits) until these kernels move there too. All vectors are in the world frame, SI units.
+The laws live in ``src/core/field/forces.hpp``, which the field, the whole-body planner and the assistance
+evaluate inside their loops; these functions call the same code from Python (``pfield._core.field``), so a law
+evaluated here gives the bits the planners compute. Floats in, floats or tuples out; vectors in the world frame,
+SI units.
 
 Laws (see ``docs/field.md`` for the reasoning):
 
 * attraction, quadratic within Γ and conical beyond (Choset et al. 2005, §4.1, eqs. 4.2–4.3):
   F = −k (p − g) for ‖p − g‖ ≤ Γ, F = −k Γ (p − g)/‖p − g‖ beyond — continuous in value and direction;
-* rotational attraction τ = k_rot · log(q_g ⊗ q⁻¹), the world-frame rotation vector of the error
-  (:func:`pfield._spatial_kernels.rotation_error`; Sola et al. 2018, "A micro Lie theory", eq. 26);
 * Khatib repulsion magnitude m = η (1/d − 1/Q)/d² for 0 < d < Q (Khatib 1986, eq. 19), saturated smoothly
   as m / √(1 + (m/F_cap)²), equal to F_cap for d ≤ 0;
 * velocity dampers (Faverjon & Tournassoud 1987; Haviland & Corke 2021, NEO, eq. 20): the approach speed
-  toward an obstacle is at most ξ v_max (d − d_s)/(Q − d_s), capped in one of two ways — this module
-  is their one home, and :func:`damper_speed` / :func:`stepped_damper_speed` say why there are two;
-* soft saturation v ← v_max · tanh(‖v‖/v_max) · v/‖v‖ (the twist's rate limits ‖v − v_prev‖ ≤ a_max · dt live in
-  the core alone, ``src/core/field/forces.hpp``: no numba kernel uses them any more).
+  toward an obstacle is at most ξ v_max (d − d_s)/(Q − d_s), capped in one of two ways —
+  :func:`damper_speed` / :func:`stepped_damper_speed` say why there are two;
+* soft saturation v ← v_max · tanh(‖v‖/v_max) · v/‖v‖ (the twist's rate limits ‖v − v_prev‖ ≤ a_max · dt are
+  ``pfield._core.field.rate_limit`` and ``braking_rate_limit``).
+
+A division by zero (parameters out of their ranges, e.g. ``influence == safety``) gives inf or NaN, as in the
+core's loops; :class:`~pfield.field.FieldConfig` validates the parameters the planners use.
 """
 
 from __future__ import annotations
 
-import math
-
-from numba import njit
+from pfield._core import field as _laws
 
 __all__ = [
     "attraction",
@@ -36,21 +35,15 @@ __all__ = [
     "stepped_damper_speed",
 ]
 
-_TINY = 1e-12
 
-
-@njit(cache=True)
 def attraction(ex: float, ey: float, ez: float, gain: float, threshold: float) -> tuple[float, float, float]:
     """Attractive force (N) for the goal error e = g − p (m): k e within Γ = ``threshold``, k Γ e/‖e‖ beyond.
 
     Both branches give k Γ ê at ‖e‖ = Γ, so the force is continuous in value and direction.
     """
-    distance = math.sqrt(ex * ex + ey * ey + ez * ez)
-    scale = gain if distance <= threshold else gain * threshold / distance
-    return scale * ex, scale * ey, scale * ez
+    return _laws.attraction(ex, ey, ez, gain, threshold)  # type: ignore[no-any-return]
 
 
-@njit(cache=True)
 def khatib_magnitude(distance: float, gain: float, influence: float, cap: float) -> float:
     """Saturated Khatib repulsion magnitude (N) at signed distance ``distance`` (m).
 
@@ -59,26 +52,15 @@ def khatib_magnitude(distance: float, gain: float, influence: float, cap: float)
     and is F_cap for d ≤ 0 (inside the obstacle). The algebraic form costs a square root where tanh would
     cost a libm call; both are smooth saturations.
     """
-    if distance >= influence:
-        return 0.0
-    if distance <= 0.0:
-        return cap
-    raw = gain * (1.0 / distance - 1.0 / influence) / (distance * distance)
-    ratio = raw / cap
-    return raw / math.sqrt(1.0 + ratio * ratio)
+    return _laws.khatib_magnitude(distance, gain, influence, cap)  # type: ignore[no-any-return]
 
 
-@njit(cache=True)
 def soft_saturate(x: float, y: float, z: float, limit: float) -> tuple[float, float, float]:
-    """v ← limit · tanh(‖v‖/limit) · v/‖v‖: the same direction, a norm always below ``limit``."""
-    norm = math.sqrt(x * x + y * y + z * z)
-    if norm < _TINY:
-        return x, y, z
-    scale = limit * math.tanh(norm / limit) / norm
-    return scale * x, scale * y, scale * z
+    """v ← limit · tanh(‖v‖/limit) · v/‖v‖: the same direction, a norm always below ``limit`` (v itself when
+    ‖v‖ < 1e-12)."""
+    return _laws.soft_saturate(x, y, z, limit)  # type: ignore[no-any-return]
 
 
-@njit(cache=True)
 def damper_speed(
     distance: float, influence: float, safety: float, gain: float, max_speed: float, max_acceleration: float
 ) -> float:
@@ -91,14 +73,10 @@ def damper_speed(
     rate-limited twist needs (the core's braking rate limit can only brake at a_max); for velocities that are
     not rate-limited near obstacles see :func:`stepped_damper_speed`.
     """
-    margin = distance - safety
-    speed = gain * margin / (influence - safety)
-    if margin > 0.0:
-        speed = min(speed, math.sqrt(max_acceleration * margin))
-    return max(speed, -max_speed)
+    return _laws.damper_speed(distance, influence, safety, gain, max_speed,  # type: ignore[no-any-return]
+                              max_acceleration)
 
 
-@njit(cache=True, inline="always")
 def stepped_damper_speed(distance: float, influence: float, safety: float, max_speed: float, dt: float) -> float:
     """Largest allowed approach speed (m/s or rad/s) at ``distance`` for a step of ``dt`` s (whole body).
 
@@ -111,13 +89,9 @@ def stepped_damper_speed(distance: float, influence: float, safety: float, max_s
     crossed by a step. The twist of the task-space field keeps its rate limit, so it needs the braking cap.
     Only meaningful for d < Q.
     """
-    margin = distance - safety
-    if margin <= 0.0:
-        return max(0.5 * margin / dt, -max_speed)
-    return min(max_speed * margin / (influence - safety), 0.5 * margin / dt)
+    return _laws.stepped_damper_speed(distance, influence, safety, max_speed, dt)  # type: ignore[no-any-return]
 
 
-@njit(cache=True)
 def deflect(
     vx: float, vy: float, vz: float,
     nx: float, ny: float, nz: float,
@@ -135,31 +109,9 @@ def deflect(
     sliding to its edge instead of settling where the pull back balances the circulation. At e = 0
     the result equals v, so the map is continuous. Returns (v', active).
     """
-    normal_speed = vx * nx + vy * ny + vz * nz
-    excess = -normal_speed - allowed
-    if excess <= 0.0:
-        return vx, vy, vz, False
-    px, py, pz = vx - normal_speed * nx, vy - normal_speed * ny, vz - normal_speed * nz
-    tx, ty, tz = ny * cz - nz * cy, nz * cx - nx * cz, nx * cy - ny * cx
-    speed_sq = vx * vx + vy * vy + vz * vz
-    t_sq = tx * tx + ty * ty + tz * tz
-    against = px * tx + py * ty + pz * tz
-    if against < 0.0 and t_sq > _TINY:
-        share = 1.0 if 2.0 * excess * excess >= 0.5 * speed_sq else 2.0 * excess / math.sqrt(speed_sq)
-        drop = share * against / t_sq
-        px, py, pz = px - drop * tx, py - drop * ty, pz - drop * tz
-    weight = circulation * excess
-    wx, wy, wz = px + weight * tx, py + weight * ty, pz + weight * tz
-    w_norm = math.sqrt(wx * wx + wy * wy + wz * wz)
-    tangential = math.sqrt(max(speed_sq - allowed * allowed, 0.0))
-    ox, oy, oz = -allowed * nx, -allowed * ny, -allowed * nz
-    if w_norm > _TINY:
-        scale = tangential / w_norm
-        ox, oy, oz = ox + scale * wx, oy + scale * wy, oz + scale * wz
-    return ox, oy, oz, True
+    return _laws.deflect(vx, vy, vz, nx, ny, nz, cx, cy, cz, allowed, circulation)  # type: ignore[no-any-return]
 
 
-@njit(cache=True)
 def project_damper(
     vx: float, vy: float, vz: float, nx: float, ny: float, nz: float, allowed: float
 ) -> tuple[float, float, float, bool]:
@@ -169,9 +121,4 @@ def project_damper(
     converge to their intersection (von Neumann / Bregman), and a projection never adds speed along
     the tangent plane. Returns (v', changed).
     """
-    excess = -(vx * nx + vy * ny + vz * nz) - allowed
-    if excess <= 0.0:
-        return vx, vy, vz, False
-    return vx + excess * nx, vy + excess * ny, vz + excess * nz, True
-
-
+    return _laws.project_damper(vx, vy, vz, nx, ny, nz, allowed)  # type: ignore[no-any-return]

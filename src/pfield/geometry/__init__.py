@@ -5,21 +5,20 @@ Public API (see ``docs/geometry.md``)::
     from pfield.geometry import Obstacle, Sphere, Box, Cylinder, Ellipsoid, Capsule, Mesh, ResourceResolver
     obstacle = Obstacle("ball", Sphere(radius=0.1), Pose(position=(0.4, 0, 0.1)))
     d, n = obstacle.signed_distance(points)          # (N,), (N, 3)
-    packed = pack_obstacles([obstacle, ...])          # for compiled consumers
+    packed = pack_obstacles([obstacle, ...])          # for the compiled core
 
-Python code calls :func:`signed_distances` (the compiled core, ``src/core/geometry``); numba consumers call
-:func:`obstacle_signed_distance` or :func:`min_signed_distance` (numba kernels, the same bits) on a
-:class:`PackedObstacles`.
+The compiled core (``src/core/geometry``) computes every signed distance: :func:`signed_distances` for many points
+and all obstacles of a :class:`PackedObstacles` at once; :func:`obstacle_signed_distance`,
+:func:`obstacle_signed_distance_within` and :func:`min_signed_distance` for one point, with the same bits.
 """
 
-from pfield.geometry._distances import signed_distances
-from pfield.geometry._packed import PackedObstacles
-from pfield.geometry._sdf import (
-    empty_packed,
+from pfield.geometry._distances import (
     min_signed_distance,
     obstacle_signed_distance,
     obstacle_signed_distance_within,
+    signed_distances,
 )
+from pfield.geometry._packed import PackedObstacles, empty_packed
 from pfield.geometry.mesh import Mesh, MeshData, load_mesh_arrays, read_mesh_file
 from pfield.geometry.obstacle import GROUPS, SHAPE_TYPES, Obstacle, Shape, pack_obstacles
 from pfield.geometry.resources import ResourceResolver

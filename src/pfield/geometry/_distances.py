@@ -1,14 +1,31 @@
-"""Signed distances of many points to a packed obstacle set, computed by the compiled core.
+"""Signed distances of points to a packed obstacle set, computed by the compiled core (``src/core/geometry``).
 
-:func:`signed_distances` is the entry Python code calls (``Obstacle.signed_distance``, the field's clearances,
-the planners' goal checks); it runs ``src/core/geometry`` (:mod:`pfield._core`) outside the GIL. The numba
-kernels of :mod:`._sdf`, :mod:`._ellipsoid` and :mod:`._bvh` compute the same bits for the compiled consumers
-that still inline them (tests/geometry/test_core_sdf.py holds the two to each other).
+:func:`signed_distances` is the batch Python code calls (``Obstacle.signed_distance``, the field's clearances, the
+planners' goal checks); it runs the core outside the GIL. :func:`obstacle_signed_distance`,
+:func:`obstacle_signed_distance_within` and :func:`min_signed_distance` answer for one point (and one obstacle, or
+the nearest) through the same core, with the same bits.
+
+Conventions
+-----------
+``d`` is the exact Euclidean signed distance in metres, negative inside. The normal is the unit
+gradient ∇d in the world frame: outside it points from the closest surface point to ``p``, inside it
+is the outward surface normal at the closest surface point. Where ∇d is undefined (the medial axis:
+several closest points) the normal is chosen by this deterministic rule, in the obstacle's local frame:
+
+* among equally near faces the lower axis wins (x before y before z), and the + side wins when the
+  coordinate is exactly 0 (``sign(0) = +1``);
+* a point with no preferred direction (sphere centre) gets local +z; a point on a cylinder's or capsule's
+  axis whose closest points form a circle gets local +x;
+* a cylinder point equally near the cap and the side wall gets the cap normal (±z);
+* ellipsoid points on a symmetry plane with mirror-image closest points take the + side;
+* meshes: the first closest triangle in BVH traversal order (``src/core/geometry/mesh_bvh``); a mesh that is not
+  watertight has an unsigned distance.
 """
 
 from __future__ import annotations
 
 import math
+import operator
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -18,7 +35,7 @@ from pfield._validation import as_points
 from pfield.errors import InvalidInput
 from pfield.geometry._packed import PackedObstacles
 
-__all__ = ["signed_distances"]
+__all__ = ["min_signed_distance", "obstacle_signed_distance", "obstacle_signed_distance_within", "signed_distances"]
 
 
 def signed_distances(
@@ -28,11 +45,66 @@ def signed_distances(
     M obstacles of ``packed``; ``points`` is (N, 3) or one (3,) point, finite.
 
     Exact wherever ``d ≤ cutoff``; beyond it an entry may be a lower bound ``d'`` with ``cutoff < d' ≤ d`` (as
-    :func:`~pfield.geometry.obstacle_signed_distance_within`). Raises ``InvalidInput`` for points that are not
-    finite (N, 3) and ``ValueError`` for a hand-built ``packed`` whose mesh indices leave its arrays.
+    :func:`obstacle_signed_distance_within`). Raises ``InvalidInput`` for points that are not finite (N, 3) and
+    ``ValueError`` for a hand-built ``packed`` whose mesh indices leave its arrays.
     """
+    return _signed_distances(packed.kinds, packed.rows, packed, points, cutoff)
+
+
+def _signed_distances(kinds: NDArray[np.int64], rows: NDArray[np.float64], packed: PackedObstacles,
+                      points: ArrayLike, cutoff: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`signed_distances` to the obstacles ``kinds`` and ``rows`` with the mesh arrays of ``packed``."""
     array = as_points("points", points, check_finite=False)  # the core checks finiteness in its pass
     try:
-        return _geometry.signed_distances(*packed, array, cutoff)  # type: ignore[no-any-return]
+        return _geometry.signed_distances(kinds, rows, *packed[2:], array, cutoff)  # type: ignore[no-any-return]
     except _geometry.NonFinitePoints:
         raise InvalidInput("points", "array", "must be finite (no NaN or inf)") from None
+
+
+def obstacle_signed_distance(packed: PackedObstacles, i: int, p: ArrayLike) -> tuple[float, float, float, float]:
+    """Exact signed distance ``d`` (m, negative inside) of the world point ``p`` (3,) to obstacle ``i`` of
+    ``packed``, and the unit outward normal ``n = ∇d`` in the world frame: ``(d, nx, ny, nz)``.
+
+    The point is taken into the obstacle frame, ``q = Rᵀ(p − c)``, the shape's local distance is evaluated there,
+    and the normal is rotated back, ``n = R n_local`` (distances are invariant under rigid motion). For many
+    points, :func:`signed_distances` answers in one call. Raises ``IndexError`` for an ``i`` beyond the obstacles.
+    """
+    return obstacle_signed_distance_within(packed, i, p, math.inf)
+
+
+def obstacle_signed_distance_within(
+    packed: PackedObstacles, i: int, p: ArrayLike, cutoff: float
+) -> tuple[float, float, float, float]:
+    """:func:`obstacle_signed_distance`, exact whenever ``d ≤ cutoff``; beyond, possibly a cheaper bound.
+
+    When the true distance exceeds ``cutoff`` (m) the result may instead be a lower bound ``d'`` with
+    ``cutoff < d' ≤ d`` and a unit normal pointing away from the obstacle (ellipsoids: the distance to
+    their bounding sphere; meshes: to their bounding box). Consumers that ignore obstacles beyond an
+    influence distance (Khatib repulsion) get identical results, faster.
+    """
+    count = len(packed.kinds)
+    index = operator.index(i)
+    if not -count <= index < count:
+        raise IndexError(f"obstacle index {i} out of range: the set has {count} obstacles")
+    index %= count
+    # the one obstacle's row; the mesh arrays stay whole (a mesh row names its mesh by its index among them)
+    distances, normals = _signed_distances(packed.kinds[index:index + 1], packed.rows[index:index + 1], packed, p,
+                                           cutoff)
+    nx, ny, nz = normals[0, 0].tolist()
+    return float(distances[0, 0]), nx, ny, nz
+
+
+def min_signed_distance(packed: PackedObstacles, p: ArrayLike) -> tuple[float, float, float, float, int]:
+    """Smallest signed distance over all obstacles: ``(d, nx, ny, nz, index)``.
+
+    Ties go to the lowest index; with no obstacles the answer is ``(inf, 0, 0, 0, −1)``.
+    """
+    distances, normals = signed_distances(packed, p)
+    best, best_i = math.inf, -1
+    for k, d in enumerate(distances[0].tolist()):
+        if d < best:  # the first of equal distances stays; a NaN never wins
+            best, best_i = d, k
+    if best_i < 0:
+        return math.inf, 0.0, 0.0, 0.0, -1
+    nx, ny, nz = normals[0, best_i].tolist()
+    return best, nx, ny, nz, best_i

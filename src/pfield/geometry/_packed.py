@@ -15,8 +15,8 @@ This is the contract between :mod:`pfield.geometry` (which builds it) and every 
   mesh's triangles are stored in its BVH leaf order. ``mesh_table[m, 4]`` is 1 when mesh ``m`` is
   watertight (signed distance) and 0 otherwise (unsigned distance).
 
-Build it with :func:`pfield.geometry.pack_obstacles`; query it with the kernels of
-:mod:`pfield.geometry._sdf`. Treat the arrays as read-only.
+Build it with :func:`pfield.geometry.pack_obstacles`; query it with :func:`pfield.geometry.signed_distances`
+(the compiled core, ``src/core/geometry``, which reads these arrays in place). Treat the arrays as read-only.
 """
 
 from __future__ import annotations
@@ -67,3 +67,17 @@ def bounding_radius(packed: PackedObstacles, i: int) -> float:
         vertices = packed.triangles[first:first + length].reshape(-1, 3)
         return float(np.max(np.linalg.norm(vertices, axis=1))) if length else 0.0
     return math.inf
+
+
+def empty_packed() -> PackedObstacles:
+    """A :class:`PackedObstacles` with no obstacles and no meshes (same array types as a full one)."""
+    return PackedObstacles(
+        kinds=np.zeros(0, np.int64),
+        rows=np.zeros((0, ROW_WIDTH)),
+        triangles=np.zeros((0, 3, 3)),
+        pseudo_normals=np.zeros((0, 7, 3)),
+        bvh_lower=np.zeros((0, 3)),
+        bvh_upper=np.zeros((0, 3)),
+        bvh_nodes=np.zeros((0, 3), np.int64),
+        mesh_table=np.zeros((0, 5), np.int64),
+    )

@@ -3,8 +3,8 @@
 An :class:`Obstacle` places a shape in the world: a point ``q`` of the shape's local frame is at
 ``p = R(orientation) q + position``. Obstacle ids are the seed's ``frame_id`` (unique ids, not TF frames).
 :func:`pack_obstacles` turns a sequence of obstacles into one
-:class:`~pfield.geometry._packed.PackedObstacles` that compiled consumers query with
-:func:`~pfield.geometry._sdf.obstacle_signed_distance`; pack once and reuse it.
+:class:`~pfield.geometry._packed.PackedObstacles` that the compiled core reads in place
+(:func:`~pfield.geometry.signed_distances`, the field, the planners); pack once and reuse it.
 """
 
 from __future__ import annotations
@@ -19,8 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pfield.errors import InvalidInput
 from pfield.geometry._distances import signed_distances
-from pfield.geometry._packed import ROW_WIDTH, SHAPE_CODES, PackedObstacles
-from pfield.geometry._sdf import empty_packed
+from pfield.geometry._packed import ROW_WIDTH, SHAPE_CODES, PackedObstacles, empty_packed
 from pfield.geometry.mesh import Mesh, MeshData
 from pfield.geometry.shapes import Box, Capsule, Cylinder, Ellipsoid, Sphere
 from pfield.spatial import Pose

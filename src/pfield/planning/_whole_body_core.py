@@ -1,19 +1,26 @@
 """The whole-body field's compiled core (``src/core/planning/whole_body``) from Python.
 
-A :class:`~pfield.planning._whole_body_layout.RobotArrays` and a :class:`~pfield.planning._whole_body_layout.Scene`
-are bound once into ``pfield._core.whole_body`` objects (their arrays read in place, no copies), with the goal and
-the parameter vector into a ``Planner``, whose plan and steps then take q only. :func:`plan_loop` returns what the
-numba loop it replaces returned, so the planner and its global fallback read it unchanged. Nothing here imports
-numba: the first whole-body plan in a new process compiles nothing.
+A :class:`~pfield.planning._whole_body_layout.RobotArrays`, the obstacles of a
+:class:`~pfield.planning._whole_body_layout.Scene` and the scene itself are bound into ``pfield._core.robot``
+objects (``Robot``, ``Obstacles``, ``Scene``: their arrays read in place, no copies) once each, by
+:func:`core_robot`, :func:`core_obstacles` and :func:`core_scene`, and every consumer takes those: the plan and its
+steps (a ``Planner``: the scene with the goal and the parameter vector, then q only), the stepper, the clearances
+(:func:`pair_distances`), the global search's checker, tracking and overlap test, the assistance.
+:func:`plan_loop` returns the tuple the numba plan loop it replaced (issue 32) returned, so the planner and its
+global fallback read it unchanged.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+import threading
+from collections import OrderedDict
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pfield._core import robot as _robot_core
 from pfield._core import robot_distance as _distance
 from pfield._core import whole_body as _core
 from pfield.planning.status import PlanStatus
@@ -21,17 +28,65 @@ from pfield.planning.status import PlanStatus
 if TYPE_CHECKING:
     from pfield.planning._whole_body_layout import RobotArrays, Scene
 
-__all__ = ["culprit", "pair_distances", "plan_loop", "planner"]
+__all__ = ["core_obstacles", "core_robot", "core_scene", "culprit", "pair_distances", "plan_loop", "planner"]
+
+_T = TypeVar("_T")
+
+
+class _Bindings:
+    """Core objects by the identity of the Python values they were bound from, so that each value is bound once
+    and every consumer gets that one object. The last ``size`` are kept, with their values (so an identity is not
+    reused while its entry lives); the arrays are read in place, so a value and its binding always agree."""
+
+    def __init__(self, size: int) -> None:
+        self._size = size
+        self._entries: OrderedDict[tuple[int, ...], tuple[tuple[object, ...], Any]] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def get(self, values: tuple[object, ...], bind: Callable[[], _T]) -> _T:
+        key = tuple(id(value) for value in values)
+        with self._lock:
+            entry = self._entries.get(key)
+            if entry is not None:
+                self._entries.move_to_end(key)
+                bound: _T = entry[1]
+                return bound
+        made = bind()  # outside the lock: binding checks every array
+        with self._lock:
+            self._entries[key] = (values, made)
+            while len(self._entries) > self._size:
+                self._entries.popitem(last=False)
+        return made
+
+
+# a plan binds one robot and one obstacle set, and a few scenes (the start's offsets, the search's endpoint
+# offsets, the tracking's zero offsets); a few concurrent plans fit
+_ROBOTS, _OBSTACLES, _SCENES = _Bindings(8), _Bindings(8), _Bindings(16)
+
+
+def core_robot(robot: RobotArrays) -> Any:
+    """The core's ``robot.Robot`` of ``robot`` (its arrays read in place), bound once per RobotArrays."""
+    return _ROBOTS.get((robot,), lambda: _robot_core.Robot(*robot))
+
+
+def core_obstacles(scene: Scene) -> Any:
+    """The core's ``robot.Obstacles`` of ``scene``'s packed obstacles and bounding spheres, bound once per set
+    (scenes that differ in their offsets alone share it)."""
+    return _OBSTACLES.get((scene.packed, scene.centres, scene.bounds),
+                          lambda: _robot_core.Obstacles(*scene.packed, scene.centres, scene.bounds))
+
+
+def core_scene(robot: RobotArrays, scene: Scene) -> Any:
+    """The core's ``robot.Scene``: ``robot`` among ``scene``'s obstacles with its offsets, bound once per pair."""
+    return _SCENES.get((robot, scene), lambda: _robot_core.Scene(core_robot(robot), core_obstacles(scene),
+                                                                 scene.obstacle_offsets, scene.self_offsets))
 
 
 def planner(robot: RobotArrays, scene: Scene, goal_p: NDArray[np.float64], goal_q: NDArray[np.float64],
             params: NDArray[np.float64]) -> Any:
-    """The core's ``Planner``: ``robot`` and ``scene`` bound (read in place for its life), the goal position (3,),
-    orientation (4,) (x, y, z, w) and the parameter vector (``_whole_body_layout.PARAMS``) copied."""
-    bound = _core.Robot(*robot)
-    where = _core.Scene(bound, *scene.packed, scene.centres, scene.bounds, scene.obstacle_offsets,
-                        scene.self_offsets)
-    return _core.Planner(bound, where, goal_p, goal_q, params)
+    """The core's ``Planner``: ``robot`` in ``scene`` (:func:`core_scene`), the goal position (3,), orientation (4,)
+    (x, y, z, w) and the parameter vector (``_whole_body_layout.PARAMS``) copied."""
+    return _core.Planner(core_scene(robot, scene), goal_p, goal_q, params)
 
 
 def culprit(last: Any) -> NDArray[np.float64]:
@@ -65,10 +120,6 @@ def plan_loop(q0: NDArray[np.float64], robot: RobotArrays, scene: Scene, goal_p:
 def pair_distances(q: NDArray[np.float64], robot: RobotArrays, scene: Scene) -> tuple[NDArray[np.float64],
                                                                                        NDArray[np.float64]]:
     """Clearances (m) of the fitted model at ``q``: link × obstacle (L, M) and self pairs (P,), by the compiled
-    core (``src/core/robot/clearance``; the same bits as the numba kernels' two-level distances)."""
-    model = _distance.LinkModel(robot.cap_joint, robot.cap_a, robot.cap_b, robot.cap_r, robot.self_r,
-                                robot.self_pairs, robot.link_start, robot.prim_joint, robot.prim_a, robot.prim_b,
-                                robot.prim_r)
-    clearances = model.clearances_at(q, robot.parents, robot.place_rot, robot.place_pos, robot.axes, robot.kinds,
-                                     _distance.Obstacles(*scene.packed, scene.centres, scene.bounds))
+    core (``src/core/robot/clearance``: the same bits as the numba kernels it replaced, issue 32)."""
+    clearances = _distance.clearances_at(core_robot(robot), q, core_obstacles(scene))
     return clearances.obstacle, clearances.own

@@ -1,7 +1,7 @@
 """Cooperative cancellation of a running plan.
 
-A :class:`CancelToken` is a one-element ``uint8`` array that compiled planning loops read between
-iterations (a numba kernel cannot wait on a ``threading.Event``): another thread calls :meth:`cancel`,
+A :class:`CancelToken` is a one-element ``uint8`` array that the compiled core's planning loops read between
+iterations, without the GIL (they cannot wait on a ``threading.Event``): another thread calls :meth:`cancel`,
 the loop sees the flag at its next check and ends with the status ``cancelled``. The node's transports
 create one per long-running request and cancel it when the client goes away.
 """
@@ -32,7 +32,5 @@ class CancelToken:
 def cancel_flag(token: CancelToken | None) -> NDArray[np.uint8]:
     """The flag a compiled loop reads: ``token``'s, or without one a fresh flag that nobody cancels.
 
-    Always a writable one-element ``uint8`` array: numba compiles a kernel once per array type, and a
-    read-only "never cancelled" constant would be a second specialisation that ``pfield warmup`` compiles
-    while a cancellable plan (the node's) compiles the other on its first call."""
+    Always a one-element ``uint8`` array, the type the core's loops take (``cancel[0] != 0`` ends them)."""
     return (token if token is not None else CancelToken()).flag

@@ -44,7 +44,7 @@ from pfield._validation import nonnegative, positive
 from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
 from pfield.geometry import Obstacle
-from pfield.planning._whole_body_core import culprit, pair_distances
+from pfield.planning._whole_body_core import core_obstacles, core_scene, culprit, pair_distances
 from pfield.planning.cancel import cancel_flag
 from pfield.planning.options import DEFAULT_GLOBAL_TIME_LIMIT
 from pfield.planning.status import PlanStatus
@@ -159,19 +159,8 @@ def endpoint_scene(scene: _wb.Scene, arrays: _wb.RobotArrays, ends: Sequence[NDA
                           self_offsets=self_offsets - _ROUNDING * (self_offsets < 0.0))
 
 
-def _core_robot(arrays: _wb.RobotArrays) -> _core.Robot:
-    """The core's view of ``arrays`` (read in place while it lives)."""
-    return _core.Robot(*arrays)
-
-
-def _core_scene(robot: _core.Robot, scene: _wb.Scene) -> _core.Scene:
-    """The core's view of ``scene`` for ``robot`` (read in place while it lives)."""
-    return _core.Scene(robot, *scene.packed, scene.centres, scene.bounds, scene.obstacle_offsets, scene.self_offsets)
-
-
 def _joint_checker(arrays: _wb.RobotArrays, scene: _wb.Scene, margin: float, resolution: float) -> _core.Checker:
-    robot = _core_robot(arrays)
-    return _core.Checker(robot, _core_scene(robot, scene), float(margin), float(resolution))
+    return _core.Checker(core_scene(arrays, scene), float(margin), float(resolution))
 
 
 def _capsules_clear(arrays: _wb.RobotArrays, scene: _wb.Scene, q: NDArray[np.float64], margin: float) -> bool:
@@ -316,8 +305,7 @@ def track(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, path: ND
     n, total = waypoints.shape[1], max_iterations + 1
     qs, qds = np.empty((total, n)), np.empty((total, n))
     positions, quats, twists, clear = np.empty((total, 3)), np.empty((total, 4)), np.empty((total, 6)), np.empty(total)
-    bound = _core_robot(arrays)
-    result = _core.track_path(bound, _core_scene(bound, scene), waypoints[0].copy(), waypoints,
+    result = _core.track_path(core_scene(arrays, scene), waypoints[0].copy(), waypoints,
                               np.array(goal.position, dtype=np.float64), np.array(goal.orientation, dtype=np.float64),
                               params, max_iterations, float(options.tracking_gain), float(options.tracking_lead), flag,
                               qs, qds, positions, quats, twists, clear)
@@ -332,8 +320,7 @@ def exact_contact(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, 
     capsules overlap something, and on the motion into and out of them (every ``resolution`` rad)."""
     raw = scene._replace(obstacle_offsets=np.zeros_like(scene.obstacle_offsets),
                          self_offsets=np.zeros_like(scene.self_offsets))
-    bound = _core_robot(arrays)
-    flagged = np.flatnonzero(_core.overlapping_waypoints(bound, _core_scene(bound, raw),
+    flagged = np.flatnonzero(_core.overlapping_waypoints(core_scene(arrays, raw),
                                                          np.ascontiguousarray(qs, dtype=np.float64)))
     if flagged.size == 0:
         return ""
@@ -369,7 +356,7 @@ def point_space_search(scene: _wb.Scene, start: NDArray[np.float64], goal: NDArr
     points = np.vstack([start[None], goal[None], centres - radii[:, None], centres + radii[:, None]])
     pad = 10.0 * options.point_step
     lower, upper = points.min(axis=0) - pad, points.max(axis=0) + pad
-    checker = _core.Checker(_core.Obstacles(*scene.packed), float(margin), float(options.point_resolution))
+    checker = _core.Checker(core_obstacles(scene), float(margin), float(options.point_resolution))
     return _search(checker, np.array(start, dtype=np.float64), np.array(goal, dtype=np.float64)[None],
                    np.ascontiguousarray(lower, dtype=np.float64), np.ascontiguousarray(upper, dtype=np.float64),
                    options.point_step, options, cancel)

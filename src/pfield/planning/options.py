@@ -53,7 +53,7 @@ class PlanOptions:
         global_time_limit: wall-clock limit (s, > 0, finite) of that search; running out of it ends the
             plan with :attr:`PlanStatus.GLOBAL_TIME_LIMIT`.
 
-    Stagnation (one rule for every planner, :mod:`pfield.planning._progress`): every
+    Stagnation (one rule for every planner, ``src/core/planning/status.hpp``'s ``Progress``): every
     ``stagnation_steps`` steps the best position error and the best rotation error so far are compared
     with their values one window earlier; when neither improved by ``stagnation_progress``, the plan ends
     with :attr:`PlanStatus.STAGNATION`.
@@ -100,22 +100,34 @@ class PlanOptions:
         """
         if options is not None and not isinstance(options, PlanOptions):
             raise InvalidInput("options", options, "expected a pfield.PlanOptions or None")
-        for name in overrides:
-            if name not in _FIELD_NAMES:
-                raise InvalidInput(name, overrides[name], f"unknown PlanOptions field; known: {sorted(_FIELD_NAMES)}")
+        if not _FIELD_NAMES.issuperset(overrides):
+            for name in overrides:
+                if name not in _FIELD_NAMES:
+                    raise InvalidInput(name, overrides[name],
+                                       f"unknown PlanOptions field; known: {sorted(_FIELD_NAMES)}")
         changes = {name: value for name, value in overrides.items() if value is not None}
         if options is None:
-            return cls(**changes)
+            # the defaults are one frozen value: validated once, at import (a plan without options builds them
+            # at every call)
+            return _DEFAULTS if not changes and cls is PlanOptions else cls(**changes)
         return replace(options, **changes) if changes else options
 
     def resolved(self, config: Any) -> PlanOptions:
         """These options with the None fields taken from ``config`` (a :class:`~pfield.field.FieldConfig`,
         whose values are already validated: they are copied, not checked again)."""
+        if self is _DEFAULTS:
+            cached = _resolved_defaults.get(id(config))
+            if cached is not None and cached[0] is config:
+                return cached[1]
         missing = [name for name in _FROM_CONFIG if getattr(self, name) is None]
         if not missing:
             return self
         out = object.__new__(PlanOptions)
         out.__dict__.update(self.__dict__, **{name: getattr(config, name) for name in missing})
+        if self is _DEFAULTS:
+            if len(_resolved_defaults) >= _RESOLVED_CACHE_SIZE:
+                _resolved_defaults.clear()
+            _resolved_defaults[id(config)] = (config, out)
         return out
 
     @property
@@ -129,3 +141,8 @@ class PlanOptions:
 
 
 _FIELD_NAMES = frozenset(spec.name for spec in fields(PlanOptions))
+_DEFAULTS = PlanOptions()
+# The defaults resolved against the last few configs (FieldConfig is frozen), by identity: each entry holds its
+# config, so that config's id is not reused while it is cached.
+_RESOLVED_CACHE_SIZE = 8
+_resolved_defaults: dict[int, tuple[Any, PlanOptions]] = {}

@@ -101,6 +101,24 @@ class PlannedPath:
         if self.planner not in PLANNERS:
             raise InvalidInput("planner", self.planner, f"must be one of {PLANNERS}")
 
+    @classmethod
+    def _owned(cls, status: PlanStatus, failure_reason: str, times: NDArray[np.float64],
+               positions: NDArray[np.float64], orientations: NDArray[np.float64], twists: NDArray[np.float64],
+               clearances: NDArray[np.float64], planner: str) -> PlannedPath:
+        """A task-space path from arrays a planner has just made for it and shares with nobody: float64,
+        C-contiguous, of consistent shapes (N,), (N, 3), (N, 4), (N, 6), (N,), N ≥ 1. They are frozen in place,
+        not copied and checked again as the constructor does with arrays it is given (those may be the caller's,
+        which it must not freeze). The same value as ``PlannedPath(...)`` with these fields."""
+        for array in (times, positions, orientations, twists, clearances):
+            array.flags.writeable = False
+        path = object.__new__(cls)
+        path.__dict__.update(
+            success=status is PlanStatus.REACHED, failure_reason=failure_reason, times=times, positions=positions,
+            orientations=orientations, twists=twists, clearances=clearances, iterations=len(times) - 1,
+            joint_names=(), joint_positions=None, joint_velocities=None, status=status, planner=planner,
+            trajectory=None)
+        return path
+
     def _check_status(self) -> None:
         status = self.status
         if status is None:

@@ -1,8 +1,8 @@
 """The outcome of every planner as a value: :class:`PlanStatus` (one enum for every compiled loop).
 
-Compiled loops return these members themselves (numba types an ``IntEnum``), the Python layer carries
-them on :attr:`PlannedPath.status`, and ``failure_reason`` is the sentence beside the value (as nav2's
-``TaskResult`` sits beside its message). Compare statuses, never sentences.
+The compiled core's loops return its ``PlanStatus`` (``src/core/planning/status.hpp``, the same values), the
+Python layer carries these members on :attr:`PlannedPath.status`, and ``failure_reason`` is the sentence beside
+the value (as nav2's ``TaskResult`` sits beside its message). Compare statuses, never sentences.
 """
 
 from __future__ import annotations

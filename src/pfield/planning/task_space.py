@@ -13,6 +13,7 @@ import logging
 import math
 
 import numpy as np
+from numpy.typing import NDArray
 
 from pfield._core import field as _core_field
 from pfield.errors import InvalidInput
@@ -28,6 +29,18 @@ __all__ = ["DEFAULT_MAX_ITERATIONS", "MAX_ITERATIONS_LIMIT", "plan_task_space"]
 
 _log = logging.getLogger(__name__)
 FIELD_PLANNER, FALLBACK_PLANNER = PLANNERS
+_Buffers = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+# The compiled loop writes into buffers of max_iterations + 1 rows (poses, twists, clearances) and a path keeps
+# only the rows written, copied out. Buffers of the default size serve every plan up to it and are kept for the
+# next plans, one set per plan running at once up to _SPARE_SETS (3.4 MB each, resident only where written):
+# fresh ones cost an allocation and a page fault per page written at every plan, as much as a short plan takes.
+_BUFFER_ROWS = DEFAULT_MAX_ITERATIONS + 1
+_SPARE_SETS = 2
+_spare_buffers: list[_Buffers] = []  # list.pop and append are atomic: threads share it safely
+_POSITION_BYTES, _ORIENTATION_BYTES = np.dtype((np.void, 24)), np.dtype((np.void, 32))  # 3 and 4 doubles
+_STATUSES = {int(status): status for status in PlanStatus}  # the loop returns PlanStatus values
+# The flag of plans without a cancel token: nobody holds it, so nobody cancels it.
+_NEVER_CANCELLED = cancel_flag(None)
 
 
 def plan_task_space(
@@ -67,17 +80,21 @@ def plan_task_space(
         return _single_point(field, start, blocked, PlanStatus.GOAL_INVALID)
     _, params, packed, aux = field.arrays
     iterations, step, window = settings.max_iterations, settings.dt, settings.stagnation_steps
-    poses, twists, clearances = np.empty((iterations + 1, 7)), np.empty((iterations + 1, 6)), np.empty(iterations + 1)
+    buffers = _take_buffers(iterations + 1)
+    poses, twists, clearances = buffers
     start_array = np.concatenate([start.position, start.orientation])
-    cancel = cancel_flag(settings.cancel)
+    cancel = _NEVER_CANCELLED if settings.cancel is None else settings.cancel.flag
     count, code, obstacle = field._core.plan(start_array, step, settings.goal_tolerance, settings.rotation_tolerance,
                                              iterations, window, settings.stagnation_progress, cancel, poses, twists,
                                              clearances)
-    status = PlanStatus(code)
-    if status == PlanStatus.COLLISION and count == 1 and field.clearances(poses[:1, :3])[0] <= 0.0:
+    status = _STATUSES[code]
+    if status is PlanStatus.COLLISION and count == 1 and field.clearances(poses[:1, :3])[0] <= 0.0:
         status = PlanStatus.START_INVALID
-    reason = "" if status == PlanStatus.REACHED else _reason(field, status, obstacle, poses[count - 1],
+    reason = "" if status is PlanStatus.REACHED else _reason(field, status, obstacle, poses[count - 1],
                                                              clearances[count - 1], count, step, window)
+    # the path's own arrays (C-contiguous copies of the rows written); the buffers go back for the next plan
+    path_arrays = (*_pose_columns(poses, count), twists[:count].copy(), clearances[:count].copy())
+    _give_back(buffers)
     planner = FIELD_PLANNER
     # --- global fallback: the field stopped short; search positions, then let the field run to each vertex
     if settings.global_fallback and status in (PlanStatus.STAGNATION, PlanStatus.ITERATION_LIMIT):
@@ -91,7 +108,8 @@ def plan_task_space(
         tolerance, angle, progress = settings.goal_tolerance, settings.rotation_tolerance, settings.stagnation_progress
 
         def run_to(state: np.ndarray, target: Pose, final: bool) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
-            sub_poses, sub_twists, sub_clear = np.empty_like(poses), np.empty_like(twists), np.empty_like(clearances)
+            sub_buffers = _take_buffers(iterations + 1)
+            sub_poses, sub_twists, sub_clear = sub_buffers
             sub_tolerance = tolerance if final else max(2.0 * tolerance, 0.5 * global_options.point_step)
             # the field toward this vertex: its goal, the plan's obstacles and circulation axes (those of the
             # plan's own goal, so the field turns around each obstacle the same way at every vertex)
@@ -99,25 +117,55 @@ def plan_task_space(
             sub_count, sub_status, _ = toward.plan(
                 state, step, sub_tolerance, angle if final else math.pi - 1e-6, iterations, window, progress, cancel,
                 sub_poses, sub_twists, sub_clear)
-            return (int(sub_status), sub_poses[:sub_count].copy(), sub_twists[:sub_count].copy(),
-                    sub_clear[:sub_count].copy())
+            out = (int(sub_status), sub_poses[:sub_count].copy(), sub_twists[:sub_count].copy(),
+                   sub_clear[:sub_count].copy())
+            _give_back(sub_buffers)
+            return out
 
         outcome = task_space_fallback(run_to, make_scene(packed), start, field.goal, field.config, global_options,
                                       cancel)
         if outcome.loop is not None:
-            poses, twists, clearances = outcome.loop
-            count, reason, planner, status = len(poses), "", FALLBACK_PLANNER, PlanStatus.REACHED
+            loop_poses, loop_twists, loop_clearances = outcome.loop
+            count, reason, planner, status = len(loop_poses), "", FALLBACK_PLANNER, PlanStatus.REACHED
+            path_arrays = (np.array(loop_poses[:, :3], dtype=np.float64), np.array(loop_poses[:, 3:], dtype=np.float64),
+                           np.array(loop_twists, dtype=np.float64), np.array(loop_clearances, dtype=np.float64))
         else:
-            status = outcome.status  # the root cause first (see ROOT_CAUSES)
+            status = PlanStatus(outcome.status)  # the root cause first (see ROOT_CAUSES)
             reason = f"{outcome.reason}; {reason}" if status in ROOT_CAUSES else f"{reason}; {outcome.reason}"
     # --- end of the global fallback
     if reason:
         _log.info("task-space plan failed after %d steps: %s", count - 1, reason)
-    return PlannedPath(
-        success=status == PlanStatus.REACHED, failure_reason=reason, times=np.arange(count, dtype=np.float64) * step,
-        positions=poses[:count, :3], orientations=poses[:count, 3:], twists=twists[:count],
-        clearances=clearances[:count], iterations=count - 1, status=status, planner=planner,
-    )
+    positions, orientations, path_twists, path_clearances = path_arrays
+    times = np.arange(count, dtype=np.float64)
+    times *= step  # i·dt
+    return PlannedPath._owned(status, reason, times, positions, orientations, path_twists, path_clearances, planner)
+
+
+def _pose_columns(poses: NDArray[np.float64], count: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """New C-contiguous copies of the first ``count`` rows' positions (:, :3) and orientations (:, 3:) of the
+    C-contiguous (N, 7) ``poses``. Each row's part is copied as one 24- or 32-byte item (the same bytes): numpy copies
+    a float column slice three or four doubles at a time, 2-3 times slower for a plan's hundreds of rows."""
+    positions, orientations = np.empty((count, 3)), np.empty((count, 4))
+    positions.view(_POSITION_BYTES)[:, 0] = np.ndarray((count,), _POSITION_BYTES, poses, 0, (56,))
+    orientations.view(_ORIENTATION_BYTES)[:, 0] = np.ndarray((count,), _ORIENTATION_BYTES, poses, 24, (56,))
+    return positions, orientations
+
+
+def _take_buffers(rows: int) -> _Buffers:
+    """Output buffers of at least ``rows`` rows for the compiled loop: kept ones when ``rows`` fits them."""
+    if rows <= _BUFFER_ROWS:
+        try:
+            return _spare_buffers.pop()
+        except IndexError:
+            rows = _BUFFER_ROWS
+    return np.empty((rows, 7)), np.empty((rows, 6)), np.empty(rows)
+
+
+def _give_back(buffers: _Buffers) -> None:
+    """Keep ``buffers`` for the next plan (when of the kept size and fewer than _SPARE_SETS are kept); nothing
+    may refer to them afterwards."""
+    if len(buffers[2]) == _BUFFER_ROWS and len(_spare_buffers) < _SPARE_SETS:
+        _spare_buffers.append(buffers)
 
 
 def _goal_blocked(field: PotentialField) -> str:
@@ -125,15 +173,16 @@ def _goal_blocked(field: PotentialField) -> str:
     if not field.obstacles:
         return ""
     distances = _all_distances(field, field.goal.position)
-    nearest = int(np.argmin(distances))
-    if distances[nearest] <= field.config.safety_distance:
-        return (f"unreachable goal: it lies {distances[nearest]:.4g} m from obstacle '{field.obstacles[nearest].id}', "
+    nearest = int(distances.argmin())
+    distance = float(distances[nearest])
+    if distance <= field.config.safety_distance:
+        return (f"unreachable goal: it lies {distance:.4g} m from obstacle '{field.obstacles[nearest].id}', "
                 f"within safety_distance ({field.config.safety_distance} m)")
     return ""
 
 
 def _all_distances(field: PotentialField, point: np.ndarray) -> np.ndarray:
-    points = np.array(point, dtype=np.float64).reshape(1, 3)  # a writable copy, as the other callers pass
+    points = np.array(point, dtype=np.float64, ndmin=2)  # (1, 3), a writable copy, as the other callers pass
     distances, _ = signed_distances(field.arrays.packed, points)
     return np.asarray(distances[0])
 

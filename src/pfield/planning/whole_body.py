@@ -34,9 +34,8 @@ from numpy.typing import ArrayLike, NDArray
 from pfield._validation import finite, positive
 from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
-from pfield.geometry import Obstacle, pack_obstacles
+from pfield.geometry import Obstacle, empty_packed, pack_obstacles
 from pfield.geometry._packed import PackedObstacles, bounding_radius
-from pfield.geometry._sdf import empty_packed
 from pfield.planning import _whole_body_core as _core_loop
 from pfield.planning import _whole_body_layout as _wb
 from pfield.planning.cancel import cancel_flag

@@ -16,7 +16,13 @@ Measures, reported per link (:class:`LinkFit`):
 * **volume ratio** — union volume (Monte Carlo, fixed seed) / volume of the collision elements (closed
   meshes by the divergence theorem, boxes exactly; overlapping elements are counted twice).
 
-Fits are cached in memory and on disk (:func:`cached_fit`).
+Fits are cached in memory and on disk (:func:`cached_fit`), in ``robot-fits`` under pfield's cache directory
+(:func:`cache_root`: ``$PFIELD_CACHE_DIR``, else ``$XDG_CACHE_HOME/pfield`` or ``~/.cache/pfield``). The fits of
+the built-in robots' links ship with pfield (:data:`SHIPPED_DIRECTORY`, written by ``python -m
+pfield.robot._shipped_fits``) and are read, under the same key, when the user's cache has none: a new install plans
+with the xArm7 or the Panda without fitting. Each fit is filed under :meth:`LinkSurface.key`, a hash of everything
+the fit depends on (the surface, the stand-off bound, :func:`fit_parameters` and :data:`FIT_VERSION`), so a fit made
+for another mesh, other settings or another fitting rule is never read.
 """
 
 from __future__ import annotations
@@ -27,6 +33,8 @@ import math
 import os
 import time
 from dataclasses import dataclass, field
+from functools import cache
+from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -41,7 +49,7 @@ if TYPE_CHECKING:
 
 _LOG = logging.getLogger(__name__)
 
-FIT_VERSION = 3  # bump when the fitting rule changes (invalidates the disk cache)
+FIT_VERSION = 3  # bump when the fitting rule changes (invalidates the disk cache and the shipped fits)
 TARGET_GAP = 0.014  # m, the stand-off bound of every primitive (mean gaps come out at ~0.6 of it)
 _GAP_SAMPLES = 600  # surface samples per primitive for the gap
 _VOLUME_SAMPLES = 60_000
@@ -51,6 +59,18 @@ _PAIR_TRIES, _PAIR_REACH = 4000, 0.2
 _INTERIOR_CHUNK = 1000  # interior tries asked of the solid at a time
 _SEGMENT_ORDER = (0.5, 0.25, 0.75, 0.125, 0.375, 0.625, 0.875, 1.0)  # a pair capsule's depth samples, as asked
 _CIRCLE_ITERATIONS = 400  # Bădoiu–Clarkson steps for a capsule's radius
+_FIT_SEED, _MEASURE_SEED = 7, 12  # the random generators' seeds of the fit and of its measures
+
+
+def fit_parameters() -> tuple[object, ...]:
+    """Every setting a fit depends on besides its surface and stand-off bound: this module's, the cover's and the
+    solid's constants, read when a key is made (:meth:`LinkSurface.key`), so that changing one makes new keys.
+    A change of the fitting code itself is :data:`FIT_VERSION`'s to say."""
+    from pfield.robot import _cover, _solid
+
+    return (_FIT_SEED, _MEASURE_SEED, _GAP_SAMPLES, _VOLUME_SAMPLES, _COVER_SAMPLES, _INTERIOR_TRIES,
+            _INTERIOR_CANDIDATES, _PAIR_TRIES, _PAIR_REACH, _INTERIOR_CHUNK, _SEGMENT_ORDER, _CIRCLE_ITERATIONS,
+            _cover._GRID_CELLS, _solid._HULL_TOLERANCE, _solid._INNER_HULL_VERTICES)
 
 
 @dataclass(frozen=True)
@@ -70,8 +90,11 @@ class LinkSurface:
         return f"{self.link} ({', '.join(self.sources)})" if self.sources else self.link
 
     def key(self, target_gap: float) -> str:
+        """The fit's cache key (32 hex digits): SHA-256 of :data:`FIT_VERSION`, ``target_gap``,
+        :func:`fit_parameters` and the vertices (float64) and triangles (int64) as bytes. The user's cache and the
+        shipped fits (:data:`SHIPPED_DIRECTORY`) file a fit under it alike."""
         digest = hashlib.sha256()
-        digest.update(f"{FIT_VERSION}:{target_gap!r}".encode())
+        digest.update(f"{FIT_VERSION}:{target_gap!r}:{fit_parameters()!r}".encode())
         digest.update(np.ascontiguousarray(self.vertices, dtype=np.float64).tobytes())
         digest.update(np.ascontiguousarray(self.triangles, dtype=np.int64).tobytes())
         return digest.hexdigest()[:32]
@@ -197,7 +220,7 @@ def fit_primitives(surface: LinkSurface, gap: float, solid: SignedDistance | Non
     area samples, then redundant picks are dropped, smallest first. ``solid``: the surface's signed distance
     (:func:`signed_distance_of`), when the caller has it already.
     """
-    rng = np.random.default_rng(7)
+    rng = np.random.default_rng(_FIT_SEED)
     targets = np.concatenate([surface.vertices, _surface_samples(surface, _COVER_SAMPLES, rng)])
     a, b, radii = _candidates(surface, solid or signed_distance_of(surface), targets, gap, rng)
     picked = greedy_cover(a, b, radii, targets, cell_side(targets, gap))
@@ -246,7 +269,7 @@ def union_volume(prims: Primitives, rng: np.random.Generator, samples: int = _VO
 def measure(surface: LinkSurface, prims: Primitives, mesh: Obstacle | None = None) -> tuple[float, float, float]:
     """(mean gap, max gap, volume ratio) of ``prims`` for ``surface`` (module docstring); ``mesh``: the
     surface as an obstacle, when the caller has it already."""
-    rng = np.random.default_rng(12)
+    rng = np.random.default_rng(_MEASURE_SEED)
     exposed = []
     for j in range(len(prims)):
         points = _sample_capsule_surface(prims.a[j], prims.b[j], float(prims.radii[j]), _GAP_SAMPLES, rng)
@@ -317,12 +340,24 @@ def fit_single_capsule(
 _MEMORY: dict[str, LinkFit] = {}
 
 
+CACHE_ENVIRONMENT = "PFIELD_CACHE_DIR"
+"""The environment variable naming pfield's cache directory (the fitted link models live in its ``robot-fits``)."""
+
+
+def cache_root() -> Path:
+    """pfield's cache directory: ``$PFIELD_CACHE_DIR`` when set, else ``$XDG_CACHE_HOME/pfield``, else
+    ``~/.cache/pfield`` (the XDG base directory rule; a user's cache, outside the installed package)."""
+    root = os.environ.get(CACHE_ENVIRONMENT)
+    if root:
+        return Path(root).expanduser()
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    return (Path(xdg).expanduser() if xdg else Path.home() / ".cache") / "pfield"
+
+
 def cache_directory() -> Path | None:
-    """Where fits are kept on disk: ``$NUMBA_CACHE_DIR/pfield-robot-fits`` when numba's cache is redirected,
-    else ``__pycache__/robot-fits`` next to this module (where numba caches the kernels); None if unwritable."""
-    root = os.environ.get("NUMBA_CACHE_DIR")
-    directory = Path(root) / "pfield-robot-fits" if root else Path(__file__).resolve().parent / "__pycache__" / \
-        "robot-fits"
+    """Where fits are kept on disk: ``robot-fits`` in :func:`cache_root` (created on first use); None when it
+    cannot be created or written (fits are then kept in memory only)."""
+    directory = cache_root() / "robot-fits"
     try:
         directory.mkdir(parents=True, exist_ok=True)
     except OSError:
@@ -330,11 +365,66 @@ def cache_directory() -> Path | None:
     return directory if os.access(directory, os.W_OK) else None
 
 
-def cached_fit(surface: LinkSurface, target_gap: float = TARGET_GAP, progress: str = "") -> LinkFit:
-    """:func:`fit_link`, remembered in memory and on disk under a hash of the surface and the settings.
+SHIPPED_DIRECTORY = Path(str(resources.files("pfield") / "data" / "robot_fits"))
+"""The fits of the built-in robots' links that ship with pfield (package data, read only): ``<robot>/<link>-<key>.npz``
+with ``key`` = :meth:`LinkSurface.key` at :data:`TARGET_GAP`; ``python -m pfield.robot._shipped_fits`` writes them."""
 
-    A link that is actually fitted is logged at INFO before and after (``progress``, e.g. ``"3/18"``, says
-    where it stands among the robot's links), so a first fit shows which link it is on."""
+_FIELDS = ("a", "b", "radii", "mean_gap", "max_gap", "volume_ratio", "bound_a", "bound_b", "bound_r",
+           "bound_volume_ratio", "bound_mean_gap")
+
+
+def write_fit(path: Path, fit: LinkFit, key: str, *, compressed: bool = False) -> None:
+    """Write ``fit`` (filed under ``key``, which the file records) to ``path`` as a ``.npz``, atomically (a
+    temporary file beside it, then renamed)."""
+    tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
+    save = np.savez_compressed if compressed else np.savez
+    save(tmp, key=np.array(key), a=fit.primitives.a, b=fit.primitives.b, radii=fit.primitives.radii,
+         mean_gap=fit.mean_gap, max_gap=fit.max_gap, volume_ratio=fit.volume_ratio, bound_a=fit.bound.a,
+         bound_b=fit.bound.b, bound_r=fit.bound.radii, bound_volume_ratio=fit.bound_volume_ratio,
+         bound_mean_gap=fit.bound_mean_gap)
+    tmp.replace(path)
+
+
+def read_fit(path: Path, key: str | None = None) -> LinkFit:
+    """The fit in ``path`` (:func:`write_fit`). With ``key``, the file must record that key (a :class:`ValueError`
+    otherwise): a file renamed to another key is not taken for it."""
+    with np.load(path) as data:
+        if key is not None and ("key" not in data.files or str(data["key"]) != key):
+            raise ValueError(f"it is not the fit filed under {key}")
+        return LinkFit(Primitives(data["a"], data["b"], data["radii"]), float(data["mean_gap"]),
+                       float(data["max_gap"]), float(data["volume_ratio"]),
+                       Primitives(data["bound_a"], data["bound_b"], data["bound_r"]),
+                       float(data["bound_volume_ratio"]), float(data["bound_mean_gap"]))
+
+
+@cache
+def shipped_fits() -> dict[str, Path]:
+    """The shipped fits (:data:`SHIPPED_DIRECTORY`) by key, listed once per process."""
+    if not SHIPPED_DIRECTORY.is_dir():
+        return {}
+    return {path.stem.rpartition("-")[2]: path for path in sorted(SHIPPED_DIRECTORY.glob("*/*.npz"))}
+
+
+def _read_shipped(key: str) -> LinkFit | None:
+    path = shipped_fits().get(key)
+    if path is None:
+        return None
+    try:
+        fit = read_fit(path, key)
+    except (OSError, KeyError, ValueError) as exc:
+        _LOG.warning("ignoring unreadable shipped robot fit %s: %s", path, exc)
+        return None
+    _LOG.debug("read the shipped fit %s", path)
+    return fit
+
+
+def cached_fit(surface: LinkSurface, target_gap: float = TARGET_GAP, progress: str = "") -> LinkFit:
+    """:func:`fit_link`, remembered in memory and on disk under the surface's key (:meth:`LinkSurface.key`).
+
+    Looked up in memory, then in the user's cache (:func:`cache_directory`), then in the fits shipped with pfield
+    (:data:`SHIPPED_DIRECTORY`, read only); only a link found in none is fitted, and its fit is written to the
+    user's cache. A link that is actually fitted is logged at INFO before and after (``progress``, e.g. ``"3/18"``,
+    says where it stands among the robot's links), so a first fit shows which link it is on."""
     key = surface.key(target_gap)
     if key in _MEMORY:
         return _MEMORY[key]
@@ -343,13 +433,11 @@ def cached_fit(surface: LinkSurface, target_gap: float = TARGET_GAP, progress: s
     fit = None
     if path is not None and path.exists():
         try:
-            with np.load(path) as data:
-                fit = LinkFit(Primitives(data["a"], data["b"], data["radii"]), float(data["mean_gap"]),
-                              float(data["max_gap"]), float(data["volume_ratio"]),
-                              Primitives(data["bound_a"], data["bound_b"], data["bound_r"]),
-                              float(data["bound_volume_ratio"]), float(data["bound_mean_gap"]))
+            fit = read_fit(path)
         except (OSError, KeyError, ValueError) as exc:
             _LOG.warning("ignoring unreadable robot fit cache %s: %s", path, exc)
+    if fit is None:
+        fit = _read_shipped(key)
     if fit is None:
         where = f" {progress}" if progress else ""
         _LOG.info("fitting link%s %s: %d triangles", where, surface.label, len(surface.triangles))
@@ -359,13 +447,8 @@ def cached_fit(surface: LinkSurface, target_gap: float = TARGET_GAP, progress: s
         _LOG.info("fitted link%s %s in %.2f s: %d %s, mean gap %.2f cm", where, surface.link,
                   time.perf_counter() - began, count, "primitive" if count == 1 else "primitives", 100 * fit.mean_gap)
         if path is not None:
-            tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
             try:
-                np.savez(tmp, a=fit.primitives.a, b=fit.primitives.b, radii=fit.primitives.radii,
-                         mean_gap=fit.mean_gap, max_gap=fit.max_gap, volume_ratio=fit.volume_ratio,
-                         bound_a=fit.bound.a, bound_b=fit.bound.b, bound_r=fit.bound.radii,
-                         bound_volume_ratio=fit.bound_volume_ratio, bound_mean_gap=fit.bound_mean_gap)
-                tmp.replace(path)
+                write_fit(path, fit, key)
             except OSError as exc:
                 _LOG.warning("cannot write robot fit cache %s: %s", path, exc)
     _MEMORY[key] = fit

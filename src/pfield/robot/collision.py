@@ -21,10 +21,10 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
+from pfield._core import robot as _robot_core
 from pfield._core import robot_distance as _distance
 from pfield._validation import nonnegative
-from pfield.geometry import Box, Capsule, Cylinder, Ellipsoid, Mesh, Obstacle, Sphere, pack_obstacles
-from pfield.geometry._sdf import empty_packed
+from pfield.geometry import Box, Capsule, Cylinder, Ellipsoid, Mesh, Obstacle, Sphere, empty_packed, pack_obstacles
 from pfield.robot.geometry import adjacent_joints
 from pfield.robot.model import RobotModel
 
@@ -77,13 +77,14 @@ def capsule_clearances(robot: RobotModel, q: ArrayLike, obstacles: Sequence[Obst
     self-collision pair (the compiled distances the planner uses)."""
     values = robot.check_joint_angles(q)
     packed = pack_obstacles(list(obstacles)) if obstacles else empty_packed()
-    k, g = robot.kinematics, robot.geometry
+    g = robot.geometry
     # exact values everywhere: infinite bounding radii never cull a pair
     centres, bounds = np.ascontiguousarray(packed.rows[:, 0:3]), np.full(len(packed.kinds), np.inf)
-    model = _distance.LinkModel(g.joints, g.a, g.b, g.radii, g.self_radii, g.self_pairs, g.link_start, g.prim_joint,
-                                g.prim_a, g.prim_b, g.prim_r)
-    clearances = model.clearances_at(values, k.parents, k.place_rot, k.place_pos, k.axes, k.kinds,
-                                     _distance.Obstacles(*packed, centres, bounds))
+    # the robot with its link model, in RobotArrays' order (the planners bind theirs with their own limits)
+    bound = _robot_core.Robot(*robot.kinematics, g.joints, g.a, g.b, g.radii, g.self_pairs, robot.lower_limits,
+                              robot.upper_limits, robot.velocity_limits, robot.acceleration_limits, g.link_start,
+                              g.prim_joint, g.prim_a, g.prim_b, g.prim_r, g.self_radii)
+    clearances = _distance.clearances_at(bound, values, _robot_core.Obstacles(*packed, centres, bounds))
     obstacle, own = clearances.obstacle, clearances.own
     links = robot.geometry.link_names
     pairs = tuple((links[int(a)], links[int(b)]) for a, b in robot.geometry.self_pairs)

@@ -2,8 +2,7 @@
 
 Pinocchio (Carpentier et al., "The Pinocchio C++ library", SII 2019) parses the URDF, locks joints and
 stays the reference the compiled kinematics are tested against: the core's (``src/core/robot/kinematics``, bound
-once per model, which every public method here calls) and its numba twin :mod:`pfield.robot._kinematics` (inlined
-by the numba kernels not yet ported; both give the same bits).
+once per model, which every public method here calls).
 
 Joint angles policy (every public entry point): a wrong count or a non-finite value raises
 :class:`~pfield.errors.InvalidInput`; an angle outside the URDF limits by more than
@@ -25,6 +24,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
+from pfield._core import robot as _robot_core
 from pfield._core import robot_kinematics as _core_kinematics
 from pfield._validation import as_vector, positive
 from pfield.errors import InvalidInput
@@ -84,9 +84,10 @@ def read_group_states(srdf_path: str | Path, joint_names: tuple[str, ...]) -> di
 
 
 class KinematicArrays(NamedTuple):
-    """The packed kinematic tree (see :mod:`pfield.robot._kinematics`) and the end-effector frame.
+    """The packed kinematic tree and the end-effector frame, as the core's kinematics read them
+    (``src/core/robot/kinematics.hpp``'s ``KinematicsView``).
 
-    The field order is the argument order of the end-effector kernels, so ``*robot.kinematics`` passes them.
+    The field order is the argument order of the core's robot constructors, so ``*robot.kinematics`` passes them.
     """
 
     parents: NDArray[np.int64]  # (n,)
@@ -159,8 +160,10 @@ class RobotModel:
             limits = read_joint_limits(joint_limits, self._joint_names, self._velocity, self.kinematics.kinds)
             self._velocity, self._acceleration = _frozen(limits.velocity), _frozen(limits.acceleration)
         self._idx_q = np.array(idx_q)
-        # the core's view of the tree and the limits, bound once: each kinematics call passes only q
-        self._core_kinematics = _core_kinematics.Robot(*self.kinematics, self._lower, self._upper, LIMIT_TOLERANCE)
+        # the core's robot (pfield._core.robot.Robot: the tree and the limits, without the link model, which is
+        # fitted on first use), bound once with its kinematics: each kinematics call passes only q
+        robot = _robot_core.Robot(*self.kinematics, self._lower, self._upper, self._velocity, self._acceleration)
+        self._core_kinematics = _core_kinematics.Kinematics(robot, LIMIT_TOLERANCE)
         self._named = {str(key): _frozen(self.check_joint_angles(value, f"named_configurations[{key!r}]"))
                        for key, value in (named_configurations or {}).items()}
 

@@ -44,12 +44,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from pfield import safety
 from pfield._core import assistance as _core
+from pfield._core import robot as _robot_core
 from pfield._validation import finite, in_range, optional_vector
 from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
 from pfield.field.field import _fast_twist
-from pfield.geometry import Obstacle, pack_obstacles
-from pfield.geometry._sdf import empty_packed
+from pfield.geometry import Obstacle, empty_packed, pack_obstacles
+from pfield.planning._whole_body_core import core_robot
 from pfield.planning.whole_body import WholeBodyOptions, obstacle_bounds, pack_robot
 from pfield.robot.model import LIMIT_TOLERANCE, RobotModel
 from pfield.shared_control.autonomy import whole_body_stepper
@@ -165,8 +166,10 @@ class AssistanceScene:
             damper_gain=config.damper_gain, max_linear_velocity=config.max_linear_velocity,
             max_linear_acceleration=config.max_linear_acceleration, max_angular_velocity=config.max_angular_velocity,
             scale_threshold=self.options.scene_threshold)
-        # the compiled scene reads the packed obstacles, their bounding spheres and the velocity table in place
-        object.__setattr__(self, "_core", _core.Scene(*packed, *obstacle_bounds(packed), table, params))
+        # the compiled scene reads the packed obstacles, their bounding spheres (one robot.Obstacles) and the velocity
+        # table in place
+        obstacles = _robot_core.Obstacles(*packed, *obstacle_bounds(packed))
+        object.__setattr__(self, "_core", _core.AssistanceScene(obstacles, table, params))
         object.__setattr__(self, "_table", table)
         object.__setattr__(self, "_ids", ids)
 
@@ -313,11 +316,11 @@ def _whole_body(scene: AssistanceScene, robot: RobotModel) -> Any:
         rotation_tolerance=config.rotation_tolerance, stall_speed=options.stall_speed, goal_radius=options.goal_radius)
     if scene.field is None:
         arrays = pack_robot(robot, config, WholeBodyOptions())
-        return _core.WholeBody(_core.Robot(*arrays), scene._core, params, LIMIT_TOLERANCE)  # type: ignore[attr-defined]
-    # the field's step of the autonomy vector (its stepper's robot arrays, goal and parameters): the same step
+        return _core.WholeBody(core_robot(arrays), scene._core, params, LIMIT_TOLERANCE)  # type: ignore[attr-defined]
+    # the field's step of the autonomy vector (its stepper's robot, bound once, goal and parameters): the same step
     # whole_body_autonomy takes, fused in front of the assistance
     stepper = whole_body_stepper(scene.field, robot)
-    return _core.WholeBody(_core.Robot(*stepper._arrays), scene._core, params,  # type: ignore[attr-defined]
+    return _core.WholeBody(core_robot(stepper._arrays), scene._core, params,  # type: ignore[attr-defined]
                            LIMIT_TOLERANCE, stepper._goal_p, stepper._goal_q, stepper._params)
 
 

@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 CLIENT_TIMEOUT = 400.0
-"""s: long enough for a cold start (numba compiling the planners on first use), short of pytest's timeout."""
+"""s: long enough for a slow ROS 2 start and a robot's first fit on a loaded machine, short of pytest's timeout."""
 NODE_STOP_TIMEOUT = 20.0
 DDS_SHM_PREFIXES = ("fastrtps_", "fast_datasharing", "sem.fastrtps_")
 """Fast DDS's segments and locks (LTTng's ``lttng-ust-wait-*`` files, made by every ROS process, are not)."""
