@@ -22,23 +22,21 @@ this machine class's libm (glibc's sin, cos, atan2, exp); numpy's random streams
 
 from __future__ import annotations
 
-import functools
 import math
 import threading
 import time
 from collections.abc import Callable, Iterator
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-import trimesh
 
+from core_scenes import random_shape, robot
 from digests import digest
 from pfield import safety
 from pfield._core import whole_body as core
 from pfield.field.config import FieldConfig
-from pfield.geometry import Box, Capsule, Cylinder, Ellipsoid, Mesh, Obstacle, Sphere, pack_obstacles
+from pfield.geometry import Obstacle, pack_obstacles
 from pfield.planning import _whole_body_layout as wb
 from pfield.planning._whole_body_core import pair_distances, plan_loop, planner
 from pfield.planning.cancel import cancel_flag
@@ -49,30 +47,12 @@ from pfield.robot import RobotModel
 from pfield.robot.model import LIMIT_TOLERANCE
 from pfield.spatial import Pose, quaternion_exp
 
-UR5 = Path(__file__).resolve().parents[3] / "shared" / "benchmarks" / "mbm" / "ur5"
+_robot = robot
 
-
-@functools.cache
-def _robot(name: str) -> RobotModel:
-    if name == "panda":
-        return RobotModel.builtin("panda")
-    if not (UR5 / "ur5.urdf").exists():
-        pytest.skip("the UR5 of ../shared/benchmarks/mbm is not here")
-    return RobotModel.from_urdf(UR5 / "ur5.urdf", "ee_link", {"meshes": UR5 / "meshes"}, srdf=UR5 / "ur5.srdf")
-
-
-@functools.cache
-def _meshes() -> tuple[Mesh, ...]:
-    torus = trimesh.creation.torus(major_radius=0.08, minor_radius=0.03, major_sections=16, minor_sections=8)
-    ball = trimesh.creation.icosphere(subdivisions=1, radius=0.06)
-    return (Mesh.from_arrays(torus.vertices, torus.faces, name="torus"),
-            Mesh.from_arrays(ball.vertices, ball.faces[: len(ball.faces) // 2], name="open-cap"))
 
 
 def _shape(rng: np.random.Generator, kind: int) -> Any:
-    size = rng.uniform(0.02, 0.12, 3)
-    return (Sphere(size[0]), Box(*(2.0 * size)), Capsule(size[0], 2.0 * size[1]), Cylinder(size[0], 2.0 * size[1]),
-            Ellipsoid(*size), _meshes()[int(rng.integers(2))])[kind]
+    return random_shape(rng, kind, 0.02)
 
 
 def _obstacles(rng: np.random.Generator, robot: RobotModel, arrays: wb.RobotArrays, q: np.ndarray,

@@ -1,0 +1,43 @@
+"""Robots and random obstacle shapes shared by the tests that hold the compiled planners to recorded digests
+(tests/planning/test_core_rrt.py, test_core_whole_body.py): the same draws give the same scenes in both."""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import trimesh
+
+from pfield.geometry import Box, Capsule, Cylinder, Ellipsoid, Mesh, Sphere
+from pfield.robot import RobotModel
+
+UR5 = Path(__file__).resolve().parents[2] / "shared" / "benchmarks" / "mbm" / "ur5"
+
+
+@functools.cache
+def robot(name: str) -> RobotModel:
+    """The built-in Panda, or the MotionBenchMaker UR5 with its Robotiq gripper (skipped when absent)."""
+    if name == "panda":
+        return RobotModel.builtin("panda")
+    if not (UR5 / "ur5.urdf").exists():
+        pytest.skip("the UR5 of ../shared/benchmarks/mbm is not here")
+    return RobotModel.from_urdf(UR5 / "ur5.urdf", "ee_link", {"meshes": UR5 / "meshes"}, srdf=UR5 / "ur5.srdf")
+
+
+@functools.cache
+def meshes() -> tuple[Mesh, ...]:
+    """A watertight non-convex torus and an open half sphere (built on first use, not while pytest collects)."""
+    torus = trimesh.creation.torus(major_radius=0.08, minor_radius=0.03, major_sections=16, minor_sections=8)
+    ball = trimesh.creation.icosphere(subdivisions=1, radius=0.06)
+    return (Mesh.from_arrays(torus.vertices, torus.faces, name="torus"),
+            Mesh.from_arrays(ball.vertices, ball.faces[: len(ball.faces) // 2], name="open-cap"))
+
+
+def random_shape(rng: np.random.Generator, kind: int, smallest: float) -> Any:
+    """A shape of kind ``kind`` (sphere, box, capsule, cylinder, ellipsoid, mesh), sizes in [smallest, 0.12] m."""
+    size = rng.uniform(smallest, 0.12, 3)
+    return (Sphere(size[0]), Box(*(2.0 * size)), Capsule(size[0], 2.0 * size[1]), Cylinder(size[0], 2.0 * size[1]),
+            Ellipsoid(*size), meshes()[int(rng.integers(2))])[kind]
