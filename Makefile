@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test bench anchor lint venv core core-test clean ros2-interfaces chromium
+.PHONY: demo test bench anchor lint venv core core-test clean ros2-interfaces chromium egl
 
 # The compiled core pfield._core (C++17 in src/core, nanobind, scikit-build-core) is built by an editable
 # install without build isolation, so that its build tree (build/cp311-*) is kept and an edit of a C++ file
@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml CMakeLists.txt
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet 'scikit-build-core>=0.10' 'nanobind>=2.4' cmake ninja
-	$(PY) -m pip install --quiet --no-build-isolation -e '.[dev,ros2,viewer,ray]'
+	$(PY) -m pip install --quiet --no-build-isolation -e '.[dev,ros2,viewer,ray,sim]'
 	@touch $(STAMP)
 
 venv: $(STAMP)
@@ -52,6 +52,23 @@ $(ROS2_STAMP): $(ROS2_PKG)/CMakeLists.txt $(ROS2_PKG)/package.xml $(ROS2_PKG)/ms
 
 ros2-interfaces: $(ROS2_STAMP)
 
+# control_msgs' FollowJointTrajectory subset (ros/control_msgs, NOTICE.md there): the action a ros2_control
+# joint_trajectory_controller serves, for pfield.transport.trajectory_client; built the same way.
+CONTROL_MSGS_PKG   := ros/control_msgs
+CONTROL_MSGS_BUILD := build/ros2-control-msgs
+CONTROL_MSGS_STAMP := $(VENV)/.ros2-control-msgs
+
+$(CONTROL_MSGS_STAMP): $(CONTROL_MSGS_PKG)/CMakeLists.txt $(CONTROL_MSGS_PKG)/package.xml \
+		$(wildcard $(CONTROL_MSGS_PKG)/msg/*.msg $(CONTROL_MSGS_PKG)/action/*.action) | $(STAMP)
+	AMENT_PREFIX_PATH=$(ROS2_PREFIX) CMAKE_PREFIX_PATH=$(ROS2_PREFIX) cmake -S $(CONTROL_MSGS_PKG) \
+		-B $(CONTROL_MSGS_BUILD) -DCMAKE_INSTALL_PREFIX=$(ROS2_PREFIX) -DBUILD_TESTING=OFF \
+		-DPython3_EXECUTABLE=$(abspath $(PY)) -DCMAKE_INSTALL_MESSAGE=NEVER > /dev/null
+	cmake --build $(CONTROL_MSGS_BUILD) -j2 > /dev/null
+	cmake --install $(CONTROL_MSGS_BUILD) > /dev/null
+	@touch $@
+
+ros2-interfaces: $(CONTROL_MSGS_STAMP)
+
 # warmup first: a self-check of the install (seconds; on a new machine it fits the built-in robots' link models)
 demo: $(STAMP) $(CORE_STAMP)
 	$(VENV)/bin/pfield warmup
@@ -67,13 +84,28 @@ chromium:
 	@command -v chromium > /dev/null || ! command -v apt-get > /dev/null || \
 		{ apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium > /dev/null; }
 
-test: lint core core-test ros2-interfaces chromium
-	$(VENV)/bin/pytest -q
+# MuJoCo's offscreen renderer (pfield.sim.render_frame, examples/sim) needs EGL with Mesa's drivers when headless
+egl:
+	@ls /usr/lib/*/libEGL_mesa.so.0 > /dev/null 2>&1 || ! command -v apt-get > /dev/null || \
+		{ apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libegl1 libegl-mesa0 \
+		libgl1-mesa-dri > /dev/null; }
+
+# pytest on PYTEST_WORKERS processes (pytest-xdist; 2 = the CI machine's cores, 1 = no worker processes). Each test
+# file runs whole on one worker, in its order (--dist loadfile): a module's server starts once, and tests that read
+# what an earlier test of their file left (a server's log) see it. The files are handed out in collection order,
+# the longest first (tests/conftest.py, LONGEST_FIRST; --no-loadscope-reorder keeps that order). Parallel-safe by
+# construction: servers bind free 127.0.0.1 ports, ROS 2 and Ray sessions run in private network and /dev/shm
+# namespaces, the fit cache writes each file under a temporary name and renames it, other files go to tmp_path.
+PYTEST_WORKERS ?= 2
+PYTEST_PARALLEL := $(if $(filter 1,$(PYTEST_WORKERS)),,-n $(PYTEST_WORKERS) --dist loadfile --no-loadscope-reorder)
+
+test: lint core core-test ros2-interfaces chromium egl
+	$(VENV)/bin/pytest -q $(PYTEST_PARALLEL)
 
 # the benchmarks' own peers (the `bench` extra: OMPL), installed on the first `make bench`
 BENCH_STAMP := $(VENV)/.bench-installed
 $(BENCH_STAMP): pyproject.toml | $(STAMP)
-	$(PY) -m pip install --quiet --no-build-isolation -e '.[dev,ros2,viewer,ray,bench]'
+	$(PY) -m pip install --quiet --no-build-isolation -e '.[dev,ros2,viewer,ray,sim,bench]'
 	@touch $@
 
 # BENCH_ARGS: e.g. --no-old (no numba engine columns), --rounds 3, --quick, --only field task_space

@@ -7,9 +7,14 @@ parameters. For every scene:
   including Python's call overhead (the C++ figures are in-process calls; the issue's target is the
   limited twist ≤ 10 µs with 10 spheres);
 * **wrench / twist compiled**: per pose inside a compiled batch (what planners pay per evaluation);
-* **RK4 step compiled**: one step of the planner's loop in the core (four constrained twists, the clearance and
-  the segment check), per step of a 2000-step run.
+* **RK4 step compiled**: one RK4 step in the core (four constrained twists), per step of 2000 from the same pose
+  (the numba engine's row timed this: old and new time the same thing);
+* **plan-loop step compiled**: one step of the task-space plan loop (the RK4 step, the clearance, the segment
+  check and the advance), per step of a 2000-step plan (no numba row: its bench timed the RK4 step alone).
 
+* **floor** (spheres_10 only): a call of the core with ``twist``'s arguments that does nothing, and that call with
+  the fresh output array and the :class:`~pfield.spatial.Twist` built from it: what ``twist`` from Python cannot go
+  below without changing its API or value types;
 * **prepared limited twist**: :class:`pfield.field.PreparedTwist` (bound arrays, validated once, one compiled
   call per pose; target ≤ 1 µs with 10 spheres), previous twist and dt 0.01 as above.
 
@@ -37,6 +42,7 @@ from benchmarks._anchor import cpp_figures, cpp_median
 from benchmarks._common import BenchRow, auto_number, cpu_time, median_time
 from pfield._core import field as core_field
 from pfield.field import PotentialField, PreparedTwist
+from pfield.field.field import _fast_twist
 from pfield.geometry import Mesh, Obstacle, ResourceResolver
 from pfield.planning.scenes import BENCH_GOAL, DEFAULT_PARAMS, EVALUATION_SCENES, evaluation_query, evaluation_scene
 from pfield.spatial import Pose, Twist
@@ -60,6 +66,21 @@ def _plan_steps(field: PotentialField, count: int, pose: Pose) -> float:
     made, _, _ = field._core.plan(start, 0.01, 0.0, 0.0, count, count + 1, 0.0, np.zeros(1, np.uint8), poses, twists,
                                   clearances)
     return float(made)
+
+
+def _rk4_steps(field: PotentialField, count: int, pose: Pose) -> float:
+    """``count`` RK4 steps from ``pose`` with a zero previous twist (the numba engine's row: the planner's step
+    without its bookkeeping); returns the sum of their mean v_x."""
+    start = np.concatenate([pose.position, pose.orientation])
+    return float(field._core.rk4_steps(start, np.zeros(6), 0.01, count))
+
+
+def _floor_out(core: object, position: np.ndarray, orientation: np.ndarray, linear: np.ndarray,
+               angular: np.ndarray) -> np.ndarray:
+    """A fresh (6,) array after the do-nothing call (what PotentialField.twist allocates and passes)."""
+    out = np.empty(6)
+    core.call_floor(position, orientation, linear, angular, 0.01, out)  # type: ignore[attr-defined]
+    return out
 
 
 def _mesh_scene(name: str, directory: Path) -> list[Obstacle]:
@@ -101,8 +122,18 @@ def _scene_rows(name: str, field: PotentialField, quick: bool) -> list[BenchRow]
         ("prepared limited twist from Python", lambda: prepared.evaluate(0.01), 1, twist_c),
         ("wrench compiled", lambda: field.wrenches(poses, quats), 1000, wrench_c),
         ("twist compiled", lambda: field.twists(poses, quats), 1000, twist_c),
-        ("one RK4 step compiled", lambda: _plan_steps(field, steps, pose), steps, rk4_c),
+        ("one RK4 step compiled", lambda: _rk4_steps(field, steps, pose), steps, rk4_c),
+        ("one plan-loop step compiled", lambda: _plan_steps(field, steps, pose), steps, rk4_c),
     ]
+    if name == "spheres_10":  # the floor under "limited twist from Python" (docs/core.md, issue 32)
+        core, out = field._core, np.empty(6)
+        position, orientation, linear, angular = pose.position, pose.orientation, previous.linear, previous.angular
+        figures += [
+            ("floor: a call with twist's arguments that does nothing", lambda: core.call_floor(
+                position, orientation, linear, angular, 0.01, out), 1, twist_c),
+            ("floor: that call plus the Twist result", lambda: _fast_twist(_floor_out(
+                core, position, orientation, linear, angular)), 1, twist_c),
+        ]
     rows = []
     for label, fn, per, reference in figures:
         value, note = timed(fn, per)

@@ -1,10 +1,13 @@
 """Signed-distance speed per point, in the compiled core's batch, for meshes and every primitive shape.
 
-:func:`pfield.geometry.signed_distances` evaluates a few thousand query points against the obstacles in one call
-(the core's loop, outside the GIL), the way the field's and the planners' loops query the core; the time per
-point is the call's median over the points. Query points fill a cube three times the obstacle's size around it,
-so about a quarter are near the surface and some are inside. C++ figures (REFERENCE.md §3) are whole wrench
-evaluations (distance + repulsion + attraction) of the named scene, the closest comparable figure.
+:func:`pfield.geometry.distances` (distances alone, into a buffer reused from call to call) evaluates a few thousand
+query points against the obstacles in one call (the core's loop, outside the GIL), the way the field's and the
+planners' loops query the core; "nearest of 10" is :func:`pfield.geometry.nearest_distances` (each point's
+minimum, as ``min_signed_distance``). The numba engine's rows timed the same: a compiled loop summing each point's
+distance (or minimum); neither side writes normals. The time per point is the call's median over the points.
+Query points fill a cube three times the obstacle's size around it, so about a quarter are near the surface and
+some are inside. C++ figures (REFERENCE.md §3) are whole wrench evaluations (distance + repulsion + attraction) of
+the named scene, the closest comparable figure.
 """
 
 from __future__ import annotations
@@ -25,8 +28,9 @@ from pfield.geometry import (
     ResourceResolver,
     Shape,
     Sphere,
+    distances,
+    nearest_distances,
     pack_obstacles,
-    signed_distances,
 )
 from pfield.geometry._packed import PackedObstacles
 from pfield.planning.scenes import evaluation_scene
@@ -37,7 +41,8 @@ MESHES = Path(__file__).resolve().parents[1] / "tests" / "data" / "meshes"
 
 
 def _per_point_us(packed: PackedObstacles, points: np.ndarray, quick: bool, cutoff: float = math.inf) -> float:
-    seconds = median_time(lambda: signed_distances(packed, points, cutoff), repeat=3 if quick else 9,
+    out = np.empty((len(points), len(packed.kinds)))
+    seconds = median_time(lambda: distances(packed, points, cutoff, out), repeat=3 if quick else 9,
                           number=1 if quick else 3)
     return seconds / len(points) * 1e6
 
@@ -80,10 +85,11 @@ def _primitive_rows(rng: np.random.Generator, quick: bool) -> list[BenchRow]:
         rows.append(BenchRow(SECTION, f"one {label}", _per_point_us(single, points, quick) * 1e3, "ns/point"))
         ten = pack_obstacles(evaluation_scene(f"{name}_10"))  # the REFERENCE §2 scene
         scene_points = _points(rng, np.array([0.45, 0.15, 0.40]), 0.4, count // 5)
-        nearest = median_time(lambda: signed_distances(ten, scene_points)[0].min(axis=1),  # noqa: B023
+        out = np.empty(len(scene_points))
+        nearest = median_time(lambda: nearest_distances(ten, scene_points, out),  # noqa: B023
                               repeat=3 if quick else 9, number=1 if quick else 3) / len(scene_points) * 1e6
         rows.append(BenchRow(SECTION, f"{name}_10: nearest of 10", nearest, "µs/point", reference, None,
-                             note="all 10 exact, then each point's minimum; C++ figure: whole wrench of the scene"))
+                             note="each point's minimum (nearest_distances); C++ figure: whole wrench of the scene"))
         within = _per_point_us(ten, scene_points, quick, 0.1)
         rows.append(BenchRow(SECTION, f"{name}_10: all 10, cutoff 0.1 m", within, "µs/point", reference, None,
                              note="exact up to the influence distance (a lower bound beyond, as the field needs)"))

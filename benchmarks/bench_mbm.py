@@ -67,6 +67,22 @@ def request_joints(request: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
     return (np.array([parsed.start[j] for j in ARM_JOINTS]), np.array([parsed.goal_joints[j] for j in ARM_JOINTS]))
 
 
+def read_problem(directory: Path, index: int, joints: Sequence[str], base_link: str
+                 ) -> tuple[np.ndarray, np.ndarray, list[Obstacle], dict[str, float]]:
+    """(start, goal, obstacles, the request's other start joints) of problem ``index`` of an MBM scene folder, for
+    any robot: ``joints`` are the planned joints in order, ``base_link`` the robot's root (taken as the world, as
+    MBM's robots stand at the origin). The other start joints are e.g. the Panda's fingers or the Robotiq joints
+    (fixed joints in the UR5's URDF)."""
+    frames = (*WORLD_FRAMES, base_link)
+    scene = yaml.safe_load((directory / f"scene{index:04d}.yaml").read_text())
+    parsed = request_from_moveit(yaml.safe_load((directory / f"request{index:04d}.yaml").read_text()), frames)
+    assert parsed.goal_joints is not None, "MBM goals are joint goals"
+    start = np.array([parsed.start[j] for j in joints])
+    goal = np.array([parsed.goal_joints[j] for j in joints])
+    others = {name: value for name, value in parsed.start.items() if name not in joints}
+    return start, goal, moveit_obstacles(scene, frames), others
+
+
 def request_fingers(request: dict[str, Any]) -> dict[str, float]:
     """The finger joint values of the request's start state (locked for the whole plan)."""
     start = request_from_moveit(request).start

@@ -146,7 +146,61 @@ def run(quick: bool) -> list[BenchRow]:
             rows.append(BenchRow(SECTION, f"{_service(name)} rclpy round trip ({name}) {quantile}",
                                  1e3 * float(np.percentile(values, 100 * fraction)), "ms",
                                  target=TARGET_P50_MS if quantile == "p50" else None, note=note + http_note))
-    return rows
+    return rows + _trajectory_rows(quick, repo)
+
+
+# ---- trajectories out: pfield's FollowJointTrajectory client against the test action server ----------------
+TRAJECTORY_SERVER = Path(__file__).resolve().parents[1] / "tests/transport/ros2_helpers/trajectory_server.py"
+"""The rclpy FollowJointTrajectory server of the tests (a kinematic arm sampled every 10 ms)."""
+
+
+def _measure_trajectories(goals: int) -> dict[str, list[float]]:
+    """Inside the namespace: ``goals`` short goals (0.2 s) for the time from sending to accepted, and one 2 s goal
+    for the feedback rate (messages received per second, first to last arrival)."""
+    import numpy as np
+
+    from pfield.planning.retime import TimedJointTrajectory
+    from pfield.transport.trajectory_client import ExecutionOptions, TrajectoryClient
+
+    joints = ("joint1", "joint2", "joint3")
+    server = subprocess.Popen([sys.executable, str(TRAJECTORY_SERVER), *joints], stdout=subprocess.DEVNULL)
+
+    def line(duration: float) -> TimedJointTrajectory:
+        times = np.linspace(0.0, duration, 11)
+        positions = np.outer(times / duration, [0.2, -0.1, 0.1])
+        zeros = np.zeros_like(positions)
+        return TimedJointTrajectory(joints, times, positions, zeros, zeros, np.ones(3), np.ones(3))
+
+    try:
+        with TrajectoryClient() as client:
+            client.execute(line(0.2), ExecutionOptions(server_timeout=60.0))  # discovery, first allocations
+            accepted = [client.execute(line(0.2)).accepted_after for _ in range(goals)]
+            arrivals: list[float] = []
+            client.execute(line(2.0), feedback=lambda f: arrivals.append(f.received))
+    finally:
+        server.send_signal(signal.SIGINT)
+        server.wait(30)
+    return {"accepted": accepted, "feedback_rate": [(len(arrivals) - 1) / (arrivals[-1] - arrivals[0])]}
+
+
+def _trajectory_rows(quick: bool, repo: Path) -> list[BenchRow]:
+    name = "FollowJointTrajectory goal sent -> accepted p50"
+    inner = ["unshare", "-n", "sh", "-c", 'ip link set lo up && exec "$@"', "sh",
+             sys.executable, "-m", "benchmarks.bench_ros2", "--inner-trajectory", "20" if quick else "100"]
+    process = subprocess.run(inner, env=dict(os.environ, **ENVIRONMENT), cwd=repo, capture_output=True, text=True,
+                             timeout=600, check=False)
+    if process.returncode != 0:
+        return [BenchRow(SECTION, name, float("nan"), "ms",
+                         note=f"not measured: {process.stderr.strip().splitlines()[-1:]}")]
+    samples = json.loads(process.stdout.strip().splitlines()[-1])
+    accepted = 1e3 * np.array(samples["accepted"])
+    return [BenchRow(SECTION, name, float(np.percentile(accepted, 50)), "ms",
+                     note=f"{len(accepted)} goals of 11 points, p99 {np.percentile(accepted, 99):.3g} ms; pfield's "
+                          "TrajectoryClient to the tests' rclpy action server (another process), Fast DDS UDPv4"),
+            BenchRow(SECTION, "FollowJointTrajectory feedback rate", samples["feedback_rate"][0], "Hz",
+                     higher_is_better=True, note="feedback messages received per second during a 2 s goal (first "
+                                                 "to last arrival); the test server publishes one per 10 ms sample "
+                                                 "(sleep-paced, so below 100 Hz by its own work)")]
 
 
 def _http_figures(path: Path) -> dict[str, float]:
@@ -164,7 +218,9 @@ def _http_figures(path: Path) -> dict[str, float]:
 
 
 def _main(argv: list[str]) -> None:
-    if argv[:1] == ["--inner"]:
+    if argv[:1] == ["--inner-trajectory"]:
+        print(json.dumps(_measure_trajectories(int(argv[1]))))
+    elif argv[:1] == ["--inner"]:
         print(json.dumps(_measure(int(argv[1]))))
     else:
         for row in run(quick="--quick" in argv):

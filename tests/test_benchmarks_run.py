@@ -7,6 +7,7 @@ import math
 import sys
 import types
 from pathlib import Path
+from typing import Any
 
 import pytest
 from benchmarks import run as bench_run  # the repository root is on pytest's pythonpath (pyproject.toml)
@@ -153,3 +154,42 @@ def test_the_table_gains_the_old_engine_columns_only_when_paired() -> None:
     assert cells["rate"] == ["3.00", "plans/s", "4.00", "**1.33** (old/new)"]
     assert cells["gone"] == ["—", "ms", "1.00", "—"]
     assert cells["new only"] == ["1.00", "ms", "—", "—"]
+
+
+def _outcome(success: bool, seconds: float, length: float = math.nan, contact: str = "") -> Any:
+    import numpy as np
+    from benchmarks.bench_fallback import Outcome
+
+    status = "reached" if success else "global_time_limit"
+    return Outcome(success, status, seconds, seconds, "pfield", np.zeros((2, 6)), np.zeros((2, 6)), np.zeros(2),
+                   length=length, duration=2.0 if success else math.nan, contact=contact)
+
+
+def test_the_mbm_table_counts_over_valid_problems_and_shows_colliding_claims() -> None:
+    from benchmarks.bench_fallback import Result, figures, problems_list, table
+
+    results = [Result("ur5", "box", 1, "", "", {"pfield": _outcome(True, 0.010, 4.0)}),
+               Result("ur5", "box", 2, "", "", {"pfield": _outcome(True, 0.030, 6.0, "wrist_2_link/Can1 at 3")}),
+               Result("ur5", "box", 3, "", "", {"pfield": _outcome(False, 2.0)}),
+               Result("ur5", "box", 4, "forearm_link/table", "")]
+    (line,) = figures(results)
+    assert (line.problems, line.valid, line.solved, line.colliding) == (4, 3, 2, 1)
+    assert line.success == pytest.approx(200 / 3) and line.median_ms == pytest.approx(30.0)
+    assert line.length == pytest.approx(5.0) and line.duration == 2.0
+    text = table([line], {"ur5": [], "panda": ["cage"]})
+    assert "| ur5 | box | pfield | 3/4 | 2/3 (66.7 %) | 30.0 |" in text and "| **1** |" in text
+    assert "panda: scenes cage are not in its archive" in text
+    listed = problems_list(results)
+    assert "| ur5 | box | 4 | — | invalid (start in contact: forearm_link/table) |" in listed
+    assert "| ur5 | box | 3 | pfield | global_time_limit (2.00 s) |" in listed
+    assert "claimed reached, in contact: wrist_2_link/Can1 at 3" in listed and "| ur5 | box | 1 |" not in listed
+
+
+@pytest.mark.parametrize("argv", [["--limit", "0"], ["--robot", "kuka"], ["--ompl-time", "0"], ["--scenes", "x"]])
+def test_the_mbm_bench_refuses_bad_arguments(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+    from benchmarks import bench_fallback
+
+    with pytest.raises(SystemExit) as exit_info:
+        bench_fallback.main(argv)
+    assert exit_info.value.code == 2
+    assert argv[0] in capsys.readouterr().err

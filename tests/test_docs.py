@@ -19,7 +19,13 @@ How a block is run and checked:
   CLI): they run with ``ros2`` replaced by ``pfield`` (the CLI mirrors ros2 verbatim, DESIGN §3.2) against the
   HTTP node; the same requests over rclpy are tested in ``tests/transport/test_ros2_manager.py``.
   ``<!-- docs-test: ros2-node -->`` marks ``pfield ros2 node`` lines: each starts the real rclpy node in a
-  private network namespace and must run until it is stopped with SIGTERM (exit 0). ``<!-- docs-test: skip:
+  private network namespace and must run until it is stopped with SIGTERM (exit 0). ``<!-- docs-test: ros2-robot
+  -->`` marks a session with a robot (README's "Drive a robot"): the whole block runs in one private network
+  namespace beside the tests' arm (``tests/servo/sim_arm.py``: the Panda in MuJoCo publishing ``/joint_states``,
+  following the servo's commands and serving FollowJointTrajectory on ``/panda_arm_controller``), a line
+  ``pfield ros2 node ARGS &`` starts the real node and waits until it is up, and ``ros2`` is
+  ``tests/docs_ros2.py`` (the verbs the block uses, over rclpy); at the end every job is stopped and the node
+  must exit 0. ``<!-- docs-test: skip:
   REASON -->`` leaves a block out, with the reason (installs, the test suite itself, a ROS 2 install's
   colcon/launch).
 """
@@ -245,8 +251,48 @@ __pfield_ros2_node() {  # `pfield ros2 node ARGS` in a private network namespace
 """
 
 
+_ROBOT_SESSION = r"""
+__bg='s/^([[:space:]]*)pfield ros2 node\b(.*)&[[:space:]]*(#.*)?$/\1__pfield_ros2_node_bg\2/'
+PFIELD_DOCS_BLOCK=$(printf '%s' "$PFIELD_DOCS_BLOCK" | sed -E "$__bg") \
+unshare -n -m bash -euo pipefail -c '
+  ip link set lo up; mount -t tmpfs tmpfs /dev/shm
+  export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID=59 FASTDDS_BUILTIN_TRANSPORTS=UDPv4
+  __node=""
+  __finish() {
+    local status=$? p
+    for p in $(jobs -p); do [ "$p" = "$__node" ] || kill -INT "$p" 2>/dev/null || true; done
+    if [ -n "$__node" ]; then
+      kill -TERM "$__node"; wait "$__node" || { echo "pfield ros2 node exited $?" >&2; status=1; }
+    fi
+    wait || true
+    ! grep "dropped message" ros2_node.log >&2 || status=1  # every message of the block must be accepted
+    [ $status -eq 0 ] || cat ros2_node.log sim_arm.log >&2 2>/dev/null || true
+    exit $status
+  }
+  trap __finish EXIT
+  python tests/servo/sim_arm.py panda --sphere "$PFIELD_DOCS_SPHERE" --out sim_arm.json > sim_arm.log 2>&1 &
+  ros2() { python tests/docs_ros2.py "$@"; }
+  __pfield_ros2_node_bg() {  # `pfield ros2 node ARGS &`: the real node in the background, until it is up
+    pfield ros2 node "$@" > ros2_node.log 2>&1 &
+    __node=$!
+    for i in $(seq 1 600); do
+      grep -q "Ctrl-C stops" ros2_node.log && return 0
+      kill -0 $__node 2>/dev/null || { cat ros2_node.log >&2; return 1; }
+      sleep 0.5
+    done
+    return 1
+  }
+  eval "$PFIELD_DOCS_BLOCK"
+'
+"""
+ROBOT_SPHERE = "0.55,-0.25,0.3,0.08"
+"""The obstacle of the "Drive a robot" block, placed in the arm's simulation too (x, y, z, radius m)."""
+
+
 def _bash_script(block: Block) -> str:
     code = block.code
+    if block.marker == "ros2-robot":
+        return _PRELUDE + _ROBOT_SESSION
     if block.marker == "ros2":
         code = re.sub(r"^(\s*)ros2 ", r"\1pfield ", code, flags=re.M)
         code = re.sub(r"^(\s*pfield topic echo)(?!.*--once)", r"\1 --once", code, flags=re.M)
@@ -261,6 +307,8 @@ def _bash_script(block: Block) -> str:
 def _run_bash(block: Block, work: Path, url: str) -> str:
     env = os.environ | {"PFIELD_URL": url, "PATH": f"{VENV_BIN}{os.pathsep}{os.environ['PATH']}",
                         "MPLBACKEND": "Agg", "PYTHONPATH": str(REPO / "src")}
+    if block.marker == "ros2-robot":
+        env |= {"PFIELD_DOCS_BLOCK": block.code, "PFIELD_DOCS_SPHERE": ROBOT_SPHERE}
     done = subprocess.run(["bash", "-euo", "pipefail", "-c", _bash_script(block)], cwd=work, env=env,
                           capture_output=True, text=True, timeout=600, check=False)
     output = done.stdout + done.stderr
@@ -295,7 +343,7 @@ def test_doc_block(block: Block, workdirs: dict[str, Path], shared_server: str,
     if block.marker.startswith("skip:"):
         pytest.skip(block.marker.removeprefix("skip:").strip())
     work = workdirs[block.document]
-    if block.marker == "ros2-node" and shutil.which("unshare") is None:
+    if block.marker in ("ros2-node", "ros2-robot") and shutil.which("unshare") is None:
         pytest.fail("pfield ros2 node blocks need unshare (a private network namespace)")
     output = (_run_bash(block, work, shared_server) if block.language == "bash"
               else _run_python(block, work, monkeypatch))
@@ -312,5 +360,5 @@ def test_doc_block(block: Block, workdirs: dict[str, Path], shared_server: str,
 def test_every_block_is_run_or_says_why_not() -> None:
     """A docs-test marker is one of the known ones; a skip gives its reason."""
     for block in ALL_BLOCKS:
-        assert block.marker in ("", "serve-check", "ros2", "ros2-node") or (
+        assert block.marker in ("", "serve-check", "ros2", "ros2-node", "ros2-robot") or (
             block.marker.startswith("skip:") and len(block.marker) > len("skip: ") + 10), block.name

@@ -44,6 +44,9 @@ CASES: dict[str, Case] = {
         ("--steps", "40"), (), ("query pose flagged as disagreeing with the joints: True", "after 40 cycles")),
     "mobile/assisted_teleop.py": Case((), ("mobile_assisted_teleop.png",), ("diff_drive",)),
     "mobile/field_api.py": Case((), ("mobile_field_api.png",), ("|command|",)),
+    "sim/execute_in_mujoco.py": Case(
+        ("--width", "320", "--height", "240"), ("mujoco_run.png",),
+        ("steps in contact with obstacles 0", "max tracking error")),
     "mobile/seed_grid.py": Case(
         (),
         tuple(f"mobile_{name}_{drive}.png" for name in ("grid_blocked", "grid_pass")

@@ -24,7 +24,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("node",),
     ("batch",),  # many plans on every core or a Ray cluster: problems from scene, the planners' public API
     ("scene",),  # problems in: MoveIt PlanningScene/MotionPlanRequest and pfield scene YAML (uses interfaces)
-    ("viz",),  # plots and viewer: may use every computational package below
+    ("viz", "sim"),  # plots and viewer; sim: the physics check in MuJoCo (both use every computational package below)
     ("interfaces",),
     ("pfield",),  # the package's public face (pfield/__init__.py) re-exports the packages below
     ("shared_control",),  # autonomy vector, assistance and its compiled kernel, on the planners and the robot

@@ -103,7 +103,8 @@ def test_serve_on_a_port_in_use_exits_2_before_printing_anything(node_server: No
 @pytest.mark.parametrize(("robot", "says"), [
     ("ur5", "error: --robot='ur5': neither a built-in robot (panda, xarm7) nor a URDF file: give a built-in name, "
             "or --robot FILE.urdf --end-effector LINK\n"),
-    ("{urdf}", "error: --end-effector=None: the URDF robot {urdf} needs --end-effector LINK"),
+    ("{urdf}", "error: --end-effector=None: a URDF robot needs its end-effector link (the link whose pose is "
+               "planned); links of arm.urdf: "),
 ])
 def test_serve_names_an_unknown_robot_before_the_end_effector(robot: str, says: str, tmp_path: os.PathLike[str]
                                                               ) -> None:

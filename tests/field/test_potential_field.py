@@ -213,3 +213,37 @@ def test_a_goal_near_a_wall_stays_an_equilibrium_of_the_twist_but_not_of_the_wre
     khatib = 0.3 * (1 / 0.08 - 1 / 0.1) / 0.08**2  # 117 N, bent toward the 10 N cap
     np.testing.assert_allclose(field.wrench(goal).force, (-khatib / math.sqrt(1 + (khatib / 10) ** 2), 0, 0))
     np.testing.assert_array_equal(field.twist(goal).linear, (0.0, 0.0, 0.0))
+
+
+@pytest.mark.parametrize("scene", ["spheres_10", "boxes_10", "capsules_10", "ellipsoids_10"])
+def test_twist_is_the_cores_one_pose_answer_to_the_bit(scene: str) -> None:
+    """``twist`` (its fast path: the Pose's and Twist's arrays read as they are, dt a plain float) gives the core's
+    binding's bits with and without a previous twist, for dt of every number type; each answer owns read-only arrays."""
+    field = PotentialField(DEFAULT_PARAMS, BENCH_GOAL, evaluation_scene(scene))
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        pose = Pose(rng.uniform((0.0, -0.3, 0.0), (1.0, 0.7, 1.0)), quaternion_exp(rng.normal(size=3)))
+        previous = Twist(rng.normal(scale=0.2, size=3), rng.normal(scale=0.2, size=3))
+        plain, _ = field._core.twist(pose.position, pose.orientation)
+        assert np.array_equal(field.twist(pose).as_array().view(np.int64), plain.view(np.int64))
+        limited, _ = field._core.twist(pose.position, pose.orientation, previous.linear, previous.angular, 0.01)
+        for dt in (0.01, np.float64(0.01)):
+            answer = field.twist(pose, previous, dt)
+            assert np.array_equal(answer.as_array().view(np.int64), limited.view(np.int64))
+            assert not answer.linear.flags.writeable and not answer.angular.flags.writeable
+    first, second = field.twist(Pose()), field.twist(Pose())
+    assert first.linear is not second.linear and first == second
+    assert field.twist(Pose(), Twist(), 1) == field.twist(Pose(), Twist(), 1.0)  # an int dt is a number
+
+
+def test_the_rk4_figure_is_the_plans_first_step() -> None:
+    """``rk4_steps`` (bench_field's RK4 row) from the start with a zero previous twist takes the plan's first step:
+    one step's mean v_x is the plan's first twist's, to the bit, and n steps from one pose sum n equal ones."""
+    field = PotentialField(DEFAULT_PARAMS, BENCH_GOAL, evaluation_scene("boxes_10"))
+    query = evaluation_query()
+    start = np.concatenate([query.position, query.orientation])
+    poses, twists, clearances = np.empty((2, 7)), np.empty((2, 6)), np.empty(2)
+    field._core.plan(start, 0.01, 0.0, 0.0, 1, 2, 0.0, np.zeros(1, np.uint8), poses, twists, clearances)
+    assert field._core.rk4_steps(start, np.zeros(6), 0.01, 1) == twists[0, 0]
+    # stage 0 of a later step moves along the previous step's first stage by h = 0: the same twists again
+    assert field._core.rk4_steps(start, np.zeros(6), 0.01, 3) == twists[0, 0] + twists[0, 0] + twists[0, 0]

@@ -27,6 +27,7 @@ import pytest
 import trimesh
 
 from digests import digest
+from pfield.errors import InvalidInput
 from pfield.geometry import (
     Box,
     Capsule,
@@ -37,8 +38,10 @@ from pfield.geometry import (
     ResourceResolver,
     Shape,
     Sphere,
+    distances,
     empty_packed,
     min_signed_distance,
+    nearest_distances,
     obstacle_signed_distance,
     obstacle_signed_distance_within,
     pack_obstacles,
@@ -320,3 +323,46 @@ def test_mesh_bvh_is_a_median_split_over_all_triangles() -> None:
         bvh = build_bvh(triangles)
         assert sorted(bvh.order.tolist()) == list(range(len(triangles)))
         assert _check_subtree(bvh, triangles, 0) == (0, len(triangles))
+
+
+def test_the_distance_only_batches_are_signed_distances_bit_for_bit() -> None:
+    """``distances`` is ``signed_distances``' first array (exact and with the case's cutoff), ``nearest_distances``
+    each point's ``min_signed_distance`` d, to the bit, on every seeded case (every shape, both mesh kinds)."""
+    bits = functools.partial(np.ndarray.view, dtype=np.int64)
+    for obstacles, points, cutoff in _cases(200):
+        packed = pack_obstacles(obstacles)
+        for limit in (math.inf, cutoff):
+            expected = signed_distances(packed, points, limit)[0]
+            assert np.array_equal(bits(distances(packed, points, limit)), bits(expected))
+        nearest = np.array([min_signed_distance(packed, point)[0] for point in points])
+        assert np.array_equal(bits(nearest_distances(packed, points)), bits(nearest))
+
+
+def test_the_distance_only_batches_fill_the_callers_buffer_and_refuse_a_bad_one() -> None:
+    packed = pack_obstacles([Obstacle("s", Sphere(0.5), Pose()), Obstacle("b", Box(0.4, 0.4, 0.4), Pose((2, 0, 0)))])
+    points = np.array([[0.0, 0.0, 0.0], [3.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    table, nearest = np.full((3, 2), 7.0), np.full(3, 7.0)
+    assert distances(packed, points, out=table) is table
+    assert nearest_distances(packed, points, out=nearest) is nearest
+    # d = |p| − 0.5 to the sphere, |x − 2| − 0.2 to the box (half extents 0.2): exact in binary here
+    np.testing.assert_array_equal(table, [[-0.5, 1.8], [2.5, 0.8], [0.5, 0.8]])
+    np.testing.assert_array_equal(nearest, [-0.5, 0.8, 0.5])
+    assert distances(packed, points[0]).shape == (1, 2)  # one (3,) point
+    read_only = np.zeros((3, 2))
+    read_only.setflags(write=False)
+    for bad in (np.zeros((3, 3)), np.zeros((3, 2), np.float32), np.zeros((2, 3)).T, read_only, [[0.0] * 2] * 3):
+        with pytest.raises(InvalidInput) as info:
+            distances(packed, points, out=bad)  # type: ignore[arg-type]
+        assert info.value.field == "out"
+    with pytest.raises(InvalidInput) as info:
+        nearest_distances(packed, points, out=np.zeros(2))
+    assert info.value.field == "out"
+    for call in (lambda: distances(packed, [[0.0, math.nan, 0.0]], out=table[:1]),
+                 lambda: nearest_distances(packed, [[math.inf, 0.0, 0.0]], out=nearest[:1])):
+        with pytest.raises(InvalidInput) as info:
+            call()
+        assert info.value.field == "points"
+    np.testing.assert_array_equal(nearest, [-0.5, 0.8, 0.5])  # refused: the buffers are as they were
+    np.testing.assert_array_equal(table, [[-0.5, 1.8], [2.5, 0.8], [0.5, 0.8]])
+    assert nearest_distances(empty_packed(), points).tolist() == [math.inf] * 3
+    assert distances(empty_packed(), points).shape == (3, 0)

@@ -144,14 +144,17 @@ def _step_digest(problem: Problem, seed: int) -> str:
 
 
 # numba's joint_velocity_step and autonomy_step (pfield.planning._whole_body_kernel / _whole_body_loop), digested by
-# _step_digest per problem seed after the core was checked equal to them bit for bit on every step
+# _step_digest per problem seed after the core was checked equal to them bit for bit on every step; panda 8, ur5 7
+# and ur5 11 since the QP's stopping test checks x against every row (issue 32, src/core/math/qp.cpp): 4 of their
+# steps had a QP that numba stopped with a row violated (by up to 3.7e-5, tolerance 1e-7), whose q̇ now moves by up
+# to 3.3e-3 rad/s (the other steps kept numba's bits; _check_step's oracles hold on all)
 STEP_DIGESTS = {
     "panda": {0: "bed4395f04a87863", 1: "452e0a23bb9505a4", 2: "b34ca3ee85e7456a", 3: "1868060fadecbad5",
               4: "3cbb9f38e489aa18", 5: "6a76a276aafed311", 6: "dd20987d1d9e1025", 7: "a655a7b0279c11b6",
-              8: "191252bd8b91816d", 9: "f22c0388adf5cd5a", 10: "327a8e38726a7aef", 11: "f08e74a4d0414d90"},
+              8: "33a9176c8c6d0e66", 9: "f22c0388adf5cd5a", 10: "327a8e38726a7aef", 11: "f08e74a4d0414d90"},
     "ur5": {0: "b71bb60fcb2ed27a", 1: "e2a9d46f703972aa", 2: "e8dbf4d09694df11", 3: "429760836000ee88",
-            4: "aacb5fdf74abebec", 5: "8f73909592df83c7", 6: "1813c2b12d484371", 7: "ee9708ab98420d61",
-            8: "754e4d99aceac70b", 9: "b9dac5e5d3d176db", 10: "312ba7121e49c112", 11: "75f31bb16356d8ae"},
+            4: "aacb5fdf74abebec", 5: "8f73909592df83c7", 6: "1813c2b12d484371", 7: "06bedfa76068fb5a",
+            8: "754e4d99aceac70b", 9: "b9dac5e5d3d176db", 10: "312ba7121e49c112", 11: "13d974bc2a941c25"},
 }
 
 

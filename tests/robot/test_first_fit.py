@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from pfield import warmup
-from pfield.robot import RobotModel, _fit
+from pfield.robot import RobotDescription, RobotModel, _fit
 from pfield.robot import geometry as robot_geometry
 from pfield.robot.geometry import _link_surfaces, fit_robot_geometry
 
@@ -85,7 +85,7 @@ def test_health_is_not_ready_until_the_robot_link_model_is(monkeypatch: pytest.M
         return real_fit(robot, *args, **kwargs)  # type: ignore[arg-type]
 
     monkeypatch.setattr(robot_geometry, "fit_robot_geometry", fit_when_released)
-    nodes = nodes_from_options("xarm7", None, None, None, None, None, None, None)
+    nodes = nodes_from_options(RobotDescription("xarm7"), None, None, None, None, None)
     robot = next(n.robot for n in nodes if hasattr(n, "robot"))
     with ServerThread(create_app(nodes, ready=warmup.ready)) as server:
         assert fit_started.wait(60)

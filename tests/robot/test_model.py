@@ -249,3 +249,18 @@ def test_end_effector_positions_of_any_array_layout() -> None:
     expected = np.array([robot.forward_kinematics(q).position for q in qs])
     for values in (qs, frozen, qs.tolist(), np.asfortranarray(qs)):
         np.testing.assert_allclose(robot.end_effector_positions(values), expected, atol=1e-12)
+
+
+def test_a_urdf_with_a_gazebo_plugin_loads_and_only_mesh_files_are_resolved() -> None:
+    """example-robot-data's UR URDFs name ``<plugin filename="libgazebo_ros_control.so">``: not a mesh, and no file
+    of the robot's; the loader resolves ``<mesh filename=…>`` alone (it used to refuse the robot for that plugin)."""
+    root = example_robot_data_root()
+    urdf = root / "robots/ur_description/urdf/ur5_robot.urdf"
+    assert 'filename="libgazebo_ros_control.so"' in urdf.read_text()
+    robot = RobotModel.from_urdf(urdf, end_effector="tool0", package_paths={"example-robot-data": root})
+    assert robot.n_joints == 6
+    q = np.array([0.3, -1.2, 1.4, -1.7, -1.57, 0.2])
+    data = robot.pinocchio_model.createData()
+    pin.framesForwardKinematics(robot.pinocchio_model, data, robot.pinocchio_configuration(q))
+    expected = data.oMf[robot.pinocchio_model.getFrameId("tool0")]
+    assert np.allclose(robot.forward_kinematics(q).position, expected.translation, atol=1e-12)

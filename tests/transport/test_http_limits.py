@@ -332,10 +332,10 @@ def test_health_reports_readiness_from_the_callable() -> None:
     warm = threading.Event()
     with ServerThread(create_app([FaultyNode(Bus())], ready=warm.is_set)) as server:
         health = httpx.get(f"{server.url}/health").json()
-        assert health["ready"] is False and health["kernels"] == "compiling"
+        assert health["ready"] is False and health["start_up"] == "running"
         warm.set()
         health = httpx.get(f"{server.url}/health").json()
-        assert health["ready"] is True and health["kernels"] == "warm" and health["nodes"] == ["/faulty"]
+        assert health["ready"] is True and health["start_up"] == "done" and health["nodes"] == ["/faulty"]
 
 
 def test_json_null_is_not_a_message_of_defaults(served: tuple[FaultyNode, ServerThread]) -> None:

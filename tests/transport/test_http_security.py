@@ -140,7 +140,7 @@ def test_websocket_bad_frames_get_an_error_frame_and_the_socket_stays(served: st
 
 def test_a_slow_request_head_is_cut_and_health_answers(served: str) -> None:
     health = httpx.get(f"{served}/health").json()
-    assert health["ready"] is True and health["kernels"] == "warm"
+    assert health["ready"] is True and health["start_up"] == "done"
     assert health["limits"]["max_request_bytes"] == 1_000_000
     host, port = served.removeprefix("http://").split(":")
     with socket.create_connection((host, int(port)), timeout=60) as slow:

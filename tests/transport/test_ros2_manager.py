@@ -7,14 +7,13 @@ The node process resolves the seed's ``package://my_robot_description/meshes/obs
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 from pathlib import Path
 from typing import Any
 
 import pytest
-from ros2_helpers.support import HELPERS, REPO, require_netns, require_ros2_python, run_session
+from ros2_helpers.support import HELPERS, REPO, require_netns, require_ros2_python, run_scenario
 
 import seed_examples as seed
 
@@ -43,13 +42,7 @@ def session(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     node = [str(Path(sys.executable).with_name("pfield")), "ros2", "node", "--robot", "xarm7",
             "--package-path", f"my_robot_description={package}", "--params", str(params),
             "--ros-args", "-p", "dynamic_obstacle_timeout:=8.5"]
-    process = run_session(node, [sys.executable, str(HELPERS / "manager_scenario.py")], out, timeout=600)
-    assert process.returncode == 0, process.stderr
-    logs = {name: (out / name).read_text() for name in ("node.log", "client.log")}
-    assert (out / "results.json").exists(), logs
-    results = json.loads((out / "results.json").read_text())
-    assert "error" not in results, results["error"] + "\n--- node log ---\n" + logs["node.log"]
-    return {"results": results, "session": json.loads((out / "session.json").read_text()), "logs": logs}
+    return run_scenario(node, [sys.executable, str(HELPERS / "manager_scenario.py")], out)
 
 
 def _distance(a: list[float], b: tuple[float, ...]) -> float:

@@ -15,21 +15,9 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-inline double max_of(double a, double b) { return b > a ? b : a; }
-inline double min_of(double a, double b) { return b < a ? b : a; }
-inline double sign_of(double x) { return x >= 0.0 ? 1.0 : -1.0; }
+using detail::max_of;
+using detail::min_of;
 inline double square(double x) { return x * x; }
-
-struct Radial {
-  double rho, ux, uy;
-};
-
-// rho = |(qx, qy)| and the radial unit vector (local +x on the axis).
-Radial radial(double qx, double qy) {
-  const double rho = std::sqrt(qx * qx + qy * qy);
-  if (rho == 0.0) return {0.0, 1.0, 0.0};
-  return {rho, qx / rho, qy / rho};
-}
 
 // --- The ellipsoid (Eberly). The numba kernel's constants. ---
 constexpr int kMaxIterations = 128;
@@ -134,73 +122,9 @@ Vec3 closest_on_sorted_ellipsoid(double e0, double e1, double e2, double y0, dou
 
 inline double pick(int k, double a, double b, double c) { return k == 0 ? a : (k == 1 ? b : c); }
 
-// --- The primitives, inlined into the dispatch; sdf.hpp exports them as *_local ---
+}  // namespace
 
-[[gnu::always_inline]] inline SignedDistance sphere_at(Vec3 q, double r) {
-  const double norm = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
-  if (norm == 0.0) return {-r, {0.0, 0.0, 1.0}};
-  return {norm - r, {q.x / norm, q.y / norm, q.z / norm}};
-}
-
-// With e = |q| - h: d = |max(e, 0)| outside, max_i e_i inside. Outside n = sign(q) max(e, 0) / d; inside
-// n = sign(q_k) e_k along the axis k of the largest e_k (the lowest index on ties).
-[[gnu::always_inline]] inline SignedDistance box_at(Vec3 q, double hx, double hy, double hz) {
-  const double ex = std::abs(q.x) - hx, ey = std::abs(q.y) - hy, ez = std::abs(q.z) - hz;
-  if (ex > 0.0 || ey > 0.0 || ez > 0.0) {
-    const double ox = max_of(ex, 0.0), oy = max_of(ey, 0.0), oz = max_of(ez, 0.0);
-    const double d = std::sqrt(ox * ox + oy * oy + oz * oz);
-    return {d, {sign_of(q.x) * ox / d, sign_of(q.y) * oy / d, sign_of(q.z) * oz / d}};
-  }
-  if (ex >= ey && ex >= ez) return {ex, {sign_of(q.x), 0.0, 0.0}};
-  if (ey >= ez) return {ey, {0.0, sign_of(q.y), 0.0}};
-  return {ez, {0.0, 0.0, sign_of(q.z)}};
-}
-
-// e = (rho - r, |z| - hh): outside both, the corner ring; inside, the cap wins the tie with the side wall.
-[[gnu::always_inline]] inline SignedDistance cylinder_at(Vec3 q, double r, double half_height) {
-  const Radial u = radial(q.x, q.y);
-  const double er = u.rho - r, ez = std::abs(q.z) - half_height;
-  const double sz = sign_of(q.z);
-  if (er > 0.0 && ez > 0.0) {
-    const double d = std::sqrt(er * er + ez * ez);
-    return {d, {u.ux * er / d, u.uy * er / d, sz * ez / d}};
-  }
-  if (er > 0.0) return {er, {u.ux, u.uy, 0.0}};
-  if (ez > 0.0 || ez >= er) return {ez, {0.0, 0.0, sz}};
-  return {er, {u.ux, u.uy, 0.0}};
-}
-
-[[gnu::always_inline]] inline SignedDistance capsule_at(Vec3 q, double r, double half_height) {
-  const double cz = min_of(max_of(q.z, -half_height), half_height);
-  const double vz = q.z - cz;
-  const double norm = std::sqrt(q.x * q.x + q.y * q.y + vz * vz);
-  if (norm == 0.0) return {-r, {1.0, 0.0, 0.0}};
-  return {norm - r, {q.x / norm, q.y / norm, vz / norm}};
-}
-
-// --- Dispatch ---
-
-[[gnu::always_inline]] inline SignedDistance primitive_local(Kind kind, Vec3 q, double s0, double s1, double s2,
-                                                             double cutoff) {
-  switch (kind) {
-    case Kind::Box:
-      return box_at(q, s0, s1, s2);
-    case Kind::Cylinder:
-      return cylinder_at(q, s0, s1);
-    case Kind::Capsule:
-      return capsule_at(q, s0, s1);
-    case Kind::Ellipsoid: {
-      // the bounding sphere's distance is a lower bound of the ellipsoid's: exact only within the cutoff
-      const SignedDistance bound = sphere_at(q, max_of(max_of(s0, s1), s2));
-      if (bound.distance <= cutoff) return ellipsoid_local(q, s0, s1, s2);
-      return bound;
-    }
-    default:  // Sphere, and any unknown code
-      return sphere_at(q, s0);
-  }
-}
-
-SignedDistance mesh_local(const PackedView& packed, double mesh, Vec3 q, double cutoff) {
+SignedDistance detail::mesh_within(const PackedView& packed, double mesh, const Vec3& q, double cutoff) {
   if (!(mesh > -1.0 && mesh < static_cast<double>(packed.mesh_count)))  // int(mesh) outside [0, count)
     return {kNaN, {kNaN, kNaN, kNaN}};
   const std::int64_t* table = packed.mesh(static_cast<std::int64_t>(mesh));
@@ -216,12 +140,17 @@ SignedDistance mesh_local(const PackedView& packed, double mesh, Vec3 q, double 
   return mesh_signed_distance(packed, table[0], table[4] != 0, q);
 }
 
-}  // namespace
+// the bounding sphere's distance is a lower bound of the ellipsoid's: exact only within the cutoff
+SignedDistance detail::ellipsoid_within(const Vec3& q, double a, double b, double c, double cutoff) {
+  const SignedDistance bound = sphere_at(q, max_of(max_of(a, b), c));
+  if (bound.distance <= cutoff) return ellipsoid_local(q, a, b, c);
+  return bound;
+}
 
-SignedDistance sphere_local(Vec3 q, double r) { return sphere_at(q, r); }
-SignedDistance box_local(Vec3 q, double hx, double hy, double hz) { return box_at(q, hx, hy, hz); }
-SignedDistance cylinder_local(Vec3 q, double r, double half_height) { return cylinder_at(q, r, half_height); }
-SignedDistance capsule_local(Vec3 q, double r, double half_height) { return capsule_at(q, r, half_height); }
+SignedDistance sphere_local(Vec3 q, double r) { return detail::sphere_at(q, r); }
+SignedDistance box_local(Vec3 q, double hx, double hy, double hz) { return detail::box_at(q, hx, hy, hz); }
+SignedDistance cylinder_local(Vec3 q, double r, double half_height) { return detail::cylinder_at(q, r, half_height); }
+SignedDistance capsule_local(Vec3 q, double r, double half_height) { return detail::capsule_at(q, r, half_height); }
 
 SignedDistance ellipsoid_local(Vec3 q, double a, double b, double c) {
   const double sx = q.x >= 0.0 ? 1.0 : -1.0;
@@ -251,40 +180,11 @@ SignedDistance ellipsoid_local(Vec3 q, double a, double b, double c) {
   return {dist, {nx / norm, ny / norm, nz / norm}};
 }
 
-namespace {
-
-// obstacle_signed_distance, inlined into the loops below (a call would pass p and the result through memory).
-[[gnu::always_inline]] inline SignedDistance signed_distance_at(const PackedView& packed, std::size_t i, Vec3 p,
-                                                                double cutoff) {
-  const double* row = packed.row(i);
-  const double r00 = row[3], r01 = row[4], r02 = row[5];
-  const double r10 = row[6], r11 = row[7], r12 = row[8];
-  const double r20 = row[9], r21 = row[10], r22 = row[11];
-  const auto kind = static_cast<Kind>(packed.kinds[i]);
-  const double dx = p.x - row[0], dy = p.y - row[1], dz = p.z - row[2];
-  if (kind == Kind::Sphere) {
-    const double norm = std::sqrt(dx * dx + dy * dy + dz * dz);
-    if (norm > 0.0) return {norm - row[12], {dx / norm, dy / norm, dz / norm}};
-  }
-  const Vec3 q{r00 * dx + r10 * dy + r20 * dz, r01 * dx + r11 * dy + r21 * dz, r02 * dx + r12 * dy + r22 * dz};
-  const SignedDistance local = kind == Kind::Mesh ? mesh_local(packed, row[15], q, cutoff)
-                                                  : primitive_local(kind, q, row[12], row[13], row[14], cutoff);
-  const Vec3 n = local.normal;
-  return {local.distance,
-          {r00 * n.x + r01 * n.y + r02 * n.z, r10 * n.x + r11 * n.y + r12 * n.z, r20 * n.x + r21 * n.y + r22 * n.z}};
-}
-
-}  // namespace
-
-SignedDistance obstacle_signed_distance(const PackedView& packed, std::size_t i, Vec3 p, double cutoff) {
-  return signed_distance_at(packed, i, p, cutoff);
-}
-
 NearestObstacle min_signed_distance(const PackedView& packed, Vec3 p) {
   NearestObstacle best;
   for (std::size_t i = 0; i < packed.obstacle_count; ++i) {
     // cutoff = the best so far: an obstacle that cannot beat it may answer with a cheap bound (> best)
-    const SignedDistance d = signed_distance_at(packed, i, p, best.nearest.distance);
+    const SignedDistance d = obstacle_signed_distance(packed, i, p, best.nearest.distance);
     if (d.distance < best.nearest.distance) best = {d, static_cast<std::int64_t>(i)};
   }
   return best;
@@ -296,12 +196,76 @@ void signed_distances(const PackedView& packed, const double* points, std::size_
   for (std::size_t k = 0; k < n; ++k) {
     const Vec3 p{points[3 * k], points[3 * k + 1], points[3 * k + 2]};
     for (std::size_t i = 0; i < m; ++i) {
-      const SignedDistance d = signed_distance_at(packed, i, p, cutoff);
+      const SignedDistance d = obstacle_signed_distance(packed, i, p, cutoff);
       distances[k * m + i] = d.distance;
       double* normal = normals + 3 * (k * m + i);
       normal[0] = d.normal.x;
       normal[1] = d.normal.y;
       normal[2] = d.normal.z;
+    }
+  }
+}
+
+double min_distance(const PackedView& packed, const Vec3& p) {
+  double best = kInf;
+  for (std::size_t i = 0; i < packed.obstacle_count; ++i) {
+    // cutoff = the best so far, as min_signed_distance's
+    const double d = obstacle_distance(packed, i, p, best);
+    if (d < best) best = d;
+  }
+  return best;
+}
+
+bool inside_any(const PackedView& packed, const Vec3& p) {
+  double best = kInf;  // min_signed_distance's cutoff: the smallest distance so far
+  for (std::size_t i = 0; i < packed.obstacle_count; ++i) {
+    const double d = obstacle_distance(packed, i, p, best);
+    if (d <= 0.0) return true;
+    if (d < best) best = d;
+  }
+  return false;
+}
+
+namespace {
+
+// distances[k * m + i] = local(q_k) for every point k, q_k the point in obstacle i's frame: one kind's tight loop
+// (obstacle_distance's operations, the kind chosen once per obstacle, so the compiler may run points side by side).
+template <class Local>
+[[gnu::always_inline]] inline void column(const double* row, const double* points, std::size_t n, std::size_t m,
+                                          double* distances, Local local) {
+  for (std::size_t k = 0; k < n; ++k)
+    distances[k * m] = local(detail::to_local(row, {points[3 * k], points[3 * k + 1], points[3 * k + 2]}));
+}
+
+}  // namespace
+
+void signed_distances_only(const PackedView& packed, const double* points, std::size_t n, double* distances,
+                           double cutoff) {
+  const std::size_t m = packed.obstacle_count;
+  for (std::size_t i = 0; i < m; ++i) {
+    const double* row = packed.row(i);
+    const double s0 = row[12], s1 = row[13], s2 = row[14];
+    double* out = distances + i;
+    switch (static_cast<Kind>(packed.kinds[i])) {
+      case Kind::Sphere:
+        for (std::size_t k = 0; k < n; ++k) {
+          const double dx = points[3 * k] - row[0], dy = points[3 * k + 1] - row[1], dz = points[3 * k + 2] - row[2];
+          const double norm = std::sqrt(dx * dx + dy * dy + dz * dz);
+          out[k * m] = norm == 0.0 ? -s0 : norm - s0;
+        }
+        break;
+      case Kind::Box:
+        column(row, points, n, m, out, [&](const Vec3& q) { return detail::box_distance(q, s0, s1, s2); });
+        break;
+      case Kind::Cylinder:
+        column(row, points, n, m, out, [&](const Vec3& q) { return detail::cylinder_distance(q, s0, s1); });
+        break;
+      case Kind::Capsule:
+        column(row, points, n, m, out, [&](const Vec3& q) { return detail::capsule_distance(q, s0, s1); });
+        break;
+      default:  // ellipsoids, meshes, unknown codes
+        for (std::size_t k = 0; k < n; ++k)
+          out[k * m] = obstacle_distance(packed, i, {points[3 * k], points[3 * k + 1], points[3 * k + 2]}, cutoff);
     }
   }
 }

@@ -31,6 +31,25 @@ double slack(const QpProblem& p, std::size_t k, const double* x) {
   return s;
 }
 
+constexpr double kNotComputed = -1.0;  // a curvature not computed yet (H^-1 a_k neither)
+
+// A row the sweeps skip: a_k^T H^-1 a_k <= 1e-14, a zero row to working precision (no multiplier moves x).
+inline bool zero_row(const double* curvature, std::size_t k) {
+  return curvature[k] != kNotComputed && curvature[k] <= 1e-14;
+}
+
+// max(0, max_k b_k - a_k x) over the rows but zero ones: how far x is from holding the rows the sweeps can act on.
+// (A zero row with b_k > 0 is violated in sweep 1, so its curvature is known: one not computed is no zero row.)
+double largest_slack(const QpProblem& p, const double* x, const double* curvature) {
+  double worst = 0.0;
+  for (std::size_t k = 0; k < p.rows.m; ++k) {
+    if (zero_row(curvature, k)) continue;
+    const double v = slack(p, k, x);
+    worst = v > worst ? v : worst;
+  }
+  return worst;
+}
+
 // H^-1 a_k into row k of hinv_rows, and a_k^T H^-1 a_k: the curvature of the dual function along mu_k (the step
 // mu_k += slack / curvature maximises the dual along that coordinate). The one place both are computed: the
 // sweeps and the finish's joining rows call it.
@@ -155,10 +174,11 @@ QpResult hildreth(const QpProblem& problem, double* x, QpWorkspace& ws, const Qp
                   ws.solution_.data()};
   for (std::size_t k = 0; k < m; ++k) {
     s.mu[k] = 0.0;
-    s.curvature[k] = -1.0;  // H^-1 a_k not computed yet
+    s.curvature[k] = kNotComputed;
   }
   QpResult result;
   double worst = 0.0;
+  bool holds = false;  // x meets every row within tolerance
   std::int64_t polish_at = 1;
   for (std::int64_t sweep = 1; sweep <= settings.max_sweeps; ++sweep) {
     result.sweeps = sweep;
@@ -168,7 +188,7 @@ QpResult hildreth(const QpProblem& problem, double* x, QpWorkspace& ws, const Qp
       if (v <= 0.0 && s.mu[k] == 0.0) continue;  // satisfied and inactive
       const double* g = s.hinv_rows + k * n;
       if (s.curvature[k] < 0.0) s.curvature[k] = row_curvature(problem, k, s.hinv_rows);
-      if (s.curvature[k] <= 1e-14) continue;  // a zero row: no multiplier moves x
+      if (s.curvature[k] <= 1e-14) continue;  // a zero row (zero_row): no multiplier moves x
       const double trial = s.mu[k] + v / s.curvature[k];
       const double updated = trial > 0.0 ? trial : 0.0;  // Python's max(0.0, trial)
       const double step = updated - s.mu[k];
@@ -178,7 +198,15 @@ QpResult hildreth(const QpProblem& problem, double* x, QpWorkspace& ws, const Qp
       }
       worst = v > worst ? v : worst;  // Python's max(worst, v)
     }
-    if (worst <= settings.tolerance) break;
+    // Each row's slack was taken before its own update: the updates after it may have moved x off it (on an
+    // ill-conditioned H by far more than the tolerance). Stop only when x itself holds every row (but zero ones).
+    if (worst <= settings.tolerance) {
+      worst = largest_slack(problem, x, s.curvature);
+      if (worst <= settings.tolerance) {
+        holds = true;
+        break;
+      }
+    }
     if (sweep == polish_at) {
       polish_at *= 2;
       if (polish(problem, x, s, settings.tolerance)) {
@@ -188,7 +216,8 @@ QpResult hildreth(const QpProblem& problem, double* x, QpWorkspace& ws, const Qp
       }
     }
   }
-  result.violation = worst;
+  // out of sweeps: the violation of the x returned (the last sweep's slacks were each taken before later updates)
+  result.violation = holds ? worst : largest_slack(problem, x, s.curvature);
   return result;
 }
 

@@ -14,9 +14,10 @@
 // eq. 16.5 and the primal active-set method of sec. 16.5): when its multipliers are >= 0 and every row holds, the
 // KKT conditions hold and the sweeps stop.
 //
-// The same operations in the same order as the Python kernel it replaced (issue 32), so the same bits
-// (tests/test_core_qp.py holds the recorded values); the Cholesky factor and solve are math/linalg.hpp's (the one
-// home of both).
+// The same operations in the same order as the Python kernel it replaced (issue 32), so the same bits, but for the
+// stopping test: the kernel stopped on the last sweep's slacks alone, this also checks x against every row
+// (QpResult::violation; tests/test_core_qp.py holds the recorded values and says what changed). The Cholesky factor
+// and solve are math/linalg.hpp's (the one home of both).
 #pragma once
 
 #include <cstddef>
@@ -50,9 +51,10 @@ struct QpSettings {
 struct QpResult {
   std::int64_t sweeps = 0;   // sweeps run (the last one included; 0 when max_sweeps <= 0)
   bool active_set = false;   // the active-set finish found the optimum (then violation is 0)
-  // The largest slack b_k - a_k x the last sweep met, each row's taken before its own update (the kernel's return):
-  // the updates after a row's are not re-checked, so on an ill-conditioned H the solution may violate a row by more
-  // (tests/test_core_qp.py, the xfail). 0 after the active-set finish, which checks every row at its solution.
+  // max(0, max_k b_k - a_k x) of the x returned. The sweeps stop when every row's slack, taken before its own
+  // update, is within tolerance AND x then holds every row within it: on an ill-conditioned H the updates after a
+  // row's may move x off it by far more (the numba kernel stopped and reported the former alone; tests/
+  // test_core_qp.py). 0 after the active-set finish, which checks every row within tolerance at its solution.
   double violation = 0.0;
 };
 

@@ -269,4 +269,76 @@ std::vector<double> shortcut(StateChecker& checker, const double* path, std::siz
   return out;
 }
 
+namespace {
+
+double segment_length(const double* a, const double* b, std::size_t n) {
+  double s = 0.0;
+  for (std::size_t j = 0; j < n; ++j) s += (b[j] - a[j]) * (b[j] - a[j]);
+  return std::sqrt(s);
+}
+
+// The point at arc length s of the polyline whose cumulative lengths are `cumulative` (count,), into out; returns
+// its segment k (cumulative[k] <= s, k <= count - 2).
+std::size_t point_at(const std::vector<double>& path, const std::vector<double>& cumulative, std::size_t n, double s,
+                     double* out) {
+  const std::size_t count = cumulative.size();
+  auto k = static_cast<std::size_t>(std::upper_bound(cumulative.begin(), cumulative.end(), s) - cumulative.begin());
+  k = std::min(k == 0 ? 0 : k - 1, count - 2);
+  const double length = cumulative[k + 1] - cumulative[k];
+  const double t = length > 0.0 ? std::clamp((s - cumulative[k]) / length, 0.0, 1.0) : 0.0;
+  const double* a = path.data() + k * n;
+  const double* b = a + n;
+  for (std::size_t j = 0; j < n; ++j) out[j] = a[j] + t * (b[j] - a[j]);
+  return k;
+}
+
+}  // namespace
+
+double path_length(const double* path, std::size_t rows, std::size_t dimension) {
+  double total = 0.0;
+  for (std::size_t k = 0; k + 1 < rows; ++k) total += segment_length(path + k * dimension, path + (k + 1) * dimension,
+                                                                     dimension);
+  return total;
+}
+
+std::vector<double> shorten(StateChecker& checker, StateChecker& clearance, const double* path, std::size_t rows,
+                            std::int64_t attempts, std::uint64_t& random) {
+  const std::size_t n = checker.dimension();
+  if (rows == 0) return {};
+  std::vector<double> current(path, path + rows * n), next, cumulative;
+  std::vector<double> a(n), b(n);
+  const std::int64_t patience = std::max<std::int64_t>(attempts / 4, 1);  // fruitless attempts in a row: stop
+  std::int64_t fruitless = 0;
+  for (std::int64_t attempt = 0; attempt < attempts && fruitless < patience; ++attempt) {
+    ++fruitless;
+    const std::size_t count = current.size() / n;
+    if (count < 3) break;  // one segment is straight already
+    cumulative.assign(count, 0.0);
+    for (std::size_t k = 1; k < count; ++k)
+      cumulative[k] = cumulative[k - 1] + segment_length(&current[(k - 1) * n], &current[k * n], n);
+    const double total = cumulative.back();
+    double s1 = uniform(random) * total, s2 = uniform(random) * total;
+    if (s1 > s2) std::swap(s1, s2);
+    const std::size_t i = point_at(current, cumulative, n, s1, a.data());
+    const std::size_t k = point_at(current, cumulative, n, s2, b.data());
+    if (k <= i) continue;  // both points on one segment: straight already
+    const double* before = &current[i * n];     // the vertex before p(s1)
+    const double* after = &current[(k + 1) * n];  // the vertex after p(s2)
+    const double length = cumulative[i] + segment_length(before, a.data(), n) + segment_length(a.data(), b.data(), n) +
+                          segment_length(b.data(), after, n) + (total - cumulative[k + 1]);
+    if (!(length < total)) continue;
+    if (!clearance.edge_valid(a.data(), b.data()) || !checker.edge_valid(before, a.data()) ||
+        !checker.edge_valid(b.data(), after))
+      continue;
+    next.assign(current.begin(), current.begin() + static_cast<std::ptrdiff_t>((i + 1) * n));
+    if (segment_length(before, a.data(), n) > 0.0) next.insert(next.end(), a.begin(), a.end());
+    if (segment_length(b.data(), after, n) > 0.0) next.insert(next.end(), b.begin(), b.end());
+    next.insert(next.end(), current.begin() + static_cast<std::ptrdiff_t>((k + 1) * n), current.end());
+    current.swap(next);
+    fruitless = 0;
+  }
+  // the greedy vertex pass (no random shortcuts: attempts 0), which also drops vertices on a straight line
+  return shortcut(clearance, current.data(), current.size() / n, 0, random);
+}
+
 }  // namespace pfield::planning

@@ -151,4 +151,20 @@ SearchOutcome rrt_connect(StateChecker& checker, Trees& trees, const double* low
 std::vector<double> shortcut(StateChecker& checker, const double* path, std::size_t rows, std::int64_t attempts,
                              std::uint64_t& random);
 
+// Shortening with points anywhere on the path (Geraerts & Overmars 2007, "partial" shortcuts between random
+// configurations on the path rather than its vertices): each of `attempts` draws two arc-length positions s1 < s2
+// (from `random`) on different segments, and replaces the part between the points p(s1), p(s2) by the straight
+// segment p(s1) -> p(s2) when the result is shorter, that segment passes clearance.edge_valid and both cut pieces
+// (vertex -> p(s1), p(s2) -> next vertex: parts of segments already on the path) pass checker.edge_valid. Then the
+// greedy vertex pass of `shortcut` with `clearance` (it never lengthens, by the triangle inequality, and drops
+// vertices on a straight line). `clearance` is `checker` or a stricter one (a larger margin: a new segment keeps
+// room from the obstacles for the tracking that follows it); every segment of the result passed one of the two
+// edge tests as it stands, or is one of `path`'s, and its Euclidean length never exceeds the input's. Returns the
+// rows (dimension each).
+std::vector<double> shorten(StateChecker& checker, StateChecker& clearance, const double* path, std::size_t rows,
+                            std::int64_t attempts, std::uint64_t& random);
+
+// The Euclidean length of a polyline (rows, dimension): the sum of |w_{k+1} - w_k|.
+double path_length(const double* path, std::size_t rows, std::size_t dimension);
+
 }  // namespace pfield::planning

@@ -30,7 +30,7 @@ struct Stage {
 // Speed: the field's steps are inlined here (field/steps.hpp) and each stage starts from the previous stage's twist
 // held in registers (`from`), not read back from k: a plan is one chain of dependent stages, and a call per stage
 // with k in memory made the obstacle-free plans 12% slower. (Unrolling the stages gains 8% more there but
-// costs 7% on the seed example's primitives and mesh, whose distances are calls: the loop stays rolled.)
+// cost 7% on the seed example's primitives and mesh when their distances were calls: the loop stays rolled.)
 Stage rk4_twist(const field::Field& field, const Vec3& p, const Quat& q, const Twist& previous, double dt,
                 Twist (&k)[4]) {
   double clearance = std::numeric_limits<double>::infinity();
@@ -60,7 +60,8 @@ Stage rk4_twist(const field::Field& field, const Vec3& p, const Quat& q, const T
 
 // The straight segment a -> b stays outside every obstacle: certified by 1-Lipschitz distances when
 // |b - a| < d(a) + d(b), else sampled at t = 1/16 .. 15/16 (planning/segment_free.hpp; b is the next waypoint,
-// which the loop checks itself). A sample collides when its distance is <= 0 (NaN does not).
+// which the loop checks itself). A sample collides when its distance is <= 0 (NaN does not): geometry::inside_any,
+// distances alone, stopping at the first obstacle that holds it.
 bool segment_is_free(const geometry::PackedView& packed, const double* a, const Vec3& b, double clearance_a,
                      double clearance_b) {
   const double ax = a[0], ay = a[1], az = a[2];
@@ -68,7 +69,7 @@ bool segment_is_free(const geometry::PackedView& packed, const double* a, const 
   if (clearance_a > 0.0 && clearance_b > 0.0 && length < clearance_a + clearance_b) return true;
   return samples_valid(kSegmentSamples, kSegmentSamples - 1, [&](double t) {
     const geometry::Vec3 point{ax + t * (b.x - ax), ay + t * (b.y - ay), az + t * (b.z - az)};
-    return !(geometry::min_signed_distance(packed, point).nearest.distance <= 0.0);
+    return !geometry::inside_any(packed, point);
   });
 }
 
@@ -116,6 +117,17 @@ LoopResult plan_task_space(const field::Field& field, const double* start, const
     if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))) return {i + 2, PlanStatus::NotFinite, -1};
   }
   return {limit + 1, PlanStatus::IterationLimit, -1};
+}
+
+double rk4_steps(const field::Field& field, const double* pose, const double* previous, double dt,
+                 std::int64_t count) {
+  const Vec3 p{pose[0], pose[1], pose[2]};
+  const Quat q{pose[3], pose[4], pose[5], pose[6]};
+  const Twist before{{previous[0], previous[1], previous[2]}, {previous[3], previous[4], previous[5]}};
+  Twist stages[4] = {};
+  double total = 0.0;
+  for (std::int64_t i = 0; i < count; ++i) total += rk4_twist(field, p, q, before, dt, stages).twist.linear.x;
+  return total;
 }
 
 }  // namespace pfield::planning

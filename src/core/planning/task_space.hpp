@@ -38,4 +38,10 @@ struct LoopResult {
 LoopResult plan_task_space(const field::Field& field, const double* start, const TaskSpaceSettings& settings,
                            const std::uint8_t* cancel, double* poses, double* twists, double* clearances);
 
+// `count` RK4 steps of dt from the same pose (7) with the same previous twist (6), the stage twists carried from
+// step to step as plan_task_space carries them, and nothing else of a plan step (no clearance bookkeeping, segment
+// check or advance): the benchmark's figure of one RK4 step, as the numba engine's bench timed it. Returns the sum
+// of the steps' mean v_x (m/s), so that no step can be left out.
+double rk4_steps(const field::Field& field, const double* pose, const double* previous, double dt, std::int64_t count);
+
 }  // namespace pfield::planning

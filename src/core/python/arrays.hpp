@@ -65,6 +65,40 @@ NumpyArrayOf<T> filled_array(std::initializer_list<std::size_t> shape, Fill fill
   return array;
 }
 
+// The per-call fast path of the hot single-pose bindings (PotentialField.twist): a few doubles read from, or
+// written into, a C-contiguous float64 array through the buffer protocol alone. nanobind's ndarray caster builds a
+// managed tensor per argument (~0.1 us each); these check the same (dtype, one dimension of n, contiguity; writable
+// for the output) and cost a buffer request. A value that does not fit raises TypeError, as the caster would.
+class BufferView {
+ public:
+  BufferView(PyObject* object, std::size_t n, bool writable) {
+    const int flags = PyBUF_FORMAT | PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0);
+    if (PyObject_GetBuffer(object, &view_, flags) != 0) {
+      PyErr_Clear();
+      throw nb::type_error("expected a C-contiguous float64 NumPy array");
+    }
+    held_ = true;
+    const char* format = view_.format;
+    const bool doubles = format != nullptr && (format[0] == 'd' || ((format[0] == '<' || format[0] == '=' ||
+                                                                    format[0] == '@') && format[1] == 'd' &&
+                                                                   format[2] == '\0'));
+    if (!doubles || view_.ndim != 1 || view_.itemsize != 8 || static_cast<std::size_t>(view_.shape[0]) != n)
+      throw nb::type_error(("expected a float64 array of " + std::to_string(n) + " values").c_str());
+  }
+  ~BufferView() {
+    if (held_) PyBuffer_Release(&view_);
+  }
+  BufferView(const BufferView&) = delete;
+  BufferView& operator=(const BufferView&) = delete;
+
+  const double* data() const { return static_cast<const double*>(view_.buf); }
+  double* mutable_data() const { return static_cast<double*>(view_.buf); }
+
+ private:
+  Py_buffer view_{};
+  bool held_ = false;
+};
+
 // A bound object that another one views: its Python object, kept alive (the views point into the arrays it holds),
 // and its C++ instance. Constructed from nb::handle_t<T>, so nanobind checks the type at the call.
 template <typename T>

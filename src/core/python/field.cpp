@@ -78,6 +78,19 @@ class BoundField {
     return {out, outcome};
   }
 
+  // PotentialField.twist's call: the pose's arrays (3) and (4), the previous twist's (3) and (3) or both None, dt,
+  // and the answer into out (6) under the output contract; returns the contract's outcome. Its arguments are read
+  // through BufferView (the hot path from Python: a Pose's and a Twist's arrays, validated when they were built).
+  int twist_into(nb::handle position, nb::handle orientation, nb::handle previous_linear,
+                 nb::handle previous_angular, double dt, nb::handle out) const {
+    const BufferView p(position.ptr(), 3, false), q(orientation.ptr(), 4, false), o(out.ptr(), 6, true);
+    if (previous_linear.is_none() || previous_angular.is_none())
+      return limited_twist(p.data(), q.data(), nullptr, dt, o.mutable_data());
+    const BufferView l(previous_linear.ptr(), 3, false), a(previous_angular.ptr(), 3, false);
+    const double previous[6] = {l.data()[0], l.data()[1], l.data()[2], a.data()[0], a.data()[1], a.data()[2]};
+    return limited_twist(p.data(), q.data(), previous, dt, o.mutable_data());
+  }
+
   // PreparedTwist's call: the bound pose (7,) and previous twist (6,) in, the twist into `out` (6,) under the
   // output contract; 0, or the input's defect, leaving `out` unchanged: 1 position not finite, 2 not a unit
   // quaternion within 1e-9, 3 a previous twist that is not finite.
@@ -118,6 +131,12 @@ class BoundField {
                         : field::batch_twists(field_, poses, data, {threads, contract_row});
     }
     return {out, result.invalid_row};
+  }
+
+  double rk4_steps(const Pose7& pose, const Vector& previous, double dt, std::int64_t count) const {
+    if (previous.shape(0) != 6) throw std::invalid_argument("previous: expected 6 numbers (linear, angular)");
+    nb::gil_scoped_release release;
+    return planning::rk4_steps(field_, pose.data(), previous.data(), dt, count);
   }
 
   std::tuple<std::int64_t, std::int64_t, std::int64_t> plan(const Pose7& start, double dt, double goal_tolerance,
@@ -297,6 +316,15 @@ void bind_field(nb::module_& m) {
            "previous_angular"_a.none() = nb::none(), "dt"_a = 0.0,
            "(the constrained twist (6,) at a pose (unit quaternion), the output contract's outcome); rate-limited "
            "against the previous twist's linear and angular parts (3,) when given")
+      .def("twist_into", &BoundField::twist_into, "position"_a, "orientation"_a, "previous_linear"_a.none(),
+           "previous_angular"_a.none(), "dt"_a, "out"_a,
+           "twist()'s answer into out (6,) (float64 arrays of 3, 4, 3, 3 and 6 values, the previous twist's two "
+           "parts None for none); returns the output contract's outcome.")
+      .def(
+          "call_floor",
+          [](const BoundField&, nb::handle, nb::handle, nb::handle, nb::handle, double, nb::handle) { return 0; },
+          "position"_a, "orientation"_a, "previous_linear"_a.none(), "previous_angular"_a.none(), "dt"_a, "out"_a,
+          "Does nothing with twist_into's arguments: the benchmarks' floor of a call from Python.")
       .def("evaluate", &BoundField::evaluate, "pose"_a, "previous"_a, "use_previous"_a, "dt"_a, "out"_a,
            "PreparedTwist's call: 0, or 1/2 for a pose whose position / quaternion is not valid.")
       .def("wrench", &BoundField::wrench, "position"_a, "orientation"_a, "The raw wrench (6,) at a pose.")
@@ -318,7 +346,10 @@ void bind_field(nb::module_& m) {
       .def("plan", &BoundField::plan, "start"_a, "dt"_a, "goal_tolerance"_a, "rotation_tolerance"_a,
            "max_iterations"_a, "window"_a, "progress"_a, "cancel"_a, "poses"_a, "twists"_a, "clearances"_a,
            "The task-space plan into poses/twists/clearances: (waypoint count, PlanStatus value, obstacle or -1); "
-           "the GIL is released and cancel[0] read every step.");
+           "the GIL is released and cancel[0] read every step.")
+      .def("rk4_steps", &BoundField::rk4_steps, "pose"_a, "previous"_a, "dt"_a, "count"_a,
+           "count RK4 steps from one pose (7,) and previous twist (6,), nothing else of a plan step (the bench's "
+           "figure): the sum of their mean v_x.");
   nb::class_<Prepared>(m, "Prepared")
       .def(nb::init<nb::handle_t<BoundField>>(), "field"_a, "The state of a PreparedTwist over a bound Field.")
       .def_prop_ro("pose", [](nb::handle_t<Prepared> self) { return view(nb::cast<Prepared&>(self).pose_, self); },

@@ -65,6 +65,45 @@ void bind_geometry(nb::module_& m) {
       "Signed distances (N, M) and unit normals (N, M, 3) of N world points (N, 3) to the M packed obstacles;\n"
       "exact where d <= cutoff, beyond it possibly a lower bound > cutoff (obstacle_signed_distance_within).");
 
+  // The distance-only batches: into `out` (the caller's, reused from call to call) without normals.
+  m.def(
+      "distances",
+      [](const Kinds& kinds, const Rows<16>& rows, const Triangles& triangles, const PseudoNormals& pseudo_normals,
+         const Rows<3>& bvh_lower, const Rows<3>& bvh_upper, const Nodes& bvh_nodes, const MeshTable& mesh_table,
+         const Rows<3>& points, double cutoff, OutMatrix& out) {
+        const PackedView packed =
+            packed_view(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table);
+        const std::size_t n = points.shape(0);
+        if (out.shape(0) != n || out.shape(1) != packed.obstacle_count)
+          throw std::invalid_argument("out: expected one row per point and one column per obstacle");
+        nb::gil_scoped_release release;
+        if (!all_finite(points.data(), 3 * n)) throw NonFinitePoints();
+        geometry::signed_distances_only(packed, points.data(), n, out.data(), cutoff);
+      },
+      "kinds"_a, "rows"_a, "triangles"_a, "pseudo_normals"_a, "bvh_lower"_a, "bvh_upper"_a, "bvh_nodes"_a,
+      "mesh_table"_a, "points"_a, "cutoff"_a, "out"_a.noconvert(),
+      "signed_distances' distances (N, M) alone, into out (N, M), the same bits; no normals.");
+  m.def(
+      "nearest_distances",
+      [](const Kinds& kinds, const Rows<16>& rows, const Triangles& triangles, const PseudoNormals& pseudo_normals,
+         const Rows<3>& bvh_lower, const Rows<3>& bvh_upper, const Nodes& bvh_nodes, const MeshTable& mesh_table,
+         const Rows<3>& points, OutVector& out) {
+        const PackedView packed =
+            packed_view(kinds, rows, triangles, pseudo_normals, bvh_lower, bvh_upper, bvh_nodes, mesh_table);
+        const std::size_t n = points.shape(0);
+        if (out.shape(0) != n) throw std::invalid_argument("out: expected one entry per point");
+        nb::gil_scoped_release release;
+        if (!all_finite(points.data(), 3 * n)) throw NonFinitePoints();
+        const double* p = points.data();
+        double* d = out.data();
+        for (std::size_t k = 0; k < n; ++k)
+          d[k] = geometry::min_distance(packed, {p[3 * k], p[3 * k + 1], p[3 * k + 2]});
+      },
+      "kinds"_a, "rows"_a, "triangles"_a, "pseudo_normals"_a, "bvh_lower"_a, "bvh_upper"_a, "bvh_nodes"_a,
+      "mesh_table"_a, "points"_a, "out"_a.noconvert(),
+      "Each point's smallest signed distance over the obstacles (min_signed_distance's, inf without obstacles), "
+      "into out (N,).");
+
   m.def(
       "build_bvh",
       [](const Rows<3>& centroids, const Rows<3>& lows, const Rows<3>& highs, std::size_t leaf_size) {

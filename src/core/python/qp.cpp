@@ -60,7 +60,7 @@ void bind_qp(nb::module_& m) {
   nb::class_<math::QpResult>(m, "Result")
       .def_ro("sweeps", &math::QpResult::sweeps, "Sweeps run, the last included.")
       .def_ro("active_set", &math::QpResult::active_set, "The active-set finish found the optimum.")
-      .def_ro("violation", &math::QpResult::violation, "Largest violation the last sweep met (0 within tolerance).");
+      .def_ro("violation", &math::QpResult::violation, "max(0, max_k b_k - a_k x) of the x returned (0 after the active-set finish).");
 
   nb::class_<Solution>(m, "Solution")
       .def_ro("x", &Solution::x)

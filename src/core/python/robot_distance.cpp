@@ -285,6 +285,44 @@ void bind_robot_distance(nb::module_& m) {
       },
       "robot"_a, "q"_a, "obstacles"_a,
       "Exact clearances at configuration q (forward kinematics of the robot, then clearances).");
+  m.def(
+      "covering_clearances",
+      [](const RobotArrays& robot, const Matrix& qs, const ObstacleArrays& obstacles) {
+        require(qs.shape(1) == robot.joints(), "qs: expected (N, n), one value per joint");
+        const std::size_t count = qs.shape(0);
+        auto [obstacle_out, obstacle] = new_array({count, robot.capsules(), obstacles.count()});
+        auto [own_out, own] = new_array({count, robot.pairs()});
+        {
+          nb::gil_scoped_release release;
+          robot::covering_clearances(robot.view().kinematics, robot.view().links, qs.data(), count,
+                                     obstacles.packed(), obstacle, own);
+        }
+        return std::make_tuple(obstacle_out, own_out);
+      },
+      "robot"_a, "qs"_a, "obstacles"_a,
+      "The covering capsules (radii self_r) alone at N configurations qs (N, n): (capsule-obstacle clearances\n"
+      "(N, caps, M), self-pair clearances (N, pairs)).");
+  m.def(
+      "covering_needed",
+      [](const RobotArrays& robot, const Matrix& qs, const ObstacleArrays& obstacles, const Matrix& travel,
+         const Matrix& weights, const Vector& slack) {
+        const std::size_t n = robot.joints(), count = qs.shape(0);
+        const std::size_t pairs = robot.capsules() * obstacles.count() + robot.pairs();
+        require(qs.shape(1) == n && travel.shape(0) == count && travel.shape(1) == n,
+                "qs, travel: expected (N, n), one value per joint");
+        require(weights.shape(0) == pairs && weights.shape(1) == n && slack.shape(0) == pairs,
+                "weights (P, n), slack (P,): one row per pair (capsule x obstacle, then self pairs)");
+        auto [out, needed] = new_array_of<std::uint8_t>({pairs, count});
+        {
+          nb::gil_scoped_release release;
+          robot::covering_needed(robot.view().kinematics, robot.view().links, qs.data(), count,
+                                 obstacles.packed(), travel.data(), weights.data(), slack.data(), needed);
+        }
+        return out;
+      },
+      "robot"_a, "qs"_a, "obstacles"_a, "travel"_a, "weights"_a, "slack"_a,
+      "(P, N) uint8: 1 where the covering capsules (less slack) and their advancement (motion bound weights (P, n)\n"
+      "times the accumulated joint travel (N, n)) cannot clear pair p at configuration k of qs (N, n).");
 }
 
 }  // namespace pfield::python

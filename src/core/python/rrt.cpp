@@ -94,6 +94,20 @@ class Checker {
     return matrix(out.data(), out.size() / n, n);
   }
 
+  // (issue 34) the partial-shortcut shortening of planning::shorten, drawing from trees' stream
+  NumpyArray shorten(const Matrix& path, std::int64_t attempts, Trees& trees, Checker& clearance) {
+    const std::size_t n = dimension();
+    require(path.shape(1) == n && path.shape(0) > 0, "path: expected (K >= 1, dimension)");
+    require(clearance.dimension() == n && clearance.checker_->space() == checker_->space(),
+            "clearance: expected a checker of the same state space");
+    std::vector<double> out;
+    {
+      nb::gil_scoped_release release;
+      out = planning::shorten(*checker_, *clearance.checker_, path.data(), path.shape(0), attempts, trees.random);
+    }
+    return matrix(out.data(), out.size() / n, n);
+  }
+
  private:
   nb::object owner_;  // the scene or obstacles, kept alive: the checker views their arrays
   std::unique_ptr<StateChecker> checker_;
@@ -190,7 +204,11 @@ void bind_rrt(nb::module_& m) {
            "RRT-Connect on trees for about budget more state checks: (SearchStatus, path (K, n) when FOUND). The GIL "
            "is released; cancel[0] != 0 ends the chunk (SEARCHING) at the next iteration.")
       .def("shortcut", &Checker::shortcut, "path"_a, "attempts"_a, "trees"_a,
-           "The shortened path (random shortcuts drawn from trees' stream, then a greedy pass).");
+           "The shortened path (random shortcuts drawn from trees' stream, then a greedy pass).")
+      .def("shorten", &Checker::shorten, "path"_a, "attempts"_a, "trees"_a, "clearance"_a,
+           "The path shortened by attempts partial shortcuts between random points on it (drawn from trees' "
+           "stream; never longer; each new segment checked by clearance, this checker or a stricter one), then the "
+           "greedy vertex pass with clearance.");
 
   m.def("track_path", &track_path, "scene"_a, "q0"_a, "waypoints"_a, "goal_position"_a,
         "goal_orientation"_a, "params"_a, "max_iterations"_a, "gain"_a, "lead"_a, "cancel"_a, "joints"_a,

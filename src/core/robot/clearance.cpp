@@ -3,6 +3,7 @@
 // (tests/robot/test_core_distance.py holds digests of their results).
 #include "robot/clearance.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -185,6 +186,81 @@ void clearances_at(const KinematicsView& kinematics, const LinkModelView& links,
   WorldSegments world{caps.data(), caps.data() + 3 * links.capsule_count, prims.data(),
                       prims.data() + 3 * links.primitive_count};
   clearances(links, frames, obstacles, world, obstacle, own);
+}
+
+void covering_clearances(const KinematicsView& kinematics, const LinkModelView& links, const double* qs,
+                         std::size_t count, const PackedView& packed, double* obstacle, double* own) {
+  const std::size_t n = kinematics.joint_count, caps = links.capsule_count, m = packed.obstacle_count;
+  std::vector<double> rotations(9 * n), origins(3 * n), ends(6 * caps);
+  Frames frames{rotations.data(), origins.data()};
+  WorldSegments world{ends.data(), ends.data() + 3 * caps, nullptr, nullptr};
+  for (std::size_t k = 0; k < count; ++k) {
+    joint_transforms(kinematics, qs + k * n, frames);
+    capsule_segments(links, frames, world);
+    double* row = obstacle + k * caps * m;
+    for (std::size_t l = 0; l < caps; ++l)
+      for (std::size_t i = 0; i < m; ++i)
+        row[l * m + i] =
+            segment_obstacle_distance(packed, i, world.capsule_a(l), world.capsule_b(l)).distance - links.self_r[l];
+    for (std::size_t p = 0; p < links.pair_count; ++p)
+      own[k * links.pair_count + p] =
+          link_pair_distance(links, world, static_cast<std::size_t>(links.self_pairs[2 * p]),
+                             static_cast<std::size_t>(links.self_pairs[2 * p + 1]))
+              .distance;
+  }
+}
+
+void covering_needed(const KinematicsView& kinematics, const LinkModelView& links, const double* qs,
+                     std::size_t count, const PackedView& packed, const double* travel, const double* weights,
+                     const double* slack, std::uint8_t* needed) {
+  const std::size_t n = kinematics.joint_count, caps = links.capsule_count, m = packed.obstacle_count;
+  const std::size_t pairs = caps * m + links.pair_count;
+  std::vector<double> rotations(9 * n), origins(3 * n), ends(6 * caps * count);  // per k: caps a, then caps b
+  std::vector<double> reach(count);
+  Frames frames{rotations.data(), origins.data()};
+  const auto world_at = [&](std::size_t k) {
+    double* a = ends.data() + 6 * caps * k;
+    return WorldSegments{a, a + 3 * caps, nullptr, nullptr};
+  };
+  for (std::size_t k = 0; k < count; ++k) {
+    joint_transforms(kinematics, qs + k * n, frames);
+    WorldSegments world = world_at(k);
+    capsule_segments(links, frames, world);
+  }
+  for (std::size_t p = 0; p < pairs; ++p) {
+    const double* w = weights + p * n;
+    for (std::size_t k = 0; k < count; ++k) {
+      double sum = 0.0;
+      for (std::size_t j = 0; j < n; ++j) sum += w[j] * travel[k * n + j];
+      reach[k] = sum;
+    }
+    const double* row = reach.data();
+    std::uint8_t* out = needed + p * count;
+    std::size_t k = 0;
+    while (k < count) {
+      const WorldSegments world = world_at(k);
+      double bound;
+      if (p < caps * m) {
+        const std::size_t l = p / m, i = p % m;
+        bound = segment_obstacle_distance(packed, i, world.capsule_a(l), world.capsule_b(l)).distance -
+                links.self_r[l];
+      } else {
+        const std::size_t s = p - caps * m;
+        bound = link_pair_distance(links, world, static_cast<std::size_t>(links.self_pairs[2 * s]),
+                                   static_cast<std::size_t>(links.self_pairs[2 * s + 1]))
+                    .distance;
+      }
+      bound -= slack[p];
+      if (!(bound > 0.0)) {
+        out[k++] = 1;
+        continue;
+      }
+      // clear from k up to (not including) the first k' whose reach is at least reach[k] + bound
+      const std::size_t stop =
+          static_cast<std::size_t>(std::lower_bound(row + k + 1, row + count, row[k] + bound) - row);
+      for (; k < stop; ++k) out[k] = 0;
+    }
+  }
 }
 
 }  // namespace pfield::robot

@@ -184,4 +184,27 @@ void clearances(const LinkModelView& links, const Frames& frames, const Obstacle
 void clearances_at(const KinematicsView& kinematics, const LinkModelView& links, const double* q,
                    const ObstacleSet& obstacles, double* obstacle, double* own);
 
+// The covering capsules alone at `count` configurations qs (count, n) row-major (the certificate's bound,
+// pfield.planning.certify): for configuration k, capsule l against obstacle i, the axis's signed distance
+// (segment_obstacle_distance) less self_r[l], into obstacle[(k * caps + l) * M + i]; self pair p
+// (link_pair_distance, radii self_r), into own[k * pairs + p]. No cutoff and no fitted primitives: when capsule l
+// contains a body, its value is a lower bound of that body's distance wherever segment_obstacle_distance is the
+// exact minimum (spheres, capsules, boxes in closed form; cylinders and ellipsoids by bisection, within
+// |b - a| 2^-24 of it; meshes sampled: no bound).
+void covering_clearances(const KinematicsView& kinematics, const LinkModelView& links, const double* qs,
+                         std::size_t count, const geometry::PackedView& packed, double* obstacle, double* own);
+
+// Where along a path the covering capsules cannot vouch for a pair (the certificate's first stage,
+// pfield.planning.certify). Pairs p < caps * M are capsule l = p / M against obstacle i = p % M, the others the self
+// pairs p - caps * M. Along the configurations qs (count, n), travel (count, n) is the joint travel accumulated
+// from qs[0] (sum of |Δq_j|, non-decreasing) and weights (P, n) the motion bound of each pair (m per rad or m):
+// reach[k] = sum_j weights[p, j] travel[k, j] bounds how much pair p closes between configurations 0 and k, and
+// reach[k'] - reach[k] between k and k' > k. Walking each pair along the path: at configuration k its
+// covering_clearances value less slack[p] is a lower bound b of its distance; b > 0 clears k and every following k'
+// with reach[k'] < reach[k] + b (conservative advancement: the pair closes by at most reach[k'] - reach[k]), which
+// the walk then skips; b <= 0 marks k needed (needed[p * count + k] = 1, else 0).
+void covering_needed(const KinematicsView& kinematics, const LinkModelView& links, const double* qs,
+                     std::size_t count, const geometry::PackedView& packed, const double* travel,
+                     const double* weights, const double* slack, std::uint8_t* needed);
+
 }  // namespace pfield::robot

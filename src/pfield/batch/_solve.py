@@ -1,9 +1,10 @@
 """One problem → one result record: the unit of work every batch backend runs (in a worker or in-process).
 
-A worker keeps a :class:`Workspace`: the robot models it has built, one per :class:`~pfield.scene.RobotSpec`,
-so a robot is loaded once per worker and not once per problem. :func:`solve` never raises for a problem's
-own fault: a malformed problem, a failing plan or a timeout become a record with ``status`` ``"error"`` or
-``"timeout"`` and the ``error`` sentence.
+A worker keeps a :class:`Workspace`: the robot models it has built, one per robot description
+(:class:`~pfield.robot.RobotDescription`, a built-in name or a URDF with its files; ``pfield.scene.RobotSpec``
+is the same type), so a robot is loaded once per worker and not once per problem. :func:`solve` never raises
+for a problem's own fault: a malformed problem, a failing plan or a timeout become a record with ``status``
+``"error"`` or ``"timeout"`` and the ``error`` sentence.
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ def problem_seed(seed: int, problem: Problem) -> int:
 
 
 class Workspace:
-    """What one worker keeps between problems: the robots built so far (by spec).
+    """What one worker keeps between problems: the robots built so far (by description).
 
     With ``warm``, each robot given is built and makes a short plan through the field and its global
     fallback at once (:func:`_warm_plan`), so the worker imports the planners, reads the robot's fitted link model

@@ -13,6 +13,7 @@ from pfield.cli import (
     _batch,
     _costmap,
     _demo,
+    _execute,
     _introspection,
     _manipulator,
     _mobile,
@@ -45,7 +46,8 @@ def _main(version: Annotated[bool, typer.Option("--version", callback=_print_ver
     """Potential-field motion planning and shared control (standalone node, tools and demos)."""
 
 
-for _module in (_demo, _warmup, _node, _manipulator, _batch, _mobile, _costmap, _ros2, _introspection, _viewer):
+for _module in (_demo, _warmup, _node, _manipulator, _batch, _mobile, _costmap, _ros2, _introspection, _viewer,
+                _execute):
     _module.register(app)
 
 __all__ = ["app"]

@@ -7,6 +7,14 @@ from typing import Annotated
 
 import typer
 
+from pfield.cli._robot_options import (
+    EndEffectorOption,
+    LockedJointOption,
+    PackagePathOption,
+    SrdfOption,
+    robot_description,
+)
+
 
 def batch(
     problems: Annotated[list[Path], typer.Argument(help="Scene YAML files, folders of MoveIt sceneNNNN.yaml/"
@@ -16,8 +24,12 @@ def batch(
     backend: Annotated[str, typer.Option("--backend", help="process or ray.")] = "process",
     address: Annotated[str | None, typer.Option("--address", help="Ray cluster address (default: a local one).")
                        ] = None,
-    robot: Annotated[str | None, typer.Option("--robot", help="Built-in robot of MoveIt problems (default panda).")
-                     ] = None,
+    robot: Annotated[str, typer.Option("--robot", help="Robot of MoveIt problems: a built-in robot (panda, xarm7) "
+                                                       "or a URDF file.")] = "panda",
+    srdf: SrdfOption = None,
+    end_effector: EndEffectorOption = None,
+    package_path: PackagePathOption = None,
+    locked_joint: LockedJointOption = None,
     scenes: Annotated[list[str] | None, typer.Option("--scene", help="Only this scene folder (repeatable).")] = None,
     limit: Annotated[int | None, typer.Option("--limit", help="At most N problems per scene.")] = None,
     timeout: Annotated[float | None, typer.Option("--timeout", help="Seconds per problem before it is cancelled.")
@@ -27,6 +39,9 @@ def batch(
                       ] = False,
 ) -> None:
     """Plan every problem and write one JSON line per problem to --out (in the problems' order).
+
+    MoveIt problems are planned for --robot: joints are matched by name (the request's other joints are
+    ignored), and the robot's joints a joint goal does not name are locked at the request's start values.
 
     Fields: scene, index, success, status, seconds, cpu_seconds, steps, planner, joint_names, positions,
     times, clearances, error. Exit code 0 when every problem was planned (whether or not it reached its goal),
@@ -44,7 +59,8 @@ def batch(
     console = Console(stderr=True)
     with cli_errors():
         check_writable("--out", out)
-        todo = read_problems(problems, robot=robot, scenes=scenes, limit=limit)
+        description = robot_description(robot, srdf, end_effector, package_path, locked_joint)
+        todo = read_problems(problems, robot=description, scenes=scenes, limit=limit)
         done = finished_keys(out) if resume else set()
         todo = [p for p in todo if p.key not in done]
         counts = {"reached": 0, "error": 0}

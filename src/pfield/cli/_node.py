@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import logging
 import sys
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -21,21 +21,32 @@ from pfield._validation import is_loopback_host
 from pfield.cli import _node_client
 from pfield.cli._exit_codes import USAGE
 from pfield.cli._port import check_port_free
+from pfield.cli._robot_options import (
+    EndEffectorOption,
+    LockedJointOption,
+    PackagePathOption,
+    RobotOption,
+    SrdfOption,
+    parse_package_paths,
+    robot_description,
+)
 from pfield.errors import InvalidInput, PfieldError
 from pfield.interfaces._yaml import load_yaml_file
 from pfield.node._base import Bus, Node
 from pfield.transport import DEFAULT_HOST, DEFAULT_PORT
 from pfield.transport._server import ServerLimits
 
-__all__ = ["ServeContext", "cli_errors", "nodes_from_options", "register", "register_node_factory"]
+if TYPE_CHECKING:
+    from pfield.robot.description import RobotDescription
+
+__all__ = ["ServeContext", "cli_errors", "nodes_from_options", "parse_package_paths", "register",
+           "register_node_factory"]
 
 _log = logging.getLogger(__name__)
 
-# The options ``pfield serve`` and ``pfield ros2 node`` share (typer reads their help from these annotations).
-RobotOption = Annotated[str, typer.Option(help="xarm7, panda or a URDF file")]
-EndEffectorOption = Annotated[str | None, typer.Option(help="end-effector link of a URDF robot")]
+# The options ``pfield serve`` and ``pfield ros2 node`` share (typer reads their help from these annotations); the
+# robot's flags are :mod:`pfield.cli._robot_options`'s, shared with ``view``, ``plan`` and ``batch``.
 ParamsOption = Annotated[Path | None, typer.Option(help="ROS 2 parameters YAML (node: ros__parameters: ...)")]
-PackagePathOption = Annotated[list[str] | None, typer.Option(help="NAME=DIR for package:// URIs (repeatable)")]
 MeshRootOption = Annotated[list[Path] | None, typer.Option(help="directory meshes may be read from (repeatable)")]
 MapOption = Annotated[Path | None, typer.Option(help="map_server YAML for the costmap node")]
 FootprintOption = Annotated[str | None, typer.Option(help="nav2 footprint '[\\[x, y], ...]' for the costmap")]
@@ -70,20 +81,6 @@ def register_node_factory(factory: NodeFactory) -> None:
         _FACTORIES.append(factory)
 
 
-def parse_package_paths(values: list[str]) -> dict[str, Path]:
-    """``{NAME: DIR}`` of ``--package-path NAME=DIR`` options. Packages not given here are looked up in the
-    ament index (``AMENT_PREFIX_PATH``) by the resource resolver."""
-    paths: dict[str, Path] = {}
-    for value in values:
-        name, sep, directory = value.partition("=")
-        if not sep or not name or not directory:
-            raise InvalidInput("--package-path", value, "expected NAME=DIR")
-        if not Path(directory).is_dir():
-            raise InvalidInput("--package-path", value, f"{directory} is not a directory")
-        paths[name] = Path(directory).resolve()
-    return paths
-
-
 def parse_static_transforms(values: list[str]) -> dict[str, Any]:
     """The ``static_transforms`` parameter of ``--static-transform FRAME=x,y,z[,qx,qy,qz,qw]`` options."""
     from pfield.node._frames import parse_transform_option
@@ -112,48 +109,31 @@ def load_ros_parameters(path: Path, option: str = "--params") -> dict[str, dict[
     return result
 
 
-def load_robot(robot: str, end_effector: str | None, package_paths: Mapping[str, Path] | None = None) -> Any:
-    """A built-in robot by name, or a URDF whose ``package://`` mesh URIs resolve through ``package_paths``.
-
-    ``--robot`` is judged first: a value that is neither a built-in name nor a file is refused as such (listing
-    the built-in names), before a missing ``--end-effector`` of a URDF is."""
-    from pfield.robot import RobotModel
-    from pfield.robot.catalog import BUILTIN_ROBOTS
-
-    key = robot.strip().lower()
-    if key in BUILTIN_ROBOTS:
-        return RobotModel.builtin(key)
-    names = ", ".join(sorted(BUILTIN_ROBOTS))
-    if not Path(robot).is_file():
-        raise InvalidInput("--robot", robot, f"neither a built-in robot ({names}) nor a URDF file: give a built-in "
-                                             "name, or --robot FILE.urdf --end-effector LINK")
-    if not end_effector:
-        raise InvalidInput("--end-effector", None, f"the URDF robot {robot} needs --end-effector LINK (the link "
-                                                   "whose pose is planned, e.g. tool0)")
-    return RobotModel.from_urdf(robot, end_effector=end_effector, package_paths=dict(package_paths or {}))
-
-
 def build_nodes(context: ServeContext, params: dict[str, dict[str, Any]], csv_dir: Path | None) -> list[Node]:
     """The manager plus every registered factory's nodes, with ``--params`` applied (``/**`` to all);
     ``context.static_transforms`` is the manager's initial ``static_transforms`` (``--params`` may replace it)."""
     from pfield.node._planning import make_resolver
     from pfield.node.manager import ManagerNode, ManagerParameters
+    from pfield.node.servo_node import SERVO_NODE_NAMES, servo_from_parameters
 
     resolver = make_resolver(context.package_paths, context.mesh_roots)
     manager_params = ManagerParameters(static_transforms=context.static_transforms)
-    nodes: list[Node] = [ManagerNode(context.bus, context.robot, parameters=manager_params, resolver=resolver,
-                                     csv_dir=csv_dir)]
+    manager = ManagerNode(context.bus, context.robot, parameters=manager_params, resolver=resolver, csv_dir=csv_dir)
+    nodes: list[Node] = [manager]
     for factory in _FACTORIES:
         nodes.extend(factory(context))
     by_name = {node.name: node for node in nodes}
     for name, values in params.items():
+        if name in SERVO_NODE_NAMES:  # a MoveIt Servo section: builds the servo loop below, on the manager as set
+            continue
         targets = list(by_name.values()) if name == "/**" else [by_name[name]] if name in by_name else []
         if not targets:
             _log.warning("--params: no node %s here; its parameters are ignored", name)
         for node in targets:
             node.set_parameters(values if name != "/**" else {k: v for k, v in values.items()
                                                               if k in node.get_parameters()})
-    return nodes
+    servo = servo_from_parameters(manager, params)
+    return nodes + ([servo] if servo is not None else [])
 
 
 def _check_host(host: str, token: str | None) -> None:
@@ -172,18 +152,19 @@ def cli_errors() -> Iterator[None]:
         raise typer.Exit(USAGE) from None
 
 
-def nodes_from_options(robot: str, end_effector: str | None, params: Path | None, package_path: list[str] | None,
-                       mesh_root: list[Path] | None, map_file: Path | None, footprint: str | None,
-                       csv_dir: Path | None, static_transform: list[str] | None = None) -> list[Node]:
+def nodes_from_options(robot: RobotDescription, params: Path | None, mesh_root: list[Path] | None,
+                       map_file: Path | None, footprint: str | None, csv_dir: Path | None,
+                       static_transform: list[str] | None = None) -> list[Node]:
     """The nodes of the options ``pfield serve`` and ``pfield ros2 node`` share (one new :class:`Bus`):
-    the robot, ``--package-path``/``--mesh-root`` for mesh URIs, ``--map``/``--footprint`` for the
+    the robot (its description's package paths also serve obstacle meshes), ``--mesh-root`` for mesh URIs,
+    ``--map``/``--footprint`` for the
     factories' nodes, ``--static-transform`` for the manager's frames and the ``--params`` YAML applied to
     them. Bad options raise :class:`InvalidInput`. The robot's link model is then fitted in the background
     (:func:`pfield.warmup.fit_in_background`: ``GET /health`` is ready once it is)."""
-    packages = parse_package_paths(package_path or [])
+    packages = robot.package_path_map
     transforms = parse_static_transforms(static_transform or [])
     parameters = load_ros_parameters(params) if params else {}
-    context = ServeContext(Bus(), load_robot(robot, end_effector, packages), packages,
+    context = ServeContext(Bus(), robot.build(), packages,
                            [p.resolve() for p in mesh_root or []], map_file, footprint,
                            static_transforms=transforms)
     nodes = build_nodes(context, parameters, csv_dir)
@@ -195,9 +176,11 @@ def nodes_from_options(robot: str, end_effector: str | None, params: Path | None
 
 def serve(
     robot: RobotOption = "xarm7",
+    srdf: SrdfOption = None,
     end_effector: EndEffectorOption = None,
-    params: ParamsOption = None,
     package_path: PackagePathOption = None,
+    locked_joint: LockedJointOption = None,
+    params: ParamsOption = None,
     mesh_root: MeshRootOption = None,
     map: MapOption = None,
     footprint: FootprintOption = None,
@@ -227,8 +210,8 @@ def serve(
         _check_host(host, token)
         check_port_free(host, port)
         limits = ServerLimits(max_connections=max_connections, header_timeout=header_timeout)
-        nodes = nodes_from_options(robot, end_effector, params, package_path, mesh_root, map, footprint, csv_dir,
-                                   static_transform)
+        description = robot_description(robot, srdf, end_effector, package_path, locked_joint)
+        nodes = nodes_from_options(description, params, mesh_root, map, footprint, csv_dir, static_transform)
     from pfield import warmup
 
     warmup.start_background()  # GET /health says "ready" once the self-check has run and the robot is fitted

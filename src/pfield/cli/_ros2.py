@@ -16,17 +16,22 @@ import typer
 
 from pfield.cli._node import (
     CsvDirOption,
-    EndEffectorOption,
     FootprintOption,
     LogLevelOption,
     MapOption,
     MeshRootOption,
-    PackagePathOption,
     ParamsOption,
-    RobotOption,
     StaticTransformOption,
     cli_errors,
     nodes_from_options,
+)
+from pfield.cli._robot_options import (
+    EndEffectorOption,
+    LockedJointOption,
+    PackagePathOption,
+    RobotOption,
+    SrdfOption,
+    robot_description,
 )
 
 __all__ = ["register"]
@@ -52,9 +57,11 @@ def _check_ros2() -> None:
 def node(
     ctx: typer.Context,
     robot: RobotOption = "xarm7",
+    srdf: SrdfOption = None,
     end_effector: EndEffectorOption = None,
-    params: ParamsOption = None,
     package_path: PackagePathOption = None,
+    locked_joint: LockedJointOption = None,
+    params: ParamsOption = None,
     mesh_root: MeshRootOption = None,
     map: MapOption = None,
     footprint: FootprintOption = None,
@@ -64,14 +71,14 @@ def node(
 ) -> None:
     """Serve /pfield_manager (and the other configured nodes) over ROS 2 until Ctrl-C.
 
-    Example: pfield ros2 node --params pfield.yaml --package-path my_robot_description=./desc
-    --ros-args -p influence_distance:=0.15
+    Example: pfield ros2 node --robot ur5.urdf --srdf ur5.srdf --end-effector tool0 --package-path meshes=./meshes
+    --params pfield.yaml --ros-args -p influence_distance:=0.15
     """
     logging.basicConfig(level=log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
     _check_ros2()
     with cli_errors():
-        nodes = nodes_from_options(robot, end_effector, params, package_path, mesh_root, map, footprint, csv_dir,
-                                   static_transform)
+        description = robot_description(robot, srdf, end_effector, package_path, locked_joint)
+        nodes = nodes_from_options(description, params, mesh_root, map, footprint, csv_dir, static_transform)
     from pfield import warmup
     from pfield.transport.ros2 import run
 

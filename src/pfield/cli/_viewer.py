@@ -10,13 +10,14 @@ from typing import Annotated
 
 import typer
 
-from pfield.cli._node import (
+from pfield.cli._node import MeshRootOption, cli_errors
+from pfield.cli._robot_options import (
     EndEffectorOption,
-    MeshRootOption,
+    LockedJointOption,
     PackagePathOption,
-    cli_errors,
-    load_robot,
+    SrdfOption,
     parse_package_paths,
+    robot_description,
 )
 from pfield.errors import InvalidInput
 from pfield.transport import DEFAULT_URL
@@ -31,9 +32,12 @@ def view(
     scene: Annotated[Path | None, typer.Option(help="offline: a scene YAML as for pfield plan --scene")] = None,
     map: Annotated[Path | None, typer.Option(help="offline: a map_server YAML shown as the ground")] = None,
     export: Annotated[Path | None, typer.Option(help="write a self-contained HTML page here and exit")] = None,
-    robot: Annotated[str, typer.Option(help="xarm7, panda, a URDF file, or none")] = "xarm7",
+    robot: Annotated[str, typer.Option("--robot", help="a built-in robot (panda, xarm7), a URDF file, or none")
+                     ] = "xarm7",
+    srdf: SrdfOption = None,
     end_effector: EndEffectorOption = None,
     package_path: PackagePathOption = None,
+    locked_joint: LockedJointOption = None,
     mesh_root: MeshRootOption = None,
     host: Annotated[str, typer.Option(help="address the page is served on; other than loopback needs "
                                            "--page-token")] = "127.0.0.1",
@@ -52,8 +56,14 @@ def view(
 
         if export is not None:
             check_writable("--export", export)
-        packages = parse_package_paths(package_path or [])
-        model = None if robot.lower() == "none" else load_robot(robot, end_effector, packages)
+        packages = parse_package_paths(package_path)
+        if robot.strip().lower() != "none":
+            model = robot_description(robot, srdf, end_effector, package_path, locked_joint).build()
+        elif srdf is not None or end_effector is not None or locked_joint:
+            raise InvalidInput("--robot", robot, "--srdf, --end-effector and --locked-joint describe a robot: give "
+                                                 "--robot NAME|FILE.urdf, or leave them out")
+        else:
+            model = None
         roots = [p.resolve() for p in mesh_root or []]
         resolver = ResourceResolver(package_paths=packages, allowed_roots=[*roots, *packages.values(), Path.cwd()])
         offline = plan is not None or scene is not None or map is not None

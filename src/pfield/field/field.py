@@ -52,11 +52,16 @@ def _readonly(array: NDArray[np.float64]) -> NDArray[np.float64]:
     return array
 
 
+_new = object.__new__
+
+
 def _fast_twist(values: NDArray[np.float64]) -> Twist:
     """A Twist from a fresh, finite (6,) kernel output, skipping the (already satisfied) validation."""
-    twist = object.__new__(Twist)
+    twist = _new(Twist)
     values.setflags(write=False)
-    twist.__dict__.update(linear=values[:3], angular=values[3:])  # frozen: filled without __setattr__
+    fields = twist.__dict__  # frozen: filled without __setattr__
+    fields["linear"] = values[:3]
+    fields["angular"] = values[3:]
     return twist
 
 
@@ -191,20 +196,29 @@ class PotentialField:
         component near obstacles, then — when ``previous`` is given — rate limits
         ‖v − v_prev‖ ≤ a_max·``dt`` and ‖ω − ω_prev‖ ≤ α_max·``dt`` (``dt`` > 0 s required then).
         """
-        pose = _check_pose("pose", pose)
+        # A Pose and a Twist were validated when they were built (finite, unit quaternion; read-only arrays): the
+        # core reads their arrays as they are. dt: a plain float within (0, inf) needs no further check.
+        if not isinstance(pose, Pose):
+            raise InvalidInput("pose", pose, "expected a pfield.Pose")
+        out = np.empty(6)
         if previous is None:
-            values, outcome = self._core.twist(pose.position, pose.orientation)
+            outcome = self._core.twist_into(pose.position, pose.orientation, None, None, 0.0, out)
         else:
             if not isinstance(previous, Twist):
                 raise InvalidInput("previous", previous, "expected a pfield.Twist or None")
-            step = finite("dt", dt)
+            step = dt if dt.__class__ is float and 0.0 < dt < math.inf else finite("dt", dt)
             if step <= 0.0:
                 raise InvalidInput("dt", dt, "must be > 0 when a previous twist is given")
-            values, outcome = self._core.twist(pose.position, pose.orientation, previous.linear, previous.angular,
-                                               step)
-        if outcome == safety.HALTED:  # the core applied the output contract (pfield.safety)
+            outcome = self._core.twist_into(pose.position, pose.orientation, previous.linear, previous.angular, step,
+                                            out)
+        if outcome:  # the core applied the output contract (pfield.safety): HALTED is the outcome to report
+            self._halted(outcome, pose)
+        return _fast_twist(out)
+
+    @staticmethod
+    def _halted(outcome: int, pose: Pose) -> None:
+        if outcome == safety.HALTED:
             _LOG.warning("twist at %r was not finite: answered zero (%s)", pose, safety.describe(safety.HALTED))
-        return _fast_twist(values)
 
     # ---------------------------------------------------------------- batches
 

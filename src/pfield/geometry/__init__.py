@@ -13,7 +13,9 @@ and all obstacles of a :class:`PackedObstacles` at once; :func:`obstacle_signed_
 """
 
 from pfield.geometry._distances import (
+    distances,
     min_signed_distance,
+    nearest_distances,
     obstacle_signed_distance,
     obstacle_signed_distance_within,
     signed_distances,
@@ -38,9 +40,11 @@ __all__ = [
     "ResourceResolver",
     "Shape",
     "Sphere",
+    "distances",
     "empty_packed",
     "load_mesh_arrays",
     "min_signed_distance",
+    "nearest_distances",
     "obstacle_signed_distance",
     "obstacle_signed_distance_within",
     "pack_obstacles",

@@ -3,7 +3,8 @@
 :func:`signed_distances` is the batch Python code calls (``Obstacle.signed_distance``, the field's clearances, the
 planners' goal checks); it runs the core outside the GIL. :func:`obstacle_signed_distance`,
 :func:`obstacle_signed_distance_within` and :func:`min_signed_distance` answer for one point (and one obstacle, or
-the nearest) through the same core, with the same bits.
+the nearest) through the same core, with the same bits; :func:`distances` and :func:`nearest_distances` are the
+batches without normals (into a caller's buffer when given one).
 
 Conventions
 -----------
@@ -35,7 +36,8 @@ from pfield._validation import as_points
 from pfield.errors import InvalidInput
 from pfield.geometry._packed import PackedObstacles
 
-__all__ = ["min_signed_distance", "obstacle_signed_distance", "obstacle_signed_distance_within", "signed_distances"]
+__all__ = ["distances", "min_signed_distance", "nearest_distances", "obstacle_signed_distance",
+           "obstacle_signed_distance_within", "signed_distances"]
 
 
 def signed_distances(
@@ -59,6 +61,46 @@ def _signed_distances(kinds: NDArray[np.int64], rows: NDArray[np.float64], packe
         return _geometry.signed_distances(kinds, rows, *packed[2:], array, cutoff)  # type: ignore[no-any-return]
     except _geometry.NonFinitePoints:
         raise InvalidInput("points", "array", "must be finite (no NaN or inf)") from None
+
+
+def _out(out: NDArray[np.float64] | None, shape: tuple[int, ...]) -> NDArray[np.float64]:
+    """``out`` when it is a writable C-contiguous float64 array of ``shape`` (the caller's buffer, reused from call
+    to call), a new one for None; else ``InvalidInput`` naming ``out``."""
+    if out is None:
+        return np.empty(shape)
+    if not (isinstance(out, np.ndarray) and out.dtype == np.float64 and out.shape == shape
+            and out.flags.c_contiguous and out.flags.writeable):
+        described = f"array{out.shape} of {out.dtype}" if isinstance(out, np.ndarray) else out
+        raise InvalidInput("out", described, f"expected a writable C-contiguous float64 array of shape {shape}")
+    return out
+
+
+def distances(packed: PackedObstacles, points: ArrayLike, cutoff: float = math.inf,
+              out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """:func:`signed_distances`' distances ``(N, M)`` (m, negative inside) alone, the same bits, without the
+    normals: for loops that need no gradient. ``out`` (N, M), when given, receives them and is returned (a
+    buffer reused from call to call allocates nothing). Errors as :func:`signed_distances`'s, and
+    ``InvalidInput`` for an ``out`` of another shape, dtype or layout, or read-only."""
+    array = as_points("points", points, check_finite=False)  # the core checks finiteness in its pass
+    target = _out(out, (array.shape[0], packed.kinds.shape[0]))
+    try:
+        _geometry.distances(*packed, array, float(cutoff), target)
+    except _geometry.NonFinitePoints:
+        raise InvalidInput("points", "array", "must be finite (no NaN or inf)") from None
+    return target
+
+
+def nearest_distances(packed: PackedObstacles, points: ArrayLike,
+                      out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """Each point's smallest signed distance (m) over all obstacles ``(N,)``: :func:`min_signed_distance`'s ``d``
+    to the bit (``inf`` with no obstacles), with no normal and no (N, M) table. ``out`` (N,) as :func:`distances`'s."""
+    array = as_points("points", points, check_finite=False)
+    target = _out(out, (array.shape[0],))
+    try:
+        _geometry.nearest_distances(*packed, array, target)
+    except _geometry.NonFinitePoints:
+        raise InvalidInput("points", "array", "must be finite (no NaN or inf)") from None
+    return target
 
 
 def obstacle_signed_distance(packed: PackedObstacles, i: int, p: ArrayLike) -> tuple[float, float, float, float]:

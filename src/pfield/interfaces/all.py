@@ -17,7 +17,7 @@ from pfield.interfaces import (
 
 _log = logging.getLogger(__name__)
 
-try:  # sensor_msgs (LaserScan) belongs to the mobile base; absent in a partial install
+try:  # sensor_msgs (LaserScan, JointState, Joy: the mobile base, joint states, joysticks); absent in a partial install
     sensor_msgs = importlib.import_module("pfield.interfaces.sensor_msgs")
 except ModuleNotFoundError as _exc:  # pragma: no cover - only when the module is missing
     if _exc.name != "pfield.interfaces.sensor_msgs":

@@ -223,3 +223,25 @@ class ComputeAssistance_Response(RosMessage):
     time_to_collision: Float64 = 0.0
     flags: UInt32 = 0
     message: String = ""
+
+
+class ExecuteTrajectory_Request(RosMessage):
+    """A joint trajectory for a ros2_control controller's FollowJointTrajectory action (``ExecuteTrajectory.srv``):
+    ``controller_action`` empty means the node's ``trajectory_controller_action`` parameter; ``goal_time_tolerance``
+    in s (0: the controller's default)."""
+
+    ros_type = "potential_fields_interfaces/srv/ExecuteTrajectory_Request"
+    trajectory: JointTrajectory = Field(default_factory=JointTrajectory)
+    controller_action: String = ""
+    goal_time_tolerance: Float64 = 0.0
+
+
+class ExecuteTrajectory_Response(RosMessage):
+    """``success`` when the controller reported SUCCESSFUL; ``outcome`` the goal's end (SUCCEEDED, ABORTED,
+    CANCELED, REJECTED; empty when nothing ran); ``error_code`` FollowJointTrajectory's Result code."""
+
+    ros_type = "potential_fields_interfaces/srv/ExecuteTrajectory_Response"
+    success: Bool = False
+    outcome: String = ""
+    error_code: Int32 = 0
+    error_message: String = ""

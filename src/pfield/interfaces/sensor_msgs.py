@@ -1,4 +1,5 @@
-"""``sensor_msgs`` messages used by the mobile base: ``LaserScan``.
+"""``sensor_msgs`` messages: ``LaserScan`` (the mobile base), ``JointState`` and ``Joy`` (robot state and operator
+devices in: the manager's ``/joint_states``, the servo loop's joystick input).
 
 Fields exactly as ``sensor_msgs/msg/LaserScan`` (ROS 2 Jazzy). Beam ``i`` points at
 ``angle_min + i * angle_increment`` (rad, counter-clockwise from the sensor frame's +x axis). Ranges outside
@@ -10,10 +11,10 @@ from __future__ import annotations
 
 from pydantic import ConfigDict, Field
 
-from pfield.interfaces._base import Float32, RosMessage
+from pfield.interfaces._base import Float32, Float64, Int32, RosMessage, String
 from pfield.interfaces.std_msgs import Header
 
-__all__ = ["LaserScan"]
+__all__ = ["JointState", "Joy", "LaserScan"]
 
 
 class LaserScan(RosMessage):
@@ -34,3 +35,25 @@ class LaserScan(RosMessage):
     range_max: Float32 = 0.0
     ranges: list[Float32] = Field(default_factory=list)
     intensities: list[Float32] = Field(default_factory=list)
+
+
+class JointState(RosMessage):
+    """The state of named joints (``sensor_msgs/msg/JointState``): ``position`` in rad or m, ``velocity`` in rad/s
+    or m/s, ``effort`` in N·m or N, each either empty or as long as ``name`` (the ROS definition's rule)."""
+
+    ros_type = "sensor_msgs/msg/JointState"
+    header: Header = Field(default_factory=Header)
+    name: list[String] = Field(default_factory=list)
+    position: list[Float64] = Field(default_factory=list)
+    velocity: list[Float64] = Field(default_factory=list)
+    effort: list[Float64] = Field(default_factory=list)
+
+
+class Joy(RosMessage):
+    """A joystick's state (``sensor_msgs/msg/Joy``): ``axes`` (unitless, usually in [-1, 1]) and ``buttons``
+    (0 or 1); their meaning is the device's (the servo's mapping: docs/servo.md)."""
+
+    ros_type = "sensor_msgs/msg/Joy"
+    header: Header = Field(default_factory=Header)
+    axes: list[Float32] = Field(default_factory=list)
+    buttons: list[Int32] = Field(default_factory=list)

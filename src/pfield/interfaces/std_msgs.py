@@ -6,7 +6,9 @@ from typing import Self
 
 from pydantic import Field
 
-from pfield.interfaces._base import Float32, Int32, RosMessage, String, UInt32
+from pfield.interfaces._base import Float32, Float64, Int32, RosMessage, UInt32
+from pfield.interfaces._base import Int8 as _Int8
+from pfield.interfaces._base import String as _String
 
 
 class _SecondsNanoseconds(RosMessage):
@@ -35,7 +37,7 @@ class Duration(_SecondsNanoseconds):
 class Header(RosMessage):
     ros_type = "std_msgs/msg/Header"
     stamp: Time = Field(default_factory=Time)
-    frame_id: String = ""
+    frame_id: _String = ""
 
 
 class ColorRGBA(RosMessage):
@@ -50,3 +52,37 @@ class ColorRGBA(RosMessage):
 
 class Empty(RosMessage):
     ros_type = "std_msgs/msg/Empty"
+
+
+class Int8(RosMessage):
+    """A signed byte (the servo's status code on ``status_topic``, as MoveIt Servo publishes it)."""
+
+    ros_type = "std_msgs/msg/Int8"
+    data: _Int8 = 0
+
+
+class String(RosMessage):
+    ros_type = "std_msgs/msg/String"
+    data: _String = ""
+
+
+class MultiArrayDimension(RosMessage):
+    ros_type = "std_msgs/msg/MultiArrayDimension"
+    label: _String = ""
+    size: UInt32 = 0
+    stride: UInt32 = 0
+
+
+class MultiArrayLayout(RosMessage):
+    ros_type = "std_msgs/msg/MultiArrayLayout"
+    dim: list[MultiArrayDimension] = Field(default_factory=list)
+    data_offset: UInt32 = 0
+
+
+class Float64MultiArray(RosMessage):
+    """Numbers with an optional layout: the servo's joint positions or velocities for a ros2_control
+    forward command controller (``data`` in the controller's joint order)."""
+
+    ros_type = "std_msgs/msg/Float64MultiArray"
+    layout: MultiArrayLayout = Field(default_factory=MultiArrayLayout)
+    data: list[Float64] = Field(default_factory=list)

@@ -63,6 +63,9 @@ class PublicationSpec:
     topic: str
     type_name: str
     model: type[RosMessage]
+    latched: bool = True
+    """Late subscribers get the last message (ROS: transient local). False for streamed commands (the servo's), which
+    a controller that connects later must never receive stale."""
 
 
 Listener = Callable[[str, RosMessage], None]

@@ -65,6 +65,12 @@ class ManagerParameters:
     assistance_arbitration: str = "linear"
     """compute_assistance's arbitration when a request leaves ``arbitration`` empty: ``linear``, ``linear_goal`` or
     ``safety_only`` (docs/assistance.md)."""
+    joint_state_timeout: float = 1.0
+    """s: a request without joint angles uses the latest ``/joint_states`` only when it is at most this old (0: any
+    age); older or none is refused, saying so."""
+    trajectory_controller_action: str = "/joint_trajectory_controller/follow_joint_trajectory"
+    """The FollowJointTrajectory action ``/pfield/execute_trajectory`` sends to when a request names none (a
+    ros2_control joint_trajectory_controller serves ``/<controller name>/follow_joint_trajectory``)."""
 
     def __post_init__(self) -> None:
         timeout = self.dynamic_obstacle_timeout
@@ -82,6 +88,12 @@ class ManagerParameters:
         object.__setattr__(self, "global_time_limit", _validation.positive("global_time_limit",
                                                                             self.global_time_limit))
         object.__setattr__(self, "static_transforms", parse_transforms(self.static_transforms, self.fixed_frame))
+        object.__setattr__(self, "joint_state_timeout", _validation.nonnegative("joint_state_timeout",
+                                                                                self.joint_state_timeout))
+        if not self.trajectory_controller_action.strip("/"):
+            raise InvalidInput("trajectory_controller_action", self.trajectory_controller_action,
+                               "must name an action, e.g. /joint_trajectory_controller/follow_joint_trajectory")
+        _validation.text("trajectory_controller_action", self.trajectory_controller_action)
         if self.assistance_arbitration not in ARBITRATIONS:
             raise InvalidInput("assistance_arbitration", self.assistance_arbitration,
                                f"must be one of {list(ARBITRATIONS)}")
@@ -127,7 +139,11 @@ def manager_table(name: str) -> ParameterTable:
              ParameterRow("global_time_limit", "double", own_docs["global_time_limit"], own.global_time_limit,
                           0.0, MAX_GLOBAL_TIME_LIMIT, "s", positive=True),
              ParameterRow("assistance_arbitration", "string", own_docs["assistance_arbitration"],
-                          own.assistance_arbitration, choices=ARBITRATIONS)]
+                          own.assistance_arbitration, choices=ARBITRATIONS),
+             ParameterRow("joint_state_timeout", "double", own_docs["joint_state_timeout"], own.joint_state_timeout,
+                          0.0, 3600.0, "s"),
+             ParameterRow("trajectory_controller_action", "string", own_docs["trajectory_controller_action"],
+                          own.trajectory_controller_action)]
     return ParameterTable(name, rows)
 
 

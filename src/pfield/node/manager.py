@@ -42,7 +42,7 @@ import logging
 import math
 import threading
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -54,7 +54,7 @@ from pfield._validation import as_vector, finite, in_range
 from pfield.errors import InvalidInput, PfieldError
 from pfield.field.config import FieldConfig
 from pfield.interfaces import geometry_msgs as gm
-from pfield.interfaces import nav_msgs, std_srvs, visualization_msgs
+from pfield.interfaces import nav_msgs, sensor_msgs, std_srvs, visualization_msgs
 from pfield.interfaces import potential_fields_interfaces as pfi
 from pfield.interfaces.convert import (
     obstacle_from_msg,
@@ -66,6 +66,7 @@ from pfield.interfaces.convert import (
 from pfield.node import _planning
 from pfield.node._base import Bus, Node, PublicationSpec, ServiceSpec, SubscriptionSpec
 from pfield.node._frames import transforms_data
+from pfield.node._joint_states import JOINT_STATES_TOPIC, JointStateCache, rotate_twist
 from pfield.node._manager_state import MAX_OBSTACLES, ManagerParameters, ManagerState, Memo, manager_table
 from pfield.node._markers import state_markers
 from pfield.node._obstacle_motion import updated_held
@@ -104,6 +105,8 @@ of its kind, on the same derived state and no more obstacles, may be answered on
 (:attr:`~pfield.node._base.ServiceSpec.quick`). The first of a kind (kernels may still compile), one after a
 goal or obstacle change (the field is rebuilt) and any slower one always run on the calls thread, so a loop
 stall is bounded by one call that was measured quick."""
+TrajectoryExecutor = Callable[[Any, str, float, CancelToken | None], pfi.ExecuteTrajectory_Response]
+"""(trajectory_msgs/JointTrajectory model, action name, goal_time_tolerance s, cancel) -> the service's answer."""
 _INT32_SECONDS = 2**31 - 1
 _CANCELLED = pfi.PlanPath_Response(success=False, error_message="cancelled: the caller went away")
 TASK_SPACE, WHOLE_BODY = pfi.PLANNING_METHOD_TASK_SPACE, pfi.PLANNING_METHOD_WHOLE_BODY
@@ -167,6 +170,8 @@ class ManagerNode(Node):
         self.assistance_options = assistance or AssistanceOptions()
         self._scene: Memo[AssistanceScene] = Memo(self._make_scene, depends=("config", "goal", "obstacles"))
         self._plan_count = 0
+        self.joint_states = JointStateCache(robot)
+        """The latest ``/joint_states`` (:mod:`pfield.node._joint_states`): what a request without joint angles uses."""
         self._call_costs: dict[tuple[str, str, bool], tuple[int, float]] = {}
         """(service, planning_method, has a goal) → (obstacle count, s) of the last such call answered."""
 
@@ -188,6 +193,7 @@ class ManagerNode(Node):
                         long_running=True),
             ServiceSpec("/pfield/clear_obstacles", "std_srvs/srv/Trigger", std_srvs.Trigger_Request,
                         std_srvs.Trigger_Response, self.clear_obstacles, long_running=True),
+            *self._execution_services(),
         ]
 
     def subscriptions(self) -> list[SubscriptionSpec]:
@@ -200,6 +206,8 @@ class ManagerNode(Node):
                              self.on_query_pose),
             SubscriptionSpec("/pfield/obstacle_velocities", "potential_fields_interfaces/msg/ObstacleVelocityArray",
                              pfi.ObstacleVelocityArray, self.on_obstacle_velocities),
+            SubscriptionSpec(JOINT_STATES_TOPIC, "sensor_msgs/msg/JointState", sensor_msgs.JointState,
+                             self.on_joint_states),
         ]
 
     def publications(self) -> list[PublicationSpec]:
@@ -218,7 +226,9 @@ class ManagerNode(Node):
                                          "max_mesh_file_size": params.max_mesh_file_size,
                                          "global_fallback": params.global_fallback,
                                          "global_time_limit": params.global_time_limit,
-                                         "assistance_arbitration": params.assistance_arbitration}
+                                         "assistance_arbitration": params.assistance_arbitration,
+                                         "joint_state_timeout": params.joint_state_timeout,
+                                         "trajectory_controller_action": params.trajectory_controller_action}
 
     def describe_parameters(self) -> dict[str, dict[str, Any]]:
         return self.parameter_table.describe()
@@ -333,6 +343,17 @@ class ManagerNode(Node):
                                f"above the cap of {MAX_OBSTACLES} (the node holds {len(state.obstacles)}); "
                                "remove some first")
 
+    def on_joint_states(self, message: sensor_msgs.JointState) -> None:
+        """The robot's measured joints (any order, extra joints ignored; refused whole when one is bad)."""
+        self.joint_states.update(message.name, message.position, message.velocity)
+
+    def measured_joint_angles(self, given: Any, field: str, state: ManagerState | None = None) -> Any:
+        """``given`` validated, or when it is empty the latest ``/joint_states`` within ``joint_state_timeout``."""
+        if len(given):
+            return self.robot.check_joint_angles(given, field)
+        max_age = (state or self._state).params.joint_state_timeout
+        return self.joint_states.latest(max_age, field).positions
+
     def on_goal(self, message: gm.PoseStamped) -> None:
         transform = self._state.params.frames().lookup("header.frame_id", message.header.frame_id)
         goal = pose_from_msg(message.pose, "pose")
@@ -400,7 +421,7 @@ class ManagerNode(Node):
         start: Pose | None = None
         joints = None
         if method == WHOLE_BODY:
-            joints = self.robot.check_joint_angles(request.starting_joint_angles, "starting_joint_angles")
+            joints = self.measured_joint_angles(request.starting_joint_angles, "starting_joint_angles")
         else:
             start = pose_from_msg(request.start, "start")
             if request.starting_joint_angles:
@@ -439,6 +460,32 @@ class ManagerNode(Node):
         target.parent.mkdir(parents=True, exist_ok=True)
         path.to_csv(target)
         _log.info("plan saved to %s", target)
+
+    # ---- trajectories out: /pfield/execute_trajectory (FollowJointTrajectory) ----------------------------
+    trajectory_executor: TrajectoryExecutor | None = None
+    """Runs a trajectory on a controller's FollowJointTrajectory action: set by the ROS 2 transport
+    (:mod:`pfield.transport.trajectory_client`); None (the HTTP node) answers that execution needs ROS 2."""
+
+    def _execution_services(self) -> list[ServiceSpec]:
+        return [ServiceSpec("/pfield/execute_trajectory", "potential_fields_interfaces/srv/ExecuteTrajectory",
+                            pfi.ExecuteTrajectory_Request, pfi.ExecuteTrajectory_Response, self.execute_trajectory,
+                            long_running=True, cancellable=True)]
+
+    def execute_trajectory(self, request: pfi.ExecuteTrajectory_Request,
+                           cancel: CancelToken | None = None) -> pfi.ExecuteTrajectory_Response:
+        """Execute ``request.trajectory`` on ``request.controller_action`` (empty: the
+        ``trajectory_controller_action`` parameter) and answer with the controller's result (ExecuteTrajectory.srv).
+
+        The call lasts as long as the trajectory (it is long-running: other services keep answering); ``cancel``
+        (the caller went away) cancels the goal. Bad input raises :class:`InvalidInput` before anything is sent."""
+        action = request.controller_action or self._state.params.trajectory_controller_action
+        tolerance = in_range("goal_time_tolerance", request.goal_time_tolerance, 0.0, 3600.0, "s")
+        executor = self.trajectory_executor
+        if executor is None:
+            return pfi.ExecuteTrajectory_Response(
+                success=False, error_message="trajectory execution needs the ROS 2 transport (FollowJointTrajectory "
+                "is a ROS 2 action): serve with `pfield ros2 node`, or use `pfield ros2 execute`")
+        return executor(request.trajectory, action, tolerance, cancel)
 
     def compute_autonomy_vector(self, request: pfi.ComputeAutonomyVector_Request
                                 ) -> pfi.ComputeAutonomyVector_Response:
@@ -479,18 +526,28 @@ class ManagerNode(Node):
         frames = state.params.frames()
         transform = frames.lookup("query_pose.header.frame_id", request.query_pose.header.frame_id)
         if method == WHOLE_BODY:
-            q = self.robot.check_joint_angles(request.joint_angles, "joint_angles")
+            q = self.measured_joint_angles(request.joint_angles, "joint_angles", state)
             qd = None
             if request.prev_joint_velocities:
                 qd = as_vector("prev_joint_velocities", request.prev_joint_velocities, len(q))
             # An all-default query pose means "not given" (the seed's whole_body request may omit it).
             given = request.query_pose.pose != type(request.query_pose.pose)()
             pose = pose_from_msg(request.query_pose.pose, "query_pose.pose") if given else None
+        elif request.query_pose.pose == type(request.query_pose.pose)() and self.joint_states.held is not None:
+            # task space without a query pose: the end effector where the measured joints put it
+            q = self.measured_joint_angles(request.joint_angles, "joint_angles", state)
+            pose = self.robot.forward_kinematics(q)
+            transform = None
         else:
             pose = pose_from_msg(request.query_pose.pose, "query_pose.pose")
         if pose is not None and transform is not None:
             pose = transform * pose
         return method, dt, q, qd, pose
+
+    def assistance_scene(self) -> AssistanceScene:
+        """The assistance's scene of the current state (obstacles, their velocities, goal, field parameters),
+        memoised: what the servo loop steps against."""
+        return self._scene.get(self._state)
 
     def _make_scene(self, state: ManagerState) -> AssistanceScene:
         velocities = {key: held.velocity for key, held in state.obstacles.items() if any(held.velocity)}
@@ -511,13 +568,7 @@ class ManagerNode(Node):
             raise InvalidInput("arbitration", request.arbitration, f"expected one of {list(ARBITRATIONS)} or empty")
         arbitration = request.arbitration or state.params.assistance_arbitration
         user = request.user_command
-        transform = state.params.frames().lookup("user_command.header.frame_id", user.header.frame_id)
-        values = [finite(f"user_command.twist.{part}.{axis}", getattr(getattr(user.twist, part), axis))
-                  for part in ("linear", "angular") for axis in "xyz"]
-        command = Twist(values[:3], values[3:])
-        if transform is not None:
-            command = Twist(rotate_vectors(transform.orientation, command.linear),
-                            rotate_vectors(transform.orientation, command.angular))
+        command = self.operator_twist(user, state, q, pose)
         stamp = user.header.stamp.sec + 1e-9 * user.header.stamp.nanosec
         age = time.time() - stamp if stamp > 0 else None
         scene = self._scene.get(state)
@@ -539,6 +590,27 @@ class ManagerNode(Node):
             "flags": answer.flags, "message": answer.message})
         self._answered("assistance", request, state, started)
         return response
+
+
+    def operator_twist(self, user: gm.TwistStamped, state: ManagerState, q: Any = None,
+                       pose: Pose | None = None, field: str = "user_command") -> Twist:
+        """An operator's twist in the fixed frame: given in it (or ``""``), in a static frame (rotated by its
+        transform), or in the robot's end-effector frame (rotated by FK(``q``), else by the task-space ``pose``'s
+        orientation; :func:`~pfield.node._joint_states.rotate_twist`)."""
+        values = [finite(f"{field}.twist.{part}.{axis}", getattr(getattr(user.twist, part), axis))
+                  for part in ("linear", "angular") for axis in "xyz"]
+        command = Twist(values[:3], values[3:])
+        frame = user.header.frame_id
+        if frame and frame == self.robot.end_effector and frame != state.params.fixed_frame:
+            if q is None and pose is None:
+                q = self.measured_joint_angles([], "joint_angles", state)
+            if q is not None:
+                return rotate_twist(command, self.robot.forward_kinematics(q).orientation)
+            assert pose is not None
+            orientation = pose.orientation
+            return rotate_twist(command, orientation)
+        transform = state.params.frames().lookup(f"{field}.header.frame_id", frame)
+        return command if transform is None else rotate_twist(command, transform.orientation)
 
 
 def _xyz(values: Any) -> dict[str, float]:

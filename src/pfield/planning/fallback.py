@@ -3,7 +3,8 @@
 :func:`whole_body_fallback` and :func:`task_space_fallback` are called by the whole-body and task-space
 planners when the field alone ends in stagnation or at the iteration limit (and ``global_fallback`` is
 on); see :mod:`pfield.planning.global_search` for the method. Each returns a :class:`FallbackOutcome`:
-the tracked motion (in the planner's own loop format) when it reached the goal, else why not.
+the tracked motion (in the planner's own loop format) when it reached the goal and passed the certificate
+(:func:`pfield.planning.certify.certify_path`: exact meshes, every waypoint and every 0.01 rad), else why not.
 """
 
 from __future__ import annotations
@@ -19,10 +20,10 @@ from numpy.typing import NDArray
 from pfield.field.config import FieldConfig
 from pfield.geometry import Obstacle
 from pfield.planning import _whole_body_layout as _wb
+from pfield.planning.certify import certify_path
 from pfield.planning.global_search import (
     GlobalOptions,
     SearchResult,
-    exact_contact,
     goal_configurations,
     joint_space_search,
     orientations_along,
@@ -66,7 +67,7 @@ def whole_body_fallback(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.S
     # twice the joint-limit dampers' stop: the tracking's target keeps some room from it
     joint_margin = 2.0 * float(params[_wb.JOINT_SAFETY])
     goals, why = goal_configurations(robot, goal, (last, start), arrays, scene, margin, obstacles, options,
-                                     joint_margin, goal_configuration)
+                                     joint_margin, goal_configuration, start=start)
     if not goals:
         _LOG.info("global fallback: %s", why)
         return FallbackOutcome(None, PlanStatus.GOAL_INVALID, why, None)
@@ -81,11 +82,12 @@ def whole_body_fallback(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.S
         reason = f"global fallback: tracking the searched path ended with {tracked.name}"
         _LOG.info(reason)
         return FallbackOutcome(None, tracked, reason, search)
-    contact = exact_contact(robot, arrays, scene, loop[2], obstacles, options.exact_resolution)
-    if contact:
-        reason = f"global fallback: the exact mesh check finds a contact ({contact}) on the tracked path"
+    certificate = certify_path(robot, list(obstacles or ()), loop[2], options.exact_resolution)
+    if not certificate.clear:
+        reason = f"global fallback: the tracked path fails the certificate ({certificate.describe()})"
         _LOG.info(reason)
-        return FallbackOutcome(None, PlanStatus.COLLISION, reason, search)
+        status = PlanStatus.SELF_COLLISION if certificate.self_collision else PlanStatus.COLLISION
+        return FallbackOutcome(None, status, reason, search)
     return FallbackOutcome(loop, PlanStatus.REACHED, "", search)
 
 

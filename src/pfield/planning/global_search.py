@@ -4,10 +4,11 @@ A potential field is local: it stops in a local minimum (``stagnation``) or runs
 that happens and ``global_fallback`` is on, the planners call this module:
 
 1. **Goal configurations** (whole body): the goal is a pose, so the IK (:func:`pfield.robot.ik.solve_ik`)
-   runs from several seeds — the field's last configuration, the start, then uniform samples from a
+   runs from several seeds — the start, the field's last configuration, then uniform samples from a
    generator seeded by ``seed`` — and keeps up to ``goal_configurations`` distinct solutions within the
    joint limits: those whose link capsules keep the search margin first, then those the exact mesh
-   check (coal) clears. None found → ``goal invalid`` at once, never a long search.
+   check (coal) clears; each moved by whole turns to its equivalent nearest the start, and nearest the
+   start first. None found → ``goal invalid`` at once, never a long search.
 2. **Search**: compiled RRT-Connect (the core's ``planning/rrt``, ``pfield._core.rrt``) in joint space against the
    link capsules and the packed obstacles (whole body; the goal tree is rooted at every goal
    configuration), or in R³ against the obstacles' signed distance (task space). Task space searches
@@ -15,7 +16,10 @@ that happens and ``global_fallback`` is on, the planners call this module:
    state valid or invalid; the orientation is interpolated by slerp
    along the path, in proportion to the distance travelled, and the field's rotational attraction
    follows it.
-3. **Shortcutting** of the found path (same compiled checks).
+3. **Shortening** of the found path (same compiled checks): random vertex shortcuts and a greedy pass, then
+   partial shortcuts between random points of the path whose new segments keep ``smoothing_clearance`` more
+   (the core's ``planning::shorten``), never longer. When the path reached a goal configuration but is longer
+   than the straight distance to another one, a bounded second search to those (:func:`_search`).
 4. **Tracking by the field**: whole body, the damper-constrained QP follows a moving joint-space
    attractor (the core's ``planning/track``); task space, the field's own compiled loop runs to
    each path vertex in turn as its goal. The motion keeps the dampers' clearance.
@@ -23,8 +27,9 @@ that happens and ``global_fallback`` is on, the planners call this module:
 Search margin: a state is valid when every capsule keeps ``safety_distance + GlobalOptions.extra_margin``;
 pairs that the start or the goal configuration hold closer (conservative capsules often touch the
 objects of a grasp) may go as deep as at the goal, or ``GlobalOptions.endpoint_band`` deeper than at the
-start, no deeper. Where capsules overlap along the tracked motion (so they certify nothing), the exact mesh
-check (coal) verifies those waypoints and the motion between them; a contact fails the fallback.
+start, no deeper. The capsules are the search's model, not its certificate: the tracked motion is verified on
+the exact collision meshes (coal) at every waypoint and every ≤ 0.01 rad between them
+(:func:`pfield.planning.certify.certify_path`); a contact fails the fallback.
 """
 
 from __future__ import annotations
@@ -47,6 +52,7 @@ from pfield.geometry import Obstacle
 from pfield.planning._whole_body_core import core_obstacles, core_scene, culprit, pair_distances
 from pfield.planning.cancel import cancel_flag
 from pfield.planning.options import DEFAULT_GLOBAL_TIME_LIMIT
+from pfield.planning.retime import path_length
 from pfield.planning.status import PlanStatus
 from pfield.robot.ik import solve_ik
 from pfield.robot.model import RobotModel
@@ -78,17 +84,30 @@ class GlobalOptions:
             (m; see :func:`endpoint_scene`).
         capacity: nodes per tree.
         shortcut_attempts: random shortcuts tried on the found path.
+        smoothing_attempts: partial shortcuts between random points of the path tried next (the core's
+            ``planning::shorten``; it stops early after a quarter of them in a row shorten nothing).
+        smoothing_clearance: clearance (m) beyond the search margin that those new segments keep from the
+            obstacles (not between the robot's own links: :func:`_clearance_scene`): a path pulled taut
+            against an obstacle is hard for the tracking's dampers to follow.
         ik_restarts: random IK seeds tried for goal configurations (after the given seeds).
         goal_configurations: most goal configurations the search starts from (its second tree's roots).
         tracking_gain: k_p (1/s) of the joint-space moving attractor; tracking_lead: largest lag (rad).
 
     ``joint_resolution`` 0.02 rad: finer than OMPL's default (1 % of the space's extent, about 0.13 rad for
     a Panda) and MoveIt's (0.5 %); the searched path is a guide, the tracking's dampers keep the clearance
-    and the exact mesh check verifies the tracked motion where the link model overlaps. On the
+    and the exact mesh check verifies the whole tracked motion (:mod:`pfield.planning.certify`). On the
     MotionBenchMaker table scenes 0.01 rad cost twice the states for the same success (table_under_pick:
     median search 8.5 → 4.7 ms, 20/20 both). ``tracking_lead`` 0.05 rad: at 0.02 the target waited for the
     arm (whose lag correction is capped at the speed it can brake from) so often that the tracked motions
     took 1.3–2.6 times their profile's duration (table_under_pick: 1150 steps for a 437-step profile).
+
+    ``smoothing_attempts`` 100 and ``smoothing_clearance`` 0.01 m (issue 34), measured on the first 10
+    problems of the Panda MotionBenchMaker table_pick and table_under_pick scenes (17 through the fallback):
+    median joint path of the fallback's plans 6.77 rad with the vertex shortcuts alone, 6.00 / 5.89 / 5.55 /
+    5.55 rad after 25 / 50 / 100 / 200 partial shortcuts, for about 10 / 16 / 27 / 50 ms of shortening per
+    plan on a shared 2-core machine. Without the clearance, one of the 10 table_under_pick plans was pulled so
+    close to the table that its tracking stalled (ITERATION_LIMIT); with 1 cm all 40 sampled problems of the
+    four dev scenes are solved.
     """
 
     time_limit: float = DEFAULT_GLOBAL_TIME_LIMIT
@@ -102,6 +121,8 @@ class GlobalOptions:
     endpoint_band: float = 0.005
     capacity: int = 20000
     shortcut_attempts: int = 50
+    smoothing_attempts: int = 100
+    smoothing_clearance: float = 0.01
     ik_restarts: int = 48
     goal_configurations: int = 4
     tracking_gain: float = 4.0
@@ -112,8 +133,10 @@ class GlobalOptions:
                      "point_resolution", "tracking_gain", "tracking_lead"):
             positive(name, getattr(self, name))
         nonnegative("extra_margin", self.extra_margin)
+        nonnegative("smoothing_clearance", self.smoothing_clearance)
         nonnegative("endpoint_band", self.endpoint_band)
-        for name in ("seed", "capacity", "shortcut_attempts", "ik_restarts", "goal_configurations"):
+        for name in ("seed", "capacity", "shortcut_attempts", "smoothing_attempts", "ik_restarts",
+                     "goal_configurations"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < (
                     2 if name == "capacity" else (1 if name == "goal_configurations" else 0)):
@@ -171,26 +194,37 @@ def _capsules_clear(arrays: _wb.RobotArrays, scene: _wb.Scene, q: NDArray[np.flo
 def goal_configurations(robot: RobotModel, goal: Pose, seeds: Sequence[NDArray[np.float64]],
                         arrays: _wb.RobotArrays, scene: _wb.Scene, margin: float,
                         obstacles: Sequence[Obstacle] | None, options: GlobalOptions, joint_margin: float = 0.0,
-                        given: NDArray[np.float64] | None = None) -> tuple[list[NDArray[np.float64]], str]:
+                        given: NDArray[np.float64] | None = None, *,
+                        start: NDArray[np.float64] | None = None) -> tuple[list[NDArray[np.float64]], str]:
     """Up to ``options.goal_configurations`` distinct collision-free joint configurations at ``goal`` (module
     docstring, step 1), or ([], why): the goal is invalid. Preferred first: those whose link model keeps
     ``margin`` and whose joints stay ``joint_margin`` (rad or m) inside their limits — the joint-limit
     dampers stop a joint ``joint_safety`` short of its limit, so a goal configuration on the limit cannot be
     tracked; then those that keep ``margin`` at a limit; then those that only the exact mesh check clears.
+    Every configuration returned has passed the exact mesh check.
+
+    ``start``: the configuration the motion starts from (default: the last of ``seeds``, which is the start
+    in the fallback's call). The IK runs from it first, then from the other seeds; each solution is moved to
+    its equivalent nearest the start (:func:`nearest_equivalent`), and within each preference the solutions
+    come nearest the start first (Euclidean joint distance): the search reaches whichever goal root it meets
+    first, so a far one (another wrist branch: the UR5 that flipped its wrist, issue 34) must not be offered
+    when a near one exists.
 
     ``given``: the caller's own goal configuration (a joint goal, as in a MoveIt request), already checked
-    to be within the limits and at ``goal``. It is the only one: no IK runs, and when it collides (its link
-    model overlaps something and the exact mesh check confirms a contact) the goal is invalid. It is
+    to be within the limits and at ``goal``. It is the only one: no IK runs, and when the exact mesh check
+    finds a contact (obstacles or the robot's own links) the goal is invalid. It is
     searched to as given even on a joint limit: the tracking's last stretch is the field's approach to the
     pose, which gets there (moving such joints ``joint_margin`` inside lost 3 of 80 MotionBenchMaker
     problems to stagnation, all solved as given)."""
     if given is not None:
-        if _capsules_clear(arrays, scene, given, margin) or _exactly_clear(robot, obstacles, [given], 1):
+        if _exactly_clear(robot, obstacles, [given], 1):
             return [given], ""
         return [], "goal invalid: the given goal configuration collides (exact mesh check)"
     rng = np.random.default_rng(options.seed)
     lower, upper = _sampling_box(robot)
-    candidates = [*seeds, *(rng.uniform(lower, upper) for _ in range(options.ik_restarts))]
+    origin = np.asarray(seeds[-1] if start is None else start, dtype=np.float64)
+    others = [seed for seed in seeds if not np.array_equal(seed, origin)]
+    candidates = [origin, *others, *(rng.uniform(lower, upper) for _ in range(options.ik_restarts))]
     inner_lower, inner_upper = robot.lower_limits + joint_margin, robot.upper_limits - joint_margin
     reachable = 0
     clear: list[NDArray[np.float64]] = []
@@ -198,18 +232,22 @@ def goal_configurations(robot: RobotModel, goal: Pose, seeds: Sequence[NDArray[n
     unverified: list[NDArray[np.float64]] = []  # the link model overlaps: the exact check decides, if needed
     for seed in candidates:
         result = solve_ik(robot, goal, np.clip(seed, robot.lower_limits, robot.upper_limits))
-        if not result.success or any(np.max(np.abs(result.q - q)) < 1e-3 for q in clear + at_limit + unverified):
+        q = nearest_equivalent(robot, result.q, origin) if result.success else result.q
+        if not result.success or any(np.max(np.abs(q - other)) < 1e-3 for other in clear + at_limit + unverified):
             reachable += int(result.success)
             continue
         reachable += 1
-        if _capsules_clear(arrays, scene, result.q, margin):
-            inside = bool(np.all(result.q >= inner_lower) and np.all(result.q <= inner_upper))
-            (clear if inside else at_limit).append(result.q)
+        if _capsules_clear(arrays, scene, q, margin):
+            inside = bool(np.all(q >= inner_lower) and np.all(q <= inner_upper))
+            (clear if inside else at_limit).append(q)
         else:
-            unverified.append(result.q)
+            unverified.append(q)
         if len(clear) >= options.goal_configurations:
             break
+    for tier in (clear, at_limit, unverified):
+        tier.sort(key=lambda q: float(np.linalg.norm(q - origin)))
     found = (clear + at_limit)[:options.goal_configurations]
+    found = _exactly_clear(robot, obstacles, found, len(found))  # the link model may miss a pair: the meshes decide
     if len(found) < options.goal_configurations and unverified:
         found += _exactly_clear(robot, obstacles, unverified, options.goal_configurations - len(found))
     if found:
@@ -220,14 +258,35 @@ def goal_configurations(robot: RobotModel, goal: Pose, seeds: Sequence[NDArray[n
     return [], f"goal invalid: every inverse-kinematics solution of the goal pose collides ({reachable} found)"
 
 
+def nearest_equivalent(robot: RobotModel, q: NDArray[np.float64], reference: NDArray[np.float64]
+                       ) -> NDArray[np.float64]:
+    """``q`` with each revolute joint moved by the multiple of 2π that brings it nearest ``reference`` while
+    it stays within the joint's limits (continuous joints: any multiple). q_j + 2πm is the same joint
+    rotation, so the pose and every link's placement are those of ``q``; only the way there is shorter.
+    Prismatic joints are kept."""
+    out = np.array(q, dtype=np.float64)
+    turn = 2.0 * math.pi
+    lower, upper = robot.lower_limits, robot.upper_limits
+    for j in np.flatnonzero(np.asarray(robot.kinematics.kinds) == 0):
+        nearest = round((float(reference[j]) - float(out[j])) / turn)
+        options = [float(out[j]) + m * turn for m in (nearest - 1, nearest, nearest + 1)]
+        inside = [value for value in options if lower[j] <= value <= upper[j]]
+        if inside:
+            best = min(inside, key=lambda value: abs(value - float(reference[j])))
+            if abs(best - float(reference[j])) < abs(float(out[j]) - float(reference[j])):
+                out[j] = best
+    return out
+
+
 def _exactly_clear(robot: RobotModel, obstacles: Sequence[Obstacle] | None, qs: Sequence[NDArray[np.float64]],
                    count: int) -> list[NDArray[np.float64]]:
-    """The first ``count`` of ``qs`` that the exact mesh check (coal) clears (all of them without obstacles)."""
-    if not obstacles:
-        return list(qs[:count])
+    """The first ``count`` of ``qs`` that the exact mesh check (coal) clears: no obstacle and no self pair (not
+    adjacent, not disabled by the SRDF) in contact."""
     from pfield.robot.collision import CollisionChecker
 
-    checker = CollisionChecker(robot, list(obstacles))
+    if not qs or count <= 0:
+        return []
+    checker = CollisionChecker(robot, list(obstacles or ()))
     found: list[NDArray[np.float64]] = []
     for q in qs:
         if len(found) == count:
@@ -244,40 +303,92 @@ def _sampling_box(robot: RobotModel) -> tuple[NDArray[np.float64], NDArray[np.fl
     return np.ascontiguousarray(lower, dtype=np.float64), np.ascontiguousarray(upper, dtype=np.float64)
 
 
-def _search(checker: _core.Checker, start: NDArray[np.float64], goals: NDArray[np.float64],
-            lower: NDArray[np.float64], upper: NDArray[np.float64], step: float, options: GlobalOptions,
-            cancel: NDArray[np.uint8] | None) -> SearchResult:
-    """RRT-Connect from ``start`` to any row of ``goals`` in chunks of compiled work (the GIL released; ``cancel``
-    read every iteration) until found, full or ``options.time_limit``; then shortcutting."""
+def _search(checker: _core.Checker, clearance: _core.Checker, start: NDArray[np.float64],
+            goals: NDArray[np.float64], lower: NDArray[np.float64], upper: NDArray[np.float64], step: float,
+            options: GlobalOptions, cancel: NDArray[np.uint8] | None) -> SearchResult:
+    """RRT-Connect from ``start`` to any row of ``goals`` (nearest the start first) in chunks of compiled work
+    (the GIL released; ``cancel`` read every iteration) until found, full or ``options.time_limit``; then
+    shortening (:func:`_shortened`).
+
+    Which goal: the goal tree is rooted at every goal, and RRT-Connect ends at whichever it meets first.
+    When the shortened path is longer than the straight distance to another goal (a lower bound of any path
+    there), a second search rooted at those goals only runs for at most ``NEARER_GOAL_SHARE`` of the states
+    the first one checked (at least one chunk) within the time limit, and the shorter of the two shortened
+    paths is kept (the UR5 whose wrist flipped, issue 34: its search met a goal 5.3 rad away first, where
+    one 1.05 rad away was reachable)."""
     begin = time.perf_counter()
     if not checker.state_valid(start):
         return SearchResult(False, start[None], PlanStatus.START_INVALID,
                             "start invalid: the start violates the search margin",
                             checker.states_checked, time.perf_counter() - begin)
-    valid = [g for g in goals if checker.state_valid(g)]
-    if not valid:
+    valid = np.array([g for g in goals if checker.state_valid(g)])
+    if not len(valid):
         return SearchResult(False, start[None], PlanStatus.GOAL_INVALID,
                             "goal invalid: the goal violates the search margin",
                             checker.states_checked, time.perf_counter() - begin)
-    trees = _core.Trees(start, np.array(valid), int(options.capacity), int(options.seed))
-    searching = _core.SearchStatus.SEARCHING
-    status, path = searching, start[None]
-    while status == searching:
-        status, path = checker.connect(trees, lower, upper, step, 2000, cancel)
-        if status == searching and cancel is not None and cancel[0] != 0:
-            return SearchResult(False, start[None], PlanStatus.CANCELLED, "cancelled during the global search",
-                                checker.states_checked, time.perf_counter() - begin)
-        if status == searching and time.perf_counter() - begin > options.time_limit:
-            break
+    before = checker.states_checked
+    trees = _core.Trees(start, valid, int(options.capacity), int(options.seed))
+    status, path = _connect(checker, trees, lower, upper, step, options, cancel, begin, None)
+    if status == _CANCELLED:
+        return SearchResult(False, start[None], PlanStatus.CANCELLED, "cancelled during the global search",
+                            checker.states_checked, time.perf_counter() - begin)
     if status != _core.SearchStatus.FOUND:
-        timed_out = status == searching
+        timed_out = status == _core.SearchStatus.SEARCHING
         why = "time limit" if timed_out else "tree capacity"
         outcome = PlanStatus.GLOBAL_TIME_LIMIT if timed_out else PlanStatus.GLOBAL_NO_PATH
         return SearchResult(False, start[None], outcome, f"global search: no path within the {why} "
                             f"({options.time_limit:g} s, {options.capacity} nodes per tree)",
                             checker.states_checked, time.perf_counter() - begin)
-    short = checker.shortcut(path, int(options.shortcut_attempts), trees)
+    short = _shortened(checker, clearance, path, trees, options)
+    length = path_length(short)
+    reached = int(np.argmin(np.max(np.abs(valid - short[-1]), axis=1)))
+    nearer = np.array([g for k, g in enumerate(valid) if k != reached and float(np.linalg.norm(g - start)) < length])
+    if len(nearer):
+        budget = max(int(NEARER_GOAL_SHARE * (checker.states_checked - before)), _CHUNK)
+        again = _core.Trees(start, nearer, int(options.capacity), int(options.seed) + 1)
+        status, path = _connect(checker, again, lower, upper, step, options, cancel, begin, budget)
+        if status == _core.SearchStatus.FOUND:
+            other = _shortened(checker, clearance, path, again, options)
+            if path_length(other) < length:
+                short = other
     return SearchResult(True, short, PlanStatus.REACHED, "", checker.states_checked, time.perf_counter() - begin)
+
+
+NEARER_GOAL_SHARE = 1.0
+"""Budget of the search for nearer goals, as a share of the states the first search checked (:func:`_search`):
+at most doubling the search's work where it ran."""
+_CHUNK = 2000  # state checks per compiled chunk of the search
+_CANCELLED = -1
+
+
+def _connect(checker: _core.Checker, trees: _core.Trees, lower: NDArray[np.float64], upper: NDArray[np.float64],
+             step: float, options: GlobalOptions, cancel: NDArray[np.uint8] | None, begin: float,
+             budget: int | None) -> tuple[object, NDArray[np.float64]]:
+    """RRT-Connect chunks on ``trees`` until found, full, cancelled (status ``_CANCELLED``), the time limit
+    (from ``begin``) or ``budget`` more state checks (None: no budget): (status, path)."""
+    searching = _core.SearchStatus.SEARCHING
+    status: object = searching
+    path = np.empty((0, len(lower)))
+    stop = None if budget is None else checker.states_checked + budget
+    while status == searching:
+        status, path = checker.connect(trees, lower, upper, step, _CHUNK, cancel)
+        if status == searching and cancel is not None and cancel[0] != 0:
+            return _CANCELLED, path
+        if status == searching and (time.perf_counter() - begin > options.time_limit
+                                    or (stop is not None and checker.states_checked >= stop)):
+            break
+    return status, path
+
+
+def _shortened(checker: _core.Checker, clearance: _core.Checker, path: NDArray[np.float64], trees: _core.Trees,
+               options: GlobalOptions) -> NDArray[np.float64]:
+    """``path`` after ``shortcut_attempts`` random vertex shortcuts and the greedy pass, then
+    ``smoothing_attempts`` partial shortcuts between random points of the path and the greedy pass again
+    (the core's ``planning::shortcut`` and ``planning::shorten``, drawing from the search's stream), their new
+    segments checked by ``clearance`` (the margin plus ``smoothing_clearance``). Every segment of the result
+    passed one of the two edge tests; the length never grows."""
+    short = checker.shortcut(path, int(options.shortcut_attempts), trees)
+    return np.asarray(checker.shorten(short, int(options.smoothing_attempts), trees, clearance))
 
 
 def joint_space_search(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, start: NDArray[np.float64],
@@ -288,8 +399,23 @@ def joint_space_search(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Sc
     endpoint offsets (which the tracking must use too)."""
     search_scene = endpoint_scene(scene, arrays, (start, *goals), margin, options.endpoint_band)
     checker = _joint_checker(arrays, search_scene, margin, options.joint_resolution)
+    clearance = _joint_checker(arrays, _clearance_scene(scene, search_scene, arrays, (start, *goals), margin, options),
+                               margin + options.smoothing_clearance, options.joint_resolution)
     lower, upper = _sampling_box(robot)
-    return _search(checker, start, np.array(goals), lower, upper, options.joint_step, options, cancel), search_scene
+    return _search(checker, clearance, start, np.array(goals), lower, upper, options.joint_step, options,
+                   cancel), search_scene
+
+
+def _clearance_scene(scene: _wb.Scene, search_scene: _wb.Scene, arrays: _wb.RobotArrays,
+                     ends: Sequence[NDArray[np.float64]], margin: float, options: GlobalOptions) -> _wb.Scene:
+    """The offsets under which a checker of margin ``margin + smoothing_clearance`` keeps that much more from
+    the obstacles only: link–obstacle pairs get :func:`endpoint_scene`'s offsets at the larger margin (a pair
+    closer than it at an end may go as deep as there, no deeper), self pairs their search offsets less the
+    clearance (the search's own test). Conservative capsules of neighbouring links are often within a
+    centimetre of each other everywhere (the UR5's forearm and wrist): a clearance between them would refuse
+    every shortcut."""
+    wide = endpoint_scene(scene, arrays, ends, margin + options.smoothing_clearance, options.endpoint_band)
+    return wide._replace(self_offsets=search_scene.self_offsets - options.smoothing_clearance)
 
 
 def track(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, path: NDArray[np.float64], goal: Pose,
@@ -316,31 +442,15 @@ def track(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, path: ND
 
 def exact_contact(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, qs: NDArray[np.float64],
                   obstacles: Sequence[Obstacle] | None, resolution: float) -> str:
-    """The first contact ("" if none) that the exact mesh check finds on the waypoints of ``qs`` whose link
-    capsules overlap something, and on the motion into and out of them (every ``resolution`` rad)."""
-    raw = scene._replace(obstacle_offsets=np.zeros_like(scene.obstacle_offsets),
-                         self_offsets=np.zeros_like(scene.self_offsets))
-    flagged = np.flatnonzero(_core.overlapping_waypoints(core_scene(arrays, raw),
-                                                         np.ascontiguousarray(qs, dtype=np.float64)))
-    if flagged.size == 0:
-        return ""
-    from pfield.robot.collision import CollisionChecker
+    """The first contact ("" if none) on the joint path ``qs``: the planner's certificate
+    (:func:`pfield.planning.certify.certify_path`: every waypoint and every ``resolution`` rad between, exact
+    meshes, obstacles and self pairs). ``arrays`` and ``scene`` are no longer needed (the link model is not
+    trusted to preselect waypoints: it missed contacts, issue 34); kept for the callers' signature."""
+    from pfield.planning.certify import certify_path
 
-    checker = CollisionChecker(robot, list(obstacles or ()))
-    segments = sorted({int(k) - 1 for k in flagged if k > 0} | {int(k) for k in flagged if k < len(qs) - 1})
-    if len(qs) == 1:
-        report = checker.check(qs[0])
-        return report.pair if report.in_collision else ""
-    checked = -1  # the last waypoint checked: consecutive segments share it
-    for k in segments:
-        a, b = qs[k], qs[k + 1]
-        steps = max(1, math.ceil(float(np.max(np.abs(b - a))) / resolution))
-        for i in range(0 if checked != k else 1, steps + 1):
-            report = checker.check(a + (i / steps) * (b - a))
-            if report.in_collision:
-                return report.pair
-        checked = k + 1
-    return ""
+    del arrays, scene
+    certificate = certify_path(robot, list(obstacles or ()), qs, resolution)
+    return "" if certificate.clear else certificate.pair
 
 
 # ---- task space ---------------------------------------------------------------------------------------
@@ -357,7 +467,9 @@ def point_space_search(scene: _wb.Scene, start: NDArray[np.float64], goal: NDArr
     pad = 10.0 * options.point_step
     lower, upper = points.min(axis=0) - pad, points.max(axis=0) + pad
     checker = _core.Checker(core_obstacles(scene), float(margin), float(options.point_resolution))
-    return _search(checker, np.array(start, dtype=np.float64), np.array(goal, dtype=np.float64)[None],
+    clearance = _core.Checker(core_obstacles(scene), float(margin + options.smoothing_clearance),
+                              float(options.point_resolution))
+    return _search(checker, clearance, np.array(start, dtype=np.float64), np.array(goal, dtype=np.float64)[None],
                    np.ascontiguousarray(lower, dtype=np.float64), np.ascontiguousarray(upper, dtype=np.float64),
                    options.point_step, options, cancel)
 

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pfield.errors import InvalidInput
-from pfield.planning.retime import TimedJointTrajectory
+from pfield.planning.retime import TimedJointTrajectory, path_length
 from pfield.planning.status import PlanStatus
 from pfield.spatial import Pose, Twist
 
@@ -60,6 +60,9 @@ class PlannedPath:
             or ``"field+global"`` (the field tracking the path of the global fallback search).
         trajectory: the joint path time-parameterised within the joint velocity and acceleration limits
             (what a JointTrajectoryController executes), or None (task-space plans without joints).
+
+    Per-plan measures (properties, computed from the fields): :attr:`joint_path_length` (rad) and
+    :attr:`trajectory_duration` (s).
     """
 
     success: bool
@@ -154,6 +157,19 @@ class PlannedPath:
     def duration(self) -> float:
         """Time of the last waypoint (s)."""
         return float(self.times[-1])
+
+    @property
+    def joint_path_length(self) -> float | None:
+        """Σ_i ‖q_{i+1} − q_i‖₂ over ``joint_positions`` (rad; a prismatic joint's metres count as they are),
+        or None for a task-space plan without joints (:func:`pfield.planning.retime.path_length`)."""
+        return None if self.joint_positions is None else path_length(self.joint_positions)
+
+    @property
+    def trajectory_duration(self) -> float | None:
+        """Duration (s) of ``trajectory``, the joint path retimed within the robot's velocity and acceleration
+        limits (what a controller takes to execute it; not :attr:`duration`, the planner's own step time), or
+        None without one."""
+        return None if self.trajectory is None else self.trajectory.duration
 
     @property
     def min_clearance(self) -> float:

@@ -37,12 +37,13 @@ from pfield._core import planning as _core
 from pfield._validation import positive
 from pfield.errors import InvalidInput
 
-__all__ = ["TimedJointTrajectory", "retime_joint_path"]
+__all__ = ["TimedJointTrajectory", "path_length", "retime_joint_path"]
 
 KNOT_SPACING = 0.05
 """rad (or m): least joint-space arc length between consecutive knots (``planning::knot_indices``,
 ``src/core/planning/retime.hpp``)."""
 _ROUNDS = 2000
+_MEAN_ROUNDS = 8  # rounds of the waypoint mean-speed check (one or two suffice on the planners' paths)
 
 
 
@@ -77,6 +78,13 @@ class TimedJointTrajectory:
         return float(self.times[-1])
 
 
+def path_length(points: ArrayLike) -> float:
+    """Length of the polyline through ``points`` (N, n): Σ_k ‖w_{k+1} − w_k‖₂ (rad for joint paths, m for
+    positions; 0 for a single point). The joint path length the planners report (issue 34)."""
+    array = np.asarray(points, dtype=np.float64)
+    return float(np.sum(np.linalg.norm(np.diff(array, axis=0), axis=1))) if len(array) > 1 else 0.0
+
+
 def _limits(name: str, value: ArrayLike, count: int) -> NDArray[np.float64]:
     array = np.array(value, dtype=np.float64).reshape(-1)
     if array.shape != (count,):
@@ -108,18 +116,34 @@ def retime_joint_path(joint_names: tuple[str, ...], waypoints: ArrayLike, veloci
         resting = np.arange(len(points), dtype=np.float64) * step
         return TimedJointTrajectory(joint_names, resting, points, zeros, zeros, v_max, a_max)
     knots = _core.knot_indices(arc, KNOT_SPACING)
-    h, knot_v, knot_a = _core.stretch_intervals(np.ascontiguousarray(points[knots]), np.full(len(knots) - 1, step),
-                                                v_max, a_max, _ROUNDS)
-    scale = max(1.0, float(np.max(np.abs(knot_v) / v_max)), float(np.sqrt(np.max(np.abs(knot_a) / a_max))))
-    if scale > 1.0:  # the rounds stop within 1e-9 of the limits (or at their count): remove the rest uniformly
-        h, knot_v, knot_a = h * scale, knot_v / scale, knot_a / scale**2
-    knot_t = np.concatenate([[0.0], np.cumsum(h)])
+    knot_points = np.ascontiguousarray(points[knots])
     # waypoints between two knots: time in proportion to the arc length, velocity and acceleration
     # interpolated linearly (convex combinations of values within the limits stay within them)
     segment = np.clip(np.searchsorted(knots, np.arange(len(points)), side="right") - 1, 0, len(knots) - 2)
     arc0, arc1 = arc[knots[segment]], arc[knots[segment + 1]]
     share = np.clip((arc - arc0) / (arc1 - arc0), 0.0, 1.0)[:, None]
-    times = knot_t[segment] + share[:, 0] * h[segment]
+    steps = np.abs(np.diff(points, axis=0)) / v_max  # (N − 1, n): |Δq_j| / v_j, s
+    h = np.full(len(knots) - 1, step)
+    for round_ in range(_MEAN_ROUNDS):
+        h, knot_v, knot_a = _core.stretch_intervals(knot_points, h, v_max, a_max, _ROUNDS)
+        scale = max(1.0, float(np.max(np.abs(knot_v) / v_max)), float(np.sqrt(np.max(np.abs(knot_a) / a_max))))
+        if scale > 1.0:  # the rounds stop within 1e-9 of the limits (or at their count): remove the rest uniformly
+            h, knot_v, knot_a = h * scale, knot_v / scale, knot_a / scale**2
+        times = np.concatenate([[0.0], np.cumsum(h)])[segment] + share[:, 0] * h[segment]
+        # the mean speed between consecutive waypoints, |Δq_j| / Δt ≤ v_j: a path that turns back between two
+        # knots moves a joint further than the knots' difference says (up to twice as far, measured on random
+        # polylines), so a knot interval whose waypoints go too fast is lengthened by its worst ratio and the
+        # timing redone (intervals only ever grow, so this settles; the last round stretches uniformly)
+        ratio = np.max(steps, axis=1) / np.maximum(np.diff(times), np.finfo(np.float64).tiny)
+        worst = np.zeros(len(h))
+        np.maximum.at(worst, segment[:-1], ratio)
+        excess = float(np.max(worst))
+        if excess <= 1.0 + 1e-9:
+            break
+        if round_ == _MEAN_ROUNDS - 1:  # times are linear in h: a uniform stretch divides every ratio
+            h, knot_v, knot_a, times = h * excess, knot_v / excess, knot_a / excess**2, times * excess
+            break
+        h = h * np.maximum(worst, 1.0)
     velocities = (1.0 - share) * knot_v[segment] + share * knot_v[segment + 1]
     accelerations = (1.0 - share) * knot_a[segment] + share * knot_a[segment + 1]
     times = np.ascontiguousarray(times)

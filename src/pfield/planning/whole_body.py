@@ -15,15 +15,21 @@ goal near obstacles is still reached. See ``docs/robots.md``.
 
 Outcomes (:class:`~pfield.planning.PlanStatus` on the path, the sentence in ``failure_reason`` naming the
 blocking link and obstacle or the two links, their distance and where): START_INVALID (the start
-configuration collides — checked exactly with coal), COLLISION (the dampers could not keep a squeezed link
+configuration collides — checked exactly with coal before anything else), GOAL_INVALID (likewise a given goal
+configuration), COLLISION (the dampers could not keep a squeezed link
 off an obstacle: the plan stops *before* the contact), SELF_COLLISION (likewise between link capsules),
 STAGNATION (the rule of :class:`~pfield.planning.PlanOptions`), ITERATION_LIMIT and CANCELLED.
+
+Never a collision reported as reached: a motion that reaches the goal — the field's own, or the global
+fallback's — is reported REACHED only after it passes the certificate (:func:`pfield.planning.certify.certify_path`:
+the exact meshes, obstacles and self pairs, every waypoint and every 0.01 rad between). When the field's own motion
+fails it, the global fallback (if on) plans from the start; otherwise the plan ends with COLLISION or
+SELF_COLLISION, naming the pair, and its path stops before the contact.
 """
 
 from __future__ import annotations
 
 import logging
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -39,12 +45,14 @@ from pfield.geometry._packed import PackedObstacles, bounding_radius
 from pfield.planning import _whole_body_core as _core_loop
 from pfield.planning import _whole_body_layout as _wb
 from pfield.planning.cancel import cancel_flag
+from pfield.planning.certify import certify_path
 from pfield.planning.fallback import FALLBACK_PLANNER, FIELD_PLANNER, whole_body_fallback
 from pfield.planning.global_search import GlobalOptions
 from pfield.planning.options import PlanOptions
 from pfield.planning.result import PlannedPath
 from pfield.planning.retime import retime_joint_path
 from pfield.planning.status import ROOT_CAUSES, PlanStatus
+from pfield.robot.collision import CollisionChecker
 from pfield.robot.model import RobotModel
 from pfield.spatial import Pose
 
@@ -182,28 +190,44 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
                            goal_configuration: ArrayLike | None = None) -> PlannedPath:
     """Whole-body plan against already packed obstacles (see :func:`plan_whole_body`).
 
-    ``obstacles`` (the objects ``packed`` was made from) name obstacles in failure reasons and allow the
-    exact start check: a start whose capsules are already within ``safety_distance`` of something is
-    checked with coal on the robot's meshes, and a real contact fails the plan at once (START_INVALID).
+    ``obstacles`` (the objects ``packed`` was made from) name obstacles in failure reasons and are what the
+    exact checks (coal on the robot's meshes) test against: a start (or given goal configuration) in contact
+    fails the plan at once (START_INVALID, GOAL_INVALID), and a reached motion must pass the certificate.
+    Packed obstacles without their objects → ``InvalidInput`` (nothing could certify a motion among them).
     """
     settings = PlanOptions.build(plan_options, dt=dt, goal_tolerance=goal_tolerance, max_iterations=max_iterations,
                                  rotation_tolerance=rotation_tolerance, global_fallback=global_fallback,
                                  global_time_limit=global_time_limit).resolved(config)
     obstacle_names = [o.id for o in obstacles] if obstacles else None
+    if obstacles is None and packed is not None and len(packed.kinds) > 0:
+        raise InvalidInput("obstacles", None, "give the Obstacle objects the packed obstacles were made from: "
+                           "the certificate checks every reached motion against them on the exact meshes")
     start = robot.check_joint_angles(q0, "starting_joint_angles")
     goal_q = None if goal_configuration is None else _goal_configuration(robot, goal, goal_configuration, settings)
     opts = options or WholeBodyOptions()
     params = kernel_parameters(config, settings, opts)
     arrays = pack_robot(robot, config, opts)
     scene = make_scene(packed, arrays, start, config.safety_distance)
-    touching, distance = _start_collision(robot, start, scene, obstacles)
-    if touching:
-        return _single_waypoint(robot, start, f"collision: the start configuration collides ({touching})", distance)
+    checker = CollisionChecker(robot, list(obstacles or ()))
+    invalid = _endpoint_collision(checker, start, goal_q)
+    if invalid is not None:
+        return _single_waypoint(robot, start, *invalid)
     cancel = cancel_flag(settings.cancel)
     status, count, qs, qds, pos, quats, twists, clear, culprit = _core_loop.plan_loop(
         start, arrays, scene, np.array(goal.position, dtype=np.float64),
         np.array(goal.orientation, dtype=np.float64), params, settings.max_iterations, cancel)
-    # --- global fallback: the field stopped short; search, then let the field track the found path
+    certificate_reason = ""
+    if status == PlanStatus.REACHED:  # the planner's certificate: the field's motion on the exact meshes
+        certificate = certify_path(robot, list(obstacles or ()), qs, checker=checker)
+        if not certificate.clear:
+            status = PlanStatus.SELF_COLLISION if certificate.self_collision else PlanStatus.COLLISION
+            certificate_reason = certificate.describe()
+            _LOG.info("whole-body plan: the field's motion fails the certificate: %s", certificate_reason)
+            # the path ends before the contact: its waypoints up to the one before it (the start at least)
+            count = max(1, certificate.waypoint + (1 if certificate.fraction > 0.0 else 0))
+            qs, qds, pos, quats, twists, clear = (a[:count] for a in (qs, qds, pos, quats, twists, clear))
+    # --- global fallback: the field stopped short (or its motion failed the certificate); search, then let the
+    # field track the found path (the fallback certifies its own motion)
     planner, fallback_reason, field_status = FIELD_PLANNER, "", status
     if settings.global_fallback and status in (PlanStatus.STAGNATION, PlanStatus.ITERATION_LIMIT,
                                                PlanStatus.COLLISION, PlanStatus.SELF_COLLISION):
@@ -217,8 +241,8 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
             status, fallback_reason = outcome.status, outcome.reason
     # --- end of the global fallback
     errors = (float(np.linalg.norm(goal.position - pos[-1])), float(Pose(pos[-1], quats[-1]).rotation_distance(goal)))
-    reason = "" if status == PlanStatus.REACHED else _failure_reason(
-        field_status, count, culprit, robot, errors, obstacle_names, settings.dt, config.influence_distance)
+    reason = "" if status == PlanStatus.REACHED else (certificate_reason or _failure_reason(
+        field_status, count, culprit, robot, errors, obstacle_names, settings.dt, config.influence_distance))
     if reason and fallback_reason:  # the root cause first: a goal no search can reach explains the field's stop
         root_first = status in ROOT_CAUSES
         reason = f"{fallback_reason}; {reason}" if root_first else f"{reason}; {fallback_reason}"
@@ -250,27 +274,30 @@ def _goal_configuration(robot: RobotModel, goal: Pose, values: ArrayLike, settin
     return q
 
 
-def _start_collision(robot: RobotModel, start: NDArray[np.float64], scene: _wb.Scene,
-                     obstacles: Sequence[Obstacle] | None) -> tuple[str, float]:
-    """("", ·) or (the touching pair, the exact obstacle distance) when capsules start too close and coal
-    confirms a real contact."""
-    if not (np.any(scene.obstacle_offsets < 0.0) or np.any(scene.self_offsets < 0.0)):
-        return "", math.inf
-    from pfield.robot.collision import CollisionChecker
+def _endpoint_collision(checker: CollisionChecker, start: NDArray[np.float64], goal: NDArray[np.float64] | None
+                        ) -> tuple[str, float, PlanStatus] | None:
+    """(reason, exact distance, status) when the start (START_INVALID) or the given goal configuration
+    (GOAL_INVALID) is in contact on the exact meshes (obstacles or a self pair), naming the pair; else None."""
+    for q, status, what in ((start, PlanStatus.START_INVALID, "start"), (goal, PlanStatus.GOAL_INVALID, "goal")):
+        if q is None:
+            continue
+        report = checker.check(q)
+        if report.in_collision:
+            kind = "self-collision" if report.self_distance <= report.distance else "collision"
+            distance = min(report.distance, report.self_distance)
+            return (f"{kind}: the {what} configuration collides ({report.pair}, exact mesh distance "
+                    f"{distance * 1e3:.2f} mm)", report.distance, status)
+    return None
 
-    # only the kinds of pairs that start too close need the exact check (building obstacle shapes costs ms)
-    near = list(obstacles or ()) if np.any(scene.obstacle_offsets < 0.0) else []
-    report = CollisionChecker(robot, near).check(start)
-    return (report.pair if report.in_collision else ""), report.distance
 
-
-def _single_waypoint(robot: RobotModel, start: NDArray[np.float64], reason: str, clearance: float) -> PlannedPath:
+def _single_waypoint(robot: RobotModel, start: NDArray[np.float64], reason: str, clearance: float,
+                     status: PlanStatus = PlanStatus.START_INVALID) -> PlannedPath:
     pose = robot.forward_kinematics(start)
     _LOG.info("whole-body plan failed: %s", reason)
     return PlannedPath(success=False, failure_reason=reason, times=np.zeros(1), positions=pose.position[None],
                        orientations=pose.orientation[None], twists=np.zeros((1, 6)), clearances=np.full(1, clearance),
                        iterations=0, joint_names=robot.joint_names, joint_positions=start[None],
-                       joint_velocities=np.zeros((1, robot.n_joints)), status=PlanStatus.START_INVALID)
+                       joint_velocities=np.zeros((1, robot.n_joints)), status=status)
 
 
 def _field_parts(field: Any) -> tuple[FieldConfig, Pose, PackedObstacles | None, list[Obstacle]]:

@@ -56,21 +56,24 @@ def resolve_mesh_uri(uri: str, urdf_dir: Path, resolver: ResourceResolver) -> Pa
 
 
 _LINK = re.compile(r"""<link\b[^>]*?\bname\s*=\s*(["'])(.*?)\1""")
+_MESH_FILENAME = re.compile(r"""(<mesh\b[^>]*?\bfilename\s*=\s*)(["'])(.+?)\2""")
 
 
 def _resolve_uris(text: str, urdf_path: Path, resolver: ResourceResolver) -> str:
-    """Replace every ``filename="…"`` (mesh URI) by the absolute file ``resolver`` maps it to
+    """Replace every ``<mesh filename="…">`` URI by the absolute file ``resolver`` maps it to
     (:func:`resolve_mesh_uri`); an error names the link whose mesh it is."""
 
     def absolute(match: re.Match[str]) -> str:
         try:
-            return f'filename="{resolve_mesh_uri(match.group(2), urdf_path.parent, resolver)}"'
+            return f'{match.group(1)}"{resolve_mesh_uri(match.group(3), urdf_path.parent, resolver)}"'
         except (ResourceNotFound, ResourceNotAllowed) as exc:
             links = _LINK.findall(text, 0, match.start())
             owner = f"link {links[-1][1]!r}" if links else "a mesh"
             raise type(exc)(f"{owner} of {urdf_path}: {exc}") from None
 
-    return re.sub(r"""filename\s*=\s*(["'])(.+?)\1""", absolute, text)
+    # only <mesh filename=…> names a mesh: other elements' filename attributes (a Gazebo <plugin filename=
+    # "libgazebo_ros_control.so">) are no files of the robot's geometry and are left as they are
+    return _MESH_FILENAME.sub(absolute, text)
 
 
 def _check_supported(model: pin.Model, field: str) -> None:

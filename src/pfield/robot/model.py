@@ -182,8 +182,21 @@ class RobotModel:
         """
         loaded = load_urdf(path, package_paths, locked_joints, resolver)
         disabled = read_disabled_pairs(srdf) if srdf is not None else None
-        named = read_group_states(srdf, _joint_names(loaded)) if srdf is not None else None
-        return cls(loaded, end_effector, disabled, named_configurations=named, joint_limits=joint_limits)
+        robot = cls(loaded, end_effector, disabled, joint_limits=joint_limits)
+        if srdf is not None:
+            robot._adopt_group_states(read_group_states(srdf, _joint_names(loaded)), srdf)
+        return robot
+
+    def _adopt_group_states(self, states: Mapping[str, NDArray[np.float64]], source: str | Path) -> None:
+        """Add an SRDF's group states as named configurations. A state outside the URDF's joint limits is
+        skipped with a warning, not refused: robot packages ship such states (example-robot-data's Kinova
+        ``arm_up`` puts a joint at -1.5707 rad beyond a -1.5 rad limit), and MoveIt loads those files too; a
+        caller's own ``named_configurations`` stay strict."""
+        for name, q in states.items():
+            try:
+                self._named[str(name)] = _frozen(self.check_joint_angles(q, f"group_state[{name!r}]"))
+            except InvalidInput as exc:
+                _LOG.warning("SRDF %s: group state %r skipped: %s", source, name, exc)
 
     @classmethod
     def builtin(cls, name: str, locked_joints: dict[str, float] | None = None) -> RobotModel:

@@ -14,9 +14,11 @@ Every YAML file is read within the bounds of :func:`pfield.interfaces._yaml.load
 of at most 8 MiB, 100 levels deep, 250 000 nodes with aliases expanded); a MoveIt file beyond them is one
 problem that cannot be read, a scene file or an archive beyond them fails the whole call.
 
-For MoveIt problems the robot is :class:`RobotSpec`'s built-in (default the Panda). The request's values of
-the catalog's locked joints lock them (MotionBenchMaker opens the Panda's fingers to 0.065 m); the goal is
-a joint goal's end-effector pose (forward kinematics) or the request's pose goal.
+For MoveIt problems the robot is a :class:`~pfield.robot.description.RobotDescription` (``RobotSpec``): a
+built-in name (default the Panda) or a URDF with its SRDF, end effector and package paths. Joints are matched
+by name (the request's other joints are ignored); the robot's joints a joint goal does not name, and a built-in's
+catalog locks, are locked at the request's start values (MotionBenchMaker opens the Panda's fingers to
+0.065 m); the goal is a joint goal's end-effector pose (forward kinematics) or the request's pose goal.
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ from pfield.field import FieldConfig
 from pfield.geometry import Obstacle
 from pfield.interfaces._yaml import load_yaml_file
 from pfield.planning.options import PlanOptions
-from pfield.robot.catalog import builtin_spec
+from pfield.robot.description import RobotDescription
 from pfield.scene._archives import extract_archive
 from pfield.scene.files import load_scene
 from pfield.scene.moveit import WORLD_FRAMES, request_from_moveit, scene_obstacles
@@ -58,21 +60,9 @@ _ARCHIVE = re.compile(r"\.(tar|tar\.gz|tgz|tar\.bz2|tbz2|tar\.xz|txz)$")
 _REQUEST = "request[0-9][0-9][0-9][0-9].yaml"
 
 
-@dataclass(frozen=True)
-class RobotSpec:
-    """A built-in robot (:meth:`RobotModel.builtin`) with joints locked at given values (sorted pairs)."""
-
-    name: str = "panda"
-    locked_joints: tuple[tuple[str, float], ...] = ()
-
-    def __post_init__(self) -> None:
-        builtin_spec(self.name)  # refuses an unknown name, listing the known ones
-        object.__setattr__(self, "locked_joints", tuple(sorted((str(k), float(v)) for k, v in self.locked_joints)))
-
-    def build(self):  # type: ignore[no-untyped-def]  # -> RobotModel (robot is below scene: a plain import)
-        from pfield.robot import RobotModel
-
-        return RobotModel.builtin(self.name, locked_joints=dict(self.locked_joints))
+RobotSpec = RobotDescription
+"""The robot of a whole-body problem: :class:`pfield.robot.description.RobotDescription` (one type, two names;
+``RobotSpec`` is the name this module gave it first)."""
 
 
 @dataclass(frozen=True)
@@ -136,15 +126,26 @@ class Problem:
         return cls(scene, index, error=text("error", error) or "unreadable problem")
 
 
-def read_moveit_problem(scene_file: Path, request_file: Path, index: int, robot: str = "panda",
-                        config: FieldConfig = MBM_CONFIG, options: PlanOptions = MBM_OPTIONS) -> Problem:
-    """The whole-body problem of one MoveIt scene/request pair (see the module text for the robot and goal).
+def _description(robot: str | RobotDescription | None) -> RobotDescription:
+    if isinstance(robot, RobotDescription):
+        return robot
+    return RobotDescription("panda" if robot is None else robot)
 
-    The robot's base link is also taken as the world frame (the MBM robots stand at the origin). Errors name
-    the file and the part: ``InvalidInput("request0003.yaml: request.goal_constraints", …)``.
+
+def read_moveit_problem(scene_file: Path, request_file: Path, index: int, robot: str | RobotDescription = "panda",
+                        config: FieldConfig = MBM_CONFIG, options: PlanOptions = MBM_OPTIONS) -> Problem:
+    """The whole-body problem of one MoveIt scene/request pair for ``robot`` (a built-in name or a
+    :class:`RobotDescription`).
+
+    Joints are matched by name: the request's joints the robot does not move (a gripper's joints that are
+    fixed in this URDF) are ignored. Of a joint goal, every joint of the robot the goal does not name is locked
+    at the request's start value, and so are the catalog's locked joints of a built-in robot (MotionBenchMaker
+    opens the Panda's fingers to 0.065 m); the description's own ``locked_joints`` keep their values. The
+    robot's root link is also taken as the world frame (the MBM robots stand at the origin). Errors name the
+    file and the part: ``InvalidInput("request0003.yaml: request.goal_constraints", …)``.
     """
-    spec = builtin_spec(robot)
-    frames = (*WORLD_FRAMES, *_base_frames(robot))
+    description = _description(robot)
+    frames = (*WORLD_FRAMES, description.base_link)
     scene_data, request_data = (load_yaml_file(file, file.name) for file in (scene_file, request_file))
     try:
         obstacles = scene_obstacles(scene_data, frames)
@@ -152,17 +153,35 @@ def read_moveit_problem(scene_file: Path, request_file: Path, index: int, robot:
     except InvalidInput as exc:
         where = scene_file.name if exc.field.startswith("scene") else request_file.name
         raise InvalidInput(f"{where}: {exc.field}", exc.value, exc.reason) from None
-    if request.goal_link and request.goal_link != spec.end_effector:
+    end_effector = description.end_effector_link
+    if request.goal_link and request.goal_link != end_effector:
         raise InvalidInput(f"{request_file.name}: request.goal_constraints[0].position_constraints[0].link_name",
-                           request.goal_link, f"pose goals must name the robot's end effector {spec.end_effector!r}")
-    locked = {name: request.start[name] for name in spec.locked_joints if name in request.start}
-    start = {name: value for name, value in request.start.items() if name not in spec.locked_joints}
-    return Problem(scene_file.parent.name, index, tuple(obstacles), start, request.goal_pose, request.goal_joints,
-                   RobotSpec(robot, tuple(locked.items())), config, options)
+                           request.goal_link, f"pose goals must name the robot's end effector {end_effector!r}")
+    own = dict(description.locked_joints)
+    catalog = [name for name in description.locked if name not in own]
+    free = [name for name in description.urdf_joints if name not in description.locked]
+    if request.goal_joints is not None:
+        catalog += [name for name in free if name not in request.goal_joints]
+    missing = [name for name in catalog if name not in request.start and name not in description.locked]
+    if missing:
+        raise InvalidInput(f"{request_file.name}: request.start_state.joint_state.name", sorted(request.start),
+                           f"the goal leaves the robot's joints {missing} free and the start state gives no value "
+                           "to lock them at")
+    locked = {name: request.start[name] for name in catalog if name in request.start}
+    free = [name for name in free if name not in locked]
+    start = {name: request.start[name] for name in free if name in request.start}
+    goal_joints = None if request.goal_joints is None else \
+        {name: request.goal_joints[name] for name in free if name in request.goal_joints}
+    return Problem(scene_file.parent.name, index, tuple(obstacles), start, request.goal_pose, goal_joints,
+                   description.with_locked(locked), config, options)
 
 
-def _base_frames(robot: str) -> tuple[str, ...]:
-    return {"panda": ("panda_link0",), "xarm7": ("link_base",)}.get(robot.strip().lower(), ())
+def _short(scene: str, robot: RobotDescription) -> str:
+    """A scene folder's name without its robot suffix (``box_ur5`` → ``box``, ``cage_panda`` → ``cage``)."""
+    for name in (*robot.short_names, "panda"):
+        if scene.endswith("_" + name):
+            return scene.removesuffix("_" + name)
+    return scene
 
 
 def scene_folders(root: Path) -> list[Path]:
@@ -170,7 +189,7 @@ def scene_folders(root: Path) -> list[Path]:
     return sorted({p.parent for p in root.rglob(_REQUEST)}, key=lambda p: (p.name, str(p)))
 
 
-def _folder_problems(folder: Path, robot: str, config: FieldConfig, options: PlanOptions,
+def _folder_problems(folder: Path, robot: RobotDescription, config: FieldConfig, options: PlanOptions,
                      limit: int | None) -> Iterator[Problem]:
     for request in sorted(folder.glob(_REQUEST))[:limit]:
         number = request.stem.removeprefix("request")
@@ -184,16 +203,16 @@ def _folder_problems(folder: Path, robot: str, config: FieldConfig, options: Pla
             yield Problem.unreadable(folder.name, int(number), str(exc))
 
 
-def _path_problems(path: Path, robot: str | None, config: FieldConfig | None, options: PlanOptions | None,
+def _path_problems(path: Path, robot: RobotDescription, config: FieldConfig | None, options: PlanOptions | None,
                    wanted: set[str] | None, limit: int | None, found: set[str]) -> Iterator[Problem]:
-    moveit = (robot or "panda", config or MBM_CONFIG, options or MBM_OPTIONS)
+    moveit = (robot, config or MBM_CONFIG, options or MBM_OPTIONS)
     if path.is_dir():
         folders = scene_folders(path)
         if not folders:
             raise InvalidInput("problems", str(path), "the folder holds no requestNNNN.yaml/sceneNNNN.yaml pairs")
         for folder in folders:
             found.add(folder.name)
-            if wanted is None or folder.name.removesuffix("_panda") in wanted:
+            if wanted is None or _short(folder.name, robot) in wanted:
                 yield from _folder_problems(folder, *moveit, limit)
     elif _ARCHIVE.search(path.name):
         with tempfile.TemporaryDirectory(prefix="pfield-problems-") as tmp:
@@ -214,30 +233,30 @@ def _path_problems(path: Path, robot: str | None, config: FieldConfig | None, op
         raise InvalidInput("problems", str(path), "expected a scene .yaml, a folder of MoveIt problems or an archive")
 
 
-def read_problems(paths: Iterable[str | Path], robot: str | None = None, config: FieldConfig | None = None,
-                  options: PlanOptions | None = None, scenes: Sequence[str] | None = None,
-                  limit: int | None = None) -> list[Problem]:
-    """Every problem of ``paths`` in order (see the module text). ``robot`` names the built-in robot of MoveIt
-    problems (default ``"panda"``); ``config``/``options`` replace the defaults (:data:`MBM_CONFIG`,
-    :data:`MBM_OPTIONS` for MoveIt problems; a scene file's own for scene files). ``scenes`` keeps only the
-    scenes of these names (``_panda`` suffix optional), ``limit`` the first N problems of each scene.
+def read_problems(paths: Iterable[str | Path], robot: str | RobotDescription | None = None,
+                  config: FieldConfig | None = None, options: PlanOptions | None = None,
+                  scenes: Sequence[str] | None = None, limit: int | None = None) -> list[Problem]:
+    """Every problem of ``paths`` in order (see the module text). ``robot`` is the robot of MoveIt problems: a
+    built-in name or a :class:`RobotDescription` (default ``"panda"``); ``config``/``options`` replace the
+    defaults (:data:`MBM_CONFIG`, :data:`MBM_OPTIONS` for MoveIt problems; a scene file's own for scene files).
+    ``scenes`` keeps only the scenes of these names (the robot's suffix optional: ``box`` for ``box_ur5``, with
+    the URDF's file stem or robot name, or ``_panda``), ``limit`` the first N problems of each scene.
     Two problems with the same ``(scene, index)`` are refused."""
     if isinstance(paths, str | Path):
         paths = [paths]
     if limit is not None and (isinstance(limit, bool) or not isinstance(limit, int) or limit < 1):
         raise InvalidInput("limit", limit, "must be an integer >= 1 or None")
-    if robot is not None:
-        builtin_spec(robot)
-    wanted = {s.removesuffix("_panda") for s in scenes} if scenes else None
+    description = _description(robot)
+    wanted = {_short(s, description) for s in scenes} if scenes else None
     problems: list[Problem] = []
     found: set[str] = set()
     for path in paths:
-        problems.extend(_path_problems(Path(path), robot, config, options, wanted, limit, found))
+        problems.extend(_path_problems(Path(path), description, config, options, wanted, limit, found))
     if wanted is not None:
-        unknown = wanted - {name.removesuffix("_panda") for name in found}
+        unknown = wanted - {_short(name, description) for name in found}
         if unknown:
             raise InvalidInput("scenes", sorted(unknown), f"no such scene; known: {sorted(found)}")
-        problems = [p for p in problems if p.scene.removesuffix("_panda") in wanted]
+        problems = [p for p in problems if _short(p.scene, description) in wanted]
     if limit is not None:
         counts: dict[str, int] = {}
         kept = []

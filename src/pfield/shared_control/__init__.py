@@ -3,6 +3,9 @@
 * :mod:`~pfield.shared_control.autonomy` — the task-space and whole-body autonomy vectors (ComputeAutonomyVector).
 * :mod:`~pfield.shared_control.assistance` — the operator's twist arbitrated with the field's, the dampers on the
   blend, the nearest obstacle, time to collision and flags (ComputeAssistance); docs/assistance.md.
+* :mod:`~pfield.shared_control.servo` — the servo loop: the latest operator twist turned into joint commands at a
+  fixed rate through the assistance, under MoveIt Servo's parameter names (:mod:`~pfield.shared_control.servo_config`);
+  docs/servo.md.
 
 Every command these return keeps the output contract of :mod:`pfield.safety` (finite, within the limits).
 """
@@ -22,6 +25,8 @@ from pfield.shared_control.autonomy import (
     whole_body_autonomy,
     whole_body_autonomy_vector,
 )
+from pfield.shared_control.servo import Servo, ServoCommand, ServoStatus
+from pfield.shared_control.servo_config import ServoConfig
 
 __all__ = [
     "ARBITRATIONS",
@@ -29,6 +34,10 @@ __all__ = [
     "AssistanceOptions",
     "AssistanceScene",
     "Flag",
+    "Servo",
+    "ServoCommand",
+    "ServoConfig",
+    "ServoStatus",
     "WholeBodyAutonomy",
     "task_space_assistance",
     "task_space_autonomy_vector",

@@ -122,8 +122,11 @@ def whole_body_autonomy_vector(field: Any, robot: RobotModel, q: ArrayLike,
                                prev_joint_velocities: ArrayLike | None = None, dt: float = 0.0,
                                query_pose: Pose | None = None) -> Twist:
     """End-effector twist of :func:`whole_body_autonomy` (world frame): the ComputeAutonomyVector answer."""
-    if query_pose is None:
-        return _fast_twist(_fast_path(field, robot, q, prev_joint_velocities, dt))
+    if query_pose is None:  # the service's hot path: the cached stepper's twist alone, no FK pose object
+        cached: WholeBodyStepper | None = getattr(_CACHE, "entry", None)
+        if cached is None or cached.field is not field or cached.robot is not robot:
+            cached = _stepper(field, robot, None)
+        return _fast_twist(cached.twist(q, prev_joint_velocities, dt))
     return whole_body_autonomy(field, robot, q, prev_joint_velocities, dt, query_pose).twist
 
 
@@ -138,9 +141,3 @@ def whole_body_row(field: Any, robot: RobotModel, q: ArrayLike, prev_joint_veloc
     """The whole-body step's raw row at ``q`` (:meth:`pfield.planning.WholeBodyStepper.row`), from the cached
     stepper: what :func:`whole_body_autonomy` reads, without building its value objects."""
     return _stepper(field, robot, None).row(q, prev_joint_velocities, dt)
-
-
-def _fast_path(field: Any, robot: RobotModel, q: ArrayLike, prev_joint_velocities: ArrayLike | None,
-               dt: float) -> NDArray[np.float64]:
-    """The twist alone, skipping the FK pose object (the service's hot path)."""
-    return _stepper(field, robot, None).twist(q, prev_joint_velocities, dt)

@@ -9,7 +9,7 @@ Routes (DESIGN §3.2; a ROS name ``/pfield/plan_path`` appears without its leadi
 * ``GET /param/<node>`` / ``PUT /param/<node>``: all parameters / set some (all-or-nothing).
 * ``GET /topics``, ``GET /services``, ``GET /nodes``: listings for ``pfield topic list`` etc.
 
-* ``GET /health``: ``{"ready": bool, "kernels": "warm" | "compiling", ...}`` plus the caps' counters.
+* ``GET /health``: ``{"ready": bool, "start_up": "done" | "running", ...}`` plus the caps' counters.
 
 Browser protections and body checks run first, for every route (:mod:`pfield.transport._asgi`): a ``Host``
 other than this server is refused (421), a state-changing request or WebSocket from another page's
@@ -518,10 +518,16 @@ def _add_health_route(app: FastAPI, routes: _Routes, ready: Callable[[], bool] |
 
     @app.get("/health", tags=["listings"])
     async def health() -> dict[str, Any]:
-        """Whether the node is warm (``ready``: its kernels are compiled), and the caps' counters."""
-        warm = True if ready is None else bool(ready())
+        """Whether the node's start-up work has finished, and the caps' counters.
+
+        ``ready`` (bool) and ``start_up`` (``"done"`` | ``"running"``) say the same: the ``ready`` callable of
+        :func:`create_app` has returned true (for ``pfield serve``: :func:`pfield.warmup.ready`, its self-check and
+        its robot's link-model fit have ended; a failed self-check step is logged and the node serves what works).
+        The kernels are compiled ahead of time (the core, :mod:`pfield._core`), so nothing compiles here: this
+        field replaced ``"kernels": "warm" | "compiling"`` of the numba engine."""
+        done = True if ready is None else bool(ready())
         fanout: TopicFanout = app.state.fanout
-        return {"ready": warm, "kernels": "warm" if warm else "compiling",
+        return {"ready": done, "start_up": "done" if done else "running",
                 "nodes": sorted(routes.nodes), "uptime_s": round(time.monotonic() - started, 3),
                 "websocket": {"connections": fanout.connections, "dropped_messages": fanout.dropped},
                 "topics_kept": sum(len(bus.topics()) for bus in routes.buses),
@@ -540,7 +546,7 @@ def create_app(nodes: Sequence[Node], *, token: str | None = None,
     per WebSocket before the oldest drop; ``allowed_origins``: pages (``http://host:port``) besides this
     server's own loopback origins that may change state and open WebSockets (they also get CORS headers);
     ``allowed_hosts``: ``Host`` names accepted besides the loopback names and the bound address;
-    ``ready``: says whether the kernels are warm (``GET /health``; None: always ready).
+    ``ready``: says whether the node's start-up work has finished (``GET /health``; None: always ready).
     """
     routes = _Routes(nodes, workers)
 

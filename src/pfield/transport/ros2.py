@@ -84,6 +84,50 @@ def _failure_response(response: type[RosMessage], reason: str) -> RosMessage:
     return response(**values)
 
 
+def _publication_qos(spec: PublicationSpec) -> QoSProfile:
+    """:data:`LATCHED_QOS`, or for a stream of commands (``latched=False``: the servo's joint commands) reliable and
+    volatile, depth 1 (MoveIt Servo's outgoing commands are volatile too): a controller that connects late must not
+    execute an old command, and only the newest one matters."""
+    return LATCHED_QOS if spec.latched else STREAM_QOS
+
+
+STREAM_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+"""QoS of streamed commands (:func:`_publication_qos`)."""
+
+
+class _StreamPublisher:
+    """Bus listener that publishes streamed commands (``PublicationSpec.latched`` False) in the thread that computed
+    them: a servo's joint command goes out at once, without the hand-off to the publisher thread that latched topics
+    take (command-in to command-out latency). Conversion errors are logged, never raised into the node."""
+
+    def __init__(self) -> None:
+        self._targets: dict[str, tuple[type, Callable[[Any], None]]] = {}
+
+    def register(self, topic: str, message_class: type, publish: Callable[[Any], None]) -> None:
+        self._targets[topic] = (message_class, publish)
+
+    def __call__(self, topic: str, message: RosMessage) -> None:
+        target = self._targets.get(topic)
+        if target is None:
+            return
+        try:
+            target[1](to_ros(message, target[0]))
+        except Exception:  # a bad message must not reach the node's handler
+            _LOG.exception("%s: could not publish", topic)
+
+
+def _attach_trajectory_executor(node: Node, ros_node: RclpyNode) -> Any:
+    """A node with a ``trajectory_executor`` slot (the manager's ``/pfield/execute_trajectory``) gets a
+    FollowJointTrajectory client on its rclpy node (:mod:`pfield.transport.trajectory_client`); None otherwise."""
+    if not hasattr(node, "trajectory_executor"):
+        return None
+    from pfield.transport.trajectory_client import NodeTrajectoryExecutor
+
+    executor = NodeTrajectoryExecutor(ros_node)
+    node.trajectory_executor = executor
+    return executor
+
+
 class _InFlight:
     """Counts callbacks running in executor threads so shutdown can wait for them."""
 
@@ -110,8 +154,10 @@ class _InFlight:
 class _NodeAdapter:
     """One pfield node on one rclpy node: its services, subscriptions, publishers, parameters, timer."""
 
-    def __init__(self, node: Node, context: Context, in_flight: _InFlight, publisher: BusPublisher) -> None:
+    def __init__(self, node: Node, context: Context, in_flight: _InFlight, publisher: BusPublisher,
+                 streams: _StreamPublisher | None = None) -> None:
         self.node = node
+        self._streams = streams
         self._in_flight = in_flight
         self.ros_node = RclpyNode(node.name.lstrip("/") or "pfield", context=context)
         self._short = MutuallyExclusiveCallbackGroup()
@@ -123,6 +169,7 @@ class _NodeAdapter:
         for publication in node.publications():
             self._add_publication(publication, publisher)
         declare_parameters(self.ros_node, node)
+        self.trajectory_executor = _attach_trajectory_executor(node, self.ros_node)
         if node.tick_period:
             self.ros_node.create_timer(node.tick_period, self._tick, callback_group=self._short)
 
@@ -167,7 +214,10 @@ class _NodeAdapter:
 
     def _add_publication(self, spec: PublicationSpec, publisher: BusPublisher) -> None:
         message_class = interface_class(spec.type_name)
-        ros_publisher = self.ros_node.create_publisher(message_class, spec.topic, LATCHED_QOS)
+        ros_publisher = self.ros_node.create_publisher(message_class, spec.topic, _publication_qos(spec))
+        if not spec.latched and self._streams is not None:
+            self._streams.register(spec.topic, message_class, ros_publisher.publish)
+            return
         publisher.register(spec.topic, message_class, ros_publisher.publish)
 
     def _tick(self) -> None:
@@ -194,10 +244,12 @@ class Ros2Host:
         rclpy.init(args=["pfield", *args], context=self._context)
         self._in_flight = _InFlight()
         self._publisher = BusPublisher()
+        self._streams = _StreamPublisher()
         self._adapters: list[_NodeAdapter] = []
         try:
             for node in self.nodes:
-                self._adapters.append(_NodeAdapter(node, self._context, self._in_flight, self._publisher))
+                self._adapters.append(_NodeAdapter(node, self._context, self._in_flight, self._publisher,
+                                                   self._streams))
         except BaseException:
             self._destroy()
             raise
@@ -212,6 +264,7 @@ class Ros2Host:
         """Start publishing and spinning (returns at once)."""
         for bus in distinct_buses(self.nodes):
             bus.add_listener(self._publisher.enqueue)
+            bus.add_listener(self._streams)
         self._publisher.start()
         self._spin_thread = threading.Thread(target=self._executor.spin, name="pfield-ros2-executor", daemon=True)
         self._spin_thread.start()
@@ -221,6 +274,7 @@ class Ros2Host:
         """Stop in the order rclpy needs: executor, its thread, running callbacks, nodes, context."""
         for bus in distinct_buses(self.nodes):
             bus.remove_listener(self._publisher.enqueue)
+            bus.remove_listener(self._streams)
         self._executor.shutdown(timeout_sec=timeout)
         if self._spin_thread is not None:
             self._spin_thread.join(timeout)
@@ -231,6 +285,8 @@ class Ros2Host:
 
     def _destroy(self) -> None:
         for adapter in self._adapters:
+            if adapter.trajectory_executor is not None:
+                adapter.trajectory_executor.close()
             adapter.ros_node.destroy_node()
         self._adapters.clear()
         if self._context.ok():

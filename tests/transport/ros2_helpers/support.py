@@ -9,11 +9,13 @@ a failure, so the ROS 2 tests can never pass by not running; elsewhere the test 
 from __future__ import annotations
 
 import importlib.util
+import json
 import os
 import shutil
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -70,3 +72,16 @@ def run_session(node_argv: list[str], client_argv: list[str], out_dir: Path, tim
                "--node", *node_argv, "--client", *client_argv]
     return subprocess.run(command, env=env if env is not None else ros_environment(), capture_output=True, text=True,
                           timeout=timeout, check=False, cwd=REPO)
+
+
+def run_scenario(node_argv: list[str], client_argv: list[str], out_dir: Path, timeout: float = 600.0) -> dict[str, Any]:
+    """:func:`run_session`, then what its client wrote: ``{"results": results.json, "session": session.json,
+    "logs": {"node.log": …, "client.log": …}}``. Fails the test, with the logs, when the session failed, the client
+    wrote no results or its results carry an ``"error"``."""
+    process = run_session(node_argv, client_argv, out_dir, timeout=timeout)
+    assert process.returncode == 0, process.stderr
+    logs = {name: (out_dir / name).read_text() for name in ("node.log", "client.log")}
+    assert (out_dir / "results.json").exists(), logs
+    results = json.loads((out_dir / "results.json").read_text())
+    assert "error" not in results, str(results["error"]) + "\n--- node log ---\n" + logs["node.log"]
+    return {"results": results, "session": json.loads((out_dir / "session.json").read_text()), "logs": logs}

@@ -1,0 +1,268 @@
+"""``/pfield_servo``: the servo loop (:mod:`pfield.shared_control.servo`) as a transport-free node.
+
+Hosted beside ``/pfield_manager`` (whose obstacles, goal, field parameters, static frames and ``/joint_states`` it
+uses), by ``pfield serve`` and ``pfield ros2 node`` when the ``--params`` file has a ``pfield_servo`` or
+``servo_node`` section (MoveIt Servo's node name; its parameters flat or under ``moveit_servo:`` as Servo's launch
+files give them), or from Python: ``ServoNode(bus, manager, config)``.
+
+Topics in: ``cartesian_command_in_topic`` (geometry_msgs/TwistStamped: ``header.frame_id`` empty means
+``robot_link_command_frame``; the fixed frame, a static frame, or the end-effector link, which turns with the tool),
+``joy_topic`` (sensor_msgs/Joy, mapped by ``joy_device``), ``joint_topic`` when it is not ``/joint_states`` (the
+manager's). Topics out: ``command_out_topic`` (``command_out_type``: a JointTrajectory of one point at
+``time_from_start = publish_period`` with positions/velocities/accelerations as ``publish_joint_*`` say, or a
+Float64MultiArray of positions when ``publish_joint_positions`` is set, else velocities; joints in the robot's tree
+order), ``status_topic`` (std_msgs/Int8: the :class:`~pfield.shared_control.servo.ServoStatus` code, as MoveIt
+Servo publishes it) and ``<status_topic>_text`` (std_msgs/String: the code's name and why). Status messages are
+published when the status changes; commands every step while the robot moves, and once more when it has stopped.
+
+Timing: a command is stepped when it arrives (command-in to command-out is one step, not up to a period); the tick
+(``tick_period = publish_period``) steps when no step happened for 0.9 of a period, so commands go out at least at
+``publish_period`` while the robot moves, and a stale command decelerates the robot to a stop. Without a joint state
+(none, or older than the manager's ``joint_state_timeout`` while not streaming) nothing is commanded and the status
+is ``INVALID`` with the reason.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import re
+import threading
+import time
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from pfield._validation import finite
+from pfield.errors import InvalidInput
+from pfield.interfaces import geometry_msgs as gm
+from pfield.interfaces import sensor_msgs, std_msgs, trajectory_msgs
+from pfield.interfaces._base import RosMessage
+from pfield.interfaces._yaml import load_yaml_file
+from pfield.node._base import Bus, Node, PublicationSpec, ServiceSpec, SubscriptionSpec
+from pfield.node._joint_states import JOINT_STATES_TOPIC, rotate_twist
+from pfield.node._params import ParameterRow, ParameterTable, field_docs
+from pfield.node.manager import ManagerNode
+from pfield.shared_control.servo import STATUS_MESSAGES, Servo, ServoCommand, ServoStatus
+from pfield.shared_control.servo_config import (
+    COMMAND_OUT_TYPES,
+    JOY_DEVICES,
+    SERVO_ONLY_PARAMETERS,
+    ServoConfig,
+    joy_twist,
+    servo_config_from_mapping,
+)
+from pfield.spatial import Twist
+
+__all__ = ["SERVO_NODE_NAMES", "ServoNode", "load_servo_file", "servo_from_parameters"]
+
+_log = logging.getLogger(__name__)
+SERVO_NODE_NAMES = ("/pfield_servo", "/servo_node")
+_FIGURES = re.compile(r" at [^ ]+ m$| \([^)]*\)")
+"""The figures of a status sentence (a distance, a value in brackets): not part of its words."""
+"""``--params`` sections that configure the servo: pfield's node name and MoveIt Servo's demo node name."""
+_RUNTIME = frozenset({"incoming_command_timeout", "scale_linear", "scale_rotational", "lower_singularity_threshold",
+                      "hard_stop_singularity_threshold", "leaving_singularity_threshold_multiplier",
+                      "check_collisions", "override_velocity_scaling_factor", "joy_deadzone", "joy_deadman_button",
+                      "halt_all_joints_in_cartesian_mode", "publish_joint_accelerations", "command_in_type"})
+"""Parameters that may change while the node runs (the others shape its topics and loop: read-only)."""
+
+
+def _row(name: str, default: Any, doc: str) -> ParameterRow:
+    ros_name = {"scale_linear": "scale.linear", "scale_rotational": "scale.rotational"}.get(name, name)
+    kind = {bool: "bool", int: "integer", float: "double", str: "string"}.get(type(default), "map")
+    choices = {"command_out_type": COMMAND_OUT_TYPES, "joy_device": JOY_DEVICES,
+               "command_in_type": ("speed_units", "unitless")}.get(name, ())
+    return ParameterRow(ros_name, kind, doc, list(default) if isinstance(default, tuple) else default,
+                        choices=choices, read_only=name not in _RUNTIME)
+
+
+def servo_table(name: str) -> ParameterTable:
+    """The ``/pfield_servo`` parameters (MoveIt Servo's names; ranges checked by :class:`ServoConfig`)."""
+    defaults, docs = ServoConfig(), field_docs(ServoConfig)
+    return ParameterTable(name, [_row(f.name, getattr(defaults, f.name), docs[f.name])
+                                 for f in dataclasses.fields(ServoConfig)])
+
+
+def _resolve(topic: str, node: str) -> str:
+    """A ROS name as the node sees it: ``~/x`` → ``/pfield_servo/x``, ``x`` → ``/x``."""
+    if topic.startswith("~/"):
+        return f"{node}/{topic[2:]}"
+    return topic if topic.startswith("/") else f"/{topic}"
+
+
+class ServoNode(Node):
+    """The ``/pfield_servo`` node (module docstring). ``ignored``: Servo parameters the configuration named and pfield
+    does not use (logged once here)."""
+
+    name = "/pfield_servo"
+
+    def __init__(self, bus: Bus, manager: ManagerNode, config: ServoConfig | None = None,
+                 ignored: tuple[str, ...] | list[str] = ()) -> None:
+        super().__init__(bus)
+        config = config or ServoConfig()
+        fixed = manager.state.params.fixed_frame
+        if config.planning_frame and config.planning_frame != fixed:
+            raise InvalidInput("planning_frame", config.planning_frame, f"the manager's fixed_frame is {fixed!r}: "
+                               "set the same frame in both (or leave planning_frame empty)")
+        self.manager = manager
+        self.servo = Servo(manager.robot, config, arbitration=manager.state.params.assistance_arbitration)
+        self.tick_period = config.publish_period
+        self.parameter_table = servo_table(self.name)
+        self.topics = {key: _resolve(getattr(config, key), self.name) for key in
+                       ("cartesian_command_in_topic", "joy_topic", "joint_topic", "command_out_topic", "status_topic")}
+        self.topics["status_text"] = self.topics["status_topic"] + "_text"
+        self._lock = threading.Lock()
+        self._last_step = -1e300
+        self._was_moving = False
+        self._status: tuple[int, str] = (-1, "")  # (code, words) last published; -1: none yet
+        if ignored:
+            servo_only = [n for n in ignored if n.split(".", 1)[-1] in SERVO_ONLY_PARAMETERS
+                          or n in SERVO_ONLY_PARAMETERS]
+            unknown = [n for n in ignored if n not in servo_only]
+            _log.info("servo configuration: ignored MoveIt Servo parameters pfield does not use: %s%s",
+                      ", ".join(servo_only) or "none", f"; unknown parameters ignored: {', '.join(unknown)}"
+                      if unknown else "")
+        self.ignored = tuple(ignored)
+        self._header = std_msgs.Header()
+        self._joint_names = list(manager.robot.joint_names)
+
+    @property
+    def config(self) -> ServoConfig:
+        return self.servo.config
+
+    # ---- node contract ------------------------------------------------------------------------------
+    def services(self) -> list[ServiceSpec]:
+        return []
+
+    def subscriptions(self) -> list[SubscriptionSpec]:
+        specs = [SubscriptionSpec(self.topics["cartesian_command_in_topic"], "geometry_msgs/msg/TwistStamped",
+                                  gm.TwistStamped, self.on_twist),
+                 SubscriptionSpec(self.topics["joy_topic"], "sensor_msgs/msg/Joy", sensor_msgs.Joy, self.on_joy)]
+        if self.topics["joint_topic"] != JOINT_STATES_TOPIC:  # the manager subscribes /joint_states itself
+            specs.append(SubscriptionSpec(self.topics["joint_topic"], "sensor_msgs/msg/JointState",
+                                          sensor_msgs.JointState, self.manager.on_joint_states))
+        return specs
+
+    def publications(self) -> list[PublicationSpec]:
+        out_model: type[RosMessage] = trajectory_msgs.JointTrajectory
+        if self.config.command_out_type == "std_msgs/Float64MultiArray":
+            out_model = std_msgs.Float64MultiArray
+        return [PublicationSpec(self.topics["command_out_topic"], out_model.ros_type, out_model, latched=False),
+                PublicationSpec(self.topics["status_topic"], "std_msgs/msg/Int8", std_msgs.Int8),
+                PublicationSpec(self.topics["status_text"], "std_msgs/msg/String", std_msgs.String)]
+
+    def get_parameters(self) -> dict[str, Any]:
+        return self.config.as_parameters()
+
+    def describe_parameters(self) -> dict[str, dict[str, Any]]:
+        return self.parameter_table.describe()
+
+    def set_parameters(self, values: Mapping[str, Any]) -> dict[str, Any]:
+        checked = self.parameter_table.check(values)
+        config, _ = servo_config_from_mapping(checked, self.config)
+        self.servo.reconfigure(config)
+        return self.get_parameters()
+
+    # ---- input ----------------------------------------------------------------------------------------
+    def on_twist(self, message: gm.TwistStamped) -> None:
+        """An operator twist (module docstring); stepped at once."""
+        frame = message.header.frame_id or self.config.robot_link_command_frame
+        values = [finite(f"twist.{part}.{axis}", getattr(getattr(message.twist, part), axis))
+                  for part in ("linear", "angular") for axis in "xyz"]
+        self._command(Twist(values[:3], values[3:]), frame, "twist", unitless=True)
+
+    def on_joy(self, message: sensor_msgs.Joy) -> None:
+        """A joystick state, mapped by ``joy_device`` (docs/servo.md); stepped at once."""
+        twist = joy_twist(message.axes, message.buttons, self.config)
+        frame = self.config.joy_frame or self.config.robot_link_command_frame
+        self._command(twist, frame, "joy", unitless=False)
+
+    def _command(self, twist: Twist, frame: str, field: str, unitless: bool) -> None:
+        """The twist into the servo (a static frame's rotated now, an end-effector twist at every step); a step."""
+        state = self.manager.state
+        end_effector = bool(frame) and frame == self.manager.robot.end_effector and frame != state.params.fixed_frame
+        if not end_effector:
+            transform = state.params.frames().lookup(f"{field}.header.frame_id", frame)
+            twist = twist if transform is None else rotate_twist(twist, transform.orientation)
+        now = time.monotonic()
+        self.servo.command(twist, now, end_effector_frame=end_effector, unitless=unitless)
+        self.step(now)
+
+    # ---- the loop ---------------------------------------------------------------------------------------
+    def tick(self, now: float) -> None:
+        if now - self._last_step >= 0.9 * self.config.publish_period:
+            self.step(now)
+
+    def step(self, now: float) -> ServoCommand | None:
+        """One servo step at ``now`` (monotonic s) from the manager's state; publishes its command and status."""
+        with self._lock:
+            if now < self._last_step:
+                now = self._last_step
+            self._last_step = now
+            try:
+                measured = self.manager.measured_joint_angles([], "joint_states")
+            except InvalidInput as exc:
+                if not self.servo.streaming:
+                    self._publish_status(ServoStatus.INVALID, f"{STATUS_MESSAGES[ServoStatus.INVALID]}: {exc.reason}")
+                    return None
+                measured = self.manager.joint_states.held.positions  # type: ignore[union-attr]
+            command = self.servo.step(measured, now, self.manager.assistance_scene())
+            if command.moving or self._was_moving:
+                self.bus.publish(self.topics["command_out_topic"], self._command_message(command))
+            self._was_moving = command.moving
+            self._publish_status(command.status, command.message)
+            return command
+
+    def _publish_status(self, status: ServoStatus, message: str) -> None:
+        """The code on ``status_topic`` when it changes (as Servo does); the sentence on ``status_text`` when its
+        words change (its figures — a distance while slowing, a value in brackets — change every cycle and are not a new
+        status)."""
+        words = _FIGURES.sub("", message)
+        code, text = self._status
+        if int(status) != code:
+            self.bus.publish(self.topics["status_topic"], std_msgs.Int8(data=int(status)))
+        if (int(status), words) != (code, text):
+            self.bus.publish(self.topics["status_text"], std_msgs.String(data=f"{status.name}: {message}"))
+        self._status = (int(status), words)
+
+    def _command_message(self, command: ServoCommand) -> RosMessage:
+        """The command as ``command_out_type`` (built without re-validating: every value is a finite float the loop
+        computed, and the layout is the model's)."""
+        config = self.config
+        if config.command_out_type == "std_msgs/Float64MultiArray":
+            values = command.positions if config.publish_joint_positions else command.velocities
+            return std_msgs.Float64MultiArray.model_construct(layout=std_msgs.MultiArrayLayout(), data=values.tolist())
+        nanoseconds = round(config.publish_period * 1e9)
+        point = trajectory_msgs.JointTrajectoryPoint.model_construct(
+            positions=command.positions.tolist() if config.publish_joint_positions else [],
+            velocities=command.velocities.tolist() if config.publish_joint_velocities else [],
+            accelerations=command.accelerations.tolist() if config.publish_joint_accelerations else [], effort=[],
+            time_from_start=std_msgs.Duration(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000))
+        # a zero stamp: "start now" for a joint_trajectory_controller
+        return trajectory_msgs.JointTrajectory.model_construct(header=self._header, joint_names=self._joint_names,
+                                                               points=[point])
+
+
+def load_servo_file(path: str | Path, option: str = "servo configuration") -> tuple[ServoConfig, list[str]]:
+    """A MoveIt Servo YAML file (flat, under ``moveit_servo:``, or a ROS parameters file with a ``servo_node`` /
+    ``pfield_servo`` section) as a :class:`ServoConfig`, and the parameter names it ignored."""
+    data = load_yaml_file(Path(path), option) or {}
+    if not isinstance(data, Mapping):
+        raise InvalidInput(option, str(path), "expected a mapping of MoveIt Servo parameters")
+    for name in SERVO_NODE_NAMES:
+        section = data.get(name.lstrip("/"))
+        if isinstance(section, Mapping) and isinstance(section.get("ros__parameters"), Mapping):
+            return servo_config_from_mapping(section["ros__parameters"])
+    return servo_config_from_mapping(data)
+
+
+def servo_from_parameters(manager: ManagerNode, params: Mapping[str, Mapping[str, Any]]) -> ServoNode | None:
+    """The servo node ``--params`` asks for (a ``/pfield_servo`` or ``/servo_node`` section), else None."""
+    sections = [params[name] for name in SERVO_NODE_NAMES if name in params]
+    if not sections:
+        return None
+    if len(sections) > 1:
+        raise InvalidInput("--params", list(SERVO_NODE_NAMES), "configure the servo in one section, not both")
+    config, ignored = servo_config_from_mapping(sections[0])
+    return ServoNode(manager.bus, manager, config, ignored)

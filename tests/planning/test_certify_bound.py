@@ -1,0 +1,205 @@
+"""The certificate's cheap bound (issue 34): covering capsules decide most pairs, coal the rest, same verdict.
+
+* every vertex of every collision element of every link lies within the link's covering capsule (the claim of
+  pfield.robot.geometry the bound rests on), on the built-in robots and the UR5 + Robotiq of the MBM set;
+* the per-object capsule bound (:meth:`CollisionChecker.covering_distances`) is never above coal's distances;
+* :func:`certify_path` (bound first, coal where the bound cannot clear) returns exactly the verdict of coal on every
+  pair at every grid configuration, on random paths past obstacles of every exact kind, both outcomes exercised.
+"""
+
+from __future__ import annotations
+
+import coal
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+from tests.planning.test_certify import UR5, needs_ur5
+
+from pfield import Box, Obstacle, Pose, RobotModel
+from pfield.geometry import Capsule, Cylinder, Sphere
+from pfield.planning.certify import _grid, certify_path
+from pfield.robot.catalog import BUILTIN_ROBOTS
+from pfield.robot.collision import CollisionChecker
+
+
+def _robot(name: str) -> RobotModel:
+    if name == "ur5":
+        root = str(UR5) + "/"
+        return RobotModel.from_urdf(root + "ur5.urdf", end_effector="tool0",
+                                    package_paths={"meshes": root + "meshes"}, srdf=root + "ur5.srdf")
+    return RobotModel.builtin(name)
+
+
+ROBOTS = [*BUILTIN_ROBOTS, pytest.param("ur5", marks=needs_ur5)]
+
+
+def _element_points(shape: object) -> tuple[np.ndarray, float]:
+    """Points of a collision element (its frame) and a radius r: the element is the union of the balls of radius r
+    about the points' convex hull (meshes: their vertices, r = 0; boxes: the corners; spheres: the centre)."""
+    if isinstance(shape, coal.BVHModelBase):
+        return np.asarray(shape.vertices(), dtype=np.float64).reshape(-1, 3), 0.0
+    if isinstance(shape, coal.Box):
+        half = np.asarray(shape.halfSide)
+        return np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * half, 0.0
+    if isinstance(shape, coal.Sphere):
+        return np.zeros((1, 3)), float(shape.radius)
+    if isinstance(shape, coal.Capsule):
+        return np.array([[0.0, 0.0, -shape.halfLength], [0.0, 0.0, shape.halfLength]]), float(shape.radius)
+    raise AssertionError(f"no exact containment test for {type(shape).__name__}")
+
+
+def _segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    d = b - a
+    t = np.clip((points - a) @ d / max(float(d @ d), 1e-300), 0.0, 1.0)
+    return np.linalg.norm(points - (a + t[:, None] * d), axis=1)
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_covering_capsule_contains_every_collision_vertex(name: str) -> None:
+    """Each link's covering capsule (axis a–b, radius self_radii, its joint's frame) contains every vertex of every
+    collision element of the link, placed by the element's placement in that joint frame — so, being convex, their
+    hulls and the meshes."""
+    robot = _robot(name)
+    geometry = robot.geometry
+    links = {link: l for l, link in enumerate(geometry.link_names)}
+    model, checked = robot.pinocchio_model, set()
+    for obj in robot.collision_model.geometryObjects:
+        l = links[model.frames[obj.parentFrame].name]
+        assert int(geometry.joints[l]) == int(obj.parentJoint) - 1
+        points, radius = _element_points(obj.geometry)
+        placed = points @ np.asarray(obj.placement.rotation).T + np.asarray(obj.placement.translation)
+        reach = _segment_distance(placed, geometry.a[l], geometry.b[l]) + radius
+        # within rounding (the fit measured the vertices in the link frame, here they pass through two transforms)
+        assert reach.max() <= geometry.self_radii[l] + 1e-12, (name, obj.name, reach.max() - geometry.self_radii[l])
+        checked.add(l)
+    assert checked == set(range(len(geometry.link_names)))  # every link has its elements checked
+
+
+def _obstacles(robot: RobotModel, q: np.ndarray, rng: np.random.Generator, spread: float) -> list[Obstacle]:
+    """One obstacle of each exact kind near the end effector at ``q`` (``spread``: how far off, m)."""
+    centre = robot.forward_kinematics(q).position
+    shapes = [Box(0.1, 0.08, 0.12), Sphere(0.05), Cylinder(0.04, 0.15), Capsule(0.03, 0.1)]
+    out = []
+    for k, shape in enumerate(shapes):
+        direction = rng.normal(size=3)
+        offset = direction / np.linalg.norm(direction) * spread * rng.uniform(1.0, 1.5)
+        orientation = Rotation.from_rotvec(rng.normal(size=3)).as_quat()  # (x, y, z, w), as Pose takes it
+        out.append(Obstacle(f"o{k}", shape, Pose(centre + offset, orientation)))
+    return out
+
+
+def _random_q(robot: RobotModel, rng: np.random.Generator) -> np.ndarray:
+    return rng.uniform(np.maximum(robot.lower_limits, -np.pi), np.minimum(robot.upper_limits, np.pi))
+
+
+@pytest.mark.parametrize("name", ["panda", pytest.param("ur5", marks=needs_ur5)])
+def test_covering_bound_is_never_above_coal(name: str) -> None:
+    """At random configurations near obstacles of every exact kind, each pair's capsule bound ≤ coal's hull distance
+    (itself ≤ the meshes'), and where coal finds contact the bound is not positive."""
+    robot = _robot(name)
+    rng = np.random.default_rng(11)
+    below = 0
+    for _ in range(8):
+        q = _random_q(robot, rng)
+        checker = CollisionChecker(robot, _obstacles(robot, q, rng, 0.08))
+        bound = checker.covering_distances(q[None])[:, 0]
+        exact = checker.pair_distances(q, np.arange(len(checker.pair_names)))
+        assert bound.shape == exact.shape and np.all(bound <= exact + 1e-9)
+        assert np.all(bound[exact <= 0.0] <= 0.0)
+        below += int(np.sum(bound > 0.0))
+    assert below > 0  # the bound clears pairs, it is not −inf everywhere
+
+
+def _plain_verdict(checker: CollisionChecker, qs: np.ndarray) -> tuple[int, int, float] | None:
+    """Coal on every pair at every grid configuration: (first grid index in contact, its closest pair, distance)."""
+    grid, _, _ = _grid(qs, 0.01)
+    every = np.arange(len(checker.pair_names))
+    for index, q in enumerate(grid):
+        distances = checker.pair_distances(q, every)
+        worst = int(np.argmin(distances))
+        if distances[worst] <= 0.0:
+            return index, worst, float(distances[worst])
+    return None
+
+
+@pytest.mark.parametrize("name", ["panda", pytest.param("ur5", marks=needs_ur5)])
+def test_fast_certificate_agrees_with_coal_on_every_grid_configuration(name: str) -> None:
+    """Random three-waypoint paths past a box, a sphere, a cylinder and a capsule, from touching the gripper to
+    well clear: the certificate's verdict, first contact (grid index), pair and distance are those of coal run on
+    every pair at every grid configuration; both outcomes occur, and clear paths need fewer coal calls than the
+    plain check's."""
+    robot = _robot(name)
+    rng = np.random.default_rng(5)
+    outcomes = []
+    for trial in range(10):
+        q_a = _random_q(robot, rng)
+        q_b = np.clip(q_a + rng.normal(size=robot.n_joints) * 0.4, robot.lower_limits, robot.upper_limits)
+        middle = 0.5 * (q_a + q_b)
+        obstacles = _obstacles(robot, middle, rng, 0.05 * trial)
+        qs = np.array([q_a, middle, q_b])
+        checker = CollisionChecker(robot, obstacles)
+        certificate = certify_path(robot, obstacles, qs, 0.01, checker)
+        plain = _plain_verdict(checker, qs)
+        assert certificate.clear == (plain is None), trial
+        if plain is not None:
+            index, pair, distance = plain
+            assert certificate.grid_points == index + 1, trial
+            assert certificate.pair == checker.pair_names[pair] and certificate.distance == pytest.approx(distance)
+            grid, segment, fraction = _grid(qs, 0.01)
+            assert certificate.waypoint == segment[index] and certificate.fraction == pytest.approx(fraction[index])
+            np.testing.assert_allclose(certificate.configuration, grid[index])
+        else:
+            assert certificate.distance_calls < certificate.grid_points * len(checker.pair_names)
+        outcomes.append(certificate.clear)
+    assert any(outcomes) and not all(outcomes)
+
+
+@pytest.mark.parametrize("name", ["panda", pytest.param("ur5", marks=needs_ur5)])
+def test_far_obstacles_need_no_coal_call(name: str) -> None:
+    """A path standing still with an obstacle 2 m away: the capsules clear every obstacle pair, so coal runs once
+    for each self pair the capsules cannot clear, and its distance carries that pair over the rest of the path."""
+    robot = _robot(name)
+    far = [Obstacle("far", Box(0.1, 0.1, 0.1), Pose((2.5, 0.0, 0.5)))]
+    checker = CollisionChecker(robot, far)
+    q = robot.mid_configuration
+    bound = checker.covering_distances(q[None])[:, 0]
+    obstacle_pairs = ~checker.self_pair
+    assert np.all(bound[obstacle_pairs] > 1.0)
+    certificate = certify_path(robot, far, np.array([q, q]), 0.01, checker)
+    assert certificate.clear
+    assert certificate.distance_calls == int(np.sum(bound[checker.self_pair] <= 1e-6))
+
+
+def _walk(bound: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """The covering stage's walk, written out: (P, N) where neither the bound nor its advancement clears a pair."""
+    needed = np.zeros(bound.shape, dtype=bool)
+    for p in range(bound.shape[0]):
+        k = 0
+        while k < bound.shape[1]:
+            if not bound[p, k] > 0.0:
+                needed[p, k], k = True, k + 1
+                continue
+            k = max(k + 1, int(np.searchsorted(reach[p], reach[p, k] + bound[p, k], side="left")))
+    return needed
+
+
+@pytest.mark.parametrize("name", ["panda", pytest.param("ur5", marks=needs_ur5)])
+def test_covering_needed_is_the_walk_on_the_bound_and_refuses_bad_shapes(name: str) -> None:
+    """The compiled walk marks exactly the grid points the written-out walk on :meth:`covering_distances` and the
+    motion bound marks (the tolerance taken off the bound); arrays of the wrong shape are refused."""
+    robot = _robot(name)
+    rng = np.random.default_rng(2)
+    q_a = _random_q(robot, rng)
+    qs = np.array([q_a, np.clip(q_a + rng.normal(size=robot.n_joints) * 0.5, robot.lower_limits, robot.upper_limits)])
+    checker = CollisionChecker(robot, _obstacles(robot, q_a, rng, 0.15))
+    grid, _, _ = _grid(qs, 0.01)
+    travel = np.vstack([np.zeros((1, robot.n_joints)), np.cumsum(np.abs(np.diff(grid, axis=0)), axis=0)])
+    reach = travel @ checker.motion_weights.T
+    needed = checker.covering_needed(grid, travel, 1e-6)
+    expected = _walk(checker.covering_distances(grid) - 1e-6, reach.T)
+    assert needed.shape == expected.shape and 0 < needed.sum() < needed.size  # the bound clears some, not all
+    assert np.array_equal(needed, expected)
+    with pytest.raises(ValueError, match="travel"):
+        checker.covering_needed(grid, travel[:-1], 1e-6)
+    with pytest.raises(ValueError, match="qs"):
+        checker.covering_needed(grid[:, :-1], travel, 1e-6)

@@ -1,0 +1,102 @@
+"""Client of the rclpy test of ``/joint_states`` and ``/pfield_servo`` (``tests/servo/test_servo_ros2.py``).
+
+Against ``pfield ros2 node --robot panda --params servo.yaml`` (a MoveIt Servo section): publishes the Panda's
+joint states as a driver would (reversed joint order plus a finger joint, 50 Hz), calls the whole-body autonomy
+vector without ``joint_angles``, drives the servo with a spacemouse ``Joy`` and with a tool-frame twist, lets the
+command go stale, and writes what it saw to ``$ROS2_TEST_OUT/results.json``.
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "transport"))  # ros2_helpers
+
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from ros2_helpers.client import BlockingClient, Inbox
+from ros2_helpers.scenario import AUTONOMY, run_phases
+
+from pfield.robot import RobotModel
+from pfield.transport._ros2_convert import interface_class, to_ros
+
+ROBOT = RobotModel.builtin("panda")
+READY = ROBOT.named_configuration("ready").tolist()
+OUT = "/panda_arm_controller/joint_trajectory"
+STATUS = "/pfield_servo/status"
+
+
+def _volatile(client: BlockingClient, topic: str, type_name: str) -> Inbox:
+    inbox = Inbox(type_name)
+    qos = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE)
+    client.node.create_subscription(interface_class(type_name), topic, inbox.receive, qos)
+    return inbox
+
+
+class Stream:
+    """Publishes one message at a fixed rate from a thread until stopped (a driver, a joystick)."""
+
+    def __init__(self, client: BlockingClient, topic: str, type_name: str, message: dict[str, Any],
+                 rate: float) -> None:
+        from pfield.interfaces import lookup_type
+
+        client.publish(topic, type_name, message)  # waits for the node's subscription
+        self._publisher = client._publishers[topic]
+        self._message = to_ros(lookup_type(type_name).model_validate(message), interface_class(type_name))
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, args=(1.0 / rate,), daemon=True)
+        self._thread.start()
+
+    def _run(self, period: float) -> None:
+        while not self._stop.wait(period):
+            self._publisher.publish(self._message)
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._thread.join()
+
+
+def state_in(client: BlockingClient, results: dict[str, Any]) -> None:
+    names = [*reversed(ROBOT.joint_names), "panda_finger_joint1"]
+    states = Stream(client, "/joint_states", "sensor_msgs/msg/JointState",
+                    {"name": names, "position": [*reversed(READY), 0.02]}, 50.0)
+    results["_streams"] = [states]
+    client.publish("/pfield/planning_goal_pose", "geometry_msgs/msg/PoseStamped",
+                   {"header": {"frame_id": "world"}, "pose": {"position": {"x": 0.4, "y": 0.2, "z": 0.4}}})
+    request = {"planning_method": "whole_body", "delta_time": 0.02}
+    deadline = time.monotonic() + 60.0
+    while True:  # until the goal and a joint state have arrived
+        implicit = client.call(*AUTONOMY, request)
+        if implicit["autonomy_vector"]["header"]["frame_id"] or time.monotonic() > deadline:
+            break
+        time.sleep(0.1)
+    results["implicit"] = implicit
+    results["explicit"] = client.call(*AUTONOMY, request | {"joint_angles": READY})
+
+
+def joy_drives(client: BlockingClient, results: dict[str, Any]) -> None:
+    commands = _volatile(client, OUT, "trajectory_msgs/msg/JointTrajectory")
+    status = client.subscribe(STATUS, "std_msgs/msg/Int8")
+    joy = Stream(client, "/pfield_servo/joy", "sensor_msgs/msg/Joy",
+                 {"axes": [0.0, 0.0, 0.5, 0.0, 0.0, 0.0], "buttons": [0, 0]}, 100.0)
+    results["joy_command"] = commands.wait_for(lambda m: any(m["points"][0]["velocities"]), timeout=60.0)
+    time.sleep(0.3)
+    joy.stop()
+    results["timeout_status"] = status.wait_for(lambda m: m["data"] == 10, timeout=30.0)
+    results["joy_last"] = commands.wait_for(lambda m: not any(m["points"][0]["velocities"]), timeout=30.0)
+    commands.messages.clear()
+    twist = Stream(client, "/pfield_servo/delta_twist_cmds", "geometry_msgs/msg/TwistStamped",
+                   {"header": {"frame_id": "panda_hand_tcp"}, "twist": {"linear": {"z": 0.02}}}, 100.0)
+    results["tool_command"] = commands.wait_for(lambda m: any(m["points"][0]["velocities"]), timeout=60.0)
+    twist.stop()
+    results["params"] = client.get_parameters("/pfield_servo", ["publish_period", "scale.linear",
+                                                                "joint_limit_margins"])
+    for stream in results.pop("_streams"):
+        stream.stop()
+
+
+if __name__ == "__main__":
+    run_phases([state_in, joy_drives])

@@ -1,0 +1,161 @@
+"""``/pfield_servo`` in process and over the HTTP node: Joy and twists in, joint commands and status out."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import httpx
+import numpy as np
+import pytest
+
+from pfield.errors import InvalidInput, UnknownFrame
+from pfield.interfaces import geometry_msgs as gm
+from pfield.interfaces import std_msgs, trajectory_msgs
+from pfield.interfaces._base import RosMessage
+from pfield.interfaces.sensor_msgs import JointState, Joy
+from pfield.node._base import Bus
+from pfield.node.manager import ManagerNode
+from pfield.node.servo_node import ServoNode
+from pfield.shared_control.servo import ServoStatus
+from pfield.shared_control.servo_config import ServoConfig
+from pfield.transport.http import ServerThread, create_app
+
+
+@pytest.fixture(scope="module")
+def robot() -> Any:
+    from pfield.robot import RobotModel
+
+    return RobotModel.builtin("panda")
+
+
+class Recorder:
+    """Every message published on a bus, by topic."""
+
+    def __init__(self, bus: Bus) -> None:
+        self.messages: dict[str, list[RosMessage]] = {}
+        bus.add_listener(lambda topic, message: self.messages.setdefault(topic, []).append(message))
+
+    def last(self, topic: str) -> Any:
+        return self.messages[topic][-1]
+
+
+def make(robot: Any, **config: Any) -> tuple[ManagerNode, ServoNode, Recorder]:
+    manager = ManagerNode(Bus(), robot)
+    recorder = Recorder(manager.bus)
+    return manager, ServoNode(manager.bus, manager, ServoConfig(**config)), recorder
+
+
+def measured(robot: Any) -> JointState:
+    q = robot.named_configuration("ready")
+    return JointState(name=list(robot.joint_names), position=q.tolist())
+
+
+def test_joy_drives_the_servo_loop(robot: Any) -> None:
+    manager, servo, recorder = make(robot, joy_device="gamepad", scale_linear=0.04, joy_deadman_button=4,
+                                    incoming_command_timeout=0.05)
+    out = servo.topics["command_out_topic"]
+    servo.tick(time.monotonic())
+    assert recorder.last(servo.topics["status_topic"]).data == ServoStatus.INVALID  # no joint state yet
+    assert "no joint state" in recorder.last(servo.topics["status_text"]).data and out not in recorder.messages
+    manager.on_joint_states(measured(robot))
+    axes = [0.0, 1.0, 0.0, 0.0, 0.0, 0.0]  # left stick pushed up: +x
+    buttons = [0, 0, 0, 0, 1, 0]  # the dead-man button held
+    for _ in range(40):
+        manager.on_joint_states(measured(robot))
+        servo.on_joy(Joy(axes=axes, buttons=buttons))
+        time.sleep(0.002)
+    command = recorder.last(out)
+    assert isinstance(command, trajectory_msgs.JointTrajectory)
+    assert command.joint_names == list(robot.joint_names)
+    point = command.points[0]
+    assert point.time_from_start.nanosec == 10_000_000 and len(point.positions) == len(point.velocities) == 7
+    twist = robot.jacobian(point.positions) @ np.array(point.velocities)
+    assert twist[0] > 0.0 and abs(twist[1]) < 0.05 * twist[0] and abs(twist[2]) < 0.05 * twist[0]
+    assert recorder.last(servo.topics["status_topic"]).data == ServoStatus.NO_WARNING
+    count = len(recorder.messages[out])
+    servo.on_joy(Joy(axes=axes, buttons=[0] * 6))  # dead-man released: a zero command, the robot stops
+    for _ in range(200):
+        manager.on_joint_states(measured(robot))  # the driver keeps publishing
+        servo.tick(time.monotonic())
+        time.sleep(0.002)
+    assert recorder.last(out).points[0].velocities == [0.0] * 7
+    assert len(recorder.messages[out]) > count
+    assert recorder.last(servo.topics["status_topic"]).data == ServoStatus.COMMAND_TIMEOUT
+    settled = len(recorder.messages[out])
+    servo.tick(time.monotonic() + 2.0)
+    assert len(recorder.messages[out]) == settled  # stopped: nothing more is sent
+
+
+def test_float64_multi_array_carries_velocities_or_positions(robot: Any) -> None:
+    for positions in (False, True):
+        manager, servo, recorder = make(robot, command_out_type="std_msgs/Float64MultiArray",
+                                        publish_joint_positions=positions, command_out_topic="/forward/commands")
+        assert servo.publications()[0].type_name == "std_msgs/msg/Float64MultiArray"
+        manager.on_joint_states(measured(robot))
+        servo.on_twist(gm.TwistStamped.model_validate({"twist": {"linear": {"z": 0.02}}}))
+        message = recorder.last("/forward/commands")
+        assert isinstance(message, std_msgs.Float64MultiArray) and len(message.data) == 7
+        q = robot.named_configuration("ready")
+        if positions:
+            assert np.abs(np.array(message.data) - q).max() < 0.01
+        else:
+            assert np.abs(message.data).max() < 1.0 and any(message.data)
+
+
+def test_twists_in_the_tool_frame_and_refused_input(robot: Any) -> None:
+    manager, servo, recorder = make(robot)
+    manager.on_joint_states(measured(robot))
+    servo.on_twist(gm.TwistStamped.model_validate({"header": {"frame_id": "panda_hand_tcp"},
+                                                   "twist": {"linear": {"z": 0.02}}}))
+    point = recorder.last(servo.topics["command_out_topic"]).points[0]
+    twist = robot.jacobian(point.positions) @ np.array(point.velocities)
+    assert twist[2] < 0.0  # the Panda's tool z points down at its ready pose: +z in the tool is -z in the world
+    before = servo.servo._command
+    bad: list[tuple[Any, type[Exception], str]] = [
+        (lambda: servo.on_twist(gm.TwistStamped.model_validate({"header": {"frame_id": "camera"}})), UnknownFrame,
+         "twist.header.frame_id"),
+        (lambda: servo.on_twist(gm.TwistStamped.model_validate({"twist": {"angular": {"x": float("nan")}}})),
+         InvalidInput, "twist.angular.x"),
+        (lambda: servo.on_joy(Joy(axes=[0.0] * 3)), InvalidInput, "axes"),
+        (lambda: servo.on_joy(Joy(axes=[float("inf")] * 6)), InvalidInput, r"axes\[0\]"),
+    ]
+    for call, error, field in bad:
+        with pytest.raises(error, match=field):
+            call()
+    assert servo.servo._command is before
+
+
+@pytest.fixture(scope="module")
+def served(robot: Any) -> Iterator[tuple[ManagerNode, ServoNode, str]]:
+    manager = ManagerNode(Bus(), robot)
+    servo = ServoNode(manager.bus, manager, ServoConfig(joy_device="spacemouse"))
+    with ServerThread(create_app([manager, servo])) as server:
+        yield manager, servo, server.url
+
+
+def test_the_http_node_hosts_the_servo(served: tuple[ManagerNode, ServoNode, str], robot: Any) -> None:
+    _, servo, url = served
+    nodes = httpx.get(f"{url}/nodes").json()
+    assert "/pfield_servo" in str(nodes)
+    assert httpx.get(f"{url}/param/pfield_servo").json()["command_out_topic"] == servo.config.command_out_topic
+    state = measured(robot).model_dump()
+    assert httpx.post(f"{url}/topic/joint_states", json=state).status_code < 300
+    joy = {"axes": [0.0, 0.0, 0.5, 0.0, 0.0, 0.0], "buttons": [0, 0]}
+    for _ in range(5):
+        assert httpx.post(f"{url}/topic/pfield_servo/joy", json=joy).status_code < 300
+    command = httpx.get(f"{url}/topic/joint_trajectory_controller/joint_trajectory").json()
+    velocities = np.array(command["points"][0]["velocities"])
+    twist = robot.jacobian(command["points"][0]["positions"]) @ velocities
+    assert twist[2] > 0.0  # spacemouse axis 2 up: +z
+    refused = httpx.post(f"{url}/topic/pfield_servo/joy", json={"axes": [0.0], "buttons": []})
+    assert refused.status_code == 400 and "axes" in refused.text
+    deadline = time.monotonic() + 10.0  # the server's tick stops the robot once the command is stale
+    while time.monotonic() < deadline:
+        httpx.post(f"{url}/topic/joint_states", json=state)  # the driver keeps publishing
+        status = httpx.get(f"{url}/topic/pfield_servo/status").json()
+        if status["data"] == ServoStatus.COMMAND_TIMEOUT:
+            break
+        time.sleep(0.05)
+    assert status["data"] == ServoStatus.COMMAND_TIMEOUT
