@@ -44,3 +44,17 @@ def test_long_strings_huge_integers_and_broken_reprs() -> None:
 def test_field_and_reason_are_bounded_too() -> None:
     message = str(InvalidInput("k" * 10_000, 1, "r" * 10_000))
     assert len(message) < 1300 and message.count("…") == 2
+
+
+def test_a_long_file_path_keeps_its_file_name() -> None:
+    """A path too long to quote whole is cut in the middle: the file name a reader must fix stays in the message
+    (a test's temporary folder under pytest-xdist is longer than the quotation)."""
+    from pathlib import Path
+
+    path = "/tmp/pytest-of-root/pytest-323/popen-gw0/test_param_load_sets_the_nodes0/" + "deep/" * 5 + "missing.yaml"
+    for value in (path, Path(path)):
+        quoted = short_repr(value)
+        assert len(quoted) == VALUE_CHARS and quoted.endswith("/missing.yaml'") and quoted.startswith("'/tmp/")
+        assert "…" in quoted
+    assert short_repr("/short/file.yaml") == "'/short/file.yaml'"
+    assert str(InvalidInput("FILE", path, "no such file")).endswith("missing.yaml': no such file")

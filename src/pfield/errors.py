@@ -14,6 +14,7 @@ from __future__ import annotations
 import builtins
 import reprlib
 from itertools import islice
+from pathlib import PurePath
 from typing import Any
 
 __all__ = [
@@ -29,6 +30,7 @@ __all__ = [
 
 VALUE_CHARS = 80
 """Longest quotation of a value in an error message; a longer ``repr`` is cut and ends with "…"."""
+_PATH_CHARS = 4096  # PATH_MAX: a longer string is no path; it is cut at its end as any string
 _FIELD_CHARS = 200  # a field is a dotted path, but a key read from a file can be any string
 _REASON_CHARS = 1000  # reasons are written by pfield; the cut only guards values formatted into them
 
@@ -76,8 +78,22 @@ _PREFIX = _Prefix()
 def short_repr(value: object, limit: int = VALUE_CHARS) -> str:
     """``repr(value)`` cut to ``limit`` characters (the last one "…" when cut), in time and memory bounded
     whatever the value's size: only the first items of each container and the first characters of each
-    string are looked at."""
+    string are looked at. A file path (a ``PurePath``, or a string with a "/" in it) too long to quote whole is
+    cut in the middle instead, so that its file name stays: the part a reader needs to fix the call."""
+    if isinstance(value, PurePath) or (isinstance(value, str) and "/" in value[:_PATH_CHARS]
+                                       and len(value) <= _PATH_CHARS):
+        return _path_repr(str(value), limit)
     return _cut(_PREFIX.repr(value), limit)
+
+
+def _path_repr(path: str, limit: int) -> str:
+    quoted = builtins.repr(path)
+    if len(quoted) <= limit:
+        return quoted
+    tail = max(limit // 2, limit - 3 - 24)  # the file name and its folder; the head says where it lives
+    head = limit - 3 - tail
+    cut = builtins.repr(path[:head] + "…" + path[-tail:]) if head > 0 else quoted
+    return cut if len(cut) <= limit else _cut(quoted, limit)  # escapes made it longer: cut at the end
 
 
 def _cut(text: str, limit: int) -> str:

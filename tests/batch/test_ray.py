@@ -7,7 +7,9 @@ import importlib.util
 import json
 import os
 import secrets
+import shutil
 import sys
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -27,15 +29,20 @@ def _untimed(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 @pytest.fixture(scope="module")
-def session(problem_paths: list[Path], tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+def session(problem_paths: list[Path], tmp_path_factory: pytest.TempPathFactory,
+            request: pytest.FixtureRequest) -> dict[str, Any]:
     """One cluster for the module: the head runs until the client has planned on it and locally."""
     if importlib.util.find_spec("ray") is None:
         missing("ray is not installed: pip install -e '.[ray]'")
     require_netns()
     out = tmp_path_factory.mktemp("ray")
+    # Ray's sockets live under its temp dir and a Unix socket path has at most 107 bytes: the session folder Ray
+    # adds takes ~70 of them, so the dir must be short (a pytest-xdist worker's tmp_path is not)
+    ray_temp = Path(tempfile.mkdtemp(prefix="ray", dir="/tmp"))
+    request.addfinalizer(lambda: shutil.rmtree(ray_temp, ignore_errors=True))
     ray = str(Path(sys.executable).parent / "ray")
     head = [ray, "start", "--head", "--block", "--node-ip-address=127.0.0.1", f"--port={PORT}", "--num-cpus=2",
-            "--include-dashboard=false", "--disable-usage-stats", f"--temp-dir={out / 'ray'}"]
+            "--include-dashboard=false", "--disable-usage-stats", f"--temp-dir={ray_temp}"]
     client = [sys.executable, str(Path(__file__).with_name("ray_client.py")), f"127.0.0.1:{PORT}",
               *map(str, problem_paths)]
     # token authentication with the test's own token, and a private HOME: nothing read from or left in ~/.ray

@@ -115,7 +115,7 @@ class ServoNode(Node):
         self._lock = threading.Lock()
         self._last_step = -1e300
         self._was_moving = False
-        self._status: tuple[int, str] = (-1, "")  # (code, words) last published; -1: none yet
+        self._status: tuple[int | None, str] = (None, "")  # (code, words) last published; None: nothing yet
         if ignored:
             servo_only = [n for n in ignored if n.split(".", 1)[-1] in SERVO_ONLY_PARAMETERS
                           or n in SERVO_ONLY_PARAMETERS]
