@@ -130,7 +130,9 @@ def test_twists_in_the_tool_frame_and_refused_input(robot: Any) -> None:
 @pytest.fixture(scope="module")
 def served(robot: Any) -> Iterator[tuple[ManagerNode, ServoNode, str]]:
     manager = ManagerNode(Bus(), robot)
-    servo = ServoNode(manager.bus, manager, ServoConfig(joy_device="spacemouse"))
+    # a command stays fresh for 5 s: a loaded machine may take longer than Servo's 0.1 s between the last Joy
+    # message and the test's read of the command topic, and a stale command is (rightly) a stop
+    servo = ServoNode(manager.bus, manager, ServoConfig(joy_device="spacemouse", incoming_command_timeout=5.0))
     with ServerThread(create_app([manager, servo])) as server:
         yield manager, servo, server.url
 
