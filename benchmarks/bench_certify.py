@@ -16,8 +16,6 @@ coal calls per plan, and how many plans the certificate refuses (there must be n
 from __future__ import annotations
 
 import argparse
-import tarfile
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -25,6 +23,7 @@ import numpy as np
 import yaml
 
 from benchmarks._common import BenchRow
+from benchmarks.bench_mbm import extracted_scene_folders
 from pfield.field import PotentialField
 from pfield.planning.certify import certify_path
 from pfield.robot import RobotModel
@@ -58,11 +57,9 @@ def measure(name: str, limit: int, paths: Path | None = None) -> list[dict[str, 
     planned: dict[str, np.ndarray] = {}
     records: list[dict[str, float]] = []
     robots: dict[tuple[tuple[str, float], ...], RobotModel] = {}
-    with tempfile.TemporaryDirectory() as tmp:
-        with tarfile.open(archive) as opened:
-            opened.extractall(tmp, filter="data")
+    with extracted_scene_folders(archive) as folders:
         for scene in scenes:
-            folder = next(Path(tmp).rglob(scene))
+            folder = next(f for f in folders if f.name == scene)
             for request_file in sorted(folder.glob("request[0-9]*.yaml"))[:limit]:
                 number = request_file.stem.removeprefix("request")
                 scene_data = yaml.safe_load((folder / f"scene{number}.yaml").read_text())

@@ -48,8 +48,6 @@ import argparse
 import json
 import logging
 import math
-import tarfile
-import tempfile
 import time
 from collections import Counter
 from collections.abc import Callable, Iterator, Sequence
@@ -62,12 +60,12 @@ import numpy as np
 from rich.progress import Progress
 
 from benchmarks._common import BenchRow, ExactRobot, ExactScene, Report
-from benchmarks.bench_mbm import ARCHIVE, CONFIG, problem_indices, read_problem
+from benchmarks.bench_mbm import ARCHIVE, CONFIG, extracted_scene_folders, problem_indices, read_problem
 from pfield.field import PotentialField
 from pfield.robot import RobotModel
 from pfield.robot._loader import load_urdf, read_disabled_pairs
 from pfield.robot.catalog import builtin_spec, example_robot_data_root
-from pfield.scene import MBM_OPTIONS, scene_folders
+from pfield.scene import MBM_OPTIONS
 
 SECTION = "MotionBenchMaker: pfield (field + global fallback) and OMPL RRT-Connect, exact check"
 FINGER_OPENING = 0.065
@@ -405,10 +403,8 @@ def bench(robots: Sequence[str] = tuple(ROBOTS), limit: int | None = None, scene
                     continue
                 robot = spec.model()
                 exact = spec.exact(robot)
-                with tempfile.TemporaryDirectory() as tmp:
-                    with tarfile.open(spec.archive) as archive:
-                        archive.extractall(tmp, filter="data")
-                    folders = {f.name.removesuffix(spec.suffix): f for f in scene_folders(Path(tmp))}
+                with extracted_scene_folders(spec.archive) as extracted:
+                    folders = {f.name.removesuffix(spec.suffix): f for f in extracted}
                     missing[name] = [s for s in MBM_SCENES if s not in folders]
                     wanted = [s for s in (scenes or MBM_SCENES) if s in folders]
                     work = [(s, i) for s in wanted for i in problem_indices(folders[s])[:limit]]

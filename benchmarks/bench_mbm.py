@@ -31,6 +31,7 @@ import tempfile
 import time
 from collections import Counter
 from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -161,15 +162,22 @@ def problem_indices(directory: Path) -> list[int]:
                   if (directory / f"scene{p.stem.removeprefix('request')}.yaml").exists())
 
 
+@contextmanager
+def extracted_scene_folders(archive: Path) -> Iterator[list[Path]]:
+    """The scene folders of a MotionBenchMaker archive (:func:`pfield.scene.scene_folders`), extracted into a
+    temporary directory that lives as long as the ``with`` block: the one reader of the archives for every bench."""
+    with tempfile.TemporaryDirectory() as tmp:
+        with tarfile.open(archive) as opened:
+            opened.extractall(tmp, filter="data")
+        yield scene_folders(Path(tmp))
+
+
 def run_archive(archive: Path, scenes: Sequence[str] | None = None, limit: int | None = None,
                 robots: Robots | None = None) -> Iterator[dict[str, Any]]:
     """The records of :func:`solve` for the problems of ``archive`` (scene folders named in ``scenes``, with
     or without the ``_panda`` suffix; all when None), at most ``limit`` per scene."""
     robots = robots or Robots()
-    with tempfile.TemporaryDirectory() as tmp:
-        with tarfile.open(archive) as opened:
-            opened.extractall(tmp, filter="data")
-        folders = scene_folders(Path(tmp))
+    with extracted_scene_folders(archive) as folders:
         if scenes:
             wanted = {s.removesuffix("_panda") for s in scenes}
             unknown = wanted - {f.name.removesuffix("_panda") for f in folders}

@@ -20,8 +20,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import tarfile
-import tempfile
 import time
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -40,6 +38,7 @@ from benchmarks.bench_mbm import (
     SCENES,
     TOLERANCE,
     Robots,
+    extracted_scene_folders,
     problem_indices,
     request_fingers,
     request_joints,
@@ -48,7 +47,6 @@ from benchmarks.bench_mbm import (
 )
 from pfield.field import PotentialField
 from pfield.robot.collision import CollisionChecker
-from pfield.scene import scene_folders
 from pfield.sim import Simulation
 
 SECTION = "MotionBenchMaker Panda plans executed in MuJoCo (physics check)"
@@ -106,10 +104,8 @@ def run_scenes(archive: Path, scenes: Sequence[str], limit: int, robots: Robots 
     """Records of :func:`execute` for the first ``limit`` problems of each scene folder named in ``scenes``."""
     robots = robots or Robots()
     wanted = {s.removesuffix("_panda") for s in scenes}
-    with tempfile.TemporaryDirectory() as tmp:
-        with tarfile.open(archive) as opened:
-            opened.extractall(tmp, filter="data")
-        folders = [f for f in scene_folders(Path(tmp)) if f.name.removesuffix("_panda") in wanted]
+    with extracted_scene_folders(archive) as all_folders:
+        folders = [f for f in all_folders if f.name.removesuffix("_panda") in wanted]
         task = progress.add_task("physics", total=limit * len(folders)) if progress else None
         for folder in folders:
             for index in problem_indices(folder)[:limit]:
@@ -163,9 +159,11 @@ def summary_rows(records: list[dict[str, Any]]) -> list[BenchRow]:
 
 
 def run(quick: bool) -> list[BenchRow]:
+    """The MBM plans executed in MuJoCo, then the assisted-teleop scene driven through the servo loop there."""
+    teleop = teleop_rows(3 if quick else TELEOP_RUNS)
     if not ARCHIVE.exists():
-        return [BenchRow(SECTION, "skipped", 0.0, "", note=f"{ARCHIVE} not found")]
-    return summary_rows(list(run_scenes(ARCHIVE, SCENES, 3 if quick else PROBLEMS)))
+        return [BenchRow(SECTION, "skipped", 0.0, "", note=f"{ARCHIVE} not found"), *teleop]
+    return [*summary_rows(list(run_scenes(ARCHIVE, SCENES, 3 if quick else PROBLEMS))), *teleop]
 
 
 def main(argv: Sequence[str] | None = None) -> None:
