@@ -12,13 +12,18 @@ each on a tiny problem, and says what each checked:
 
 For the node (``pfield serve``, ``pfield ros2 node``):
 
-* :func:`start_background` — :func:`check` of :data:`NODE_STEPS` in a daemon thread, once per process;
-* :func:`fit_in_background` — build a robot's fitted link model (``robot.geometry``) in a daemon thread: the
+* :func:`start_background` — :func:`check` of :data:`NODE_STEPS` in a background thread, once per process;
+* :func:`fit_in_background` — build a robot's fitted link model (``robot.geometry``) in a background thread: the
   node's robot, whose first fit takes seconds;
 * :func:`ready` — thread-safe: has the background check finished, and has every robot handed to
   :func:`fit_in_background` its link model (what ``GET /health`` reports)?
 
 A failing step is logged and counted in :class:`CheckReport`; the other steps still run.
+
+The background threads are not daemons: a process that stops while one runs waits for it (a tiny plan or one
+robot's fit) before the interpreter finalizes. A daemon thread would be stopped inside a core call that has
+released the GIL, and unwinding it through the core's frames aborts the process ("terminate called without an
+active exception").
 """
 
 from __future__ import annotations
@@ -189,7 +194,7 @@ def ready() -> bool:
 
 
 def fit_in_background(robot: Any) -> threading.Thread:
-    """Build ``robot.geometry`` (a :class:`~pfield.robot.RobotModel`'s fitted link model) in a daemon thread;
+    """Build ``robot.geometry`` (a :class:`~pfield.robot.RobotModel`'s fitted link model) in a background thread;
     :func:`ready` stays false until it has. Each link that is actually fitted (not read from the fit cache)
     is logged at INFO by :mod:`pfield.robot._fit`; a failure is logged as an error and raised again by the
     first request that needs the geometry."""
@@ -207,13 +212,13 @@ def fit_in_background(robot: Any) -> threading.Thread:
         finally:
             done.set()
 
-    thread = threading.Thread(target=run, name="pfield-robot-fit", daemon=True)
+    thread = threading.Thread(target=run, name="pfield-robot-fit", daemon=False)  # see the module's note
     thread.start()
     return thread
 
 
 def start_background(on_done: Callable[[CheckReport], None] | None = None) -> threading.Thread:
-    """Start :func:`check` of :data:`NODE_STEPS` in a daemon thread (once per process; later calls return the same
+    """Start :func:`check` of :data:`NODE_STEPS` in a background thread (once per process; later calls return the same
     thread), log its outcome (``self-check passed (… s)`` at INFO) and call ``on_done(report)`` from it when
     finished (the thread of an earlier call keeps its own callback)."""
     global _THREAD
@@ -230,6 +235,6 @@ def start_background(on_done: Callable[[CheckReport], None] | None = None) -> th
                 if on_done is not None:
                     on_done(report)
 
-            _THREAD = threading.Thread(target=run, name="pfield-check", daemon=True)
+            _THREAD = threading.Thread(target=run, name="pfield-check", daemon=False)  # see the module's note
             _THREAD.start()
         return _THREAD

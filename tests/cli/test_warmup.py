@@ -94,7 +94,7 @@ from pfield import warmup
 assert not warmup.ready()
 reports = []
 thread = warmup.start_background(reports.append)
-assert warmup.start_background() is thread and thread.daemon
+assert warmup.start_background() is thread and not thread.daemon
 thread.join()
 assert warmup.ready()
 assert len(reports) == 1 and reports[0].ok, reports
@@ -108,6 +108,26 @@ def test_ready_turns_true_once_the_background_check_has_run() -> None:
     done = _python(READY)
     assert done.returncode == 0, done.stderr
     assert done.stdout.startswith("OK")
+
+
+EXIT_WHILE_CHECKING = """
+import logging
+from pfield import warmup
+logging.basicConfig(level="INFO", format="%(message)s")
+warmup.start_background()
+warmup.fit_in_background(__import__("pfield.robot", fromlist=["RobotModel"]).RobotModel.builtin("panda"))
+print("main thread ends", flush=True)
+"""
+
+
+def test_a_process_that_ends_while_the_check_runs_waits_for_it_and_exits_cleanly() -> None:
+    # A daemon thread stopped at exit inside a core call that released the GIL aborts the process (exit 134,
+    # "terminate called without an active exception", seen on `pfield ros2 node` stopped right after start).
+    done = _python(EXIT_WHILE_CHECKING)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "main thread ends"
+    assert "self-check passed" in done.stderr and "robot panda: link model ready" in done.stderr, done.stderr
+    assert "terminate called" not in done.stderr
 
 
 def test_health_says_ready_once_the_node_has_checked_itself(node_server: NodeServer) -> None:

@@ -83,10 +83,12 @@ def node(
     from pfield.transport.ros2 import run
 
     warmup.start_background()  # logs "self-check passed" (pfield.warmup, INFO) once the engine has planned
-    typer.echo(f"pfield ROS 2 nodes: {', '.join(n.name for n in nodes)} (Ctrl-C stops)", err=True)
+    def announce() -> None:  # after the signal handlers: from this line on, Ctrl-C or SIGTERM stops cleanly
+        typer.echo(f"pfield ROS 2 nodes: {', '.join(n.name for n in nodes)} (Ctrl-C stops)", err=True)
+
     with cli_errors():  # a bad --ros-args parameter value
         try:
-            run(nodes, args=list(ctx.args))
+            run(nodes, args=list(ctx.args), on_ready=announce)
         finally:
             for pfield_node in nodes:
                 pfield_node.close()

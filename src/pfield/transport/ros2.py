@@ -300,13 +300,19 @@ class Ros2Host:
         self.shutdown()
 
 
-def run(nodes: Sequence[Node], args: Sequence[str] = (), stop: threading.Event | None = None) -> None:
-    """Serve ``nodes`` over ROS 2 until ``stop`` is set (or SIGINT/SIGTERM when ``stop`` is None)."""
+def run(nodes: Sequence[Node], args: Sequence[str] = (), stop: threading.Event | None = None,
+        on_ready: Callable[[], None] | None = None) -> None:
+    """Serve ``nodes`` over ROS 2 until ``stop`` is set (or SIGINT/SIGTERM when ``stop`` is None).
+
+    ``on_ready()`` is called once the nodes are up and the signal handlers are in place, so that a caller who
+    announces readiness there can be stopped by a signal from then on with a clean exit."""
     event = stop or threading.Event()
     if stop is None:
         for signum in (signal.SIGINT, signal.SIGTERM):
             signal.signal(signum, lambda *_: event.set())
     with Ros2Host(nodes, args):
+        if on_ready is not None:
+            on_ready()
         while not event.wait(0.5):
             pass
     _LOG.info("ROS 2 nodes stopped")
