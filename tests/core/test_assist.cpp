@@ -165,3 +165,60 @@ TEST(assist_joints_maps_the_command_and_holds_the_nearest_link_point_at_its_damp
   CHECK_NEAR(approach(v, held.nearest.normal, {}), allowed, 1e-12);
   CHECK(held.time_to_collision > 0.0 && held.time_to_collision < kInf);
 }
+
+// The same arm straight along x with a ball above each link: both link points are within Q and both approach too
+// fast under the operator's +y command. The nearest link (0) alone would be corrected and link 1 driven on; the
+// answer is the projection of the blend onto both rows, which here is the projection onto link 1's row alone
+// (link 0's row then holds with room: its multiplier would be negative).
+TEST(assist_joints_holds_every_link_point_within_the_influence_distance) {
+  const std::int64_t parents[2] = {-1, 0}, kinds[2] = {0, 0}, support[4] = {1, 0, 1, 1};
+  const double place_rot[18] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+  const double place_pos[6] = {0, 0, 0, 0.3, 0, 0}, axes[6] = {0, 0, 1, 0, 0, 1};
+  const double ee_rot[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, ee_pos[3] = {0.3, 0, 0};
+  const std::int64_t cap_joint[2] = {0, 1}, link_start[3] = {0, 1, 2};
+  const double seg_a[6] = {0, 0, 0, 0, 0, 0}, seg_b[6] = {0.3, 0, 0, 0.3, 0, 0}, radii[2] = {0.02, 0.02};
+  const double lower[2] = {-3, -3}, upper[2] = {3, 3}, vmax[2] = {1, 1}, amax[2] = {5, 5};
+  pfield::robot::RobotView robot;
+  robot.kinematics = {2, parents, place_rot, place_pos, axes, kinds, support, 1, ee_rot, ee_pos};
+  robot.links = {2, cap_joint, seg_a, seg_b, radii, radii, 0, nullptr, 2, link_start, cap_joint, seg_a, seg_b, radii};
+  robot.limits = {lower, upper, vmax, amax};
+  // balls of 1 cm above link 0 at x = 0.15 (clearance 12 mm) and above link 1 at x = 0.45 (13 mm)
+  const std::int64_t ball_kinds[2] = {0, 0};
+  const double ball_rows[32] = {0.15, 0.042, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0.01, 0, 0, -1,
+                                0.45, 0.043, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0.01, 0, 0, -1};
+  PackedView packed;
+  packed.kinds = ball_kinds;
+  packed.rows = ball_rows;
+  packed.obstacle_count = 2;
+  const double centres[6] = {0.15, 0.042, 0, 0.45, 0.043, 0}, bounds[2] = {0.01, 0.01}, velocities[6] = {};
+  const MovingObstacles obstacles{{&packed, centres, bounds}, velocities};
+  const JointAssistParams joint_params{0.01, 0.01, 0.01, 0.01, 0.05, 1e-4, 0.2};
+  JointWorkspace ws(robot, 2);
+  const double q[2] = {0.0, 0.0}, zeros[2] = {0.0, 0.0}, up[6] = {0.0, 0.05, 0.0, 0.0, 0.0, 0.0};
+  double qd[2];
+  const JointAssistance held = assist_joints(q, robot, obstacles, default_params(), joint_params,
+                                             Arbitration::SafetyOnly, 0.0, zeros, up, -1, -1, ws, nullptr, qd);
+  CHECK(held.limited && held.nearest.link == 0 && held.nearest.obstacle == 0);
+  CHECK_NEAR(held.nearest.distance, 0.012, 1e-12);
+  // the blend: J^T (J J^T + lambda^2 I)^-1 u in the (v_y, w_z) rows (0.6, 0.3), (1, 1), as above
+  const double a = 0.45 + 1e-4, b = 0.9, c = 2.0 + 1e-4, det = a * c - b * b;
+  const double y0 = c * 0.05 / det, y1 = -b * 0.05 / det;
+  const double blend[2] = {0.6 * y0 + y1, 0.3 * y0 + y1};
+  // the rows n^T J_p qd >= -s(d), n = -y: link 0's point (0.15, 0) moves at 0.15 qd0 along y, link 1's (0.45, 0) at
+  // 0.45 qd0 + 0.15 qd1
+  const double s0 = pfield::field::damper_speed(0.012, 0.1, 0.01, 1.0, 0.05, 1.0);
+  const double s1 = pfield::field::damper_speed(0.013, 0.1, 0.01, 1.0, 0.05, 1.0);
+  CHECK(0.15 * blend[0] > s0 && 0.45 * blend[0] + 0.15 * blend[1] > s1);  // both approach too fast
+  const double excess = 0.45 * blend[0] + 0.15 * blend[1] - s1, norm2 = 0.45 * 0.45 + 0.15 * 0.15;
+  const double expected[2] = {blend[0] - 0.45 * excess / norm2, blend[1] - 0.15 * excess / norm2};
+  CHECK_NEAR(qd[0], expected[0], 1e-12);
+  CHECK_NEAR(qd[1], expected[1], 1e-12);
+  CHECK(0.15 * qd[0] < s0 - 1e-3);                               // link 0 held with room
+  CHECK_NEAR(0.45 * qd[0] + 0.15 * qd[1], s1, 1e-12);            // link 1 at its damper
+  // a workspace sized for no obstacles grows to the rows and gives the same answer
+  JointWorkspace small(robot);
+  double again[2];
+  assist_joints(q, robot, obstacles, default_params(), joint_params, Arbitration::SafetyOnly, 0.0, zeros, up, -1, -1,
+                small, nullptr, again);
+  CHECK(again[0] == qd[0] && again[1] == qd[1]);
+}

@@ -8,9 +8,11 @@ from typing import Any
 import numpy as np
 import pytest
 
+from pfield._core.robot_distance import fitted_self_clearances_at
 from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
 from pfield.geometry import Box, Obstacle, Sphere, pack_obstacles, signed_distances
+from pfield.planning._whole_body_core import core_robot
 from pfield.planning.global_search import (
     GlobalOptions,
     goal_configurations,
@@ -102,15 +104,17 @@ def test_a_joint_path_keeps_the_capsule_margin_and_is_clear_under_the_exact_chec
     np.testing.assert_array_equal(result.path[0], Q_START)
     np.testing.assert_array_equal(result.path[-1], goal)
     checker = CollisionChecker(xarm, obstacles)
-    # every pair keeps the margin, or goes at most endpoint_band deeper than at the start or the goal
+    # every pair keeps the margin, or goes at most endpoint_band deeper than at the start or the goal; the self
+    # pairs on the fitted primitives, the search's model of them
     ends = [capsule_clearances(xarm, q, obstacles) for q in (Q_START, goal)]
+    own_ends = [fitted_self_clearances_at(core_robot(arrays), q) for q in (Q_START, goal)]
     band = GlobalOptions().endpoint_band
     floor_obstacle = np.minimum(0.02, np.minimum(ends[0].obstacle, ends[1].obstacle) - band)
-    floor_own = np.minimum(0.02, np.minimum(ends[0].self_pairs, ends[1].self_pairs) - band)
+    floor_own = np.minimum(0.02, np.minimum(own_ends[0], own_ends[1]) - band)
     for q in _interpolated(result.path, 0.01):
         clearances = capsule_clearances(xarm, q, obstacles)
         assert np.all(clearances.obstacle >= floor_obstacle - 1e-9)
-        assert np.all(clearances.self_pairs >= floor_own - 1e-9)
+        assert np.all(fitted_self_clearances_at(core_robot(arrays), q) >= floor_own - 1e-9)
         assert not checker.check(q).in_collision
 
 

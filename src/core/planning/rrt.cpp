@@ -137,7 +137,26 @@ bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, 
   for (std::size_t k = 0; k < links.pair_count; ++k) {
     const auto l1 = static_cast<std::size_t>(links.self_pairs[2 * k]);
     const auto l2 = static_cast<std::size_t>(links.self_pairs[2 * k + 1]);
-    if (robot::link_pair_distance(links, ws.world, l1, l2).distance - scene.self_offsets[k] < margin) return false;
+    if (!scene.fitted_self) {
+      if (robot::link_pair_distance(links, ws.world, l1, l2).distance - scene.self_offsets[k] < margin) return false;
+      continue;
+    }
+    const double need = margin + scene.self_offsets[k];
+    // the bounding capsules (they contain the primitives) first: most pairs end here, their primitives unplaced
+    if (robot::segment_segment_distance(ws.world.capsule_a(l1), ws.world.capsule_b(l1), ws.world.capsule_a(l2),
+                                        ws.world.capsule_b(l2)) -
+            links.cap_r[l1] - links.cap_r[l2] >=
+        need)
+      continue;
+    for (const std::size_t l : {l1, l2}) {
+      if (ws.placed[l]) continue;
+      robot::world_segment_range(ws.frames, links.prim_joint, links.prim_a, links.prim_b,
+                                 static_cast<std::size_t>(links.link_start[l]),
+                                 static_cast<std::size_t>(links.link_start[l + 1]), ws.world.prim_a, ws.world.prim_b);
+      ws.placed[l] = 1;
+    }
+    // "not below need" comes back as need itself: compared with need, not as distance - offset < margin
+    if (robot::fitted_pair_distance_below(links, ws.world, l1, l2, need).distance < need) return false;
   }
   return true;
 }

@@ -9,6 +9,7 @@
 
 #include "field/forces.hpp"
 #include "math/linalg.hpp"
+#include "planning/damper_rows.hpp"
 #include "robot/distance.hpp"
 #include "robot/kinematics.hpp"
 
@@ -23,34 +24,9 @@ using robot::detail::py_min;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr std::size_t kTaskRows = 6;  // the end-effector twist: linear, then angular
-const math::QpSettings kQpSettings{200, 1e-7};
-
-// The QP's constraint rows A qd >= b as the constraints fill them (each kind of damper adds its own rows through
-// this one interface; the QP never knows which constraint a row came from).
-struct ConstraintRows {
-  double* a;        // (capacity, n) row-major
-  double* b;        // (capacity,)
-  std::size_t n;
-  std::size_t count;
-
-  // A new row with bound `bound`; its n coefficients are the caller's to write.
-  double* add(double bound) {
-    b[count] = bound;
-    return a + n * count++;
-  }
-
-  // The row n^T J_p of the world point p carried by `joint` (its linear Jacobian into jlin, 3 x n), bound `bound`.
-  double* add_point_row(const robot::KinematicsView& kinematics, const robot::Frames& frames, std::int64_t joint,
-                        Vec3 point, Vec3 normal, double bound, double* jlin) {
-    robot::linear_point_jacobian(kinematics, frames, joint, point, jlin);
-    double* row = add(bound);
-    for (std::size_t j = 0; j < n; ++j) row[j] = normal.x * jlin[j] + normal.y * jlin[n + j] + normal.z * jlin[2 * n + j];
-    return row;
-  }
-};
 
 // Damper rows and null-space repulsion (ws.free) of every link-obstacle pair within Q: one row per pair, at the
-// closest point of the link's deciding segment (robot::link_obstacle_distance_below with cutoff = fine_cutoff = Q).
+// closest point of the link's deciding segment (scan_link_obstacle_pairs with cutoff Q, planning/damper_rows.hpp).
 // A pair's distance less its start offset, or with `hold` max(d, d_s). The clearance takes every pair's value (a
 // lower bound beyond Q), the nearest pair every pair that passed the cheap bound.
 void obstacle_rows(const robot::RobotView& robot, const WholeBodyScene& scene, const WholeBodyParams& p,
@@ -62,43 +38,36 @@ void obstacle_rows(const robot::RobotView& robot, const WholeBodyScene& scene, c
   const double speed = p.damper_gain * p.max_linear_velocity, null_scale = p.null_space_gain * p.max_linear_velocity;
   double clearance = kInf, worst = kInf;
   std::int64_t culprit_c = -1, culprit_o = -1;
-  for (std::size_t c = 0; c < links.capsule_count; ++c) {
-    for (std::size_t i = 0; i < count; ++i) {
-      // the cheap bound first, inline: most pairs end here (link_obstacle_distance_below's own first test)
-      const double lower = robot::capsule_lower_bound(obstacles, i, ws.world, links, c);
-      if (lower >= influence) {
-        clearance = py_min(clearance, lower);
-        continue;
-      }
-      const robot::LinkObstacleDistance pair =
-          robot::link_obstacle_distance_below(links, ws.world, obstacles, c, i, influence, influence);
-      double d = pair.distance;
-      clearance = py_min(clearance, d);
-      d = hold ? py_max(d, safety) : d - scene.obstacle_offsets[c * count + i];
-      if (d < worst) {
-        worst = d;
-        culprit_c = static_cast<std::int64_t>(c);
-        culprit_o = static_cast<std::int64_t>(i);
-      }
-      const std::int64_t joint = links.cap_joint[c];
-      if (!pair.exact || d >= influence || joint < 0) continue;  // not exact: a lower bound, at least Q
-      const double bound = -stepped_damper_speed(d, influence, safety, speed, dt);
-      const double* row =
-          rows.add_point_row(robot.kinematics, ws.frames, joint, pair.point, pair.normal, bound, ws.jlin.data());
-      const double push =
-          null_scale * field::khatib_magnitude(d, p.repulsive_gain, influence, p.max_repulsive_force) /
-          p.max_repulsive_force;
-      for (std::size_t j = 0; j < n; ++j) ws.free[j] += push * row[j];
+  const auto culled = [&](std::size_t, std::size_t, double lower) { clearance = py_min(clearance, lower); };
+  const auto evaluated = [&](std::size_t c, std::size_t i, const robot::LinkObstacleDistance& pair) {
+    double d = pair.distance;
+    clearance = py_min(clearance, d);
+    d = hold ? py_max(d, safety) : d - scene.obstacle_offsets[c * count + i];
+    if (d < worst) {
+      worst = d;
+      culprit_c = static_cast<std::int64_t>(c);
+      culprit_o = static_cast<std::int64_t>(i);
     }
-  }
+    const std::int64_t joint = links.cap_joint[c];
+    if (!pair.exact || d >= influence || joint < 0) return;  // not exact: a lower bound, at least Q
+    const double bound = -stepped_damper_speed(d, influence, safety, speed, dt);
+    const double* row =
+        rows.add_point_row(robot.kinematics, ws.frames, joint, pair.point, pair.normal, bound, ws.jlin.data());
+    const double push =
+        null_scale * field::khatib_magnitude(d, p.repulsive_gain, influence, p.max_repulsive_force) /
+        p.max_repulsive_force;
+    for (std::size_t j = 0; j < n; ++j) ws.free[j] += push * row[j];
+  };
+  scan_link_obstacle_pairs(links, ws.world, obstacles, influence, culled, evaluated);
   ws.result.clearance = clearance;
   ws.result.nearest_capsule = static_cast<double>(culprit_c);
   ws.result.nearest_obstacle = static_cast<double>(culprit_o);
   ws.result.nearest_distance = worst;
 }
 
-// Damper rows of the self pairs within Q, on the covering capsules: n^T (J_1(p1) - J_2(p2)) qd >= -s with n from
-// the second link's closest point to the first's. Offsets and hold as obstacle_rows.
+// Damper rows of the self pairs within Q, on the covering capsules (on the fitted primitives with
+// scene.fitted_self): n^T (J_1(p1) - J_2(p2)) qd >= -s with n from the second link's closest point to the first's.
+// Offsets and hold as obstacle_rows.
 void self_rows(const robot::RobotView& robot, const WholeBodyScene& scene, const WholeBodyParams& p,
                WholeBodyWorkspace& ws, ConstraintRows& rows, bool hold) {
   const robot::LinkModelView& links = robot.links;
@@ -108,10 +77,15 @@ void self_rows(const robot::RobotView& robot, const WholeBodyScene& scene, const
   double clearance = kInf;
   std::int64_t nearest = -1;
   double* jlin2 = ws.jlin2.data();
+  // the fitted level needs every primitive in the world (the step placed those near obstacles only)
+  if (scene.fitted_self && links.pair_count > 0) robot::primitive_segments(links, ws.frames, ws.world);
   for (std::size_t k = 0; k < links.pair_count; ++k) {
     const auto c1 = static_cast<std::size_t>(links.self_pairs[2 * k]);
     const auto c2 = static_cast<std::size_t>(links.self_pairs[2 * k + 1]);
-    const robot::LinkPairDistance pair = robot::link_pair_distance(links, ws.world, c1, c2);
+    // below the influence distance exactly; a farther pair (d >= its distance) gives no row either way
+    const robot::LinkPairDistance pair = scene.fitted_self
+                                             ? robot::fitted_pair_distance_below(links, ws.world, c1, c2, influence)
+                                             : robot::link_pair_distance(links, ws.world, c1, c2);
     const double d = hold ? py_max(pair.distance, safety) : pair.distance - scene.self_offsets[k];
     if (d < clearance) {
       clearance = d;
@@ -268,7 +242,7 @@ std::size_t velocity_from_segments(const double* q, const double* previous, cons
   self_rows(robot, scene, params, ws, rows, hold);
   joint_limit_rows(q, robot, params, rows);
   for (std::size_t j = 0; j < n; ++j) ws.rhs[j] += free_weight * ws.free[j];
-  math::solve_qp(ws.h.data(), n, ws.rhs.data(), {rows.a, n, rows.b, rows.count}, n, ws.x.data(), ws.qp, kQpSettings);
+  math::solve_qp(ws.h.data(), n, ws.rhs.data(), rows.view(), n, ws.x.data(), ws.qp, kDamperQpSettings);
   limit_speed(previous, robot, params, ws, rows);
   const double* jac = ws.jacobian.data();
   for (std::size_t r = 0; r < kTaskRows; ++r) {

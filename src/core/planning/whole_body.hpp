@@ -83,10 +83,15 @@ struct StepResult {
 // The obstacles (packed, with bounding spheres) and the start offsets (<= 0, m) subtracted from each pair's
 // distance: the fitted model over-approximates the links, so a valid start may have pairs closer than d_s, which
 // may then not get any closer than they start (pfield.planning.whole_body.make_scene).
+//
+// fitted_self: self pairs on the fitted primitives (robot::fitted_pair_distance_below) instead of the covering
+// capsules (robot::link_pair_distance): the global search and the tracking of its path (pfield.planning.global_search,
+// issue 34); the field's own plan keeps the covering capsules.
 struct WholeBodyScene {
   robot::ObstacleSet obstacles;
   const double* obstacle_offsets = nullptr;  // (caps, M) row-major
   const double* self_offsets = nullptr;      // (pairs,)
+  bool fitted_self = false;
 };
 
 // The end effector's goal pose.

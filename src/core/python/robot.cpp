@@ -113,12 +113,12 @@ std::size_t ObstacleArrays::index(std::int64_t i) const {
 }
 
 SceneArrays::SceneArrays(nb::handle_t<RobotArrays> robot, nb::handle_t<ObstacleArrays> obstacles,
-                         const Matrix& obstacle_offsets, const Vector& self_offsets)
+                         const Matrix& obstacle_offsets, const Vector& self_offsets, bool fitted_self)
     : robot_(robot), obstacles_(obstacles), obstacle_offsets_(obstacle_offsets), self_offsets_(self_offsets) {
   require(obstacle_offsets.shape(0) == robot_->capsules() && obstacle_offsets.shape(1) == obstacles_->count(),
           "scene: obstacle_offsets must be (caps, M)");
   require(self_offsets.shape(0) == robot_->pairs(), "scene: self_offsets must have one entry per self pair");
-  view_ = {obstacles_->set(), obstacle_offsets.data(), self_offsets.data()};
+  view_ = {obstacles_->set(), obstacle_offsets.data(), self_offsets.data(), fitted_self};
 }
 
 planning::WholeBodyParams whole_body_params(const Vector& params) {
@@ -181,9 +181,11 @@ void bind_robot(nb::module_& m) {
       .def_prop_ro("count", &ObstacleArrays::count);
   nb::class_<SceneArrays>(m, "Scene", "A robot among obstacles with its pairs' start offsets (<= 0, m), read in "
                                       "place; keeps the robot and the obstacles alive.")
-      .def(nb::init<nb::handle_t<RobotArrays>, nb::handle_t<ObstacleArrays>, const Matrix&, const Vector&>(),
-           "robot"_a, "obstacles"_a, "obstacle_offsets"_a, "self_offsets"_a,
-           "Scene(robot, obstacles, obstacle_offsets (caps, M), self_offsets (pairs,)).")
+      .def(nb::init<nb::handle_t<RobotArrays>, nb::handle_t<ObstacleArrays>, const Matrix&, const Vector&, bool>(),
+           "robot"_a, "obstacles"_a, "obstacle_offsets"_a, "self_offsets"_a, "fitted_self"_a = false,
+           "Scene(robot, obstacles, obstacle_offsets (caps, M), self_offsets (pairs,), fitted_self): fitted_self "
+           "puts the self pairs on the fitted primitives instead of the covering capsules (planning::WholeBodyScene).")
+      .def_prop_ro("fitted_self", [](const SceneArrays& s) { return s.view().fitted_self; })
       .def_prop_ro("robot", [](const SceneArrays& s) { return s.robot_object(); })
       .def_prop_ro("obstacles", [](const SceneArrays& s) { return s.obstacles_object(); });
 }

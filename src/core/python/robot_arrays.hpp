@@ -97,7 +97,7 @@ class ObstacleArrays {
 class SceneArrays {
  public:
   SceneArrays(nb::handle_t<RobotArrays> robot, nb::handle_t<ObstacleArrays> obstacles, const Matrix& obstacle_offsets,
-              const Vector& self_offsets);
+              const Vector& self_offsets, bool fitted_self = false);
 
   const planning::WholeBodyScene& view() const { return view_; }
   const RobotArrays& robot() const { return *robot_; }

@@ -286,6 +286,20 @@ void bind_robot_distance(nb::module_& m) {
       "robot"_a, "q"_a, "obstacles"_a,
       "Exact clearances at configuration q (forward kinematics of the robot, then clearances).");
   m.def(
+      "fitted_self_clearances_at",
+      [](const RobotArrays& robot, const Vector& q) {
+        require(q.shape(0) == robot.joints(), "q: expected one value per joint");
+        auto [out, own] = new_array({robot.pairs()});
+        {
+          nb::gil_scoped_release release;
+          robot::fitted_self_clearances_at(robot.view().kinematics, robot.view().links, q.data(), own);
+        }
+        return out;
+      },
+      "robot"_a, "q"_a,
+      "Self-pair clearances (pairs,) at configuration q on the fitted primitives "
+      "(robot::fitted_pair_distance_below, exact).");
+  m.def(
       "covering_clearances",
       [](const RobotArrays& robot, const Matrix& qs, const ObstacleArrays& obstacles) {
         require(qs.shape(1) == robot.joints(), "qs: expected (N, n), one value per joint");

@@ -157,6 +157,89 @@ LinkPairDistance link_pair_distance(const LinkModelView& links, const WorldSegme
   return {d, p1, p2};
 }
 
+namespace {
+// The closest points of segments a1-b1 and a2-b2 and their distance less r1 and r2.
+LinkPairDistance segment_pair(Vec3 a1, Vec3 b1, double r1, Vec3 a2, Vec3 b2, double r2) {
+  const SegmentParameters st = closest_segment_points(a1, b1, a2, b2);
+  const Vec3 p1{a1.x + st.s * (b1.x - a1.x), a1.y + st.s * (b1.y - a1.y), a1.z + st.s * (b1.z - a1.z)};
+  const Vec3 p2{a2.x + st.t * (b2.x - a2.x), a2.y + st.t * (b2.y - a2.y), a2.z + st.t * (b2.z - a2.z)};
+  const double dx = p1.x - p2.x, dy = p1.y - p2.y, dz = p1.z - p2.z;
+  return {std::sqrt(dx * dx + dy * dy + dz * dz) - r1 - r2, p1, p2};
+}
+
+Vec3 row3(const double* rows, std::size_t k) { return {rows[3 * k], rows[3 * k + 1], rows[3 * k + 2]}; }
+}  // namespace
+
+LinkPairDistance fitted_pair_distance_below(const LinkModelView& links, const WorldSegments& world, std::size_t l1,
+                                            std::size_t l2, double cutoff) {
+  const Vec3 a1 = world.capsule_a(l1), b1 = world.capsule_b(l1), a2 = world.capsule_a(l2), b2 = world.capsule_b(l2);
+  const LinkPairDistance bounding = segment_pair(a1, b1, links.cap_r[l1], a2, b2, links.cap_r[l2]);
+  const auto first1 = static_cast<std::size_t>(links.link_start[l1]);
+  const auto stop1 = static_cast<std::size_t>(links.link_start[l1 + 1]);
+  const auto first2 = static_cast<std::size_t>(links.link_start[l2]);
+  const auto stop2 = static_cast<std::size_t>(links.link_start[l2 + 1]);
+  if (bounding.distance >= cutoff || first1 == stop1 || first2 == stop2) return bounding;
+  // the primitives of l2 that reach below the cutoff from l1's bounding capsule (it contains l1's primitives)
+  thread_local std::vector<std::size_t> near;
+  near.clear();
+  for (std::size_t j = first2; j < stop2; ++j)
+    if (segment_segment_distance(row3(world.prim_a, j), row3(world.prim_b, j), a1, b1) - links.prim_r[j] -
+            links.cap_r[l1] <
+        cutoff)
+      near.push_back(j);
+  LinkPairDistance best{cutoff, bounding.first, bounding.second};  // "not below the cutoff" unless a pair is
+  for (std::size_t i = first1; i < stop1 && !near.empty(); ++i) {
+    const Vec3 pa = row3(world.prim_a, i), pb = row3(world.prim_b, i);
+    const double ri = links.prim_r[i];
+    // l2's bounding capsule contains its primitives: none of them is nearer primitive i than it
+    if (segment_segment_distance(pa, pb, a2, b2) - ri - links.cap_r[l2] >= best.distance) continue;
+    for (const std::size_t j : near) {
+      const LinkPairDistance d =
+          segment_pair(pa, pb, ri, row3(world.prim_a, j), row3(world.prim_b, j), links.prim_r[j]);
+      if (d.distance < best.distance) best = d;
+    }
+  }
+  return best;
+}
+
+namespace {
+
+// The link model placed at one configuration q: its joint frames and world segments, owning their buffers (for the
+// one-configuration entry points; loops keep their own buffers across configurations).
+class PlacedLinks {
+ public:
+  PlacedLinks(const KinematicsView& kinematics, const LinkModelView& links, const double* q)
+      : rotations_(9 * kinematics.joint_count), origins_(3 * kinematics.joint_count),
+        caps_(6 * links.capsule_count), prims_(6 * links.primitive_count),
+        frames{rotations_.data(), origins_.data()},
+        world{caps_.data(), caps_.data() + 3 * links.capsule_count, prims_.data(),
+              prims_.data() + 3 * links.primitive_count} {
+    joint_transforms(kinematics, q, frames);
+    capsule_segments(links, frames, world);
+    primitive_segments(links, frames, world);
+  }
+  PlacedLinks(const PlacedLinks&) = delete;  // frames and world point into this object's buffers
+  PlacedLinks& operator=(const PlacedLinks&) = delete;
+
+ private:
+  std::vector<double> rotations_, origins_, caps_, prims_;
+
+ public:
+  Frames frames;
+  WorldSegments world;
+};
+
+}  // namespace
+
+void fitted_self_clearances_at(const KinematicsView& kinematics, const LinkModelView& links, const double* q,
+                               double* own) {
+  const PlacedLinks placed(kinematics, links, q);
+  for (std::size_t k = 0; k < links.pair_count; ++k)
+    own[k] = fitted_pair_distance_below(links, placed.world, static_cast<std::size_t>(links.self_pairs[2 * k]),
+                                        static_cast<std::size_t>(links.self_pairs[2 * k + 1]), kInf)
+                 .distance;
+}
+
 void fill_clearances(const LinkModelView& links, const WorldSegments& world, const ObstacleSet& obstacles,
                      double cutoff, double* obstacle, double* own) {
   const std::size_t count = obstacles.count();
@@ -179,13 +262,8 @@ void clearances(const LinkModelView& links, const Frames& frames, const Obstacle
 
 void clearances_at(const KinematicsView& kinematics, const LinkModelView& links, const double* q,
                    const ObstacleSet& obstacles, double* obstacle, double* own) {
-  std::vector<double> rotations(9 * kinematics.joint_count), origins(3 * kinematics.joint_count);
-  std::vector<double> caps(6 * links.capsule_count), prims(6 * links.primitive_count);
-  Frames frames{rotations.data(), origins.data()};
-  joint_transforms(kinematics, q, frames);
-  WorldSegments world{caps.data(), caps.data() + 3 * links.capsule_count, prims.data(),
-                      prims.data() + 3 * links.primitive_count};
-  clearances(links, frames, obstacles, world, obstacle, own);
+  const PlacedLinks placed(kinematics, links, q);
+  fill_clearances(links, placed.world, obstacles, kInf, obstacle, own);
 }
 
 void covering_clearances(const KinematicsView& kinematics, const LinkModelView& links, const double* qs,

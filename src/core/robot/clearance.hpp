@@ -24,7 +24,8 @@
 //     check (planning/rrt.cpp capsules_valid) likewise with cutoff = its margin + the pair's offset, after its own
 //     cheaper tests (the numba kernel passed fine_cutoff = inf there; fine_cutoff = cutoff decides `distance <
 //     cutoff` the same way, with fewer primitives evaluated);
-//   * the whole-body step's damper rows (planning/whole_body.cpp obstacle_rows), cutoff = fine_cutoff = the
+//   * the damper rows of the velocity QP (planning/damper_rows.hpp scan_link_obstacle_pairs: the whole-body
+//     step's obstacle_rows and the assistance's rows of every pair within Q), cutoff = fine_cutoff = the
 //     influence distance Q: a result with level Culled adds only its distance to the step's clearance (min) and is
 //     not a candidate for the nearest pair; any other result is (distance less the pair's start offset); exact
 //     results still below Q after the offset give a damper row, for links carried by a joint, at `point` along
@@ -168,6 +169,26 @@ inline LinkObstacleDistance link_obstacle_distance(const LinkModelView& links, c
 // design, and the fitted primitives would cost about a hundred segment pairs per link pair at every step.
 LinkPairDistance link_pair_distance(const LinkModelView& links, const WorldSegments& world, std::size_t l1,
                                     std::size_t l2);
+
+// Clearance between links l1 and l2 on their fitted primitives (the model link-obstacle pairs use), exact below
+// `cutoff`: when the bounding capsules (radii cap_r, which contain the primitives) are at least cutoff apart, that
+// distance (a lower bound, >= cutoff) with the axes' closest points; else the minimum over the primitive pairs of
+// the segment-segment distance less both radii, with the closest points on the deciding primitives' axes, or cutoff
+// itself (with the bounding capsules' closest points) when no pair is below it. Exact culls: a primitive of l2 not
+// below cutoff from l1's bounding capsule, a primitive of l1 not below the best so far from l2's (each bounding
+// capsule contains its link's primitives). world.prim_* must hold both links' primitives whenever the bounding
+// capsules are closer than cutoff.
+//
+// Why (issue 34): the covering capsules of link_pair_distance enclose a whole link in one radius; on a UR5 the
+// forearm's (8 cm about a 0.4 m axis) overlaps the wrist's by up to 4.4 cm along motions whose meshes are clear, and
+// the global search, whose goals fold the wrist over the forearm, found no path in 10 s where it finds one in 0.1 s
+// on the fitted primitives.
+LinkPairDistance fitted_pair_distance_below(const LinkModelView& links, const WorldSegments& world, std::size_t l1,
+                                            std::size_t l2, double cutoff);
+
+// fitted_pair_distance_below for every self pair at configuration q (n,), exact (no cutoff), into own (pairs,).
+void fitted_self_clearances_at(const KinematicsView& kinematics, const LinkModelView& links, const double* q,
+                               double* own);
 
 // Link-obstacle clearances into obstacle (caps, M) row-major and self-pair clearances into own (pairs,), from the
 // world segments; pairs whose bound is >= cutoff get a bound (link_obstacle_distance_below(cutoff, cutoff)).

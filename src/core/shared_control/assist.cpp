@@ -16,6 +16,7 @@
 #include "geometry/sdf.hpp"
 #include "math/dls.hpp"
 #include "math/linalg.hpp"
+#include "planning/damper_rows.hpp"
 #include "robot/distance.hpp"
 #include "robot/kinematics.hpp"
 
@@ -64,6 +65,58 @@ Vec3 times(const double* point_jacobian, const double* qd, std::size_t n) {
 std::vector<MovingDamper>& damper_buffer() {
   thread_local std::vector<MovingDamper> buffer;
   return buffer;
+}
+
+// The nearest link point's minimum-norm correction dqd = J_p^T n e / |J_p^T n|^2 of the approach speed's excess e
+// over the damper `allowed` (point_jac its (3, n) linear Jacobian, nv its normal, o its obstacle's velocity), on qd
+// in place. True when it changed qd (e > 0). The operations of the kernel before the other pairs were held, so the
+// same bits wherever this alone holds them all.
+bool correct_nearest(const double* point_jac, Vec3 nv, Vec3 o, double allowed, std::size_t n, double* qd) {
+  const Vec3 v = times(point_jac, qd, n);
+  const double excess = -(nv.x * (v.x - o.x) + nv.y * (v.y - o.y) + nv.z * (v.z - o.z)) - allowed;
+  double norm2 = 0.0;
+  for (std::size_t j = 0; j < n; ++j) {
+    const double direction = point_jac[j] * nv.x + point_jac[n + j] * nv.y + point_jac[2 * n + j] * nv.z;
+    norm2 += direction * direction;
+  }
+  if (!(excess > 0.0 && norm2 > 1e-12)) return false;
+  for (std::size_t j = 0; j < n; ++j) {
+    const double direction = point_jac[j] * nv.x + point_jac[n + j] * nv.y + point_jac[2 * n + j] * nv.z;
+    qd[j] += direction * excess / norm2;
+  }
+  return true;
+}
+
+// The dampers of every link point within Q (assist_joints, in assist.hpp) once the nearest pair's closed form is in
+// qd: its rows n^T J_p qd >= n^T v_obs - s(d) into ws; when qd holds them all within the QP's tolerance it stands,
+// else qd becomes the QP's answer from the blend ws.blend. True in that case.
+bool hold_every_pair(const robot::RobotView& robot, const robot::Frames& frames, const robot::WorldSegments& world,
+                     const MovingObstacles& obstacles, const AssistParams& params, JointWorkspace& ws, double* qd) {
+  const std::size_t n = robot.kinematics.joint_count;
+  const robot::LinkModelView& links = robot.links;
+  const double influence = params.influence_distance;
+  ws.fit_rows(links.capsule_count * obstacles.count());
+  planning::ConstraintRows rows{ws.rows.data(), ws.bounds.data(), n, 0};
+  const auto culled = [](std::size_t, std::size_t, double) {};
+  const auto evaluated = [&](std::size_t c, std::size_t i, const robot::LinkObstacleDistance& pair) {
+    const std::int64_t joint = links.cap_joint[c];
+    if (!pair.exact || !(pair.distance < influence) || joint < 0) return;  // beyond Q, or a link nothing moves
+    const Vec3 nv = pair.normal, o = obstacles.velocity(i);
+    const double bound = (nv.x * o.x + nv.y * o.y + nv.z * o.z) - damper_allowance(pair.distance, params);
+    rows.add_point_row(robot.kinematics, frames, joint, pair.point, nv, bound, ws.point_jacobian.data());
+  };
+  planning::scan_link_obstacle_pairs(links, world, obstacles.set, influence, culled, evaluated);
+  double worst = 0.0;
+  for (std::size_t k = 0; k < rows.count; ++k) {
+    const double* a = rows.a + k * n;
+    double slack = rows.b[k];
+    for (std::size_t j = 0; j < n; ++j) slack -= a[j] * qd[j];
+    worst = slack > worst ? slack : worst;
+  }
+  if (!(worst > planning::kDamperQpSettings.tolerance)) return false;
+  std::copy(ws.blend.begin(), ws.blend.end(), qd);
+  math::hildreth({ws.identity.data(), n, rows.view(), n}, qd, ws.qp, planning::kDamperQpSettings);
+  return true;
 }
 
 }  // namespace
@@ -189,17 +242,32 @@ bool below_singular_value(const double* gram, std::size_t m, double threshold) {
   return !(math::cholesky_in_place(shifted, m, m) > 0.0);
 }
 
-JointWorkspace::JointWorkspace(const robot::RobotView& robot)
+JointWorkspace::JointWorkspace(const robot::RobotView& robot, std::size_t obstacle_count)
     : rotations(9 * robot.kinematics.joint_count),
       origins(3 * robot.kinematics.joint_count),
       jacobian(kTwist * robot.kinematics.joint_count),
       point_jacobian(3 * robot.kinematics.joint_count),
       segment_ends(6 * (robot.links.capsule_count + robot.links.primitive_count)),
-      qd_user(robot.kinematics.joint_count) {
+      qd_user(robot.kinematics.joint_count),
+      blend(robot.kinematics.joint_count),
+      identity(robot.kinematics.joint_count * robot.kinematics.joint_count, 0.0),
+      rows(robot.links.capsule_count * obstacle_count * robot.kinematics.joint_count),
+      bounds(robot.links.capsule_count * obstacle_count),
+      qp(robot.links.capsule_count * obstacle_count, robot.kinematics.joint_count) {
+  const std::size_t n = robot.kinematics.joint_count;
   const std::size_t caps = robot.links.capsule_count, prims = robot.links.primitive_count;
+  for (std::size_t j = 0; j < n; ++j) identity[j * n + j] = 1.0;
   frames = {rotations.data(), origins.data()};
   double* ends = segment_ends.data();
   world = {ends, ends + 3 * caps, ends + 6 * caps, ends + 6 * caps + 3 * prims};
+}
+
+void JointWorkspace::fit_rows(std::size_t count) {
+  if (count <= bounds.size()) return;
+  const std::size_t n = blend.size();
+  rows.resize(count * n);
+  bounds.resize(count);
+  qp = math::QpWorkspace(count, n);
 }
 
 JointAssistance assist_joints(const double* q, const robot::RobotView& robot, const MovingObstacles& obstacles,
@@ -251,22 +319,10 @@ JointAssistance assist_joints(const double* q, const robot::RobotView& robot, co
     else if (approach_user > 0.0)
       out.time_to_collision = clearance / approach_user;
     if (clearance < params.influence_distance) {
-      // the minimum-norm correction along J_p^T n of the approach speed's excess over the damper
-      const double allowed = damper_allowance(clearance, params);
-      const Vec3 v = times(point_jac, qd, n);
-      const double excess = -(nv.x * (v.x - o.x) + nv.y * (v.y - o.y) + nv.z * (v.z - o.z)) - allowed;
-      double norm2 = 0.0;
-      for (std::size_t j = 0; j < n; ++j) {
-        const double direction = point_jac[j] * nv.x + point_jac[n + j] * nv.y + point_jac[2 * n + j] * nv.z;
-        norm2 += direction * direction;
-      }
-      if (excess > 0.0 && norm2 > 1e-12) {
-        for (std::size_t j = 0; j < n; ++j) {
-          const double direction = point_jac[j] * nv.x + point_jac[n + j] * nv.y + point_jac[2 * n + j] * nv.z;
-          qd[j] += direction * excess / norm2;
-        }
-        out.limited = true;
-      }
+      // the nearest pair in closed form, then every pair within Q (assist.hpp)
+      std::copy(qd, qd + n, ws.blend.begin());
+      out.limited = correct_nearest(point_jac, nv, o, damper_allowance(clearance, params), n, qd);
+      if (hold_every_pair(robot, *frames, *world, obstacles, params, ws, qd)) out.limited = true;
     }
     out.obstacle_point = {nearest.point.x - clearance * nv.x, nearest.point.y - clearance * nv.y,
                           nearest.point.z - clearance * nv.z};
@@ -290,7 +346,7 @@ WholeBodyAssistance::WholeBodyAssistance(const robot::RobotView& robot, const Mo
       obstacles_(obstacles),
       params_(params),
       joint_params_(joint_params),
-      ws_(robot),
+      ws_(robot, obstacles.count()),
       zeros_(robot.kinematics.joint_count, 0.0),
       clamped_(robot.kinematics.joint_count),
       obstacle_offsets_(robot.links.capsule_count * obstacles.count(), 0.0),

@@ -6,8 +6,10 @@
 //   nearest obstacle's distance d (obstacle_share), at least the goal share in linear_goal, 0 in safety_only.
 // * The dampers on the blend: the relative approach speed -n^T (v - v_obs) to every obstacle within Q is held below
 //   the NEO velocity damper s(d) (Haviland & Corke 2021, eq. 20; field::damper_speed) by projection onto the
-//   half-spaces (task space, limit_approach), or for the nearest link point by the minimum-norm joint correction
-//   dqd = J_p^T n e / |J_p^T n|^2 (whole body, assist_joints).
+//   half-spaces (task space, limit_approach), or in the whole body (assist_joints) at every link point within Q of
+//   an obstacle by the nearest joint velocity (Euclidean) that holds all their rows: the minimum-norm correction
+//   dqd = J_p^T n e / |J_p^T n|^2 of the nearest link point alone when that holds the others, else the velocity QP
+//   (math/qp.hpp) on the rows of planning/damper_rows.hpp.
 // * MoveIt Servo's collision velocity scale (servo_scale), reported, not applied; the first-order time to collision.
 //
 // The same operations in the same order as the numba kernels this replaced (issue 32), so the same bits; every
@@ -24,6 +26,7 @@
 #include <vector>
 
 #include "geometry/packed.hpp"
+#include "math/qp.hpp"
 #include "math/vec3.hpp"
 #include "planning/whole_body.hpp"
 #include "robot/clearance.hpp"
@@ -154,7 +157,7 @@ struct JointAssistance {
   NearestLink nearest;     // its point: robot_point
   Vec3 obstacle_point;     // point - d n (point when none)
   double time_to_collision = std::numeric_limits<double>::infinity();  // of the nearest link point under qd_user
-  bool limited = false;    // the damper corrected qd
+  bool limited = false;    // the dampers corrected qd
   bool at_limit = false;   // a joint within joint_limit_margin of a limit
   bool singular = false;   // sigma_min(J) < singularity_threshold
   // with the field's step (WholeBodyAssistance::step) only:
@@ -163,17 +166,26 @@ struct JointAssistance {
   double autonomy[6] = {};  // the step's twist J qd_auto, before the output contract
 };
 
-// The scratch of assist_joints at one robot: joint frames, Jacobians, world segments, the operator's joint velocity.
+// The scratch of assist_joints at one robot: joint frames, Jacobians, world segments, the operator's joint velocity,
+// and the damper QP's rows (sized for obstacle_count obstacles; assist_joints grows them, once, for more).
 struct JointWorkspace {
-  explicit JointWorkspace(const robot::RobotView& robot);
+  explicit JointWorkspace(const robot::RobotView& robot, std::size_t obstacle_count = 0);
   JointWorkspace(const JointWorkspace&) = delete;
   JointWorkspace& operator=(const JointWorkspace&) = delete;
 
+  // Room for `rows` damper rows (caps x M: one per link-obstacle pair); allocates only when it grows.
+  void fit_rows(std::size_t rows);
+
   std::vector<double> rotations, origins;  // (n, 3, 3), (n, 3)
   std::vector<double> jacobian;            // (6, n) the end effector's
-  std::vector<double> point_jacobian;      // (3, n) the nearest link point's linear Jacobian
+  std::vector<double> point_jacobian;      // (3, n) a link point's linear Jacobian (the nearest's, then each row's)
   std::vector<double> segment_ends;        // capsules a, b (caps, 3) each, then primitives a, b (prims, 3)
   std::vector<double> qd_user;             // (n,)
+  std::vector<double> blend;               // (n,) qd before the dampers
+  std::vector<double> identity;            // (n, n) the QP's Hessian I, its own Cholesky factor
+  std::vector<double> rows;                // (capacity, n) the damper rows A
+  std::vector<double> bounds;              // (capacity,) their bounds b (A qd >= b)
+  math::QpWorkspace qp;                    // (capacity rows, n variables)
   robot::Frames frames;                    // views of rotations / origins
   robot::WorldSegments world;              // views of segment_ends
 };
@@ -188,9 +200,16 @@ struct JointState {
 // Whole-body assistance at q (n, within the limits) in one call: qd_user by damped least squares
 // (math::dls_from_gram, the sums from 0.0), the singularity test on J J^T, the joint-limit test, the nearest pair
 // (nearest_link, with the hint), alpha and the blend qd = alpha qd_auto + (1 - alpha) qd_user, the nearest link
-// point's damper and time to collision, and blended = J qd (before the output contract). state: null to compute the
-// frames, Jacobian and segments at q into ws; else a field step's, used as they are. qd (n,) receives the joint
-// velocities.
+// point's time to collision, the dampers of every link point within Q, and blended = J qd (before the output
+// contract). The dampers: qd becomes the nearest joint velocity (Euclidean norm) whose link points each approach
+// their obstacle no faster than the damper allows, -n^T (J_p qd - v_obs) <= s(d), at every link-obstacle pair within
+// Q (planning::scan_link_obstacle_pairs with cutoff Q: one row n^T J_p qd >= n^T v_obs - s(d) per pair, the nearest
+// pair among them). The nearest pair's correction in closed form first, qd += J_p^T n e / |J_p^T n|^2 (e > 0 its
+// excess, J_p at its surface point): the projection onto its half-space, and so onto all of them whenever it holds
+// the other rows (within planning::kDamperQpSettings' tolerance: the projection onto a superset that lands in the
+// set). Only when it does not, the QP min |x - qd|^2 s.t. the rows (math::hildreth, H = I) from the blend decides.
+// state: null to compute the frames, Jacobian and segments at q into ws; else a field step's, used as they are. qd
+// (n,) receives the joint velocities.
 JointAssistance assist_joints(const double* q, const robot::RobotView& robot, const MovingObstacles& obstacles,
                               const AssistParams& params, const JointAssistParams& joint_params, Arbitration mode,
                               double goal_share, const double* qd_auto, const double* user, std::int64_t hint_link,

@@ -79,7 +79,8 @@ def core_obstacles(scene: Scene) -> Any:
 def core_scene(robot: RobotArrays, scene: Scene) -> Any:
     """The core's ``robot.Scene``: ``robot`` among ``scene``'s obstacles with its offsets, bound once per pair."""
     return _SCENES.get((robot, scene), lambda: _robot_core.Scene(core_robot(robot), core_obstacles(scene),
-                                                                 scene.obstacle_offsets, scene.self_offsets))
+                                                                 scene.obstacle_offsets, scene.self_offsets,
+                                                                 scene.fitted_self))
 
 
 def planner(robot: RobotArrays, scene: Scene, goal_p: NDArray[np.float64], goal_q: NDArray[np.float64],
@@ -120,6 +121,9 @@ def plan_loop(q0: NDArray[np.float64], robot: RobotArrays, scene: Scene, goal_p:
 def pair_distances(q: NDArray[np.float64], robot: RobotArrays, scene: Scene) -> tuple[NDArray[np.float64],
                                                                                        NDArray[np.float64]]:
     """Clearances (m) of the fitted model at ``q``: link × obstacle (L, M) and self pairs (P,), by the compiled
-    core (``src/core/robot/clearance``: the same bits as the numba kernels it replaced, issue 32)."""
+    core (``src/core/robot/clearance``: the same bits as the numba kernels it replaced, issue 32); the self pairs on
+    the fitted primitives when ``scene.fitted_self``, else on the covering capsules."""
     clearances = _distance.clearances_at(core_robot(robot), q, core_obstacles(scene))
+    if scene.fitted_self:
+        return clearances.obstacle, np.asarray(_distance.fitted_self_clearances_at(core_robot(robot), q))
     return clearances.obstacle, clearances.own

@@ -116,7 +116,9 @@ class Scene(NamedTuple):
     The fitted model over-approximates the links, so a valid start can have links closer than
     ``safety_distance`` (or overlapping). ``obstacle_offsets[c, i]`` and ``self_offsets[k]`` (≤ 0, m) are
     subtracted from those pairs' distances: such a pair may not get any closer than it starts, and only that counts as a
-    collision (:func:`pfield.planning.whole_body.make_scene`).
+    collision (:func:`pfield.planning.whole_body.make_scene`). ``fitted_self``: the self pairs' distances are those
+    of the fitted primitives (exact below the need) instead of the links' covering capsules: the global search and
+    its tracking (:mod:`pfield.planning.global_search`).
     """
 
     packed: PackedObstacles
@@ -124,3 +126,4 @@ class Scene(NamedTuple):
     bounds: NDArray[np.float64]  # (M,)
     obstacle_offsets: NDArray[np.float64]  # (L, M)
     self_offsets: NDArray[np.float64]  # (P,)
+    fitted_self: bool = False  # self pairs on the fitted primitives, not the covering capsules (the global search)

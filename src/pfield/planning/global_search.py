@@ -10,12 +10,12 @@ that happens and ``global_fallback`` is on, the planners call this module:
    check (coal) clears; each moved by whole turns to its equivalent nearest the start, and nearest the
    start first. None found → ``goal invalid`` at once, never a long search.
 2. **Search**: compiled RRT-Connect (the core's ``planning/rrt``, ``pfield._core.rrt``) in joint space against the
-   link capsules and the packed obstacles (whole body; the goal tree is rooted at every goal
-   configuration), or in R³ against the obstacles' signed distance (task space). Task space searches
-   positions only: its collision model is the end-effector *point*, so the orientation cannot make a
-   state valid or invalid; the orientation is interpolated by slerp
-   along the path, in proportion to the distance travelled, and the field's rotational attraction
-   follows it.
+   fitted link model and the packed obstacles (whole body; the goal tree is rooted at every goal
+   configuration; the self pairs on the fitted primitives, not the covering capsules the field's own steps use;
+   most samples from :func:`sampling_window`), or in R³ against the obstacles' signed distance (task space).
+   Task space searches positions only: its collision model is the end-effector *point*, so the orientation
+   cannot make a state valid or invalid; the orientation is interpolated by slerp along the path, in
+   proportion to the distance travelled, and the field's rotational attraction follows it.
 3. **Shortening** of the found path (same compiled checks): random vertex shortcuts and a greedy pass, then
    partial shortcuts between random points of the path whose new segments keep ``smoothing_clearance`` more
    (the core's ``planning::shorten``), never longer. When the path reached a goal configuration but is longer
@@ -26,10 +26,11 @@ that happens and ``global_fallback`` is on, the planners call this module:
 
 Search margin: a state is valid when every capsule keeps ``safety_distance + GlobalOptions.extra_margin``;
 pairs that the start or the goal configuration hold closer (conservative capsules often touch the
-objects of a grasp) may go as deep as at the goal, or ``GlobalOptions.endpoint_band`` deeper than at the
-start, no deeper. The capsules are the search's model, not its certificate: the tracked motion is verified on
-the exact collision meshes (coal) at every waypoint and every ≤ 0.01 rad between them
-(:func:`pfield.planning.certify.certify_path`); a contact fails the fallback.
+objects of a grasp) may go ``GlobalOptions.endpoint_band`` deeper than at the start, and as deep as at the goal
+or that band deeper (the fallback tries the band first, :func:`endpoint_scene`), no deeper. The capsules are
+the search's model, not its certificate: the tracked motion is verified on the exact collision meshes (coal) at
+every waypoint and every ≤ 0.01 rad between them (:func:`pfield.planning.certify.certify_path`); a contact fails
+the fallback.
 """
 
 from __future__ import annotations
@@ -163,18 +164,21 @@ class SearchResult:
 # ---- whole body ---------------------------------------------------------------------------------------
 
 def endpoint_scene(scene: _wb.Scene, arrays: _wb.RobotArrays, ends: Sequence[NDArray[np.float64]],
-                   margin: float, band: float) -> _wb.Scene:
+                   margin: float, band: float, goal_band: float = 0.0) -> _wb.Scene:
     """``scene`` with the offsets min(0, d(end) − margin − b) over the ``ends``: a pair closer than
-    ``margin`` at the start (b = ``band``) or at a goal (b = 0) may go that much deeper than there, no deeper.
+    ``margin`` at the start (b = ``band``) or at a goal (b = ``goal_band``) may go that much deeper than there, no
+    deeper.
 
     Why the band at the start: such a pair sits exactly on the boundary of its constraint there, and with
     several of them (conservative capsules of neighbouring links often overlap where the meshes do not)
-    almost every direction out of the start would be refused. A goal is approached from outside its
-    boundary, so it needs none (and a grasp goal's capsules going deeper than at the goal would risk a
-    real contact)."""
+    almost every direction out of the start would be refused. A grasp goal is the same (issue 34: a UR5's fitted
+    finger primitives overlap the object its meshes hold clear, and with no band 1–9 % of the short motions out of
+    such a goal passed the search's test where 33–60 % are clear on the meshes), but a band there also lets the
+    fingers sweep into the object the meshes hold: :func:`pfield.planning.fallback.whole_body_fallback` tries the
+    goal with the band first, then, when that motion fails, without."""
     obstacle_offsets, self_offsets = np.zeros_like(scene.obstacle_offsets), np.zeros_like(scene.self_offsets)
     for index, q in enumerate(ends):
-        extra = band if index == 0 else 0.0
+        extra = band if index == 0 else goal_band
         obstacle, own = pair_distances(np.ascontiguousarray(q), arrays, scene)
         obstacle_offsets = np.minimum(obstacle_offsets, np.where(obstacle < margin, obstacle - margin - extra, 0.0))
         self_offsets = np.minimum(self_offsets, np.where(own < margin, own - margin - extra, 0.0))
@@ -305,7 +309,8 @@ def _sampling_box(robot: RobotModel) -> tuple[NDArray[np.float64], NDArray[np.fl
 
 def _search(checker: _core.Checker, clearance: _core.Checker, start: NDArray[np.float64],
             goals: NDArray[np.float64], lower: NDArray[np.float64], upper: NDArray[np.float64], step: float,
-            options: GlobalOptions, cancel: NDArray[np.uint8] | None) -> SearchResult:
+            options: GlobalOptions, cancel: NDArray[np.uint8] | None,
+            wide: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None) -> SearchResult:
     """RRT-Connect from ``start`` to any row of ``goals`` (nearest the start first) in chunks of compiled work
     (the GIL released; ``cancel`` read every iteration) until found, full or ``options.time_limit``; then
     shortening (:func:`_shortened`).
@@ -315,7 +320,13 @@ def _search(checker: _core.Checker, clearance: _core.Checker, start: NDArray[np.
     there), a second search rooted at those goals only runs for at most ``NEARER_GOAL_SHARE`` of the states
     the first one checked (at least one chunk) within the time limit, and the shorter of the two shortened
     paths is kept (the UR5 whose wrist flipped, issue 34: its search met a goal 5.3 rad away first, where
-    one 1.05 rad away was reachable)."""
+    one 1.05 rad away was reachable).
+
+    Without a path after :data:`RESTART_STATES` state checks, the search starts again with fresh trees (then after
+    twice as many, and so on) until the time limit.
+
+    ``wide``: a larger sampling box that every :data:`WIDE_EVERY`-th chunk samples instead of [lower, upper] (the
+    joint-space window of :func:`sampling_window`): any state of it can still be sampled."""
     begin = time.perf_counter()
     if not checker.state_valid(start):
         return SearchResult(False, start[None], PlanStatus.START_INVALID,
@@ -328,7 +339,13 @@ def _search(checker: _core.Checker, clearance: _core.Checker, start: NDArray[np.
                             checker.states_checked, time.perf_counter() - begin)
     before = checker.states_checked
     trees = _core.Trees(start, valid, int(options.capacity), int(options.seed))
-    status, path = _connect(checker, trees, lower, upper, step, options, cancel, begin, None)
+    budget, attempt = RESTART_STATES, 0
+    while True:  # restarts with fresh trees after RESTART_STATES, then twice as many each time
+        status, path = _connect(checker, trees, lower, upper, step, options, cancel, begin, budget, wide)
+        if status != _core.SearchStatus.SEARCHING or time.perf_counter() - begin > options.time_limit:
+            break
+        attempt, budget = attempt + 1, 2 * budget
+        trees = _core.Trees(start, valid, int(options.capacity), int(options.seed) + _RESTART_SEED * attempt)
     if status == _CANCELLED:
         return SearchResult(False, start[None], PlanStatus.CANCELLED, "cancelled during the global search",
                             checker.states_checked, time.perf_counter() - begin)
@@ -346,7 +363,7 @@ def _search(checker: _core.Checker, clearance: _core.Checker, start: NDArray[np.
     if len(nearer):
         budget = max(int(NEARER_GOAL_SHARE * (checker.states_checked - before)), _CHUNK)
         again = _core.Trees(start, nearer, int(options.capacity), int(options.seed) + 1)
-        status, path = _connect(checker, again, lower, upper, step, options, cancel, begin, budget)
+        status, path = _connect(checker, again, lower, upper, step, options, cancel, begin, budget, wide)
         if status == _core.SearchStatus.FOUND:
             other = _shortened(checker, clearance, path, again, options)
             if path_length(other) < length:
@@ -354,24 +371,40 @@ def _search(checker: _core.Checker, clearance: _core.Checker, start: NDArray[np.
     return SearchResult(True, short, PlanStatus.REACHED, "", checker.states_checked, time.perf_counter() - begin)
 
 
+RESTART_STATES = 40_000
+"""State checks after which a search starts again with fresh trees (a new seed), then after twice as many each
+time, within its time limit (:func:`_search`). RRT-Connect's time to a path is heavy-tailed: on six UR5
+MotionBenchMaker problems that failed within 2 s, seeds 0, 1, 2 found paths in 0.11–3 s or not within 4 s, problem
+by problem (bookshelf_small 22: 3.0 s, 0.11 s, none); restarts cut the tail (Luby, Sinclair & Zuckerman,
+"Optimal speedup of Las Vegas algorithms", 1993). 40 000 checks: at most about 0.45 s on the UR5 (11 µs per
+check of a valid state with its self pairs on the fitted primitives)."""
+_RESTART_SEED = 7919  # seed offset of each restart's trees (the nearer-goal search takes seed + 1)
 NEARER_GOAL_SHARE = 1.0
 """Budget of the search for nearer goals, as a share of the states the first search checked (:func:`_search`):
 at most doubling the search's work where it ran."""
 _CHUNK = 2000  # state checks per compiled chunk of the search
+WIDE_EVERY = 4
+"""Every this many chunks of a joint-space search sample the whole joint box instead of the window
+(:func:`sampling_window`)."""
 _CANCELLED = -1
 
 
 def _connect(checker: _core.Checker, trees: _core.Trees, lower: NDArray[np.float64], upper: NDArray[np.float64],
              step: float, options: GlobalOptions, cancel: NDArray[np.uint8] | None, begin: float,
-             budget: int | None) -> tuple[object, NDArray[np.float64]]:
+             budget: int | None, wide: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+             ) -> tuple[object, NDArray[np.float64]]:
     """RRT-Connect chunks on ``trees`` until found, full, cancelled (status ``_CANCELLED``), the time limit
-    (from ``begin``) or ``budget`` more state checks (None: no budget): (status, path)."""
+    (from ``begin``) or ``budget`` more state checks (None: no budget): (status, path). Every
+    :data:`WIDE_EVERY`-th chunk samples ``wide`` (when given) instead of [lower, upper]."""
     searching = _core.SearchStatus.SEARCHING
     status: object = searching
     path = np.empty((0, len(lower)))
     stop = None if budget is None else checker.states_checked + budget
+    chunk = 0
     while status == searching:
-        status, path = checker.connect(trees, lower, upper, step, _CHUNK, cancel)
+        chunk += 1
+        box = wide if wide is not None and chunk % WIDE_EVERY == 0 else (lower, upper)
+        status, path = checker.connect(trees, box[0], box[1], step, _CHUNK, cancel)
         if status == searching and cancel is not None and cancel[0] != 0:
             return _CANCELLED, path
         if status == searching and (time.perf_counter() - begin > options.time_limit
@@ -393,28 +426,58 @@ def _shortened(checker: _core.Checker, clearance: _core.Checker, path: NDArray[n
 
 def joint_space_search(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, start: NDArray[np.float64],
                        goals: Sequence[NDArray[np.float64]], margin: float,
-                       options: GlobalOptions, cancel: NDArray[np.uint8] | None = None
+                       options: GlobalOptions, cancel: NDArray[np.uint8] | None = None, goal_band: float = 0.0
                        ) -> tuple[SearchResult, _wb.Scene]:
     """Search a capsule-valid joint path from ``start`` to one of ``goals``; returns it and the scene with the
-    endpoint offsets (which the tracking must use too)."""
-    search_scene = endpoint_scene(scene, arrays, (start, *goals), margin, options.endpoint_band)
+    endpoint offsets (which the tracking must use too). The self pairs are on the fitted primitives (the scene's
+    ``fitted_self``), not the covering capsules; ``goal_band``: :func:`endpoint_scene`'s."""
+    scene = scene._replace(fitted_self=True)  # self pairs on the fitted primitives (module docstring)
+    search_scene = endpoint_scene(scene, arrays, (start, *goals), margin, options.endpoint_band, goal_band)
     checker = _joint_checker(arrays, search_scene, margin, options.joint_resolution)
-    clearance = _joint_checker(arrays, _clearance_scene(scene, search_scene, arrays, (start, *goals), margin, options),
-                               margin + options.smoothing_clearance, options.joint_resolution)
-    lower, upper = _sampling_box(robot)
+    clearance = _joint_checker(arrays, _clearance_scene(scene, search_scene, arrays, (start, *goals), margin, options,
+                                                        goal_band), margin + options.smoothing_clearance,
+                               options.joint_resolution)
+    box = _sampling_box(robot)
+    lower, upper = sampling_window(robot, box, start, goals, options.joint_step)
+    wide = None if np.array_equal(lower, box[0]) and np.array_equal(upper, box[1]) else box
     return _search(checker, clearance, start, np.array(goals), lower, upper, options.joint_step, options,
-                   cancel), search_scene
+                   cancel, wide), search_scene
+
+
+def sampling_window(robot: RobotModel, box: tuple[NDArray[np.float64], NDArray[np.float64]],
+                    start: NDArray[np.float64], goals: Sequence[NDArray[np.float64]], step: float
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The box most of a joint-space search samples: for each revolute joint, the interval ``[min − pad, max + pad]``
+    over the start's and the goals' values, with pad = max(0, (2π − (max − min)) / 2) + step / 2 (a turn, centred on
+    them, and half an extension beyond), clipped to ``box`` (the joint limits); other joints sample ``box``.
+
+    Why: a sample more than half a turn from the start and the goals in some joint pulls a tree the long way round
+    (on a UR5, ±π per joint: the upper arm under its base, the wrist turned past the goal), where no path that
+    matters goes. On the MotionBenchMaker UR5 cage, 8 problems of which the whole box solved 4 within 3 s (2.8–3 s)
+    were all solved within 0.07–0.9 s (with no half step of pad: 0.08–1.7 s). Every :data:`WIDE_EVERY`-th chunk of
+    the search still samples the whole box (:func:`_search`), so every configuration can still be sampled."""
+    lower, upper = (np.array(b, dtype=np.float64) for b in box)
+    ends = np.vstack([start, *goals])
+    low, high = ends.min(axis=0), ends.max(axis=0)
+    turn = 2.0 * math.pi
+    revolute = np.asarray(robot.kinematics.kinds) == 0
+    pad = np.maximum(0.0, (turn - (high - low)) / 2.0) + step / 2.0
+    lower = np.where(revolute, np.maximum(lower, low - pad), lower)
+    upper = np.where(revolute, np.minimum(upper, high + pad), upper)
+    return np.ascontiguousarray(lower), np.ascontiguousarray(upper)
 
 
 def _clearance_scene(scene: _wb.Scene, search_scene: _wb.Scene, arrays: _wb.RobotArrays,
-                     ends: Sequence[NDArray[np.float64]], margin: float, options: GlobalOptions) -> _wb.Scene:
+                     ends: Sequence[NDArray[np.float64]], margin: float, options: GlobalOptions,
+                     goal_band: float = 0.0) -> _wb.Scene:
     """The offsets under which a checker of margin ``margin + smoothing_clearance`` keeps that much more from
     the obstacles only: link–obstacle pairs get :func:`endpoint_scene`'s offsets at the larger margin (a pair
     closer than it at an end may go as deep as there, no deeper), self pairs their search offsets less the
     clearance (the search's own test). Conservative capsules of neighbouring links are often within a
     centimetre of each other everywhere (the UR5's forearm and wrist): a clearance between them would refuse
     every shortcut."""
-    wide = endpoint_scene(scene, arrays, ends, margin + options.smoothing_clearance, options.endpoint_band)
+    wide = endpoint_scene(scene, arrays, ends, margin + options.smoothing_clearance, options.endpoint_band,
+                          goal_band)
     return wide._replace(self_offsets=search_scene.self_offsets - options.smoothing_clearance)
 
 

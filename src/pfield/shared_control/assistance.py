@@ -16,7 +16,8 @@ Given the operator's twist u_user and the field's autonomy vector u_auto (:mod:`
 * **dampers on the blend** — for every obstacle within Q the relative approach speed −n̂ᵀ(v − v_obs) is held
   below the NEO velocity damper s(d) (Haviland & Corke 2021, eq. 20; :func:`pfield.field.forces.damper_speed`)
   by projecting v onto the half-space (only velocity along n̂, away from the obstacle, is added), so the
-  executed command never approaches faster than the dampers allow and motion away is never slowed.
+  executed command never approaches faster than the dampers allow and motion away is never slowed (whole body:
+  at every link point within Q, :func:`whole_body_assistance`).
 * **speed_scale** — MoveIt Servo's collision velocity scale exp(k (d − d_t)), k = −ln(0.001)/d_t, for
   d < d_t (1 beyond, 0 in collision), with Servo's default thresholds d_t = 0.02 m (scene) and 0.01 m (self)
   (moveit_servo ``collision_monitor``/``collision_check`` and its ``servo_parameters.yaml``). Reported, not
@@ -360,8 +361,11 @@ def whole_body_assistance(scene: AssistanceScene, robot: RobotModel, joint_angle
 
     q̇_auto from :func:`pfield.shared_control.whole_body_autonomy`; the operator's twist mapped to joints by damped
     least squares q̇_user = Jᵀ(J Jᵀ + λ² I)⁻¹ u_user; q̇ = α q̇_auto + (1 − α) q̇_user with α from the nearest
-    link clearance; then the nearest link point's relative approach speed −n̂ᵀ(J_p q̇ − v_obs) is held below
-    the damper by the minimum-norm correction Δq̇ = J_pᵀ n̂ e / ‖J_pᵀ n̂‖² (e the excess).
+    link clearance; then every link point's relative approach speed −n̂ᵀ(J_p q̇ − v_obs) to each obstacle within
+    Q is held below the damper s(d) by the nearest q̇ (Euclidean) that holds all of them: the nearest link point's
+    minimum-norm correction Δq̇ = J_pᵀ n̂ e / ‖J_pᵀ n̂‖² (e the excess) when it holds the others too (it is then
+    the projection onto all of them), else the core's velocity QP over one row per link–obstacle pair within Q
+    (``planning/damper_rows.hpp``, ``math/qp.hpp``).
     ``blended_command`` = J q̇; ``time_to_collision`` is that of the nearest link point under q̇_user.
     The field's step (the autonomy's q̇) and all of this run in one compiled call
     (``src/core/shared_control/assist``, the output contract included); without a goal, the assistance alone.

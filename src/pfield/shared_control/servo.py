@@ -26,9 +26,10 @@ end-effector frame is rotated by FK of the commanded joints at every step, so it
 6. **integration** — q_cmd = q + q̇ dt, clipped to the position limits;
 7. **look-ahead** — near an obstacle, the clearance at q_cmd is computed: a step that would end closer than
    the field's ``safety_distance`` (the dampers' margin) to an obstacle, and closer than now, is not taken (the
-   robot holds, ``HALT_FOR_COLLISION``; moving away passes). The dampers of stage 1 hold the *nearest* link point
-   only; this stops a second link from closing in (a gripper's fingers around an object). Skipped when no point
-   can travel that far in one step (:data:`REACH`).
+   robot holds, ``HALT_FOR_COLLISION``; moving away passes). The dampers of stage 1 hold every link point on the
+   velocity the assistance answers; stages 3–5 change that velocity (just after the operator turns, stage 4 still
+   carries some of the previous velocity's approach), so this checks the step actually taken
+   (tests/servo/test_servo_lookahead.py). Skipped when no point can travel that far in one step (:data:`REACH`).
 
 The commanded joints q are the previous command's while the loop streams (what the controller is tracking, as a
 position interface needs: the previous step moved, or had a fresh command), else the measured joints passed to
