@@ -4,16 +4,16 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
-import yaml
 
 from pfield.cli._exit_codes import FAILED, USAGE
 from pfield.cli._node import ServeContext, load_ros_parameters, register_node_factory
-from pfield.demo.tools import run_find_valid_pose
 from pfield.errors import PfieldError
-from pfield.node._base import Node
+
+if TYPE_CHECKING:
+    from pfield.node._base import Node
 
 __all__ = ["register"]
 
@@ -47,8 +47,11 @@ def register(app: typer.Typer) -> None:
         """Find the closest valid pose for a footprint on a map (FindValidPose) and draw the search.
 
         Exit status 1 when no pose was found (state LETHAL), 2 for bad options or files."""
+        import yaml
+
         from pfield.costmap import PoseState
         from pfield.costmap._example import example_map_path
+        from pfield.demo.tools import run_find_valid_pose
 
         try:
             values = (load_ros_parameters(params).get("/costmap", {}) if params else {})

@@ -16,8 +16,6 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from rich.console import Console
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from pfield.cli._exit_codes import FAILED, OK, USAGE
 from pfield.cli._node import cli_errors
@@ -79,6 +77,9 @@ def execute(
         typer.echo("error: control_msgs (FollowJointTrajectory) is not built: run `make ros2-interfaces` "
                    "(docs/ros2.md, Trajectories out)", err=True)
         raise typer.Exit(USAGE)
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
     from pfield.transport.trajectory_client import (
         ExecutionOptions,
         TrajectoryClient,

@@ -11,17 +11,18 @@ import itertools
 import math
 import time
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
-import httpx
 import typer
 
-from pfield._validation import positive
 from pfield.cli import _node_client as _c
 from pfield.cli._exit_codes import USAGE
 from pfield.cli._node import load_ros_parameters
 from pfield.errors import PfieldError
 from pfield.transport import DEFAULT_URL
+
+if TYPE_CHECKING:
+    import httpx
 
 __all__ = ["register"]
 
@@ -133,6 +134,8 @@ def topic_hz(topic: str,
     The message the server replays on connect (its latest) only starts the clock.
     """
     from websockets.exceptions import WebSocketException
+
+    from pfield._validation import positive
 
     limit = None if timeout is None else _c._local(positive, "--timeout", timeout)
     seconds = None if duration is None else _c._local(positive, "--duration", duration)

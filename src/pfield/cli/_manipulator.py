@@ -13,7 +13,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import typer
-from rich.console import Console
 
 from pfield._files import check_writable
 from pfield.cli._node import cli_errors
@@ -25,9 +24,10 @@ from pfield.cli._robot_options import (
     robot_description,
 )
 from pfield.errors import InvalidInput
-from pfield.scene.files import load_scene
 
 if TYPE_CHECKING:
+    from rich.console import Console
+
     from pfield.robot import RobotModel
 
 __all__ = ["register"]
@@ -55,6 +55,7 @@ def start_joints(robot: RobotModel, value: str | None) -> Any:
 def _plan(scene_file: Path | None, output: Path, csv: Path | None, console: Console,
           robot: RobotModel | None = None, start: str | None = None) -> int:
     from pfield.field import PotentialField
+    from pfield.scene.files import load_scene
     from pfield.viz.plots import save_path_plot
 
     with tempfile.TemporaryDirectory() as meshes:
@@ -96,6 +97,8 @@ def register(app: typer.Typer) -> None:
         """Plan a path with the potential field and plot it: the end effector's (task space), or with --robot a
         robot's whole body from --start-joints to the scene's goal. Exit 1 when the goal is not reached, 2 for a
         bad scene file, robot, start or output path, checked before planning."""
+        from rich.console import Console
+
         with cli_errors():
             check_writable("--output", output)
             if csv is not None:

@@ -3,18 +3,22 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
-from rich.console import Console
-from rich.table import Table
 
 from pfield.cli._node import ServeContext, register_node_factory
-from pfield.demo.tools import run_sim2d
 from pfield.errors import PfieldError
-from pfield.node._base import Node
+
+if TYPE_CHECKING:
+    from rich.console import Console
+
+    from pfield.node._base import Node
 
 
 def _list_scenarios(console: Console) -> None:
+    from rich.table import Table
+
     from pfield.mobile.scenarios import BUILTIN_SCENARIOS
 
     table = Table("scenario", "sensor", "expected", "description")
@@ -39,6 +43,8 @@ def register(app: typer.Typer) -> None:
         output_dir: Path = typer.Option(Path("plots2d"), "--output-dir", "-o", help="Where the PNGs go."),
     ) -> None:
         """Plot the seed's 2D vector field: radial profiles (unclamped/clamped) and field plots (PNG)."""
+        from rich.console import Console
+
         from pfield.viz.plots2d import save_seed_plots
 
         console = Console()
@@ -56,6 +62,10 @@ def register(app: typer.Typer) -> None:
         list_scenarios: bool = typer.Option(False, "--list", help="List the built-in scenarios and exit."),
     ) -> None:
         """Simulate the 2D controller in a scenario; writes a PNG and an animated GIF."""
+        from rich.console import Console
+
+        from pfield.demo.tools import run_sim2d
+
         console = Console()
         if list_scenarios:
             _list_scenarios(console)

@@ -31,12 +31,11 @@ from pfield.cli._robot_options import (
     robot_description,
 )
 from pfield.errors import InvalidInput, PfieldError
-from pfield.interfaces._yaml import load_yaml_file
-from pfield.node._base import Bus, Node
 from pfield.transport import DEFAULT_HOST, DEFAULT_PORT
 from pfield.transport._server import ServerLimits
 
 if TYPE_CHECKING:
+    from pfield.node._base import Bus, Node
     from pfield.robot.description import RobotDescription
 
 __all__ = ["ServeContext", "cli_errors", "nodes_from_options", "parse_package_paths", "register",
@@ -71,7 +70,7 @@ class ServeContext:
     """``--static-transform`` values in the ``static_transforms`` parameter form (frame → translation, rotation)."""
 
 
-NodeFactory = Callable[[ServeContext], list[Node]]
+NodeFactory = Callable[[ServeContext], "list[Node]"]
 _FACTORIES: list[NodeFactory] = []
 
 
@@ -97,6 +96,8 @@ def parse_static_transforms(values: list[str]) -> dict[str, Any]:
 def load_ros_parameters(path: Path, option: str = "--params") -> dict[str, dict[str, Any]]:
     """``{node name: {parameter: value}}`` of a ROS 2 parameters file (``node: {ros__parameters: {...}}``);
     errors name ``option``, the command-line argument the file came from."""
+    from pfield.interfaces._yaml import load_yaml_file
+
     data = load_yaml_file(path, option) or {}
     if not isinstance(data, dict):
         raise InvalidInput(option, str(path), "expected a mapping of node names")
@@ -161,6 +162,8 @@ def nodes_from_options(robot: RobotDescription, params: Path | None, mesh_root: 
     factories' nodes, ``--static-transform`` for the manager's frames and the ``--params`` YAML applied to
     them. Bad options raise :class:`InvalidInput`. The robot's link model is then fitted in the background
     (:func:`pfield.warmup.fit_in_background`: ``GET /health`` is ready once it is)."""
+    from pfield.node._base import Bus
+
     packages = robot.package_path_map
     transforms = parse_static_transforms(static_transform or [])
     parameters = load_ros_parameters(params) if params else {}

@@ -16,21 +16,19 @@ import sys
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Annotated, Any, NoReturn
+from typing import TYPE_CHECKING, Annotated, Any, NoReturn
 
-import httpx
 import typer
-import yaml
 
-import pfield.interfaces.all  # noqa: F401 - registers every message type
-from pfield._validation import positive
 from pfield.cli._exit_codes import FAILED, USAGE, for_http_status
-from pfield.cli._message_view import MessageView, format_yaml, outcome_line
 from pfield.errors import PfieldError
-from pfield.interfaces import interface_text, lookup_service, lookup_type, message_from_yaml, registered_types
-from pfield.interfaces._base import registered_services
-from pfield.interfaces._yaml import load_yaml
 from pfield.transport import DEFAULT_URL
+
+if TYPE_CHECKING:
+    import httpx
+
+# A command imports what it uses when it runs (httpx, PyYAML, the message types of pfield.interfaces, numpy), so that
+# every ``pfield`` process, a client verb's included, starts without the modules other commands need.
 
 __all__ = ["register"]
 
@@ -54,6 +52,8 @@ def _fail(message: str, code: int = FAILED) -> NoReturn:
 
 
 def _print_yaml(data: Any) -> None:
+    import yaml
+
     if not isinstance(data, dict | list):
         typer.echo(json.dumps(data) if data is None or isinstance(data, bool) else str(data))
         return
@@ -62,6 +62,8 @@ def _print_yaml(data: Any) -> None:
 
 @contextmanager
 def _client(url: str, token: str | None) -> Iterator[httpx.Client]:
+    import httpx
+
     headers = {"Authorization": f"Bearer {token}"} if token else {}
     try:
         with httpx.Client(base_url=url.rstrip("/"), headers=headers, timeout=None) as client:
@@ -114,6 +116,8 @@ def _topic_socket(topic: str, url: str, token: str | None) -> Iterator[Any]:
 def _messages(socket: Any, topic: str, timeout: float | None) -> Iterator[str]:
     """The frames of ``socket``. Says on stderr that it waits when the first one does not come at once, and
     fails when ``timeout`` (s) passes without a frame."""
+    from pfield._validation import positive
+
     limit = None if timeout is None else _local(positive, "--timeout", timeout)
     text = _receive(socket, _WAITING_AFTER if limit is None else min(_WAITING_AFTER, limit))
     if text is None:
@@ -141,6 +145,9 @@ def topic_pub(topic: str, type_name: Annotated[str, typer.Argument(metavar="TYPE
               rate: Annotated[float, typer.Option("--rate", "-r", help="messages per second")] = 1.0,
               url: Url = DEFAULT_URL, token: Token = None) -> None:
     """Publish a message given as YAML (ROS flow syntax), once or repeatedly at --rate."""
+    from pfield._validation import positive
+    from pfield.interfaces import lookup_type, message_from_yaml
+
     period = 1.0 / _local(positive, "--rate", rate)
     message = _local(message_from_yaml, _local(lookup_type, type_name), values)
     count = 1 if once else times
@@ -162,6 +169,9 @@ def topic_echo(topic: str, type_name: Annotated[str | None, typer.Argument(metav
                url: Url = DEFAULT_URL, token: Token = None) -> None:
     """Print the messages of a topic as YAML (the latest one first), separated by ``---``."""
     from websockets.exceptions import WebSocketException
+
+    from pfield.cli._message_view import MessageView, format_yaml
+    from pfield.interfaces import lookup_type, registered_types
 
     view = MessageView(_local(lookup_type, type_name).ros_type if type_name else None)
     if type_name is None and (field or no_arr):  # the array types come from the topic's type
@@ -210,6 +220,9 @@ def service_call(service: str, type_name: Annotated[str, typer.Argument(metavar=
     (error_message: ...)``, so the outcome of a long answer is the last line on the terminal; a false
     ``success`` exits with status 1 (0 with --exit-zero), so ``pfield service call ... && next`` stops there.
     """
+    from pfield.cli._message_view import MessageView, format_yaml, outcome_line
+    from pfield.interfaces import lookup_service, message_from_yaml
+
     service_type = _local(lookup_service, type_name)
     request = _local(message_from_yaml, service_type.request, values)
     name = "/" + service.lstrip("/")
@@ -261,6 +274,8 @@ def param_get(node: str, name: str, url: Url = DEFAULT_URL, token: Token = None)
 @param_app.command("set", context_settings={"ignore_unknown_options": True})  # "-1" is a value, as in ros2
 def param_set(node: str, name: str, value: str, url: Url = DEFAULT_URL, token: Token = None) -> None:
     """Set one parameter (value parsed as YAML); the node validates it and keeps the old value on error."""
+    from pfield.interfaces._yaml import load_yaml
+
     parsed = _local(load_yaml, value, name)
     # json.dumps keeps .nan/.inf as NaN/Infinity so the node itself refuses them, naming the parameter.
     with _client(url, token) as client:
@@ -279,12 +294,17 @@ def param_dump(node: str, url: Url = DEFAULT_URL, token: Token = None) -> None:
 @interface_app.command("show")
 def interface_show(type_name: Annotated[str, typer.Argument(metavar="TYPE")]) -> None:
     """Print a message or service definition (the .msg/.srv text)."""
+    from pfield.interfaces import interface_text
+
     typer.echo(_local(interface_text, type_name))
 
 
 @interface_app.command("list")
 def interface_list() -> None:
     """List every message and service type pfield knows."""
+    from pfield.interfaces import registered_types
+    from pfield.interfaces._base import registered_services
+
     for name in sorted(n for n in registered_types() if "/msg/" in n):
         typer.echo(name)
     for name in sorted(registered_services()):

@@ -29,7 +29,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
 
 from pfield._core import costmap as _costmap
 from pfield.costmap.footprint import Footprint
@@ -196,6 +195,8 @@ class Costmap2D:
         lethal = self.costs == LETHAL_OBSTACLE
         if not lethal.any():
             return np.full(self.costs.shape, np.inf)
+        from scipy import ndimage  # here, not at import: `pfield serve` without a map never needs it (~0.3 s)
+
         return np.ascontiguousarray(ndimage.distance_transform_edt(~lethal), dtype=np.float64)
 
 
@@ -223,6 +224,8 @@ def inflate(costs: NDArray[np.uint8], resolution: float, inscribed_radius: float
         logger.warning("inflation_radius %g < inscribed radius %g: the robot may hit obstacles",
                        inflation_radius, inscribed_radius)
     cell_radius = max(0, math.ceil(inflation_radius / resolution))
+    from scipy import ndimage
+
     distance = ndimage.distance_transform_edt(~lethal)
     metres = distance * resolution
     with np.errstate(over="ignore"):
