@@ -7,7 +7,8 @@ for these forms (Jazzy), no more:
 * ``topic pub [--once] [-r RATE] [-t TIMES] TOPIC TYPE VALUES``: waits for a subscriber, publishes VALUES (YAML)
   once, TIMES times or until interrupted, at RATE Hz (default 1);
 * ``topic echo [--once] TOPIC [TYPE]``: prints each message as YAML followed by ``---`` (QoS matched to the
-  publishers: best effort if one offers it, transient local if all do);
+  publishers: best effort if one offers it, transient local if all do); with ``--once`` it fails after
+  :data:`ONCE_TIMEOUT` without a message, where ros2cli would wait for ever;
 * ``service call NAME TYPE [VALUES]``: prints ``requester: making request: …`` and ``response:`` with the
   response (as YAML here, where ros2cli prints the message's repr).
 """
@@ -26,6 +27,9 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from pfield.interfaces import lookup_type
 from pfield.interfaces._yaml import load_yaml, message_from_data
 from pfield.transport._ros2_convert import from_ros, interface_class, to_ros
+
+ONCE_TIMEOUT = 60.0
+"""``topic echo --once`` gives up after this many seconds (ros2cli waits for ever)."""
 
 
 def _model(type_name: str, text: str | None) -> Any:
@@ -70,7 +74,10 @@ def echo(node: Any, args: argparse.Namespace) -> None:
     received: list[Any] = []
     node.create_subscription(interface_class(type_name), args.topic, received.append, qos)
     shown = 0
+    deadline = time.monotonic() + ONCE_TIMEOUT
     while not (args.once and shown):
+        if args.once and time.monotonic() > deadline:  # a test fails with this message instead of hanging
+            raise SystemExit(f"ros2 (docs test): no message on {args.topic} within {ONCE_TIMEOUT} s")
         rclpy.spin_once(node, timeout_sec=0.1)
         for message in received[shown:]:
             print(_show(message, type_name) + "---", flush=True)

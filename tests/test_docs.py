@@ -304,15 +304,29 @@ def _bash_script(block: Block) -> str:
     return _PRELUDE + code
 
 
+BLOCK_TIMEOUT = 480.0
+"""Seconds a bash block may run (below pytest's 600 s time-out, so the block's own output is shown)."""
+
+
 def _run_bash(block: Block, work: Path, url: str) -> str:
     env = os.environ | {"PFIELD_URL": url, "PATH": f"{VENV_BIN}{os.pathsep}{os.environ['PATH']}",
                         "MPLBACKEND": "Agg", "PYTHONPATH": str(REPO / "src")}
     if block.marker == "ros2-robot":
         env |= {"PFIELD_DOCS_BLOCK": block.code, "PFIELD_DOCS_SPHERE": ROBOT_SPHERE}
-    done = subprocess.run(["bash", "-euo", "pipefail", "-c", _bash_script(block)], cwd=work, env=env,
-                          capture_output=True, text=True, timeout=600, check=False)
-    output = done.stdout + done.stderr
-    assert done.returncode == 0, f"{block.name} failed (exit {done.returncode}):\n{output[-6000:]}"
+    # its own session, so that a block that overruns is stopped whole (the nodes and the arm in its namespace too)
+    # and its output so far and its logs are shown, before pytest's own time-out would hide them
+    process = subprocess.Popen(["bash", "-euo", "pipefail", "-c", _bash_script(block)], cwd=work, env=env,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        stdout, stderr = process.communicate(timeout=BLOCK_TIMEOUT)
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGKILL)
+        stdout, stderr = process.communicate()
+        logs = "".join(f"\n--- {log.name} (last lines)\n" + "\n".join(log.read_text().splitlines()[-40:])
+                       for log in (work / "ros2_node.log", work / "sim_arm.log") if log.exists())
+        pytest.fail(f"{block.name} still running after {BLOCK_TIMEOUT} s:\n{(stdout + stderr)[-6000:]}{logs}")
+    output = stdout + stderr
+    assert process.returncode == 0, f"{block.name} failed (exit {process.returncode}):\n{output[-6000:]}"
     return output
 
 
