@@ -24,8 +24,7 @@ lists:
 * **parameters** — every node parameter as a ROS parameter (:mod:`pfield.transport._ros2_params`);
 * **ticks** — a timer per node with a ``tick_period``;
 * **executors** — one multi-threaded executor for the nodes, except that a node that streams commands (a
-  ``PublicationSpec`` with ``latched=False``: the servo) and serves nothing long-running spins on a
-  single-threaded executor of its own
+  ``PublicationSpec`` with ``latched=False``: the servo) spins on a single-threaded executor of its own
   (:class:`_Executors`), so a command never waits for another node's callbacks or the shared executor's dispatch.
 
 Shutdown order matters with rclpy 7.1: stop the executor, join its thread, wait for callbacks still
@@ -317,10 +316,7 @@ class Ros2Host:
         self._executor = _Executors(MultiThreadedExecutor(num_threads=max(4, long_running + 3),
                                                           context=self._context))
         for adapter in self._adapters:
-            # a node with long-running services keeps the shared executor's threads whatever it publishes: on a
-            # single-threaded executor a plan would hold up its every other callback
-            self._executor.add_node(adapter.ros_node,
-                                    own=adapter.streams_commands and not adapter.long_running_groups)
+            self._executor.add_node(adapter.ros_node, own=adapter.streams_commands)
         self._spin_thread: threading.Thread | None = None
 
     def start(self) -> None:
