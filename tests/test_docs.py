@@ -237,10 +237,11 @@ __pfield_ros2_node() {  # `pfield ros2 node ARGS` in a private network namespace
   PFIELD_ROS2_ARGS="$*" unshare -n -m bash -c '
     ip link set lo up; mount -t tmpfs tmpfs /dev/shm
     export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID=58 FASTDDS_BUILTIN_TRANSPORTS=UDPv4
+    rm -f ros2_node.log  # so that the log of the node before cannot announce this one
     pfield ros2 node $PFIELD_ROS2_ARGS > ros2_node.log 2>&1 &
     pid=$!
     for i in $(seq 1 600); do
-      grep -q "Ctrl-C stops" ros2_node.log && break
+      grep -qs "Ctrl-C stops" ros2_node.log && break
       kill -0 $pid 2>/dev/null || { cat ros2_node.log >&2; exit 1; }
       sleep 0.5
     done
@@ -273,10 +274,11 @@ unshare -n -m bash -euo pipefail -c '
   python tests/servo/sim_arm.py panda --sphere "$PFIELD_DOCS_SPHERE" --out sim_arm.json > sim_arm.log 2>&1 &
   ros2() { python tests/docs_ros2.py "$@"; }
   __pfield_ros2_node_bg() {  # `pfield ros2 node ARGS &`: the real node in the background, until it is up
+    rm -f ros2_node.log
     pfield ros2 node "$@" > ros2_node.log 2>&1 &
     __node=$!
     for i in $(seq 1 600); do
-      grep -q "Ctrl-C stops" ros2_node.log && return 0
+      grep -qs "Ctrl-C stops" ros2_node.log && return 0
       kill -0 $__node 2>/dev/null || { cat ros2_node.log >&2; return 1; }
       sleep 0.5
     done

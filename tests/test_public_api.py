@@ -27,6 +27,7 @@ def test_top_level_names_of_the_contract() -> None:
     )
 
     assert set(pfield.__all__) >= {"Pose", "Obstacle", "Sphere", "FieldConfig", "PotentialField", "RobotModel"}
+    assert set(pfield.__all__) == set(pfield._HOME_OF)  # every exported name loads from its home on first use
     for name in pfield.__all__:
         assert getattr(pfield, name) is not None
 

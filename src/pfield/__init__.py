@@ -1,29 +1,28 @@
-"""pfield: potential-field motion planning and shared control."""
+"""pfield: potential-field motion planning and shared control.
+
+The names below load on first use (PEP 562): ``import pfield`` costs a few milliseconds, so the CLI's node
+commands (``pfield topic``, ``pfield service`` …), which need none of them, start without numpy, and
+``RobotModel`` brings pinocchio (~0.3 s) only when asked for.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
 
 __version__ = "0.1.0"
 
-from pfield.errors import (
-    InvalidInput,
-    PfieldError,
-    PlanningFailed,
-    ResourceNotAllowed,
-    ResourceNotFound,
-    UnknownFrame,
-)
-from pfield.field import FieldConfig, PotentialField, PreparedTwist
-from pfield.geometry import (
-    Box,
-    Capsule,
-    Cylinder,
-    Ellipsoid,
-    Mesh,
-    Obstacle,
-    ResourceResolver,
-    Sphere,
-    pack_obstacles,
-)
-from pfield.planning import CancelToken, PlannedPath, PlanOptions, PlanStatus
-from pfield.spatial import Pose, Twist, Wrench
+_HOMES = {
+    "pfield.errors": ("InvalidInput", "PfieldError", "PlanningFailed", "ResourceNotAllowed", "ResourceNotFound",
+                      "UnknownFrame"),
+    "pfield.field": ("FieldConfig", "PotentialField", "PreparedTwist"),
+    "pfield.geometry": ("Box", "Capsule", "Cylinder", "Ellipsoid", "Mesh", "Obstacle", "ResourceResolver", "Sphere",
+                        "pack_obstacles"),
+    "pfield.planning": ("CancelToken", "PlannedPath", "PlanOptions", "PlanStatus"),
+    "pfield.robot": ("RobotModel",),
+    "pfield.spatial": ("Pose", "Twist", "Wrench"),
+}
+_HOME_OF = {name: module for module, names in _HOMES.items() for name in names}
 
 __all__ = [
     "Box",
@@ -54,11 +53,40 @@ __all__ = [
     "pack_obstacles",
 ]
 
+if TYPE_CHECKING:
+    from pfield.errors import (
+        InvalidInput,
+        PfieldError,
+        PlanningFailed,
+        ResourceNotAllowed,
+        ResourceNotFound,
+        UnknownFrame,
+    )
+    from pfield.field import FieldConfig, PotentialField, PreparedTwist
+    from pfield.geometry import (
+        Box,
+        Capsule,
+        Cylinder,
+        Ellipsoid,
+        Mesh,
+        Obstacle,
+        ResourceResolver,
+        Sphere,
+        pack_obstacles,
+    )
+    from pfield.planning import CancelToken, PlannedPath, PlanOptions, PlanStatus
+    from pfield.robot import RobotModel
+    from pfield.spatial import Pose, Twist, Wrench
+
 
 def __getattr__(name: str) -> object:
-    # RobotModel imports pinocchio (~0.3 s): load it on first use, not at ``import pfield``.
-    if name == "RobotModel":
-        from pfield.robot import RobotModel
+    module = _HOME_OF.get(name)
+    if module is None:
+        raise AttributeError(f"module 'pfield' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # once loaded, a plain attribute
+    return value
 
-        return RobotModel
-    raise AttributeError(f"module 'pfield' has no attribute {name!r}")
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

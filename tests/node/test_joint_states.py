@@ -52,10 +52,12 @@ def test_joint_states_replace_joint_angles(node: ManagerNode, robot: Any) -> Non
     assert node.joint_states.held is not None and node.joint_states.held.positions.tolist() == Q
     for service, model in ((node.compute_autonomy_vector, pfi.ComputeAutonomyVector_Request),
                            (node.compute_assistance, pfi.ComputeAssistance_Request)):
+        node.on_joint_states(joint_states(robot, Q))  # a driver publishes every few ms: fresh under any load
         implicit = service(model.model_validate(whole_body()))
         explicit = service(model.model_validate(whole_body(joint_angles=Q)))
         assert implicit.autonomy_vector.twist == explicit.autonomy_vector.twist
         assert implicit.autonomy_vector.twist != type(implicit.autonomy_vector.twist)()
+    node.on_joint_states(joint_states(robot, Q))
     plan = node.plan_path(pfi.PlanPath_Request.model_validate({"planning_method": "whole_body", "max_iterations": 50}))
     assert plan.joint_trajectory.points[0].positions == pytest.approx(Q)
 

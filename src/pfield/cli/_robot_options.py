@@ -13,7 +13,6 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from pfield._validation import finite
 from pfield.errors import InvalidInput
 
 if TYPE_CHECKING:
@@ -54,6 +53,8 @@ def parse_package_paths(values: list[str] | None) -> dict[str, Path]:
 
 def parse_locked_joints(values: list[str] | None) -> dict[str, float]:
     """``{NAME: VALUE}`` of ``--locked-joint NAME=VALUE`` options (errors name ``--locked-joint``)."""
+    from pfield._validation import finite  # numpy: only when the option is given
+
     locked: dict[str, float] = {}
     for value in values or []:
         name, sep, number = value.partition("=")
