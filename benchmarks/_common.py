@@ -2,7 +2,13 @@
 
 from __future__ import annotations
 
+import importlib.util
+import json
 import math
+import os
+import shutil
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
@@ -326,3 +332,19 @@ class ExactScene:
                 if pair:
                     return k, i / steps, pair
         return None
+
+
+def ros2_session(module: str, args: list[str], environment: dict[str, str], timeout: float) -> Any:
+    """``python -m MODULE ARGS…`` in a private network namespace (loopback up) with ``environment`` added: the JSON
+    of its last output line, or a string saying why the session could not run."""
+    if shutil.which("unshare") is None:
+        return "unshare not found (needs a private network namespace)"
+    if importlib.util.find_spec("potential_fields_interfaces") is None:
+        return "ros2 extra or interfaces missing (make ros2-interfaces)"
+    inner = ["unshare", "-n", "sh", "-c", 'ip link set lo up && exec "$@"', "sh",
+             sys.executable, "-m", module, *args]
+    process = subprocess.run(inner, env=dict(os.environ, **environment), cwd=Path(__file__).resolve().parents[1],
+                             capture_output=True, text=True, timeout=timeout, check=False)
+    if process.returncode != 0:
+        return f"session failed: {process.stderr.strip().splitlines()[-1:]}"
+    return json.loads(process.stdout.strip().splitlines()[-1])

@@ -14,8 +14,6 @@ issue's target is p50 ≤ 2 ms; the C++ original has no comparable figure. Witho
 from __future__ import annotations
 
 import json
-import os
-import shutil
 import signal
 import subprocess
 import sys
@@ -25,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks._common import BenchRow
+from benchmarks._common import BenchRow, ros2_session
 
 SECTION = "ros2"
 TARGET_P50_MS = 2.0
@@ -117,21 +115,12 @@ def _service(name: str) -> str:
 
 def run(quick: bool) -> list[BenchRow]:
     """p50 and p99 of the rclpy round trip for both seed requests (ms)."""
-    import importlib.util
-
-    if shutil.which("unshare") is None:
-        return _unavailable("unshare not found (needs a private network namespace)")
-    if importlib.util.find_spec("potential_fields_interfaces") is None:
-        return _unavailable("ros2 extra or interfaces missing (make ros2-interfaces)")
     calls = 200 if quick else 2000
+    session = ros2_session("benchmarks.bench_ros2", ["--inner", str(calls)], ENVIRONMENT, 600)
+    if isinstance(session, str):
+        return _unavailable(session)
+    samples: dict[str, list[float]] = session
     repo = Path(__file__).resolve().parents[1]
-    inner = ["unshare", "-n", "sh", "-c", 'ip link set lo up && exec "$@"', "sh",
-             sys.executable, "-m", "benchmarks.bench_ros2", "--inner", str(calls)]
-    process = subprocess.run(inner, env=dict(os.environ, **ENVIRONMENT), cwd=repo, capture_output=True,
-                             text=True, timeout=600, check=False)
-    if process.returncode != 0:
-        return _unavailable(f"session failed: {process.stderr.strip().splitlines()[-1:]}")
-    samples: dict[str, list[float]] = json.loads(process.stdout.strip().splitlines()[-1])
     http = _http_figures(repo / "benchmarks" / "results" / "bench_http.json")
     rows = []
     for name, values in samples.items():
@@ -146,7 +135,7 @@ def run(quick: bool) -> list[BenchRow]:
             rows.append(BenchRow(SECTION, f"{_service(name)} rclpy round trip ({name}) {quantile}",
                                  1e3 * float(np.percentile(values, 100 * fraction)), "ms",
                                  target=TARGET_P50_MS if quantile == "p50" else None, note=note + http_note))
-    return rows + _trajectory_rows(quick, repo)
+    return rows + _trajectory_rows(quick)
 
 
 # ---- trajectories out: pfield's FollowJointTrajectory client against the test action server ----------------
@@ -183,16 +172,12 @@ def _measure_trajectories(goals: int) -> dict[str, list[float]]:
     return {"accepted": accepted, "feedback_rate": [(len(arrivals) - 1) / (arrivals[-1] - arrivals[0])]}
 
 
-def _trajectory_rows(quick: bool, repo: Path) -> list[BenchRow]:
+def _trajectory_rows(quick: bool) -> list[BenchRow]:
     name = "FollowJointTrajectory goal sent -> accepted p50"
-    inner = ["unshare", "-n", "sh", "-c", 'ip link set lo up && exec "$@"', "sh",
-             sys.executable, "-m", "benchmarks.bench_ros2", "--inner-trajectory", "20" if quick else "100"]
-    process = subprocess.run(inner, env=dict(os.environ, **ENVIRONMENT), cwd=repo, capture_output=True, text=True,
-                             timeout=600, check=False)
-    if process.returncode != 0:
-        return [BenchRow(SECTION, name, float("nan"), "ms",
-                         note=f"not measured: {process.stderr.strip().splitlines()[-1:]}")]
-    samples = json.loads(process.stdout.strip().splitlines()[-1])
+    samples = ros2_session("benchmarks.bench_ros2", ["--inner-trajectory", "20" if quick else "100"], ENVIRONMENT,
+                           600)
+    if isinstance(samples, str):
+        return [BenchRow(SECTION, name, float("nan"), "ms", note=f"not measured: {samples}")]
     accepted = 1e3 * np.array(samples["accepted"])
     return [BenchRow(SECTION, name, float(np.percentile(accepted, 50)), "ms",
                      note=f"{len(accepted)} goals of 11 points, p99 {np.percentile(accepted, 99):.3g} ms; pfield's "

@@ -9,9 +9,14 @@
 * **Over ROS 2, 100 Hz** — ``pfield ros2 node --robot panda`` with a MoveIt Servo section (``publish_period``
   0.01) in a private network namespace (Fast DDS, UDPv4 loopback), a second process publishing ``/joint_states`` at
   50 Hz and a TwistStamped at 100 Hz on ``~/delta_twist_cmds``, timing from each publish to the arrival of the
-  JointTrajectory on ``command_out_topic`` in the same process. Only commands followed by exactly one command out
-  before the next command is published are paired (a tick-driven output in between would be ambiguous); the note
-  gives how many. Targets: p50 ≤ 2 ms, p99 ≤ 10 ms.
+  JointTrajectory on ``command_out_topic`` in the same process, once the node's warm-up has ended
+  (:func:`_wait_for_warmup`). Every command is paired: its twist turns by 1/16 of a turn from the previous one, so
+  each command out says by its end-effector velocity J(q) q̇ which command it was computed from (:func:`attribute`);
+  a command's latency runs to the first command out computed from it or from a later command (one superseded before
+  a step read it waits for its successor's; the note counts them). Figures
+  p50 / p95 / p99 / max; targets p50 ≤ 2 ms, p99 ≤ 10 ms. Beside them, the floor: the same client against a bare
+  rclpy node (:func:`_echo`) that answers each twist with a JointTrajectory, measured in the same namespace just
+  before (the transport's share of the figure on this machine).
 
 Without ``unshare`` or the ``ros2`` extra the ROS 2 rows are skipped with a note.
 """
@@ -19,8 +24,7 @@ Without ``unshare`` or the ``ros2`` extra the ROS 2 rows are skipped with a note
 from __future__ import annotations
 
 import json
-import os
-import shutil
+import math
 import signal
 import subprocess
 import sys
@@ -32,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks._common import BenchRow
+from benchmarks._common import BenchRow, ros2_session
 
 SECTION = "servo"
 PERIOD = 0.002
@@ -108,8 +112,84 @@ def in_process(cycles: int) -> dict[str, float]:
             "cpu_p50": float(np.percentile(cpu_values, 50)), "cpu_p99": float(np.percentile(cpu_values, 99))}
 
 
-def _measure_ros(commands: int) -> dict[str, Any]:
-    """Inside the namespace: the node, then ``commands`` twists at 100 Hz, each paired with its command out."""
+DIRECTIONS = 16
+"""The operator's twist turns by 2π/16 in the horizontal plane at every command (at :data:`SPEED` the joints follow
+each turn within their acceleration limits; the tip circles ~0.05 mm): each command out carries the direction of the
+command it was computed from, so every command is paired with the first command out that reflects it
+(:func:`attribute`)."""
+SPEED = 0.002
+"""m/s: the operator's speed."""
+
+
+def _twists(interface_class: Any) -> list[Any]:
+    """The :data:`DIRECTIONS` TwistStamped messages, index k's header stamp ``sec`` = k (the echo node returns it)."""
+    twist_class = interface_class("geometry_msgs/msg/TwistStamped")
+    messages = []
+    for k in range(DIRECTIONS):
+        message = twist_class()
+        message.header.stamp.sec = k
+        message.twist.linear.x = SPEED * math.cos(2 * math.pi * k / DIRECTIONS)
+        message.twist.linear.y = SPEED * math.sin(2 * math.pi * k / DIRECTIONS)
+        messages.append(message)
+    return messages
+
+
+def _echo(out_topic: str) -> None:
+    """The floor: a bare rclpy node (one subscription, one publisher, a single-threaded executor) that answers each
+    twist on the servo's command topic with a 7-joint JointTrajectory carrying the twist's stamp, until SIGINT."""
+    import rclpy
+    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from rclpy.node import Node as RclpyNode
+
+    from pfield.transport._ros2_convert import interface_class
+    from pfield.transport.ros2 import STREAM_QOS
+
+    rclpy.init()
+    node = RclpyNode("pfield_servo_echo")
+    trajectory = interface_class("trajectory_msgs/msg/JointTrajectory")
+    point = interface_class("trajectory_msgs/msg/JointTrajectoryPoint")
+    publisher = node.create_publisher(trajectory, out_topic, STREAM_QOS)
+    names = [f"joint{i}" for i in range(1, 8)]
+
+    def answer(twist: Any) -> None:
+        message = trajectory()
+        message.header.stamp = twist.header.stamp
+        message.joint_names = names
+        message.points = [point(positions=[0.0] * 7, velocities=[twist.twist.linear.x] * 7)]
+        publisher.publish(message)
+
+    node.create_subscription(interface_class("geometry_msgs/msg/TwistStamped"), "/pfield_servo/delta_twist_cmds",
+                             answer, 10)
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    try:
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+
+
+WARMED_UP = ("link model", "self-check")
+"""Words of the node's log (INFO, :mod:`pfield.warmup`) that say its background link-model fit and self-check have
+ended, passed or failed."""
+
+
+def _wait_for_warmup(log: Path, node: subprocess.Popen[bytes], deadline: float) -> None:
+    """Until the node's log says both warm-up threads ended (:data:`WARMED_UP`): while they run they hold the GIL in
+    turns with the servo's thread (0.3–0.8 s without a command out seen at the start of some runs), and the figures are
+    of a node at work, not of one starting."""
+    while time.monotonic() < deadline and node.poll() is None:
+        text = log.read_text(errors="replace")
+        if all(words in text for words in WARMED_UP):
+            return
+        time.sleep(0.1)
+
+
+def _measure_ros(commands: int, target: str) -> dict[str, Any]:
+    """Inside the namespace: ``target`` (``pfield``: the node; ``echo``: :func:`_echo`), then ``commands`` twists at
+    100 Hz (joint states at 50 Hz); every command out is recorded with its arrival time."""
     import rclpy
     from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
@@ -126,8 +206,12 @@ def _measure_ros(commands: int) -> dict[str, Any]:
     params = Path(folder) / "servo.yaml"
     params.write_text(json.dumps({"servo_node": {"ros__parameters": {"moveit_servo": SERVO_PARAMETERS}}}))
     cli = str(Path(sys.executable).with_name("pfield"))
-    node = subprocess.Popen([cli, "ros2", "node", "--robot", "panda", "--params", str(params), "--log-level",
-                             "warning"], stdout=subprocess.DEVNULL)
+    command = [cli, "ros2", "node", "--robot", "panda", "--params", str(params), "--log-level", "info"]
+    if target == "echo":
+        command = [sys.executable, "-m", "benchmarks.bench_servo", "--echo", OUT_TOPIC]
+    log = Path(folder) / f"{target}.log"
+    with log.open("wb") as out:
+        node = subprocess.Popen(command, stdout=out, stderr=subprocess.STDOUT, cwd=Path(__file__).resolve().parents[1])
     context = Context()
     rclpy.init(context=context)
     client = RclpyNode("pfield_bench_servo", context=context)
@@ -135,44 +219,41 @@ def _measure_ros(commands: int) -> dict[str, Any]:
     executor.add_node(client)
     spinner = threading.Thread(target=executor.spin, daemon=True)
     spinner.start()
-    arrivals: list[float] = []
+    arrivals: list[tuple[float, Any]] = []
     try:
-        def message(type_name: str, data: dict[str, Any]) -> Any:
-            return to_ros(lookup_type(type_name).model_validate(data), interface_class(type_name))
-
-        state = message("sensor_msgs/msg/JointState", {"name": list(robot.joint_names),
-                                                       "position": robot.named_configuration("ready").tolist()})
-        twist = message("geometry_msgs/msg/TwistStamped", {"twist": {"linear": {"x": 0.02, "y": -0.01}}})
+        state = to_ros(lookup_type("sensor_msgs/msg/JointState").model_validate(
+            {"name": list(robot.joint_names), "position": robot.named_configuration("ready").tolist()}),
+            interface_class("sensor_msgs/msg/JointState"))
+        twist = _twists(interface_class)
         states = client.create_publisher(interface_class("sensor_msgs/msg/JointState"), "/joint_states", 10)
         twists = client.create_publisher(interface_class("geometry_msgs/msg/TwistStamped"),
                                          "/pfield_servo/delta_twist_cmds", 10)
         client.create_subscription(interface_class("trajectory_msgs/msg/JointTrajectory"), OUT_TOPIC,
-                                   lambda _: arrivals.append(time.perf_counter()),
+                                   lambda message: arrivals.append((time.perf_counter(), message)),
                                    QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE))
         deadline = time.monotonic() + 120.0
-        while (states.get_subscription_count() == 0 or twists.get_subscription_count() == 0) and \
-                time.monotonic() < deadline:
+        while twists.get_subscription_count() == 0 and time.monotonic() < deadline:
             time.sleep(0.05)
-        while not arrivals and time.monotonic() < deadline:  # warm-up: the robot's fit, discovery, the kernels
+        if target == "pfield":
+            _wait_for_warmup(log, node, deadline + 180.0)
+        k = 0
+        while (not arrivals or k < 100) and time.monotonic() < deadline:  # warm-up: fit, discovery, the kernels
             states.publish(state)
-            twists.publish(twist)
-            time.sleep(0.01)
-        for _ in range(100):
-            states.publish(state)
-            twists.publish(twist)
+            twists.publish(twist[k % DIRECTIONS])
+            k += 1
             time.sleep(0.01)
         time.sleep(0.5)  # the warm-up stream stops: the servo decelerates, then idles
         arrivals.clear()
         sent: list[float] = []
         start = time.perf_counter()
         for k in range(commands):
-            target = start + k * 0.01
-            while time.perf_counter() < target:
-                time.sleep(max(0.0, min(target - time.perf_counter() - 2e-4, 0.005)))
+            due = start + k * 0.01
+            while time.perf_counter() < due:
+                time.sleep(max(0.0, min(due - time.perf_counter() - 2e-4, 0.005)))
             if k % 2 == 0:
                 states.publish(state)  # 50 Hz
             sent.append(time.perf_counter())
-            twists.publish(twist)
+            twists.publish(twist[k % DIRECTIONS])
         time.sleep(0.3)
     finally:
         executor.shutdown()
@@ -181,48 +262,90 @@ def _measure_ros(commands: int) -> dict[str, Any]:
         rclpy.shutdown(context=context)
         node.send_signal(signal.SIGINT)
         node.wait(30)
-    return {"sent": sent, "arrivals": list(arrivals)}
+    if target == "echo":
+        return {"sent": sent, "out": [[t, message.header.stamp.sec] for t, message in arrivals]}
+    points = [(t, message.points[0]) for t, message in arrivals if message.points]
+    return {"sent": sent, "out": [[t, list(point.positions), list(point.velocities)] for t, point in points]}
 
 
-def pair(sent: list[float], arrivals: list[float]) -> list[float]:
-    """Latencies (s) of the commands followed by exactly one command out before the next command."""
-    edges = [*sent[1:], float("inf")]
-    out = np.asarray(sorted(arrivals))
-    latencies = []
-    for begin, end in zip(sent, edges, strict=True):
-        inside = out[(out >= begin) & (out < end)]
-        if len(inside) == 1:
-            latencies.append(float(inside[0] - begin))
-    return latencies
+def direction_index(robot: Any, positions: Any, velocities: Any) -> int:
+    """The :data:`DIRECTIONS` index of a command out: the direction of its end-effector velocity J(q) q̇ in the
+    horizontal plane, or -1 when it has (almost) none (a stop) or points elsewhere than the commands."""
+    linear = robot.jacobian(np.asarray(positions, dtype=np.float64))[:3] @ np.asarray(velocities, dtype=np.float64)
+    if len(velocities) != robot.n_joints or np.linalg.norm(linear[:2]) < 0.1 * SPEED or \
+            abs(linear[2]) > 0.5 * np.linalg.norm(linear[:2]):
+        return -1
+    turns = math.atan2(linear[1], linear[0]) / (2 * math.pi) * DIRECTIONS
+    if abs(turns - round(turns)) > 0.25:  # more than a quarter step off every command's direction: not decoded
+        return -1
+    return round(turns) % DIRECTIONS
+
+
+def attribute(sent: list[float], out: list[tuple[float, int]]) -> tuple[list[float], int, int]:
+    """Each command's latency (s): from its publish to the first command out computed from it or from a later
+    command. A command out with direction index j (-1: undecoded, skipped) comes from the latest command k ≡ j
+    (mod :data:`DIRECTIONS`) published before it arrived (exact while latencies stay under DIRECTIONS periods).
+    Returns the latencies of the commands that have such an output, how many of those came from the command itself
+    (the others were superseded: the next command arrived before a step read it), and how many outputs were
+    undecoded."""
+    times = np.asarray(sent)
+    source = []
+    for arrival, index in sorted(out):
+        if index < 0:
+            continue
+        last = int(np.searchsorted(times, arrival, side="right")) - 1  # the latest command published before it
+        k = last - (last - index) % DIRECTIONS
+        if k >= 0:
+            source.append((arrival, k))
+    latencies, own, cursor = [], 0, 0
+    for k, begin in enumerate(sent):
+        while cursor < len(source) and source[cursor][0] < begin:
+            cursor += 1
+        first = next(((arrival, origin) for arrival, origin in source[cursor:] if origin >= k), None)
+        if first is not None:
+            latencies.append(first[0] - begin)
+            own += first[1] == k
+    return latencies, own, sum(index < 0 for _, index in out)
+
+
+def _ros_session(commands: int) -> dict[str, Any] | str:
+    """Both sessions (the echo floor, then pfield) in a private network namespace; a reason when not possible."""
+    result: dict[str, Any] | str = ros2_session("benchmarks.bench_servo", ["--inner", str(commands)],
+                                                    ENVIRONMENT, 900)
+    return result
 
 
 def _ros_rows(quick: bool) -> list[BenchRow]:
-    import importlib.util
+    from pfield.robot import RobotModel
 
-    reason = None
-    if shutil.which("unshare") is None:
-        reason = "unshare not found (needs a private network namespace)"
-    elif importlib.util.find_spec("potential_fields_interfaces") is None:
-        reason = "ros2 extra or interfaces missing (make ros2-interfaces)"
     commands = 300 if quick else 2000
-    if reason is None:
-        repo = Path(__file__).resolve().parents[1]
-        inner = ["unshare", "-n", "sh", "-c", 'ip link set lo up && exec "$@"', "sh",
-                 sys.executable, "-m", "benchmarks.bench_servo", "--inner", str(commands)]
-        process = subprocess.run(inner, env=dict(os.environ, **ENVIRONMENT), cwd=repo, capture_output=True,
-                                 text=True, timeout=900, check=False)
-        if process.returncode != 0:
-            reason = f"session failed: {process.stderr.strip().splitlines()[-1:]}"
-    if reason is not None:
-        return [BenchRow(SECTION, f"ROS 2 command-in → command-out at 100 Hz {q}", float("nan"), "ms",
-                         target=target, note=f"not measured: {reason}") for q, target in ROS_TARGETS.items()]
-    data = json.loads(process.stdout.strip().splitlines()[-1])
-    latencies = 1e3 * np.array(pair(data["sent"], data["arrivals"]))
-    note = (f"{len(latencies)} of {len(data['sent'])} commands paired ({len(data['arrivals'])} commands out); Panda, "
-            "no obstacles; Fast DDS UDPv4 loopback, node in another process")
-    return [BenchRow(SECTION, f"ROS 2 command-in → command-out at 100 Hz {q}",
-                     float(np.percentile(latencies, 50 if q == "p50" else 99)) if len(latencies) else float("nan"),
-                     "ms", target=target, note=note) for q, target in ROS_TARGETS.items()]
+    data = _ros_session(commands)
+    name = "ROS 2 command-in → command-out at 100 Hz"
+    if isinstance(data, str):
+        return [BenchRow(SECTION, f"{name} {q}", float("nan"), "ms", target=target, note=f"not measured: {data}")
+                for q, target in ROS_TARGETS.items()]
+    robot = RobotModel.builtin("panda")
+    session = data["pfield"]
+    out = [(t, direction_index(robot, q, v)) for t, q, v in session["out"]]
+    latencies, own, undecoded = attribute(session["sent"], out)
+    echo = data["echo"]
+    floor, _, _ = attribute(echo["sent"], [(t, k % DIRECTIONS) for t, k in echo["out"]])
+    sent = len(session["sent"])
+    note = (f"{len(latencies)} of {sent} commands paired ({own} with their own command out, {len(latencies) - own} "
+            f"with a later command's: superseded before a step read them; {len(session['out'])} commands out, "
+            f"{undecoded} undecoded); Panda, no obstacles; Fast DDS UDPv4 loopback, node in another process")
+    floor_note = (f"{len(floor)} of {len(echo['sent'])} paired; a bare rclpy node (single-threaded executor) "
+                  "answering each twist with a JointTrajectory: the transport's floor on this machine")
+    rows = []
+    for q in ("p50", "p95", "p99", "max"):
+        values = 1e3 * np.asarray(latencies)
+        value = float(np.percentile(values, float(q[1:]) if q != "max" else 100.0)) if len(values) else float("nan")
+        rows.append(BenchRow(SECTION, f"{name} {q}", value, "ms", target=ROS_TARGETS.get(q), note=note))
+    for q in ("p50", "p99"):
+        values = 1e3 * np.asarray(floor)
+        value = float(np.percentile(values, float(q[1:]))) if len(values) else float("nan")
+        rows.append(BenchRow(SECTION, f"ROS 2 bare rclpy echo at 100 Hz {q}", value, "ms", note=floor_note))
+    return rows
 
 
 def run(quick: bool) -> list[BenchRow]:
@@ -243,7 +366,9 @@ def run(quick: bool) -> list[BenchRow]:
 
 def _main(argv: list[str]) -> None:
     if argv[:1] == ["--inner"]:
-        print(json.dumps(_measure_ros(int(argv[1]))))
+        print(json.dumps({target: _measure_ros(int(argv[1]), target) for target in ("echo", "pfield")}))
+    elif argv[:1] == ["--echo"]:
+        _echo(argv[1])
     else:
         for row in run(quick="--quick" in argv):
             print(row)

@@ -28,7 +28,7 @@ from pfield.interfaces import lookup_type
 from pfield.interfaces._yaml import load_yaml, message_from_data
 from pfield.transport._ros2_convert import from_ros, interface_class, to_ros
 
-ONCE_TIMEOUT = 60.0
+ONCE_TIMEOUT = 120.0
 """``topic echo --once`` gives up after this many seconds (ros2cli waits for ever)."""
 
 

@@ -88,6 +88,29 @@ def test_joy_drives_the_servo_loop(robot: Any) -> None:
     assert len(recorder.messages[out]) == settled  # stopped: nothing more is sent
 
 
+def test_the_tick_waits_for_commands_that_come_every_period(robot: Any) -> None:
+    """Commands at least every period drive the output: the tick steps only when one is half a period late; slower
+    commands are filled in by the tick after 0.9 of a period (servo_node's Timing)."""
+    period = 0.1
+    twist = gm.TwistStamped.model_validate({"twist": {"linear": {"x": 0.02}}})
+    for pause in (0.02, 0.25):  # a stream at 50 ms (< 1.2 periods), then one at 250 ms
+        manager, servo, recorder = make(robot, publish_period=period, incoming_command_timeout=5.0)
+        manager.on_joint_states(measured(robot))
+        out = servo.topics["command_out_topic"]
+        for _ in range(6):
+            time.sleep(pause)
+            servo.on_twist(twist)
+        after = time.monotonic()  # at or after the last command's step
+        count = len(recorder.messages[out])
+        servo.tick(after + 0.95 * period)  # slow commands are filled in after 0.9 of a period
+        if pause > period:
+            assert len(recorder.messages[out]) == count + 1
+            continue
+        assert len(recorder.messages[out]) == count  # the next command of the stream is not late yet
+        servo.tick(after + 1.6 * period)  # more than half a period late: the tick keeps the output going
+        assert len(recorder.messages[out]) == count + 1
+
+
 def test_float64_multi_array_carries_velocities_or_positions(robot: Any) -> None:
     for positions in (False, True):
         manager, servo, recorder = make(robot, command_out_type="std_msgs/Float64MultiArray",

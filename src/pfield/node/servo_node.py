@@ -17,9 +17,16 @@ published when the status changes; commands every step while the robot moves, an
 
 Timing: a command is stepped when it arrives (command-in to command-out is one step, not up to a period); the tick
 (``tick_period = publish_period``) steps when no step happened for 0.9 of a period, so commands go out at least at
-``publish_period`` while the robot moves, and a stale command decelerates the robot to a stop. Without a joint state
-(none, or older than the manager's ``joint_state_timeout`` while not streaming) nothing is commanded and the status
-is ``INVALID`` with the reason.
+``publish_period`` while the robot moves, and a stale command decelerates the robot to a stop. While commands arrive
+at least every period (their mean interval, :data:`FOLLOWING`) each is stepped as it comes, and the tick
+waits for 1.5 periods instead: with commands and ticks at the same rate, a tick 0.9 period after a command would step
+just before the next command and hold it up for a whole step (through a whole run in some runs of
+``benchmarks/bench_servo.py``: the two clocks keep their phase). The tick then steps only for a command more than
+half a period late; on the tick's grid of one period the output pauses at most 2.5 periods then (1.9 otherwise).
+Without a joint state (none, or older than the manager's ``joint_state_timeout`` while not streaming) nothing is
+commanded and the status is ``INVALID`` with the reason. Over ROS 2 the node spins on an executor of its own and its
+inputs keep only the latest message (:mod:`pfield.transport.ros2`: a node that streams commands), so a command waits
+neither for other nodes' callbacks nor behind older commands.
 """
 
 from __future__ import annotations
@@ -66,6 +73,10 @@ _RUNTIME = frozenset({"incoming_command_timeout", "scale_linear", "scale_rotatio
                       "check_collisions", "override_velocity_scaling_factor", "joy_deadzone", "joy_deadman_button",
                       "halt_all_joints_in_cartesian_mode", "publish_joint_accelerations", "command_in_type"})
 """Parameters that may change while the node runs (the others shape its topics and loop: read-only)."""
+FOLLOWING = 1.2
+"""Commands whose mean interval is at most this many ``publish_period`` drive the output (module docstring, Timing):
+the mean is exponential, weight 0.2 on the newest interval, each counted at most 2 periods (one late command does not
+end it; after a pause, eight commands at the period start it again)."""
 
 
 def _row(name: str, default: Any, doc: str) -> ParameterRow:
@@ -114,6 +125,8 @@ class ServoNode(Node):
         self.topics["status_text"] = self.topics["status_topic"] + "_text"
         self._lock = threading.Lock()
         self._last_step = -1e300
+        self._last_command = -1e300
+        self._command_interval = float("inf")  # s: the commands' mean interval (FOLLOWING)
         self._was_moving = False
         self._status: tuple[int | None, str] = (None, "")  # (code, words) last published; None: nothing yet
         if ignored:
@@ -187,11 +200,19 @@ class ServoNode(Node):
             twist = twist if transform is None else rotate_twist(twist, transform.orientation)
         now = time.monotonic()
         self.servo.command(twist, now, end_effector_frame=end_effector, unitless=unitless)
+        interval = min(now - self._last_command, 2.0 * self.config.publish_period)
+        mean = self._command_interval
+        self._command_interval = interval if mean == float("inf") else 0.8 * mean + 0.2 * interval
+        self._last_command = now
         self.step(now)
 
     # ---- the loop ---------------------------------------------------------------------------------------
     def tick(self, now: float) -> None:
-        if now - self._last_step >= 0.9 * self.config.publish_period:
+        """A step when none came for 0.9 ``publish_period``, or for 1.5 while commands drive the output (module
+        docstring, Timing)."""
+        period = self.config.publish_period
+        following = self._command_interval <= FOLLOWING * period and self._last_step == self._last_command
+        if now - self._last_step >= (1.5 if following else 0.9) * period:
             self.step(now)
 
     def step(self, now: float) -> ServoCommand | None:

@@ -15,13 +15,18 @@ lists:
   ``compute_autonomy_vector`` keeps answering during a plan;
 * **subscriptions** — a bad message is logged and dropped; the node's state is unchanged (the node
   validates before changing anything) and it keeps serving. Sensor topics (``sensor_msgs/*``, e.g.
-  ``/scan``) use the sensor-data QoS (best effort), others reliable, depth 10;
+  ``/scan``) use the sensor-data QoS (best effort), others reliable, depth 10; a node that streams commands
+  (the servo) keeps depth 1: it acts on the latest command, and a backlog of older ones would only delay it;
 * **publications** — what a node publishes on its :class:`~pfield.node._base.Bus` is converted and
   published by one publisher thread (the latest message per topic, so a slow subscriber never slows a
   handler). Publishers are reliable and transient-local ("latched"): RViz or a late subscriber gets
   the last ``/pfield/planned_path`` and ``/pfield/markers``;
 * **parameters** — every node parameter as a ROS parameter (:mod:`pfield.transport._ros2_params`);
-* **ticks** — a timer per node with a ``tick_period``.
+* **ticks** — a timer per node with a ``tick_period``;
+* **executors** — one multi-threaded executor for the nodes, except that a node that streams commands (a
+  ``PublicationSpec`` with ``latched=False``: the servo) and serves nothing long-running spins on a
+  single-threaded executor of its own
+  (:class:`_Executors`), so a command never waits for another node's callbacks or the shared executor's dispatch.
 
 Shutdown order matters with rclpy 7.1: stop the executor, join its thread, wait for callbacks still
 running, then destroy the nodes and shut the context down; otherwise the process can abort and leave
@@ -42,7 +47,7 @@ import rclpy
 from pydantic import ValidationError
 from rclpy.callback_groups import CallbackGroup, MutuallyExclusiveCallbackGroup
 from rclpy.context import Context
-from rclpy.executors import MultiThreadedExecutor
+from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node as RclpyNode
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 
@@ -60,6 +65,9 @@ _LOG = logging.getLogger(__name__)
 LATCHED_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 """QoS of pfield's publications: reliable, transient local (late subscribers get the last message)."""
 _INPUT_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+_LATEST_INPUT_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
+_LATEST_SENSOR_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT,
+                                durability=DurabilityPolicy.VOLATILE)
 _BAD_INPUT = (PfieldError, ValidationError, ValueError, TypeError)
 
 
@@ -93,6 +101,14 @@ def _publication_qos(spec: PublicationSpec) -> QoSProfile:
 
 STREAM_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 """QoS of streamed commands (:func:`_publication_qos`)."""
+
+
+def _subscription_qos(spec: SubscriptionSpec, latest_only: bool) -> QoSProfile:
+    """Sensor topics (``sensor_msgs/*``) best effort, others reliable; depth 10, or 1 with ``latest_only`` (a node
+    that streams commands: only the newest input matters, older queued ones are dropped by the middleware)."""
+    if spec.type_name.startswith("sensor_msgs/"):
+        return _LATEST_SENSOR_QOS if latest_only else qos_profile_sensor_data
+    return _LATEST_INPUT_QOS if latest_only else _INPUT_QOS
 
 
 class _StreamPublisher:
@@ -161,6 +177,8 @@ class _NodeAdapter:
         self._in_flight = in_flight
         self.ros_node = RclpyNode(node.name.lstrip("/") or "pfield", context=context)
         self._short = MutuallyExclusiveCallbackGroup()
+        self.streams_commands = any(not spec.latched for spec in node.publications())
+        """The node streams commands: it spins on an executor of its own and keeps only its latest inputs."""
         self.long_running_groups = 0
         for service in node.services():
             self._add_service(service)
@@ -198,7 +216,7 @@ class _NodeAdapter:
         return serve
 
     def _add_subscription(self, spec: SubscriptionSpec) -> None:
-        qos = qos_profile_sensor_data if spec.type_name.startswith("sensor_msgs/") else _INPUT_QOS
+        qos = _subscription_qos(spec, self.streams_commands)
 
         def receive(message: Any) -> None:
             with self._in_flight.track():
@@ -228,8 +246,49 @@ class _NodeAdapter:
                 _LOG.exception("%s: tick failed", self.node.name)
 
 
+class _Executors:
+    """The host's executors, driven as one by :class:`Ros2Host` (``add_node``, ``spin``, ``shutdown``): a shared
+    multi-threaded executor, and a single-threaded executor of its own for each node that streams commands.
+
+    Such a node's command is stepped and published in its own executor's thread: it does not wait for the shared
+    executor to rebuild the wait set of every node's services and timers, dispatch to a worker thread, or run
+    another node's callbacks first (the servo's command-in to command-out latency, ``benchmarks/bench_servo.py``).
+    Its own callbacks (inputs, tick, parameter services) still run one at a time, as in its one callback group."""
+
+    def __init__(self, shared: MultiThreadedExecutor) -> None:
+        self.shared = shared
+        self._own: list[tuple[SingleThreadedExecutor, threading.Thread]] = []
+
+    def add_node(self, ros_node: RclpyNode, own: bool = False) -> None:
+        """Spin ``ros_node`` on the shared executor, or with ``own`` on an executor of its own."""
+        if not own:
+            self.shared.add_node(ros_node)
+            return
+        executor = SingleThreadedExecutor(context=ros_node.context)
+        executor.add_node(ros_node)
+        name = f"pfield-ros2-{ros_node.get_name()}"
+        self._own.append((executor, threading.Thread(target=executor.spin, name=name, daemon=True)))
+
+    def spin(self) -> None:
+        """Start each own executor's thread, then spin the shared executor in this thread until shutdown."""
+        for _, thread in self._own:
+            thread.start()
+        self.shared.spin()
+
+    def shutdown(self, timeout_sec: float | None = None) -> bool:
+        """Stop every executor (the own ones first, joining their threads); True when all stopped in time."""
+        stopped = True
+        for executor, thread in self._own:
+            stopped = executor.shutdown(timeout_sec) and stopped
+            if thread.ident is not None:
+                thread.join(timeout_sec)
+                stopped = stopped and not thread.is_alive()
+        return self.shared.shutdown(timeout_sec) and stopped
+
+
 class Ros2Host:
-    """Runs pfield nodes as rclpy nodes on a multi-threaded executor in a background thread.
+    """Runs pfield nodes as rclpy nodes on a multi-threaded executor in a background thread (a node that streams
+    commands on a single-threaded executor of its own: :class:`_Executors`).
 
     ``args`` are ROS command-line arguments (``["--ros-args", "-p", "influence_distance:=0.2"]``).
     Use as a context manager, or call :meth:`start` and :meth:`shutdown`. The caller owns the nodes
@@ -255,9 +314,13 @@ class Ros2Host:
             raise
         long_running = sum(adapter.long_running_groups for adapter in self._adapters)
         # one thread per long-running group, plus short callbacks and the parameter services
-        self._executor = MultiThreadedExecutor(num_threads=max(4, long_running + 3), context=self._context)
+        self._executor = _Executors(MultiThreadedExecutor(num_threads=max(4, long_running + 3),
+                                                          context=self._context))
         for adapter in self._adapters:
-            self._executor.add_node(adapter.ros_node)
+            # a node with long-running services keeps the shared executor's threads whatever it publishes: on a
+            # single-threaded executor a plan would hold up its every other callback
+            self._executor.add_node(adapter.ros_node,
+                                    own=adapter.streams_commands and not adapter.long_running_groups)
         self._spin_thread: threading.Thread | None = None
 
     def start(self) -> None:
