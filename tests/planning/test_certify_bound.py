@@ -17,7 +17,7 @@ from tests.planning.test_certify import UR5, needs_ur5
 
 from pfield import Box, Obstacle, Pose, RobotModel
 from pfield.geometry import Capsule, Cylinder, Sphere
-from pfield.planning.certify import _grid, certify_path
+from pfield.planning.certify import certify_path, resolution_grid
 from pfield.robot.catalog import BUILTIN_ROBOTS
 from pfield.robot.collision import CollisionChecker
 
@@ -112,7 +112,7 @@ def test_covering_bound_is_never_above_coal(name: str) -> None:
 
 def _plain_verdict(checker: CollisionChecker, qs: np.ndarray) -> tuple[int, int, float] | None:
     """Coal on every pair at every grid configuration: (first grid index in contact, its closest pair, distance)."""
-    grid, _, _ = _grid(qs, 0.01)
+    grid, _, _ = resolution_grid(qs, 0.01)
     every = np.arange(len(checker.pair_names))
     for index, q in enumerate(grid):
         distances = checker.pair_distances(q, every)
@@ -145,7 +145,7 @@ def test_fast_certificate_agrees_with_coal_on_every_grid_configuration(name: str
             index, pair, distance = plain
             assert certificate.grid_points == index + 1, trial
             assert certificate.pair == checker.pair_names[pair] and certificate.distance == pytest.approx(distance)
-            grid, segment, fraction = _grid(qs, 0.01)
+            grid, segment, fraction = resolution_grid(qs, 0.01)
             assert certificate.waypoint == segment[index] and certificate.fraction == pytest.approx(fraction[index])
             np.testing.assert_allclose(certificate.configuration, grid[index])
         else:
@@ -192,7 +192,7 @@ def test_covering_needed_is_the_walk_on_the_bound_and_refuses_bad_shapes(name: s
     q_a = _random_q(robot, rng)
     qs = np.array([q_a, np.clip(q_a + rng.normal(size=robot.n_joints) * 0.5, robot.lower_limits, robot.upper_limits)])
     checker = CollisionChecker(robot, _obstacles(robot, q_a, rng, 0.15))
-    grid, _, _ = _grid(qs, 0.01)
+    grid, _, _ = resolution_grid(qs, 0.01)
     travel = np.vstack([np.zeros((1, robot.n_joints)), np.cumsum(np.abs(np.diff(grid, axis=0)), axis=0)])
     reach = travel @ checker.motion_weights.T
     needed = checker.covering_needed(grid, travel, 1e-6)

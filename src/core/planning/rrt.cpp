@@ -99,6 +99,17 @@ CapsuleWorkspace::CapsuleWorkspace(const robot::RobotView& robot)
   world = {ends, ends + 3 * caps, ends + 6 * caps, ends + 6 * caps + 3 * prims};
 }
 
+bool ForbiddenRegions::contains(const double* q) const {
+  for (std::size_t r = 0, count = radii.size(); r < count; ++r) {
+    const double* centre = centres.data() + r * dimension;
+    const double* weight = weights.data() + r * dimension;
+    double s = 0.0;
+    for (std::size_t j = 0; j < dimension && s < radii[r]; ++j) s += weight[j] * std::abs(q[j] - centre[j]);
+    if (s < radii[r]) return true;
+  }
+  return false;
+}
+
 bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, const double* q, double margin,
                     CapsuleWorkspace& ws) {
   const robot::LinkModelView& links = robot.links;
@@ -181,8 +192,16 @@ StateChecker::StateChecker(const geometry::PackedView& packed, double margin, do
       resolution_(resolution),
       point_(3) {}
 
+void StateChecker::forbid(const double* centre, const double* weights, double radius) {
+  forbidden_.dimension = dimension_;
+  forbidden_.centres.insert(forbidden_.centres.end(), centre, centre + dimension_);
+  forbidden_.weights.insert(forbidden_.weights.end(), weights, weights + dimension_);
+  forbidden_.radii.push_back(radius);
+}
+
 bool StateChecker::state_valid(const double* q) {
   ++states_checked_;
+  if (forbidden_.contains(q)) return false;
   if (space_ == StateSpace::Point)
     return geometry::min_signed_distance(*packed_, {q[0], q[1], q[2]}).nearest.distance >= margin_;
   return capsules_valid(*robot_, *scene_, q, margin_, *capsules_);

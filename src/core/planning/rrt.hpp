@@ -74,6 +74,20 @@ struct CapsuleWorkspace {
 bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, const double* q, double margin,
                     CapsuleWorkspace& ws);
 
+// Regions of the state space known to be invalid (issue 34): a state q is in region b when
+// sum_j weights[b, j] |q_j - centres[b, j]| < radii[b]. The global fallback adds one where the exact mesh check found
+// its searched path in contact: with weights bounding how fast that pair's mesh distance changes (m/rad) and the
+// radius the contact's depth plus the search margin, every state of the region is closer than the margin on the
+// meshes, whatever the link model says there (a link model that over-covers a pair in one place and under-covers
+// it in another, as the UR5's forearm and wrist_2, cannot tell such states from clear ones).
+struct ForbiddenRegions {
+  std::size_t dimension = 0;
+  std::vector<double> centres, weights, radii;  // (B, dimension), (B, dimension), (B,)
+
+  // Whether q (dimension,) lies in some region.
+  bool contains(const double* q) const;
+};
+
 enum class StateSpace : std::int64_t { Joint = 0, Point = 1 };
 
 // The validity test of one search, counting the states it checks. Views must outlive it.
@@ -90,6 +104,10 @@ class StateChecker {
   std::size_t dimension() const { return dimension_; }
   std::int64_t states_checked() const { return states_checked_; }
 
+  // From now on, states in `region` (ForbiddenRegions of one region: centre, weights (dimension,), radius) are
+  // invalid.
+  void forbid(const double* centre, const double* weights, double radius);
+
   // Whether state q (dimension,) is valid; counts one check.
   bool state_valid(const double* q);
   // Whether the straight edge a -> b is valid (a is assumed valid): samples every `resolution`, coarse to fine.
@@ -105,6 +123,7 @@ class StateChecker {
   std::int64_t states_checked_ = 0;
   std::vector<double> point_;  // an edge's sample
   std::unique_ptr<CapsuleWorkspace> capsules_;  // joint space only
+  ForbiddenRegions forbidden_;
 };
 
 // Both trees of one search: node k of tree t is nodes[(t * capacity + k) * dimension ..], its parent parents[t *

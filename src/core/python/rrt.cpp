@@ -94,6 +94,13 @@ class Checker {
     return matrix(out.data(), out.size() / n, n);
   }
 
+  // (issue 34) a region of invalid states (planning::ForbiddenRegions)
+  void forbid(const Vector& centre, const Vector& weights, double radius) {
+    require_state(centre, "centre");
+    require_state(weights, "weights");
+    checker_->forbid(centre.data(), weights.data(), radius);
+  }
+
   // (issue 34) the partial-shortcut shortening of planning::shorten, drawing from trees' stream
   NumpyArray shorten(const Matrix& path, std::int64_t attempts, Trees& trees, Checker& clearance) {
     const std::size_t n = dimension();
@@ -197,6 +204,9 @@ void bind_rrt(nb::module_& m) {
       .def_prop_ro("dimension", &Checker::dimension)
       .def_prop_ro("states_checked", &Checker::states_checked, "states checked so far")
       .def("state_valid", &Checker::state_valid, "q"_a, "Whether q is valid (one check).")
+      .def("forbid", &Checker::forbid, "centre"_a, "weights"_a, "radius"_a,
+           "From now on a state q with sum_j weights[j] |q_j - centre[j]| < radius is invalid "
+           "(planning::ForbiddenRegions).")
       .def("edge_valid", &Checker::edge_valid, "a"_a, "b"_a,
            "Whether the straight edge a -> b is valid (a assumed valid), sampled every resolution.")
       .def("connect", &Checker::connect, "trees"_a, "lower"_a, "upper"_a, "step"_a, "budget"_a,

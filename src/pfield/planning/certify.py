@@ -86,7 +86,7 @@ class Certificate:
                 f"{where}")
 
 
-def _grid(qs: NDArray[np.float64], resolution: float) -> tuple[NDArray[np.float64], NDArray[np.int64],
+def resolution_grid(qs: NDArray[np.float64], resolution: float) -> tuple[NDArray[np.float64], NDArray[np.int64],
                                                               NDArray[np.float64]]:
     """Every waypoint and ⌈max|Δq| / resolution⌉ − 1 evenly spaced points inside each segment: the grid's
     configurations (N, n), and for each its segment's first waypoint and the fraction along that segment."""
@@ -118,7 +118,7 @@ def certify_path(robot: RobotModel, obstacles: Sequence[Obstacle], joint_positio
         robot.check_joint_angles(qs[k], f"joint_positions[{k}]")  # raises the standard message
         raise InvalidInput(f"joint_positions[{k}][{j}]", float(qs[k, j]), "outside the joint limits")
     checker = checker or CollisionChecker(robot, obstacles)
-    grid, segment, fraction = _grid(qs, step)
+    grid, segment, fraction = resolution_grid(qs, step)
     travel = np.vstack([np.zeros((1, qs.shape[1])), np.cumsum(np.abs(np.diff(grid, axis=0)), axis=0)])
     n_points, n_pairs = len(grid), len(checker.pair_names)
     # the covering capsules first, in one compiled call: a pair goes to coal only at the grid points where neither

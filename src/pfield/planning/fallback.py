@@ -21,19 +21,23 @@ from numpy.typing import NDArray
 from pfield.field.config import FieldConfig
 from pfield.geometry import Obstacle
 from pfield.planning import _whole_body_layout as _wb
-from pfield.planning.certify import certify_path
+from pfield.planning.certify import Certificate, certify_path, resolution_grid
 from pfield.planning.global_search import (
     GlobalOptions,
+    Region,
     SearchResult,
+    contact_region,
     goal_configurations,
     joint_space_search,
     orientations_along,
     point_space_search,
     search_margin,
+    self_contact_slack,
     track,
 )
 from pfield.planning.result import PLANNERS
 from pfield.planning.status import PlanStatus
+from pfield.robot.collision import CollisionChecker
 from pfield.robot.model import RobotModel
 from pfield.spatial import Pose
 
@@ -71,7 +75,17 @@ def whole_body_fallback(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.S
     once more without the band, within what is left of ``options.time_limit``. Measured on 20 problems of each of
     four MotionBenchMaker UR5 scenes (table_pick, table_under_pick, bookshelf_small, bookshelf_thin): without the
     band 72/80 solved (the failures: time limits), with it alone 72/80 (7 of the 8 failures: certificate
-    contacts), both in turn 78/80."""
+    contacts), both in turn 78/80.
+
+    Lazy exact checking (issue 34): when the tracked motion fails the certificate (or the tracking stops) and the
+    exact check finds contacts on the searched path or the tracked motion, each becomes a region of certain contact
+    (:func:`~pfield.planning.global_search.contact_region`) that every later search of this call avoids, and the
+    search runs again with the same band while time is left; the band is dropped when an attempt finds no new
+    contact. On the UR5 bookshelf_small problems 9, 30 and 33, every path both bands searched went 13–20 mm into
+    the meshes of forearm_link and wrist_2_link (a pair the fitted primitives over-cover by up to 20 mm in one place
+    and under-cover by 2 mm in another, so the link model cannot tell their passage from their contact); with the
+    regions, 2–7 searches of 0.06–0.5 s each found clear paths. The search's self pairs may touch on the fitted
+    model (:func:`~pfield.planning.global_search.self_contact_slack`; the obstacles keep the margin)."""
     margin = search_margin(config, options)
     # twice the joint-limit dampers' stop: the tracking's target keeps some room from it
     joint_margin = 2.0 * float(params[_wb.JOINT_SAFETY])
@@ -82,12 +96,19 @@ def whole_body_fallback(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.S
         return FallbackOutcome(None, PlanStatus.GOAL_INVALID, why, None)
     deadline = time.perf_counter() + options.time_limit
     outcome = FallbackOutcome(None, PlanStatus.GLOBAL_TIME_LIMIT, "global fallback: no time left", None)
+    listed = list(obstacles or ())
+    exact = CollisionChecker(robot, listed)
+    forbidden: list[Region] = []  # contacts the exact check found, kept across the attempts (contact_region)
+    slack = self_contact_slack(arrays, margin)  # the self pairs may touch on the fitted model
     for goal_band in (options.endpoint_band, 0.0):  # the goal's band first, then none (endpoint_scene)
-        remaining = deadline - time.perf_counter()
-        if remaining <= 0.0:
-            break
-        outcome = _search_and_track(robot, arrays, scene, start, goals, goal, params, max_iterations, margin,
-                                    obstacles, replace(options, time_limit=remaining), cancel, goal_band)
+        while (remaining := deadline - time.perf_counter()) > 0.0:
+            outcome, regions = _search_and_track(robot, arrays, scene, start, goals, goal, params, max_iterations,
+                                                 margin, listed, exact, replace(options, time_limit=remaining),
+                                                 cancel, goal_band, forbidden, slack)
+            fresh = [r for r in regions if not any(_inside(r[0], known) for known in forbidden)]
+            if not fresh:
+                break  # no contact, or one the search's resolution stepped over (a forbidden region holds it)
+            forbidden += fresh  # contacts: search again around them, with the same band
         if outcome.loop is not None or outcome.search is None or not outcome.search.found:
             break  # reached, or the search itself failed (without the band it is no easier)
     return outcome
@@ -95,28 +116,76 @@ def whole_body_fallback(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.S
 
 def _search_and_track(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, start: NDArray[np.float64],
                       goals: list[NDArray[np.float64]], goal: Pose, params: NDArray[np.float64], max_iterations: int,
-                      margin: float, obstacles: Sequence[Obstacle] | None, options: GlobalOptions,
-                      cancel: NDArray[np.uint8] | None, goal_band: float) -> FallbackOutcome:
-    """One search to ``goals`` (``goal_band``: :func:`~pfield.planning.global_search.endpoint_scene`'s), the
-    field's tracking of its path and the certificate of the tracked motion."""
-    search, search_scene = joint_space_search(robot, arrays, scene, start, goals, margin, options, cancel, goal_band)
+                      margin: float, obstacles: list[Obstacle], exact: CollisionChecker, options: GlobalOptions,
+                      cancel: NDArray[np.uint8] | None, goal_band: float, forbidden: Sequence[Region],
+                      self_slack: NDArray[np.float64] | None = None) -> tuple[FallbackOutcome, list[Region]]:
+    """One search to ``goals`` (``goal_band``: :func:`~pfield.planning.global_search.endpoint_scene`'s; states in
+    ``forbidden`` invalid), the field's tracking of its path and the certificate of the tracked motion. When that
+    fails, also the regions to forbid (:func:`_contact_regions`) around the contacts of the searched path and of the
+    tracked motion on the exact meshes."""
+    search, search_scene = joint_space_search(robot, arrays, scene, start, goals, margin, options, cancel, goal_band,
+                                              forbidden, self_slack)
     _log_search(search)
     if not search.found:
         _LOG.info("global fallback: %s", search.reason)
-        return FallbackOutcome(None, search.status, search.reason, search)
+        return FallbackOutcome(None, search.status, search.reason, search), []
     loop = track(robot, arrays, search_scene, search.path, goal, params, max_iterations, options, cancel)
     tracked = PlanStatus(loop[0])
-    if tracked != PlanStatus.REACHED:
+    certificate = certify_path(robot, obstacles, loop[2], options.exact_resolution, exact) \
+        if tracked == PlanStatus.REACHED else None
+    if certificate is not None and certificate.clear:
+        return FallbackOutcome(loop, PlanStatus.REACHED, "", search), []
+    # the tracking keeps the dampers' clearance, so a searched path that grazes a contact may still be tracked clear;
+    # when it is not, the contacts of the searched path and of the tracked motion are the regions to avoid
+    searched = certify_path(robot, obstacles, search.path, options.exact_resolution, exact)
+    regions = [] if searched.clear else _contact_regions(robot, obstacles, exact, search.path, searched, margin,
+                                                         (start, *goals), options)
+    if certificate is None:
         reason = f"global fallback: tracking the searched path ended with {tracked.name}"
         _LOG.info(reason)
-        return FallbackOutcome(None, tracked, reason, search)
-    certificate = certify_path(robot, list(obstacles or ()), loop[2], options.exact_resolution)
-    if not certificate.clear:
-        reason = f"global fallback: the tracked path fails the certificate ({certificate.describe()})"
-        _LOG.info(reason)
-        status = PlanStatus.SELF_COLLISION if certificate.self_collision else PlanStatus.COLLISION
-        return FallbackOutcome(None, status, reason, search)
-    return FallbackOutcome(loop, PlanStatus.REACHED, "", search)
+        return FallbackOutcome(None, tracked, reason, search), regions
+    regions += _contact_regions(robot, obstacles, exact, loop[2], certificate, margin, (start, *goals), options)
+    return _refused(f"the tracked path fails the certificate ({certificate.describe()})", certificate, search), regions
+
+
+CONTACTS_PER_PATH = 8
+"""Most contacts of one path turned into forbidden regions (:func:`_contact_regions`)."""
+
+
+def _contact_regions(robot: RobotModel, obstacles: list[Obstacle], exact: CollisionChecker, path: NDArray[np.float64],
+                     first: Certificate, margin: float, ends: Sequence[NDArray[np.float64]], options: GlobalOptions
+                     ) -> list[Region]:
+    """Regions to forbid (:func:`~pfield.planning.global_search.contact_region`) around ``first`` and the next
+    contacts along ``path``, at most :data:`CONTACTS_PER_PATH`: after each, the rest of the path (interpolated every
+    ``exact_resolution``) is certified from the first configuration past the region. One search then avoids every
+    contact its path met, not the first only (a path through a contact of the UR5's forearm and wrist_2 meets it
+    along a stretch)."""
+    dense = resolution_grid(path, options.exact_resolution)[0]
+    regions = [contact_region(exact, first, margin, ends)]
+    index = 0
+    while len(regions) < CONTACTS_PER_PATH:
+        while index < len(dense) and any(_inside(dense[index], region) for region in regions):
+            index += 1
+        if index >= len(dense) - 1:
+            break
+        certificate = certify_path(robot, obstacles, dense[index:], options.exact_resolution, exact)
+        if certificate.clear:
+            break
+        regions.append(contact_region(exact, certificate, margin, ends))
+        index += certificate.waypoint + 1
+    return regions
+
+
+def _inside(q: NDArray[np.float64], region: Region) -> bool:
+    centre, weights, radius = region
+    return bool(weights @ np.abs(q - centre) < radius)
+
+
+def _refused(what: str, certificate: Certificate, search: SearchResult) -> FallbackOutcome:
+    reason = f"global fallback: {what}"
+    _LOG.info(reason)
+    status = PlanStatus.SELF_COLLISION if certificate.self_collision else PlanStatus.COLLISION
+    return FallbackOutcome(None, status, reason, search)
 
 
 def task_space_fallback(run_to: Any, scene: _wb.Scene, start: Pose, goal: Pose, config: FieldConfig,

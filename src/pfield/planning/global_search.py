@@ -27,10 +27,12 @@ that happens and ``global_fallback`` is on, the planners call this module:
 Search margin: a state is valid when every capsule keeps ``safety_distance + GlobalOptions.extra_margin``;
 pairs that the start or the goal configuration hold closer (conservative capsules often touch the
 objects of a grasp) may go ``GlobalOptions.endpoint_band`` deeper than at the start, and as deep as at the goal
-or that band deeper (the fallback tries the band first, :func:`endpoint_scene`), no deeper. The capsules are
+or that band deeper (the fallback tries the band first, :func:`endpoint_scene`), no deeper; the fallback lets the
+self pairs' fitted primitives touch (:func:`self_contact_slack`). The capsules are
 the search's model, not its certificate: the tracked motion is verified on the exact collision meshes (coal) at
-every waypoint and every ≤ 0.01 rad between them (:func:`pfield.planning.certify.certify_path`); a contact fails
-the fallback.
+every waypoint and every ≤ 0.01 rad between them (:func:`pfield.planning.certify.certify_path`); a contact is
+never returned. The contacts that check finds become regions the next search avoids (:func:`contact_region`, lazy
+collision checking; :func:`pfield.planning.fallback.whole_body_fallback` runs it).
 """
 
 from __future__ import annotations
@@ -52,9 +54,11 @@ from pfield.field.config import FieldConfig
 from pfield.geometry import Obstacle
 from pfield.planning._whole_body_core import core_obstacles, core_scene, culprit, pair_distances
 from pfield.planning.cancel import cancel_flag
+from pfield.planning.certify import Certificate
 from pfield.planning.options import DEFAULT_GLOBAL_TIME_LIMIT
 from pfield.planning.retime import path_length
 from pfield.planning.status import PlanStatus
+from pfield.robot.collision import UNBOUNDED_WEIGHT, CollisionChecker
 from pfield.robot.ik import solve_ik
 from pfield.robot.model import RobotModel
 from pfield.spatial import Pose, quaternion_exp, quaternion_inverse, quaternion_log, quaternion_multiply
@@ -426,22 +430,76 @@ def _shortened(checker: _core.Checker, clearance: _core.Checker, path: NDArray[n
 
 def joint_space_search(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Scene, start: NDArray[np.float64],
                        goals: Sequence[NDArray[np.float64]], margin: float,
-                       options: GlobalOptions, cancel: NDArray[np.uint8] | None = None, goal_band: float = 0.0
+                       options: GlobalOptions, cancel: NDArray[np.uint8] | None = None, goal_band: float = 0.0,
+                       forbidden: Sequence[Region] = (), self_slack: NDArray[np.float64] | None = None
                        ) -> tuple[SearchResult, _wb.Scene]:
     """Search a capsule-valid joint path from ``start`` to one of ``goals``; returns it and the scene with the
     endpoint offsets (which the tracking must use too). The self pairs are on the fitted primitives (the scene's
-    ``fitted_self``), not the covering capsules; ``goal_band``: :func:`endpoint_scene`'s."""
+    ``fitted_self``), not the covering capsules; ``goal_band``: :func:`endpoint_scene`'s. ``forbidden``: regions
+    (:func:`contact_region`) whose states are invalid whatever the link model says. ``self_slack`` (P,) (m): every
+    self pair may go that much deeper than the margin (:func:`self_contact_slack`), in the search and the
+    tracking."""
     scene = scene._replace(fitted_self=True)  # self pairs on the fitted primitives (module docstring)
     search_scene = endpoint_scene(scene, arrays, (start, *goals), margin, options.endpoint_band, goal_band)
+    if self_slack is not None:
+        search_scene = search_scene._replace(self_offsets=np.minimum(search_scene.self_offsets, -self_slack))
     checker = _joint_checker(arrays, search_scene, margin, options.joint_resolution)
     clearance = _joint_checker(arrays, _clearance_scene(scene, search_scene, arrays, (start, *goals), margin, options,
                                                         goal_band), margin + options.smoothing_clearance,
                                options.joint_resolution)
+    for centre, weights, radius in forbidden:
+        for each in (checker, clearance):
+            each.forbid(np.ascontiguousarray(centre, dtype=np.float64), np.ascontiguousarray(weights, dtype=np.float64),
+                        float(radius))
     box = _sampling_box(robot)
     lower, upper = sampling_window(robot, box, start, goals, options.joint_step)
     wide = None if np.array_equal(lower, box[0]) and np.array_equal(upper, box[1]) else box
     return _search(checker, clearance, start, np.array(goals), lower, upper, options.joint_step, options,
                    cancel, wide), search_scene
+
+
+Region = tuple[NDArray[np.float64], NDArray[np.float64], float]
+"""(centre (n,), weights w_j (n,), radius r): the states q with Σ_j w_j |q_j − centre_j| < r (the core's
+``planning::ForbiddenRegions``)."""
+
+
+def contact_region(checker: CollisionChecker, certificate: Certificate, margin: float,
+                   ends: Sequence[NDArray[np.float64]]) -> Region:
+    """The region around ``certificate``'s contact where that pair is certainly closer than ``margin`` on the meshes:
+    centre the configuration in contact, weights the pair's :attr:`~pfield.robot.collision.CollisionChecker.
+    motion_weights` (its mesh distance changes by at most Σ_j w_j |Δq_j|), radius −distance + margin, less where
+    that would hold one of the ``ends`` (the start, the goals: exactly clear, but possibly within the margin).
+
+    Why (issue 34): where the link model over-covers a pair in one place and under-covers it in another (the UR5's
+    forearm_link and wrist_2_link: 13–18 mm deep on the fitted primitives where the meshes are 0–8 mm apart, and
+    18 mm deep where the meshes are 20 mm deep, for wrist_1 between 1.0 and 2.1 rad), an end that holds the pair
+    deeper than the margin (:func:`endpoint_scene`'s offsets) lets the search through both, and no link-model test
+    tells them apart; the exact mesh check of the searched path does, and each contact it finds forbids a region
+    the next search avoids (lazy collision checking: Bohlin & Kavraki, "Path planning using lazy PRM", ICRA 2000).
+    The weights count only the joints that move one body of the pair and not the other, so the region is a slab
+    across the joints that do not change the pair's relative pose."""
+    assert certificate.configuration is not None
+    pair = checker.pair_names.index(certificate.pair)
+    weights = np.minimum(checker.motion_weights[pair], UNBOUNDED_WEIGHT)
+    centre = np.array(certificate.configuration, dtype=np.float64)
+    radius = min([margin - certificate.distance, *(float(weights @ np.abs(end - centre)) for end in ends)])
+    return centre, np.ascontiguousarray(weights), float(radius)
+
+
+def self_contact_slack(arrays: _wb.RobotArrays, margin: float) -> NDArray[np.float64]:
+    """(P,) m: how much deeper than ``margin`` the search lets each self pair go (``joint_space_search``'s
+    ``self_slack``): the whole margin, so the fitted primitives of two links may touch but not overlap. The
+    primitives contain their link's collision surface with up to the fit's gap to spare
+    (:attr:`pfield.robot.geometry.LinkFitReport.max_gap`, 14–15 mm on the UR5), so touching primitives keep the
+    meshes apart; the margin is for the obstacles, whose dampers the tracking needs room for.
+
+    Why (issue 34): for wrist_1 between 1.2 and 1.8 rad, the UR5's fitted forearm_link and wrist_2_link are at
+    most 2 mm apart at every wrist_2 angle (their meshes up to 14 mm), so with a 3 mm margin the search could not
+    turn the wrist through there: table_under_pick 5, 27, 53, 58, 79, 83 and 86 (goals with wrist_1 at 2.9–3.0 rad,
+    starts at about −1) ended at the time limit (5 and 27: not within 6 s with three seeds), where OMPL on the
+    meshes solves them. With the slack, 7 of 7; the exact check of the tracked motion still decides
+    (:func:`contact_region`)."""
+    return np.full(len(arrays.self_pairs), float(margin))
 
 
 def sampling_window(robot: RobotModel, box: tuple[NDArray[np.float64], NDArray[np.float64]],
