@@ -1,5 +1,6 @@
 """Robots and random obstacle shapes shared by the tests that hold the compiled planners to recorded digests
-(tests/planning/test_core_rrt.py, test_core_whole_body.py): the same draws give the same scenes in both."""
+(tests/planning/test_core_rrt.py, test_core_whole_body.py): the same draws give the same scenes in both; and the
+MotionBenchMaker UR5 problems the planning tests reproduce (:func:`ur5_problem`)."""
 
 from __future__ import annotations
 
@@ -41,3 +42,29 @@ def random_shape(rng: np.random.Generator, kind: int, smallest: float) -> Any:
     size = rng.uniform(smallest, 0.12, 3)
     return (Sphere(size[0]), Box(*(2.0 * size)), Capsule(size[0], 2.0 * size[1]), Cylinder(size[0], 2.0 * size[1]),
             Ellipsoid(*size), meshes()[int(rng.integers(2))])[kind]
+
+
+UR5_ARM = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
+           "wrist_3_joint")
+
+
+def ur5_problem(scene: str, index: int) -> tuple[list[Any], np.ndarray, np.ndarray]:
+    """Obstacles, start and goal joints (:data:`UR5_ARM`) of one problem of the UR5's MotionBenchMaker archive, read
+    straight from the tarball."""
+    import tarfile
+
+    import yaml
+
+    from pfield.scene import WORLD_FRAMES, request_from_moveit, scene_obstacles
+
+    frames = (*WORLD_FRAMES, "base_link")
+    with tarfile.open(UR5 / "ur5_problems.tar.bz2") as archive:
+        def read(kind: str) -> object:
+            member = archive.extractfile(f"problems/{scene}/{kind}{index:04d}.yaml")
+            assert member is not None
+            return yaml.safe_load(member.read())
+
+        obstacles, request = scene_obstacles(read("scene"), frames), request_from_moveit(read("request"), frames)
+    assert request.goal_joints is not None
+    return (obstacles, np.array([request.start[j] for j in UR5_ARM]),
+            np.array([request.goal_joints[j] for j in UR5_ARM]))

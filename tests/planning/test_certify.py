@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from core_scenes import ur5_problem
 from pfield import Box, FieldConfig, Obstacle, Pose, PotentialField, RobotModel
 from pfield.errors import InvalidInput
 from pfield.planning import PlanStatus
@@ -175,26 +176,6 @@ def test_a_reached_ur5_plan_passes_the_certificate(ur5: RobotModel) -> None:
 
 # ---- the reproduced MotionBenchMaker UR5 cases (issue 34) --------------------------------------------------------
 
-def _mbm_problem(scene: str, index: int) -> tuple[list[Obstacle], np.ndarray, np.ndarray]:
-    """Obstacles, start and goal joints of one problem of the UR5 archive (read straight from the tarball)."""
-    import tarfile
-
-    import yaml
-
-    from pfield.scene import WORLD_FRAMES, request_from_moveit, scene_obstacles
-
-    frames = (*WORLD_FRAMES, "base_link")
-    with tarfile.open(UR5 / "ur5_problems.tar.bz2") as archive:
-        def read(kind: str) -> object:
-            member = archive.extractfile(f"problems/{scene}/{kind}{index:04d}.yaml")
-            assert member is not None
-            return yaml.safe_load(member.read())
-
-        obstacles, request = scene_obstacles(read("scene"), frames), request_from_moveit(read("request"), frames)
-    assert request.goal_joints is not None
-    arm = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
-           "wrist_3_joint")
-    return obstacles, np.array([request.start[j] for j in arm]), np.array([request.goal_joints[j] for j in arm])
 
 
 @needs_ur5
@@ -211,7 +192,7 @@ def test_forearm_against_wrist_2_contact_is_seen(ur5: RobotModel) -> None:
 def test_table_under_pick_9_never_comes_back_reached_in_collision(ur5: RobotModel) -> None:
     from pfield.scene import MBM_CONFIG, MBM_OPTIONS
 
-    obstacles, start, goal = _mbm_problem("table_under_pick_ur5", 9)
+    obstacles, start, goal = ur5_problem("table_under_pick_ur5", 9)
     field = PotentialField(MBM_CONFIG, ur5.forward_kinematics(goal), obstacles)
     path = field.plan_whole_body(ur5, start, options=MBM_OPTIONS, goal_configuration=goal)
     assert path.joint_positions is not None
@@ -229,7 +210,7 @@ def test_table_pick_goal_touching_the_object_is_refused_at_once(ur5: RobotModel)
     a motion in contact."""
     from pfield.scene import MBM_CONFIG, MBM_OPTIONS
 
-    obstacles, start, goal = _mbm_problem("table_pick_ur5", 6)
+    obstacles, start, goal = ur5_problem("table_pick_ur5", 6)
     checker = CollisionChecker(ur5, obstacles)
     _, pair, _, _ = checker.distances(goal)
     target = pair.split("/")[1]

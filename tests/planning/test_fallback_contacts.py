@@ -7,13 +7,12 @@ of the searched path now turns each contact into a region of certain contact the
 
 from __future__ import annotations
 
-import tarfile
 from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 
+from core_scenes import ur5_problem
 from pfield import FieldConfig, PotentialField, RobotModel
 from pfield._core import rrt as core_rrt
 from pfield._core.robot_distance import fitted_self_clearances_at
@@ -40,20 +39,6 @@ def ur5() -> RobotModel:
                                 srdf=root + "ur5.srdf")
 
 
-def _mbm_problem(scene: str, index: int) -> tuple[list[Obstacle], np.ndarray, np.ndarray]:
-    """Obstacles, start and goal joints of one problem of the UR5 archive (read straight from the tarball)."""
-    from pfield.scene import WORLD_FRAMES, request_from_moveit, scene_obstacles
-
-    frames = (*WORLD_FRAMES, "base_link")
-    with tarfile.open(UR5 / "ur5_problems.tar.bz2") as archive:
-        def read(kind: str) -> object:
-            member = archive.extractfile(f"problems/{scene}/{kind}{index:04d}.yaml")
-            assert member is not None
-            return yaml.safe_load(member.read())
-
-        obstacles, request = scene_obstacles(read("scene"), frames), request_from_moveit(read("request"), frames)
-    assert request.goal_joints is not None
-    return obstacles, np.array([request.start[j] for j in ARM]), np.array([request.goal_joints[j] for j in ARM])
 
 
 def test_a_forbidden_region_refuses_its_states_and_no_others() -> None:
@@ -104,7 +89,7 @@ def test_bookshelf_small_33_is_solved_around_the_forearm_wrist_2_contacts(ur5: R
     the regions it forbids find a clear one."""
     from pfield.scene import MBM_CONFIG, MBM_OPTIONS
 
-    obstacles, start, goal = _mbm_problem("bookshelf_small_ur5", 33)
+    obstacles, start, goal = ur5_problem("bookshelf_small_ur5", 33)
     field = PotentialField(MBM_CONFIG, ur5.forward_kinematics(goal), obstacles)
     path = field.plan_whole_body(ur5, start, options=MBM_OPTIONS, goal_configuration=goal)
     assert path.success, path.failure_reason
@@ -148,7 +133,7 @@ def test_table_under_pick_5_turns_the_wrist_through_the_forearm_wrist_2_band(ur5
     the plan is reached and certified."""
     from pfield.scene import MBM_CONFIG, MBM_OPTIONS
 
-    obstacles, start, goal = _mbm_problem("table_under_pick_ur5", 5)
+    obstacles, start, goal = ur5_problem("table_under_pick_ur5", 5)
     field = PotentialField(MBM_CONFIG, ur5.forward_kinematics(goal), obstacles)
     path = field.plan_whole_body(ur5, start, options=MBM_OPTIONS, goal_configuration=goal)
     assert path.success, path.failure_reason
