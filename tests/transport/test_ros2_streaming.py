@@ -69,6 +69,10 @@ def test_the_servo_spins_on_its_own_executor_and_keeps_its_latest_inputs(tmp_pat
     assert depths["/pfield_servo /pfield_servo/delta_twist_cmds"] == 1
     assert depths["/pfield_servo /pfield_servo/joy"] == 1
     assert depths["/pfield_manager /joint_states"] > 1  # the other nodes keep their queues
+    # while the servo runs, a thread waiting for the GIL gets it within 0.5 ms (5 ms by default), and after it as before
+    from pfield.transport.ros2 import STREAMING_SWITCH_INTERVAL
+
+    assert host["switch_interval"] == [STREAMING_SWITCH_INTERVAL, sys.getswitchinterval()]
     command = seen["results"]["command"]
     assert command["joint_names"] == list(RobotModel.builtin("panda").joint_names)
     assert any(command["points"][0]["velocities"])

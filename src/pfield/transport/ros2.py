@@ -26,7 +26,8 @@ lists:
 * **executors** — one multi-threaded executor for the nodes, except that a node that streams commands (a
   ``PublicationSpec`` with ``latched=False``: the servo) and serves nothing long-running spins on a
   single-threaded executor of its own
-  (:class:`_Executors`), so a command never waits for another node's callbacks or the shared executor's dispatch.
+  (:class:`_Executors`), so a command never waits for another node's callbacks or the shared executor's dispatch;
+  while it runs, the GIL changes hands within :data:`STREAMING_SWITCH_INTERVAL`.
 
 Shutdown order matters with rclpy 7.1: stop the executor, join its thread, wait for callbacks still
 running, then destroy the nodes and shut the context down; otherwise the process can abort and leave
@@ -37,6 +38,7 @@ from __future__ import annotations
 
 import logging
 import signal
+import sys
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -101,6 +103,14 @@ def _publication_qos(spec: PublicationSpec) -> QoSProfile:
 
 STREAM_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 """QoS of streamed commands (:func:`_publication_qos`)."""
+
+
+STREAMING_SWITCH_INTERVAL = 0.0005
+"""Seconds a thread may hold the GIL while another waits for it (``sys.setswitchinterval``; Python's default 5 ms),
+while a node that streams commands runs in the process. The servo's command thread otherwise waits up to 5 ms for
+each hand-over from whichever thread runs Python (the publisher, the other nodes' callbacks): ``bench_servo``'s
+command-in to command-out p99 12–20 ms and max 22–47 ms with 5, 2 or 1 ms (9 runs), 5.7–7.3 ms and 10–21 ms with
+0.5 ms (5 runs); p50 1.3–2.1 and 1.95–3.0 ms (docs/servo.md)."""
 
 
 def _subscription_qos(spec: SubscriptionSpec, latest_only: bool) -> QoSProfile:
@@ -322,6 +332,7 @@ class Ros2Host:
             self._executor.add_node(adapter.ros_node,
                                     own=adapter.streams_commands and not adapter.long_running_groups)
         self._spin_thread: threading.Thread | None = None
+        self._switch_interval: float | None = None  # the interpreter's, while a streaming node lowers it (start)
 
     def start(self) -> None:
         """Start publishing and spinning (returns at once)."""
@@ -329,6 +340,9 @@ class Ros2Host:
             bus.add_listener(self._publisher.enqueue)
             bus.add_listener(self._streams)
         self._publisher.start()
+        if any(adapter.streams_commands for adapter in self._adapters):
+            self._switch_interval = sys.getswitchinterval()
+            sys.setswitchinterval(min(self._switch_interval, STREAMING_SWITCH_INTERVAL))
         self._spin_thread = threading.Thread(target=self._executor.spin, name="pfield-ros2-executor", daemon=True)
         self._spin_thread.start()
         _LOG.info("ROS 2 nodes up: %s", ", ".join(node.name for node in self.nodes))
@@ -344,6 +358,9 @@ class Ros2Host:
         if not self._in_flight.wait_idle(timeout):
             _LOG.warning("callbacks still running after %.0f s at shutdown", timeout)
         self._publisher.stop(timeout)
+        if self._switch_interval is not None:
+            sys.setswitchinterval(self._switch_interval)
+            self._switch_interval = None
         self._destroy()
 
     def _destroy(self) -> None:

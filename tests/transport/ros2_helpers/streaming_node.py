@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+import sys
 import threading
 from collections.abc import Callable
 from pathlib import Path
@@ -46,9 +47,11 @@ def main() -> None:
     with Ros2Host([manager, servo]) as host:
         depths = {f"{adapter.node.name} {subscription.topic_name}": subscription.qos_profile.depth
                   for adapter in host._adapters for subscription in adapter.ros_node.subscriptions}
+        switch_interval = sys.getswitchinterval()
         print("host up", flush=True)
         stop.wait()
-    result = {"threads": {key: sorted(names) for key, names in threads.items()}, "depths": depths}
+    result = {"threads": {key: sorted(names) for key, names in threads.items()}, "depths": depths,
+              "switch_interval": [switch_interval, sys.getswitchinterval()]}
     (Path(os.environ["ROS2_TEST_OUT"]) / "host.json").write_text(json.dumps(result))
 
 
