@@ -338,9 +338,9 @@ def run(quick: bool) -> list[BenchRow]:
                  note=f"{waypoints} waypoints with 7 joints, {megabytes:.0f} MB"),
         BenchRow(SECTION, "plan response JSON through per-waypoint pydantic objects (before)", slow_s, "s",
                  note=f"same plan; {slow_s / fast_s:.1f}x the time of the array path"),
-        BenchRow(SECTION, "RSS growth under 300 junk topics", junk_mb, "MB", target=150.0,
+        BenchRow(SECTION, "RSS growth under 300 junk topics", junk_mb, "MB", target=100.0,
                  note="300 kB LaserScan each; 16 undeclared topics keep a latest message"),
-        BenchRow(SECTION, "RSS growth under a WebSocket client that never reads", reader_mb, "MB", target=150.0,
+        BenchRow(SECTION, "RSS growth under a WebSocket client that never reads", reader_mb, "MB", target=100.0,
                  note="200 messages of 300 kB; the outbox keeps at most 16 MB, oldest dropped"),
     ]
 
