@@ -19,10 +19,8 @@ $(TOOLS_STAMP): pyproject.toml
 	$(PY) -m pip install --quiet 'scikit-build-core>=0.10' 'nanobind>=2.4' cmake ninja
 	@touch $@
 
-# --no-compile: pip would byte-compile all 12 000 modules of the dependencies (about 17 s of CPU on the way to the
-# first test); Python compiles the few hundred a process imports when it first imports them
 $(STAMP): pyproject.toml CMakeLists.txt | $(TOOLS_STAMP)
-	$(PY) -m pip install --quiet --no-compile --no-build-isolation -e '.[dev,ros2,viewer,ray,sim]'
+	$(PY) -m pip install --quiet --no-build-isolation -e '.[dev,ros2,viewer,ray,sim]'
 	@touch $(STAMP)
 
 venv: $(STAMP)

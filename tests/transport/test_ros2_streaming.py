@@ -72,7 +72,23 @@ def test_the_servo_spins_on_its_own_executor_and_keeps_its_latest_inputs(tmp_pat
     # while the servo runs, a thread waiting for the GIL gets it within 0.5 ms (5 ms by default), and after it as before
     from pfield.transport.ros2 import STREAMING_SWITCH_INTERVAL
 
-    assert host["switch_interval"] == [STREAMING_SWITCH_INTERVAL, sys.getswitchinterval()]
+    before, during, after = host["switch_interval"]
+    assert before == after == 0.005 and during == STREAMING_SWITCH_INTERVAL
     command = seen["results"]["command"]
     assert command["joint_names"] == list(RobotModel.builtin("panda").joint_names)
     assert any(command["points"][0]["velocities"])
+
+
+def test_overlapping_streaming_hosts_restore_the_switch_interval_when_the_last_stops() -> None:
+    from ros2_helpers.support import require_ros2_python
+
+    require_ros2_python()
+    from pfield.transport import ros2
+
+    before = sys.getswitchinterval()
+    ros2._streaming_started()
+    ros2._streaming_started()  # a second host starts while the first runs
+    ros2._streaming_stopped()  # the first stops: the second still streams
+    assert sys.getswitchinterval() == ros2.STREAMING_SWITCH_INTERVAL
+    ros2._streaming_stopped()
+    assert sys.getswitchinterval() == before

@@ -113,6 +113,30 @@ command-in to command-out p99 12–20 ms and max 22–47 ms with 5, 2 or 1 ms (9
 0.5 ms (5 runs); p50 1.3–2.1 and 1.95–3.0 ms (docs/servo.md)."""
 
 
+_SWITCH_LOCK = threading.Lock()
+_streaming_hosts = 0  # hosts with a command-streaming node running in this process
+_switch_before = 0.005  # the interpreter's switch interval before the first of them started
+
+
+def _streaming_started() -> None:
+    """The first running host with a command-streaming node lowers the switch interval; others count."""
+    global _streaming_hosts, _switch_before
+    with _SWITCH_LOCK:
+        if _streaming_hosts == 0:
+            _switch_before = sys.getswitchinterval()
+            sys.setswitchinterval(min(_switch_before, STREAMING_SWITCH_INTERVAL))
+        _streaming_hosts += 1
+
+
+def _streaming_stopped() -> None:
+    """The last of them to stop restores the interval it found."""
+    global _streaming_hosts
+    with _SWITCH_LOCK:
+        _streaming_hosts -= 1
+        if _streaming_hosts == 0:
+            sys.setswitchinterval(_switch_before)
+
+
 def _subscription_qos(spec: SubscriptionSpec, latest_only: bool) -> QoSProfile:
     """Sensor topics (``sensor_msgs/*``) best effort, others reliable; depth 10, or 1 with ``latest_only`` (a node
     that streams commands: only the newest input matters, older queued ones are dropped by the middleware)."""
@@ -332,7 +356,7 @@ class Ros2Host:
             self._executor.add_node(adapter.ros_node,
                                     own=adapter.streams_commands and not adapter.long_running_groups)
         self._spin_thread: threading.Thread | None = None
-        self._switch_interval: float | None = None  # the interpreter's, while a streaming node lowers it (start)
+        self._streaming = False  # hosting a node that streams commands (STREAMING_SWITCH_INTERVAL)
 
     def start(self) -> None:
         """Start publishing and spinning (returns at once)."""
@@ -341,8 +365,8 @@ class Ros2Host:
             bus.add_listener(self._streams)
         self._publisher.start()
         if any(adapter.streams_commands for adapter in self._adapters):
-            self._switch_interval = sys.getswitchinterval()
-            sys.setswitchinterval(min(self._switch_interval, STREAMING_SWITCH_INTERVAL))
+            _streaming_started()
+            self._streaming = True
         self._spin_thread = threading.Thread(target=self._executor.spin, name="pfield-ros2-executor", daemon=True)
         self._spin_thread.start()
         _LOG.info("ROS 2 nodes up: %s", ", ".join(node.name for node in self.nodes))
@@ -358,9 +382,9 @@ class Ros2Host:
         if not self._in_flight.wait_idle(timeout):
             _LOG.warning("callbacks still running after %.0f s at shutdown", timeout)
         self._publisher.stop(timeout)
-        if self._switch_interval is not None:
-            sys.setswitchinterval(self._switch_interval)
-            self._switch_interval = None
+        if self._streaming:
+            _streaming_stopped()
+            self._streaming = False
         self._destroy()
 
     def _destroy(self) -> None:

@@ -44,6 +44,7 @@ def main() -> None:
     stop = threading.Event()
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: stop.set())
+    switch_before = sys.getswitchinterval()
     with Ros2Host([manager, servo]) as host:
         depths = {f"{adapter.node.name} {subscription.topic_name}": subscription.qos_profile.depth
                   for adapter in host._adapters for subscription in adapter.ros_node.subscriptions}
@@ -51,7 +52,7 @@ def main() -> None:
         print("host up", flush=True)
         stop.wait()
     result = {"threads": {key: sorted(names) for key, names in threads.items()}, "depths": depths,
-              "switch_interval": [switch_interval, sys.getswitchinterval()]}
+              "switch_interval": [switch_before, switch_interval, sys.getswitchinterval()]}
     (Path(os.environ["ROS2_TEST_OUT"]) / "host.json").write_text(json.dumps(result))
 
 
