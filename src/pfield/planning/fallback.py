@@ -162,23 +162,26 @@ def _contact_regions(robot: RobotModel, obstacles: list[Obstacle], exact: Collis
     along a stretch)."""
     dense = resolution_grid(path, options.exact_resolution)[0]
     regions = [contact_region(exact, first, margin, ends)]
+    covered = _inside(dense, regions[0])  # the grid points some region holds
     index = 0
     while len(regions) < CONTACTS_PER_PATH:
-        while index < len(dense) and any(_inside(dense[index], region) for region in regions):
-            index += 1
-        if index >= len(dense) - 1:
+        outside = np.flatnonzero(~covered[index:])
+        if len(outside) == 0 or index + outside[0] >= len(dense) - 1:
             break
+        index += int(outside[0])
         certificate = certify_path(robot, obstacles, dense[index:], options.exact_resolution, exact)
         if certificate.clear:
             break
         regions.append(contact_region(exact, certificate, margin, ends))
+        covered |= _inside(dense, regions[-1])
         index += certificate.waypoint + 1
     return regions
 
 
-def _inside(q: NDArray[np.float64], region: Region) -> bool:
+def _inside(q: NDArray[np.float64], region: Region) -> NDArray[np.bool_]:
+    """Whether ``region`` holds each configuration of ``q`` ((n,) or (N, n)): Σ_j w_j |q_j − c_j| < r."""
     centre, weights, radius = region
-    return bool(weights @ np.abs(q - centre) < radius)
+    return np.abs(q - centre) @ weights < radius
 
 
 def _refused(what: str, certificate: Certificate, search: SearchResult) -> FallbackOutcome:
