@@ -9,10 +9,14 @@ plays a ros2_control driver and its controllers.
   ``tests/transport/ros2_helpers/trajectory_server.py``, whose advance step is this simulation).
 
 Between commands the physics runs in real time (``1/--rate`` s of simulated time per tick) holding the last
-reference, so the arm stands still, decelerates or drifts as a real one would. On SIGINT/SIGTERM it writes
-``--out`` (JSON): the contact tally, the end-effector position over time, the commands received and the final
-joints. Obstacles (``--sphere X,Y,Z,R``, repeatable) are placed in the simulation only; the caller tells pfield's
-node about them.
+reference, so the arm stands still, decelerates or drifts as a real one would. The ticks run on a thread of their own
+at a fixed rate, as a driver's hardware loop does, not as an executor timer: rclpy's multi-threaded executor queues a
+new handler for a timer that fires while its workers are busy and walks the whole queue at every wake-up, so a burst
+of commands on a loaded machine made the timer's backlog grow until the arm stopped ticking for seconds.
+
+On SIGINT/SIGTERM it writes ``--out`` (JSON): the contact tally, the end-effector position over time, the commands
+received and the final joints. Obstacles (``--sphere X,Y,Z,R``, repeatable) are placed in the simulation only;
+the caller tells pfield's node about them.
 
 Usage: ``python sim_arm.py ROBOT --out report.json [--q0 NAME] [--sphere X,Y,Z,R] [--command-topic T]
 [--command-type trajectory|positions|velocities] [--action NAME] [--rate HZ]``
@@ -26,6 +30,7 @@ import signal
 import sys
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -45,6 +50,7 @@ from ros2_helpers.trajectory_server import TrajectoryServer
 
 from pfield import Obstacle, Pose, Sphere
 from pfield.robot import RobotModel
+from pfield.sim import JointState as SimState
 from pfield.sim import Simulation
 
 
@@ -78,11 +84,11 @@ class SimArm:
                 self.reference = np.array(self.sim.state.positions)
                 self.rate = velocities
 
-    def tick(self) -> None:
-        """One idle period of physics (skipped while the action server drives the arm)."""
+    def tick(self) -> SimState | None:
+        """One idle period of physics (skipped while the action server drives the arm); the state after it."""
         with self.lock:
             if time.monotonic() - self.last_action_step < 5 * self.period:
-                return
+                return None
             if self.rate.any() and not np.any(np.isnan(self.rate)):
                 state = self.sim.step(self.reference, self.rate, dt=self.period)
                 self.reference = np.clip(self.reference + self.rate * self.period, self.robot.lower_limits,
@@ -92,6 +98,17 @@ class SimArm:
             self._record(state.time, state.positions)
             if self.server is not None:
                 self.server.positions = np.array(state.positions)
+            return state
+
+    def run(self, publish: Callable[[SimState], None], stop: threading.Event) -> None:
+        """Tick every ``period`` on the wall clock until ``stop``, publishing each state (a late tick is not made up:
+        the next is due one period after it)."""
+        due = time.monotonic()
+        while not stop.is_set():
+            state = self.tick()
+            publish(state if state is not None else self.sim.state)
+            due = max(due + self.period, time.monotonic())
+            stop.wait(due - time.monotonic())
 
     def advance(self, current: np.ndarray, desired: np.ndarray, dt: float) -> np.ndarray:
         """The action server's step (``trajectory_server.Advance``): hold ``desired`` for ``dt``."""
@@ -156,25 +173,25 @@ def main(argv: list[str]) -> None:
         node.create_subscription(Float64MultiArray, args.command_topic, on_array, qos, callback_group=group)
     arm.server = TrajectoryServer(node, args.action, names, arm.advance, initial=arm.reference, goal_tolerance=0.01)
 
-    def publish_state() -> None:
-        arm.tick()
-        state = arm.sim.state
+    def publish_state(state: SimState) -> None:
         message = JointState(name=names, position=state.positions.tolist(), velocity=state.velocities.tolist())
         message.header.stamp = node.get_clock().now().to_msg()
         states.publish(message)
 
-    node.create_timer(arm.period, publish_state, callback_group=group)
     executor = MultiThreadedExecutor(num_threads=3)
     executor.add_node(node)
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
-    thread = threading.Thread(target=executor.spin, daemon=True)
-    thread.start()
+    spinning = threading.Thread(target=executor.spin, daemon=True)
+    ticking = threading.Thread(target=arm.run, args=(publish_state, stop), name="sim-arm-physics", daemon=True)
+    spinning.start()
+    ticking.start()
     print(f"sim arm {args.robot}: /joint_states, {args.command_topic}, {args.action}", flush=True)
     stop.wait()
+    ticking.join(5.0)
     executor.shutdown(timeout_sec=5.0)
-    thread.join(5.0)
+    spinning.join(5.0)
     args.out.write_text(json.dumps(arm.report()))
     node.destroy_node()
     rclpy.shutdown()
