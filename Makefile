@@ -19,21 +19,8 @@ $(TOOLS_STAMP): pyproject.toml
 	$(PY) -m pip install --quiet 'scikit-build-core>=0.10' 'nanobind>=2.4' cmake ninja
 	@touch $@
 
-# The dependencies next (their own stamp, from pyproject.toml's lists: the project and the EXTRAS), then pfield itself
-# (its editable install compiles the core): the ROS 2 interfaces' build and mypy need only the dependencies, so
-# `make test` runs them on one core while the core compiles on the other.
-EXTRAS     := dev,ros2,viewer,ray,sim
-DEPS_STAMP := $(VENV)/.dependencies
-$(DEPS_STAMP): pyproject.toml | $(TOOLS_STAMP)
-	@mkdir -p build
-	$(PY) -c 'import sys, tomllib; p = tomllib.load(open("pyproject.toml", "rb"))["project"]; \
-		print(*p["dependencies"], *(d for e in sys.argv[1].split(",") for d in p["optional-dependencies"][e]), \
-		sep="\n")' $(EXTRAS) > build/requirements.txt
-	$(PY) -m pip install --quiet -r build/requirements.txt
-	@touch $@
-
-$(STAMP): pyproject.toml CMakeLists.txt | $(DEPS_STAMP)
-	$(PY) -m pip install --quiet --no-build-isolation -e '.[$(EXTRAS)]'
+$(STAMP): pyproject.toml CMakeLists.txt | $(TOOLS_STAMP)
+	$(PY) -m pip install --quiet --no-build-isolation -e '.[dev,ros2,viewer,ray,sim]'
 	@touch $(STAMP)
 
 venv: $(STAMP)
@@ -70,7 +57,7 @@ ROS2_STAMP  := $(VENV)/.ros2-interfaces
 ROS2_PREFIX := $(abspath $(VENV))
 
 $(ROS2_STAMP): $(ROS2_PKG)/CMakeLists.txt $(ROS2_PKG)/package.xml $(ROS2_PKG)/msg $(ROS2_PKG)/srv \
-		$(wildcard $(ROS2_PKG)/msg/*.msg $(ROS2_PKG)/srv/*.srv) | $(DEPS_STAMP)
+		$(wildcard $(ROS2_PKG)/msg/*.msg $(ROS2_PKG)/srv/*.srv) | $(STAMP)
 	AMENT_PREFIX_PATH=$(ROS2_PREFIX) CMAKE_PREFIX_PATH=$(ROS2_PREFIX) cmake -S $(ROS2_PKG) -B $(ROS2_BUILD) \
 		-DCMAKE_INSTALL_PREFIX=$(ROS2_PREFIX) -DBUILD_TESTING=OFF -DPython3_EXECUTABLE=$(abspath $(PY)) \
 		-DCMAKE_INSTALL_MESSAGE=NEVER > /dev/null
@@ -87,7 +74,7 @@ CONTROL_MSGS_BUILD := build/ros2-control-msgs
 CONTROL_MSGS_STAMP := $(VENV)/.ros2-control-msgs
 
 $(CONTROL_MSGS_STAMP): $(CONTROL_MSGS_PKG)/CMakeLists.txt $(CONTROL_MSGS_PKG)/package.xml \
-		$(wildcard $(CONTROL_MSGS_PKG)/msg/*.msg $(CONTROL_MSGS_PKG)/action/*.action) | $(DEPS_STAMP)
+		$(wildcard $(CONTROL_MSGS_PKG)/msg/*.msg $(CONTROL_MSGS_PKG)/action/*.action) | $(STAMP)
 	AMENT_PREFIX_PATH=$(ROS2_PREFIX) CMAKE_PREFIX_PATH=$(ROS2_PREFIX) cmake -S $(CONTROL_MSGS_PKG) \
 		-B $(CONTROL_MSGS_BUILD) -DCMAKE_INSTALL_PREFIX=$(ROS2_PREFIX) -DBUILD_TESTING=OFF \
 		-DPython3_EXECUTABLE=$(abspath $(PY)) -DCMAKE_INSTALL_MESSAGE=NEVER > /dev/null
@@ -102,7 +89,7 @@ demo: $(STAMP) $(CORE_STAMP)
 	$(VENV)/bin/pfield warmup
 	$(VENV)/bin/pfield demo
 
-lint: $(DEPS_STAMP)
+lint: $(STAMP)
 	$(VENV)/bin/ruff check src tests benchmarks examples
 	$(VENV)/bin/mypy
 
