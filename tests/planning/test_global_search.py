@@ -87,6 +87,20 @@ def test_an_enclosed_goal_ends_at_the_time_limit_with_a_reason() -> None:
     assert not cancelled.found and cancelled.status == PlanStatus.CANCELLED  # stopped after one chunk
 
 
+def test_a_full_tree_starts_the_search_again_until_the_time_limit() -> None:
+    """Trees of 50 nodes fill at once around an enclosed goal: each full tree starts the search again with fresh
+    trees (a narrow passage may need another seed, not a bigger tree), so it ends at the time limit, not at the first
+    full tree."""
+    box = [Obstacle(f"side{i}", Box(*size), Pose(centre)) for i, (size, centre) in enumerate([
+        ((0.05, 0.5, 0.5), (1.25, 0, 0)), ((0.05, 0.5, 0.5), (0.75, 0, 0)), ((0.5, 0.05, 0.5), (1.0, 0.25, 0)),
+        ((0.5, 0.05, 0.5), (1.0, -0.25, 0)), ((0.5, 0.5, 0.05), (1.0, 0, 0.25)), ((0.5, 0.5, 0.05), (1.0, 0, -0.25))])]
+    result = point_space_search(make_scene(pack_obstacles(box)), np.zeros(3), np.array([1.0, 0.0, 0.0]), 0.01,
+                                GlobalOptions(time_limit=0.3, capacity=50))
+    assert not result.found and result.status == PlanStatus.GLOBAL_TIME_LIMIT, result.reason
+    assert result.seconds >= 0.3
+    assert result.states_checked > 20 * 50  # many trees of 50 nodes, not one
+
+
 def test_orientations_follow_the_geodesic_in_proportion_to_the_distance() -> None:
     start, goal = Pose((0, 0, 0)), Pose((2, 0, 0), (0.0, 0.0, 1.0, 0.0))  # 180° about z
     poses = orientations_along(np.array([[0.0, 0, 0], [1.0, 0, 0], [2.0, 0, 0]]), start, goal)

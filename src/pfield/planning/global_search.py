@@ -326,8 +326,8 @@ def _search(checker: _core.Checker, clearance: _core.Checker, start: NDArray[np.
     paths is kept (the UR5 whose wrist flipped, issue 34: its search met a goal 5.3 rad away first, where
     one 1.05 rad away was reachable).
 
-    Without a path after :data:`RESTART_STATES` state checks, the search starts again with fresh trees (then after
-    twice as many, and so on) until the time limit.
+    Without a path after :data:`RESTART_STATES` state checks, or with a tree full, the search starts again with
+    fresh trees (then after twice as many, and so on) until the time limit.
 
     ``wide``: a larger sampling box that every :data:`WIDE_EVERY`-th chunk samples instead of [lower, upper] (the
     joint-space window of :func:`sampling_window`): any state of it can still be sampled."""
@@ -344,9 +344,10 @@ def _search(checker: _core.Checker, clearance: _core.Checker, start: NDArray[np.
     before = checker.states_checked
     trees = _core.Trees(start, valid, int(options.capacity), int(options.seed))
     budget, attempt = RESTART_STATES, 0
-    while True:  # restarts with fresh trees after RESTART_STATES, then twice as many each time
+    again = (_core.SearchStatus.SEARCHING, _core.SearchStatus.EXHAUSTED)
+    while True:  # restarts with fresh trees after RESTART_STATES, then twice as many each time, or when a tree is full
         status, path = _connect(checker, trees, lower, upper, step, options, cancel, begin, budget, wide)
-        if status != _core.SearchStatus.SEARCHING or time.perf_counter() - begin > options.time_limit:
+        if status not in again or time.perf_counter() - begin > options.time_limit:
             break
         attempt, budget = attempt + 1, 2 * budget
         trees = _core.Trees(start, valid, int(options.capacity), int(options.seed) + _RESTART_SEED * attempt)
@@ -354,7 +355,7 @@ def _search(checker: _core.Checker, clearance: _core.Checker, start: NDArray[np.
         return SearchResult(False, start[None], PlanStatus.CANCELLED, "cancelled during the global search",
                             checker.states_checked, time.perf_counter() - begin)
     if status != _core.SearchStatus.FOUND:
-        timed_out = status == _core.SearchStatus.SEARCHING
+        timed_out = status == _core.SearchStatus.SEARCHING or time.perf_counter() - begin > options.time_limit
         why = "time limit" if timed_out else "tree capacity"
         outcome = PlanStatus.GLOBAL_TIME_LIMIT if timed_out else PlanStatus.GLOBAL_NO_PATH
         return SearchResult(False, start[None], outcome, f"global search: no path within the {why} "
@@ -375,13 +376,17 @@ def _search(checker: _core.Checker, clearance: _core.Checker, start: NDArray[np.
     return SearchResult(True, short, PlanStatus.REACHED, "", checker.states_checked, time.perf_counter() - begin)
 
 
-RESTART_STATES = 40_000
+RESTART_STATES = 200_000
 """State checks after which a search starts again with fresh trees (a new seed), then after twice as many each
-time, within its time limit (:func:`_search`). RRT-Connect's time to a path is heavy-tailed: on six UR5
-MotionBenchMaker problems that failed within 2 s, seeds 0, 1, 2 found paths in 0.11–3 s or not within 4 s, problem
-by problem (bookshelf_small 22: 3.0 s, 0.11 s, none); restarts cut the tail (Luby, Sinclair & Zuckerman,
-"Optimal speedup of Las Vegas algorithms", 1993). 40 000 checks: at most about 0.45 s on the UR5 (11 µs per
-check of a valid state with its self pairs on the fitted primitives)."""
+time, within its time limit (:func:`_search`); a search whose tree is full starts again too. RRT-Connect's time to a
+path is heavy-tailed: on six UR5 MotionBenchMaker problems that failed within 2 s, seeds 0, 1, 2 found paths in
+0.11–3 s or not within 4 s, problem by problem (bookshelf_small 22: 3.0 s, 0.11 s, none); restarts cut that tail
+(Luby, Sinclair & Zuckerman, "Optimal speedup of Las Vegas algorithms", 1993). But a narrow passage needs a large
+tree, and a restart throws it away: on the UR5 cage problems 5, 60, 62, 70, 80 and 95, restarts after 40 000 checks
+(about 0.3 s) solved none within 2 s; with 80 000, 3; with 120 000, 3; with 200 000, 4 (the 700 UR5 problems: 692
+solved with 40 000, 696 with 200 000, 0 claims in collision either way; each of the six solved in 2.4–4.3 s with a
+15 s limit). 200 000 checks: about 1.6 s on the UR5 (8 µs per check), so within the default 2 s a search restarts
+at most once, and with a longer limit the tail is still cut."""
 _RESTART_SEED = 7919  # seed offset of each restart's trees (the nearer-goal search takes seed + 1)
 NEARER_GOAL_SHARE = 1.0
 """Budget of the search for nearer goals, as a share of the states the first search checked (:func:`_search`):
