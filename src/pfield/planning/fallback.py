@@ -51,7 +51,7 @@ FIELD_PLANNER, FALLBACK_PLANNER = PLANNERS
 @dataclass(frozen=True, eq=False)
 class FallbackOutcome:
     """``loop``: the tracked plan (the planner's loop outputs) when it reached the goal, else None and
-    ``status`` says why (GOAL_INVALID, START_INVALID, GLOBAL_NO_PATH, GLOBAL_TIME_LIMIT, or how the
+    ``status`` says why (GOAL_INVALID, START_INVALID, GLOBAL_TIME_LIMIT, or how the
     tracking ended: COLLISION, SELF_COLLISION, STAGNATION, ITERATION_LIMIT, CANCELLED), ``reason`` in words."""
 
     loop: tuple[Any, ...] | None

@@ -152,7 +152,7 @@ class GlobalOptions:
 @dataclass(frozen=True, eq=False)
 class SearchResult:
     """Outcome of a global search: ``path`` (K, n) from start to goal when ``found``; otherwise ``status``
-    says why (START_INVALID, GOAL_INVALID, GLOBAL_TIME_LIMIT, GLOBAL_NO_PATH) and ``reason`` in words.
+    says why (START_INVALID, GOAL_INVALID, GLOBAL_TIME_LIMIT, CANCELLED) and ``reason`` in words.
 
     ``states_checked`` counts the compiled validity checks; ``seconds`` the search's wall time.
     """
@@ -316,8 +316,8 @@ def _search(checker: _core.Checker, clearance: _core.Checker, start: NDArray[np.
             options: GlobalOptions, cancel: NDArray[np.uint8] | None,
             wide: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None) -> SearchResult:
     """RRT-Connect from ``start`` to any row of ``goals`` (nearest the start first) in chunks of compiled work
-    (the GIL released; ``cancel`` read every iteration) until found, full or ``options.time_limit``; then
-    shortening (:func:`_shortened`).
+    (the GIL released; ``cancel`` read every iteration) until found or ``options.time_limit`` (restarting after a
+    budget of checks or with a full tree); then shortening (:func:`_shortened`).
 
     Which goal: the goal tree is rooted at every goal, and RRT-Connect ends at whichever it meets first.
     When the shortened path is longer than the straight distance to another goal (a lower bound of any path
@@ -354,12 +354,9 @@ def _search(checker: _core.Checker, clearance: _core.Checker, start: NDArray[np.
     if status == _CANCELLED:
         return SearchResult(False, start[None], PlanStatus.CANCELLED, "cancelled during the global search",
                             checker.states_checked, time.perf_counter() - begin)
-    if status != _core.SearchStatus.FOUND:
-        timed_out = status == _core.SearchStatus.SEARCHING or time.perf_counter() - begin > options.time_limit
-        why = "time limit" if timed_out else "tree capacity"
-        outcome = PlanStatus.GLOBAL_TIME_LIMIT if timed_out else PlanStatus.GLOBAL_NO_PATH
-        return SearchResult(False, start[None], outcome, f"global search: no path within the {why} "
-                            f"({options.time_limit:g} s, {options.capacity} nodes per tree)",
+    if status != _core.SearchStatus.FOUND:  # the time limit: a full tree starts the search again until then
+        return SearchResult(False, start[None], PlanStatus.GLOBAL_TIME_LIMIT, "global search: no path within the "
+                            f"time limit ({options.time_limit:g} s, {options.capacity} nodes per tree)",
                             checker.states_checked, time.perf_counter() - begin)
     short = _shortened(checker, clearance, path, trees, options)
     length = path_length(short)
