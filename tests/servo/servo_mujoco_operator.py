@@ -5,7 +5,8 @@ Against ``pfield ros2 node --robot panda --params SERVO.yaml`` (``SERVO_MUJOCO``
 ``sphere`` [x, y, z, r], ``twist`` [vx, vy, vz] m/s, ``seconds``, ``command_topic``, ``command_type``). Starts
 ``sim_arm.py`` (the arm in MuJoCo: ``/joint_states`` out, the servo's commands in), tells the node about the sphere
 (``/pfield/obstacles``; the same sphere is in the simulation), streams the fixed-frame twist at 100 Hz for
-``seconds``, goes silent for 2 s (longer than ``incoming_command_timeout``), stops the arm and writes the arm's
+``seconds``, goes silent until the arm has stood still for a second (:func:`settle`; at least 2 s, longer than
+``incoming_command_timeout``), stops the arm and writes the arm's
 report, the status codes seen (with the seconds since the twist began) and the phase times to
 ``$ROS2_TEST_OUT/results.json``.
 """
@@ -95,7 +96,7 @@ def operator(client: BlockingClient, results: dict[str, Any]) -> None:
     time.sleep(SETUP["seconds"])
     twist.stop()
     results["stopped_at"] = round(time.monotonic() - start, 3)
-    time.sleep(2.0)
+    results["settled_after"] = settle(client)
     results["statuses"] = seen
     if "_first" in results:
         results["first_command"] = results.pop("_first")[:1]
@@ -103,6 +104,29 @@ def operator(client: BlockingClient, results: dict[str, Any]) -> None:
     arm.send_signal(signal.SIGINT)
     results["arm_returncode"] = arm.wait(30)
     results["arm"] = json.loads((OUT / "arm.json").read_text())
+
+
+def settle(client: BlockingClient, still: float = 1.0, at_least: float = 2.0, timeout: float = 30.0) -> float | None:
+    """Seconds after the twist went silent until the arm has stood still (every joint slower than 0.005 rad/s on
+    ``/joint_states``) for ``still`` s, and at least ``at_least`` s (longer than ``incoming_command_timeout``); None
+    when it never did within ``timeout``. Waiting on the arm, not a fixed time: on a loaded machine the physics and
+    the commands run late, and a fixed wait would read the arm mid-stop."""
+    begin = time.monotonic()
+    since: list[float | None] = [None]
+
+    def on_state(message: JointState) -> None:
+        moving = any(abs(v) >= 0.005 for v in message.velocity)
+        since[0] = None if moving else (since[0] or time.monotonic())
+
+    subscription = client.node.create_subscription(JointState, "/joint_states", on_state, 10)
+    try:
+        while (now := time.monotonic()) - begin < timeout:
+            if now - begin >= at_least and since[0] is not None and now - since[0] >= still:
+                return round(now - begin, 3)
+            time.sleep(0.05)
+        return None
+    finally:
+        client.node.destroy_subscription(subscription)
 
 
 if __name__ == "__main__":

@@ -84,11 +84,11 @@ class SimArm:
                 self.reference = np.array(self.sim.state.positions)
                 self.rate = velocities
 
-    def tick(self) -> SimState | None:
+    def tick(self) -> SimState:
         """One idle period of physics (skipped while the action server drives the arm); the state after it."""
         with self.lock:
             if time.monotonic() - self.last_action_step < 5 * self.period:
-                return None
+                return self.sim.state
             if self.rate.any() and not np.any(np.isnan(self.rate)):
                 state = self.sim.step(self.reference, self.rate, dt=self.period)
                 self.reference = np.clip(self.reference + self.rate * self.period, self.robot.lower_limits,
@@ -105,8 +105,7 @@ class SimArm:
         the next is due one period after it)."""
         due = time.monotonic()
         while not stop.is_set():
-            state = self.tick()
-            publish(state if state is not None else self.sim.state)
+            publish(self.tick())
             due = max(due + self.period, time.monotonic())
             stop.wait(due - time.monotonic())
 

@@ -3,8 +3,9 @@
 ``pfield ros2 node --robot panda`` runs ``/pfield_servo`` from ``ros/config/pfield_servo.yaml`` (the command type
 and topic changed per case); ``sim_arm.py`` plays the arm (MuJoCo position servos: the servo's commands in,
 ``/joint_states`` out); ``servo_mujoco_operator.py`` streams a fixed-frame twist straight at a sphere for 4 s,
-then nothing. What the physics says: the end effector moved the commanded way, never touched the sphere
-(0 contact steps in MuJoCo), stopped short of it, and stood still after ``incoming_command_timeout``.
+then nothing until the arm stands still. What the physics says: the end effector moved the commanded way, never
+touched the sphere (0 contact steps in MuJoCo), stopped short of it, and stood still after
+``incoming_command_timeout``.
 """
 
 from __future__ import annotations
@@ -84,9 +85,11 @@ def test_twist_at_a_sphere_moves_stops_short_and_times_out(tmp_path: Path, case:
     assert ee[-1, 1] < centre[1] - radius
     codes = [code for _, code in results["statuses"]]
     assert 4 in codes or 5 in codes, codes  # DECELERATE_ or HALT_FOR_COLLISION on the way in
-    # the stop: COMMAND_TIMEOUT after the twist went silent, and the arm stands still in the last second
+    # the stop: COMMAND_TIMEOUT after the twist went silent, and the arm comes to stand still (within 30 s: the operator
+    # waits for it, as the physics and the commands run late on a loaded machine) and stays so in the last second
     after = [code for t, code in results["statuses"] if t >= results["stopped_at"]]
     assert 10 in after, results["statuses"]
+    assert results["settled_after"] is not None, "the arm never stood still for a second after the twist stopped"
     last = trail[trail[:, 0] >= trail[-1, 0] - 1.0, 1:]
     assert np.ptp(last, axis=0).max() < 1e-3, np.ptp(last, axis=0)
     assert np.abs(arm["final_velocities"]).max() < 0.01
