@@ -16,6 +16,9 @@ from pfield.geometry import Box, Capsule, Cylinder, Ellipsoid, Mesh, Sphere
 from pfield.robot import RobotModel
 
 UR5 = Path(__file__).resolve().parents[2] / "shared" / "benchmarks" / "mbm" / "ur5"
+needs_ur5 = pytest.mark.skipif(not (UR5 / "ur5.urdf").exists(), reason="the UR5 benchmark files are not here")
+UR5_FOREARM_WRIST_2 = np.array([-0.395, -0.366, 1.431, 1.929, -1.037, -0.057])
+"""A UR5 configuration where the meshes of forearm_link and wrist_2_link intersect (a pair the SRDF keeps)."""
 
 
 @functools.cache
@@ -26,6 +29,14 @@ def robot(name: str) -> RobotModel:
     if not (UR5 / "ur5.urdf").exists():
         pytest.skip("the UR5 of ../shared/benchmarks/mbm is not here")
     return RobotModel.from_urdf(UR5 / "ur5.urdf", "ee_link", {"meshes": UR5 / "meshes"}, srdf=UR5 / "ur5.srdf")
+
+
+@functools.cache
+def ur5_at_tool0() -> RobotModel:
+    """The MotionBenchMaker UR5 with ``tool0`` as its end effector, as the MBM bench builds it (:func:`robot`'s UR5
+    ends at ``ee_link``)."""
+    return RobotModel.from_urdf(UR5 / "ur5.urdf", end_effector="tool0", package_paths={"meshes": UR5 / "meshes"},
+                                srdf=UR5 / "ur5.srdf")
 
 
 @functools.cache

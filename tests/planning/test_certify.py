@@ -7,27 +7,21 @@ The bound is checked against coal's distances, the certificate against every gri
 from __future__ import annotations
 
 import itertools
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from core_scenes import ur5_problem
+from core_scenes import UR5_FOREARM_WRIST_2, needs_ur5, ur5_at_tool0, ur5_problem
 from pfield import Box, FieldConfig, Obstacle, Pose, PotentialField, RobotModel
 from pfield.errors import InvalidInput
 from pfield.planning import PlanStatus
 from pfield.planning.certify import certify_path
 from pfield.robot.collision import CollisionChecker
 
-UR5 = Path(__file__).resolve().parents[3] / "shared" / "benchmarks" / "mbm" / "ur5"
-needs_ur5 = pytest.mark.skipif(not (UR5 / "ur5.urdf").exists(), reason="the UR5 benchmark files are not here")
-
 
 @pytest.fixture(scope="module")
 def ur5() -> RobotModel:
-    root = str(UR5) + "/"
-    return RobotModel.from_urdf(root + "ur5.urdf", end_effector="tool0", package_paths={"meshes": root + "meshes"},
-                                srdf=root + "ur5.srdf")
+    return ur5_at_tool0()
 
 
 @pytest.fixture(scope="module")
@@ -183,7 +177,7 @@ def test_forearm_against_wrist_2_contact_is_seen(ur5: RobotModel) -> None:
     """table_under_pick_ur5 #9: the fallback's tracked path passed through this configuration, where the meshes of
     forearm_link and wrist_2_link intersect; the old check's "hulls" (coal's buildConvexRepresentation of the
     concave meshes) put them 198 mm apart, and the link model (capsules 35 mm deep already at the start) allowed it."""
-    q = np.array([-0.395, -0.366, 1.431, 1.929, -1.037, -0.057])
+    q = UR5_FOREARM_WRIST_2.copy()
     report = CollisionChecker(ur5).check(q)
     assert report.in_collision and report.pair == "forearm_link_0/wrist_2_link_0"
 
@@ -237,7 +231,7 @@ def test_the_fields_own_reached_motion_is_certified(ur5: RobotModel) -> None:
     """A pose goal whose nearest IK branch puts forearm_link into wrist_2_link: the field's loop gets there (its
     link model overlaps that pair already at the start, so it may not approach further, but may stay), the
     certificate refuses it, and the path ends before the contact; with the fallback, never reached in contact."""
-    contact = np.array([-0.395, -0.366, 1.431, 1.929, -1.037, -0.057])
+    contact = UR5_FOREARM_WRIST_2.copy()
     start = contact + np.array([0.0, 0.0, 0.0, 0.0, 0.6, 0.0])
     config = FieldConfig(max_linear_velocity=0.25, max_angular_velocity=1.0)
     field = PotentialField(config, ur5.forward_kinematics(contact), [])

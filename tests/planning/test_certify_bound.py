@@ -13,8 +13,8 @@ import coal
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from tests.planning.test_certify import UR5, needs_ur5
 
+from core_scenes import needs_ur5, ur5_at_tool0
 from pfield import Box, Obstacle, Pose, RobotModel
 from pfield.geometry import Capsule, Cylinder, Sphere
 from pfield.planning.certify import certify_path, resolution_grid
@@ -23,11 +23,7 @@ from pfield.robot.collision import CollisionChecker
 
 
 def _robot(name: str) -> RobotModel:
-    if name == "ur5":
-        root = str(UR5) + "/"
-        return RobotModel.from_urdf(root + "ur5.urdf", end_effector="tool0",
-                                    package_paths={"meshes": root + "meshes"}, srdf=root + "ur5.srdf")
-    return RobotModel.builtin(name)
+    return ur5_at_tool0() if name == "ur5" else RobotModel.builtin(name)
 
 
 ROBOTS = [*BUILTIN_ROBOTS, pytest.param("ur5", marks=needs_ur5)]

@@ -7,12 +7,10 @@ of the searched path now turns each contact into a region of certain contact the
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-from core_scenes import ur5_problem
+from core_scenes import UR5_FOREARM_WRIST_2, needs_ur5, ur5_at_tool0, ur5_problem
 from pfield import FieldConfig, PotentialField, RobotModel
 from pfield._core import rrt as core_rrt
 from pfield._core.robot_distance import fitted_self_clearances_at
@@ -25,20 +23,10 @@ from pfield.planning.whole_body import WholeBodyOptions, make_scene, pack_robot
 from pfield.robot.collision import CollisionChecker
 from pfield.spatial import Pose
 
-UR5 = Path(__file__).resolve().parents[3] / "shared" / "benchmarks" / "mbm" / "ur5"
-needs_ur5 = pytest.mark.skipif(not (UR5 / "ur5.urdf").exists(), reason="the UR5 benchmark files are not here")
-ARM = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")
-FOREARM_WRIST_2 = np.array([-0.395, -0.366, 1.431, 1.929, -1.037, -0.057])
-"""A UR5 configuration where the meshes of forearm_link and wrist_2_link intersect (tests/planning/test_certify)."""
-
 
 @pytest.fixture(scope="module")
 def ur5() -> RobotModel:
-    root = str(UR5) + "/"
-    return RobotModel.from_urdf(root + "ur5.urdf", end_effector="tool0", package_paths={"meshes": root + "meshes"},
-                                srdf=root + "ur5.srdf")
-
-
+    return ur5_at_tool0()
 
 
 def test_a_forbidden_region_refuses_its_states_and_no_others() -> None:
@@ -63,7 +51,7 @@ def test_a_contact_region_holds_only_configurations_closer_than_the_margin(ur5: 
     """Around the forearm/wrist_2 contact, every configuration of the region keeps that pair closer than the margin
     on the meshes (the motion bound makes it so); an end near the contact bounds the region so that it stays out."""
     exact = CollisionChecker(ur5)
-    certificate = certify_path(ur5, [], FOREARM_WRIST_2[None])
+    certificate = certify_path(ur5, [], UR5_FOREARM_WRIST_2[None])
     assert not certificate.clear and certificate.pair == "forearm_link_0/wrist_2_link_0"
     margin = 0.003
     centre, weights, radius = contact_region(exact, certificate, margin, [np.zeros(6)])

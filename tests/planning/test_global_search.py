@@ -75,10 +75,15 @@ def test_an_end_inside_an_obstacle_is_refused_before_searching(start: Any, goal:
     assert result.states_checked <= 2
 
 
-def test_an_enclosed_goal_ends_at_the_time_limit_with_a_reason() -> None:
-    box = [Obstacle(f"side{i}", Box(*size), Pose(centre)) for i, (size, centre) in enumerate([
+def _enclosure() -> list[Obstacle]:
+    """Six walls around (1, 0, 0): a goal there cannot be reached from outside."""
+    return [Obstacle(f"side{i}", Box(*size), Pose(centre)) for i, (size, centre) in enumerate([
         ((0.05, 0.5, 0.5), (1.25, 0, 0)), ((0.05, 0.5, 0.5), (0.75, 0, 0)), ((0.5, 0.05, 0.5), (1.0, 0.25, 0)),
         ((0.5, 0.05, 0.5), (1.0, -0.25, 0)), ((0.5, 0.5, 0.05), (1.0, 0, 0.25)), ((0.5, 0.5, 0.05), (1.0, 0, -0.25))])]
+
+
+def test_an_enclosed_goal_ends_at_the_time_limit_with_a_reason() -> None:
+    box = _enclosure()
     result = point_space_search(make_scene(pack_obstacles(box)), np.zeros(3), np.array([1.0, 0.0, 0.0]), 0.01,
                                 GlobalOptions(time_limit=0.2, capacity=500))
     assert not result.found and result.status == PlanStatus.GLOBAL_TIME_LIMIT, result.reason
@@ -91,9 +96,7 @@ def test_a_full_tree_starts_the_search_again_until_the_time_limit() -> None:
     """Trees of 50 nodes fill at once around an enclosed goal: each full tree starts the search again with fresh
     trees (a narrow passage may need another seed, not a bigger tree), so it ends at the time limit, not at the first
     full tree."""
-    box = [Obstacle(f"side{i}", Box(*size), Pose(centre)) for i, (size, centre) in enumerate([
-        ((0.05, 0.5, 0.5), (1.25, 0, 0)), ((0.05, 0.5, 0.5), (0.75, 0, 0)), ((0.5, 0.05, 0.5), (1.0, 0.25, 0)),
-        ((0.5, 0.05, 0.5), (1.0, -0.25, 0)), ((0.5, 0.5, 0.05), (1.0, 0, 0.25)), ((0.5, 0.5, 0.05), (1.0, 0, -0.25))])]
+    box = _enclosure()
     result = point_space_search(make_scene(pack_obstacles(box)), np.zeros(3), np.array([1.0, 0.0, 0.0]), 0.01,
                                 GlobalOptions(time_limit=0.3, capacity=50))
     assert not result.found and result.status == PlanStatus.GLOBAL_TIME_LIMIT, result.reason

@@ -112,16 +112,17 @@ def settle(client: BlockingClient, still: float = 1.0, at_least: float = 2.0, ti
     when it never did within ``timeout``. Waiting on the arm, not a fixed time: on a loaded machine the physics and
     the commands run late, and a fixed wait would read the arm mid-stop."""
     begin = time.monotonic()
-    since: list[float | None] = [None]
+    since: float | None = None  # when the arm was last seen starting to stand still
 
     def on_state(message: JointState) -> None:
+        nonlocal since
         moving = any(abs(v) >= 0.005 for v in message.velocity)
-        since[0] = None if moving else (since[0] or time.monotonic())
+        since = None if moving else (since or time.monotonic())
 
     subscription = client.node.create_subscription(JointState, "/joint_states", on_state, 10)
     try:
         while (now := time.monotonic()) - begin < timeout:
-            if now - begin >= at_least and since[0] is not None and now - since[0] >= still:
+            if now - begin >= at_least and since is not None and now - since >= still:
                 return round(now - begin, 3)
             time.sleep(0.05)
         return None

@@ -28,6 +28,7 @@ from pfield.planning.global_search import (
     SearchResult,
     contact_region,
     goal_configurations,
+    in_region,
     joint_space_search,
     orientations_along,
     point_space_search,
@@ -105,7 +106,7 @@ def whole_body_fallback(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.S
             outcome, regions = _search_and_track(robot, arrays, scene, start, goals, goal, params, max_iterations,
                                                  margin, listed, exact, replace(options, time_limit=remaining),
                                                  cancel, goal_band, forbidden, slack)
-            fresh = [r for r in regions if not any(_inside(r[0], known) for known in forbidden)]
+            fresh = [r for r in regions if not any(in_region(r[0], known) for known in forbidden)]
             if not fresh:
                 break  # no contact, or one the search's resolution stepped over (a forbidden region holds it)
             forbidden += fresh  # contacts: search again around them, with the same band
@@ -162,7 +163,7 @@ def _contact_regions(robot: RobotModel, obstacles: list[Obstacle], exact: Collis
     along a stretch)."""
     dense = resolution_grid(path, options.exact_resolution)[0]
     regions = [contact_region(exact, first, margin, ends)]
-    covered = _inside(dense, regions[0])  # the grid points some region holds
+    covered = in_region(dense, regions[0])  # the grid points some region holds
     index = 0
     while len(regions) < CONTACTS_PER_PATH:
         outside = np.flatnonzero(~covered[index:])
@@ -173,15 +174,9 @@ def _contact_regions(robot: RobotModel, obstacles: list[Obstacle], exact: Collis
         if certificate.clear:
             break
         regions.append(contact_region(exact, certificate, margin, ends))
-        covered |= _inside(dense, regions[-1])
+        covered |= in_region(dense, regions[-1])
         index += certificate.waypoint + 1
     return regions
-
-
-def _inside(q: NDArray[np.float64], region: Region) -> NDArray[np.bool_]:
-    """Whether ``region`` holds each configuration of ``q`` ((n,) or (N, n)): Σ_j w_j |q_j − c_j| < r."""
-    centre, weights, radius = region
-    return np.abs(q - centre) @ weights < radius
 
 
 def _refused(what: str, certificate: Certificate, search: SearchResult) -> FallbackOutcome:

@@ -449,10 +449,9 @@ def joint_space_search(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Sc
     clearance = _joint_checker(arrays, _clearance_scene(scene, search_scene, arrays, (start, *goals), margin, options,
                                                         goal_band), margin + options.smoothing_clearance,
                                options.joint_resolution)
-    for centre, weights, radius in forbidden:
-        for each in (checker, clearance):
-            each.forbid(np.ascontiguousarray(centre, dtype=np.float64), np.ascontiguousarray(weights, dtype=np.float64),
-                        float(radius))
+    for region in forbidden:  # contact_region's arrays: contiguous float64
+        checker.forbid(*region)
+        clearance.forbid(*region)
     box = _sampling_box(robot)
     lower, upper = sampling_window(robot, box, start, goals, options.joint_step)
     wide = None if np.array_equal(lower, box[0]) and np.array_equal(upper, box[1]) else box
@@ -462,7 +461,13 @@ def joint_space_search(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Sc
 
 Region = tuple[NDArray[np.float64], NDArray[np.float64], float]
 """(centre (n,), weights w_j (n,), radius r): the states q with Σ_j w_j |q_j − centre_j| < r (the core's
-``planning::ForbiddenRegions``)."""
+``planning::ForbiddenRegions``; :func:`in_region` in Python)."""
+
+
+def in_region(q: NDArray[np.float64], region: Region) -> NDArray[np.bool_]:
+    """Whether ``region`` holds each configuration of ``q`` ((n,) or (N, n)): Σ_j w_j |q_j − c_j| < r."""
+    centre, weights, radius = region
+    return np.abs(q - centre) @ weights < radius
 
 
 def contact_region(checker: CollisionChecker, certificate: Certificate, margin: float,
