@@ -19,6 +19,9 @@ using math::Vec3;
 using robot::detail::py_max;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+// (m) how far a bound computed another way must clear a need to decide a pair as the exact value would: far above
+// the rounding of distances of a few metres (~1e-15 m), far below any margin
+constexpr double kSphereSlack = 1e-9;
 
 enum class Extension { Trapped, Advanced, Reached };
 
@@ -93,6 +96,7 @@ CapsuleWorkspace::CapsuleWorkspace(const robot::RobotView& robot)
       origins(3 * robot.kinematics.joint_count),
       segment_ends(6 * (robot.links.capsule_count + robot.links.primitive_count)),
       placed(robot.links.capsule_count),
+      middles(robot.links.capsule_count),
       frames{rotations.data(), origins.data()} {
   const std::size_t caps = robot.links.capsule_count, prims = robot.links.primitive_count;
   double* ends = segment_ends.data();
@@ -121,18 +125,20 @@ bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, 
   std::fill(ws.placed.begin(), ws.placed.end(), 0);
   for (std::size_t c = 0; c < links.capsule_count; ++c) {
     const Vec3 a = ws.world.capsule_a(c), b = ws.world.capsule_b(c);
-    const double radius = links.cap_r[c];
-    const Vec3 middle{0.5 * (a.x + b.x), 0.5 * (a.y + b.y), 0.5 * (a.z + b.z)};
     double half = 0.0;
     half += (b.x - a.x) * (b.x - a.x);
     half += (b.y - a.y) * (b.y - a.y);
     half += (b.z - a.z) * (b.z - a.z);
-    half = 0.5 * std::sqrt(half);
+    ws.middles[c] = {{0.5 * (a.x + b.x), 0.5 * (a.y + b.y), 0.5 * (a.z + b.z)}, 0.5 * std::sqrt(half)};
+  }
+  for (std::size_t c = 0; c < links.capsule_count; ++c) {
+    const AxisMiddle& axis = ws.middles[c];
+    const double radius = links.cap_r[c];
     for (std::size_t i = 0; i < count; ++i) {
       const double need = margin + scene.obstacle_offsets[c * count + i];
       const double lower = robot::capsule_lower_bound(obstacles, i, ws.world, links, c);
       if (lower >= need) continue;
-      if (geometry::obstacle_signed_distance(packed, i, middle, kInf).distance - half - radius >= need) continue;
+      if (geometry::obstacle_signed_distance(packed, i, axis.middle, kInf).distance - axis.half - radius >= need) continue;
       // the two-level distance; its fine level reads the link's primitives (robot/clearance.hpp's rule for when)
       if (!ws.placed[c] && lower < robot::kFineRange + robot::kFineMargin) {
         robot::world_segment_range(ws.frames, links.prim_joint, links.prim_a, links.prim_b,
@@ -153,7 +159,13 @@ bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, 
       continue;
     }
     const double need = margin + scene.self_offsets[k];
-    // the bounding capsules (they contain the primitives) first: most pairs end here, their primitives unplaced
+    // the bounding spheres, then the bounding capsules (they contain the primitives): most pairs end at one of
+    // them, their primitives unplaced. kSphereSlack keeps the spheres' bound below the capsules' distance where
+    // the two differ only by rounding, so a pair is decided as without it.
+    const AxisMiddle &m1 = ws.middles[l1], &m2 = ws.middles[l2];
+    const Vec3 apart = m1.middle - m2.middle;
+    if (std::sqrt(dot(apart, apart)) - (m1.half + links.cap_r[l1]) - (m2.half + links.cap_r[l2]) >= need + kSphereSlack)
+      continue;
     if (robot::segment_segment_distance(ws.world.capsule_a(l1), ws.world.capsule_b(l1), ws.world.capsule_a(l2),
                                         ws.world.capsule_b(l2)) -
             links.cap_r[l1] - links.cap_r[l2] >=

@@ -53,6 +53,13 @@ void uniforms(std::uint64_t& state, double* out, std::size_t count);
 
 // The scratch of the joint-space state check, sized once per robot: joint frames and world segments; the fitted
 // primitives of a link are moved into the world only when some pair of that link reaches the fine level.
+// A capsule's axis as its midpoint and half length: every point of the capsule lies within half + its radius of
+// the midpoint.
+struct AxisMiddle {
+  math::Vec3 middle;
+  double half;
+};
+
 struct CapsuleWorkspace {
   explicit CapsuleWorkspace(const robot::RobotView& robot);
   CapsuleWorkspace(const CapsuleWorkspace&) = delete;  // the views point into it
@@ -61,6 +68,7 @@ struct CapsuleWorkspace {
   std::vector<double> rotations, origins;  // (n, 3, 3), (n, 3)
   std::vector<double> segment_ends;        // capsules a, b (caps, 3) each, then primitives a, b (prims, 3)
   std::vector<unsigned char> placed;       // (caps,) whether the link's primitives are in `world` for this q
+  std::vector<AxisMiddle> middles;         // (caps,) each capsule's axis for this q
   robot::Frames frames;
   robot::WorldSegments world;
 };
@@ -70,7 +78,9 @@ struct CapsuleWorkspace {
 // exact lower bounds first, cheapest first: the obstacle's bounding sphere against the link's bounding capsule, the
 // signed distance at the capsule axis's midpoint less half its length and the radius (d is 1-Lipschitz), then the
 // two-level distance robot::link_obstacle_distance_below with cutoff = fine_cutoff = that need (which decides
-// "below the need" as exact values would). Self pairs on the covering capsules (robot::link_pair_distance).
+// "below the need" as exact values would). Self pairs on the covering capsules (robot::link_pair_distance), or with
+// scene.fitted_self on the fitted primitives, after two lower bounds: the capsules' bounding spheres (centres at
+// the axes' midpoints, radii half the axis plus the capsule's), then the capsules themselves.
 bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, const double* q, double margin,
                     CapsuleWorkspace& ws);
 
