@@ -5,7 +5,6 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
 .PHONY: demo test bench anchor lint venv core core-test clean ros2-interfaces chromium egl
-.PHONY: core-portable
 
 # The compiled core pfield._core (C++17 in src/core, nanobind, scikit-build-core) is built by an editable
 # install without build isolation, so that its build tree (build/cp311-*) is kept and an edit of a C++ file
@@ -40,14 +39,6 @@ core-test: | $(TOOLS_STAMP)
 		-DPFIELD_PYTHON=OFF -DPFIELD_CORE_TESTS=ON -DPFIELD_SANITIZE=ON > /dev/null
 	$(VENV)/bin/cmake --build $(CORE_TEST_BUILD)
 	$(VENV)/bin/ctest --test-dir $(CORE_TEST_BUILD) --output-on-failure
-
-# The portable wheel's build tree (docs/core.md, build/portable): tests/test_core_build.py builds a wheel from it and
-# installs that into a new environment with no compiler, so an unchanged core is not compiled again inside the test
-# run (make test builds this tree beside its other setup steps). The lock file is the test's too.
-core-portable: | $(TOOLS_STAMP)
-	@mkdir -p build
-	flock build/portable.lock $(PY) -m pip wheel . --no-deps --no-build-isolation -q -w build/portable-dist \
-		-C cmake.define.PFIELD_NATIVE=OFF -C build-dir=$(abspath build/portable)
 
 # ROS 2 interfaces (potential_fields_interfaces) built with plain CMake against the ros-jazzy-* wheels
 # and installed into the venv; rebuilt only when an interface or build file changes (stamp file).
@@ -116,14 +107,13 @@ PYTEST_PARALLEL := $(if $(filter 1,$(PYTEST_WORKERS)),,-n $(PYTEST_WORKERS) --di
 
 # The setup steps run two at a time (make -j2, the CI machine's 2 cores; SETUP_JOBS=1: one at a time): pip and mypy
 # use one core, so the sanitizer build of the core's tests overlaps the dependencies' install, and mypy the ROS 2
-# interfaces' build, and the portable build fills the gaps. Their output is kept per step.
+# interfaces' build. Their output is kept per step.
 # compileall then: the tests start a few hundred `pfield` and Python processes, and with PYTHONDONTWRITEBYTECODE set
 # (or a read-only tree) each would compile pfield's sources again (0.1-0.3 s of CPU per process); stale files are
 # recompiled, fresh ones skipped (a second or two).
 SETUP_JOBS ?= 2
 test: chromium egl
-	@$(MAKE) --no-print-directory -j$(SETUP_JOBS) --output-sync=target lint core core-test core-portable \
-		ros2-interfaces
+	@$(MAKE) --no-print-directory -j$(SETUP_JOBS) --output-sync=target lint core core-test ros2-interfaces
 	$(PY) -m compileall -q -j0 src/pfield tests > /dev/null
 	$(VENV)/bin/pytest -q $(PYTEST_PARALLEL)
 
