@@ -16,7 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from core_scenes import needs_ur5, ur5_at_tool0
 from pfield import Box, Obstacle, Pose, RobotModel
-from pfield.geometry import Capsule, Cylinder, Sphere
+from pfield.geometry import Capsule, Cylinder, Ellipsoid, Sphere
 from pfield.planning.certify import certify_path, resolution_grid
 from pfield.robot.catalog import BUILTIN_ROBOTS
 from pfield.robot.collision import CollisionChecker
@@ -182,12 +182,14 @@ def _walk(bound: np.ndarray, reach: np.ndarray) -> np.ndarray:
 @pytest.mark.parametrize("name", ["panda", pytest.param("ur5", marks=needs_ur5)])
 def test_covering_needed_is_the_walk_on_the_bound_and_refuses_bad_shapes(name: str) -> None:
     """The compiled walk marks exactly the grid points the written-out walk on :meth:`covering_distances` and the
-    motion bound marks (the tolerance taken off the bound); arrays of the wrong shape are refused."""
+    motion bound marks (the tolerance taken off the bound), and every grid point of the pairs with no bound (an
+    ellipsoid's: coal decides them); arrays of the wrong shape are refused."""
     robot = _robot(name)
     rng = np.random.default_rng(2)
     q_a = _random_q(robot, rng)
     qs = np.array([q_a, np.clip(q_a + rng.normal(size=robot.n_joints) * 0.5, robot.lower_limits, robot.upper_limits)])
-    checker = CollisionChecker(robot, _obstacles(robot, q_a, rng, 0.15))
+    egg = Obstacle("egg", Ellipsoid(0.05, 0.04, 0.08), Pose(robot.forward_kinematics(q_a).position + 0.3))
+    checker = CollisionChecker(robot, [*_obstacles(robot, q_a, rng, 0.15), egg])
     grid, _, _ = resolution_grid(qs, 0.01)
     travel = np.vstack([np.zeros((1, robot.n_joints)), np.cumsum(np.abs(np.diff(grid, axis=0)), axis=0)])
     reach = travel @ checker.motion_weights.T
@@ -195,6 +197,8 @@ def test_covering_needed_is_the_walk_on_the_bound_and_refuses_bad_shapes(name: s
     expected = _walk(checker.covering_distances(grid) - 1e-6, reach.T)
     assert needed.shape == expected.shape and 0 < needed.sum() < needed.size  # the bound clears some, not all
     assert np.array_equal(needed, expected)
+    unbounded = [p for p, pair in enumerate(checker.pair_names) if pair.endswith("/egg")]
+    assert unbounded and needed[unbounded].all()
     with pytest.raises(ValueError, match="travel"):
         checker.covering_needed(grid, travel[:-1], 1e-6)
     with pytest.raises(ValueError, match="qs"):

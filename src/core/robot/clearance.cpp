@@ -314,6 +314,10 @@ void covering_needed(const KinematicsView& kinematics, const LinkModelView& link
     }
     const double* row = reach.data();
     std::uint8_t* out = needed + p * count;
+    if (!(slack[p] < kInf)) {  // no bound for this pair (an ellipsoid or a mesh): needed everywhere, not computed
+      std::fill(out, out + count, std::uint8_t{1});
+      continue;
+    }
     std::size_t k = 0;
     while (k < count) {
       const WorldSegments world = world_at(k);

@@ -223,7 +223,8 @@ void covering_clearances(const KinematicsView& kinematics, const LinkModelView& 
 // reach[k'] - reach[k] between k and k' > k. Walking each pair along the path: at configuration k its
 // covering_clearances value less slack[p] is a lower bound b of its distance; b > 0 clears k and every following k'
 // with reach[k'] < reach[k] + b (conservative advancement: the pair closes by at most reach[k'] - reach[k]), which
-// the walk then skips; b <= 0 marks k needed (needed[p * count + k] = 1, else 0).
+// the walk then skips; b <= 0 marks k needed (needed[p * count + k] = 1, else 0). A pair whose slack is not finite
+// (no bound: ellipsoids and meshes) is needed at every k, its capsule distance not computed.
 void covering_needed(const KinematicsView& kinematics, const LinkModelView& links, const double* qs,
                      std::size_t count, const geometry::PackedView& packed, const double* travel,
                      const double* weights, const double* slack, std::uint8_t* needed);

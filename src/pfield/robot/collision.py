@@ -226,9 +226,9 @@ class CollisionChecker:
         per_obstacle = np.array([0.0 if isinstance(o.shape, Sphere | Box | Capsule) else
                                  2.0 ** -20 if isinstance(o.shape, Cylinder) else math.inf
                                  for o in self._obstacle_list]).reshape(1, -1)
-        slack = np.where(per_obstacle == 0.0, 0.0, axis_length[:, None] * per_obstacle).reshape(-1)
-        return covering, obstacles, np.concatenate([np.where(np.isnan(slack), math.inf, slack),
-                                                           np.zeros(len(self._pairs))])
+        bounded = np.isfinite(per_obstacle)  # (a zero-length axis times no bound is still no bound)
+        slack = np.where(bounded, axis_length[:, None] * np.where(bounded, per_obstacle, 0.0), math.inf).reshape(-1)
+        return covering, obstacles, np.concatenate([slack, np.zeros(len(self._pairs))])
 
     def covering_distances(self, qs: NDArray[np.float64]) -> NDArray[np.float64]:
         """(P, N) lower bounds (m) of every pair's distance (:attr:`pair_names` order) at the validated
