@@ -193,8 +193,10 @@ SignedDistance mesh_within(const PackedView& packed, double mesh, const Vec3& q,
       return detail::cylinder_distance(q, row[12], row[13]);
     case Kind::Capsule:
       return detail::capsule_distance(q, row[12], row[13]);
-    case Kind::Ellipsoid:
-      return detail::ellipsoid_within(q, row[12], row[13], row[14], cutoff).distance;
+    case Kind::Ellipsoid: {  // ellipsoid_within's rule, with its bounding sphere's distance inline (no normal)
+      const double bound = detail::sphere_at(q, detail::max_of(detail::max_of(row[12], row[13]), row[14])).distance;
+      return bound <= cutoff ? ellipsoid_local(q, row[12], row[13], row[14]).distance : bound;
+    }
     case Kind::Mesh:
       return detail::mesh_within(packed, row[15], q, cutoff).distance;
     default:  // any unknown code: a sphere
