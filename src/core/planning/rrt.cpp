@@ -136,9 +136,11 @@ bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, 
     const double radius = links.cap_r[c];
     for (std::size_t i = 0; i < count; ++i) {
       const double need = margin + scene.obstacle_offsets[c * count + i];
+      // the signed distance at the axis's midpoint first: for a long box (a cage's bar, a shelf) the obstacle's
+      // bounding sphere bounds nothing, and for a sphere it is the two bounding spheres' distance
+      if (geometry::obstacle_distance(packed, i, axis.middle) - axis.half - radius >= need) continue;
       const double lower = robot::capsule_lower_bound(obstacles, i, ws.world, links, c);
       if (lower >= need) continue;
-      if (geometry::obstacle_signed_distance(packed, i, axis.middle, kInf).distance - axis.half - radius >= need) continue;
       // the two-level distance; its fine level reads the link's primitives (robot/clearance.hpp's rule for when)
       if (!ws.placed[c] && lower < robot::kFineRange + robot::kFineMargin) {
         robot::world_segment_range(ws.frames, links.prim_joint, links.prim_a, links.prim_b,

@@ -75,8 +75,8 @@ struct CapsuleWorkspace {
 
 // Whether configuration q keeps every link-obstacle pair (c, i) at least margin + obstacle_offsets[c, i] apart and
 // every self pair k at least margin + self_offsets[k], stopping at the first pair that is not. Pairs are decided by
-// exact lower bounds first, cheapest first: the obstacle's bounding sphere against the link's bounding capsule, the
-// signed distance at the capsule axis's midpoint less half its length and the radius (d is 1-Lipschitz), then the
+// exact lower bounds first: the signed distance at the capsule axis's midpoint less half its length and the radius
+// (d is 1-Lipschitz), the obstacle's bounding sphere against the link's bounding capsule, then the
 // two-level distance robot::link_obstacle_distance_below with cutoff = fine_cutoff = that need (which decides
 // "below the need" as exact values would). Self pairs on the covering capsules (robot::link_pair_distance), or with
 // scene.fitted_self on the fitted primitives, after two lower bounds: the capsules' bounding spheres (centres at
