@@ -89,7 +89,9 @@ def test_twist_at_a_sphere_moves_stops_short_and_times_out(tmp_path: Path, case:
     # waits for it, as the physics and the commands run late on a loaded machine) and stays so in the last second
     after = [code for t, code in results["statuses"] if t >= results["stopped_at"]]
     assert 10 in after, results["statuses"]
-    assert results["settled_after"] is not None, "the arm never stood still for a second after the twist stopped"
+    assert results["settled_after"] is not None, ("the arm never stood still for a second after the twist stopped",
+                                                  arm["final_velocities"], arm["final_positions"],
+                                                  arm["final_reference"])
     last = trail[trail[:, 0] >= trail[-1, 0] - 1.0, 1:]
     assert np.ptp(last, axis=0).max() < 1e-3, np.ptp(last, axis=0)
     assert np.abs(arm["final_velocities"]).max() < 0.01
