@@ -137,8 +137,10 @@ bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, 
     for (std::size_t i = 0; i < count; ++i) {
       const double need = margin + scene.obstacle_offsets[c * count + i];
       // the signed distance at the axis's midpoint first: for a long box (a cage's bar, a shelf) the obstacle's
-      // bounding sphere bounds nothing, and for a sphere it is the two bounding spheres' distance
-      if (geometry::obstacle_distance(packed, i, axis.middle) - axis.half - radius >= need) continue;
+      // bounding sphere bounds nothing, and for a sphere it is the two bounding spheres' distance. Its cutoff: a
+      // mesh or an ellipsoid farther than the test needs answers with a lower bound, not its exact distance.
+      if (geometry::obstacle_distance(packed, i, axis.middle, need + axis.half + radius) - axis.half - radius >= need)
+        continue;
       const double lower = robot::capsule_lower_bound(obstacles, i, ws.world, links, c);
       if (lower >= need) continue;
       // the two-level distance; its fine level reads the link's primitives (robot/clearance.hpp's rule for when)

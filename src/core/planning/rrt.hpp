@@ -51,8 +51,6 @@ inline double uniform(std::uint64_t& state) {
 // integers).
 void uniforms(std::uint64_t& state, double* out, std::size_t count);
 
-// The scratch of the joint-space state check, sized once per robot: joint frames and world segments; the fitted
-// primitives of a link are moved into the world only when some pair of that link reaches the fine level.
 // A capsule's axis as its midpoint and half length: every point of the capsule lies within half + its radius of
 // the midpoint.
 struct AxisMiddle {
@@ -60,6 +58,8 @@ struct AxisMiddle {
   double half;
 };
 
+// The scratch of the joint-space state check, sized once per robot: joint frames and world segments; the fitted
+// primitives of a link are moved into the world only when some pair of that link reaches the fine level.
 struct CapsuleWorkspace {
   explicit CapsuleWorkspace(const robot::RobotView& robot);
   CapsuleWorkspace(const CapsuleWorkspace&) = delete;  // the views point into it
