@@ -140,13 +140,6 @@ SignedDistance detail::mesh_within(const PackedView& packed, double mesh, const 
   return mesh_signed_distance(packed, table[0], table[4] != 0, q);
 }
 
-// the bounding sphere's distance is a lower bound of the ellipsoid's: exact only within the cutoff
-SignedDistance detail::ellipsoid_within(const Vec3& q, double a, double b, double c, double cutoff) {
-  const SignedDistance bound = sphere_at(q, max_of(max_of(a, b), c));
-  if (bound.distance <= cutoff) return ellipsoid_local(q, a, b, c);
-  return bound;
-}
-
 SignedDistance sphere_local(Vec3 q, double r) { return detail::sphere_at(q, r); }
 SignedDistance box_local(Vec3 q, double hx, double hy, double hz) { return detail::box_at(q, hx, hy, hz); }
 SignedDistance cylinder_local(Vec3 q, double r, double half_height) { return detail::cylinder_at(q, r, half_height); }

@@ -120,10 +120,16 @@ inline double sign_of(double x) { return x >= 0.0 ? 1.0 : -1.0; }
   return norm == 0.0 ? -r : norm - r;
 }
 
-// The costly kinds, out of line (sdf.cpp), in the obstacle's local frame: an ellipsoid (exact within the cutoff,
-// else possibly its bounding sphere's lower bound) and a mesh (exact within the cutoff, else possibly its bounding
-// box's gap; NaN for a row naming no packed mesh).
-SignedDistance ellipsoid_within(const Vec3& q, double a, double b, double c, double cutoff);
+// The costly kinds in the obstacle's local frame. An ellipsoid: exact within the cutoff, else possibly its bounding
+// sphere's distance, a lower bound (here, so that a caller that reads the distance alone drops that sphere's
+// normal; the exact part, ellipsoid_local, is out of line). A mesh (sdf.cpp): exact within the cutoff, else possibly
+// its bounding box's gap; NaN for a row naming no packed mesh.
+[[gnu::always_inline]] inline SignedDistance ellipsoid_within(const Vec3& q, double a, double b, double c,
+                                                              double cutoff) {
+  const SignedDistance bound = sphere_at(q, max_of(max_of(a, b), c));
+  if (bound.distance <= cutoff) return ellipsoid_local(q, a, b, c);
+  return bound;
+}
 SignedDistance mesh_within(const PackedView& packed, double mesh, const Vec3& q, double cutoff);
 
 // q = R^T (p - c): p in obstacle i's frame (row: its packed row).
@@ -193,10 +199,8 @@ SignedDistance mesh_within(const PackedView& packed, double mesh, const Vec3& q,
       return detail::cylinder_distance(q, row[12], row[13]);
     case Kind::Capsule:
       return detail::capsule_distance(q, row[12], row[13]);
-    case Kind::Ellipsoid: {  // ellipsoid_within's rule, with its bounding sphere's distance inline (no normal)
-      const double bound = detail::sphere_at(q, detail::max_of(detail::max_of(row[12], row[13]), row[14])).distance;
-      return bound <= cutoff ? ellipsoid_local(q, row[12], row[13], row[14]).distance : bound;
-    }
+    case Kind::Ellipsoid:
+      return detail::ellipsoid_within(q, row[12], row[13], row[14], cutoff).distance;
     case Kind::Mesh:
       return detail::mesh_within(packed, row[15], q, cutoff).distance;
     default:  // any unknown code: a sphere

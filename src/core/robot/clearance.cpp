@@ -306,6 +306,11 @@ void covering_needed(const KinematicsView& kinematics, const LinkModelView& link
     capsule_segments(links, frames, world);
   }
   for (std::size_t p = 0; p < pairs; ++p) {
+    std::uint8_t* out = needed + p * count;
+    if (!(slack[p] < kInf)) {  // no bound for this pair (an ellipsoid or a mesh): needed everywhere, not computed
+      std::fill(out, out + count, std::uint8_t{1});
+      continue;
+    }
     const double* w = weights + p * n;
     for (std::size_t k = 0; k < count; ++k) {
       double sum = 0.0;
@@ -313,11 +318,6 @@ void covering_needed(const KinematicsView& kinematics, const LinkModelView& link
       reach[k] = sum;
     }
     const double* row = reach.data();
-    std::uint8_t* out = needed + p * count;
-    if (!(slack[p] < kInf)) {  // no bound for this pair (an ellipsoid or a mesh): needed everywhere, not computed
-      std::fill(out, out + count, std::uint8_t{1});
-      continue;
-    }
     std::size_t k = 0;
     while (k < count) {
       const WorldSegments world = world_at(k);
