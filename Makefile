@@ -153,8 +153,15 @@ OLD_ENGINE_COMMIT ?= ebecf3d37b3cf7703a6465eb818098e2756d745f
 OLD_ENGINE        := build/old-engine
 OLD_ENGINE_STAMP  := $(OLD_ENGINE)/.venv/.old-engine-ready
 OLD_ENGINE_LOG    := build/old-engine.log
+OLD_ENGINE_SHARED := build/shared
 .PHONY: old-engine
-old-engine: $(OLD_ENGINE_STAMP)
+old-engine: $(OLD_ENGINE_STAMP) $(OLD_ENGINE_SHARED)
+
+# The worktree's benchmarks look for the MotionBenchMaker problems (bench_batch, bench_mbm) in ../shared from their
+# project's root, which for build/old-engine is build/shared: a link to the same folder as ours, or those modules skip
+# their old figures.
+$(OLD_ENGINE_SHARED):
+	@if test -d ../shared; then mkdir -p build && ln -sfn $(abspath ../shared) $@; fi
 
 $(OLD_ENGINE_STAMP):
 	@mkdir -p build && : > $(OLD_ENGINE_LOG)
