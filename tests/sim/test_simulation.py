@@ -46,8 +46,8 @@ def test_with_gravity_compensation_a_pose_holds_exactly(panda: RobotModel) -> No
 @pytest.mark.parametrize("step", [0.003, 0.01, 0.02, 0.2])
 def test_a_step_of_the_reference_that_saturates_a_joint_settles(panda: RobotModel, step: float) -> None:
     """A reference step large enough to hit a wrist joint's 12 N·m limit (kp 2000: from 6 mrad) settles, and the
-    joint rests at the new reference. With kv in the force-limited actuator, the implicit integrator kept joint 7
-    chattering at ±0.111 rad/s for ever after a 0.01 rad step (pfield.sim.gains)."""
+    joint rests at the new reference. At the former 2 ms step, the implicit integrator kept joint 7 chattering at
+    ±0.111 rad/s for ever after a 0.01 rad step (why: pfield.sim.model.DEFAULT_TIMESTEP)."""
     q = np.array([0.0428, -0.6864, 0.2643, -2.2083, 0.1783, 1.6193, 1.1663])  # where the servo test's arm stopped
     sim = Simulation(panda, q0=q)
     for joint in (4, 6):
