@@ -292,23 +292,43 @@ class SceneFigures:
         return 100.0 * self.solved / self.valid if self.valid else math.nan
 
 
+ALL_SCENES = "all scenes"
+"""The scene name of each robot's line over every problem of every scene (:func:`figures`)."""
+VAMP_PATH_LENGTH = {"panda": 4.90, "ur5": 6.52}
+"""(rad) VAMP's median simplified joint path (L2) over its whole MotionBenchMaker set per robot (RRT-Connect with
+simplification; ``../shared/benchmarks/REFERENCE.md`` and ``mbm/ur5/README.md``): a median over every scene, so it
+compares with the :data:`ALL_SCENES` line; issue 34's target is at most 1.1 times it."""
+PATH_LENGTH_FACTOR = 1.1
+
+
 def figures(results: Sequence[Result]) -> list[SceneFigures]:
-    """The table's lines: per robot, scene and planner (in the order they were run)."""
+    """The table's lines: per robot, scene and planner (in the order they were run), then per robot and planner a
+    line over all its scenes (:data:`ALL_SCENES`; when it ran more than one)."""
     lines = []
-    for robot, scene in dict.fromkeys((r.robot, r.scene) for r in results):
-        here = [r for r in results if r.robot == robot and r.scene == scene]
-        valid = [r for r in here if r.valid]
-        planners = dict.fromkeys(p for r in valid for p in r.outcomes) or dict.fromkeys(PLANNERS[:1])
-        for planner in planners:
-            outcomes = [r.outcomes[planner] for r in valid if planner in r.outcomes]
-            good = [o for o in outcomes if o.success]
-            ms = [o.seconds * 1e3 for o in outcomes]
-            statuses = ", ".join(f"{k} {v}" for k, v in sorted(Counter(o.status for o in outcomes).items()))
-            lines.append(SceneFigures(robot, scene, planner, len(here), len(valid), len(good), _percentile(ms, 50),
-                                      _percentile(ms, 95), _percentile([o.cpu_seconds * 1e3 for o in outcomes], 50),
-                                      _percentile([o.length for o in good], 50),
-                                      _percentile([o.duration for o in good if not math.isnan(o.duration)], 50),
-                                      sum(bool(o.contact) for o in good), statuses))
+    for robot in dict.fromkeys(r.robot for r in results):
+        mine = [r for r in results if r.robot == robot]
+        scenes = list(dict.fromkeys(r.scene for r in mine))
+        for scene in scenes:
+            lines += _scene_figures(robot, scene, [r for r in mine if r.scene == scene])
+        if len(scenes) > 1:
+            lines += _scene_figures(robot, ALL_SCENES, mine)
+    return lines
+
+
+def _scene_figures(robot: str, scene: str, here: Sequence[Result]) -> list[SceneFigures]:
+    valid = [r for r in here if r.valid]
+    planners = dict.fromkeys(p for r in valid for p in r.outcomes) or dict.fromkeys(PLANNERS[:1])
+    lines = []
+    for planner in planners:
+        outcomes = [r.outcomes[planner] for r in valid if planner in r.outcomes]
+        good = [o for o in outcomes if o.success]
+        ms = [o.seconds * 1e3 for o in outcomes]
+        statuses = ", ".join(f"{k} {v}" for k, v in sorted(Counter(o.status for o in outcomes).items()))
+        lines.append(SceneFigures(robot, scene, planner, len(here), len(valid), len(good), _percentile(ms, 50),
+                                  _percentile(ms, 95), _percentile([o.cpu_seconds * 1e3 for o in outcomes], 50),
+                                  _percentile([o.length for o in good], 50),
+                                  _percentile([o.duration for o in good if not math.isnan(o.duration)], 50),
+                                  sum(bool(o.contact) for o in good), statuses))
     return lines
 
 
@@ -356,17 +376,21 @@ def problems_list(results: Sequence[Result]) -> str:
 
 def rows(lines: Sequence[SceneFigures]) -> list[BenchRow]:
     """:mod:`benchmarks.run`'s rows: success (target 99 % for pfield), median and p95 time (targets 10/100 ms),
-    path length, duration and colliding claims (target 0) per robot, scene and planner."""
+    path length (on the :data:`ALL_SCENES` lines: at most 1.1 times VAMP's, named in the note), duration
+    and colliding claims (target 0) per robot, scene and planner."""
     out = []
     for f in lines:
         name = f"{f.robot} {f.scene}: {f.planner}"
         ours = f.planner == PLANNERS[0]
+        vamp = VAMP_PATH_LENGTH.get(f.robot) if f.scene == ALL_SCENES else None
         out += [
             BenchRow(SECTION, f"{name} success", f.success, "%", target=99.0 if ours else None, higher_is_better=True,
                      note=f"{f.solved}/{f.valid} valid ({f.problems} problems); {f.statuses}"),
             BenchRow(SECTION, f"{name} median time", f.median_ms, "ms", target=10.0 if ours else None),
             BenchRow(SECTION, f"{name} p95 time", f.p95_ms, "ms", target=100.0 if ours else None),
-            BenchRow(SECTION, f"{name} median path length", f.length, "rad"),
+            BenchRow(SECTION, f"{name} median path length", f.length, "rad",
+                     target=None if vamp is None or not ours else PATH_LENGTH_FACTOR * vamp,
+                     note="" if vamp is None else f"VAMP's median simplified path over its whole set: {vamp:.2f} rad"),
             BenchRow(SECTION, f"{name} claimed successes in collision", float(f.colliding), "",
                      target=0.0 if ours else None),
         ]

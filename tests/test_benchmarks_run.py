@@ -185,6 +185,24 @@ def test_the_mbm_table_counts_over_valid_problems_and_shows_colliding_claims() -
     assert "claimed reached, in contact: wrist_2_link/Can1 at 3" in listed and "| ur5 | box | 1 |" not in listed
 
 
+def test_the_mbm_table_adds_a_line_over_all_scenes_with_vamps_path_as_the_target() -> None:
+    from benchmarks.bench_fallback import ALL_SCENES, Result, figures, rows
+
+    results = [Result("ur5", "box", 1, "", "", {"pfield": _outcome(True, 0.010, 4.0)}),
+               Result("ur5", "cage", 1, "", "", {"pfield": _outcome(True, 0.050, 8.0)}),
+               Result("ur5", "cage", 2, "", "", {"pfield": _outcome(True, 0.070, 9.0)}),
+               Result("ur5", "cage", 3, "", "forearm_link/table")]
+    box, cage, every = figures(results)
+    assert (box.scene, cage.scene, every.scene) == ("box", "cage", ALL_SCENES)
+    assert (every.problems, every.valid, every.solved) == (4, 3, 3)
+    assert every.length == pytest.approx(8.0) and every.median_ms == pytest.approx(50.0)
+    path = {r.name: r for r in rows([cage, every]) if r.name.endswith("median path length")}
+    assert path["ur5 cage: pfield median path length"].target is None
+    assert path[f"ur5 {ALL_SCENES}: pfield median path length"].target == pytest.approx(1.1 * 6.52)
+    (single,) = figures(results[:1])  # one scene: no line over all
+    assert single.scene == "box"
+
+
 @pytest.mark.parametrize("argv", [["--limit", "0"], ["--robot", "kuka"], ["--ompl-time", "0"], ["--scenes", "x"]])
 def test_the_mbm_bench_refuses_bad_arguments(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
     from benchmarks import bench_fallback
