@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import sys
+from importlib.metadata import version
 from pathlib import Path
 
 import pytest
@@ -15,7 +17,34 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 # between runs there, as a user's cache does (pfield.robot._fit.cache_root).
 os.environ.setdefault("PFIELD_CACHE_DIR", str(Path(__file__).resolve().parents[1] / "build" / "test-cache"))
 
-from hypothesis import settings
+
+
+def _pin_numpy_kernels() -> None:
+    """On a CPU with AVX-512, have numpy and OpenBLAS use their AVX2 kernels, as on the machines the tests' exact
+    values were recorded on: numpy dispatches its ufuncs (sin, cos, exp, ...) and OpenBLAS its matrix products by CPU,
+    and their AVX-512 kernels round differently in the last bits, so the inputs that the exact-value tests build with
+    numpy (rotations, Jacobian products, fitted link models) differ there (46 such tests failed on a Xeon with
+    AVX-512, 2026-12-06; the core is built without AVX-512 for the same reason, CMakeLists.txt). Set before numpy is
+    first imported (its dispatch is fixed at import); subprocesses and xdist workers inherit it. A variable already
+    set is kept."""
+    if "numpy" in sys.modules:
+        raise RuntimeError("numpy was imported before tests/conftest.py could pin its CPU dispatch")
+    try:
+        avx512 = " avx512f" in Path("/proc/cpuinfo").read_text()
+    except OSError:  # not Linux: no known machine of the project's
+        return
+    if not avx512:
+        return
+    major, minor = (int(part) for part in version("numpy").split(".")[:2])
+    groups = "X86_V4,AVX512_ICL,AVX512_SPR" if (major, minor) >= (2, 4) else \
+        "AVX512F,AVX512CD,AVX512_SKX,AVX512_CLX,AVX512_CNL,AVX512_ICL,AVX512_SPR"
+    os.environ.setdefault("NPY_DISABLE_CPU_FEATURES", groups)
+    os.environ.setdefault("OPENBLAS_CORETYPE", "Haswell")
+
+
+_pin_numpy_kernels()
+
+from hypothesis import settings  # noqa: E402  (after the pin: numpy is not imported before it)
 
 # CI runs the property tests on hypothesis's fixed example sequence, so a submission's result does not depend
 # on the draw; developers' runs keep exploring new examples.
