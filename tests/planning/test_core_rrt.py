@@ -492,6 +492,30 @@ def test_tracking_a_lagging_joint_is_numbas() -> None:
     assert _track_digest(outputs) == LAGGING_DIGEST
 
 
+def test_a_tracking_held_still_by_the_dampers_ends_in_stagnation_after_the_window() -> None:
+    """The Panda's base turning 1.5 rad along a straight path through a wall: the dampers stop the arm at the wall
+    and the target waits for it. The tracking ends STAGNATION once neither the target nor the arm moved (by the
+    stagnation progress) for the field's stagnation window, not at the iteration limit."""
+    panda = RobotModel.builtin("panda")
+    start = np.array([0.0, -0.4, 0.0, -2.0, 0.0, 1.6, 0.8])
+    goal_q = start.copy()
+    goal_q[0] = 1.5
+    config = FieldConfig()
+    wall = Obstacle("wall", Box(0.6, 0.05, 1.6), Pose((0.45, 0.3, 0.5)))
+    arrays = pack_robot(panda, config, WholeBodyOptions())
+    scene = make_scene(pack_obstacles([wall]), arrays, start, config.safety_distance)
+    params = kernel_parameters(config, PlanOptions(dt=0.02).resolved(config), WholeBodyOptions())
+    window, progress = int(params[wb.STAG_STEPS]), params[wb.STAG_PROGRESS]
+    loop = track(panda, arrays, scene, np.array([start, goal_q]), panda.forward_kinematics(goal_q), params, 20000,
+                 GlobalOptions())
+    status, count, qs = loop[:3]
+    _check_track(panda, start, params[wb.DT], loop)
+    assert PlanStatus(status) == PlanStatus.STAGNATION and window < count < 20000
+    assert 0.1 < qs[-1][0] < 1.0  # held at the wall, short of the goal's 1.5 rad
+    assert np.max(np.abs(qs[-window - 1:] - qs[-window - 1])) < progress  # still for the whole window
+    assert loop[7][-1] >= config.safety_distance - 1e-6  # and kept its clearance there
+
+
 def test_the_tracking_releases_the_gil_and_reads_the_cancel_flag() -> None:
     """A tracking that could run for seconds (an unreachable goal pose, no settling) ends CANCELLED soon after another
     thread sets the flag: it ran without the GIL and read the flag every step."""

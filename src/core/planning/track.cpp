@@ -73,6 +73,11 @@ WholeBodyPlanResult track_path(const double* q0, const double* waypoints, std::s
   double top = 0.0, accel = 0.0;
   const std::int64_t settle_limit = std::max<std::int64_t>(settings.max_iterations / 4, 1);
   std::int64_t settled_for = 0;
+  // the stall rule: for the field's stagnation window, the target has not moved along the path and the arm has not
+  // moved by the field's stagnation progress (max norm) either
+  const auto stall_window = std::max<std::int64_t>(static_cast<std::int64_t>(params.stagnation_steps), 1);
+  std::int64_t progress_at = 0;
+  std::vector<double> anchor(q0, q0 + n);
   WholeBodyPlanResult result;
   result.count = total;
   const std::int64_t last = static_cast<std::int64_t>(count) - 1;
@@ -89,7 +94,9 @@ WholeBodyPlanResult track_path(const double* q0, const double* waypoints, std::s
     for (std::size_t j = 0; j < n; ++j) lag = py_max(lag, std::abs(target[j] - q[j]));
     if (sigma < 1.0 && lag <= settings.lead) {
       rate = py_min(py_min(rate + accel * dt, top), std::sqrt(2.0 * accel * (1.0 - sigma)));
+      const double before = sigma;
       sigma = py_min(sigma + rate * dt, 1.0);
+      if (sigma > before) progress_at = k, std::copy(q.begin(), q.end(), anchor.begin());
     } else {
       rate = 0.0;
     }
@@ -105,6 +112,14 @@ WholeBodyPlanResult track_path(const double* q0, const double* waypoints, std::s
     tracking_step(q.data(), k > 0 ? previous.data() : nullptr, reference.data(), robot, scene, goal, params, ws);
     const bool finished = segment == last && sigma >= 1.0;
     if (record_step(k, total, q, ws, params, finished, cancel, path, result)) break;
+    double moved = 0.0;
+    for (std::size_t j = 0; j < n; ++j) moved = py_max(moved, std::abs(q[j] - anchor[j]));
+    if (moved >= params.stagnation_progress) progress_at = k, std::copy(q.begin(), q.end(), anchor.begin());
+    if (!finished && k - progress_at >= stall_window) {  // held back by the dampers: no use going on
+      result.status = PlanStatus::Stagnation;
+      result.count = k + 1;
+      break;
+    }
     if (finished && ++settled_for > settle_limit) {
       result.status = PlanStatus::Stagnation;
       result.count = k + 1;

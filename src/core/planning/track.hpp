@@ -44,7 +44,12 @@ void tracking_step(const double* q, const double* previous, const double* refere
 // Follows waypoints (count, n; the first is q0) from q0 until the field's goal tolerances hold at the end (Reached),
 // a damper could not keep a pair apart (Collision / SelfCollision: stopped before the contact), the target reached
 // the last vertex but the arm did not settle within the tolerances in max_iterations / 4 further steps
-// (Stagnation), the iteration limit, or *cancel != 0 (Cancelled, read atomically every step). The waypoints are
+// (Stagnation), for params.stagnation_steps steps neither the target moved along the path nor the arm by
+// params.stagnation_progress (max norm) (Stagnation: the dampers hold the arm still short of the target; an arm
+// that detours around an obstacle to catch up keeps moving and goes on; without this rule such a tracking ran to
+// the iteration limit,
+// e.g. 10 000 steps, 0.29 s, on a UR5 MotionBenchMaker problem whose fallback then solved it with the next
+// search), the iteration limit, or *cancel != 0 (Cancelled, read atomically every step). The waypoints are
 // plan_whole_body's (path: max_iterations + 1 rows each); `last` of the result names a failure's culprit.
 WholeBodyPlanResult track_path(const double* q0, const double* waypoints, std::size_t count,
                                const robot::RobotView& robot, const WholeBodyScene& scene, const Goal& goal,
