@@ -10,14 +10,14 @@ STAMP  := $(VENV)/.installed
 # install without build isolation, so that its build tree (build/cp311-*) is kept and an edit of a C++ file
 # rebuilds only what changed (`make core`, a few seconds). docs/core.md: options, debug and sanitizer builds.
 # The build tools alone first (their own stamp): the core's sanitizer build (core-test) needs only these, so that
-# `make test` compiles it while pip installs the dependencies on the other core. setuptools and wheel are among
+# `make test` compiles it while pip installs the dependencies on the other core. setuptools >= 70.1 is among
 # them because, without build isolation, a dependency published only as an sdist (empy, for the ROS 2 wheels)
-# is built with the venv's own setuptools, and a new venv's (65.5) has no bdist_wheel.
+# is built with the venv's own setuptools, and a new venv's (65.5) has no bdist_wheel (70.1 has it built in).
 TOOLS_STAMP := $(VENV)/.build-tools
 $(TOOLS_STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet 'scikit-build-core>=0.10' 'nanobind>=2.4' cmake ninja 'setuptools>=70.1' wheel
+	$(PY) -m pip install --quiet 'scikit-build-core>=0.10' 'nanobind>=2.4' cmake ninja 'setuptools>=70.1'
 	@touch $@
 
 $(STAMP): pyproject.toml CMakeLists.txt | $(TOOLS_STAMP)

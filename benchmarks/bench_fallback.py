@@ -17,8 +17,8 @@ Per problem (problem loading: :func:`benchmarks.bench_mbm.read_problem`; joint v
   pinocchio + coal on the link meshes, the obstacles' exact shapes, the self pairs the SRDF does not disable);
   only valid problems are planned, and success counts over them;
 * **pfield** — ``PotentialField(MBM_CONFIG, FK(goal), obstacles).plan_whole_body(robot, start,
-  options=MBM_OPTIONS, goal_configuration=goal)``: the field, and when it stagnates its global fallback (its
-  default time limit), as a user calls it;
+  options=MBM_OPTIONS, goal_configuration=goal)``: the field, and when it stagnates its global fallback (5 s, the
+  time limit of ``MBM_OPTIONS``), as a user calls it;
 * **OMPL RRT-Connect** — ``ompl`` 2.0.1 (the ``bench`` extra), default range, from the start joints to the goal
   joints within :data:`OMPL_TIME_LIMIT` s, then ``simplifySolution`` within the remaining time (at most
   :data:`SIMPLIFY_TIME` s; OMPL looks at its deadline only between its steps, so a plan may overrun it); states are
@@ -296,8 +296,10 @@ ALL_SCENES = "all scenes"
 """The scene name of each robot's line over every problem of every scene (:func:`figures`)."""
 VAMP_PATH_LENGTH = {"panda": 4.90, "ur5": 6.52}
 """(rad) VAMP's median simplified joint path (L2) over its whole MotionBenchMaker set per robot (RRT-Connect with
-simplification; ``../shared/benchmarks/REFERENCE.md`` and ``mbm/ur5/README.md``): a median over every scene, so it
-compares with the :data:`ALL_SCENES` line; issue 34's target is at most 1.1 times it."""
+simplification; the UR5's from ``../shared/benchmarks/mbm/ur5/README.md``, the Panda's as issue 34 quotes it, over
+MBM's 7 Panda scenes, of which this machine's archive holds 4): a median over every scene, so it compares with the
+:data:`ALL_SCENES` line (over the scenes and problems that ran: the row's note says how many); issue 34's target is
+at most 1.1 times it."""
 PATH_LENGTH_FACTOR = 1.1
 
 
@@ -390,7 +392,8 @@ def rows(lines: Sequence[SceneFigures]) -> list[BenchRow]:
             BenchRow(SECTION, f"{name} p95 time", f.p95_ms, "ms", target=100.0 if ours else None),
             BenchRow(SECTION, f"{name} median path length", f.length, "rad",
                      target=None if vamp is None or not ours else PATH_LENGTH_FACTOR * vamp,
-                     note="" if vamp is None else f"VAMP's median simplified path over its whole set: {vamp:.2f} rad"),
+                     note="" if vamp is None else f"VAMP's median simplified path over its whole set: {vamp:.2f} "
+                                                  f"rad; this line: the {f.solved} solved of {f.valid} valid problems"),
             BenchRow(SECTION, f"{name} claimed successes in collision", float(f.colliding), "",
                      target=0.0 if ours else None),
         ]

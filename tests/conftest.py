@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import os
+import subprocess
 import sys
-from importlib.metadata import version
+import warnings
 from pathlib import Path
 
 import pytest
@@ -12,37 +13,46 @@ import pytest
 # Keep matplotlib headless in every test process.
 os.environ.setdefault("MPLBACKEND", "Agg")
 
-# The fitted robot link models of the test run (and of every server, worker and example process it starts, which
-# inherit the environment) go under build/ of this checkout, not into the user's ~/.cache/pfield; they persist
-# between runs there, as a user's cache does (pfield.robot._fit.cache_root).
-os.environ.setdefault("PFIELD_CACHE_DIR", str(Path(__file__).resolve().parents[1] / "build" / "test-cache"))
 
 
-
-def _pin_numpy_kernels() -> None:
+def _pin_numpy_kernels() -> bool:
     """On a CPU with AVX-512, have numpy and OpenBLAS use their AVX2 kernels, as on the machines the tests' exact
     values were recorded on: numpy dispatches its ufuncs (sin, cos, exp, ...) and OpenBLAS its matrix products by CPU,
     and their AVX-512 kernels round differently in the last bits, so the inputs that the exact-value tests build with
-    numpy (rotations, Jacobian products, fitted link models) differ there (46 such tests failed on a Xeon with
-    AVX-512, 2026-12-06; the core is built without AVX-512 for the same reason, CMakeLists.txt). Set before numpy is
-    first imported (its dispatch is fixed at import); subprocesses and xdist workers inherit it. A variable already
-    set is kept."""
-    if "numpy" in sys.modules:
-        raise RuntimeError("numpy was imported before tests/conftest.py could pin its CPU dispatch")
+    numpy (rotations, Jacobian products, fitted link models) differ there (a Xeon with AVX-512, 2026-12-06; the core
+    is built without AVX-512 as well, CMakeLists.txt: both were needed). Set before numpy is first imported (its
+    dispatch is fixed at import); xdist workers and the subprocesses that inherit the environment inherit it. Which
+    of numpy's targets to switch off, numpy says itself (a short subprocess: the AVX-512 targets it dispatches to
+    beyond its baseline; their names differ between numpy versions). A variable already set is kept. True when the
+    kernels are pinned."""
     try:
         avx512 = " avx512f" in Path("/proc/cpuinfo").read_text()
     except OSError:  # not Linux: no known machine of the project's
-        return
+        return False
     if not avx512:
-        return
-    major, minor = (int(part) for part in version("numpy").split(".")[:2])
-    groups = "X86_V4,AVX512_ICL,AVX512_SPR" if (major, minor) >= (2, 4) else \
-        "AVX512F,AVX512CD,AVX512_SKX,AVX512_CLX,AVX512_CNL,AVX512_ICL,AVX512_SPR"
-    os.environ.setdefault("NPY_DISABLE_CPU_FEATURES", groups)
+        return False
+    if "NPY_DISABLE_CPU_FEATURES" not in os.environ:
+        if "numpy" in sys.modules:
+            warnings.warn("numpy was imported before tests/conftest.py could pin its kernels to AVX2: exact-value "
+                          "tests may fail on this AVX-512 machine", stacklevel=1)
+            return False
+        query = ("import numpy as np; core = getattr(np, '_core', None) or np.core; u = core._multiarray_umath; "
+                 "print(','.join(f for f in u.__cpu_dispatch__ if (f.startswith('AVX512') or f == 'X86_V4') "
+                 "and f not in u.__cpu_baseline__ and u.__cpu_features__.get(f)))")
+        found = subprocess.run([sys.executable, "-c", query], capture_output=True, text=True, check=True)
+        os.environ["NPY_DISABLE_CPU_FEATURES"] = found.stdout.strip()
     os.environ.setdefault("OPENBLAS_CORETYPE", "Haswell")
+    return True
 
 
-_pin_numpy_kernels()
+PINNED = _pin_numpy_kernels()
+
+# The fitted robot link models of the test run (and of every server, worker and example process it starts, which
+# inherit the environment) go under build/ of this checkout, not into the user's ~/.cache/pfield; they persist
+# between runs there, as a user's cache does (pfield.robot._fit.cache_root). Pinned runs keep their own: link
+# models fitted with numpy's AVX-512 kernels (a run before the pin) are not read by them.
+os.environ.setdefault("PFIELD_CACHE_DIR", str(Path(__file__).resolve().parents[1] / "build" /
+                                              ("test-cache-avx2" if PINNED else "test-cache")))
 
 from hypothesis import settings  # noqa: E402  (after the pin: numpy is not imported before it)
 

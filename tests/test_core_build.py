@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import platform
 import shlex
 import subprocess
 import sys
@@ -70,3 +71,7 @@ def test_the_portable_option_targets_x86_64_v2_and_the_default_the_host(tmp_path
                for entry in commands}
     expected = ["-march=native"] if native else ["-march=x86-64-v2"]
     assert all(found == expected for found in marches.values()), marches
+    # a native build on x86-64 has no AVX-512 (the same bits with or without it, CMakeLists.txt); x86-64-v2 has none
+    without = {entry["file"]: "-mno-avx512f" in shlex.split(entry["command"]) for entry in commands}
+    assert all(without.values()) if native and platform.machine() in ("x86_64", "AMD64") else \
+        not any(without.values()), without

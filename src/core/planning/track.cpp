@@ -1,6 +1,7 @@
 // The path tracking (track.hpp), statement for statement as the numba kernel it replaced (issue 32): the same sums
 // in the same order and Python's min/max tie rules, compiled without fused multiply-adds (CMakeLists.txt), so the
-// same bits.
+// same bits, except the stall rule added since, which ends a tracking held still earlier (its waypoints up to
+// there are the same).
 #include "planning/track.hpp"
 
 #include <algorithm>
@@ -115,7 +116,7 @@ WholeBodyPlanResult track_path(const double* q0, const double* waypoints, std::s
     double moved = 0.0;
     for (std::size_t j = 0; j < n; ++j) moved = py_max(moved, std::abs(q[j] - anchor[j]));
     if (moved >= params.stagnation_progress) progress_at = k, std::copy(q.begin(), q.end(), anchor.begin());
-    if (!finished && k - progress_at >= stall_window) {  // held back by the dampers: no use going on
+    if (!finished && k - progress_at >= stall_window) {  // held still by a damper or a joint limit: no use going on
       result.status = PlanStatus::Stagnation;
       result.count = k + 1;
       break;

@@ -15,7 +15,8 @@
 // the field's clearance guarantees even where the polyline cuts close.
 //
 // The same operations in the same order as the numba kernel it replaced (issue 32): the same waypoints to the
-// last bit (tests/planning/test_core_rrt.py holds digests of that kernel's tracked paths).
+// last bit (tests/planning/test_core_rrt.py holds digests of that kernel's tracked paths); the stall rule below is
+// newer and only ends a tracking earlier.
 #pragma once
 
 #include <cstddef>
@@ -45,12 +46,12 @@ void tracking_step(const double* q, const double* previous, const double* refere
 // a damper could not keep a pair apart (Collision / SelfCollision: stopped before the contact), the target reached
 // the last vertex but the arm did not settle within the tolerances in max_iterations / 4 further steps
 // (Stagnation), for params.stagnation_steps steps neither the target moved along the path nor the arm by
-// params.stagnation_progress (max norm) (Stagnation: the dampers hold the arm still short of the target; an arm
-// that detours around an obstacle to catch up keeps moving and goes on; without this rule such a tracking ran to
-// the iteration limit,
-// e.g. 10 000 steps, 0.29 s, on a UR5 MotionBenchMaker problem whose fallback then solved it with the next
-// search), the iteration limit, or *cancel != 0 (Cancelled, read atomically every step). The waypoints are
-// plan_whole_body's (path: max_iterations + 1 rows each); `last` of the result names a failure's culprit.
+// params.stagnation_progress (max norm) (Stagnation: a damper or a joint limit holds the arm still short of the
+// target; an arm that detours around an obstacle to catch up keeps moving and goes on; without this rule such a
+// tracking ran to the iteration limit, e.g. 10 000 steps and 0.29 s on a UR5 MotionBenchMaker problem whose
+// fallback then solved it with the next search), the iteration limit, or *cancel != 0 (Cancelled, read atomically
+// every step). The waypoints are plan_whole_body's (path: max_iterations + 1 rows each); `last` of the result names
+// a failure's culprit.
 WholeBodyPlanResult track_path(const double* q0, const double* waypoints, std::size_t count,
                                const robot::RobotView& robot, const WholeBodyScene& scene, const Goal& goal,
                                const WholeBodyParams& params, const TrackSettings& settings,

@@ -56,7 +56,10 @@ class PlanOptions:
     Stagnation (one rule for every planner, ``src/core/planning/status.hpp``'s ``Progress``): every
     ``stagnation_steps`` steps the best position error and the best rotation error so far are compared
     with their values one window earlier; when neither improved by ``stagnation_progress``, the plan ends
-    with :attr:`PlanStatus.STAGNATION`.
+    with :attr:`PlanStatus.STAGNATION`. The global fallback's tracking reads the same two values: it ends with
+    ``STAGNATION`` when, for ``stagnation_steps`` steps, neither its target moved along the searched path nor the
+    arm by ``stagnation_progress`` (rad or m, the largest joint change): held still short of the target
+    (``src/core/planning/track.hpp``).
     """
 
     dt: float = 0.01
