@@ -51,7 +51,8 @@ def test_the_servo_answers_teleop_after_every_trajectory_execution(tmp_path: Pat
 def test_the_servo_spins_on_its_own_executor_and_keeps_its_latest_inputs(tmp_path: Path) -> None:
     """``pfield.transport.ros2``: the servo's inputs are handled in its own thread (not the shared executor's workers,
     where the manager's are) and keep only the latest message (depth 1), so a command never waits behind other nodes'
-    callbacks or a backlog of older commands; the servo still answers with a command out."""
+    callbacks or a backlog of older commands; ``/joint_states`` is among them (the servo subscribes it for the
+    manager: ``ManagerNode.joint_states_subscriber``); the servo still answers with a command out."""
     from ros2_helpers.support import require_netns, require_ros2_python, run_scenario
 
     require_ros2_python()
@@ -64,11 +65,13 @@ def test_the_servo_spins_on_its_own_executor_and_keeps_its_latest_inputs(tmp_pat
     assert seen["session"]["node_returncode"] == 0, seen["logs"]["node.log"]
     host = json.loads((out / "host.json").read_text())
     assert host["threads"]["servo"] == ["pfield-ros2-pfield_servo"]
+    assert host["threads"]["joint_states"] == ["pfield-ros2-pfield_servo"]
     assert host["threads"]["manager"] and "pfield-ros2-pfield_servo" not in host["threads"]["manager"]
     depths = host["depths"]
     assert depths["/pfield_servo /pfield_servo/delta_twist_cmds"] == 1
     assert depths["/pfield_servo /pfield_servo/joy"] == 1
-    assert depths["/pfield_manager /joint_states"] > 1  # the other nodes keep their queues
+    assert depths["/pfield_servo /joint_states"] == 1 and "/pfield_manager /joint_states" not in depths
+    assert depths["/pfield_manager /pfield/planning_goal_pose"] > 1  # the other nodes keep their queues
     # while the servo runs, a thread waiting for the GIL gets it within 0.5 ms (5 ms by default), and after it as before
     from pfield.transport.ros2 import STREAMING_SWITCH_INTERVAL
 

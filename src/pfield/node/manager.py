@@ -172,6 +172,12 @@ class ManagerNode(Node):
         self._plan_count = 0
         self.joint_states = JointStateCache(robot)
         """The latest ``/joint_states`` (:mod:`pfield.node._joint_states`): what a request without joint angles uses."""
+        self.joint_states_subscriber: Node = self
+        """The node whose subscription feeds :attr:`joint_states` from ``/joint_states`` (into :meth:`on_joint_states`):
+        this one, or the servo hosted beside it (:class:`pfield.node.servo_node.ServoNode`), which then takes it over
+        so that a joint state is handled on the servo's own executor thread, one at a time with its commands, and
+        never wakes the executor shared by the other nodes (whose wake-up and hand-over of the GIL delayed the command
+        that followed a joint state by up to 10-17 ms on a 2-core machine, ``benchmarks/bench_servo.py``)."""
         self._call_costs: dict[tuple[str, str, bool], tuple[int, float]] = {}
         """(service, planning_method, has a goal) → (obstacle count, s) of the last such call answered."""
 
@@ -206,8 +212,8 @@ class ManagerNode(Node):
                              self.on_query_pose),
             SubscriptionSpec("/pfield/obstacle_velocities", "potential_fields_interfaces/msg/ObstacleVelocityArray",
                              pfi.ObstacleVelocityArray, self.on_obstacle_velocities),
-            SubscriptionSpec(JOINT_STATES_TOPIC, "sensor_msgs/msg/JointState", sensor_msgs.JointState,
-                             self.on_joint_states),
+            *([SubscriptionSpec(JOINT_STATES_TOPIC, "sensor_msgs/msg/JointState", sensor_msgs.JointState,
+                                self.on_joint_states)] if self.joint_states_subscriber is self else []),
         ]
 
     def publications(self) -> list[PublicationSpec]:

@@ -7,8 +7,10 @@ files give them), or from Python: ``ServoNode(bus, manager, config)``.
 
 Topics in: ``cartesian_command_in_topic`` (geometry_msgs/TwistStamped: ``header.frame_id`` empty means
 ``robot_link_command_frame``; the fixed frame, a static frame, or the end-effector link, which turns with the tool),
-``joy_topic`` (sensor_msgs/Joy, mapped by ``joy_device``), ``joint_topic`` when it is not ``/joint_states`` (the
-manager's). Topics out: ``command_out_topic`` (``command_out_type``: a JointTrajectory of one point at
+``joy_topic`` (sensor_msgs/Joy, mapped by ``joy_device``), ``joint_topic`` (sensor_msgs/JointState, into the
+manager's joint-state cache; ``/joint_states``, the default, is then this node's subscription instead of the
+manager's, so that joint states are handled on the servo's thread: :attr:`ManagerNode.joint_states_subscriber`).
+Topics out: ``command_out_topic`` (``command_out_type``: a JointTrajectory of one point at
 ``time_from_start = publish_period`` with positions/velocities/accelerations as ``publish_joint_*`` say, or a
 Float64MultiArray of positions when ``publish_joint_positions`` is set, else velocities; joints in the robot's tree
 order), ``status_topic`` (std_msgs/Int8: the :class:`~pfield.shared_control.servo.ServoStatus` code, as MoveIt
@@ -139,6 +141,8 @@ class ServoNode(Node):
         self.ignored = tuple(ignored)
         self._header = std_msgs.Header()
         self._joint_names = list(manager.robot.joint_names)
+        if self.topics["joint_topic"] == JOINT_STATES_TOPIC:  # the joint states on this node's thread (the manager's
+            manager.joint_states_subscriber = self            # joint_states_subscriber says why)
 
     @property
     def config(self) -> ServoConfig:
@@ -152,9 +156,10 @@ class ServoNode(Node):
         specs = [SubscriptionSpec(self.topics["cartesian_command_in_topic"], "geometry_msgs/msg/TwistStamped",
                                   gm.TwistStamped, self.on_twist),
                  SubscriptionSpec(self.topics["joy_topic"], "sensor_msgs/msg/Joy", sensor_msgs.Joy, self.on_joy)]
-        if self.topics["joint_topic"] != JOINT_STATES_TOPIC:  # the manager subscribes /joint_states itself
-            specs.append(SubscriptionSpec(self.topics["joint_topic"], "sensor_msgs/msg/JointState",
-                                          sensor_msgs.JointState, self.manager.on_joint_states))
+        # the joint states into the manager's cache: /joint_states instead of the manager (its joint_states_subscriber),
+        # another joint_topic beside the manager's /joint_states
+        specs.append(SubscriptionSpec(self.topics["joint_topic"], "sensor_msgs/msg/JointState", sensor_msgs.JointState,
+                                      self.manager.on_joint_states))
         return specs
 
     def publications(self) -> list[PublicationSpec]:

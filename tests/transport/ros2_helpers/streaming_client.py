@@ -37,6 +37,9 @@ def main() -> None:
         state = {"name": list(robot.joint_names), "position": robot.named_configuration("ready").tolist()}
         client.publish("/joint_states", "sensor_msgs/msg/JointState", state)  # waits for the manager's subscription
         client.publish("/pfield_servo/delta_twist_cmds", "geometry_msgs/msg/TwistStamped", {})
+        client.publish("/pfield/planning_goal_pose", "geometry_msgs/msg/PoseStamped",  # one of the manager's inputs
+                       {"header": {"frame_id": "world"}, "pose": {"position": {"x": 0.4, "z": 0.5},
+                                                                  "orientation": {"w": 1.0}}})
         states, twists = (client._publishers[topic] for topic in ("/joint_states", "/pfield_servo/delta_twist_cmds"))
         state_message = _message("sensor_msgs/msg/JointState", state)
         twist_message = _message("geometry_msgs/msg/TwistStamped", {"twist": {"linear": {"x": 0.02}}})

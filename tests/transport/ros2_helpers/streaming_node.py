@@ -1,7 +1,8 @@
 """Node of ``tests/transport/test_ros2_streaming.py``: ``/pfield_manager`` and ``/pfield_servo`` on one
 :class:`~pfield.transport.ros2.Ros2Host`, as ``pfield ros2 node`` hosts them.
 
-Records the threads in which the servo's twist handler and the manager's joint-state handler ran, and every
+Records the threads in which the servo's twist handler, the manager's joint-state handler (which the servo's
+``/joint_states`` subscription feeds) and the manager's goal handler ran, and every
 subscription's QoS depth; writes them to ``$ROS2_TEST_OUT/host.json`` when SIGINT stops it.
 """
 
@@ -30,7 +31,7 @@ def main() -> None:
     robot = RobotModel.builtin("panda")
     manager = ManagerNode(Bus(), robot)
     servo = ServoNode(manager.bus, manager, ServoConfig(command_out_topic=OUT_TOPIC))
-    threads: dict[str, set[str]] = {"servo": set(), "manager": set()}
+    threads: dict[str, set[str]] = {"servo": set(), "joint_states": set(), "manager": set()}
 
     def recorded(key: str, handler: Callable[[Any], None]) -> Callable[[Any], None]:
         def handle(message: Any) -> None:
@@ -40,7 +41,8 @@ def main() -> None:
         return handle
 
     servo.on_twist = recorded("servo", servo.on_twist)  # type: ignore[method-assign]
-    manager.on_joint_states = recorded("manager", manager.on_joint_states)  # type: ignore[method-assign]
+    manager.on_joint_states = recorded("joint_states", manager.on_joint_states)  # type: ignore[method-assign]
+    manager.on_goal = recorded("manager", manager.on_goal)  # type: ignore[method-assign]
     stop = threading.Event()
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: stop.set())
