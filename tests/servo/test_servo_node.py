@@ -52,6 +52,24 @@ def measured(robot: Any) -> JointState:
     return JointState(name=list(robot.joint_names), position=q.tolist())
 
 
+@pytest.mark.parametrize("joint_topic", ["/joint_states", "/arm/joint_states"])
+def test_the_servo_subscribes_the_joint_states_for_the_manager(robot: Any, joint_topic: str) -> None:
+    """/joint_states (the default joint_topic) moves from the manager's subscriptions to the servo's (its own executor
+    over ROS 2, ManagerNode.joint_states_subscriber); another joint_topic is subscribed beside the manager's. Either
+    way a message on the servo's subscription lands in the manager's joint-state cache."""
+    manager, servo, _ = make(robot, joint_topic=joint_topic)
+    mine = {spec.topic: spec for spec in servo.subscriptions()}
+    managers = {spec.topic for spec in manager.subscriptions()}
+    assert joint_topic in mine
+    assert ("/joint_states" in managers) == (joint_topic != "/joint_states")
+    assert manager.joint_states_subscriber is (servo if joint_topic == "/joint_states" else manager)
+    q = robot.named_configuration("ready")
+    mine[joint_topic].handler(measured(robot))
+    assert np.array_equal(manager.measured_joint_angles([], "joint_states"), q)
+    alone = ManagerNode(Bus(), robot)  # no servo: the manager subscribes /joint_states itself
+    assert "/joint_states" in {spec.topic for spec in alone.subscriptions()}
+
+
 def test_joy_drives_the_servo_loop(robot: Any) -> None:
     manager, servo, recorder = make(robot, joy_device="gamepad", scale_linear=0.04, joy_deadman_button=4,
                                     incoming_command_timeout=0.05)
