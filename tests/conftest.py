@@ -39,7 +39,11 @@ def _pin_numpy_kernels() -> bool:
         query = ("import numpy as np; core = getattr(np, '_core', None) or np.core; u = core._multiarray_umath; "
                  "print(','.join(f for f in u.__cpu_dispatch__ if (f.startswith('AVX512') or f == 'X86_V4') "
                  "and f not in u.__cpu_baseline__ and u.__cpu_features__.get(f)))")
-        found = subprocess.run([sys.executable, "-c", query], capture_output=True, text=True, check=True)
+        found = subprocess.run([sys.executable, "-c", query], capture_output=True, text=True, check=False)
+        if found.returncode != 0:
+            warnings.warn(f"could not ask numpy for its AVX-512 targets ({found.stderr.strip()[-200:]}): exact-value "
+                          "tests may fail on this AVX-512 machine", stacklevel=1)
+            return False
         os.environ["NPY_DISABLE_CPU_FEATURES"] = found.stdout.strip()
     os.environ.setdefault("OPENBLAS_CORETYPE", "Haswell")
     return True
