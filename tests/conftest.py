@@ -14,7 +14,6 @@ import pytest
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 
-
 def _pin_numpy_kernels() -> bool:
     """On a CPU with AVX-512, have numpy and OpenBLAS use their AVX2 kernels, as on the machines the tests' exact
     values were recorded on: numpy dispatches its ufuncs (sin, cos, exp, ...) and OpenBLAS its matrix products by CPU,

@@ -93,11 +93,12 @@ WholeBodyPlanResult track_path(const double* q0, const double* waypoints, std::s
     }
     double lag = 0.0;
     for (std::size_t j = 0; j < n; ++j) lag = py_max(lag, std::abs(target[j] - q[j]));
+    bool advanced = false;  // the target moved along the path this step
     if (sigma < 1.0 && lag <= settings.lead) {
       rate = py_min(py_min(rate + accel * dt, top), std::sqrt(2.0 * accel * (1.0 - sigma)));
       const double before = sigma;
       sigma = py_min(sigma + rate * dt, 1.0);
-      if (sigma > before) progress_at = k, std::copy(q.begin(), q.end(), anchor.begin());
+      advanced = sigma > before;
     } else {
       rate = 0.0;
     }
@@ -115,7 +116,7 @@ WholeBodyPlanResult track_path(const double* q0, const double* waypoints, std::s
     if (record_step(k, total, q, ws, params, finished, cancel, path, result)) break;
     double moved = 0.0;
     for (std::size_t j = 0; j < n; ++j) moved = py_max(moved, std::abs(q[j] - anchor[j]));
-    if (moved >= params.stagnation_progress) progress_at = k, std::copy(q.begin(), q.end(), anchor.begin());
+    if (advanced || moved >= params.stagnation_progress) progress_at = k, std::copy(q.begin(), q.end(), anchor.begin());
     if (!finished && k - progress_at >= stall_window) {  // held still by a damper or a joint limit: no use going on
       result.status = PlanStatus::Stagnation;
       result.count = k + 1;
