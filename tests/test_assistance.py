@@ -233,6 +233,31 @@ def test_whole_body_command_away_unchanged_and_approach_limited(xarm: Any) -> No
     assert toward.time_to_collision < away.time_to_collision == math.inf
 
 
+def test_whole_body_takes_the_operators_joint_velocities_as_they_are(xarm: Any) -> None:
+    """A joint jog (``user_joint_velocities``) is q̇_user itself: the damped least-squares joint velocities of a
+    twist, given as joints, answer what the twist does (away: unchanged; toward the ball: limited alike)."""
+    arm, _ = arm_scene(xarm)
+    jac = xarm.jacobian(Q)
+    for twist, limited in (((-0.02, 0, 0, 0, 0, 0), False), ((0.04, 0, 0, 0, 0, 0), True)):  # within the limits
+        joints = jac.T @ np.linalg.solve(jac @ jac.T + 1e-4 * np.eye(6), np.array(twist))
+        by_twist = whole_body_assistance(arm, xarm, Q, Twist(twist[:3], twist[3:]), "safety_only")
+        by_joints = whole_body_assistance(arm, xarm, Q, None, "safety_only", user_joint_velocities=joints)
+        assert ("limited" in by_joints.message) is limited and ("limited" in by_twist.message) is limited
+        np.testing.assert_allclose(by_joints.joint_velocities, by_twist.joint_velocities, rtol=0, atol=1e-12)
+        if not limited:
+            np.testing.assert_array_equal(by_joints.joint_velocities, joints)  # passed through as given
+        assert by_joints.time_to_collision == pytest.approx(by_twist.time_to_collision, rel=1e-9)
+    # with the goal's field and the default arbitration: the blend of q̇_auto and the jog, through the dampers
+    blended = whole_body_assistance(arm, xarm, Q, None, user_joint_velocities=np.full(7, 0.01))
+    assert blended.joint_velocities.shape == (7,) and np.isfinite(blended.joint_velocities).all()
+    with pytest.raises(InvalidInput, match=r"user_joint_velocities.*not both"):
+        whole_body_assistance(arm, xarm, Q, Twist((0.01, 0, 0)), user_joint_velocities=np.zeros(7))
+    with pytest.raises(InvalidInput, match="user_joint_velocities"):
+        whole_body_assistance(arm, xarm, Q, None, user_joint_velocities=np.zeros(6))
+    with pytest.raises(InvalidInput, match="user_joint_velocities"):
+        whole_body_assistance(arm, xarm, Q, None, user_joint_velocities=[math.nan] * 7)
+
+
 def test_whole_body_assistance_takes_any_array(xarm: Any) -> None:
     """Read-only (a message's buffer) and strided joint vectors give the same answer as plain ones (a strided one
     through the validating path)."""

@@ -34,6 +34,28 @@ struct OneSphere {
   PackedView view;
 };
 
+// A planar two-link arm (revolute about z, links of 0.3 m along x, one capsule of radius 2 cm and one primitive each,
+// limits +-3 rad, 1 rad/s, 5 rad/s^2): views of its own arrays.
+struct PlanarArm {
+  PlanarArm() {
+    robot.kinematics = {2, parents, place_rot, place_pos, axes, kinds, support, 1, ee_rot, ee_pos};
+    robot.links = {2, cap_joint, seg_a, seg_b, radii, radii, 0, nullptr, 2, link_start, cap_joint, seg_a, seg_b,
+                   radii};
+    robot.limits = {lower, upper, vmax, amax};
+  }
+  PlanarArm(const PlanarArm&) = delete;
+  PlanarArm& operator=(const PlanarArm&) = delete;
+
+  const std::int64_t parents[2] = {-1, 0}, kinds[2] = {0, 0}, support[4] = {1, 0, 1, 1};
+  const double place_rot[18] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+  const double place_pos[6] = {0, 0, 0, 0.3, 0, 0}, axes[6] = {0, 0, 1, 0, 0, 1};
+  const double ee_rot[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, ee_pos[3] = {0.3, 0, 0};
+  const std::int64_t cap_joint[2] = {0, 1}, link_start[3] = {0, 1, 2};
+  const double seg_a[6] = {0, 0, 0, 0, 0, 0}, seg_b[6] = {0.3, 0, 0, 0.3, 0, 0}, radii[2] = {0.02, 0.02};
+  const double lower[2] = {-3, -3}, upper[2] = {3, 3}, vmax[2] = {1, 1}, amax[2] = {5, 5};
+  pfield::robot::RobotView robot;
+};
+
 double approach(const double* v, Vec3 n, Vec3 o) {
   return -(n.x * (v[0] - o.x) + n.y * (v[1] - o.y) + n.z * (v[2] - o.z));
 }
@@ -106,19 +128,10 @@ TEST(below_singular_value_tests_the_smallest_singular_value) {
   CHECK(below_singular_value(gram, 6, 1e-9));
 }
 
-// A planar two-link arm (revolute about z, links of 0.3 m along x, one capsule and one primitive each) by a sphere.
+// The planar arm by a sphere.
 TEST(assist_joints_maps_the_command_and_holds_the_nearest_link_point_at_its_damper) {
-  const std::int64_t parents[2] = {-1, 0}, kinds[2] = {0, 0}, support[4] = {1, 0, 1, 1};
-  const double place_rot[18] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 0, 0, 0, 1, 0, 0, 0, 1};
-  const double place_pos[6] = {0, 0, 0, 0.3, 0, 0}, axes[6] = {0, 0, 1, 0, 0, 1};
-  const double ee_rot[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, ee_pos[3] = {0.3, 0, 0};
-  const std::int64_t cap_joint[2] = {0, 1}, link_start[3] = {0, 1, 2};
-  const double seg_a[6] = {0, 0, 0, 0, 0, 0}, seg_b[6] = {0.3, 0, 0, 0.3, 0, 0}, radii[2] = {0.02, 0.02};
-  const double lower[2] = {-3, -3}, upper[2] = {3, 3}, vmax[2] = {1, 1}, amax[2] = {5, 5};
-  pfield::robot::RobotView robot;
-  robot.kinematics = {2, parents, place_rot, place_pos, axes, kinds, support, 1, ee_rot, ee_pos};
-  robot.links = {2, cap_joint, seg_a, seg_b, radii, radii, 0, nullptr, 2, link_start, cap_joint, seg_a, seg_b, radii};
-  robot.limits = {lower, upper, vmax, amax};
+  const PlanarArm arm;
+  const pfield::robot::RobotView& robot = arm.robot;
   // the arm straight along x; the ball 4 cm beyond its tip (clearance 0.04 - 0.02 = 2 cm)
   const OneSphere ball({0.65, 0.0, 0.0}, 0.01);
   const double centres[3] = {0.65, 0.0, 0.0}, bounds[1] = {0.01}, velocities[3] = {0.0, 0.0, 0.0};
@@ -130,7 +143,8 @@ TEST(assist_joints_maps_the_command_and_holds_the_nearest_link_point_at_its_damp
   // sideways (+y): the damped least-squares joint velocity, nothing to limit; the arm is singular for x motion
   const double sideways[6] = {0.0, 0.02, 0.0, 0.0, 0.0, 0.0};
   const JointAssistance side = assist_joints(q, robot, obstacles, default_params(), joint_params,
-                                             Arbitration::SafetyOnly, 0.0, zeros, sideways, -1, -1, ws, nullptr, qd);
+                                             Arbitration::SafetyOnly, 0.0, zeros, OperatorCommand{sideways}, -1, -1,
+                                             ws, nullptr, qd);
   CHECK(side.singular && !side.limited && side.nearest.obstacle == 0 && side.nearest.link == 1);
   CHECK_NEAR(side.nearest.distance, 0.02, 1e-12);
   CHECK_NEAR(side.nearest.point.x, 0.62, 1e-12);  // the link's surface point toward the ball
@@ -143,7 +157,8 @@ TEST(assist_joints_maps_the_command_and_holds_the_nearest_link_point_at_its_damp
   // toward the ball the arm cannot move (singular along x): its tip gets no approach at all
   const double toward[6] = {0.04, 0.0, 0.0, 0.0, 0.0, 0.0};
   const JointAssistance ahead = assist_joints(q, robot, obstacles, default_params(), joint_params,
-                                              Arbitration::SafetyOnly, 0.0, zeros, toward, -1, -1, ws, nullptr, qd);
+                                              Arbitration::SafetyOnly, 0.0, zeros, OperatorCommand{toward}, -1, -1,
+                                              ws, nullptr, qd);
   CHECK(ahead.time_to_collision == kInf && !ahead.limited);
   // bent 90 degrees at the elbow the tip moves along x: the approach is held at the damper
   const double bent[2] = {0.0, 1.5707963267948966};
@@ -152,7 +167,8 @@ TEST(assist_joints_maps_the_command_and_holds_the_nearest_link_point_at_its_damp
   const MovingObstacles side_obstacles{{&side_ball.view, side_centres, bounds}, velocities};
   const double up[6] = {0.0, 0.04, 0.0, 0.0, 0.0, 0.0};
   const JointAssistance held = assist_joints(bent, robot, side_obstacles, default_params(), joint_params,
-                                             Arbitration::SafetyOnly, 0.0, zeros, up, -1, -1, ws, nullptr, qd);
+                                             Arbitration::SafetyOnly, 0.0, zeros, OperatorCommand{up}, -1, -1, ws,
+                                             nullptr, qd);
   CHECK(held.limited && held.nearest.link == 1);
   CHECK_NEAR(held.nearest.distance, 0.012, 1e-12);
   const double allowed = pfield::field::damper_speed(held.nearest.distance, 0.1, 0.01, 1.0, 0.05, 1.0);
@@ -166,22 +182,59 @@ TEST(assist_joints_maps_the_command_and_holds_the_nearest_link_point_at_its_damp
   CHECK(held.time_to_collision > 0.0 && held.time_to_collision < kInf);
 }
 
+// A joint jog (OperatorCommand::joints) on the arm bent 90 degrees at the elbow (tip at (0.3, 0.3)): far from any
+// obstacle the joint velocities as given; by a ball beyond the tip the shoulder's turn (tip velocity (-0.3, 0.3) per
+// rad/s, toward the ball) is held at the damper, the elbow's (which moves the tip along x) left as it is.
+TEST(assist_joints_takes_a_joint_command_as_it_is_and_holds_it_at_the_damper) {
+  const PlanarArm arm;
+  const pfield::robot::RobotView& robot = arm.robot;
+  const JointAssistParams joint_params{0.01, 0.01, 0.01, 0.01, 0.05, 1e-4, 0.2};
+  JointWorkspace ws(robot);
+  const double bent[2] = {0.0, 1.5707963267948966}, zeros[2] = {0.0, 0.0}, bounds[1] = {0.01}, velocities[3] = {};
+  const double twist_unused[6] = {1.0, 1.0, 1.0, 1.0, 1.0, 1.0};  // not read when joints is set
+  double qd[2];
+  // the elbow alone, a ball far off: exactly as given; the tip moves at -0.3 m/s along x per rad/s
+  const OneSphere far_ball({2.0, 2.0, 0.0}, 0.01);
+  const double far_centres[3] = {2.0, 2.0, 0.0};
+  const MovingObstacles far{{&far_ball.view, far_centres, bounds}, velocities};
+  const double elbow[2] = {0.0, 0.3};
+  const JointAssistance free = assist_joints(bent, robot, far, default_params(), joint_params,
+                                             Arbitration::SafetyOnly, 0.0, zeros, OperatorCommand{twist_unused, elbow},
+                                             -1, -1, ws, nullptr, qd);
+  CHECK(!free.limited && qd[0] == 0.0 && qd[1] == 0.3);
+  CHECK_NEAR(free.blended[0], -0.09, 1e-12);
+  CHECK_NEAR(free.blended[1], 0.0, 1e-12);
+  CHECK_NEAR(free.blended[5], 0.3, 1e-12);
+  // a ball beyond the tip (clearance 1.2 cm, its nearest point (0.3, 0.32)): the shoulder at 1 rad/s approaches at
+  // 0.3 m/s and is held at the damper s(d); the row n^T J_p = (-0.3, 0) leaves the elbow's velocity exactly as given
+  const OneSphere side_ball({0.3, 0.342, 0.0}, 0.01);
+  const double side_centres[3] = {0.3, 0.342, 0.0};
+  const MovingObstacles side{{&side_ball.view, side_centres, bounds}, velocities};
+  const double shoulder[2] = {1.0, 0.0};
+  const JointAssistance held = assist_joints(bent, robot, side, default_params(), joint_params,
+                                             Arbitration::SafetyOnly, 0.0, zeros,
+                                             OperatorCommand{twist_unused, shoulder}, -1, -1, ws, nullptr, qd);
+  CHECK(held.limited && held.nearest.link == 1);
+  CHECK_NEAR(held.nearest.distance, 0.012, 1e-12);
+  const double allowed = pfield::field::damper_speed(held.nearest.distance, 0.1, 0.01, 1.0, 0.05, 1.0);
+  CHECK_NEAR(qd[0], allowed / 0.3, 1e-12);
+  CHECK(qd[1] == 0.0);
+  CHECK_NEAR(held.time_to_collision, 0.012 / 0.3, 1e-12);  // under the operator's own joint velocities
+  // turning the shoulder back moves the tip away: as given
+  const double back[2] = {-1.0, 0.0};
+  const JointAssistance away = assist_joints(bent, robot, side, default_params(), joint_params,
+                                             Arbitration::SafetyOnly, 0.0, zeros, OperatorCommand{twist_unused, back},
+                                             -1, -1, ws, nullptr, qd);
+  CHECK(!away.limited && qd[0] == -1.0 && qd[1] == 0.0 && away.time_to_collision == kInf);
+}
+
 // The same arm straight along x with a ball above each link: both link points are within Q and both approach too
 // fast under the operator's +y command. The nearest link (0) alone would be corrected and link 1 driven on; the
 // answer is the projection of the blend onto both rows, which here is the projection onto link 1's row alone
 // (link 0's row then holds with room: its multiplier would be negative).
 TEST(assist_joints_holds_every_link_point_within_the_influence_distance) {
-  const std::int64_t parents[2] = {-1, 0}, kinds[2] = {0, 0}, support[4] = {1, 0, 1, 1};
-  const double place_rot[18] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 0, 0, 0, 1, 0, 0, 0, 1};
-  const double place_pos[6] = {0, 0, 0, 0.3, 0, 0}, axes[6] = {0, 0, 1, 0, 0, 1};
-  const double ee_rot[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, ee_pos[3] = {0.3, 0, 0};
-  const std::int64_t cap_joint[2] = {0, 1}, link_start[3] = {0, 1, 2};
-  const double seg_a[6] = {0, 0, 0, 0, 0, 0}, seg_b[6] = {0.3, 0, 0, 0.3, 0, 0}, radii[2] = {0.02, 0.02};
-  const double lower[2] = {-3, -3}, upper[2] = {3, 3}, vmax[2] = {1, 1}, amax[2] = {5, 5};
-  pfield::robot::RobotView robot;
-  robot.kinematics = {2, parents, place_rot, place_pos, axes, kinds, support, 1, ee_rot, ee_pos};
-  robot.links = {2, cap_joint, seg_a, seg_b, radii, radii, 0, nullptr, 2, link_start, cap_joint, seg_a, seg_b, radii};
-  robot.limits = {lower, upper, vmax, amax};
+  const PlanarArm arm;
+  const pfield::robot::RobotView& robot = arm.robot;
   // balls of 1 cm above link 0 at x = 0.15 (clearance 12 mm) and above link 1 at x = 0.45 (13 mm)
   const std::int64_t ball_kinds[2] = {0, 0};
   const double ball_rows[32] = {0.15, 0.042, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0.01, 0, 0, -1,
@@ -197,7 +250,8 @@ TEST(assist_joints_holds_every_link_point_within_the_influence_distance) {
   const double q[2] = {0.0, 0.0}, zeros[2] = {0.0, 0.0}, up[6] = {0.0, 0.05, 0.0, 0.0, 0.0, 0.0};
   double qd[2];
   const JointAssistance held = assist_joints(q, robot, obstacles, default_params(), joint_params,
-                                             Arbitration::SafetyOnly, 0.0, zeros, up, -1, -1, ws, nullptr, qd);
+                                             Arbitration::SafetyOnly, 0.0, zeros, OperatorCommand{up}, -1, -1, ws,
+                                             nullptr, qd);
   CHECK(held.limited && held.nearest.link == 0 && held.nearest.obstacle == 0);
   CHECK_NEAR(held.nearest.distance, 0.012, 1e-12);
   // the blend: J^T (J J^T + lambda^2 I)^-1 u in the (v_y, w_z) rows (0.6, 0.3), (1, 1), as above
@@ -218,7 +272,7 @@ TEST(assist_joints_holds_every_link_point_within_the_influence_distance) {
   // a workspace sized for no obstacles grows to the rows and gives the same answer
   JointWorkspace small(robot);
   double again[2];
-  assist_joints(q, robot, obstacles, default_params(), joint_params, Arbitration::SafetyOnly, 0.0, zeros, up, -1, -1,
-                small, nullptr, again);
+  assist_joints(q, robot, obstacles, default_params(), joint_params, Arbitration::SafetyOnly, 0.0, zeros,
+                OperatorCommand{up}, -1, -1, small, nullptr, again);
   CHECK(again[0] == qd[0] && again[1] == qd[1]);
 }

@@ -2,7 +2,7 @@
 
 Against ``pfield ros2 node --robot panda --params servo.yaml`` (a MoveIt Servo section): publishes the Panda's
 joint states as a driver would (reversed joint order plus a finger joint, 50 Hz), calls the whole-body autonomy
-vector without ``joint_angles``, drives the servo with a spacemouse ``Joy`` and with a tool-frame twist, lets the
+vector without ``joint_angles``, drives the servo with a spacemouse ``Joy``, a tool-frame twist and a JointJog, lets the
 command go stale, and writes what it saw to ``$ROS2_TEST_OUT/results.json``.
 """
 
@@ -92,6 +92,12 @@ def joy_drives(client: BlockingClient, results: dict[str, Any]) -> None:
                    {"header": {"frame_id": "panda_hand_tcp"}, "twist": {"linear": {"z": 0.02}}}, 100.0)
     results["tool_command"] = commands.wait_for(lambda m: any(m["points"][0]["velocities"]), timeout=60.0)
     twist.stop()
+    commands.wait_for(lambda m: not any(m["points"][0]["velocities"]), timeout=30.0)
+    commands.messages.clear()
+    jog = Stream(client, "/pfield_servo/delta_joint_cmds", "control_msgs/msg/JointJog",
+                 {"joint_names": ["panda_joint7"], "velocities": [0.3]}, 100.0)
+    results["jog_command"] = commands.wait_for(lambda m: m["points"][0]["velocities"][6] > 0.25, timeout=60.0)
+    jog.stop()
     results["params"] = client.get_parameters("/pfield_servo", ["publish_period", "scale.linear",
                                                                 "joint_limit_margins"])
     for stream in results.pop("_streams"):

@@ -23,13 +23,13 @@ SHARED = {  # every parameter of the file that pfield uses, with the file's valu
     "publish_joint_velocities": True, "publish_joint_accelerations": False, "move_group_name": "panda_arm",
     "lower_singularity_threshold": 10.0, "hard_stop_singularity_threshold": 30.0,
     "leaving_singularity_threshold_multiplier": 2.0, "joint_limit_margins": (0.12,),
-    "cartesian_command_in_topic": "~/delta_twist_cmds", "joint_topic": "/joint_states", "status_topic": "~/status",
+    "cartesian_command_in_topic": "~/delta_twist_cmds", "joint_command_in_topic": "~/delta_joint_cmds",
+    "scale_joint": 0.5, "joint_topic": "/joint_states", "status_topic": "~/status",
     "command_out_topic": "/panda_arm_controller/joint_trajectory", "check_collisions": True,
     "self_collision_proximity_threshold": 0.01, "scene_collision_proximity_threshold": 0.02,
 }
 IGNORED = ["check_octomap_collisions", "collision_check_rate", "is_primary_planning_scene_monitor",
-           "joint_command_in_topic", "max_expected_latency", "scale.joint", "smoothing_filter_plugin_name",
-           "use_smoothing"]
+           "max_expected_latency", "smoothing_filter_plugin_name", "use_smoothing"]
 
 
 def _check_shared(config: ServoConfig) -> None:

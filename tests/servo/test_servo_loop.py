@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 
 from pfield import FieldConfig, Obstacle, Pose, RobotModel, Sphere, Twist
 from pfield.errors import InvalidInput
+from pfield.robot.collision import capsule_clearances
 from pfield.shared_control import AssistanceScene
 from pfield.shared_control.servo import LEAVING_MIN_SCALE, Servo, ServoStatus
 from pfield.shared_control.servo_config import ServoConfig
@@ -221,3 +222,96 @@ def test_bad_input_is_refused_and_changes_nothing(robot: RobotModel, empty_scene
         Servo(robot).step(q, 0.0)
     assert servo._command is state[0] and servo._positions is state[1] and servo._last_step == state[3]
     assert np.array_equal(servo._velocities, state[2]) and first.moving
+
+
+def _jog(servo: Servo, q: np.ndarray, velocities: list[float], steps: int) -> list[Any]:
+    """``steps`` steps at PERIOD, the joint jog renewed before each."""
+    out = []
+    for k in range(steps):
+        servo.command_joints(velocities, k * PERIOD)
+        out.append(servo.step(q, k * PERIOD))
+    return out
+
+
+def test_a_joint_jog_moves_its_joints_only_and_is_scaled_as_servo_does(robot: RobotModel,
+                                                                        empty_scene: AssistanceScene) -> None:
+    """Servo's joint jog (``~/delta_joint_cmds``): the wrist and the elbow at the jog's speeds once the acceleration
+    limit let them get there, every other joint still; ``unitless`` scales by ``scale_joint``; a stale jog stops."""
+    q = ready(robot)
+    jog = [0.0, 0.0, 0.0, 0.02, 0.0, 0.0, 0.3]
+    servo = Servo(robot, ServoConfig(publish_period=PERIOD), empty_scene, arbitration="safety_only")
+    commands = _jog(servo, q, jog, 150)  # 0.3 rad/s at 1.4 rad/s² takes 108 steps of 2 ms
+    last = commands[-1]
+    assert last.status == ServoStatus.NO_WARNING and last.velocities.tolist() == jog
+    assert last.assistance is not None and last.assistance.joint_velocities.tolist() == jog  # passed the dampers as is
+    moved = np.flatnonzero(last.positions != q)
+    assert moved.tolist() == [3, 6]
+    rising = [c.velocities[6] for c in commands[:110]]
+    assert all(b - a <= robot.acceleration_limits[6] * PERIOD + 1e-12 for a, b in itertools.pairwise(rising))
+    unitless = Servo(robot, ServoConfig(publish_period=PERIOD, command_in_type="unitless", scale_joint=0.1),
+                     empty_scene, arbitration="safety_only")
+    scaled = _jog(unitless, q, [0.0, 0.0, 0.0, 0.2, 0.0, 0.0, 3.0], 150)
+    assert np.allclose([c.velocities for c in scaled], [c.velocities for c in commands], rtol=0, atol=1e-15)
+    for k in range(150, 400):  # no new jog: stale after incoming_command_timeout (0.1 s), then a stop
+        stopped = servo.step(q, k * PERIOD)
+    assert stopped.status == ServoStatus.COMMAND_TIMEOUT and not stopped.moving
+
+
+def test_a_joint_jog_stops_at_its_margin_and_is_not_scaled_for_singularities(robot: RobotModel,
+                                                                             empty_scene: AssistanceScene) -> None:
+    """At a joint's margin: every jogged joint scaled by one factor (``halt_all_joints_in_joint_mode``) or only that
+    joint held; near the elbow singularity a jog goes at its speed (Servo scales twists only)."""
+    q = ready(robot)
+    q[3] = robot.upper_limits[3] - 0.105  # the elbow 5 mm from its margin of 0.1
+    jog = [0.0, 0.0, 0.0, 0.05, 0.0, 0.0, 0.3]
+    for halt_all in (True, False):
+        config = ServoConfig(publish_period=PERIOD, halt_all_joints_in_joint_mode=halt_all)
+        servo = Servo(robot, config, empty_scene, arbitration="safety_only")
+        commands = _jog(servo, q, jog, 200)
+        bound = [c for c in commands if c.status == ServoStatus.JOINT_BOUND]
+        assert bound and max(c.positions[3] for c in commands) <= robot.upper_limits[3] - 0.1 + 1e-12
+        wrist = bound[-1].velocities[6]
+        if halt_all:  # halted with the elbow
+            assert wrist == 0.0
+        else:  # left going (the acceleration stage's one factor, set by the elbow's held change, keeps it just short)
+            assert wrist == pytest.approx(0.3, abs=1e-3) and bound[-1].velocities[3] == 0.0
+    stretched = np.array([0.0, 0.3, 0.0, -1.0, 0.0, 1.5, 0.785])  # κ 25.5: a twist here is scaled (test above)
+    servo = Servo(robot, ServoConfig(publish_period=1.0), empty_scene, arbitration="safety_only")
+    servo.command_joints([0.0, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0], 0.0)
+    command = servo.step(stretched, 0.0)
+    assert command.status == ServoStatus.NO_WARNING and command.velocities.tolist() == [0, 0, 0, 0.1, 0, 0, 0]
+
+
+def test_a_joint_jog_by_an_obstacle_is_held_at_the_dampers(robot: RobotModel) -> None:
+    """The jog goes through the same dampers as a twist: turning the base toward a sphere beside the hand, the
+    hand's approach is limited and the step never ends inside the safety distance."""
+    q = ready(robot)
+    hand = robot.forward_kinematics(q).position
+    side = np.array([-hand[1], hand[0], 0.0]) / np.hypot(hand[0], hand[1])  # where the base's +turn moves the hand
+    config = FieldConfig()
+    sphere = Obstacle("ball", Sphere(0.04), Pose(tuple(hand + 0.14 * side)))
+    scene = AssistanceScene(config=config, obstacles=[sphere])
+    servo = Servo(robot, ServoConfig(publish_period=0.01), scene, arbitration="safety_only")
+    positions = q
+    statuses = set()
+    lowest = math.inf
+    for k in range(400):
+        servo.command_joints([0.3, 0, 0, 0, 0, 0, 0], k * 0.01)
+        command = servo.step(positions, k * 0.01)
+        positions = command.positions
+        statuses.add(command.status)
+        lowest = min(lowest, float(capsule_clearances(robot, positions, [sphere]).obstacle.min()))
+    assert ServoStatus.DECELERATE_FOR_COLLISION in statuses
+    assert 0.5 * config.safety_distance < lowest < 0.02  # held about the dampers' margin, never in contact
+
+
+def test_bad_joint_jogs_are_refused_and_change_nothing(robot: RobotModel, empty_scene: AssistanceScene) -> None:
+    servo = Servo(robot, ServoConfig(publish_period=PERIOD), empty_scene)
+    servo.command_joints([0.1] * 7, 1.0)
+    before = servo._command
+    for velocities, field in (([0.1] * 6, "velocities"), ([math.nan] * 7, "velocities"), ("fast", "velocities")):
+        with pytest.raises(InvalidInput, match=field):
+            servo.command_joints(velocities, 1.1)  # type: ignore[arg-type]
+    with pytest.raises(InvalidInput, match="received"):
+        servo.command_joints([0.1] * 7, math.nan)
+    assert servo._command is before

@@ -14,6 +14,7 @@ from pfield.errors import InvalidInput, UnknownFrame
 from pfield.interfaces import geometry_msgs as gm
 from pfield.interfaces import std_msgs, trajectory_msgs
 from pfield.interfaces._base import RosMessage
+from pfield.interfaces.control_msgs import JointJog
 from pfield.interfaces.sensor_msgs import JointState, Joy
 from pfield.node._base import Bus
 from pfield.node.manager import ManagerNode
@@ -166,6 +167,37 @@ def test_twists_in_the_tool_frame_and_refused_input(robot: Any) -> None:
         with pytest.raises(error, match=field):
             call()
     assert servo.servo._command is before
+
+
+def test_a_joint_jog_drives_the_servo_loop_and_bad_jogs_are_refused(robot: Any) -> None:
+    """control_msgs/JointJog on ``joint_command_in_topic`` (Servo's ``~/delta_joint_cmds``): the named joints at
+    their velocities in any order, the others still; an unknown or repeated name, a count that does not match, a
+    jog of displacements only or a non-finite velocity is refused by field and changes nothing."""
+    manager, servo, recorder = make(robot, incoming_command_timeout=5.0)
+    assert servo.topics["joint_command_in_topic"] == "/pfield_servo/delta_joint_cmds"
+    assert servo.topics["joint_command_in_topic"] in {spec.topic for spec in servo.subscriptions()}
+    manager.on_joint_states(measured(robot))
+    jog = JointJog(joint_names=["panda_joint7", "panda_joint4"], velocities=[0.3, 0.02])
+    for _ in range(150):  # 0.3 rad/s at 1.4 rad/s² takes 0.21 s
+        servo.on_joint_jog(jog)
+        time.sleep(0.002)
+    point = recorder.last(servo.topics["command_out_topic"]).points[0]
+    assert point.velocities == [0.0, 0.0, 0.0, 0.02, 0.0, 0.0, 0.3]
+    assert recorder.last(servo.topics["status_topic"]).data == ServoStatus.NO_WARNING
+    before = servo.servo._command
+    bad: list[tuple[JointJog, str]] = [
+        (JointJog(joint_names=["elbow"], velocities=[0.1]), "joint_jog.joint_names='elbow'"),
+        (JointJog(joint_names=["panda_joint1", "panda_joint1"], velocities=[0.1, 0.1]), "named twice"),
+        (JointJog(joint_names=["panda_joint1"], velocities=[0.1, 0.2]), "one velocity per joint name"),
+        (JointJog(joint_names=["panda_joint1"], displacements=[0.1]), "displacements are not used"),
+        (JointJog(joint_names=["panda_joint1"], velocities=[float("nan")]), r"joint_jog.velocities\[panda_joint1\]"),
+    ]
+    for message, words in bad:
+        with pytest.raises(InvalidInput, match=words):
+            servo.on_joint_jog(message)
+    assert servo.servo._command is before
+    assert servo.get_parameters()["scale.joint"] == 0.5
+    assert servo.set_parameters({"scale.joint": 0.2})["scale.joint"] == 0.2  # changes while the node runs
 
 
 @pytest.fixture(scope="module")

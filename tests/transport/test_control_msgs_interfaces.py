@@ -1,16 +1,17 @@
 """The built ``control_msgs`` subset (ros/control_msgs, ``make ros2-interfaces``) equals its definition files:
-every field's name and type and every constant of FollowJointTrajectory's goal, result and feedback and of the
-tolerance messages, read from the generated Python classes; and pfield's :class:`TrajectoryErrorCode` equals
-the Result's constants."""
+every field's name and type and every constant of FollowJointTrajectory's goal, result and feedback, of the
+tolerance messages and of JointJog, read from the generated Python classes; JointJog's type hash is the one a
+Jazzy control_msgs publisher announces; and pfield's :class:`TrajectoryErrorCode` equals the Result's constants."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
 from ros2_helpers.support import missing
 
-from pfield.interfaces._idl import parse_definition
+from pfield.interfaces._idl import interface_file, parse_definition
 
 pytestmark = pytest.mark.ros2
 
@@ -55,9 +56,23 @@ def _check(text: str, generated: type) -> None:
     assert len(definition.fields) > 0
 
 
-@pytest.mark.parametrize("name", ["JointTolerance", "JointComponentTolerance"])
+@pytest.mark.parametrize("name", ["JointTolerance", "JointComponentTolerance", "JointJog"])
 def test_messages_equal_their_files(name: str) -> None:
     _check((PACKAGE / "msg" / f"{name}.msg").read_text(), _generated(name))  # type: ignore[arg-type]
+
+
+JOINT_JOG_HASH = "RIHS01_ba249455a20f70168a1acb7bf43b776b72ff1f7eb5fc4cfea443f749e963c6e7"
+"""control_msgs/msg/JointJog's type hash in a Jazzy build of control_msgs (its generated ``joint_jog__struct.h``):
+a subscription matches a publisher only when the hashes agree."""
+
+
+def test_joint_jog_has_the_distributions_type_hash() -> None:
+    _generated("JointJog")
+    built = interface_file("control_msgs/msg/JointJog")
+    assert built is not None and built.parent.parent.parent.name == "share"  # the installed one, not ros/
+    description = json.loads(built.with_suffix(".json").read_text())
+    hashes = {entry["type_name"]: entry["hash_string"] for entry in description["type_hashes"]}
+    assert hashes["control_msgs/msg/JointJog"] == JOINT_JOG_HASH
 
 
 def test_follow_joint_trajectory_equals_its_file() -> None:

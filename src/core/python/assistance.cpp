@@ -116,24 +116,28 @@ class WholeBodyAssist {
   std::size_t joints() const { return core_->joint_count(); }
 
   // The assistance alone at a validated q (no goal: the autonomy vector is zero).
-  JointAnswer assist(const Vector& q, const Twist6& user, Arbitration mode, double goal_share) {
+  JointAnswer assist(const Vector& q, const Twist6& user, Arbitration mode, double goal_share,
+                     std::optional<Vector> user_joints) {
     require(q.shape(0) == joints(), "q: expected one value per joint");
     JointAnswer answer;
     auto [qd, data] = new_array({joints()});
-    static_cast<JointAssistance&>(answer) = core_->assist(q.data(), user.data(), mode, goal_share, data);
+    static_cast<JointAssistance&>(answer) =
+        core_->assist(q.data(), command(user, user_joints), mode, goal_share, data);
     answer.outcome = contract(data, answer.blended);
     answer.joint_velocities = std::move(qd);
     return answer;
   }
 
   // The field's step and the assistance on it, or None when the step refuses q, previous or dt.
-  nb::object step(const Vector& q, std::optional<Vector> previous, double dt, const Twist6& user, Arbitration mode) {
+  nb::object step(const Vector& q, std::optional<Vector> previous, double dt, const Twist6& user, Arbitration mode,
+                  std::optional<Vector> user_joints) {
     require(core_->has_step(), "whole body: bound without a goal, it has no step");
     const bool given = previous.has_value();
+    const shared_control::OperatorCommand operator_command = command(user, user_joints);
     JointAnswer answer;
     auto [qd, data] = new_array({joints()});
     if (!core_->step(q.data(), q.shape(0), given ? previous->data() : nullptr, given ? previous->shape(0) : 0, dt,
-                     limit_tolerance_, user.data(), mode, answer, data))
+                     limit_tolerance_, operator_command, mode, answer, data))
       return nb::none();
     answer.outcome = contract(data, answer.blended);
     // the autonomy vector's joint velocities and twist by one factor (only the twist is reported)
@@ -145,6 +149,13 @@ class WholeBodyAssist {
   }
 
  private:
+  // The operator's twist, or with user_joints (validated: n finite values) its joint velocities instead.
+  shared_control::OperatorCommand command(const Twist6& user, const std::optional<Vector>& user_joints) const {
+    if (!user_joints.has_value()) return {user.data(), nullptr};
+    require(user_joints->shape(0) == joints(), "user_joints: expected one value per joint");
+    return {user.data(), user_joints->data()};
+  }
+
   // The output contract on a whole-body command in place (pfield.safety.limit_joint_command).
   safety::Outcome contract(double* qd, double* twist) const {
     const AssistParams& params = scene_->params();
@@ -299,11 +310,13 @@ void bind_assistance(nb::module_& m) {
            "parameters (_whole_body_layout.PARAMS, copied), the field's step as well.")
       .def_prop_ro("joint_count", &WholeBodyAssist::joints)
       .def("assist", &WholeBodyAssist::assist, "q"_a, "user"_a, "mode"_a, "goal_share"_a,
-           "The assistance alone at a validated q (the autonomy vector zero).")
+           "user_joints"_a.none() = nb::none(),
+           "The assistance alone at a validated q (the autonomy vector zero); with user_joints (n, validated) the "
+           "operator's joint velocities instead of the twist user's map.")
       .def("step", &WholeBodyAssist::step, "q"_a.noconvert(), "previous"_a.none().noconvert(), "dt"_a, "user"_a,
-           "mode"_a,
+           "mode"_a, "user_joints"_a.none() = nb::none(),
            "The field's step at q and the assistance on it, or None when q (n values within the limits up to "
-           "limit_tolerance), previous (n finite values) or dt (finite, >= 0) is refused.");
+           "limit_tolerance), previous (n finite values) or dt (finite, >= 0) is refused; user_joints as in assist.");
 }
 
 }  // namespace pfield::python

@@ -272,8 +272,9 @@ void JointWorkspace::fit_rows(std::size_t count) {
 
 JointAssistance assist_joints(const double* q, const robot::RobotView& robot, const MovingObstacles& obstacles,
                               const AssistParams& params, const JointAssistParams& joint_params, Arbitration mode,
-                              double goal_share, const double* qd_auto, const double* user, std::int64_t hint_link,
-                              std::int64_t hint_obstacle, JointWorkspace& ws, const JointState* state, double* qd) {
+                              double goal_share, const double* qd_auto, const OperatorCommand& user,
+                              std::int64_t hint_link, std::int64_t hint_obstacle, JointWorkspace& ws,
+                              const JointState* state, double* qd) {
   const robot::KinematicsView& kinematics = robot.kinematics;
   const std::size_t n = kinematics.joint_count;
   JointAssistance out;
@@ -289,12 +290,16 @@ JointAssistance assist_joints(const double* q, const robot::RobotView& robot, co
     jac = state->jacobian;
     world = state->world;
   }
-  // qd_user = J^T (J J^T + lambda^2 I)^-1 u_user, with the undamped J J^T's singularity test first
+  // qd_user = J^T (J J^T + lambda^2 I)^-1 u_user, or the operator's joint velocities; the undamped J J^T's
+  // singularity test either way (it describes the arm at q)
   double gram[kTwist * kTwist];
   math::dls_gram(jac, kTwist, n, nullptr, gram);
   out.singular = below_singular_value(gram, kTwist, joint_params.singularity_threshold);
-  math::dls_from_gram(jac, kTwist, n, nullptr, gram, joint_params.damping * joint_params.damping, user,
-                      ws.qd_user.data(), math::DlsSum::FromZero);
+  if (user.joints != nullptr)
+    std::copy(user.joints, user.joints + n, ws.qd_user.begin());
+  else
+    math::dls_from_gram(jac, kTwist, n, nullptr, gram, joint_params.damping * joint_params.damping, user.twist,
+                        ws.qd_user.data(), math::DlsSum::FromZero);
   const double* qd_user = ws.qd_user.data();
   const robot::JointLimitsView& limits = robot.limits;
   for (std::size_t j = 0; j < n; ++j)
@@ -360,15 +365,15 @@ WholeBodyAssistance::WholeBodyAssistance(const robot::RobotView& robot, const Mo
   stepper_ = std::make_unique<planning::WholeBodyStepper>(robot_, scene_, goal, step_params);
 }
 
-JointAssistance WholeBodyAssistance::assist(const double* q, const double* user, Arbitration mode, double goal_share,
-                                            double* qd) {
+JointAssistance WholeBodyAssistance::assist(const double* q, const OperatorCommand& user, Arbitration mode,
+                                            double goal_share, double* qd) {
   return assist_joints(q, robot_, obstacles_, params_, joint_params_, mode, goal_share, zeros_.data(), user, -1, -1,
                        ws_, nullptr, qd);
 }
 
 bool WholeBodyAssistance::step(const double* q, std::size_t q_size, const double* previous,
-                               std::size_t previous_size, double dt, double limit_tolerance, const double* user,
-                               Arbitration mode, JointAssistance& out, double* qd) {
+                               std::size_t previous_size, double dt, double limit_tolerance,
+                               const OperatorCommand& user, Arbitration mode, JointAssistance& out, double* qd) {
   if (!stepper_ || !stepper_->step(q, q_size, previous, previous_size, dt, limit_tolerance)) return false;
   const std::size_t n = joint_count();
   const robot::JointLimitsView& limits = robot_.limits;

@@ -190,6 +190,14 @@ struct JointWorkspace {
   robot::WorldSegments world;              // views of segment_ends
 };
 
+// The operator's command to the whole body: a twist (6: m/s, rad/s, world frame) that damped least squares maps to
+// the joints, or, with joints set, the joint velocities themselves (n: rad/s or m/s, a joint jog), which the blend and
+// the dampers take as they are (twist is then not read).
+struct OperatorCommand {
+  const double* twist = nullptr;
+  const double* joints = nullptr;
+};
+
 // Where assist_joints takes the robot's state at q from: computed into the workspace, or a field step's.
 struct JointState {
   const robot::Frames* frames = nullptr;       // joint frames at q
@@ -198,7 +206,8 @@ struct JointState {
 };
 
 // Whole-body assistance at q (n, within the limits) in one call: qd_user by damped least squares
-// (math::dls_from_gram, the sums from 0.0), the singularity test on J J^T, the joint-limit test, the nearest pair
+// (math::dls_from_gram, the sums from 0.0) or the operator's joint velocities (OperatorCommand), the singularity
+// test on J J^T, the joint-limit test, the nearest pair
 // (nearest_link, with the hint), alpha and the blend qd = alpha qd_auto + (1 - alpha) qd_user, the nearest link
 // point's time to collision, the dampers of every link point within Q, and blended = J qd (before the output
 // contract). The dampers: qd becomes the nearest joint velocity (Euclidean norm) whose link points each approach
@@ -212,7 +221,8 @@ struct JointState {
 // (n,) receives the joint velocities.
 JointAssistance assist_joints(const double* q, const robot::RobotView& robot, const MovingObstacles& obstacles,
                               const AssistParams& params, const JointAssistParams& joint_params, Arbitration mode,
-                              double goal_share, const double* qd_auto, const double* user, std::int64_t hint_link,
+                              double goal_share, const double* qd_auto, const OperatorCommand& user,
+                              std::int64_t hint_link,
                               std::int64_t hint_obstacle, JointWorkspace& ws, const JointState* state, double* qd);
 
 // Shared control's whole-body assistance for one robot among one scene's obstacles (pfield's AssistanceScene with a
@@ -238,7 +248,8 @@ class WholeBodyAssistance {
 
   // The assistance at q (validated: n values within the limits) with the autonomy vector zero (no goal),
   // goal_share given; qd (n,) receives the joint velocities.
-  JointAssistance assist(const double* q, const double* user, Arbitration mode, double goal_share, double* qd);
+  JointAssistance assist(const double* q, const OperatorCommand& user, Arbitration mode, double goal_share,
+                         double* qd);
 
   // The field's step at q (planning::WholeBodyStepper::step: it checks q, previous and dt, and clamps q onto the
   // limits) and the assistance on its qd_auto at the clamped q, from the step's frames, Jacobian and world segments,
@@ -247,7 +258,7 @@ class WholeBodyAssistance {
   // all (the step evaluated every pair exactly below Q) and is taken as the hint. Returns false, computing nothing,
   // when the step refuses an input (the caller validates, and raises).
   bool step(const double* q, std::size_t q_size, const double* previous, std::size_t previous_size, double dt,
-            double limit_tolerance, const double* user, Arbitration mode, JointAssistance& out, double* qd);
+            double limit_tolerance, const OperatorCommand& user, Arbitration mode, JointAssistance& out, double* qd);
 
  private:
   robot::RobotView robot_;

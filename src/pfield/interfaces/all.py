@@ -6,6 +6,7 @@ import importlib
 import logging
 
 from pfield.interfaces import (
+    control_msgs,
     geometry_msgs,
     nav_msgs,
     potential_fields_interfaces,
@@ -25,6 +26,7 @@ except ModuleNotFoundError as _exc:  # pragma: no cover - only when the module i
     _log.debug("pfield.interfaces.sensor_msgs not available")
 
 __all__ = [
+    "control_msgs",
     "geometry_msgs",
     "nav_msgs",
     "potential_fields_interfaces",

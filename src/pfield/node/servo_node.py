@@ -7,8 +7,10 @@ files give them), or from Python: ``ServoNode(bus, manager, config)``.
 
 Topics in: ``cartesian_command_in_topic`` (geometry_msgs/TwistStamped: ``header.frame_id`` empty means
 ``robot_link_command_frame``; the fixed frame, a static frame, or the end-effector link, which turns with the tool),
-``joy_topic`` (sensor_msgs/Joy, mapped by ``joy_device``), ``joint_topic`` (sensor_msgs/JointState, into the
-manager's joint-state cache; ``/joint_states``, the default, is then this node's subscription instead of the
+``joint_command_in_topic`` (control_msgs/JointJog: ``velocities`` of the joints in ``joint_names``, the others
+still; ``displacements`` are not used, and a jog with none but displacements is refused, as is an unknown or repeated
+joint name), ``joy_topic`` (sensor_msgs/Joy, mapped by ``joy_device``), ``joint_topic`` (sensor_msgs/JointState, into
+the manager's joint-state cache; ``/joint_states``, the default, is then this node's subscription instead of the
 manager's, so that joint states are handled on the servo's thread: :attr:`ManagerNode.joint_states_subscriber`).
 Topics out: ``command_out_topic`` (``command_out_type``: a JointTrajectory of one point at
 ``time_from_start = publish_period`` with positions/velocities/accelerations as ``publish_joint_*`` say, or a
@@ -44,8 +46,8 @@ from typing import Any
 
 from pfield._validation import finite
 from pfield.errors import InvalidInput
+from pfield.interfaces import control_msgs, sensor_msgs, std_msgs, trajectory_msgs
 from pfield.interfaces import geometry_msgs as gm
-from pfield.interfaces import sensor_msgs, std_msgs, trajectory_msgs
 from pfield.interfaces._base import RosMessage
 from pfield.interfaces._yaml import load_yaml_file
 from pfield.node._base import Bus, Node, PublicationSpec, ServiceSpec, SubscriptionSpec
@@ -70,10 +72,12 @@ SERVO_NODE_NAMES = ("/pfield_servo", "/servo_node")
 _FIGURES = re.compile(r" at [^ ]+ m$| \([^)]*\)")
 """The figures of a status sentence (a distance, a value in brackets): not part of its words."""
 """``--params`` sections that configure the servo: pfield's node name and MoveIt Servo's demo node name."""
-_RUNTIME = frozenset({"incoming_command_timeout", "scale_linear", "scale_rotational", "lower_singularity_threshold",
+_RUNTIME = frozenset({"incoming_command_timeout", "scale_linear", "scale_rotational", "scale_joint",
+                      "lower_singularity_threshold",
                       "hard_stop_singularity_threshold", "leaving_singularity_threshold_multiplier",
                       "check_collisions", "override_velocity_scaling_factor", "joy_deadzone", "joy_deadman_button",
-                      "halt_all_joints_in_cartesian_mode", "publish_joint_accelerations", "command_in_type"})
+                      "halt_all_joints_in_cartesian_mode", "halt_all_joints_in_joint_mode",
+                      "publish_joint_accelerations", "command_in_type"})
 """Parameters that may change while the node runs (the others shape its topics and loop: read-only)."""
 FOLLOWING = 1.2
 """Commands whose mean interval is at most this many ``publish_period`` drive the output (module docstring, Timing):
@@ -82,7 +86,8 @@ end it; after a pause, eight commands at the period start it again)."""
 
 
 def _row(name: str, default: Any, doc: str) -> ParameterRow:
-    ros_name = {"scale_linear": "scale.linear", "scale_rotational": "scale.rotational"}.get(name, name)
+    ros_name = {"scale_linear": "scale.linear", "scale_rotational": "scale.rotational",
+                "scale_joint": "scale.joint"}.get(name, name)
     kind = {bool: "bool", int: "integer", float: "double", str: "string"}.get(type(default), "map")
     choices = {"command_out_type": COMMAND_OUT_TYPES, "joy_device": JOY_DEVICES,
                "command_in_type": ("speed_units", "unitless")}.get(name, ())
@@ -123,7 +128,8 @@ class ServoNode(Node):
         self.tick_period = config.publish_period
         self.parameter_table = servo_table(self.name)
         self.topics = {key: _resolve(getattr(config, key), self.name) for key in
-                       ("cartesian_command_in_topic", "joy_topic", "joint_topic", "command_out_topic", "status_topic")}
+                       ("cartesian_command_in_topic", "joint_command_in_topic", "joy_topic", "joint_topic",
+                        "command_out_topic", "status_topic")}
         self.topics["status_text"] = self.topics["status_topic"] + "_text"
         self._lock = threading.Lock()
         self._last_step = -1e300
@@ -155,6 +161,8 @@ class ServoNode(Node):
     def subscriptions(self) -> list[SubscriptionSpec]:
         specs = [SubscriptionSpec(self.topics["cartesian_command_in_topic"], "geometry_msgs/msg/TwistStamped",
                                   gm.TwistStamped, self.on_twist),
+                 SubscriptionSpec(self.topics["joint_command_in_topic"], "control_msgs/msg/JointJog",
+                                  control_msgs.JointJog, self.on_joint_jog),
                  SubscriptionSpec(self.topics["joy_topic"], "sensor_msgs/msg/Joy", sensor_msgs.Joy, self.on_joy)]
         # the joint states into the manager's cache: /joint_states instead of the manager (its joint_states_subscriber),
         # another joint_topic beside the manager's /joint_states
@@ -190,6 +198,32 @@ class ServoNode(Node):
                   for part in ("linear", "angular") for axis in "xyz"]
         self._command(Twist(values[:3], values[3:]), frame, "twist", unitless=True)
 
+    def on_joint_jog(self, message: control_msgs.JointJog) -> None:
+        """An operator joint jog (module docstring): velocities by joint name, the unnamed joints still; stepped at
+        once."""
+        names, velocities = list(message.joint_names), list(message.velocities)
+        if not velocities:
+            raise InvalidInput("joint_jog.velocities", velocities, "the servo jogs by velocity: give one velocity per "
+                               "joint name (displacements are not used)" if message.displacements else
+                               "give one velocity per joint name")
+        if len(velocities) != len(names):
+            raise InvalidInput("joint_jog.velocities", velocities, f"expected one velocity per joint name "
+                               f"({len(names)} names)")
+        order = {name: j for j, name in enumerate(self.manager.robot.joint_names)}
+        values = [0.0] * len(order)
+        seen: set[str] = set()
+        for name, velocity in zip(names, velocities, strict=True):
+            if name not in order:
+                raise InvalidInput("joint_jog.joint_names", name, f"not a joint of the robot (its joints: "
+                                   f"{', '.join(order)})")
+            if name in seen:
+                raise InvalidInput("joint_jog.joint_names", name, "named twice")
+            seen.add(name)
+            values[order[name]] = finite(f"joint_jog.velocities[{name}]", velocity)
+        now = time.monotonic()
+        self.servo.command_joints(values, now)
+        self._stepped_for_command(now)
+
     def on_joy(self, message: sensor_msgs.Joy) -> None:
         """A joystick state, mapped by ``joy_device`` (docs/servo.md); stepped at once."""
         twist = joy_twist(message.axes, message.buttons, self.config)
@@ -205,6 +239,10 @@ class ServoNode(Node):
             twist = twist if transform is None else rotate_twist(twist, transform.orientation)
         now = time.monotonic()
         self.servo.command(twist, now, end_effector_frame=end_effector, unitless=unitless)
+        self._stepped_for_command(now)
+
+    def _stepped_for_command(self, now: float) -> None:
+        """A command came at ``now``: its interval into the mean (Timing), then a step."""
         interval = min(now - self._last_command, 2.0 * self.config.publish_period)
         mean = self._command_interval
         self._command_interval = interval if mean == float("inf") else 0.8 * mean + 0.2 * interval

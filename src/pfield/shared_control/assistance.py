@@ -46,7 +46,7 @@ from numpy.typing import ArrayLike, NDArray
 from pfield import safety
 from pfield._core import assistance as _core
 from pfield._core import robot as _robot_core
-from pfield._validation import finite, in_range, optional_vector
+from pfield._validation import as_vector, finite, in_range, optional_vector
 from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
 from pfield.field.field import _fast_twist
@@ -337,17 +337,19 @@ def _workspace(scene: AssistanceScene, robot: RobotModel) -> Any:
 
 
 def _assist_step(work: Any, robot: RobotModel, joint_angles: ArrayLike, previous: ArrayLike | None, dt: float,
-                 user: NDArray[np.float64], mode: Any) -> Any:
+                 user: NDArray[np.float64], mode: Any, user_joints: NDArray[np.float64] | None = None) -> Any:
     """The field's step and the assistance on its q̇ in one compiled call (``WholeBody.step``). C-contiguous float64
     vectors go in as they are (the call checks their values: n joint angles within the limits, finite previous
-    velocities); anything else, or a value the call refuses, is validated first, for its error."""
+    velocities); anything else, or a value the call refuses, is validated first, for its error. ``user_joints``:
+    the operator's joint velocities (validated), or None for the twist ``user``."""
     try:
-        result = work.step(joint_angles, previous, dt, user, mode)
+        result = work.step(joint_angles, previous, dt, user, mode, user_joints)
     except TypeError:  # another type (a list, a strided view, float32): the validating path converts it
         result = None
     if result is None:
         q = robot.check_joint_angles(joint_angles, "joint_angles")
-        result = work.step(q, optional_vector("prev_joint_velocities", previous, robot.n_joints), dt, user, mode)
+        result = work.step(q, optional_vector("prev_joint_velocities", previous, robot.n_joints), dt, user, mode,
+                           user_joints)
         if result is None:  # not reached: every input was checked above
             raise InvalidInput("joint_angles", joint_angles, "refused by the compiled step")
     return result
@@ -356,11 +358,13 @@ def _assist_step(work: Any, robot: RobotModel, joint_angles: ArrayLike, previous
 def whole_body_assistance(scene: AssistanceScene, robot: RobotModel, joint_angles: ArrayLike,
                           user_command: Twist | None = None, arbitration: str = "", *,
                           prev_joint_velocities: ArrayLike | None = None, dt: float = 0.0,
-                          input_age: float | None = None) -> Assistance:
+                          input_age: float | None = None,
+                          user_joint_velocities: ArrayLike | None = None) -> Assistance:
     """Assistance for ``robot`` at ``joint_angles`` (whole body).
 
     q̇_auto from :func:`pfield.shared_control.whole_body_autonomy`; the operator's twist mapped to joints by damped
-    least squares q̇_user = Jᵀ(J Jᵀ + λ² I)⁻¹ u_user; q̇ = α q̇_auto + (1 − α) q̇_user with α from the nearest
+    least squares q̇_user = Jᵀ(J Jᵀ + λ² I)⁻¹ u_user, or the operator's ``user_joint_velocities`` (n, rad/s or m/s:
+    a joint jog) as q̇_user itself, not both; q̇ = α q̇_auto + (1 − α) q̇_user with α from the nearest
     link clearance; then every link point's relative approach speed −n̂ᵀ(J_p q̇ − v_obs) to each obstacle within
     Q is held below the damper s(d) by the nearest q̇ (Euclidean) that holds all of them: the nearest link point's
     minimum-norm correction Δq̇ = J_pᵀ n̂ e / ‖J_pᵀ n̂‖² (e the excess) when it holds the others too (it is then
@@ -373,15 +377,21 @@ def whole_body_assistance(scene: AssistanceScene, robot: RobotModel, joint_angle
     mode = _mode(scene, arbitration)
     step = in_range("delta_time", dt, 0.0, math.inf, "s") if dt else 0.0
     user, flags = _user_twist(scene, user_command)
+    user_joints = None
+    if user_joint_velocities is not None:
+        if user_command is not None:
+            raise InvalidInput("user_joint_velocities", user_joint_velocities,
+                               "give the operator's twist (user_command) or joint velocities, not both")
+        user_joints = np.array(as_vector("user_joint_velocities", user_joint_velocities, robot.n_joints))
     flags |= _input_flags(input_age, scene.options)
     work = _workspace(scene, robot)
     if scene.field is None:
         q = robot.check_joint_angles(joint_angles, "joint_angles")
         autonomy = Twist()
-        result = work.assist(q, user, mode, 0.0)  # linear_goal's share is 0 without a goal
+        result = work.assist(q, user, mode, 0.0, user_joints)  # linear_goal's share is 0 without a goal
         goal_flags = Flag.NO_GOAL
     else:
-        result = _assist_step(work, robot, joint_angles, prev_joint_velocities, step, user, mode)
+        result = _assist_step(work, robot, joint_angles, prev_joint_velocities, step, user, mode, user_joints)
         if result.autonomy_outcome == safety.HALTED:
             _LOG.warning("whole-body step: %s", safety.describe(safety.HALTED))
         autonomy = _fast_twist(result.autonomy)

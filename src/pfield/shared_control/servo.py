@@ -1,18 +1,21 @@
-"""The servo loop: the latest operator twist turned into joint commands at a fixed rate, through the assistance.
+"""The servo loop: the latest operator command turned into joint commands at a fixed rate, through the assistance.
 
-A :class:`Servo` is MoveIt Servo's twist mode with pfield's field in the loop. Every :meth:`Servo.step` (at
-``publish_period``, or when a command arrives) takes the latest operator twist u (fixed frame; a twist in the
-end-effector frame is rotated by FK of the commanded joints at every step, so it turns with the tool) and:
+A :class:`Servo` is MoveIt Servo's twist and joint-jog modes with pfield's field in the loop. Every
+:meth:`Servo.step` (at ``publish_period``, or when a command arrives) takes the latest operator command — a twist u
+(fixed frame; a twist in the end-effector frame is rotated by FK of the commanded joints at every step, so it turns
+with the tool), or joint velocities q̇_u (a joint jog, :meth:`Servo.command_joints`) — and:
 
 1. **assistance** — :func:`~pfield.shared_control.whole_body_assistance` at the commanded joints q: u mapped to
-   joints by damped least squares, blended with the field's motion (arbitration), the approach of every link to
+   joints by damped least squares (a joint jog's q̇_u taken as it is), blended with the field's motion
+   (arbitration), the approach of every link to
    every obstacle held below the velocity damper (motion *along* an obstacle passes: the command is steered, not
    scaled as Servo's collision scale does), joint velocity limits and the twist limits (:mod:`pfield.safety`);
 2. **stale command** — a command older than ``incoming_command_timeout`` is replaced by zero: the loop decelerates
    to a stop (``COMMAND_TIMEOUT``);
-3. **singularity** — Servo's rule on the condition number κ = σ_max/σ_min of the 6×n end-effector Jacobian: the
-   speed is scaled by 1 − (κ − κ_l)/(κ_u − κ_l) above κ_l = ``lower_singularity_threshold``, where κ_u is
-   ``hard_stop_singularity_threshold`` when the motion increases κ (probed by a 1 mrad step along q̇) and
+3. **singularity** (twists only: a joint jog names its joints' motion, as in Servo) — Servo's rule on the condition
+   number κ = σ_max/σ_min of the 6×n end-effector Jacobian: the speed is scaled by 1 − (κ − κ_l)/(κ_u − κ_l) above
+   κ_l = ``lower_singularity_threshold``, where κ_u is ``hard_stop_singularity_threshold`` when the motion increases
+   κ (probed by a 1 mrad step along q̇) and
    κ_l + m (κ_h − κ_l) when it decreases it (m = ``leaving_singularity_threshold_multiplier``); motion toward the
    singularity stops at κ ≥ κ_h (moveit_servo ``utils/common.cpp``, ``velocityScalingFactorForSingularity``);
    motion away keeps at least :data:`LEAVING_MIN_SCALE` of its speed, so the robot can always leave;
@@ -21,8 +24,8 @@ end-effector frame is rotated by FK of the commanded joints at every step, so it
    come first (safety over smoothness: a collision or joint-bound status may decelerate faster);
 5. **joint position limits** — no step ends inside ``joint_limit_margins`` of a limit: q̇_j ≤ (q_max,j − m_j − q_j)/dt
    and ≥ (q_min,j + m_j − q_j)/dt where it moves toward the limit (motion away always passes); every joint is scaled
-   by one factor (``halt_all_joints_in_cartesian_mode``, the direction is kept) or only the offending joints are
-   (``JOINT_BOUND``);
+   by one factor (``halt_all_joints_in_cartesian_mode``, for a joint jog ``halt_all_joints_in_joint_mode``: the
+   direction is kept) or only the offending joints are (``JOINT_BOUND``);
 6. **integration** — q_cmd = q + q̇ dt, clipped to the position limits;
 7. **look-ahead** — near an obstacle, the clearance at q_cmd is computed: a step that would end closer than
    the field's ``safety_distance`` (the dampers' margin) to an obstacle, and closer than now, is not taken (the
@@ -49,7 +52,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pfield._enums import NamedIntEnum
-from pfield._validation import finite
+from pfield._validation import as_vector, finite
 from pfield.errors import InvalidInput
 from pfield.field.field import _fast_twist
 from pfield.robot.model import RobotModel
@@ -131,6 +134,17 @@ class ServoCommand:
     assistance: Assistance | None
 
 
+@dataclass(frozen=True)
+class _Command:
+    """The operator's latest command: a twist (6,: fixed frame, or the end-effector frame with ``end_effector``) or
+    joint velocities (n,: a joint jog), in m/s, rad/s; ``received`` on the clock :meth:`Servo.step` is given."""
+
+    received: float
+    twist: NDArray[np.float64] | None = None
+    end_effector: bool = False
+    joints: NDArray[np.float64] | None = None
+
+
 class Servo:
     """The servo loop of ``robot`` (module docstring). Thread-safe: :meth:`command` and :meth:`step` may come from
     different threads.
@@ -153,7 +167,7 @@ class Servo:
         self._upper = np.asarray(robot.upper_limits, dtype=np.float64)
         self._acceleration = np.asarray(robot.acceleration_limits, dtype=np.float64)
         self._lock = threading.Lock()
-        self._command: tuple[NDArray[np.float64], float, bool] | None = None  # (twist (6,), received, in EE frame)
+        self._command: _Command | None = None
         self._positions: NDArray[np.float64] | None = None
         self._velocities = np.zeros(robot.n_joints)
         self._last_step: float | None = None
@@ -177,7 +191,18 @@ class Servo:
             scaled = unitless_scaled(twist, self.config)
             values = np.concatenate([scaled.linear, scaled.angular]).astype(np.float64)
         with self._lock:
-            self._command = (values, stamp, bool(end_effector_frame))
+            self._command = _Command(stamp, twist=values, end_effector=bool(end_effector_frame))
+
+    def command_joints(self, velocities: ArrayLike, received: float, *, unitless: bool = True) -> None:
+        """The operator's latest joint jog: one velocity per joint in the robot's order (rad/s or m/s; 0 for joints
+        not jogged), received at ``received`` (s). ``unitless``: apply ``command_in_type`` (``unitless`` scales by
+        ``scale_joint``, Servo's ``scale.joint``)."""
+        stamp = finite("received", received)
+        values = np.array(as_vector("velocities", velocities, self.robot.n_joints))
+        if unitless and self.config.command_in_type == "unitless":
+            values *= self.config.scale_joint
+        with self._lock:
+            self._command = _Command(stamp, joints=values)
 
     def stop(self) -> None:
         """Forget the command (the next steps decelerate to a stop)."""
@@ -210,7 +235,7 @@ class Servo:
             dt = min(max(now - last, MIN_PERIOD), 2.0 * config.publish_period)
         base = self._positions if streaming and self._positions is not None else measured
         previous = self._velocities if streaming else np.zeros(self.robot.n_joints)
-        stale = command is None or now - command[1] > config.incoming_command_timeout
+        stale = command is None or now - command.received > config.incoming_command_timeout
         reasons: list[ServoStatus] = []
         answer: Assistance | None = None
         if stale:
@@ -221,9 +246,12 @@ class Servo:
             answer = self._assist(scene, base, command, previous, dt)
             target = np.array(answer.joint_velocities, dtype=np.float64)
             reasons += _collision_reasons(answer)
-        target = self._singularity(base, target, reasons)
+        jog = command is not None and command.joints is not None
+        if not jog:
+            target = self._singularity(base, target, reasons)
         velocities = self._accelerate(previous, target, dt, safety_first=bool(reasons) and not stale)
-        velocities = self._joint_bounds(base, velocities, dt, reasons)
+        halt_all = config.halt_all_joints_in_joint_mode if jog else config.halt_all_joints_in_cartesian_mode
+        velocities = self._joint_bounds(base, velocities, dt, reasons, halt_all)
         positions = np.clip(base + velocities * dt, self._lower, self._upper)
         if answer is not None and answer.flags & Flag.NEAR_OBSTACLE and config.check_collisions and \
                 self._may_close_in(scene, answer, velocities, dt) and self._closes_in(scene, answer, positions):
@@ -256,15 +284,18 @@ class Servo:
             self._velocities = np.zeros(self.robot.n_joints)
 
     # ---- the stages -------------------------------------------------------------------------------------
-    def _assist(self, scene: AssistanceScene, q: NDArray[np.float64], command: tuple[NDArray[np.float64], float, bool],
+    def _assist(self, scene: AssistanceScene, q: NDArray[np.float64], command: _Command,
                 previous: NDArray[np.float64], dt: float) -> Assistance:
-        twist = command[0]
-        linear, angular = twist[:3], twist[3:]
-        if command[2]:  # the end-effector frame turns with the tool: rotate by FK of the joints commanded now
-            orientation = self.robot.forward_kinematics(q).orientation
-            linear, angular = rotate_vectors(orientation, linear), rotate_vectors(orientation, angular)
         if not self.config.check_collisions:
             scene = self._without_obstacles(scene)
+        if command.joints is not None:
+            return whole_body_assistance(scene, self.robot, q, None, self.arbitration, prev_joint_velocities=previous,
+                                         dt=dt, user_joint_velocities=command.joints)
+        assert command.twist is not None
+        linear, angular = command.twist[:3], command.twist[3:]
+        if command.end_effector:  # the end-effector frame turns with the tool: rotate by FK of the joints commanded now
+            orientation = self.robot.forward_kinematics(q).orientation
+            linear, angular = rotate_vectors(orientation, linear), rotate_vectors(orientation, angular)
         user = _fast_twist(np.concatenate([linear, angular]))  # finite: checked when the command came in
         return whole_body_assistance(scene, self.robot, q, user, self.arbitration, prev_joint_velocities=previous,
                                      dt=dt)
@@ -332,8 +363,8 @@ class Servo:
         return previous + factor * change
 
     def _joint_bounds(self, q: NDArray[np.float64], velocities: NDArray[np.float64], dt: float,
-                      reasons: list[ServoStatus]) -> NDArray[np.float64]:
-        """No step ends inside a joint's margin (stage 5)."""
+                      reasons: list[ServoStatus], halt_all: bool) -> NDArray[np.float64]:
+        """No step ends inside a joint's margin (stage 5); ``halt_all``: every joint scaled by one factor."""
         upper_room = np.maximum((self._upper - self._margins - q) / dt, 0.0)
         lower_room = np.minimum((self._lower + self._margins - q) / dt, 0.0)
         over = velocities > upper_room
@@ -341,7 +372,7 @@ class Servo:
         if not (over.any() or under.any()):
             return velocities
         reasons.append(ServoStatus.JOINT_BOUND)
-        if self.config.halt_all_joints_in_cartesian_mode:
+        if halt_all:
             ratios = np.concatenate([upper_room[over] / velocities[over], lower_room[under] / velocities[under]])
             return velocities * float(max(0.0, min(1.0, ratios.min())))
         return np.clip(velocities, lower_room, upper_room)

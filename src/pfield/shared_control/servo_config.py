@@ -41,11 +41,11 @@ __all__ = ["COMMAND_OUT_TYPES", "JOY_DEVICES", "SERVO_ONLY_PARAMETERS", "ServoCo
 COMMAND_OUT_TYPES = ("trajectory_msgs/JointTrajectory", "std_msgs/Float64MultiArray")
 JOY_DEVICES = ("spacemouse", "gamepad")
 SERVO_ONLY_PARAMETERS = frozenset({
-    "thread_priority", "max_expected_latency", "active_subgroup", "pose_command_in_topic", "joint_command_in_topic",
+    "thread_priority", "max_expected_latency", "active_subgroup", "pose_command_in_topic",
     "apply_twist_commands_about_ee_frame", "pose_tracking.linear_tolerance", "pose_tracking.angular_tolerance",
     "monitored_planning_scene_topic", "check_octomap_collisions", "is_primary_planning_scene_monitor",
     "use_smoothing", "smoothing_filter_plugin_name", "collision_check_rate", "singularity_step_scale",
-    "halt_all_joints_in_joint_mode", "scale.joint", "use_gazebo", "low_pass_filter_coeff",
+    "use_gazebo", "low_pass_filter_coeff",
     "num_outgoing_halt_msgs_to_publish", "publish_delta_joint_state",
     "command_in_type_joint", "gripper_move_group_name", "use_intra_process_comms", "joint_limit_margin",
 })
@@ -69,6 +69,8 @@ class ServoConfig:
     """m/s of a unitless command of 1 (Servo's ``scale.linear``); joysticks are always unitless."""
     scale_rotational: float = 0.8
     """rad/s of a unitless command of 1 (Servo's ``scale.rotational``)."""
+    scale_joint: float = 0.5
+    """rad/s (m/s) of a unitless joint jog of 1 (Servo's ``scale.joint``)."""
     command_out_type: str = "trajectory_msgs/JointTrajectory"
     """``trajectory_msgs/JointTrajectory`` or ``std_msgs/Float64MultiArray``."""
     command_out_topic: str = "/joint_trajectory_controller/joint_trajectory"
@@ -81,6 +83,8 @@ class ServoConfig:
     """JointTrajectory commands carry accelerations."""
     cartesian_command_in_topic: str = "~/delta_twist_cmds"
     """geometry_msgs/TwistStamped operator commands (``~/`` is the node's namespace: ``/pfield_servo/``)."""
+    joint_command_in_topic: str = "~/delta_joint_cmds"
+    """control_msgs/JointJog operator commands (joint velocities by joint name)."""
     joint_topic: str = "/joint_states"
     """sensor_msgs/JointState of the robot."""
     status_topic: str = "~/status"
@@ -104,6 +108,8 @@ class ServoConfig:
     joint)."""
     halt_all_joints_in_cartesian_mode: bool = True
     """At a joint margin: scale every joint (keeps the direction of motion) instead of stopping only that joint."""
+    halt_all_joints_in_joint_mode: bool = True
+    """The same for joint jogs."""
     check_collisions: bool = True
     """Steer and limit the approach to obstacles (False: the operator's command with the joint limits only)."""
     scene_collision_proximity_threshold: float = 0.02
@@ -126,7 +132,7 @@ class ServoConfig:
     """The frame of joystick twists (empty: ``robot_link_command_frame``)."""
 
     def __post_init__(self) -> None:
-        for name in ("publish_period", "incoming_command_timeout", "scale_linear", "scale_rotational",
+        for name in ("publish_period", "incoming_command_timeout", "scale_linear", "scale_rotational", "scale_joint",
                      "lower_singularity_threshold", "hard_stop_singularity_threshold",
                      "leaving_singularity_threshold_multiplier", "scene_collision_proximity_threshold",
                      "self_collision_proximity_threshold"):
@@ -146,12 +152,13 @@ class ServoConfig:
         _choice("command_out_type", self.command_out_type, COMMAND_OUT_TYPES)
         _choice("joy_device", self.joy_device, JOY_DEVICES)
         for name in ("publish_joint_positions", "publish_joint_velocities", "publish_joint_accelerations",
-                     "halt_all_joints_in_cartesian_mode", "check_collisions"):
+                     "halt_all_joints_in_cartesian_mode", "halt_all_joints_in_joint_mode", "check_collisions"):
             object.__setattr__(self, name, _validation.boolean(name, getattr(self, name)))
         if not (self.publish_joint_positions or self.publish_joint_velocities):
             raise InvalidInput("publish_joint_positions", False, "a command needs positions or velocities: set "
                                "publish_joint_positions or publish_joint_velocities")
-        for name in ("command_out_topic", "cartesian_command_in_topic", "joint_topic", "status_topic", "joy_topic"):
+        for name in ("command_out_topic", "cartesian_command_in_topic", "joint_command_in_topic", "joint_topic",
+                     "status_topic", "joy_topic"):
             _topic(name, getattr(self, name))
         for name in ("move_group_name", "planning_frame", "ee_frame", "robot_link_command_frame", "arbitration",
                      "joy_frame"):
@@ -177,6 +184,7 @@ class ServoConfig:
         values["joint_limit_margins"] = list(self.joint_limit_margins)
         values["scale.linear"] = values.pop("scale_linear")
         values["scale.rotational"] = values.pop("scale_rotational")
+        values["scale.joint"] = values.pop("scale_joint")
         return values
 
 
@@ -191,7 +199,8 @@ def _topic(name: str, value: Any) -> None:
         raise InvalidInput(name, value, "must be a topic name such as /robot/commands or ~/status")
 
 
-_ALIASES = {"scale.linear": "scale_linear", "scale.rotational": "scale_rotational", "ee_frame_name": "ee_frame"}
+_ALIASES = {"scale.linear": "scale_linear", "scale.rotational": "scale_rotational", "scale.joint": "scale_joint",
+            "ee_frame_name": "ee_frame"}
 _FIELDS = frozenset(f.name for f in dataclasses.fields(ServoConfig))
 
 

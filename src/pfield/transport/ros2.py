@@ -261,8 +261,13 @@ class _NodeAdapter:
                 except Exception:  # a bug must not take the node down
                     _LOG.exception("%s: handler failed", spec.topic)
 
-        self.ros_node.create_subscription(interface_class(spec.type_name), spec.topic, receive, qos,
-                                          callback_group=self._short)
+        try:
+            message_class = interface_class(spec.type_name)
+        except ModuleNotFoundError as error:  # e.g. control_msgs not built: the node's other inputs still work
+            _LOG.warning("%s: %s is not available (%s; `make ros2-interfaces` builds pfield's interfaces): not "
+                         "subscribed", spec.topic, spec.type_name, error)
+            return
+        self.ros_node.create_subscription(message_class, spec.topic, receive, qos, callback_group=self._short)
 
     def _add_publication(self, spec: PublicationSpec, publisher: BusPublisher) -> None:
         message_class = interface_class(spec.type_name)
