@@ -234,3 +234,20 @@ def test_the_http_node_hosts_the_servo(served: tuple[ManagerNode, ServoNode, str
             break
         time.sleep(0.05)
     assert status["data"] == ServoStatus.COMMAND_TIMEOUT
+
+
+def test_the_http_node_takes_joint_jogs(served: tuple[ManagerNode, ServoNode, str], robot: Any) -> None:
+    """control_msgs/JointJog as JSON on the servo's joint_command_in_topic: the wrist jogged; a jog naming a joint the
+    robot does not have is refused (400, the field named)."""
+    _, _, url = served
+    state = measured(robot).model_dump()
+    jog = {"joint_names": ["panda_joint7"], "velocities": [0.2]}
+    for _ in range(5):
+        assert httpx.post(f"{url}/topic/joint_states", json=state).status_code < 300
+        assert httpx.post(f"{url}/topic/pfield_servo/delta_joint_cmds", json=jog).status_code < 300
+    command = httpx.get(f"{url}/topic/joint_trajectory_controller/joint_trajectory").json()
+    velocities = command["points"][0]["velocities"]
+    assert velocities[:6] == [0.0] * 6 and velocities[6] > 0.0
+    refused = httpx.post(f"{url}/topic/pfield_servo/delta_joint_cmds",
+                         json={"joint_names": ["wrist"], "velocities": [0.2]})
+    assert refused.status_code == 400 and "joint_jog.joint_names" in refused.text
