@@ -2,8 +2,9 @@
 
 Against ``pfield ros2 node --robot panda --params servo.yaml`` (a MoveIt Servo section): publishes the Panda's
 joint states as a driver would (reversed joint order plus a finger joint, 50 Hz), calls the whole-body autonomy
-vector without ``joint_angles``, drives the servo with a spacemouse ``Joy``, a tool-frame twist and a JointJog, lets the
-command go stale, and writes what it saw to ``$ROS2_TEST_OUT/results.json``.
+vector without ``joint_angles``, drives the servo with a spacemouse ``Joy``, a tool-frame twist and a JointJog
+(paused and resumed by ``~/pause_servo``), lets the command go stale, and writes what it saw to
+``$ROS2_TEST_OUT/results.json``.
 """
 
 from __future__ import annotations
@@ -97,6 +98,13 @@ def joy_drives(client: BlockingClient, results: dict[str, Any]) -> None:
     jog = Stream(client, "/pfield_servo/delta_joint_cmds", "control_msgs/msg/JointJog",
                  {"joint_names": ["panda_joint7"], "velocities": [0.3]}, 100.0)
     results["jog_command"] = commands.wait_for(lambda m: m["points"][0]["velocities"][6] > 0.25, timeout=60.0)
+    results["paused"] = client.call("/pfield_servo/pause_servo", "std_srvs/srv/SetBool", {"data": True})
+    results["hold"] = commands.wait_for(lambda m: not any(m["points"][0]["velocities"]), timeout=30.0)
+    commands.messages.clear()
+    time.sleep(0.5)  # the jog streams on: nothing goes out while paused
+    results["while_paused"] = len(commands.messages)
+    results["resumed"] = client.call("/pfield_servo/pause_servo", "std_srvs/srv/SetBool", {"data": False})
+    results["after_resume"] = commands.wait_for(lambda m: m["points"][0]["velocities"][6] > 0.0, timeout=30.0)
     jog.stop()
     results["params"] = client.get_parameters("/pfield_servo", ["publish_period", "scale.linear",
                                                                 "joint_limit_margins"])

@@ -16,6 +16,7 @@ from pfield.interfaces import std_msgs, trajectory_msgs
 from pfield.interfaces._base import RosMessage
 from pfield.interfaces.control_msgs import JointJog
 from pfield.interfaces.sensor_msgs import JointState, Joy
+from pfield.interfaces.std_srvs import SetBool_Request, Trigger_Request
 from pfield.node._base import Bus
 from pfield.node.manager import ManagerNode
 from pfield.node.servo_node import ServoNode
@@ -251,3 +252,42 @@ def test_the_http_node_takes_joint_jogs(served: tuple[ManagerNode, ServoNode, st
     refused = httpx.post(f"{url}/topic/pfield_servo/delta_joint_cmds",
                          json={"joint_names": ["wrist"], "velocities": [0.2]})
     assert refused.status_code == 400 and "joint_jog.joint_names" in refused.text
+
+
+def test_pause_holds_the_arm_and_drops_commands_until_resumed(robot: Any) -> None:
+    """MoveIt Servo's ``~/pause_servo`` (std_srvs/SetBool) and the older ``~/start_servo`` / ``~/stop_servo``
+    (Trigger): pausing a moving arm sends one command holding the last commanded positions at zero velocity and says
+    so on status_text; while paused commands and ticks send nothing; resumed, the loop starts from the measured
+    joints."""
+    manager, servo, recorder = make(robot, incoming_command_timeout=5.0)
+    services = {spec.name: spec for spec in servo.services()}
+    assert set(services) == {"/pfield_servo/pause_servo", "/pfield_servo/start_servo", "/pfield_servo/stop_servo"}
+    out = servo.topics["command_out_topic"]
+    manager.on_joint_states(measured(robot))
+    twist = gm.TwistStamped.model_validate({"twist": {"linear": {"x": 0.03}}})
+    for _ in range(20):
+        servo.on_twist(twist)
+        time.sleep(0.002)
+    moving = recorder.last(out).points[0]
+    answer = services["/pfield_servo/pause_servo"].handler(SetBool_Request(data=True))
+    assert answer.success and servo.paused
+    hold = recorder.last(out).points[0]
+    assert hold.velocities == [0.0] * 7 and hold.positions == moving.positions
+    assert recorder.last(servo.topics["status_text"]).data.startswith("PAUSED")
+    count = len(recorder.messages[out])
+    for _ in range(10):
+        servo.on_twist(twist)
+        servo.on_joint_jog(JointJog(joint_names=["panda_joint1"], velocities=[0.2]))
+        servo.tick(time.monotonic() + 1.0)
+    assert len(recorder.messages[out]) == count and servo.servo._command is None
+    assert services["/pfield_servo/stop_servo"].handler(Trigger_Request()).success and servo.paused  # idempotent
+    assert len(recorder.messages[out]) == count
+    assert services["/pfield_servo/start_servo"].handler(Trigger_Request()).message == "running"
+    assert not servo.paused
+    servo.on_twist(twist)
+    resumed = recorder.last(out).points[0]
+    ready = robot.named_configuration("ready")
+    assert len(recorder.messages[out]) == count + 1
+    moved = np.abs(np.array(hold.positions) - ready).max()  # the joints commanded before the pause
+    assert moved > 1e-4 and np.abs(np.array(resumed.positions) - ready).max() < moved / 4  # from the measured joints
+    assert services["/pfield_servo/pause_servo"].handler(SetBool_Request(data=False)).message == "running"

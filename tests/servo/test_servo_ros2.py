@@ -1,6 +1,6 @@
 """Over rclpy in a private network namespace: ``/joint_states`` replaces ``joint_angles``; the MoveIt Servo
-configuration of ``--params`` starts ``/pfield_servo``; Joy, a tool-frame twist and a JointJog drive it; a stale
-command stops."""
+configuration of ``--params`` starts ``/pfield_servo``; Joy, a tool-frame twist and a JointJog drive it;
+``~/pause_servo`` holds it and resumes it; a stale command stops."""
 
 from __future__ import annotations
 
@@ -55,5 +55,8 @@ def test_servo_over_rclpy(tmp_path: Path) -> None:
     assert twist_of(results["tool_command"])[2] < 0.0  # tool +z is world -z at the ready pose
     jogged = results["jog_command"]["points"][0]["velocities"]  # control_msgs/JointJog: the wrist alone
     assert jogged[:6] == [0.0] * 6 and 0.25 < jogged[6] <= 0.3
+    assert results["paused"]["success"] and results["resumed"]["message"] == "running"  # std_srvs/SetBool
+    assert results["hold"]["points"][0]["velocities"] == [0.0] * 7 and results["while_paused"] == 0
+    assert results["after_resume"]["points"][0]["velocities"][6] > 0.0
     assert results["params"] == {"publish_period": 0.01, "scale.linear": 0.2, "joint_limit_margins": [0.12]}
     assert "ignored MoveIt Servo parameters pfield does not use" in log and "use_smoothing" in log

@@ -1,4 +1,4 @@
-"""``std_srvs`` services (Trigger, Empty)."""
+"""``std_srvs`` services (Trigger, SetBool, Empty)."""
 
 from __future__ import annotations
 
@@ -11,6 +11,17 @@ class Trigger_Request(RosMessage):
 
 class Trigger_Response(RosMessage):
     ros_type = "std_srvs/srv/Trigger_Response"
+    success: Bool = False
+    message: String = ""
+
+
+class SetBool_Request(RosMessage):
+    ros_type = "std_srvs/srv/SetBool_Request"
+    data: Bool = False
+
+
+class SetBool_Response(RosMessage):
+    ros_type = "std_srvs/srv/SetBool_Response"
     success: Bool = False
     message: String = ""
 

@@ -12,6 +12,9 @@ still; ``displacements`` are not used, and a jog with none but displacements is 
 joint name), ``joy_topic`` (sensor_msgs/Joy, mapped by ``joy_device``), ``joint_topic`` (sensor_msgs/JointState, into
 the manager's joint-state cache; ``/joint_states``, the default, is then this node's subscription instead of the
 manager's, so that joint states are handled on the servo's thread: :attr:`ManagerNode.joint_states_subscriber`).
+Services: MoveIt Servo's ``~/pause_servo`` (std_srvs/SetBool) and ``~/start_servo`` / ``~/stop_servo``
+(std_srvs/Trigger): paused, a moving arm gets one command holding it where it was commanded, then nothing is published
+and commands are dropped until it resumes from the measured joints (:meth:`ServoNode.pause`).
 Topics out: ``command_out_topic`` (``command_out_type``: a JointTrajectory of one point at
 ``time_from_start = publish_period`` with positions/velocities/accelerations as ``publish_joint_*`` say, or a
 Float64MultiArray of positions when ``publish_joint_positions`` is set, else velocities; joints in the robot's tree
@@ -46,7 +49,7 @@ from typing import Any
 
 from pfield._validation import finite
 from pfield.errors import InvalidInput
-from pfield.interfaces import control_msgs, sensor_msgs, std_msgs, trajectory_msgs
+from pfield.interfaces import control_msgs, sensor_msgs, std_msgs, std_srvs, trajectory_msgs
 from pfield.interfaces import geometry_msgs as gm
 from pfield.interfaces._base import RosMessage
 from pfield.interfaces._yaml import load_yaml_file
@@ -69,9 +72,11 @@ __all__ = ["SERVO_NODE_NAMES", "ServoNode", "load_servo_file", "servo_from_param
 
 _log = logging.getLogger(__name__)
 SERVO_NODE_NAMES = ("/pfield_servo", "/servo_node")
+"""``--params`` sections that configure the servo: pfield's node name and MoveIt Servo's demo node name."""
 _FIGURES = re.compile(r" at [^ ]+ m$| \([^)]*\)")
 """The figures of a status sentence (a distance, a value in brackets): not part of its words."""
-"""``--params`` sections that configure the servo: pfield's node name and MoveIt Servo's demo node name."""
+PAUSED_TEXT = "PAUSED: by ~/pause_servo or ~/stop_servo; commands are dropped until it resumes"
+"""``status_text`` when the servo pauses (MoveIt Servo has no status code for it)."""
 _RUNTIME = frozenset({"incoming_command_timeout", "scale_linear", "scale_rotational", "scale_joint",
                       "lower_singularity_threshold",
                       "hard_stop_singularity_threshold", "leaving_singularity_threshold_multiplier",
@@ -137,6 +142,7 @@ class ServoNode(Node):
         self._command_interval = float("inf")  # s: the commands' mean interval (FOLLOWING)
         self._was_moving = False
         self._status: tuple[int | None, str] = (None, "")  # (code, words) last published; None: nothing yet
+        self._paused = False  # by ~/pause_servo or ~/stop_servo: no steps, commands dropped
         if ignored:
             servo_only = [n for n in ignored if n.split(".", 1)[-1] in SERVO_ONLY_PARAMETERS
                           or n in SERVO_ONLY_PARAMETERS]
@@ -156,7 +162,54 @@ class ServoNode(Node):
 
     # ---- node contract ------------------------------------------------------------------------------
     def services(self) -> list[ServiceSpec]:
-        return []
+        return [ServiceSpec(f"{self.name}/pause_servo", "std_srvs/srv/SetBool", std_srvs.SetBool_Request,
+                            std_srvs.SetBool_Response, self.on_pause_servo),
+                ServiceSpec(f"{self.name}/start_servo", "std_srvs/srv/Trigger", std_srvs.Trigger_Request,
+                            std_srvs.Trigger_Response, self.on_start_servo),
+                ServiceSpec(f"{self.name}/stop_servo", "std_srvs/srv/Trigger", std_srvs.Trigger_Request,
+                            std_srvs.Trigger_Response, self.on_stop_servo)]
+
+    # ---- pause ----------------------------------------------------------------------------------------
+    @property
+    def paused(self) -> bool:
+        return self._paused
+
+    def pause(self) -> None:
+        """Stop the loop where it stands: a moving arm gets one command holding the last commanded positions at zero
+        velocity, then nothing is published and commands are dropped until :meth:`resume`."""
+        with self._lock:
+            if self._paused:
+                return
+            self._paused = True
+            hold = self.servo.halt()
+            if hold is not None and self._was_moving:
+                self.bus.publish(self.topics["command_out_topic"], self._command_message(hold))
+            self._was_moving = False
+            self._status = (None, "")  # the first status after resume is published
+            self.bus.publish(self.topics["status_text"], std_msgs.String(data=PAUSED_TEXT))
+
+    def resume(self) -> None:
+        """Run again from the measured joints (the loop forgot its state when it paused)."""
+        with self._lock:
+            self._paused = False
+
+    def on_pause_servo(self, request: std_srvs.SetBool_Request) -> std_srvs.SetBool_Response:
+        """MoveIt Servo's ``~/pause_servo``: ``data`` true pauses, false resumes."""
+        if request.data:
+            self.pause()
+        else:
+            self.resume()
+        return std_srvs.SetBool_Response(success=True, message="paused" if request.data else "running")
+
+    def on_start_servo(self, _request: std_srvs.Trigger_Request) -> std_srvs.Trigger_Response:
+        """MoveIt Servo's older ``~/start_servo``: resumes (pfield's servo runs from the start)."""
+        self.resume()
+        return std_srvs.Trigger_Response(success=True, message="running")
+
+    def on_stop_servo(self, _request: std_srvs.Trigger_Request) -> std_srvs.Trigger_Response:
+        """MoveIt Servo's older ``~/stop_servo``: pauses."""
+        self.pause()
+        return std_srvs.Trigger_Response(success=True, message="paused")
 
     def subscriptions(self) -> list[SubscriptionSpec]:
         specs = [SubscriptionSpec(self.topics["cartesian_command_in_topic"], "geometry_msgs/msg/TwistStamped",
@@ -220,6 +273,8 @@ class ServoNode(Node):
                 raise InvalidInput("joint_jog.joint_names", name, "named twice")
             seen.add(name)
             values[order[name]] = finite(f"joint_jog.velocities[{name}]", velocity)
+        if self._paused:
+            return
         now = time.monotonic()
         self.servo.command_joints(values, now)
         self._stepped_for_command(now)
@@ -232,6 +287,8 @@ class ServoNode(Node):
 
     def _command(self, twist: Twist, frame: str, field: str, unitless: bool) -> None:
         """The twist into the servo (a static frame's rotated now, an end-effector twist at every step); a step."""
+        if self._paused:
+            return
         state = self.manager.state
         end_effector = bool(frame) and frame == self.manager.robot.end_effector and frame != state.params.fixed_frame
         if not end_effector:
@@ -253,6 +310,8 @@ class ServoNode(Node):
     def tick(self, now: float) -> None:
         """A step when none came for 0.9 ``publish_period``, or for 1.5 while commands drive the output (module
         docstring, Timing)."""
+        if self._paused:
+            return
         period = self.config.publish_period
         following = self._command_interval <= FOLLOWING * period and self._last_step == self._last_command
         if now - self._last_step >= (1.5 if following else 0.9) * period:

@@ -277,6 +277,21 @@ class Servo:
             self.config, self._margins = config, margins
             self.arbitration = config.arbitration or self.arbitration
 
+    def halt(self) -> ServoCommand | None:
+        """Stop now, where the last step commanded (a pause): the command is forgotten and the next step starts from
+        the measured joints (:meth:`reset`). Returns the command that holds the arm there — the last commanded
+        positions at zero velocity — or None when no step has commanded a position since the last reset."""
+        n = self.robot.n_joints
+        with self._lock:
+            positions = self._positions
+            self._command = None
+            self._positions, self._last_step, self._moving, self._active = None, None, False, False
+            self._velocities = np.zeros(n)
+        if positions is None:
+            return None
+        return ServoCommand(self.robot.joint_names, positions.copy(), np.zeros(n), np.zeros(n),
+                            self.config.publish_period, ServoStatus.NO_WARNING, "halted where commanded", False, None)
+
     def reset(self) -> None:
         """Start again from the measured joints at the next step (a new session, or after the robot was moved)."""
         with self._lock:
