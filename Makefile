@@ -60,8 +60,9 @@ $(ROS2_STAMP): $(ROS2_PKG)/CMakeLists.txt $(ROS2_PKG)/package.xml $(ROS2_PKG)/ms
 
 ros2-interfaces: $(ROS2_STAMP)
 
-# control_msgs' FollowJointTrajectory subset (ros/control_msgs, NOTICE.md there): the action a ros2_control
-# joint_trajectory_controller serves, for pfield.transport.trajectory_client; built the same way.
+# control_msgs' FollowJointTrajectory and JointJog subset (ros/control_msgs, NOTICE.md there): the action a
+# ros2_control joint_trajectory_controller serves, for pfield.transport.trajectory_client, and the servo's joint
+# jog; built the same way.
 CONTROL_MSGS_PKG   := ros/control_msgs
 CONTROL_MSGS_BUILD := build/ros2-control-msgs
 CONTROL_MSGS_STAMP := $(VENV)/.ros2-control-msgs

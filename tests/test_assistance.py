@@ -247,9 +247,24 @@ def test_whole_body_takes_the_operators_joint_velocities_as_they_are(xarm: Any) 
         if not limited:
             np.testing.assert_array_equal(by_joints.joint_velocities, joints)  # passed through as given
         assert by_joints.time_to_collision == pytest.approx(by_twist.time_to_collision, rel=1e-9)
-    # with the goal's field and the default arbitration: the blend of q̇_auto and the jog, through the dampers
-    blended = whole_body_assistance(arm, xarm, Q, None, user_joint_velocities=np.full(7, 0.01))
-    assert blended.joint_velocities.shape == (7,) and np.isfinite(blended.joint_velocities).all()
+    # with the goal's field and the linear arbitration: q̇ = α q̇_auto + (1 − α) jog, where the answer without an
+    # operator command is α q̇_auto (the same α: it depends on the clearance alone)
+    jog = np.full(7, 0.01)
+    alone = whole_body_assistance(arm, xarm, Q, None, "linear")
+    blended = whole_body_assistance(arm, xarm, Q, None, "linear", user_joint_velocities=jog)
+    assert 0.0 < blended.alpha == alone.alpha < 1.0 and "unchanged" in blended.message  # the blend not limited here
+    np.testing.assert_allclose(blended.joint_velocities, alone.joint_velocities + (1 - blended.alpha) * jog,
+                               rtol=0, atol=1e-12)
+    # rule 3: a jog beyond the joints' velocity limits is scaled by one factor before use (so it answers as the jog
+    # at the limit does, time to collision included), and flagged
+    fast, at_limit = np.zeros(7), np.zeros(7)
+    fast[5], fast[6] = 50.0, 100.0
+    at_limit[5], at_limit[6] = 0.5 * xarm.velocity_limits[6], xarm.velocity_limits[6]
+    clipped = whole_body_assistance(arm, xarm, Q, None, "safety_only", user_joint_velocities=fast)
+    reference = whole_body_assistance(arm, xarm, Q, None, "safety_only", user_joint_velocities=at_limit)
+    assert clipped.flags & Flag.VELOCITY_LIMITED
+    np.testing.assert_allclose(clipped.joint_velocities, reference.joint_velocities, rtol=1e-12, atol=0)
+    assert clipped.time_to_collision == pytest.approx(reference.time_to_collision, rel=1e-12)
     with pytest.raises(InvalidInput, match=r"user_joint_velocities.*not both"):
         whole_body_assistance(arm, xarm, Q, Twist((0.01, 0, 0)), user_joint_velocities=np.zeros(7))
     with pytest.raises(InvalidInput, match="user_joint_velocities"):

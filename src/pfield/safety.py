@@ -17,8 +17,9 @@ their reasons, are in docs/assistance.md § "The output contract":
    twist stays J q̇. Scaling toward zero keeps every velocity damper satisfied whose allowed approach speed
    is ≥ 0 (a smaller approach is still allowed); joint acceleration limits yield to velocity limits.
 3. **Inputs beyond the limits are clipped** before they are used: the operator's twist and a previous twist
-   by rule 2 (a command beyond the limits would have been scaled before it was sent); previous joint
-   velocities joint by joint to ±v_max,j (a previous command that the limits never allowed).
+   by rule 2, the operator's joint velocities (a joint jog) by rule 2's joint rule (a command beyond the limits
+   would have been scaled before it was sent); previous joint velocities joint by joint to ±v_max,j (a previous
+   command that the limits never allowed).
 4. **Obstacle speeds** above :data:`MAX_OBSTACLE_SPEED` are refused when given (library, node topic) and
    clipped when estimated from poses (:func:`clip_obstacle_velocity`).
 
@@ -40,9 +41,9 @@ from pfield._core import safety as _core
 from pfield._validation import as_vector
 from pfield.errors import InvalidInput
 
-__all__ = ["HALTED", "MAX_OBSTACLE_SPEED", "SCALED", "WITHIN", "check_obstacle_velocity", "clip_joint_velocities",
-           "clip_obstacle_velocity", "clip_twist", "describe", "limit_joint_command", "limit_twist", "limit_twists",
-           "twist_scale"]
+__all__ = ["HALTED", "MAX_OBSTACLE_SPEED", "SCALED", "WITHIN", "check_obstacle_velocity", "clip_joint_command",
+           "clip_joint_velocities", "clip_obstacle_velocity", "clip_twist", "describe", "limit_joint_command",
+           "limit_twist", "limit_twists", "twist_scale"]
 
 WITHIN: Final = 0
 """The command was finite and within the limits: returned unchanged."""
@@ -89,6 +90,14 @@ def clip_twist(values: ArrayLike, max_linear: float, max_angular: float) -> tupl
     """Rule 3 for an input twist (finite, 6 values): a copy scaled within the limits, and whether it was."""
     array = np.array(values, dtype=np.float64)
     return array, limit_twist(array, max_linear, max_angular) == SCALED
+
+
+def clip_joint_command(values: ArrayLike, joint_limits: NDArray[np.float64]) -> tuple[NDArray[np.float64], bool]:
+    """Rule 3 for an input joint command (the operator's joint jog; finite, n values): a copy scaled by rule 2's
+    joint rule, s = min_j v_max,j / |q̇_j| (direction kept), and whether it was (:func:`limit_joint_command` with a
+    zero twist, which no twist limit scales)."""
+    array = np.array(values, dtype=np.float64)
+    return array, limit_joint_command(array, np.zeros(6), joint_limits, 1.0, 1.0) == SCALED
 
 
 def clip_joint_velocities(values: NDArray[np.float64], joint_limits: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -98,6 +98,9 @@ def test_params_section_builds_the_servo_node_and_logs_what_it_ignores(caplog: p
     ({"joy_device": "wiimote"}, "joy_device"),
     ({"joy_deadzone": 1.5}, "joy_deadzone"),
     ({"override_velocity_scaling_factor": 2.0}, "override_velocity_scaling_factor"),
+    ({"scale": {"joint": -1.0}}, "scale_joint"),
+    ({"joint_command_in_topic": "delta joint cmds"}, "joint_command_in_topic"),
+    ({"halt_all_joints_in_joint_mode": "yes"}, "halt_all_joints_in_joint_mode"),
     ({"publish_period": 0.01, "moveit_servo": {"publish_period": 0.02}}, "publish_period"),
 ])
 def test_bad_values_are_refused_by_name(values: dict[str, Any], field: str) -> None:

@@ -315,3 +315,24 @@ def test_bad_joint_jogs_are_refused_and_change_nothing(robot: RobotModel, empty_
     with pytest.raises(InvalidInput, match="received"):
         servo.command_joints([0.1] * 7, math.nan)
     assert servo._command is before
+
+
+def test_twists_and_jogs_each_read_their_own_halt_all_flag(robot: RobotModel, empty_scene: AssistanceScene) -> None:
+    """At the base joint's margin: ``halt_all_joints_in_cartesian_mode`` decides for twists and
+    ``halt_all_joints_in_joint_mode`` for joint jogs, each not the other's."""
+    q = ready(robot)
+    q[0] = robot.upper_limits[0] - 0.12
+    twist = Twist(*np.split(robot.jacobian(q)[:, 0] * 0.3, 2))  # the twist of a pure joint-1 motion toward it
+
+    def twists(**flags: bool) -> np.ndarray:
+        servo = Servo(robot, ServoConfig(publish_period=PERIOD, **flags), empty_scene, arbitration="safety_only")
+        return np.array([c.velocities for c in run(servo, q, twist, 300)])
+
+    def jogs(**flags: bool) -> np.ndarray:
+        servo = Servo(robot, ServoConfig(publish_period=PERIOD, **flags), empty_scene, arbitration="safety_only")
+        return np.array([c.velocities for c in _jog(servo, q, [0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.3], 300)])
+
+    assert np.array_equal(twists(halt_all_joints_in_joint_mode=False), twists())
+    assert not np.array_equal(twists(halt_all_joints_in_cartesian_mode=False), twists())
+    assert np.array_equal(jogs(halt_all_joints_in_cartesian_mode=False), jogs())
+    assert not np.array_equal(jogs(halt_all_joints_in_joint_mode=False), jogs())

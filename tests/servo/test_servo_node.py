@@ -291,3 +291,27 @@ def test_pause_holds_the_arm_and_drops_commands_until_resumed(robot: Any) -> Non
     moved = np.abs(np.array(hold.positions) - ready).max()  # the joints commanded before the pause
     assert moved > 1e-4 and np.abs(np.array(resumed.positions) - ready).max() < moved / 4  # from the measured joints
     assert services["/pfield_servo/pause_servo"].handler(SetBool_Request(data=False)).message == "running"
+
+
+@pytest.mark.parametrize("error", [ModuleNotFoundError, AttributeError])
+def test_a_subscription_whose_interface_is_not_built_is_skipped(robot: Any, error: type[Exception],
+                                                                 monkeypatch: pytest.MonkeyPatch,
+                                                                 caplog: pytest.LogCaptureFixture) -> None:
+    """Over ROS 2, a servo input whose message package is missing (no control_msgs) or older (a control_msgs built
+    before JointJog) is not subscribed, with a warning; the other inputs' classes still resolve."""
+    pytest.importorskip("rclpy")
+    from pfield.transport import ros2
+
+    _, servo, _ = make(robot)
+    specs = {spec.type_name: spec for spec in servo.subscriptions()}
+
+    def refuse_joint_jog(type_name: str) -> type:
+        if type_name == "control_msgs/msg/JointJog":  # a new error per call: none outlives the test with its frames
+            raise error(f"control_msgs has no {type_name}")
+        return object
+
+    monkeypatch.setattr(ros2, "interface_class", refuse_joint_jog)
+    with caplog.at_level("WARNING", logger=ros2.__name__):
+        assert ros2.subscription_class(specs["control_msgs/msg/JointJog"]) is None
+        assert ros2.subscription_class(specs["geometry_msgs/msg/TwistStamped"]) is object
+    assert "/pfield_servo/delta_joint_cmds: control_msgs/msg/JointJog is not available" in caplog.text

@@ -62,8 +62,9 @@ def test_messages_equal_their_files(name: str) -> None:
 
 
 JOINT_JOG_HASH = "RIHS01_ba249455a20f70168a1acb7bf43b776b72ff1f7eb5fc4cfea443f749e963c6e7"
-"""control_msgs/msg/JointJog's type hash in a Jazzy build of control_msgs (its generated ``joint_jog__struct.h``):
-a subscription matches a publisher only when the hashes agree."""
+"""control_msgs/msg/JointJog's type hash as rosidl's C generator of an Iron/Jazzy-era build wrote it into another
+project's generated ``control_msgs__msg__JointJog__TYPE_HASH`` (found in published generated headers, not computed
+from this build): a subscription matches a publisher only when the hashes agree."""
 
 
 def test_joint_jog_has_the_distributions_type_hash() -> None:

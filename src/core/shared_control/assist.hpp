@@ -207,9 +207,8 @@ struct JointState {
 
 // Whole-body assistance at q (n, within the limits) in one call: qd_user by damped least squares
 // (math::dls_from_gram, the sums from 0.0) or the operator's joint velocities (OperatorCommand), the singularity
-// test on J J^T, the joint-limit test, the nearest pair
-// (nearest_link, with the hint), alpha and the blend qd = alpha qd_auto + (1 - alpha) qd_user, the nearest link
-// point's time to collision, the dampers of every link point within Q, and blended = J qd (before the output
+// test on J J^T, the joint-limit test, the nearest pair (nearest_link, with the hint), alpha and the blend
+// qd = alpha qd_auto + (1 - alpha) qd_user, the nearest link point's time to collision, the dampers of every link point within Q, and blended = J qd (before the output
 // contract). The dampers: qd becomes the nearest joint velocity (Euclidean norm) whose link points each approach
 // their obstacle no faster than the damper allows, -n^T (J_p qd - v_obs) <= s(d), at every link-obstacle pair within
 // Q (planning::scan_link_obstacle_pairs with cutoff Q: one row n^T J_p qd >= n^T v_obs - s(d) per pair, the nearest
@@ -222,8 +221,8 @@ struct JointState {
 JointAssistance assist_joints(const double* q, const robot::RobotView& robot, const MovingObstacles& obstacles,
                               const AssistParams& params, const JointAssistParams& joint_params, Arbitration mode,
                               double goal_share, const double* qd_auto, const OperatorCommand& user,
-                              std::int64_t hint_link,
-                              std::int64_t hint_obstacle, JointWorkspace& ws, const JointState* state, double* qd);
+                              std::int64_t hint_link, std::int64_t hint_obstacle, JointWorkspace& ws,
+                              const JointState* state, double* qd);
 
 // Shared control's whole-body assistance for one robot among one scene's obstacles (pfield's AssistanceScene with a
 // RobotModel): robot, obstacles and settings bound once, the workspace owned, and with a goal the field's step

@@ -17,7 +17,8 @@ __all__ = ["JointJog"]
 
 class JointJog(RosMessage):
     """Joint velocities (rad/s or m/s) or displacements (rad or m) by joint name, in ``joint_names``' order (not all
-    of the robot's joints need be named); ``duration`` (s) scales a jog command."""
+    of the robot's joints need be named), and a ``duration`` (s). pfield's servo reads the names and velocities
+    only."""
 
     ros_type = "control_msgs/msg/JointJog"
     header: Header = Field(default_factory=Header)

@@ -8,9 +8,10 @@ files give them), or from Python: ``ServoNode(bus, manager, config)``.
 Topics in: ``cartesian_command_in_topic`` (geometry_msgs/TwistStamped: ``header.frame_id`` empty means
 ``robot_link_command_frame``; the fixed frame, a static frame, or the end-effector link, which turns with the tool),
 ``joint_command_in_topic`` (control_msgs/JointJog: ``velocities`` of the joints in ``joint_names``, the others
-still; ``displacements`` are not used, and a jog with none but displacements is refused, as is an unknown or repeated
-joint name), ``joy_topic`` (sensor_msgs/Joy, mapped by ``joy_device``), ``joint_topic`` (sensor_msgs/JointState, into
-the manager's joint-state cache; ``/joint_states``, the default, is then this node's subscription instead of the
+still, an empty jog all still; ``displacements``, ``duration`` and ``header.stamp`` are not used (a command's age runs
+from its arrival), and a jog with names but only displacements is refused, as is an unknown or repeated joint name),
+``joy_topic`` (sensor_msgs/Joy, mapped by ``joy_device``), ``joint_topic`` (sensor_msgs/JointState, into the
+manager's joint-state cache; ``/joint_states``, the default, is then this node's subscription instead of the
 manager's, so that joint states are handled on the servo's thread: :attr:`ManagerNode.joint_states_subscriber`).
 Services: MoveIt Servo's ``~/pause_servo`` (std_srvs/SetBool) and ``~/start_servo`` / ``~/stop_servo``
 (std_srvs/Trigger): paused, a moving arm gets one command holding it where it was commanded, then nothing is published
@@ -153,6 +154,7 @@ class ServoNode(Node):
         self.ignored = tuple(ignored)
         self._header = std_msgs.Header()
         self._joint_names = list(manager.robot.joint_names)
+        self._joint_index = {name: j for j, name in enumerate(self._joint_names)}  # a jog's names to joints
         if self.topics["joint_topic"] == JOINT_STATES_TOPIC:  # the joint states on this node's thread (the manager's
             manager.joint_states_subscriber = self            # joint_states_subscriber says why)
 
@@ -255,14 +257,14 @@ class ServoNode(Node):
         """An operator joint jog (module docstring): velocities by joint name, the unnamed joints still; stepped at
         once."""
         names, velocities = list(message.joint_names), list(message.velocities)
-        if not velocities:
+        if names and not velocities:
             raise InvalidInput("joint_jog.velocities", velocities, "the servo jogs by velocity: give one velocity per "
                                "joint name (displacements are not used)" if message.displacements else
                                "give one velocity per joint name")
         if len(velocities) != len(names):
             raise InvalidInput("joint_jog.velocities", velocities, f"expected one velocity per joint name "
                                f"({len(names)} names)")
-        order = {name: j for j, name in enumerate(self.manager.robot.joint_names)}
+        order = self._joint_index
         values = [0.0] * len(order)
         seen: set[str] = set()
         for name, velocity in zip(names, velocities, strict=True):

@@ -1,11 +1,12 @@
 """Shared control: the field's recommended motion (the autonomy vector) and its blend with an operator's command.
 
 * :mod:`~pfield.shared_control.autonomy` — the task-space and whole-body autonomy vectors (ComputeAutonomyVector).
-* :mod:`~pfield.shared_control.assistance` — the operator's twist arbitrated with the field's, the dampers on the
-  blend, the nearest obstacle, time to collision and flags (ComputeAssistance); docs/assistance.md.
-* :mod:`~pfield.shared_control.servo` — the servo loop: the latest operator twist turned into joint commands at a
-  fixed rate through the assistance, under MoveIt Servo's parameter names (:mod:`~pfield.shared_control.servo_config`);
-  docs/servo.md.
+* :mod:`~pfield.shared_control.assistance` — the operator's twist (or, whole body, joint velocities) arbitrated
+  with the field's, the dampers on the blend, the nearest obstacle, time to collision and flags (ComputeAssistance);
+  docs/assistance.md.
+* :mod:`~pfield.shared_control.servo` — the servo loop: the latest operator twist or joint jog turned into joint
+  commands at a fixed rate through the assistance, under MoveIt Servo's parameter names
+  (:mod:`~pfield.shared_control.servo_config`); docs/servo.md.
 
 Every command these return keeps the output contract of :mod:`pfield.safety` (finite, within the limits).
 """

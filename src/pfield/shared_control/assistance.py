@@ -382,7 +382,9 @@ def whole_body_assistance(scene: AssistanceScene, robot: RobotModel, joint_angle
         if user_command is not None:
             raise InvalidInput("user_joint_velocities", user_joint_velocities,
                                "give the operator's twist (user_command) or joint velocities, not both")
-        user_joints = np.array(as_vector("user_joint_velocities", user_joint_velocities, robot.n_joints))
+        user_joints, clipped = safety.clip_joint_command(
+            as_vector("user_joint_velocities", user_joint_velocities, robot.n_joints), robot.velocity_limits)
+        flags |= Flag.VELOCITY_LIMITED if clipped else 0
     flags |= _input_flags(input_age, scene.options)
     work = _workspace(scene, robot)
     if scene.field is None:

@@ -1,9 +1,10 @@
 """The servo loop: the latest operator command turned into joint commands at a fixed rate, through the assistance.
 
 A :class:`Servo` is MoveIt Servo's twist and joint-jog modes with pfield's field in the loop. Every
-:meth:`Servo.step` (at ``publish_period``, or when a command arrives) takes the latest operator command — a twist u
-(fixed frame; a twist in the end-effector frame is rotated by FK of the commanded joints at every step, so it turns
-with the tool), or joint velocities q̇_u (a joint jog, :meth:`Servo.command_joints`) — and:
+:meth:`Servo.step` (at ``publish_period``, or when a command arrives) takes the latest operator command, of either
+kind (the latest wins) — a twist u (fixed frame; a twist in the end-effector frame is rotated by FK of the commanded
+joints at every step, so it turns with the tool), or joint velocities q̇_u (a joint jog, :meth:`Servo.command_joints`)
+— and:
 
 1. **assistance** — :func:`~pfield.shared_control.whole_body_assistance` at the commanded joints q: u mapped to
    joints by damped least squares (a joint jog's q̇_u taken as it is), blended with the field's motion
@@ -62,7 +63,7 @@ from pfield.shared_control.assistance import (
     Flag,
     whole_body_assistance,
 )
-from pfield.shared_control.servo_config import ServoConfig, unitless_scaled
+from pfield.shared_control.servo_config import ServoConfig, unitless_scaled, unitless_scaled_joints
 from pfield.spatial import Twist, rotate_vectors
 
 __all__ = ["LEAVING_MIN_SCALE", "MIN_PERIOD", "REACH", "STATUS_MESSAGES", "Servo", "ServoCommand", "ServoStatus"]
@@ -134,7 +135,7 @@ class ServoCommand:
     assistance: Assistance | None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class _Command:
     """The operator's latest command: a twist (6,: fixed frame, or the end-effector frame with ``end_effector``) or
     joint velocities (n,: a joint jog), in m/s, rad/s; ``received`` on the clock :meth:`Servo.step` is given."""
@@ -198,9 +199,9 @@ class Servo:
         not jogged), received at ``received`` (s). ``unitless``: apply ``command_in_type`` (``unitless`` scales by
         ``scale_joint``, Servo's ``scale.joint``)."""
         stamp = finite("received", received)
-        values = np.array(as_vector("velocities", velocities, self.robot.n_joints))
-        if unitless and self.config.command_in_type == "unitless":
-            values *= self.config.scale_joint
+        values = as_vector("velocities", velocities, self.robot.n_joints)
+        if unitless:
+            values = unitless_scaled_joints(values, self.config)
         with self._lock:
             self._command = _Command(stamp, joints=values)
 

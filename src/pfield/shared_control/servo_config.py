@@ -36,7 +36,7 @@ from pfield.errors import InvalidInput
 from pfield.spatial import Twist
 
 __all__ = ["COMMAND_OUT_TYPES", "JOY_DEVICES", "SERVO_ONLY_PARAMETERS", "ServoConfig", "joy_twist",
-           "servo_config_from_mapping", "unitless_scaled"]
+           "servo_config_from_mapping", "unitless_scaled", "unitless_scaled_joints"]
 
 COMMAND_OUT_TYPES = ("trajectory_msgs/JointTrajectory", "std_msgs/Float64MultiArray")
 JOY_DEVICES = ("spacemouse", "gamepad")
@@ -107,9 +107,10 @@ class ServoConfig:
     """rad (m): margins inside each position limit the command never crosses (one value for all joints, or one per
     joint)."""
     halt_all_joints_in_cartesian_mode: bool = True
-    """At a joint margin: scale every joint (keeps the direction of motion) instead of stopping only that joint."""
+    """At a joint margin, under a twist: scale every joint (keeps the direction of motion) instead of stopping only
+    that joint."""
     halt_all_joints_in_joint_mode: bool = True
-    """The same for joint jogs."""
+    """The same under a joint jog."""
     check_collisions: bool = True
     """Steer and limit the approach to obstacles (False: the operator's command with the joint limits only)."""
     scene_collision_proximity_threshold: float = 0.02
@@ -271,6 +272,15 @@ def joy_twist(axes: Sequence[float], buttons: Sequence[int], config: ServoConfig
         linear = [axis(1), axis(0), axis(4)]
         angular = [button(5) - button(4), 0.0, axis(3)]
     return Twist([config.scale_linear * v for v in linear], [config.scale_rotational * w for w in angular])
+
+
+def unitless_scaled_joints(velocities: NDArray[np.float64], config: ServoConfig) -> NDArray[np.float64]:
+    """A ``unitless`` joint jog in rad/s (m/s) (Servo's rule: scaled by ``scale.joint``); ``speed_units`` unchanged."""
+    if config.command_in_type == "speed_units":
+        return velocities
+    scaled = velocities * config.scale_joint
+    scaled.setflags(write=False)
+    return scaled
 
 
 def unitless_scaled(twist: Twist, config: ServoConfig) -> Twist:

@@ -94,6 +94,17 @@ def _failure_response(response: type[RosMessage], reason: str) -> RosMessage:
     return response(**values)
 
 
+def subscription_class(spec: SubscriptionSpec) -> type | None:
+    """The rclpy class of a subscription's type, or None (logged) when its interface package is not built or lacks
+    the type — a ``control_msgs`` built before it had JointJog, or none at all: the node's other inputs still work."""
+    try:
+        return interface_class(spec.type_name)
+    except (ModuleNotFoundError, AttributeError) as error:
+        _LOG.warning("%s: %s is not available (%s; `make ros2-interfaces` builds pfield's interfaces): not subscribed",
+                     spec.topic, spec.type_name, error)
+        return None
+
+
 def _publication_qos(spec: PublicationSpec) -> QoSProfile:
     """:data:`LATCHED_QOS`, or for a stream of commands (``latched=False``: the servo's joint commands) reliable and
     volatile, depth 1 (MoveIt Servo's outgoing commands are volatile too): a controller that connects late must not
@@ -261,13 +272,9 @@ class _NodeAdapter:
                 except Exception:  # a bug must not take the node down
                     _LOG.exception("%s: handler failed", spec.topic)
 
-        try:
-            message_class = interface_class(spec.type_name)
-        except ModuleNotFoundError as error:  # e.g. control_msgs not built: the node's other inputs still work
-            _LOG.warning("%s: %s is not available (%s; `make ros2-interfaces` builds pfield's interfaces): not "
-                         "subscribed", spec.topic, spec.type_name, error)
-            return
-        self.ros_node.create_subscription(message_class, spec.topic, receive, qos, callback_group=self._short)
+        message_class = subscription_class(spec)
+        if message_class is not None:
+            self.ros_node.create_subscription(message_class, spec.topic, receive, qos, callback_group=self._short)
 
     def _add_publication(self, spec: PublicationSpec, publisher: BusPublisher) -> None:
         message_class = interface_class(spec.type_name)
