@@ -173,7 +173,7 @@ def test_twists_in_the_tool_frame_and_refused_input(robot: Any) -> None:
 def test_a_joint_jog_drives_the_servo_loop_and_bad_jogs_are_refused(robot: Any) -> None:
     """control_msgs/JointJog on ``joint_command_in_topic`` (Servo's ``~/delta_joint_cmds``): the named joints at
     their velocities in any order, the others still; an unknown or repeated name, a count that does not match, a
-    jog of displacements only or a non-finite velocity is refused by field and changes nothing."""
+    jog of displacements only or a non-finite velocity is refused by field and changes nothing; an empty jog holds."""
     manager, servo, recorder = make(robot, incoming_command_timeout=5.0)
     assert servo.topics["joint_command_in_topic"] == "/pfield_servo/delta_joint_cmds"
     assert servo.topics["joint_command_in_topic"] in {spec.topic for spec in servo.subscriptions()}
@@ -197,6 +197,8 @@ def test_a_joint_jog_drives_the_servo_loop_and_bad_jogs_are_refused(robot: Any) 
         with pytest.raises(InvalidInput, match=words):
             servo.on_joint_jog(message)
     assert servo.servo._command is before
+    servo.on_joint_jog(JointJog())  # an empty jog: every joint to stand still (as Servo takes it)
+    assert servo.servo._command is not None and servo.servo._command.joints.tolist() == [0.0] * 7
     assert servo.get_parameters()["scale.joint"] == 0.5
     assert servo.set_parameters({"scale.joint": 0.2})["scale.joint"] == 0.2  # changes while the node runs
 
