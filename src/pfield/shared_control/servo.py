@@ -8,18 +8,18 @@ joints at every step, so it turns with the tool), or joint velocities q̇_u (a j
 
 1. **assistance** — :func:`~pfield.shared_control.whole_body_assistance` at the commanded joints q: u mapped to
    joints by damped least squares (a joint jog's q̇_u taken as it is), blended with the field's motion
-   (arbitration), the approach of every link to
-   every obstacle held below the velocity damper (motion *along* an obstacle passes: the command is steered, not
-   scaled as Servo's collision scale does), joint velocity limits and the twist limits (:mod:`pfield.safety`);
+   (arbitration), the approach of every link to every obstacle held below the velocity damper (motion *along* an
+   obstacle passes: the command is steered, not scaled as Servo's collision scale does), joint velocity limits and
+   the twist limits (:mod:`pfield.safety`);
 2. **stale command** — a command older than ``incoming_command_timeout`` is replaced by zero: the loop decelerates
    to a stop (``COMMAND_TIMEOUT``);
 3. **singularity** (twists only: a joint jog names its joints' motion, as in Servo) — Servo's rule on the condition
-   number κ = σ_max/σ_min of the 6×n end-effector Jacobian: the speed is scaled by 1 − (κ − κ_l)/(κ_u − κ_l) above
-   κ_l = ``lower_singularity_threshold``, where κ_u is ``hard_stop_singularity_threshold`` when the motion increases
-   κ (probed by a 1 mrad step along q̇) and
-   κ_l + m (κ_h − κ_l) when it decreases it (m = ``leaving_singularity_threshold_multiplier``); motion toward the
-   singularity stops at κ ≥ κ_h (moveit_servo ``utils/common.cpp``, ``velocityScalingFactorForSingularity``);
-   motion away keeps at least :data:`LEAVING_MIN_SCALE` of its speed, so the robot can always leave;
+   number κ = σ_max/σ_min of the 6×n end-effector Jacobian: the speed is scaled by 1 − (κ − κ_l)/(κ_u − κ_l) above κ_l
+   = ``lower_singularity_threshold``, where κ_u is ``hard_stop_singularity_threshold`` when the motion increases κ
+   (probed by a 1 mrad step along q̇) and κ_l + m (κ_h − κ_l) when it decreases it (m =
+   ``leaving_singularity_threshold_multiplier``); motion toward the singularity stops at κ ≥ κ_h (moveit_servo
+   ``utils/common.cpp``, ``velocityScalingFactorForSingularity``); motion away keeps at least
+   :data:`LEAVING_MIN_SCALE` of its speed, so the robot can always leave;
 4. **acceleration** — |q̇ − q̇_prev| ≤ a_max dt per joint, by moving from q̇_prev toward the target by one factor
    (the direction of change is kept), a = :attr:`RobotModel.acceleration_limits`; the dampers and the joint margins
    come first (safety over smoothness: a collision or joint-bound status may decelerate faster);
