@@ -317,3 +317,40 @@ def test_a_subscription_whose_interface_is_not_built_is_skipped(robot: Any, erro
         assert ros2.subscription_class(specs["control_msgs/msg/JointJog"]) is None
         assert ros2.subscription_class(specs["geometry_msgs/msg/TwistStamped"]) is object
     assert "/pfield_servo/delta_joint_cmds: control_msgs/msg/JointJog is not available" in caplog.text
+
+
+def test_the_operators_rclpy_messages_are_read_as_they_come(robot: Any) -> None:
+    """Over ROS 2 the servo's command handlers get rclpy's own message objects (``reads_attributes``: no model is
+    built first): a twist, a joint jog and a Joy state (float32 axes) as rclpy messages command exactly what the
+    models converted from them do, and a NaN or an unknown joint in one is refused by field as in the model."""
+    pytest.importorskip("rclpy")
+    from pfield.transport._ros2_convert import from_ros, interface_class, to_ros
+
+    assert all(spec.reads_attributes for spec in make(robot)[1].subscriptions()
+               if spec.type_name != "sensor_msgs/msg/JointState")
+    messages = [gm.TwistStamped.model_validate({"header": {"frame_id": "panda_hand_tcp"},
+                                                 "twist": {"linear": {"z": 0.02}, "angular": {"x": 0.1}}}),
+                JointJog(joint_names=["panda_joint7", "panda_joint2"], velocities=[0.3, -0.05]),
+                Joy(axes=[0.0, 0.5, 0.2, 0.0, 0.0, 0.3], buttons=[0, 0])]
+    handlers = ("on_twist", "on_joint_jog", "on_joy")
+    for model, handler in zip(messages, handlers, strict=True):
+        commands = []
+        delivered = to_ros(model, interface_class(model.ros_type))
+        for message in (from_ros(delivered, type(model)), delivered):
+            manager, servo, _ = make(robot)
+            manager.on_joint_states(measured(robot))
+            getattr(servo, handler)(message)
+            command = servo.servo._command
+            commands.append(command.twist if command.joints is None else command.joints)
+        assert np.array_equal(commands[0], commands[1]), handler
+    manager, servo, _ = make(robot)
+    manager.on_joint_states(measured(robot))
+    bad_twist = to_ros(messages[0], interface_class("geometry_msgs/msg/TwistStamped"))
+    bad_twist.twist.linear.y = float("nan")
+    bad_jog = to_ros(messages[1], interface_class("control_msgs/msg/JointJog"))
+    bad_jog.joint_names = ["panda_joint7", "gripper"]
+    for call, field in ((lambda: servo.on_twist(bad_twist), "twist.linear.y"),
+                        (lambda: servo.on_joint_jog(bad_jog), "joint_jog.joint_names='gripper'")):
+        with pytest.raises(InvalidInput, match=field):
+            call()
+    assert servo.servo._command is None
