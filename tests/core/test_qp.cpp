@@ -138,6 +138,41 @@ TEST(qp_rejects_a_problem_larger_than_its_workspace) {
   CHECK(h[0] == 1.0);  // refused before H was factored
 }
 
+// Jacobi's eigenvalues of symmetric matrices whose eigenvalues are known: a diagonal one (no rotation), a 2 x 2 with
+// eigenvalues 1 and 3, and Q diag(1e-6, 1, 2, 3, 5, 1e3) Q^T for an orthogonal Q built from two Householder
+// reflections (a Gram matrix's spread of nine orders of magnitude, as near a singularity).
+TEST(symmetric_eigenvalues_by_jacobi_rotations) {
+  std::vector<double> diagonal = {3.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 7.0};
+  double values[6];
+  symmetric_eigenvalues(diagonal.data(), 3, values);
+  CHECK(values[0] == 3.0 && values[1] == -1.0 && values[2] == 7.0);
+  std::vector<double> pair = {2.0, 1.0, 1.0, 2.0};
+  symmetric_eigenvalues(pair.data(), 2, values);
+  CHECK_NEAR(std::min(values[0], values[1]), 1.0, 1e-15);
+  CHECK_NEAR(std::max(values[0], values[1]), 3.0, 1e-15);
+  const double expected[6] = {1e-6, 1.0, 2.0, 3.0, 5.0, 1e3};
+  const double u[6] = {1, 2, -1, 0.5, 3, -2}, v[6] = {0.3, -1, 2, 1, -0.5, 1};
+  auto householder = [](const double* w) {  // I - 2 w w^T / w^T w
+    std::vector<double> h(36);
+    double norm2 = 0.0;
+    for (int i = 0; i < 6; ++i) norm2 += w[i] * w[i];
+    for (int i = 0; i < 6; ++i)
+      for (int j = 0; j < 6; ++j) h[i * 6 + j] = (i == j ? 1.0 : 0.0) - 2.0 * w[i] * w[j] / norm2;
+    return h;
+  };
+  const std::vector<double> hu = householder(u), hv = householder(v);
+  std::vector<double> q(36, 0.0), a(36, 0.0);
+  for (int i = 0; i < 6; ++i)
+    for (int j = 0; j < 6; ++j)
+      for (int k = 0; k < 6; ++k) q[i * 6 + j] += hu[i * 6 + k] * hv[k * 6 + j];
+  for (int i = 0; i < 6; ++i)
+    for (int j = 0; j < 6; ++j)
+      for (int k = 0; k < 6; ++k) a[i * 6 + j] += q[i * 6 + k] * expected[k] * q[j * 6 + k];
+  symmetric_eigenvalues(a.data(), 6, values);
+  std::sort(values, values + 6);
+  for (int i = 0; i < 6; ++i) CHECK_NEAR(values[i], expected[i], 1e-12);
+}
+
 TEST(cholesky_reports_its_smallest_relative_pivot) {
   // The factor of [[4, 2], [2, 2]] is [[2, 0], [1, 1]]; its second squared pivot is 2 - 1 = 1, half its diagonal
   // entry. Dependent rows give 0 and an indefinite block a negative value (the factor stays finite).

@@ -26,6 +26,7 @@ import pinocchio as pin
 import pytest
 
 from digests import digest
+from pfield.errors import InvalidInput
 from pfield.robot import RobotModel
 from pfield.robot.catalog import builtin_spec, example_robot_data_root
 from pfield.robot.ik import solve_ik
@@ -243,6 +244,27 @@ def test_end_effector_kinematics_are_pinocchios_and_the_public_methods(robot: Ro
             rotations, origins = _frames(robot, q)
             assert _same(robot.joint_frames(q)[0], rotations) and _same(robot.joint_frames(q)[1], origins)
     assert _digest(value for _, outputs in _end_effector(robot) for value in outputs) == END_EFFECTOR_DIGESTS[name]
+
+
+def test_condition_number_is_the_jacobians_singular_value_ratio(robot: RobotModel, name: str) -> None:
+    """κ = σ_max/σ_min of the end-effector Jacobian (MoveIt Servo's singularity measure, from a 6×6 eigenproblem in
+    the core) against numpy's SVD on the seeded configurations within the limits; a rank-deficient Jacobian (an arm
+    with fewer than 6 joints, or at a singularity) has κ = inf or beyond 1e7; a refused q is refused by field."""
+    lower, upper = robot.lower_limits, robot.upper_limits
+    checked = 0
+    for q, (_, _, jacobian) in _end_effector(robot):
+        if not np.all((q >= lower) & (q <= upper)):
+            continue
+        singular = np.linalg.svd(jacobian, compute_uv=False)
+        kappa = robot.condition_number(q)
+        if robot.n_joints >= 6 and singular[-1] > 1e-6 * singular[0]:
+            assert kappa == pytest.approx(singular[0] / singular[-1], rel=1e-9)
+        else:
+            assert kappa == math.inf or kappa > 1e7
+        checked += 1
+    assert checked >= 3
+    with pytest.raises(InvalidInput, match="joint_angles"):
+        robot.condition_number(np.full(robot.n_joints, math.nan))
 
 
 def test_end_effector_positions(robot: RobotModel, name: str) -> None:

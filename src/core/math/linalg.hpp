@@ -1,5 +1,5 @@
-// Dense linear algebra of the per-step kernels: the Cholesky factor and solve on n <= ~10 variables, where plain
-// loops beat a LAPACK call. One home: the velocity QP (math/qp), damped least squares (IK, the assistance) and
+// Dense linear algebra of the per-step kernels: the Cholesky factor and solve, and the eigenvalues of a symmetric
+// matrix, on n <= ~10 variables, where plain loops beat a LAPACK call. One home: the velocity QP (math/qp), damped least squares (IK, the assistance) and
 // every other solve in the core use these. Same operation order as the Python kernels they replaced (issue 32).
 //
 // Matrices are row-major with a row stride (the leading n x n block of a larger buffer is factored in place).
@@ -47,6 +47,44 @@ inline void cholesky_solve(const double* factor, std::size_t stride, const doubl
     for (std::size_t k = i + 1; k < n; ++k) s -= factor[k * stride + i] * out[k];
     out[i] = s / factor[i * stride + i];
   }
+}
+
+// The eigenvalues of the symmetric n x n matrix a (row-major, overwritten: it ends near diagonal) by cyclic Jacobi
+// rotations (Golub & Van Loan, "Matrix Computations", 4th ed., section 8.5.3; each rotation with the smaller angle of
+// Rutishauser's form, which keeps it accurate): sweeps until every off-diagonal entry is negligible beside its two
+// diagonal entries (or 50 sweeps; a 6 x 6 Gram matrix needs 5 to 8). Accurate to a few ulps of the largest
+// eigenvalue; written into values (n,), in no particular order.
+inline void symmetric_eigenvalues(double* a, std::size_t n, double* values) {
+  for (int sweep = 0; sweep < 50; ++sweep) {
+    bool rotated = false;
+    for (std::size_t p = 0; p + 1 < n; ++p) {
+      for (std::size_t q = p + 1; q < n; ++q) {
+        const double apq = a[p * n + q];
+        const double app = a[p * n + p], aqq = a[q * n + q];
+        if (std::abs(apq) <= 1e-300 || std::abs(apq) <= 1e-18 * std::sqrt(std::abs(app * aqq))) {
+          a[p * n + q] = a[q * n + p] = 0.0;
+          continue;
+        }
+        rotated = true;
+        const double theta = (aqq - app) / (2.0 * apq);
+        const double t = (theta >= 0.0 ? 1.0 : -1.0) / (std::abs(theta) + std::sqrt(theta * theta + 1.0));
+        const double c = 1.0 / std::sqrt(t * t + 1.0), s = t * c;
+        for (std::size_t k = 0; k < n; ++k) {  // columns p and q, then rows p and q: A <- J^T A J
+          const double akp = a[k * n + p], akq = a[k * n + q];
+          a[k * n + p] = c * akp - s * akq;
+          a[k * n + q] = s * akp + c * akq;
+        }
+        for (std::size_t k = 0; k < n; ++k) {
+          const double apk = a[p * n + k], aqk = a[q * n + k];
+          a[p * n + k] = c * apk - s * aqk;
+          a[q * n + k] = s * apk + c * aqk;
+        }
+        a[p * n + q] = a[q * n + p] = 0.0;
+      }
+    }
+    if (!rotated) break;
+  }
+  for (std::size_t i = 0; i < n; ++i) values[i] = a[i * n + i];
 }
 
 }  // namespace pfield::math

@@ -135,6 +135,15 @@ class Kinematics {
     return true;
   }
 
+  // kappa of the end effector's Jacobian at q (robot::condition_number), or None when q is refused as by jacobian.
+  std::optional<double> condition_number(const Vector& q) {
+    if (!accept(q, q_.data())) return std::nullopt;
+    Frames frames{rotations_.data(), origins_.data()};
+    jacobian_.resize(6 * joints());
+    robot::end_effector_kinematics(view(), q_.data(), frames, jacobian_.data());
+    return robot::condition_number(jacobian_.data(), joints());
+  }
+
   // (rotation (3, 3), position (3,), Jacobian (6, n)) of the end effector at q.
   std::tuple<NumpyArray, NumpyArray, NumpyArray> end_effector_kinematics(const Vector& q) {
     check_q(q);
@@ -223,6 +232,7 @@ class Kinematics {
   Held<RobotArrays> robot_;
   double limit_tolerance_;
   std::vector<double> rotations_, origins_, q_;
+  std::vector<double> jacobian_;  // condition_number's (6, n)
 };
 
 // IKSolver's state: the target (7), seed (n) and answer q (n) live here, seen from Python as NumPy arrays over
@@ -317,6 +327,9 @@ void bind_robot_kinematics(nb::module_& m) {
       .def("jacobian", &Kinematics::jacobian, "q"_a, "out"_a,
            "The end effector's 6 x n world-aligned Jacobian at q into out; False (out untouched) when q is not n "
            "finite values within the limits.")
+      .def("condition_number", &Kinematics::condition_number, "q"_a,
+           "kappa = sigma_max / sigma_min of the end effector's Jacobian at q (inf at a singularity); None when q is "
+           "refused as by jacobian.")
       .def("end_effector_kinematics", &Kinematics::end_effector_kinematics, "q"_a,
            "The end effector's (rotation (3, 3), position (3,), Jacobian (6, n)) at q.")
       .def("end_effector_positions", &Kinematics::end_effector_positions, "qs"_a,

@@ -5,7 +5,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 
+#include "math/dls.hpp"
+#include "math/linalg.hpp"
 #include "math/so3.hpp"
 
 namespace pfield::robot {
@@ -145,6 +148,16 @@ LimitCheck check_limits(double* values, const double* lower, const double* upper
     values[i] = upper[i] < above ? upper[i] : above;   // Python's min(above, upper)
   }
   return {};
+}
+
+double condition_number(const double* jacobian, std::size_t n) {
+  constexpr std::size_t kRows = 6;
+  double gram[kRows * kRows], values[kRows];
+  math::dls_gram(jacobian, kRows, n, nullptr, gram);
+  math::symmetric_eigenvalues(gram, kRows, values);
+  const double largest = *std::max_element(values, values + kRows);
+  const double smallest = *std::min_element(values, values + kRows);
+  return smallest > 0.0 ? std::sqrt(largest / smallest) : std::numeric_limits<double>::infinity();
 }
 
 }  // namespace pfield::robot

@@ -87,6 +87,12 @@ void end_effector_pose7(const KinematicsView& kinematics, const double* q, Frame
 void batch_end_effector_positions(const KinematicsView& kinematics, const double* qs, std::size_t count,
                                   Frames& frames, double* out);
 
+// The condition number kappa = sigma_max / sigma_min of a 6 x n end-effector Jacobian (n >= 6, row-major): the
+// square root of the ratio of the extreme eigenvalues of J J^T (math::dls_gram, math::symmetric_eigenvalues; a 6 x 6
+// eigenproblem instead of the SVD). Infinity when J J^T is singular (its smallest eigenvalue <= 0). MoveIt Servo's
+// measure of the distance to a singularity.
+double condition_number(const double* jacobian, std::size_t n);
+
 // check_limits's verdict: every value fine (and clamped), or the first bad one.
 struct LimitCheck {
   enum class Status { Ok, BeyondLimits, NotFinite };

@@ -373,6 +373,18 @@ class RobotModel:
             self._core_kinematics.jacobian(self.check_joint_angles(q), jac)
         return jac
 
+    def condition_number(self, q: ArrayLike) -> float:
+        """κ = σ_max / σ_min of the end-effector Jacobian at ``q`` (``inf`` at a singularity): MoveIt Servo's measure
+        of the distance to a singularity, from the eigenvalues λ of J Jᵀ (σ² = λ; a 6×6 symmetric eigenproblem in the
+        core, ``robot::condition_number``)."""
+        try:  # as forward_kinematics
+            kappa = self._core_kinematics.condition_number(q)
+        except TypeError:
+            kappa = None
+        if kappa is None:
+            kappa = self._core_kinematics.condition_number(self.check_joint_angles(q))
+        return float(kappa)
+
     def end_effector_positions(self, qs: ArrayLike) -> NDArray[np.float64]:
         """End-effector positions (N, 3) of N configurations (not validated: trajectory post-processing)."""
         array = np.ascontiguousarray(np.asarray(qs, dtype=np.float64).reshape(-1, self.n_joints))

@@ -45,7 +45,6 @@ reason wins.
 
 from __future__ import annotations
 
-import math
 import threading
 from dataclasses import dataclass
 
@@ -345,11 +344,11 @@ class Servo:
             return target
         config = self.config
         low, hard = config.lower_singularity_threshold, config.hard_stop_singularity_threshold
-        kappa = _condition(self.robot.jacobian(q))
+        kappa = self.robot.condition_number(q)
         if kappa <= low:
             return target
         probe = np.clip(q + _PROBE_STEP * target / speed, self._lower, self._upper)
-        approaching = _condition(self.robot.jacobian(probe)) > kappa
+        approaching = self.robot.condition_number(probe) > kappa
         upper = hard if approaching else low + (hard - low) * config.leaving_singularity_threshold_multiplier
         if approaching and kappa >= hard:
             reasons.append(ServoStatus.HALT_FOR_SINGULARITY)
@@ -392,13 +391,6 @@ class Servo:
             ratios = np.concatenate([upper_room[over] / velocities[over], lower_room[under] / velocities[under]])
             return velocities * float(max(0.0, min(1.0, ratios.min())))
         return np.clip(velocities, lower_room, upper_room)
-
-
-def _condition(jacobian: NDArray[np.float64]) -> float:
-    """κ = σ_max / σ_min of the 6×n Jacobian J (n ≥ 6), from the eigenvalues λ of J Jᵀ (σ² = λ; a symmetric 6×6
-    eigenproblem is cheaper than the SVD): κ = √(λ_max / λ_min), inf at an exact singularity."""
-    values = np.linalg.eigvalsh(jacobian @ jacobian.T)
-    return math.sqrt(values[-1] / values[0]) if values[0] > 0 else math.inf
 
 
 def _collision_reasons(answer: Assistance) -> list[ServoStatus]:
