@@ -22,6 +22,7 @@ from pfield.node.manager import ManagerNode
 from pfield.node.servo_node import ServoNode
 from pfield.shared_control.servo import ServoStatus
 from pfield.shared_control.servo_config import ServoConfig
+from pfield.spatial import Twist
 from pfield.transport.http import ServerThread, create_app
 
 
@@ -282,10 +283,12 @@ def test_pause_holds_the_arm_and_drops_commands_until_resumed(robot: Any) -> Non
         servo.on_joint_jog(JointJog(joint_names=["panda_joint1"], velocities=[0.2]))
         servo.tick(time.monotonic() + 1.0)
     assert len(recorder.messages[out]) == count and servo.servo._command is None
+    assert servo.step(time.monotonic() + 2.0) is None and len(recorder.messages[out]) == count  # no step while paused
+    servo.servo.command(Twist((0.03, 0.0, 0.0)), time.monotonic())  # a command that slipped in while pausing ...
     assert services["/pfield_servo/stop_servo"].handler(Trigger_Request()).success and servo.paused  # idempotent
     assert len(recorder.messages[out]) == count
     assert services["/pfield_servo/start_servo"].handler(Trigger_Request()).message == "running"
-    assert not servo.paused
+    assert not servo.paused and servo.servo._command is None  # ... is dropped on resume
     servo.on_twist(twist)
     resumed = recorder.last(out).points[0]
     ready = robot.named_configuration("ready")

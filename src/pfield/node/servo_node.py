@@ -193,8 +193,11 @@ class ServoNode(Node):
             self.bus.publish(self.topics["status_text"], std_msgs.String(data=PAUSED_TEXT))
 
     def resume(self) -> None:
-        """Run again from the measured joints (the loop forgot its state when it paused)."""
+        """Run again from the measured joints (the loop forgot its state when it paused), without any command that
+        came while it was paused."""
         with self._lock:
+            if self._paused:
+                self.servo.stop()
             self._paused = False
 
     def on_pause_servo(self, request: std_srvs.SetBool_Request) -> std_srvs.SetBool_Response:
@@ -324,8 +327,11 @@ class ServoNode(Node):
             self.step(now)
 
     def step(self, now: float) -> ServoCommand | None:
-        """One servo step at ``now`` (monotonic s) from the manager's state; publishes its command and status."""
+        """One servo step at ``now`` (monotonic s) from the manager's state; publishes its command and status. None
+        without a joint state, or while paused."""
         with self._lock:
+            if self._paused:
+                return None
             if now < self._last_step:
                 now = self._last_step
             self._last_step = now
