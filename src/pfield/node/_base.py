@@ -54,11 +54,6 @@ class SubscriptionSpec:
     type_name: str
     model: type[RosMessage]
     handler: Callable[[Any], None]
-    reads_attributes: bool = False
-    """The handler reads the message's fields by their ROS names only, and checks every value it reads (a command
-    stream's handler): a transport whose middleware delivers its own message objects (rclpy) may hand those over
-    as they are, without building and validating the model first (which costs a command's latency more than the
-    handler's own checks); other transports give the model."""
 
 
 @dataclass(frozen=True)

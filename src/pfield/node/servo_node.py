@@ -34,9 +34,7 @@ half a period late; on the tick's grid of one period the output pauses at most 2
 Without a joint state (none, or older than the manager's ``joint_state_timeout`` while not streaming) nothing is
 commanded and the status is ``INVALID`` with the reason. Over ROS 2 the node spins on an executor of its own and its
 inputs keep only the latest message (:mod:`pfield.transport.ros2`: a node that streams commands), so a command waits
-neither for other nodes' callbacks nor behind older commands, and the operator's messages reach their handlers as
-rclpy delivers them (``SubscriptionSpec.reads_attributes``: each handler reads and checks the fields it uses; building
-the model first cost about 0.2 ms of a command's latency on a 2-core machine).
+neither for other nodes' callbacks nor behind older commands.
 """
 
 from __future__ import annotations
@@ -219,13 +217,11 @@ class ServoNode(Node):
         return std_srvs.Trigger_Response(success=True, message="paused")
 
     def subscriptions(self) -> list[SubscriptionSpec]:
-        # the operator's commands: each handler reads and checks the fields it uses (finite numbers, known joints)
         specs = [SubscriptionSpec(self.topics["cartesian_command_in_topic"], "geometry_msgs/msg/TwistStamped",
-                                  gm.TwistStamped, self.on_twist, reads_attributes=True),
+                                  gm.TwistStamped, self.on_twist),
                  SubscriptionSpec(self.topics["joint_command_in_topic"], "control_msgs/msg/JointJog",
-                                  control_msgs.JointJog, self.on_joint_jog, reads_attributes=True),
-                 SubscriptionSpec(self.topics["joy_topic"], "sensor_msgs/msg/Joy", sensor_msgs.Joy, self.on_joy,
-                                  reads_attributes=True)]
+                                  control_msgs.JointJog, self.on_joint_jog),
+                 SubscriptionSpec(self.topics["joy_topic"], "sensor_msgs/msg/Joy", sensor_msgs.Joy, self.on_joy)]
         # the joint states into the manager's cache: /joint_states instead of the manager (its joint_states_subscriber),
         # another joint_topic beside the manager's /joint_states
         specs.append(SubscriptionSpec(self.topics["joint_topic"], "sensor_msgs/msg/JointState", sensor_msgs.JointState,

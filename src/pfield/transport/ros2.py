@@ -266,7 +266,7 @@ class _NodeAdapter:
         def receive(message: Any) -> None:
             with self._in_flight.track():
                 try:
-                    spec.handler(message if spec.reads_attributes else from_ros(message, spec.model))
+                    spec.handler(from_ros(message, spec.model))
                 except _BAD_INPUT as error:
                     _LOG.warning("%s: dropped message: %s", spec.topic, error)
                 except Exception:  # a bug must not take the node down
