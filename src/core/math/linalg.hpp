@@ -1,6 +1,7 @@
 // Dense linear algebra of the per-step kernels: the Cholesky factor and solve, and the eigenvalues of a symmetric
-// matrix, on n <= ~10 variables, where plain loops beat a LAPACK call. One home: the velocity QP (math/qp), damped least squares (IK, the assistance) and
-// every other solve in the core use these. Same operation order as the Python kernels they replaced (issue 32).
+// matrix, on n <= ~10 variables, where plain loops beat a LAPACK call. One home: the velocity QP (math/qp), damped
+// least squares (IK, the assistance), the condition number (robot/kinematics) and every other solve in the core use
+// these. Same operation order as the Python kernels they replaced (issue 32).
 //
 // Matrices are row-major with a row stride (the leading n x n block of a larger buffer is factored in place).
 #pragma once

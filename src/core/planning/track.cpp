@@ -116,7 +116,10 @@ WholeBodyPlanResult track_path(const double* q0, const double* waypoints, std::s
     if (record_step(k, total, q, ws, params, finished, cancel, path, result)) break;
     double moved = 0.0;
     for (std::size_t j = 0; j < n; ++j) moved = py_max(moved, std::abs(q[j] - anchor[j]));
-    if (advanced || moved >= params.stagnation_progress) progress_at = k, std::copy(q.begin(), q.end(), anchor.begin());
+    if (advanced || moved >= params.stagnation_progress) {
+      progress_at = k;
+      std::copy(q.begin(), q.end(), anchor.begin());
+    }
     if (!finished && k - progress_at >= stall_window) {  // held still by a damper or a joint limit: no use going on
       result.status = PlanStatus::Stagnation;
       result.count = k + 1;

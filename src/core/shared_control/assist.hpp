@@ -205,19 +205,19 @@ struct JointState {
   const robot::WorldSegments* world = nullptr;  // capsules and near primitives at q (robot::near_segments)
 };
 
-// Whole-body assistance at q (n, within the limits) in one call: qd_user by damped least squares
-// (math::dls_from_gram, the sums from 0.0) or the operator's joint velocities (OperatorCommand), the singularity
-// test on J J^T, the joint-limit test, the nearest pair (nearest_link, with the hint), alpha and the blend
-// qd = alpha qd_auto + (1 - alpha) qd_user, the nearest link point's time to collision, the dampers of every link point within Q, and blended = J qd (before the output
-// contract). The dampers: qd becomes the nearest joint velocity (Euclidean norm) whose link points each approach
-// their obstacle no faster than the damper allows, -n^T (J_p qd - v_obs) <= s(d), at every link-obstacle pair within
-// Q (planning::scan_link_obstacle_pairs with cutoff Q: one row n^T J_p qd >= n^T v_obs - s(d) per pair, the nearest
-// pair among them). The nearest pair's correction in closed form first, qd += J_p^T n e / |J_p^T n|^2 (e > 0 its
-// excess, J_p at its surface point): the projection onto its half-space, and so onto all of them whenever it holds
-// the other rows (within planning::kDamperQpSettings' tolerance: the projection onto a superset that lands in the
-// set). Only when it does not, the QP min |x - qd|^2 s.t. the rows (math::hildreth, H = I) from the blend decides.
-// state: null to compute the frames, Jacobian and segments at q into ws; else a field step's, used as they are. qd
-// (n,) receives the joint velocities.
+// Whole-body assistance at q (n, within the limits) in one call: qd_user by damped least squares (math::dls_from_gram,
+// the sums from 0.0) or the operator's joint velocities (OperatorCommand), the singularity test on J J^T, the
+// joint-limit test, the nearest pair (nearest_link, with the hint), alpha and the blend qd = alpha qd_auto + (1 -
+// alpha) qd_user, the nearest link point's time to collision, the dampers of every link point within Q, and blended = J
+// qd (before the output contract). The dampers: qd becomes the nearest joint velocity (Euclidean norm) whose link
+// points each approach their obstacle no faster than the damper allows, -n^T (J_p qd - v_obs) <= s(d), at every
+// link-obstacle pair within Q (planning::scan_link_obstacle_pairs with cutoff Q: one row n^T J_p qd >= n^T v_obs - s(d)
+// per pair, the nearest pair among them). The nearest pair's correction in closed form first, qd += J_p^T n e / |J_p^T
+// n|^2 (e > 0 its excess, J_p at its surface point): the projection onto its half-space, and so onto all of them
+// whenever it holds the other rows (within planning::kDamperQpSettings' tolerance: the projection onto a superset that
+// lands in the set). Only when it does not, the QP min |x - qd|^2 s.t. the rows (math::hildreth, H = I) from the blend
+// decides. state: null to compute the frames, Jacobian and segments at q into ws; else a field step's, used as they
+// are. qd (n,) receives the joint velocities.
 JointAssistance assist_joints(const double* q, const robot::RobotView& robot, const MovingObstacles& obstacles,
                               const AssistParams& params, const JointAssistParams& joint_params, Arbitration mode,
                               double goal_share, const double* qd_auto, const OperatorCommand& user,

@@ -44,7 +44,7 @@ import logging
 import re
 import threading
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -62,6 +62,7 @@ from pfield.shared_control.servo import STATUS_MESSAGES, Servo, ServoCommand, Se
 from pfield.shared_control.servo_config import (
     COMMAND_OUT_TYPES,
     JOY_DEVICES,
+    SERVO_NAMES,
     SERVO_ONLY_PARAMETERS,
     ServoConfig,
     joy_twist,
@@ -92,8 +93,7 @@ end it; after a pause, eight commands at the period start it again)."""
 
 
 def _row(name: str, default: Any, doc: str) -> ParameterRow:
-    ros_name = {"scale_linear": "scale.linear", "scale_rotational": "scale.rotational",
-                "scale_joint": "scale.joint"}.get(name, name)
+    ros_name = SERVO_NAMES.get(name, name)
     kind = {bool: "bool", int: "integer", float: "double", str: "string"}.get(type(default), "map")
     choices = {"command_out_type": COMMAND_OUT_TYPES, "joy_device": JOY_DEVICES,
                "command_in_type": ("speed_units", "unitless")}.get(name, ())
@@ -278,11 +278,7 @@ class ServoNode(Node):
                 raise InvalidInput("joint_jog.joint_names", name, "named twice")
             seen.add(name)
             values[order[name]] = finite(f"joint_jog.velocities[{name}]", velocity)
-        if self._paused:
-            return
-        now = time.monotonic()
-        self.servo.command_joints(values, now)
-        self._stepped_for_command(now)
+        self._take(lambda now: self.servo.command_joints(values, now))
 
     def on_joy(self, message: sensor_msgs.Joy) -> None:
         """A joystick state, mapped by ``joy_device`` (docs/servo.md); stepped at once."""
@@ -292,19 +288,20 @@ class ServoNode(Node):
 
     def _command(self, twist: Twist, frame: str, field: str, unitless: bool) -> None:
         """The twist into the servo (a static frame's rotated now, an end-effector twist at every step); a step."""
-        if self._paused:
-            return
         state = self.manager.state
         end_effector = bool(frame) and frame == self.manager.robot.end_effector and frame != state.params.fixed_frame
         if not end_effector:
             transform = state.params.frames().lookup(f"{field}.header.frame_id", frame)
             twist = twist if transform is None else rotate_twist(twist, transform.orientation)
-        now = time.monotonic()
-        self.servo.command(twist, now, end_effector_frame=end_effector, unitless=unitless)
-        self._stepped_for_command(now)
+        self._take(lambda now: self.servo.command(twist, now, end_effector_frame=end_effector, unitless=unitless))
 
-    def _stepped_for_command(self, now: float) -> None:
-        """A command came at ``now``: its interval into the mean (Timing), then a step."""
+    def _take(self, store: Callable[[float], None]) -> None:
+        """A validated command: ``store(now)`` gives it to the loop, its interval goes into the mean (Timing), and a
+        step follows; while paused it is dropped."""
+        if self._paused:
+            return
+        now = time.monotonic()
+        store(now)
         interval = min(now - self._last_command, 2.0 * self.config.publish_period)
         mean = self._command_interval
         self._command_interval = interval if mean == float("inf") else 0.8 * mean + 0.2 * interval
@@ -315,8 +312,6 @@ class ServoNode(Node):
     def tick(self, now: float) -> None:
         """A step when none came for 0.9 ``publish_period``, or for 1.5 while commands drive the output (module
         docstring, Timing)."""
-        if self._paused:
-            return
         period = self.config.publish_period
         following = self._command_interval <= FOLLOWING * period and self._last_step == self._last_command
         if now - self._last_step >= (1.5 if following else 0.9) * period:

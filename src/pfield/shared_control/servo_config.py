@@ -35,7 +35,7 @@ from pfield import _validation
 from pfield.errors import InvalidInput
 from pfield.spatial import Twist
 
-__all__ = ["COMMAND_OUT_TYPES", "JOY_DEVICES", "SERVO_ONLY_PARAMETERS", "ServoConfig", "joy_twist",
+__all__ = ["COMMAND_OUT_TYPES", "JOY_DEVICES", "SERVO_NAMES", "SERVO_ONLY_PARAMETERS", "ServoConfig", "joy_twist",
            "servo_config_from_mapping", "unitless_scaled", "unitless_scaled_joints"]
 
 COMMAND_OUT_TYPES = ("trajectory_msgs/JointTrajectory", "std_msgs/Float64MultiArray")
@@ -183,10 +183,7 @@ class ServoConfig:
         """The parameters under their Servo names (``scale.linear`` …), JSON-compatible."""
         values = dataclasses.asdict(self)
         values["joint_limit_margins"] = list(self.joint_limit_margins)
-        values["scale.linear"] = values.pop("scale_linear")
-        values["scale.rotational"] = values.pop("scale_rotational")
-        values["scale.joint"] = values.pop("scale_joint")
-        return values
+        return {SERVO_NAMES.get(name, name): value for name, value in values.items()}
 
 
 def _choice(name: str, value: Any, choices: Sequence[str]) -> None:
@@ -200,8 +197,10 @@ def _topic(name: str, value: Any) -> None:
         raise InvalidInput(name, value, "must be a topic name such as /robot/commands or ~/status")
 
 
-_ALIASES = {"scale.linear": "scale_linear", "scale.rotational": "scale_rotational", "scale.joint": "scale_joint",
-            "ee_frame_name": "ee_frame"}
+SERVO_NAMES = {"scale_linear": "scale.linear", "scale_rotational": "scale.rotational", "scale_joint": "scale.joint"}
+"""Servo's parameter name of each :class:`ServoConfig` field whose name differs (a dotted ROS name)."""
+_ALIASES = {servo: field for field, servo in SERVO_NAMES.items()} | {"ee_frame_name": "ee_frame"}
+"""A Servo file's names that are not a field's: the dotted ones, and older releases' ``ee_frame_name``."""
 _FIELDS = frozenset(f.name for f in dataclasses.fields(ServoConfig))
 
 
