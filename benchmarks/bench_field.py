@@ -42,10 +42,9 @@ from benchmarks._anchor import cpp_figures, cpp_median
 from benchmarks._common import BenchRow, auto_number, cpu_time, median_time
 from pfield._core import field as core_field
 from pfield.field import PotentialField, PreparedTwist
-from pfield.field.field import _fast_twist
 from pfield.geometry import Mesh, Obstacle, ResourceResolver
 from pfield.planning.scenes import BENCH_GOAL, DEFAULT_PARAMS, EVALUATION_SCENES, evaluation_query, evaluation_scene
-from pfield.spatial import Pose, Twist
+from pfield.spatial import Pose, Twist, twist_from_checked
 
 SECTION = "field evaluation (µs per call)"
 # C++ original (REFERENCE §3): wrench, limited twist, one RK4 step, µs.
@@ -131,7 +130,7 @@ def _scene_rows(name: str, field: PotentialField, quick: bool) -> list[BenchRow]
         figures += [
             ("floor: a call with twist's arguments that does nothing", lambda: core.call_floor(
                 position, orientation, linear, angular, 0.01, out), 1, twist_c),
-            ("floor: that call plus the Twist result", lambda: _fast_twist(_floor_out(
+            ("floor: that call plus the Twist result", lambda: twist_from_checked(_floor_out(
                 core, position, orientation, linear, angular)), 1, twist_c),
         ]
     rows = []

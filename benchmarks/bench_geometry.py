@@ -32,7 +32,7 @@ from pfield.geometry import (
     nearest_distances,
     pack_obstacles,
 )
-from pfield.geometry._packed import PackedObstacles
+from pfield.geometry.packed import PackedObstacles
 from pfield.planning.scenes import evaluation_scene
 from pfield.spatial import Pose, quaternion_exp
 

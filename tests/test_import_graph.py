@@ -69,29 +69,36 @@ def _type_checking_nodes(tree: ast.AST) -> set[int]:
     return skipped
 
 
-def _imports(path: Path) -> Iterator[tuple[str, int]]:
-    module = _module_name(path)
-    package = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
+def _import_statements(path: Path) -> Iterator[ast.Import | ast.ImportFrom]:
+    """The import statements of a file that run (those under ``if TYPE_CHECKING:`` never do)."""
     tree = ast.parse(path.read_text(), str(path))
     skipped = _type_checking_nodes(tree)
-    for node in ast.walk(tree):
-        if id(node) in skipped:
-            continue
-        if isinstance(node, ast.Import):
-            for alias in node.names:
-                if alias.name.split(".")[0] == "pfield":
-                    yield alias.name, node.lineno
-        elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = package.split(".")[: len(package.split(".")) - node.level + 1]
-                target = ".".join(base + ([node.module] if node.module else []))
-            else:
-                target = node.module or ""
-            if target.split(".")[0] != "pfield":
-                continue
-            for alias in node.names:
-                submodule = f"{target}.{alias.name}"
-                yield (submodule if _is_module(submodule) else target), node.lineno
+    yield from (node for node in ast.walk(tree) if isinstance(node, ast.Import | ast.ImportFrom)
+                and id(node) not in skipped)
+
+
+def _imported(module: str, path: Path, node: ast.Import | ast.ImportFrom) -> Iterator[tuple[str, str | None]]:
+    """(module, name) of each pfield name an import statement binds (name None where a module is imported)."""
+    if isinstance(node, ast.Import):
+        yield from ((alias.name, None) for alias in node.names if alias.name.split(".")[0] == "pfield")
+        return
+    package = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
+    if node.level:
+        base = package.split(".")[: len(package.split(".")) - node.level + 1]
+        target = ".".join(base + ([node.module] if node.module else []))
+    else:
+        target = node.module or ""
+    if target.split(".")[0] != "pfield":
+        return
+    for alias in node.names:
+        submodule = f"{target}.{alias.name}"
+        yield (submodule, None) if _is_module(submodule) else (target, alias.name)
+
+
+def _imports(path: Path) -> Iterator[tuple[str, int]]:
+    module = _module_name(path)
+    for node in _import_statements(path):
+        yield from ((target, node.lineno) for target, _ in _imported(module, path, node))
 
 
 def _edges() -> list[tuple[str, str, int]]:
@@ -177,3 +184,28 @@ def test_the_walker_sees_function_level_and_aliased_imports() -> None:
     assert ("pfield.field.field", "pfield.planning.task_space") in edges  # inside PotentialField.plan
     assert ("pfield.spatial", "pfield._core") in edges  # ``from pfield._core import spatial``
     assert ("pfield.field.field", "pfield.planning.result") not in edges  # only under TYPE_CHECKING
+
+
+SHARED_PRIVATE = {"pfield._core", "pfield._enums", "pfield._files", "pfield._layout", "pfield._validation"}
+"""pfield's own private modules, below every package (DESIGN §1's bottom layers): every package may use them."""
+
+
+def _private_imports() -> Iterator[str]:
+    """Imports of another package's private module (``pfield.node._base``) or private name (``_fast_twist``)."""
+    for path in sorted(ROOT.rglob("*.py")):
+        module = _module_name(path)
+        for node in _import_statements(path):
+            for target, name in _imported(module, path, node):
+                shared = any(target == bottom or target.startswith(bottom + ".") for bottom in SHARED_PRIVATE)
+                if _layer(target) == _layer(module) or shared:
+                    continue
+                private_module = any(part.startswith("_") for part in target.split(".")[1:])
+                private_name = name is not None and name.startswith("_") and not name.endswith("__")
+                if private_module or private_name:
+                    yield f"{module}:{node.lineno} imports {target}" + (f".{name}" if name else "")
+
+
+def test_packages_use_each_others_public_names() -> None:
+    """A package reaches another through its public names: its package face or a public module (issue 32)."""
+    found = list(_private_imports())
+    assert not found, "imports of another package's private module or name:\n" + "\n".join(found)

@@ -13,8 +13,7 @@ import argparse
 import math
 from pathlib import Path
 
-from pfield.costmap import CostmapParams, build_costmap, find_valid_pose, load_map
-from pfield.costmap._example import example_map_path
+from pfield.costmap import CostmapParams, build_costmap, example_map_path, find_valid_pose, load_map
 from pfield.spatial import Pose
 from pfield.viz.costmap_plots import plot_find_valid_pose
 

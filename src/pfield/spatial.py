@@ -31,6 +31,7 @@ __all__ = [
     "geodesic_angle",
     "matrix_from_quaternion",
     "normalize_quaternion",
+    "pose_from_checked",
     "quaternion_exp",
     "quaternion_from_euler_zyx",
     "quaternion_from_matrix",
@@ -38,11 +39,14 @@ __all__ = [
     "quaternion_log",
     "quaternion_multiply",
     "rotate_vectors",
+    "twist_from_checked",
+    "wrench_from_checked",
 ]
 
 Vec3: TypeAlias = NDArray[np.float64]  # (3,)
 Quat: TypeAlias = NDArray[np.float64]  # (4,) x, y, z, w
 Points: TypeAlias = NDArray[np.float64]  # (N, 3)
+_new = object.__new__
 
 _IDENTITY_QUAT = (0.0, 0.0, 0.0, 1.0)
 MIN_QUATERNION_NORM = 1e-9
@@ -270,18 +274,6 @@ class Pose:
         )
 
 
-def _checked_pose(position: NDArray[np.float64], quaternion: NDArray[np.float64]) -> Pose:
-    """The :class:`Pose` of inputs a caller has already checked (a finite (3,) position; a finite (4,)
-    quaternion whose norm lies in [MIN_QUATERNION_NORM, 1e150]): the quaternion normalised as
-    :func:`normalize_quaternion` does, without repeating its checks (a control-loop call's message path)."""
-    pose = object.__new__(Pose)
-    orientation = quaternion / float(np.linalg.norm(quaternion))
-    orientation.setflags(write=False)
-    object.__setattr__(pose, "position", position)
-    object.__setattr__(pose, "orientation", orientation)
-    return pose
-
-
 @dataclass(frozen=True, eq=False, init=False)
 class Twist:
     """Spatial velocity: ``linear`` (m/s) and ``angular`` (rad/s), both in the world frame."""
@@ -338,3 +330,40 @@ class Wrench:
 
     def __hash__(self) -> int:
         return hash((self.force.tobytes(), self.torque.tobytes()))
+
+
+# Value types of values a caller has already checked: a control loop's kernel outputs and validated messages become
+# Poses, Twists and Wrenches without their checks run twice (each skips only what its docstring says is given).
+
+
+def pose_from_checked(position: NDArray[np.float64], quaternion: NDArray[np.float64]) -> Pose:
+    """The :class:`Pose` of inputs a caller has already checked (a finite, read-only (3,) position; a finite (4,)
+    quaternion whose norm lies in [MIN_QUATERNION_NORM, 1e150]): the quaternion normalised as
+    :func:`normalize_quaternion` does, without repeating its checks (a control-loop call's message path)."""
+    pose = _new(Pose)
+    orientation = quaternion / float(np.linalg.norm(quaternion))
+    orientation.setflags(write=False)
+    object.__setattr__(pose, "position", position)
+    object.__setattr__(pose, "orientation", orientation)
+    return pose
+
+
+def twist_from_checked(values: NDArray[np.float64]) -> Twist:
+    """The :class:`Twist` of a fresh, finite (6,) float64 array (linear, angular) that nothing else holds (a
+    kernel's output): no copy and no check; the array becomes read-only and the twist's parts are views of it."""
+    twist = _new(Twist)
+    values.setflags(write=False)
+    fields = twist.__dict__  # frozen: filled without __setattr__
+    fields["linear"] = values[:3]
+    fields["angular"] = values[3:]
+    return twist
+
+
+def wrench_from_checked(values: NDArray[np.float64]) -> Wrench:
+    """The :class:`Wrench` of a fresh, finite (6,) float64 array (force, torque), as :func:`twist_from_checked`."""
+    wrench = _new(Wrench)
+    values.setflags(write=False)
+    fields = wrench.__dict__
+    fields["force"] = values[:3]
+    fields["torque"] = values[3:]
+    return wrench

@@ -104,8 +104,7 @@ def _signed_distances(scratch: Path) -> str:
 
 
 def _robot_link_models(scratch: Path) -> str:
-    from pfield.robot import RobotModel
-    from pfield.robot._fit import cache_directory
+    from pfield.robot import RobotModel, fit_cache_directory
     from pfield.robot.catalog import BUILTIN_ROBOTS
 
     parts = []
@@ -116,7 +115,7 @@ def _robot_link_models(scratch: Path) -> str:
             raise RuntimeError(f"{name}: the link model has no primitives or a radius ≤ 0")
         parts.append(f"{name} {len(geometry.capsules)} links, {len(geometry.prim_r)} primitives "
                      f"({time.perf_counter() - began:.1f} s)")
-    cache = cache_directory()
+    cache = fit_cache_directory()
     return "; ".join(parts) + f"; fits cached in {cache}" if cache else "; ".join(parts) + "; no writable fit cache"
 
 

@@ -47,7 +47,7 @@ from pfield.geometry import (
     pack_obstacles,
     signed_distances,
 )
-from pfield.geometry._packed import MESH
+from pfield.geometry.packed import MESH
 from pfield.spatial import Pose
 
 from ._helpers import (

@@ -9,7 +9,7 @@ import pytest
 
 from pfield import Box, Capsule, Cylinder, Ellipsoid, Obstacle, Sphere, pack_obstacles
 from pfield.errors import InvalidInput, PfieldError
-from pfield.geometry._packed import BOX, CAPSULE, CYLINDER, ELLIPSOID, SPHERE
+from pfield.geometry.packed import BOX, CAPSULE, CYLINDER, ELLIPSOID, SPHERE
 from pfield.spatial import Pose
 
 VALID = {

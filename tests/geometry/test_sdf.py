@@ -202,7 +202,7 @@ def test_bounded_query_is_exact_within_the_cutoff_and_a_lower_bound_beyond(rng):
 
 
 def test_inconsistent_hand_built_mesh_row_gives_nan_not_a_crash():
-    from pfield.geometry._packed import MESH
+    from pfield.geometry.packed import MESH
 
     row = np.zeros((1, 16))
     row[0, 3:12] = np.eye(3).reshape(-1)

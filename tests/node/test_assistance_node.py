@@ -17,8 +17,8 @@ from pfield.interfaces import potential_fields_interfaces as pfi
 from pfield.interfaces.geometry_msgs import PoseStamped
 from pfield.node._base import Bus
 from pfield.node._manager_state import Held
-from pfield.node._obstacle_motion import MAX_OBSTACLE_JUMP, MIN_UPDATE_INTERVAL, VELOCITY_SMOOTHING, updated_held
 from pfield.node.manager import ManagerNode
+from pfield.node.obstacle_motion import MAX_OBSTACLE_JUMP, MIN_UPDATE_INTERVAL, VELOCITY_SMOOTHING, updated_held
 from pfield.transport.http import ServerThread, create_app
 
 BALL = "{frame_id: 'ball', type: 'Sphere', group: 'Dynamic', pose: {position: {x: %s, y: 0.0, z: 0.3}}, radius: 0.05}"

@@ -48,7 +48,7 @@ from pfield.geometry import (
     pack_obstacles,
     signed_distances,
 )
-from pfield.geometry._packed import PackedObstacles
+from pfield.geometry.packed import PackedObstacles
 from pfield.planning import _whole_body_layout as wb
 from pfield.planning._whole_body_core import core_robot, planner
 from pfield.planning.options import PlanOptions

@@ -31,7 +31,7 @@ TWO_BOXES = """<robot name="two_boxes">
 @pytest.fixture
 def fresh_fits(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     """An empty fit cache (on disk and in memory): every link is fitted anew."""
-    monkeypatch.setattr(_fit, "cache_directory", lambda: tmp_path)
+    monkeypatch.setattr(_fit, "fit_cache_directory", lambda: tmp_path)
     monkeypatch.setattr(_fit, "_MEMORY", {})
     return tmp_path
 

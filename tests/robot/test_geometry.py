@@ -23,7 +23,7 @@ from pfield.geometry import (
     Sphere,
     pack_obstacles,
 )
-from pfield.geometry._packed import PackedObstacles
+from pfield.geometry.packed import PackedObstacles
 from pfield.planning._whole_body_core import core_obstacles, core_robot
 from pfield.planning.whole_body import WholeBodyOptions, make_scene, pack_robot
 from pfield.robot import RobotModel

@@ -22,7 +22,7 @@ def empty_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     """An empty user cache (on disk and in memory)."""
     cache = tmp_path / "user-cache"
     cache.mkdir()
-    monkeypatch.setattr(_fit, "cache_directory", lambda: cache)
+    monkeypatch.setattr(_fit, "fit_cache_directory", lambda: cache)
     monkeypatch.setattr(_fit, "_MEMORY", {})
     return cache
 

@@ -13,7 +13,7 @@ from pfield.cli._node import ServeContext, load_ros_parameters, register_node_fa
 from pfield.errors import PfieldError
 
 if TYPE_CHECKING:
-    from pfield.node._base import Node
+    from pfield.node import Node
 
 __all__ = ["register"]
 
@@ -49,8 +49,7 @@ def register(app: typer.Typer) -> None:
         Exit status 1 when no pose was found (state LETHAL), 2 for bad options or files."""
         import yaml
 
-        from pfield.costmap import PoseState
-        from pfield.costmap._example import example_map_path
+        from pfield.costmap import PoseState, example_map_path
         from pfield.demo.tools import run_find_valid_pose
 
         try:

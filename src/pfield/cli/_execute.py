@@ -44,7 +44,7 @@ def _parse_tolerances(option: str, values: list[str] | None) -> dict[str, tuple[
 
 def _load_trajectory(source: str) -> Any:
     """The JointTrajectory model of the file (or stdin for ``-``), from either document shape."""
-    from pfield.interfaces._yaml import load_yaml, load_yaml_file, message_from_data
+    from pfield.interfaces import load_yaml, load_yaml_file, message_from_data
     from pfield.interfaces.trajectory_msgs import JointTrajectory
 
     data = load_yaml(sys.stdin.read(), "TRAJECTORY") if source == "-" else load_yaml_file(Path(source), "TRAJECTORY")

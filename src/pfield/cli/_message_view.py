@@ -24,8 +24,7 @@ from typing import Any
 import yaml
 
 from pfield.errors import InvalidInput
-from pfield.interfaces import RosMessage, lookup_type
-from pfield.interfaces._idl import PRIMITIVES, Constant, model_definition
+from pfield.interfaces import PRIMITIVES, Constant, RosMessage, lookup_type, model_definition
 
 __all__ = ["ConstantValue", "MessageView", "format_yaml", "outcome_line"]
 

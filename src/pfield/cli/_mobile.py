@@ -13,7 +13,7 @@ from pfield.errors import PfieldError
 if TYPE_CHECKING:
     from rich.console import Console
 
-    from pfield.node._base import Node
+    from pfield.node import Node
 
 
 def _list_scenarios(console: Console) -> None:

@@ -31,11 +31,10 @@ from pfield.cli._robot_options import (
     robot_description,
 )
 from pfield.errors import InvalidInput, PfieldError
-from pfield.transport import DEFAULT_HOST, DEFAULT_PORT
-from pfield.transport._server import ServerLimits
+from pfield.transport import DEFAULT_HOST, DEFAULT_PORT, ServerLimits
 
 if TYPE_CHECKING:
-    from pfield.node._base import Bus, Node
+    from pfield.node import Bus, Node
     from pfield.robot.description import RobotDescription
 
 __all__ = ["ServeContext", "cli_errors", "nodes_from_options", "parse_package_paths", "register",
@@ -82,7 +81,7 @@ def register_node_factory(factory: NodeFactory) -> None:
 
 def parse_static_transforms(values: list[str]) -> dict[str, Any]:
     """The ``static_transforms`` parameter of ``--static-transform FRAME=x,y,z[,qx,qy,qz,qw]`` options."""
-    from pfield.node._frames import parse_transform_option
+    from pfield.node import parse_transform_option
 
     table: dict[str, Any] = {}
     for value in values:
@@ -96,7 +95,7 @@ def parse_static_transforms(values: list[str]) -> dict[str, Any]:
 def load_ros_parameters(path: Path, option: str = "--params") -> dict[str, dict[str, Any]]:
     """``{node name: {parameter: value}}`` of a ROS 2 parameters file (``node: {ros__parameters: {...}}``);
     errors name ``option``, the command-line argument the file came from."""
-    from pfield.interfaces._yaml import load_yaml_file
+    from pfield.interfaces import load_yaml_file
 
     data = load_yaml_file(path, option) or {}
     if not isinstance(data, dict):
@@ -113,7 +112,7 @@ def load_ros_parameters(path: Path, option: str = "--params") -> dict[str, dict[
 def build_nodes(context: ServeContext, params: dict[str, dict[str, Any]], csv_dir: Path | None) -> list[Node]:
     """The manager plus every registered factory's nodes, with ``--params`` applied (``/**`` to all);
     ``context.static_transforms`` is the manager's initial ``static_transforms`` (``--params`` may replace it)."""
-    from pfield.node._planning import make_resolver
+    from pfield.node import make_resolver
     from pfield.node.manager import ManagerNode, ManagerParameters
     from pfield.node.servo_node import SERVO_NODE_NAMES, servo_from_parameters
 
@@ -162,7 +161,7 @@ def nodes_from_options(robot: RobotDescription, params: Path | None, mesh_root: 
     factories' nodes, ``--static-transform`` for the manager's frames and the ``--params`` YAML applied to
     them. Bad options raise :class:`InvalidInput`. The robot's link model is then fitted in the background
     (:func:`pfield.warmup.fit_in_background`: ``GET /health`` is ready once it is)."""
-    from pfield.node._base import Bus
+    from pfield.node import Bus
 
     packages = robot.package_path_map
     transforms = parse_static_transforms(static_transform or [])

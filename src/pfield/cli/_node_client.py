@@ -276,7 +276,7 @@ def param_get(node: str, name: str, url: Url = DEFAULT_URL, token: Token = None)
 @param_app.command("set", context_settings={"ignore_unknown_options": True})  # "-1" is a value, as in ros2
 def param_set(node: str, name: str, value: str, url: Url = DEFAULT_URL, token: Token = None) -> None:
     """Set one parameter (value parsed as YAML); the node validates it and keeps the old value on error."""
-    from pfield.interfaces._yaml import load_yaml
+    from pfield.interfaces import load_yaml
 
     parsed = _local(load_yaml, value, name)
     # json.dumps keeps .nan/.inf as NaN/Infinity so the node itself refuses them, naming the parameter.
@@ -304,8 +304,7 @@ def interface_show(type_name: Annotated[str, typer.Argument(metavar="TYPE")]) ->
 @interface_app.command("list")
 def interface_list() -> None:
     """List every message and service type pfield knows."""
-    from pfield.interfaces import registered_types
-    from pfield.interfaces._base import registered_services
+    from pfield.interfaces import registered_services, registered_types
 
     for name in sorted(n for n in registered_types() if "/msg/" in n):
         typer.echo(name)

@@ -3,9 +3,11 @@
 * :mod:`~pfield.costmap.map_io` — load/save map_server YAML + PGM/PNG, OccupancyGrid conversion;
 * :mod:`~pfield.costmap.costmap` — :class:`Costmap2D`, nav2 inflation, :class:`CostmapParams`;
 * :mod:`~pfield.costmap.footprint` — :class:`Footprint` (polygon or radius, padding, exact rasterisation);
-* :mod:`~pfield.costmap.find_valid_pose` — :func:`find_valid_pose` (Move Base Flex's service, contract kept).
+* :mod:`~pfield.costmap.find_valid_pose` — :func:`find_valid_pose` (Move Base Flex's service, contract kept);
+* :func:`example_map_path` — the built-in example map (the demo's and the CLI's default), drawn on first use.
 """
 
+from pfield.costmap._example import example_map_path
 from pfield.costmap.costmap import (
     FREE_SPACE,
     INSCRIBED_INFLATED_OBSTACLE,
@@ -43,6 +45,7 @@ __all__ = [
     "ValidPoseResult",
     "build_costmap",
     "costs_from_occupancy",
+    "example_map_path",
     "find_valid_pose",
     "inflate",
     "load_map",

@@ -10,7 +10,7 @@ u = s(d) u_op, s = exp(k (d − 0.02)), k = −ln(0.001)/0.02, d the exact dista
 ``pfield`` (:func:`pfield.shared_control.task_space_assistance`, arbitration :data:`ARBITRATION`, the target as the
 goal).
 Obstacles may move (``motion``: id → function t ↦ centre); their velocity is estimated from successive
-positions with the node's filter (:mod:`pfield.node._obstacle_motion`) and the field is rebuilt each step with
+positions with the node's filter (:mod:`pfield.node.obstacle_motion`) and the field is rebuilt each step with
 the obstacles at their current pose (plans and the autonomy vector treat obstacles as static).
 Collision check: the exact signed distance of the point to every obstacle is ≤ 0.
 """
@@ -27,8 +27,7 @@ from numpy.typing import NDArray
 
 from pfield.field import FieldConfig, PotentialField
 from pfield.geometry import Obstacle, Sphere, pack_obstacles, signed_distances
-from pfield.node._manager_state import Held
-from pfield.node._obstacle_motion import updated_held
+from pfield.node.obstacle_motion import Held, updated_held
 from pfield.shared_control.assistance import AssistanceScene, servo_scale, task_space_assistance
 from pfield.spatial import Pose, Twist
 

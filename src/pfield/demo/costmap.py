@@ -22,7 +22,7 @@ QUERIES = (
 
 def run(out_dir: Path, console: Console) -> None:
     """Answer four requests with a fresh ``/costmap`` node and write one PNG per search."""
-    from pfield.costmap._example import example_map_path
+    from pfield.costmap import example_map_path
     from pfield.demo.tools import run_find_valid_pose
 
     target = out_dir / "costmap"

@@ -91,8 +91,7 @@ def _plan_row(method: str, response: dict[str, Any], seconds: float) -> list[str
 
 def run(out_dir: Path, console: Console) -> None:
     from pfield.interfaces import potential_fields_interfaces as pfi
-    from pfield.node._base import Bus
-    from pfield.node._planning import make_resolver
+    from pfield.node import Bus, make_resolver
     from pfield.node.manager import ManagerNode
     from pfield.robot import RobotModel
     from pfield.transport.http import ServerThread, create_app

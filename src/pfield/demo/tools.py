@@ -12,7 +12,7 @@ from typing import Any
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from pfield.node._base import Bus
+from pfield.node import Bus
 
 __all__ = ["run_find_valid_pose", "run_sim2d"]
 

@@ -20,12 +20,12 @@ from pfield._layout import Layout
 from pfield._validation import finite
 from pfield.errors import InvalidInput
 
-__all__ = ["FieldConfig"]
+__all__ = ["POSITIVE_FIELDS", "FieldConfig"]
 
 # Fields that must be > 0, with the reason zero makes no sense; every other field must be >= 0. The
 # gains (attractive, rotational, repulsive, damper, circulation) may be 0: a zero gain switches its term
 # off (attractive_gain 0 is the "repulsive only" field of the seed's plots).
-_POSITIVE = {
+POSITIVE_FIELDS = {
     "max_linear_velocity": "a speed limit of 0 would forbid all motion",
     "max_angular_velocity": "a speed limit of 0 would forbid all rotation",
     "max_linear_acceleration": "an acceleration limit of 0 would keep the twist at its first value",
@@ -89,8 +89,8 @@ class FieldConfig:
         for spec in fields(self):
             value = getattr(self, spec.name)
             number = finite(spec.name, value)
-            if spec.name in _POSITIVE and number <= 0.0:
-                raise InvalidInput(spec.name, value, f"must be > 0 ({_POSITIVE[spec.name]})")
+            if spec.name in POSITIVE_FIELDS and number <= 0.0:
+                raise InvalidInput(spec.name, value, f"must be > 0 ({POSITIVE_FIELDS[spec.name]})")
             if number < 0.0:
                 raise InvalidInput(spec.name, value, "must be >= 0")
             object.__setattr__(self, spec.name, number)

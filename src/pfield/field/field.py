@@ -22,8 +22,8 @@ from pfield._validation import as_points, finite
 from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
 from pfield.geometry import Obstacle, PackedObstacles, pack_obstacles, signed_distances
-from pfield.geometry._packed import SPHERE, bounding_radius
-from pfield.spatial import Pose, Twist, Wrench
+from pfield.geometry.packed import SPHERE, bounding_radius
+from pfield.spatial import Pose, Twist, Wrench, twist_from_checked, wrench_from_checked
 
 if TYPE_CHECKING:
     from pfield.planning.options import PlanOptions
@@ -50,27 +50,6 @@ class FieldArrays(NamedTuple):
 def _readonly(array: NDArray[np.float64]) -> NDArray[np.float64]:
     array.setflags(write=False)
     return array
-
-
-_new = object.__new__
-
-
-def _fast_twist(values: NDArray[np.float64]) -> Twist:
-    """A Twist from a fresh, finite (6,) kernel output, skipping the (already satisfied) validation."""
-    twist = _new(Twist)
-    values.setflags(write=False)
-    fields = twist.__dict__  # frozen: filled without __setattr__
-    fields["linear"] = values[:3]
-    fields["angular"] = values[3:]
-    return twist
-
-
-def _fast_wrench(values: NDArray[np.float64]) -> Wrench:
-    wrench = object.__new__(Wrench)
-    values.setflags(write=False)
-    object.__setattr__(wrench, "force", values[:3])
-    object.__setattr__(wrench, "torque", values[3:])
-    return wrench
 
 
 def obstacle_aux(packed: PackedObstacles, goal_position: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -187,7 +166,7 @@ class PotentialField:
         torque = k_rot · log(q_goal ⊗ q⁻¹). Units N and N·m (unit mass and inertia).
         """
         pose = _check_pose("pose", pose)
-        return _fast_wrench(self._core.wrench(pose.position, pose.orientation))
+        return wrench_from_checked(self._core.wrench(pose.position, pose.orientation))
 
     def twist(self, pose: Pose, previous: Twist | None = None, dt: float = 0.0) -> Twist:
         """The constrained twist at ``pose``: the task-space autonomy vector (m/s, rad/s, world frame).
@@ -213,7 +192,7 @@ class PotentialField:
                                             out)
         if outcome:  # the core applied the output contract (pfield.safety): HALTED is the outcome to report
             self._halted(outcome, pose)
-        return _fast_twist(out)
+        return twist_from_checked(out)
 
     @staticmethod
     def _halted(outcome: int, pose: Pose) -> None:

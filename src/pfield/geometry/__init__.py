@@ -20,9 +20,9 @@ from pfield.geometry._distances import (
     obstacle_signed_distance_within,
     signed_distances,
 )
-from pfield.geometry._packed import PackedObstacles, empty_packed
 from pfield.geometry.mesh import Mesh, MeshData, load_mesh_arrays, read_mesh_file
 from pfield.geometry.obstacle import GROUPS, SHAPE_TYPES, Obstacle, Shape, pack_obstacles
+from pfield.geometry.packed import PackedObstacles, empty_packed
 from pfield.geometry.resources import ResourceResolver
 from pfield.geometry.shapes import Box, Capsule, Cylinder, Ellipsoid, Sphere
 

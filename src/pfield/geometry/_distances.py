@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 from pfield._core import geometry as _geometry
 from pfield._validation import as_points
 from pfield.errors import InvalidInput
-from pfield.geometry._packed import PackedObstacles
+from pfield.geometry.packed import PackedObstacles
 
 __all__ = ["distances", "min_signed_distance", "nearest_distances", "obstacle_signed_distance",
            "obstacle_signed_distance_within", "signed_distances"]

@@ -3,7 +3,7 @@
 An :class:`Obstacle` places a shape in the world: a point ``q`` of the shape's local frame is at
 ``p = R(orientation) q + position``. Obstacle ids are the seed's ``frame_id`` (unique ids, not TF frames).
 :func:`pack_obstacles` turns a sequence of obstacles into one
-:class:`~pfield.geometry._packed.PackedObstacles` that the compiled core reads in place
+:class:`~pfield.geometry.packed.PackedObstacles` that the compiled core reads in place
 (:func:`~pfield.geometry.signed_distances`, the field, the planners); pack once and reuse it.
 """
 
@@ -19,8 +19,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from pfield.errors import InvalidInput
 from pfield.geometry._distances import signed_distances
-from pfield.geometry._packed import ROW_WIDTH, SHAPE_CODES, PackedObstacles, empty_packed
 from pfield.geometry.mesh import Mesh, MeshData
+from pfield.geometry.packed import ROW_WIDTH, SHAPE_CODES, PackedObstacles, empty_packed
 from pfield.geometry.shapes import Box, Capsule, Cylinder, Ellipsoid, Sphere
 from pfield.spatial import Pose
 
@@ -106,7 +106,7 @@ def pack_obstacles(obstacles: Sequence[Obstacle]) -> PackedObstacles:
     """Pack obstacles (in order: index i is ``obstacles[i]``) into arrays for the compiled kernels.
 
     Rows hold the position, the row-major rotation matrix (local → world), the packed sizes and the
-    mesh index (see :mod:`pfield.geometry._packed`); obstacles sharing one :class:`Mesh` share its arrays.
+    mesh index (see :mod:`pfield.geometry.packed`); obstacles sharing one :class:`Mesh` share its arrays.
     """
     rows = np.zeros((len(obstacles), ROW_WIDTH))
     kinds = np.zeros(len(obstacles), dtype=np.int64)

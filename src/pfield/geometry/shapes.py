@@ -33,7 +33,7 @@ class _Primitive:
             object.__setattr__(self, item.name, positive(item.name, getattr(self, item.name)))
 
     def packed_sizes(self) -> tuple[float, float, float]:
-        """The sizes as stored in a packed row (see :mod:`pfield.geometry._packed`)."""
+        """The sizes as stored in a packed row (see :mod:`pfield.geometry.packed`)."""
         raise NotImplementedError
 
     def bounding_radius(self) -> float:

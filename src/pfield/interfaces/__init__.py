@@ -17,19 +17,33 @@ from pfield.interfaces._base import (
     registered_services,
     registered_types,
 )
-from pfield.interfaces._idl import interface_text
-from pfield.interfaces._yaml import message_from_data, message_from_yaml, message_to_data, message_to_yaml
+from pfield.interfaces._idl import PRIMITIVES, Constant, interface_text, model_definition
+from pfield.interfaces._yaml import (
+    field_path,
+    load_yaml,
+    load_yaml_file,
+    message_from_data,
+    message_from_yaml,
+    message_to_data,
+    message_to_yaml,
+)
 
 __all__ = [
+    "PRIMITIVES",
+    "Constant",
     "RosMessage",
     "ServiceType",
+    "field_path",
     "interface_text",
+    "load_yaml",
+    "load_yaml_file",
     "lookup_service",
     "lookup_type",
     "message_from_data",
     "message_from_yaml",
     "message_to_data",
     "message_to_yaml",
+    "model_definition",
     "registered_services",
     "registered_types",
 ]

@@ -40,8 +40,8 @@ try:
 except ImportError:  # PyYAML built without libyaml: its own parser (the rest of SafeLoader stays unused)
     from yaml import SafeLoader as _Parser
 
-__all__ = ["ALIAS_ALLOWANCE", "MAX_BYTES", "MAX_DEPTH", "MAX_NODES", "load_yaml", "load_yaml_file", "message_from_data",
-           "message_from_yaml", "message_to_data", "message_to_yaml", "validation_error"]
+__all__ = ["ALIAS_ALLOWANCE", "MAX_BYTES", "MAX_DEPTH", "MAX_NODES", "field_path", "load_yaml", "load_yaml_file",
+           "message_from_data", "message_from_yaml", "message_to_data", "message_to_yaml", "validation_error"]
 
 M = TypeVar("M", bound=RosMessage)
 
@@ -169,7 +169,9 @@ def load_yaml_file(path: Path, field: str) -> Any:
     return load_yaml(read_text(field, path, MAX_BYTES), field, source=str(path))
 
 
-def _path(location: tuple[int | str, ...]) -> str:
+def field_path(location: tuple[int | str, ...]) -> str:
+    """A validation error's location as the field path errors name: ``("goal", "position", "x")`` →
+    ``goal.position.x``, ``("obstacles", 0, "id")`` → ``obstacles[0].id``, ``()`` → ``message``."""
     text = ""
     for part in location:
         text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
@@ -202,7 +204,7 @@ def validation_error(error: ValidationError, type_name: str,
     also the fields the message at that place has, when ``model`` is given)."""
     first = error.errors()[0]
     location = tuple(first["loc"])
-    field = _path(location)
+    field = field_path(location)
     reason = first["msg"]
     if first["type"] == "extra_forbidden":
         reason = f"unknown field of {type_name}"

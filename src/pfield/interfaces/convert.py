@@ -33,7 +33,7 @@ from pfield.interfaces.potential_fields_interfaces import PlanPath_Response
 from pfield.interfaces.std_msgs import Header, Time
 from pfield.interfaces.trajectory_msgs import JointTrajectory
 from pfield.planning.result import PlannedPath
-from pfield.spatial import MIN_QUATERNION_NORM, Pose, Twist, _checked_pose
+from pfield.spatial import MIN_QUATERNION_NORM, Pose, Twist, pose_from_checked
 
 __all__ = [
     "MAX_COORDINATE",
@@ -110,7 +110,7 @@ def pose_from_msg(message: gm.Pose, field: str = "pose") -> Pose:
     :data:`MAX_QUATERNION_NORM`] (normalised here)."""
     position = point_from_msg(message.position, f"{field}.position")
     orientation = quaternion_from_msg(message.orientation, f"{field}.orientation")
-    return _checked_pose(position, orientation)  # both checked just now
+    return pose_from_checked(position, orientation)  # both checked just now
 
 
 def pose_to_msg(pose: Pose) -> gm.Pose:

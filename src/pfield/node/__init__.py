@@ -2,9 +2,33 @@
 
 :class:`Bus` is the in-process publish/subscribe a node talks through; :class:`Node` is the base class of
 ``pfield.node.manager.ManagerNode``, ``pfield.node.base_controller.BaseControllerNode`` and
-``pfield.node.costmap_server.CostmapServer``.
+``pfield.node.costmap_server.CostmapServer``; a node declares what it serves as :class:`ServiceSpec`,
+:class:`SubscriptionSpec` and :class:`PublicationSpec` rows, which a transport exposes. :func:`make_resolver` (the
+mesh resolver of a node's allowed roots) and :func:`parse_transform_option` (``--transform``) serve the CLI and
+the demo as they serve the nodes.
 """
 
-from pfield.node._base import Bus, Node
+from __future__ import annotations
 
-__all__ = ["Bus", "Node"]
+from typing import TYPE_CHECKING, Any
+
+from pfield.node._base import Bus, Node, PublicationSpec, ServiceSpec, SubscriptionSpec, distinct_buses
+
+__all__ = ["Bus", "Node", "PublicationSpec", "ServiceSpec", "SubscriptionSpec", "distinct_buses", "make_resolver",
+           "parse_transform_option"]
+
+if TYPE_CHECKING:
+    from pfield.node._frames import parse_transform_option
+    from pfield.node._planning import make_resolver
+
+_LAZY = {"make_resolver": "_planning", "parse_transform_option": "_frames"}
+"""Names whose modules load the planners or the message conversions: imported on first use, so ``import
+pfield.node`` (every transport does) stays light."""
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(f"pfield.node.{_LAZY[name]}"), name)
+    raise AttributeError(f"module 'pfield.node' has no attribute {name!r}")

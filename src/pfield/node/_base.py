@@ -19,7 +19,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from pfield.interfaces._base import RosMessage
+from pfield.interfaces import RosMessage
 
 __all__ = ["Bus", "Node", "PublicationSpec", "ServiceSpec", "SubscriptionSpec", "distinct_buses"]
 

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from pfield import _validation
 from pfield.errors import InvalidInput
-from pfield.field.config import _POSITIVE as FIELD_POSITIVE
+from pfield.field.config import POSITIVE_FIELDS as FIELD_POSITIVE
 from pfield.field.config import FieldConfig
 from pfield.node._frames import PARAMETER as TRANSFORMS
 from pfield.node._frames import StaticTransforms, parse_transforms

@@ -6,7 +6,7 @@ message), ``/pfield/planning_goal_pose`` (PoseStamped), ``/pfield/query_pose`` (
 (MarkerArray). Services: ``/pfield/plan_path``, ``/pfield/compute_autonomy_vector``,
 ``/pfield/compute_assistance`` (shared control, :mod:`pfield.shared_control`), ``/pfield/remove_obstacles`` and
 ``/pfield/clear_obstacles`` (std_srvs/Trigger). ``Dynamic`` obstacles get a velocity estimated from successive
-poses (:mod:`pfield.node._obstacle_motion`) or given on ``/pfield/obstacle_velocities``
+poses (:mod:`pfield.node.obstacle_motion`) or given on ``/pfield/obstacle_velocities``
 (ObstacleVelocityArray: every id must be held, or nothing changes); only the assistance uses it. Parameters: every
 :class:`~pfield.field.FieldConfig` field plus ``dynamic_obstacle_timeout`` (s: ``Dynamic`` obstacles not
 updated for this long are dropped), ``fixed_frame`` (the frame every pose is used in) and
@@ -69,7 +69,7 @@ from pfield.node._frames import transforms_data
 from pfield.node._joint_states import JOINT_STATES_TOPIC, JointStateCache, rotate_twist
 from pfield.node._manager_state import MAX_OBSTACLES, ManagerParameters, ManagerState, Memo, manager_table
 from pfield.node._markers import state_markers
-from pfield.node._obstacle_motion import updated_held
+from pfield.node.obstacle_motion import updated_held
 from pfield.planning.cancel import CancelToken
 from pfield.planning.task_space import DEFAULT_MAX_ITERATIONS
 from pfield.shared_control.assistance import (

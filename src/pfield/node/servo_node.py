@@ -50,10 +50,8 @@ from typing import Any
 
 from pfield._validation import finite
 from pfield.errors import InvalidInput
-from pfield.interfaces import control_msgs, sensor_msgs, std_msgs, std_srvs, trajectory_msgs
+from pfield.interfaces import RosMessage, control_msgs, load_yaml_file, sensor_msgs, std_msgs, std_srvs, trajectory_msgs
 from pfield.interfaces import geometry_msgs as gm
-from pfield.interfaces._base import RosMessage
-from pfield.interfaces._yaml import load_yaml_file
 from pfield.node._base import Bus, Node, PublicationSpec, ServiceSpec, SubscriptionSpec
 from pfield.node._joint_states import JOINT_STATES_TOPIC, rotate_twist
 from pfield.node._params import ParameterRow, ParameterTable, field_docs

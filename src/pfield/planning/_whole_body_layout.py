@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pfield._layout import Layout
-from pfield.geometry._packed import PackedObstacles
+from pfield.geometry.packed import PackedObstacles
 
 PARAMS = Layout("whole-body parameters", [(name, ()) for name in (
     "attractive_gain", "rotational_attractive_gain", "attractive_threshold", "max_linear_velocity",

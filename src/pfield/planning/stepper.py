@@ -21,7 +21,7 @@ from pfield._core import whole_body as _core
 from pfield._validation import finite, optional_vector
 from pfield.errors import InvalidInput
 from pfield.planning import _whole_body_layout as _wb
-from pfield.planning._whole_body_core import planner
+from pfield.planning._whole_body_core import core_robot, planner
 from pfield.planning.options import PlanOptions
 from pfield.planning.whole_body import WholeBodyOptions, kernel_parameters, make_scene, pack_robot
 from pfield.robot.model import LIMIT_TOLERANCE, RobotModel
@@ -96,6 +96,12 @@ class WholeBodyStepper:
                                    config.max_linear_velocity, config.max_angular_velocity, LIMIT_TOLERANCE)
         self._row, self._twist = self._core.row, self._core.twist
         self._size = _wb.OUT_SIZE + robot.n_joints
+
+    def bound(self) -> tuple[Any, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """What this stepper bound, for a compiled consumer that fuses its step (the whole-body assistance): the
+        core's robot, the goal's position (3,) and orientation (4,), and the step's parameters — read in place,
+        the same objects every step uses."""
+        return core_robot(self._arrays), self._goal_p, self._goal_q, self._params
 
     def row(self, q: ArrayLike, prev_joint_velocities: ArrayLike | None = None, dt: float = 0.0) -> NDArray[np.float64]:
         """The compiled step's raw row (``STEP_OUT`` then q̇) at ``q``, validated as :meth:`step` does.

@@ -41,7 +41,7 @@ from pfield._validation import finite, positive
 from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
 from pfield.geometry import Obstacle, empty_packed, pack_obstacles
-from pfield.geometry._packed import PackedObstacles, bounding_radius
+from pfield.geometry.packed import PackedObstacles, bounding_radius
 from pfield.planning import _whole_body_core as _core_loop
 from pfield.planning import _whole_body_layout as _wb
 from pfield.planning.cancel import cancel_flag
@@ -56,7 +56,11 @@ from pfield.robot.collision import CollisionChecker
 from pfield.robot.model import RobotModel
 from pfield.spatial import Pose
 
-__all__ = ["WholeBodyOptions", "joint_velocity_sign_flips", "plan_whole_body", "plan_whole_body_packed"]
+__all__ = ["WholeBodyOptions", "core_robot", "joint_velocity_sign_flips", "plan_whole_body", "plan_whole_body_packed"]
+
+core_robot = _core_loop.core_robot
+"""The core's robot of :func:`pack_robot`'s arrays (read in place), bound once per arrays: what a compiled consumer
+of a robot (the whole-body assistance) takes."""
 
 _LOG = logging.getLogger(__name__)
 

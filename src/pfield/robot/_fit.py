@@ -354,7 +354,7 @@ def cache_root() -> Path:
     return (Path(xdg).expanduser() if xdg else Path.home() / ".cache") / "pfield"
 
 
-def cache_directory() -> Path | None:
+def fit_cache_directory() -> Path | None:
     """Where fits are kept on disk: ``robot-fits`` in :func:`cache_root` (created on first use); None when it
     cannot be created or written (fits are then kept in memory only)."""
     directory = cache_root() / "robot-fits"
@@ -421,14 +421,14 @@ def _read_shipped(key: str) -> LinkFit | None:
 def cached_fit(surface: LinkSurface, target_gap: float = TARGET_GAP, progress: str = "") -> LinkFit:
     """:func:`fit_link`, remembered in memory and on disk under the surface's key (:meth:`LinkSurface.key`).
 
-    Looked up in memory, then in the user's cache (:func:`cache_directory`), then in the fits shipped with pfield
+    Looked up in memory, then in the user's cache (:func:`fit_cache_directory`), then in the fits shipped with pfield
     (:data:`SHIPPED_DIRECTORY`, read only); only a link found in none is fitted, and its fit is written to the
     user's cache. A link that is actually fitted is logged at INFO before and after (``progress``, e.g. ``"3/18"``,
     says where it stands among the robot's links), so a first fit shows which link it is on."""
     key = surface.key(target_gap)
     if key in _MEMORY:
         return _MEMORY[key]
-    directory = cache_directory()
+    directory = fit_cache_directory()
     path = directory / f"{key}.npz" if directory is not None else None
     fit = None
     if path is not None and path.exists():

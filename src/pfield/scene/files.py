@@ -17,7 +17,7 @@ an unknown key at any level is refused naming the known ones. Numbers are number
 int serves where a float is expected, a string or a boolean (``delta_time: "0.02"``) is refused;
 ``max_iterations`` is an int. Obstacles without a ``group`` are ``Static``. Relative mesh paths are relative
 to the scene file's folder; absolute paths, ``file://`` and ``package://`` URIs (through the ament index)
-work too. The file is read within the bounds of :func:`pfield.interfaces._yaml.load_yaml_file` (a regular
+work too. The file is read within the bounds of :func:`pfield.interfaces.load_yaml_file` (a regular
 file of at most 8 MiB, 100 levels deep, 250 000 nodes with aliases expanded).
 """
 
@@ -54,7 +54,7 @@ def load_scene(path: Path | None, mesh_directory: Path) -> dict[str, Any]:
     from pfield.field import FieldConfig
     from pfield.geometry import Mesh, ResourceResolver
     from pfield.interfaces import geometry_msgs as gm
-    from pfield.interfaces._yaml import load_yaml_file, message_from_data
+    from pfield.interfaces import load_yaml_file, message_from_data
     from pfield.interfaces.convert import obstacle_from_msg, pose_from_msg
     from pfield.interfaces.potential_fields_interfaces import Obstacle as ObstacleMsg
     from pfield.planning.scenes import SEED_GOAL, SEED_PLAN, SEED_START, seed_obstacles

@@ -10,7 +10,7 @@ it to another process or a Ray worker. :func:`read_problems` turns paths into pr
 * an archive (``.tar``, ``.tar.gz``, ``.tgz``, ``.tar.bz2``, ``.tar.xz``) of such folders, unpacked within
   the bounds of :mod:`pfield.scene._archives` (64 MiB decompressed, 10 000 members).
 
-Every YAML file is read within the bounds of :func:`pfield.interfaces._yaml.load_yaml_file` (a regular file
+Every YAML file is read within the bounds of :func:`pfield.interfaces.load_yaml_file` (a regular file
 of at most 8 MiB, 100 levels deep, 250 000 nodes with aliases expanded); a MoveIt file beyond them is one
 problem that cannot be read, a scene file or an archive beyond them fails the whole call.
 
@@ -33,7 +33,7 @@ from pfield._validation import text
 from pfield.errors import InvalidInput
 from pfield.field import FieldConfig
 from pfield.geometry import Obstacle
-from pfield.interfaces._yaml import load_yaml_file
+from pfield.interfaces import load_yaml_file
 from pfield.planning.options import PlanOptions
 from pfield.robot.description import RobotDescription
 from pfield.scene._archives import extract_archive

@@ -49,13 +49,11 @@ from pfield._core import robot as _robot_core
 from pfield._validation import as_vector, finite, in_range, optional_vector
 from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
-from pfield.field.field import _fast_twist
 from pfield.geometry import Obstacle, empty_packed, pack_obstacles
-from pfield.planning._whole_body_core import core_robot
-from pfield.planning.whole_body import WholeBodyOptions, obstacle_bounds, pack_robot
+from pfield.planning.whole_body import WholeBodyOptions, core_robot, obstacle_bounds, pack_robot
 from pfield.robot.model import LIMIT_TOLERANCE, RobotModel
 from pfield.shared_control.autonomy import whole_body_stepper
-from pfield.spatial import Pose, Twist
+from pfield.spatial import Pose, Twist, twist_from_checked
 
 __all__ = ["ARBITRATIONS", "Assistance", "AssistanceOptions", "AssistanceScene", "Flag", "servo_scale",
            "task_space_assistance", "whole_body_assistance"]
@@ -293,7 +291,7 @@ def _answer(scene: AssistanceScene, result: Any, autonomy: Twist, joint_velociti
     # the frozen answer filled in one step: its __init__ would call object.__setattr__ once per field
     answer = object.__new__(Assistance)
     answer.__dict__.update(
-        autonomy_vector=autonomy, joint_velocities=joint_velocities, blended_command=_fast_twist(result.blended),
+        autonomy_vector=autonomy, joint_velocities=joint_velocities, blended_command=twist_from_checked(result.blended),
         alpha=alpha, speed_scale=result.speed_scale,
         nearest_obstacle_id=scene._ids[nearest] if nearest >= 0 else "",  # type: ignore[attr-defined]
         nearest_distance=distance, nearest_normal=result.normal, robot_point=robot_point,
@@ -320,9 +318,9 @@ def _whole_body(scene: AssistanceScene, robot: RobotModel) -> Any:
         return _core.WholeBody(core_robot(arrays), scene._core, params, LIMIT_TOLERANCE)  # type: ignore[attr-defined]
     # the field's step of the autonomy vector (its stepper's robot, bound once, goal and parameters): the same step
     # whole_body_autonomy takes, fused in front of the assistance
-    stepper = whole_body_stepper(scene.field, robot)
-    return _core.WholeBody(core_robot(stepper._arrays), scene._core, params,  # type: ignore[attr-defined]
-                           LIMIT_TOLERANCE, stepper._goal_p, stepper._goal_q, stepper._params)
+    robot_core, goal_position, goal_orientation, step_params = whole_body_stepper(scene.field, robot).bound()
+    return _core.WholeBody(robot_core, scene._core, params, LIMIT_TOLERANCE,  # type: ignore[attr-defined]
+                           goal_position, goal_orientation, step_params)
 
 
 _CACHE = threading.local()
@@ -396,7 +394,7 @@ def whole_body_assistance(scene: AssistanceScene, robot: RobotModel, joint_angle
         result = _assist_step(work, robot, joint_angles, prev_joint_velocities, step, user, mode, user_joints)
         if result.autonomy_outcome == safety.HALTED:
             _LOG.warning("whole-body step: %s", safety.describe(safety.HALTED))
-        autonomy = _fast_twist(result.autonomy)
+        autonomy = twist_from_checked(result.autonomy)
         goal_flags = (Flag.AT_GOAL if result.at_goal else 0) | (Flag.STALLED if result.stalled else 0)
     flags |= goal_flags | (Flag.AT_JOINT_LIMIT if result.at_limit else 0) | \
         (Flag.NEAR_SINGULARITY if result.singular else 0) | _limited(result.outcome)

@@ -54,7 +54,6 @@ from numpy.typing import ArrayLike, NDArray
 from pfield._enums import NamedIntEnum
 from pfield._validation import as_vector, finite
 from pfield.errors import InvalidInput
-from pfield.field.field import _fast_twist
 from pfield.robot.model import RobotModel
 from pfield.shared_control.assistance import (
     Assistance,
@@ -63,7 +62,7 @@ from pfield.shared_control.assistance import (
     whole_body_assistance,
 )
 from pfield.shared_control.servo_config import ServoConfig, unitless_scaled, unitless_scaled_joints
-from pfield.spatial import Twist, rotate_vectors
+from pfield.spatial import Twist, rotate_vectors, twist_from_checked
 
 __all__ = ["LEAVING_MIN_SCALE", "MIN_PERIOD", "REACH", "STATUS_MESSAGES", "Servo", "ServoCommand", "ServoStatus"]
 
@@ -311,7 +310,7 @@ class Servo:
         if command.end_effector:  # the end-effector frame turns with the tool: rotate by FK of the joints commanded now
             orientation = self.robot.forward_kinematics(q).orientation
             linear, angular = rotate_vectors(orientation, linear), rotate_vectors(orientation, angular)
-        user = _fast_twist(np.concatenate([linear, angular]))  # finite: checked when the command came in
+        user = twist_from_checked(np.concatenate([linear, angular]))  # finite: checked when the command came in
         return whole_body_assistance(scene, self.robot, q, user, self.arbitration, prev_joint_velocities=previous,
                                      dt=dt)
 

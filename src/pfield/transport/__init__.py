@@ -5,8 +5,25 @@ A transport decodes a request into the node's pydantic model, calls the handler 
 it owns no state of its own beyond connections.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8357
 DEFAULT_URL = f"http://{DEFAULT_HOST}:{DEFAULT_PORT}"
 
-__all__ = ["DEFAULT_HOST", "DEFAULT_PORT", "DEFAULT_URL"]
+__all__ = ["DEFAULT_HOST", "DEFAULT_PORT", "DEFAULT_URL", "ServerLimits"]
+
+if TYPE_CHECKING:
+    from pfield.transport._server import ServerLimits
+
+
+def __getattr__(name: str) -> Any:
+    """:class:`ServerLimits` (the HTTP server's bounds, which ``pfield serve`` sets), imported on first use: the
+    server's module loads asyncio, which a ROS 2 transport does not need."""
+    if name == "ServerLimits":
+        from pfield.transport._server import ServerLimits
+
+        return ServerLimits
+    raise AttributeError(f"module 'pfield.transport' has no attribute {name!r}")

@@ -1,6 +1,6 @@
 """Fan-out of bus messages to WebSocket connections, across the thread / event-loop boundary.
 
-The :class:`~pfield.node._base.Bus` calls listeners from whichever thread publishes (a planner worker,
+The :class:`~pfield.node.Bus` calls listeners from whichever thread publishes (a planner worker,
 the tick task, a request handler). :class:`TopicFanout` serialises each message once, then hands the
 text to every connection's :class:`Outbox` through ``loop.call_soon_threadsafe``. An outbox holds at most
 ``max_messages`` messages and ``max_bytes`` bytes of text; beyond either the oldest messages are dropped
@@ -14,8 +14,8 @@ import threading
 from collections import deque
 from collections.abc import Sequence
 
-from pfield.interfaces._base import RosMessage
-from pfield.node._base import Bus
+from pfield.interfaces import RosMessage
+from pfield.node import Bus
 
 __all__ = ["Outbox", "TopicFanout"]
 

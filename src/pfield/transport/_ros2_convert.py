@@ -24,7 +24,7 @@ from typing import Any, TypeVar
 
 from rosidl_parser import definition as idl
 
-from pfield.interfaces._base import RosMessage
+from pfield.interfaces import RosMessage
 
 __all__ = ["from_ros", "interface_class", "to_ros"]
 

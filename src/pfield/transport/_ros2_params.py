@@ -1,6 +1,6 @@
 """A pfield node's parameters as ROS 2 parameters of its rclpy node, validated by the pfield node.
 
-Every entry of :meth:`pfield.node._base.Node.get_parameters` is declared on the rclpy node with its
+Every entry of :meth:`pfield.node.Node.get_parameters` is declared on the rclpy node with its
 current value, so ``ros2 param list|get|set|dump`` and ``--ros-args -p``/``--params-file`` work as for
 any ROS node. Setting goes through two rclpy callbacks:
 
@@ -28,7 +28,7 @@ from rclpy.node import Node as RclpyNode
 from rclpy.parameter import Parameter
 
 from pfield.errors import InvalidInput, PfieldError
-from pfield.node._base import Node
+from pfield.node import Node
 
 __all__ = ["declare_parameters"]
 

@@ -1,4 +1,4 @@
-"""Forwards what pfield nodes publish on their :class:`~pfield.node._base.Bus` to rclpy publishers.
+"""Forwards what pfield nodes publish on their :class:`~pfield.node.Bus` to rclpy publishers.
 
 Bus listeners must not block, so the listener only records the message as the topic's pending one;
 a single thread converts it to the rclpy class and publishes it. When a topic is published faster
@@ -12,7 +12,7 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
-from pfield.interfaces._base import RosMessage
+from pfield.interfaces import RosMessage
 from pfield.transport._ros2_convert import to_ros
 
 __all__ = ["BusPublisher"]

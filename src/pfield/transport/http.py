@@ -47,10 +47,8 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 
 import pfield.interfaces.all  # noqa: F401 - the generic topic route knows every message type
 from pfield.errors import InvalidInput, PfieldError
-from pfield.interfaces import lookup_type, message_from_data
-from pfield.interfaces._base import RosMessage
-from pfield.interfaces._yaml import _path
-from pfield.node._base import Bus, Node, ServiceSpec, SubscriptionSpec, distinct_buses
+from pfield.interfaces import RosMessage, field_path, lookup_type, message_from_data
+from pfield.node import Bus, Node, ServiceSpec, SubscriptionSpec, distinct_buses
 from pfield.transport._asgi import DEFAULT_MAX_REQUEST_BYTES, MAX_JSON_DEPTH, GuardMiddleware, error_body, excess_depth
 from pfield.transport._fanout import TopicFanout
 from pfield.transport._server import ServerLimits, uvicorn_config
@@ -210,7 +208,7 @@ def _validation_error(errors: Sequence[Any]) -> Response:
     if first.get("type") == "json_invalid":
         return _error(400, f"malformed JSON: {first.get('msg')}", "body")
     reason = "unknown field" if first.get("type") == "extra_forbidden" else first.get("msg", "")
-    field = _path(location) if location else "body"
+    field = field_path(location) if location else "body"
     return _error(400, f"{field}={first.get('input')!r:.200}: {reason}", field, first.get("input"))
 
 
@@ -229,7 +227,7 @@ class _ShortServices:
     """ASGI middleware answering ``POST /srv/<service>`` of short services (not ``long_running``) directly:
     decoding, validating, the handler and the JSON answer all run as one job on the calls thread, without
     FastAPI's routing and dependency machinery (about half of a control-loop call's time on the event loop).
-    A call its node says is quick now (:attr:`~pfield.node._base.ServiceSpec.quick`; bodies up to
+    A call its node says is quick now (:attr:`~pfield.node.ServiceSpec.quick`; bodies up to
     :data:`QUICK_BODY_BYTES`) runs on the event loop instead: the two thread hand-offs cost a fast call
     more than its work, and under load each waits for the GIL.
     Answers and errors are those of the typed FastAPI routes, which still document the services in

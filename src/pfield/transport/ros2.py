@@ -4,7 +4,7 @@
 base controller and the costmap server when configured), one rclpy node per pfield node, named as the
 pfield node (``/pfield_manager`` …). It is thin: it decodes an rclpy message into the node's pydantic
 model (:mod:`pfield.transport._ros2_convert`), calls the node's handler and encodes the answer. It
-exposes, from each node's :class:`~pfield.node._base.ServiceSpec`/``SubscriptionSpec``/``PublicationSpec``
+exposes, from each node's :class:`~pfield.node.ServiceSpec`/``SubscriptionSpec``/``PublicationSpec``
 lists:
 
 * **services** — a handler's ``PfieldError`` (bad input) becomes ``success: false`` with the reason in
@@ -17,7 +17,7 @@ lists:
   validates before changing anything) and it keeps serving. Sensor topics (``sensor_msgs/*``, e.g.
   ``/scan``) use the sensor-data QoS (best effort), others reliable, depth 10; a node that streams commands
   (the servo) keeps depth 1: it acts on the latest command, and a backlog of older ones would only delay it;
-* **publications** — what a node publishes on its :class:`~pfield.node._base.Bus` is converted and
+* **publications** — what a node publishes on its :class:`~pfield.node.Bus` is converted and
   published by one publisher thread (the latest message per topic, so a slow subscriber never slows a
   handler). Publishers are reliable and transient-local ("latched"): RViz or a late subscriber gets
   the last ``/pfield/planned_path`` and ``/pfield/markers``;
@@ -54,8 +54,8 @@ from rclpy.node import Node as RclpyNode
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 
 from pfield.errors import PfieldError
-from pfield.interfaces._base import RosMessage
-from pfield.node._base import Node, PublicationSpec, ServiceSpec, SubscriptionSpec, distinct_buses
+from pfield.interfaces import RosMessage
+from pfield.node import Node, PublicationSpec, ServiceSpec, SubscriptionSpec, distinct_buses
 from pfield.transport._ros2_convert import from_ros, interface_class, to_ros
 from pfield.transport._ros2_params import declare_parameters
 from pfield.transport._ros2_publisher import BusPublisher

@@ -19,7 +19,7 @@ from typing import Any
 from pfield.node._manager_state import Held
 from pfield.safety import clip_obstacle_velocity
 
-__all__ = ["MAX_OBSTACLE_JUMP", "MIN_UPDATE_INTERVAL", "VELOCITY_SMOOTHING", "updated_held"]
+__all__ = ["MAX_OBSTACLE_JUMP", "MIN_UPDATE_INTERVAL", "VELOCITY_SMOOTHING", "Held", "updated_held"]
 
 VELOCITY_SMOOTHING = 0.5
 """β of the exponential filter (0 < β ≤ 1; 1 = the raw finite difference)."""
