@@ -12,12 +12,13 @@ STAMP  := $(VENV)/.installed
 # The build tools alone first (their own stamp): the core's sanitizer build (core-test) needs only these, so that
 # `make test` compiles it while pip installs the dependencies on the other core. setuptools >= 70.1 is among
 # them because, without build isolation, a dependency published only as an sdist (empy, for the ROS 2 wheels)
-# is built with the venv's own setuptools, and a new venv's (65.5) has no bdist_wheel (70.1 has it built in).
+# is built with the venv's own setuptools, and a new venv's (65.5) has no bdist_wheel (70.1 has it built in). NumPy is
+# among them for its headers (the core's hot bindings use its C API).
 TOOLS_STAMP := $(VENV)/.build-tools
 $(TOOLS_STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet 'scikit-build-core>=0.10' 'nanobind>=2.4' cmake ninja 'setuptools>=70.1'
+	$(PY) -m pip install --quiet 'scikit-build-core>=0.10' 'nanobind>=2.4' 'numpy>=2.0' cmake ninja 'setuptools>=70.1'
 	@touch $@
 
 $(STAMP): pyproject.toml CMakeLists.txt | $(TOOLS_STAMP)

@@ -12,9 +12,9 @@ parameters. For every scene:
 * **plan-loop step compiled**: one step of the task-space plan loop (the RK4 step, the clearance, the segment
   check and the advance), per step of a 2000-step plan (no numba row: its bench timed the RK4 step alone).
 
-* **floor** (spheres_10 only): a call of the core with ``twist``'s arguments that does nothing, and that call with
-  the fresh output array and the :class:`~pfield.spatial.Twist` built from it: what ``twist`` from Python cannot go
-  below without changing its API or value types;
+* **floor** (spheres_10 only): a call of the core with ``twist``'s arguments that does nothing, and a call that
+  computes nothing but answers as ``twist`` does (two new read-only arrays) with the :class:`~pfield.spatial.Twist`
+  made of them: what ``twist`` from Python cannot go below without changing its API or value types;
 * **prepared limited twist**: :class:`pfield.field.PreparedTwist` (bound arrays, validated once, one compiled
   call per pose; target ≤ 1 µs with 10 spheres), previous twist and dt 0.01 as above.
 
@@ -74,14 +74,6 @@ def _rk4_steps(field: PotentialField, count: int, pose: Pose) -> float:
     return float(field._core.rk4_steps(start, np.zeros(6), 0.01, count))
 
 
-def _floor_out(core: object, position: np.ndarray, orientation: np.ndarray, linear: np.ndarray,
-               angular: np.ndarray) -> np.ndarray:
-    """A fresh (6,) array after the do-nothing call (what PotentialField.twist allocates and passes)."""
-    out = np.empty(6)
-    core.call_floor(position, orientation, linear, angular, 0.01, out)  # type: ignore[attr-defined]
-    return out
-
-
 def _mesh_scene(name: str, directory: Path) -> list[Obstacle]:
     import trimesh
 
@@ -125,13 +117,17 @@ def _scene_rows(name: str, field: PotentialField, quick: bool) -> list[BenchRow]
         ("one plan-loop step compiled", lambda: _plan_steps(field, steps, pose), steps, rk4_c),
     ]
     if name == "spheres_10":  # the floor under "limited twist from Python" (docs/core.md, issue 32)
-        core, out = field._core, np.empty(6)
+        core = field._core
         position, orientation, linear, angular = pose.position, pose.orientation, previous.linear, previous.angular
+
+        def floor_twist() -> Twist:
+            parts = core.call_floor_parts(position, orientation, linear, angular, 0.01)
+            return twist_from_checked(parts[0], parts[1])
+
         figures += [
             ("floor: a call with twist's arguments that does nothing", lambda: core.call_floor(
-                position, orientation, linear, angular, 0.01, out), 1, twist_c),
-            ("floor: that call plus the Twist result", lambda: twist_from_checked(_floor_out(
-                core, position, orientation, linear, angular)), 1, twist_c),
+                position, orientation, linear, angular, 0.01), 1, twist_c),
+            ("floor: a call answering as twist does, plus the Twist result", floor_twist, 1, twist_c),
         ]
     rows = []
     for label, fn, per, reference in figures:

@@ -38,6 +38,7 @@ __all__ = [
     "quaternion_inverse",
     "quaternion_log",
     "quaternion_multiply",
+    "readonly_parts",
     "rotate_vectors",
     "twist_from_checked",
     "wrench_from_checked",
@@ -332,38 +333,40 @@ class Wrench:
         return hash((self.force.tobytes(), self.torque.tobytes()))
 
 
-# Value types of values a caller has already checked: a control loop's kernel outputs and validated messages become
-# Poses, Twists and Wrenches without their checks run twice (each skips only what its docstring says is given).
+# Value types of values a caller has already checked: a control loop's kernel outputs (the core answers in new
+# read-only arrays) and validated messages become Poses, Twists and Wrenches without their checks run twice.
 
 
-def pose_from_checked(position: NDArray[np.float64], quaternion: NDArray[np.float64]) -> Pose:
-    """The :class:`Pose` of inputs a caller has already checked (a finite, read-only (3,) position; a finite (4,)
-    quaternion whose norm lies in [MIN_QUATERNION_NORM, 1e150]): the quaternion normalised as
-    :func:`normalize_quaternion` does, without repeating its checks (a control-loop call's message path)."""
+def pose_from_checked(position: NDArray[np.float64], orientation: NDArray[np.float64]) -> Pose:
+    """The :class:`Pose` of a finite (3,) position and a unit quaternion (4,) that a caller has checked: float64,
+    read-only and held by nothing else (a kernel's answer); adopted as they are, without copies or checks."""
     pose = _new(Pose)
-    orientation = quaternion / float(np.linalg.norm(quaternion))
-    orientation.setflags(write=False)
-    object.__setattr__(pose, "position", position)
-    object.__setattr__(pose, "orientation", orientation)
+    fields = pose.__dict__  # frozen: filled without __setattr__
+    fields["position"] = position
+    fields["orientation"] = orientation
     return pose
 
 
-def twist_from_checked(values: NDArray[np.float64]) -> Twist:
-    """The :class:`Twist` of a fresh, finite (6,) float64 array (linear, angular) that nothing else holds (a
-    kernel's output): no copy and no check; the array becomes read-only and the twist's parts are views of it."""
+def twist_from_checked(linear: NDArray[np.float64], angular: NDArray[np.float64]) -> Twist:
+    """The :class:`Twist` of two finite (3,) parts a caller has checked, as :func:`pose_from_checked` takes them."""
     twist = _new(Twist)
-    values.setflags(write=False)
-    fields = twist.__dict__  # frozen: filled without __setattr__
-    fields["linear"] = values[:3]
-    fields["angular"] = values[3:]
+    fields = twist.__dict__
+    fields["linear"] = linear
+    fields["angular"] = angular
     return twist
 
 
-def wrench_from_checked(values: NDArray[np.float64]) -> Wrench:
-    """The :class:`Wrench` of a fresh, finite (6,) float64 array (force, torque), as :func:`twist_from_checked`."""
+def wrench_from_checked(force: NDArray[np.float64], torque: NDArray[np.float64]) -> Wrench:
+    """The :class:`Wrench` of two finite (3,) parts a caller has checked, as :func:`pose_from_checked` takes them."""
     wrench = _new(Wrench)
-    values.setflags(write=False)
     fields = wrench.__dict__
-    fields["force"] = values[:3]
-    fields["torque"] = values[3:]
+    fields["force"] = force
+    fields["torque"] = torque
     return wrench
+
+
+def readonly_parts(values: NDArray[np.float64], split: int = 3) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``values[:split]`` and ``values[split:]`` as read-only views (``values`` becomes read-only): the parts of a
+    fresh array that nothing else holds, for the constructors above."""
+    values.setflags(write=False)
+    return values[:split], values[split:]

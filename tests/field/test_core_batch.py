@@ -89,8 +89,8 @@ def _unit(quats: NDArray[np.float64]) -> NDArray[np.float64]:
 def _one_pose(field: PotentialField, positions: NDArray[np.float64],
               quats: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     units = _unit(quats)
-    twists = np.array([field._core.twist(p, q)[0] for p, q in zip(positions, units, strict=True)]).reshape(-1, 6)
-    wrenches = np.array([field._core.wrench(p, q) for p, q in zip(positions, units, strict=True)]).reshape(-1, 6)
+    twists = np.array([np.concatenate(field._core.twist(p, q)[:2]) for p, q in zip(positions, units, strict=True)])
+    wrenches = np.array([np.concatenate(field._core.wrench(p, q)) for p, q in zip(positions, units, strict=True)])
     return twists, wrenches
 
 

@@ -331,8 +331,11 @@ def test_the_stepper_is_the_autonomy_step_under_the_output_contract(name: str) -
                 clamped, clipped)
             outcome = safety.limit_joint_command(expected[wb.OUT_SIZE:], expected[:6], limits,
                                                  config.max_linear_velocity, config.max_angular_velocity)
-            row, twist = np.empty(len(expected)), np.empty(6)
-            assert stepper.row(q, previous, dt, row) == outcome and stepper.twist(q, previous, dt, twist) == outcome
+            row = np.empty(len(expected))
+            linear, angular, twist_outcome = stepper.twist(q, previous, dt)
+            assert stepper.row(q, previous, dt, row) == outcome and twist_outcome == outcome
+            assert not linear.flags.writeable and not angular.flags.writeable
+            twist = np.concatenate([linear, angular])
             assert np.array_equal(row, expected, equal_nan=True) and np.array_equal(twist, expected[:6]), (seed, q)
             rows.append(row)
             outcomes.append(np.int64(outcome))
@@ -350,6 +353,8 @@ def test_the_stepper_refuses_what_check_joint_angles_refuses() -> None:
         out = np.full(wb.OUT_SIZE + len(problem.q0), 7.0)
         outcome = stepper.row(q, previous, dt, out)
         assert outcome >= 0 or np.all(out == 7.0)  # refused: out untouched
+        linear, angular, twist_outcome = stepper.twist(q, previous, dt)  # the twist alone refuses the same
+        assert twist_outcome == outcome and (outcome >= 0 or (linear is None and angular is None))
         return int(outcome)
 
     assert row(q) >= 0

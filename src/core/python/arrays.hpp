@@ -6,6 +6,15 @@
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 
+// NumPy's C API for Doubles and readonly_doubles below; module.cpp defines PFIELD_IMPORT_NUMPY and imports it.
+#define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
+#define PY_ARRAY_UNIQUE_SYMBOL pfield_core_ARRAY_API
+#ifndef PFIELD_IMPORT_NUMPY
+#define NO_IMPORT_ARRAY
+#endif
+#include <numpy/arrayobject.h>
+
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <initializer_list>
@@ -65,39 +74,63 @@ NumpyArrayOf<T> filled_array(std::initializer_list<std::size_t> shape, Fill fill
   return array;
 }
 
-// The per-call fast path of the hot single-pose bindings (PotentialField.twist): a few doubles read from, or
-// written into, a C-contiguous float64 array through the buffer protocol alone. nanobind's ndarray caster builds a
-// managed tensor per argument (~0.1 us each); these check the same (dtype, one dimension of n, contiguity; writable
-// for the output) and cost a buffer request. A value that does not fit raises TypeError, as the caster would.
-class BufferView {
- public:
-  BufferView(PyObject* object, std::size_t n, bool writable) {
-    const int flags = PyBUF_FORMAT | PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0);
-    if (PyObject_GetBuffer(object, &view_, flags) != 0) {
-      PyErr_Clear();
-      throw nb::type_error("expected a C-contiguous float64 NumPy array");
-    }
-    held_ = true;
-    const char* format = view_.format;
-    const bool doubles = format != nullptr && (format[0] == 'd' || ((format[0] == '<' || format[0] == '=' ||
-                                                                    format[0] == '@') && format[1] == 'd' &&
-                                                                   format[2] == '\0'));
-    if (!doubles || view_.ndim != 1 || view_.itemsize != 8 || static_cast<std::size_t>(view_.shape[0]) != n)
-      throw nb::type_error(("expected a float64 array of " + std::to_string(n) + " values").c_str());
-  }
-  ~BufferView() {
-    if (held_) PyBuffer_Release(&view_);
-  }
-  BufferView(const BufferView&) = delete;
-  BufferView& operator=(const BufferView&) = delete;
-
-  const double* data() const { return static_cast<const double*>(view_.buf); }
-  double* mutable_data() const { return static_cast<double*>(view_.buf); }
-
- private:
-  Py_buffer view_{};
-  bool held_ = false;
+// The per-call hot paths (PotentialField.twist, WholeBodyStepper, forward_kinematics; thousands of calls a second
+// from a control loop) take their few arrays as Doubles / OutDoubles: a one-dimensional, C-contiguous, aligned
+// float64 NumPy array in native byte order, read or written in place. Converting one is a type check and a few
+// reads of the array's fields through NumPy's C API (its headers are a build requirement), about 10 ns, where
+// nanobind's ndarray caster builds a managed tensor (0.1-0.15 us an argument) and the buffer protocol a Py_buffer
+// (0.07 us). Anything else does not convert (nanobind's TypeError, which names the signature), as an ndarray
+// argument with noconvert.
+struct Doubles {
+  const double* data;
+  std::size_t size;
 };
+struct OutDoubles {
+  double* data;
+  std::size_t size;
+};
+
+// The array `object` as Doubles' rules require (writable as well, for OutDoubles), else null.
+inline PyArrayObject* flat_doubles(PyObject* object, bool writable) noexcept {
+  if (!PyArray_Check(object)) return nullptr;
+  auto* array = reinterpret_cast<PyArrayObject*>(object);
+  const bool fits = PyArray_TYPE(array) == NPY_DOUBLE && PyArray_NDIM(array) == 1 && PyArray_ISCARRAY_RO(array) &&
+                    (!writable || PyArray_ISWRITEABLE(array));
+  return fits ? array : nullptr;
+}
+
+// The n values of `object` under Doubles' rules (writable for out_doubles), else TypeError: for arguments of a
+// fixed length, or that may be None, taken as nb::handle.
+inline double* checked_doubles(nb::handle object, std::size_t n, bool writable) {
+  PyArrayObject* array = flat_doubles(object.ptr(), writable);
+  if (array == nullptr || static_cast<std::size_t>(PyArray_DIM(array, 0)) != n)
+    throw nb::type_error(("expected a C-contiguous float64 NumPy array of " + std::to_string(n) + " values" +
+                          (writable ? ", writable" : ""))
+                             .c_str());
+  return static_cast<double*>(PyArray_DATA(array));
+}
+inline const double* doubles(nb::handle object, std::size_t n) { return checked_doubles(object, n, false); }
+inline double* out_doubles(nb::handle object, std::size_t n) { return checked_doubles(object, n, true); }
+
+// A new, read-only float64 NumPy array of n values that the caller fills through `data` before handing it to
+// Python: a kernel's fresh answer, which pfield's value types adopt without copying (pfield.spatial's
+// *_from_checked) and nobody may change.
+inline std::pair<nb::object, double*> readonly_doubles(std::size_t n) {
+  npy_intp extent = static_cast<npy_intp>(n);
+  PyObject* array = PyArray_SimpleNew(1, &extent, NPY_DOUBLE);
+  if (array == nullptr) throw nb::python_error();
+  double* data = static_cast<double*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(array)));
+  PyArray_CLEARFLAGS(reinterpret_cast<PyArrayObject*>(array), NPY_ARRAY_WRITEABLE);
+  return {nb::steal(array), data};
+}
+
+// A new read-only float64 NumPy array holding a copy of the n values at `values` (readonly_doubles): the parts of
+// a kernel's answer that a Twist, a Wrench or a Pose adopts.
+inline nb::object readonly_copy(const double* values, std::size_t n) {
+  auto [array, data] = readonly_doubles(n);
+  std::copy_n(values, n, data);
+  return array;
+}
 
 // A bound object that another one views: its Python object, kept alive (the views point into the arrays it holds),
 // and its C++ instance. Constructed from nb::handle_t<T>, so nanobind checks the type at the call.
@@ -121,3 +154,25 @@ inline void require(bool condition, const std::string& message) {
 }
 
 }  // namespace pfield::python
+
+namespace nanobind::detail {
+
+template <typename Flat, bool Writable>
+struct flat_doubles_caster {
+  NB_TYPE_CASTER(Flat, const_name("numpy.ndarray[dtype=float64, shape=(*), order='C']"))
+
+  bool from_python(handle source, uint32_t, cleanup_list*) noexcept {
+    PyArrayObject* array = pfield::python::flat_doubles(source.ptr(), Writable);
+    if (array == nullptr) return false;
+    value = {static_cast<decltype(value.data)>(PyArray_DATA(array)), static_cast<std::size_t>(PyArray_DIM(array, 0))};
+    return true;
+  }
+  static handle from_cpp(const Flat&, rv_policy, cleanup_list*) noexcept { return handle(); }  // arguments only
+};
+
+template <>
+struct type_caster<pfield::python::Doubles> : flat_doubles_caster<pfield::python::Doubles, false> {};
+template <>
+struct type_caster<pfield::python::OutDoubles> : flat_doubles_caster<pfield::python::OutDoubles, true> {};
+
+}  // namespace nanobind::detail

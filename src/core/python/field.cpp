@@ -61,34 +61,25 @@ class BoundField {
               reinterpret_cast<const FieldParams*>(params.data())};
   }
 
-  // The constrained twist (6,) and the output contract's outcome: a previous twist beyond the speed limits is
-  // scaled within them first (safety rule 3), the answer is finite and within them (rules 1 and 2).
-  // (The previous twist comes as its two parts, a Twist's arrays, so the caller joins nothing.)
-  std::tuple<NumpyArray, int> twist(const Vector& position, const Vector& orientation,
-                                    std::optional<Vector> previous_linear, std::optional<Vector> previous_angular,
-                                    double dt) const {
-    auto [out, data] = new_array({6});
-    double previous[6];
-    const bool given = previous_linear.has_value() && previous_angular.has_value();
-    if (given) {
-      std::copy(previous_linear->data(), previous_linear->data() + 3, previous);
-      std::copy(previous_angular->data(), previous_angular->data() + 3, previous + 3);
+  // The constrained twist at a pose under the output contract: (linear (3,), angular (3,), the contract's outcome),
+  // two new read-only arrays that pfield.spatial.twist_from_checked adopts. A previous twist beyond the speed limits
+  // is scaled within them first (safety rule 3), the answer is finite and within them (rules 1 and 2). The pose's
+  // arrays (3) and (4) and the previous twist's (3) and (3), or both None, are read as Doubles (the hot path of
+  // PotentialField.twist: a Pose's and a Twist's arrays, validated when they were built).
+  std::tuple<nb::object, nb::object, int> twist(nb::handle position, nb::handle orientation,
+                                                nb::handle previous_linear, nb::handle previous_angular,
+                                                double dt) const {
+    const double *p = doubles(position, 3), *q = doubles(orientation, 4);
+    double out[6];
+    int outcome;
+    if (previous_linear.is_none() || previous_angular.is_none()) {
+      outcome = limited_twist(p, q, nullptr, dt, out);
+    } else {
+      const double *l = doubles(previous_linear, 3), *a = doubles(previous_angular, 3);
+      const double previous[6] = {l[0], l[1], l[2], a[0], a[1], a[2]};
+      outcome = limited_twist(p, q, previous, dt, out);
     }
-    const int outcome = limited_twist(position.data(), orientation.data(), given ? previous : nullptr, dt, data);
-    return {out, outcome};
-  }
-
-  // PotentialField.twist's call: the pose's arrays (3) and (4), the previous twist's (3) and (3) or both None, dt,
-  // and the answer into out (6) under the output contract; returns the contract's outcome. Its arguments are read
-  // through BufferView (the hot path from Python: a Pose's and a Twist's arrays, validated when they were built).
-  int twist_into(nb::handle position, nb::handle orientation, nb::handle previous_linear,
-                 nb::handle previous_angular, double dt, nb::handle out) const {
-    const BufferView p(position.ptr(), 3, false), q(orientation.ptr(), 4, false), o(out.ptr(), 6, true);
-    if (previous_linear.is_none() || previous_angular.is_none())
-      return limited_twist(p.data(), q.data(), nullptr, dt, o.mutable_data());
-    const BufferView l(previous_linear.ptr(), 3, false), a(previous_angular.ptr(), 3, false);
-    const double previous[6] = {l.data()[0], l.data()[1], l.data()[2], a.data()[0], a.data()[1], a.data()[2]};
-    return limited_twist(p.data(), q.data(), previous, dt, o.mutable_data());
+    return {readonly_copy(out, 3), readonly_copy(out + 3, 3), outcome};
   }
 
   // PreparedTwist's call: the bound pose (7,) and previous twist (6,) in, the twist into `out` (6,) under the
@@ -106,12 +97,11 @@ class BoundField {
     return 0;
   }
 
-  NumpyArray wrench(const Vector& position, const Vector& orientation) const {
-    auto [out, data] = new_array({6});
-    const field::Wrench w = field::field_wrench(field_, vec3(position.data()), quat(orientation.data()));
-    data[0] = w.force.x, data[1] = w.force.y, data[2] = w.force.z;
-    data[3] = w.torque.x, data[4] = w.torque.y, data[5] = w.torque.z;
-    return out;
+  // The raw wrench at a pose: (force (3,), torque (3,)), new read-only arrays (pfield.spatial.wrench_from_checked).
+  std::tuple<nb::object, nb::object> wrench(nb::handle position, nb::handle orientation) const {
+    const field::Wrench w = field::field_wrench(field_, vec3(doubles(position, 3)), quat(doubles(orientation, 4)));
+    const double force[3] = {w.force.x, w.force.y, w.force.z}, torque[3] = {w.torque.x, w.torque.y, w.torque.z};
+    return {readonly_copy(force, 3), readonly_copy(torque, 3)};
   }
 
   // Twists (under the output contract, as twist()) or wrenches at N poses (field/batch.hpp), on every core from
@@ -314,20 +304,27 @@ void bind_field(nb::module_& m) {
            "eight arrays of PackedObstacles; they are read in place for the object's life.")
       .def("twist", &BoundField::twist, "position"_a, "orientation"_a, "previous_linear"_a.none() = nb::none(),
            "previous_angular"_a.none() = nb::none(), "dt"_a = 0.0,
-           "(the constrained twist (6,) at a pose (unit quaternion), the output contract's outcome); rate-limited "
-           "against the previous twist's linear and angular parts (3,) when given")
-      .def("twist_into", &BoundField::twist_into, "position"_a, "orientation"_a, "previous_linear"_a.none(),
-           "previous_angular"_a.none(), "dt"_a, "out"_a,
-           "twist()'s answer into out (6,) (float64 arrays of 3, 4, 3, 3 and 6 values, the previous twist's two "
-           "parts None for none); returns the output contract's outcome.")
+           "(linear (3,), angular (3,), the output contract's outcome): the constrained twist at a pose (float64 "
+           "arrays of 3 and 4 values, a unit quaternion), new read-only arrays; rate-limited against the previous "
+           "twist's linear and angular parts (3,) when given.")
       .def(
           "call_floor",
-          [](const BoundField&, nb::handle, nb::handle, nb::handle, nb::handle, double, nb::handle) { return 0; },
-          "position"_a, "orientation"_a, "previous_linear"_a.none(), "previous_angular"_a.none(), "dt"_a, "out"_a,
-          "Does nothing with twist_into's arguments: the benchmarks' floor of a call from Python.")
+          [](const BoundField&, nb::handle, nb::handle, nb::handle, nb::handle, double) { return 0; },
+          "position"_a, "orientation"_a, "previous_linear"_a.none(), "previous_angular"_a.none(), "dt"_a,
+          "Does nothing with twist's arguments: the benchmarks' floor of a call from Python.")
+      .def(
+          "call_floor_parts",
+          [](const BoundField&, nb::handle, nb::handle, nb::handle, nb::handle, double) {
+            const double zeros[3] = {0.0, 0.0, 0.0};
+            return std::make_tuple(readonly_copy(zeros, 3), readonly_copy(zeros, 3), 0);
+          },
+          "position"_a, "orientation"_a, "previous_linear"_a.none(), "previous_angular"_a.none(), "dt"_a,
+          "Computes nothing and answers as twist does (two new read-only arrays): the benchmarks' floor of a call "
+          "and its answer.")
       .def("evaluate", &BoundField::evaluate, "pose"_a, "previous"_a, "use_previous"_a, "dt"_a, "out"_a,
            "PreparedTwist's call: 0, or 1/2 for a pose whose position / quaternion is not valid.")
-      .def("wrench", &BoundField::wrench, "position"_a, "orientation"_a, "The raw wrench (6,) at a pose.")
+      .def("wrench", &BoundField::wrench, "position"_a, "orientation"_a,
+           "(force (3,), torque (3,)): the raw wrench at a pose, new read-only arrays.")
       .def(
           "twists",
           [](const BoundField& self, const Rows<3>& positions, const Rows<4>& orientations, unsigned threads) {

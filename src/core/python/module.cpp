@@ -2,6 +2,9 @@
 // each binding file is a thin list of defs over a core that knows nothing of Python.
 #include <nanobind/nanobind.h>
 
+#define PFIELD_IMPORT_NUMPY  // this file imports NumPy's C API (python/arrays.hpp) for every binding file
+#include "python/arrays.hpp"
+
 namespace nb = nanobind;
 
 namespace pfield::python {
@@ -25,6 +28,7 @@ void bind_assistance(nb::module_& m);
 NB_MODULE(_core, m) {
   m.doc() = "pfield's compiled core (C++17): the per-step kernels; inputs are validated by the Python layer.";
   using namespace pfield::python;
+  if (_import_array() < 0) throw nb::python_error();
   struct Part {
     const char* name;
     void (*bind)(nb::module_&);

@@ -114,16 +114,16 @@ class Kinematics {
     return {rotations, origins};
   }
 
-  // The end effector's pose at q into out (7: position, unit quaternion x y z w); false (out untouched) when q
-  // breaks check_joint_angles's rule. Both arrays through BufferView (the hot path of the public
-  // RobotModel.forward_kinematics: about 0.2 us less than two ndarray casters): anything but a C-contiguous float64
-  // array of n (q) or 7 (out) values raises TypeError, and Python then converts q by check_joint_angles.
-  bool forward_kinematics(nb::handle q, nb::handle out) {
-    const BufferView values(q.ptr(), joints(), false), pose(out.ptr(), 7, true);
-    if (!accept(values.data(), q_.data())) return false;
+  // The end effector's pose at q: (position (3,), unit quaternion x y z w (4,)), new read-only arrays that
+  // pfield.spatial.pose_from_checked adopts; None when q breaks check_joint_angles's rule. q is read as Doubles (the
+  // hot path of the public RobotModel.forward_kinematics): anything but a C-contiguous float64 array of n values
+  // raises TypeError, and Python then converts q by check_joint_angles.
+  nb::object forward_kinematics(nb::handle q) {
+    if (!accept(doubles(q, joints()), q_.data())) return nb::none();
     Frames frames{rotations_.data(), origins_.data()};
-    robot::end_effector_pose7(view(), q_.data(), frames, pose.mutable_data());
-    return true;
+    double pose[7];
+    robot::end_effector_pose7(view(), q_.data(), frames, pose);
+    return nb::make_tuple(readonly_copy(pose, 3), readonly_copy(pose + 3, 4));
   }
 
   // The end effector's 6 x n Jacobian at q into out; false (out untouched) when q breaks the rule.
@@ -320,10 +320,10 @@ void bind_robot_kinematics(nb::module_& m) {
       .def("check_limits", &Kinematics::check_limits, "values"_a, "tolerance"_a,
            "(LimitStatus, index of the first bad value or -1); values (n,) are clamped onto the limits in place.")
       .def("joint_frames", &Kinematics::joint_frames, "q"_a, "World rotations (n, 3, 3) and origins (n, 3) at q.")
-      .def("forward_kinematics", &Kinematics::forward_kinematics, "q"_a, "out"_a,
-           "The end effector's world pose at q into out (7: position, unit quaternion x y z w, w >= 0); False "
-           "(out untouched) when q is not n finite values within the limits (RobotModel.check_joint_angles); "
-           "TypeError when q or out is not a C-contiguous float64 array of n or 7 values.")
+      .def("forward_kinematics", &Kinematics::forward_kinematics, "q"_a,
+           "The end effector's world pose at q: (position (3,), unit quaternion x y z w (4,), w >= 0), new "
+           "read-only arrays; None when q is not n finite values within the limits "
+           "(RobotModel.check_joint_angles); TypeError when q is not a C-contiguous float64 array of n values.")
       .def("jacobian", &Kinematics::jacobian, "q"_a, "out"_a,
            "The end effector's 6 x n world-aligned Jacobian at q into out; False (out untouched) when q is not n "
            "finite values within the limits.")

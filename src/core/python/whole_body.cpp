@@ -94,29 +94,37 @@ class Stepper {
     velocities_.resize(stepper_.joint_count());
   }
 
-  // The step at q under the output contract (pfield.safety.limit_joint_command) into out: its row (STEP_OUT then
-  // qd, 21 + n) or, for twist_only, its twist (6). Returns the contract's outcome (0, 1, 2), or -1 (out untouched)
-  // when an input breaks the stepper's rules (the caller then validates, and raises). The caller allocates out
-  // (np.empty: cheaper than a NumPy array made here and handed over).
-  int step(const Vector& q, std::optional<Vector> previous, double dt, OutVector& out, bool twist_only) {
-    const std::size_t n = stepper_.joint_count();
-    require(out.shape(0) == (twist_only ? 6 : kStepSize + n), "out: expected the row's 21 + n or the twist's 6 values");
+  // The step at q under the output contract (pfield.safety.limit_joint_command): its row (STEP_OUT then qd,
+  // 21 + n) into out, or, for twist(), its twist. False (nothing written) when an input breaks the stepper's rules
+  // (the caller then validates, and raises). q and previous are read as Doubles (the control loop's hot path).
+  bool step(const Doubles& q, const std::optional<Doubles>& previous, double dt) {
     const bool given = previous.has_value();
-    if (!stepper_.step(q.data(), q.shape(0), given ? previous->data() : nullptr, given ? previous->shape(0) : 0, dt,
-                       limit_tolerance_))
-      return -1;
-    const StepResult& result = stepper_.result();
-    double* data = out.data();
-    if (twist_only) {
-      std::copy(stepper_.joint_velocities(), stepper_.joint_velocities() + n, velocities_.begin());
-      std::copy_n(result.twist, 6, data);
-      return static_cast<int>(safety::limit_joint_command(velocities_.data(), n, data, velocity_limits_.data(),
-                                                          max_linear_, max_angular_));
-    }
-    std::copy_n(reinterpret_cast<const double*>(&result), kStepSize, data);
-    std::copy_n(stepper_.joint_velocities(), n, data + kStepSize);
-    return static_cast<int>(safety::limit_joint_command(data + kStepSize, n, data, velocity_limits_.data(),
+    return stepper_.step(q.data, q.size, given ? previous->data : nullptr, given ? previous->size : 0, dt,
+                         limit_tolerance_);
+  }
+
+  // row(): the contract's outcome (0, 1, 2), or -1 when refused (out untouched).
+  int row(const Doubles& q, const std::optional<Doubles>& previous, double dt, OutDoubles out) {
+    const std::size_t n = stepper_.joint_count();
+    require(out.size == kStepSize + n, "out: expected the row's 21 + n values");
+    if (!step(q, previous, dt)) return -1;
+    std::copy_n(reinterpret_cast<const double*>(&stepper_.result()), kStepSize, out.data);
+    std::copy_n(stepper_.joint_velocities(), n, out.data + kStepSize);
+    return static_cast<int>(safety::limit_joint_command(out.data + kStepSize, n, out.data, velocity_limits_.data(),
                                                         max_linear_, max_angular_));
+  }
+
+  // twist(): (linear (3,), angular (3,), the contract's outcome), new read-only arrays that
+  // pfield.spatial.twist_from_checked adopts; (None, None, -1) when refused.
+  std::tuple<nb::object, nb::object, int> twist(const Doubles& q, const std::optional<Doubles>& previous, double dt) {
+    if (!step(q, previous, dt)) return {nb::none(), nb::none(), -1};
+    const std::size_t n = stepper_.joint_count();
+    double twist[6];
+    std::copy(stepper_.joint_velocities(), stepper_.joint_velocities() + n, velocities_.begin());
+    std::copy_n(stepper_.result().twist, 6, twist);
+    const int outcome = static_cast<int>(safety::limit_joint_command(velocities_.data(), n, twist,
+                                                                     velocity_limits_.data(), max_linear_, max_angular_));
+    return {readonly_copy(twist, 3), readonly_copy(twist + 3, 3), outcome};
   }
 
  private:
@@ -222,22 +230,13 @@ void bind_whole_body(nb::module_& m) {
   nb::class_<Stepper>(m, "Stepper", "WholeBodyStepper's state: a planner's step with its own workspace.")
       .def(nb::init<nb::handle_t<Planner>, const Vector&, double, double, double>(), "planner"_a, "velocity_limits"_a,
            "max_linear"_a, "max_angular"_a, "limit_tolerance"_a)
-      .def(
-          "row",
-          [](Stepper& s, const Vector& q, std::optional<Vector> previous, double dt, OutVector& out) {
-            return s.step(q, previous, dt, out, false);
-          },
-          "q"_a.noconvert(), "previous"_a.none().noconvert(), "dt"_a, "out"_a.noconvert(),
-          "The step's row (STEP_OUT then qd) at q under the output contract into out (21 + n,): the contract's "
-          "outcome, or -1 when q (n values within the limits up to limit_tolerance), previous (n finite values) or "
-          "dt (finite, >= 0) is refused.")
-      .def(
-          "twist",
-          [](Stepper& s, const Vector& q, std::optional<Vector> previous, double dt, OutVector& out) {
-            return s.step(q, previous, dt, out, true);
-          },
-          "q"_a.noconvert(), "previous"_a.none().noconvert(), "dt"_a, "out"_a.noconvert(),
-          "row's twist alone into out (6,) (the autonomy vector's call): the outcome, or -1.");
+      .def("row", &Stepper::row, "q"_a, "previous"_a.none(), "dt"_a, "out"_a,
+           "The step's row (STEP_OUT then qd) at q under the output contract into out (21 + n,): the contract's "
+           "outcome, or -1 when q (n values within the limits up to limit_tolerance), previous (n finite values) or "
+           "dt (finite, >= 0) is refused. Arrays: C-contiguous float64 (else TypeError).")
+      .def("twist", &Stepper::twist, "q"_a, "previous"_a.none(), "dt"_a,
+           "row's twist alone (the autonomy vector's call): (linear (3,), angular (3,), outcome), new read-only "
+           "arrays, or (None, None, -1).");
 }
 
 }  // namespace pfield::python

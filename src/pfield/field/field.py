@@ -166,7 +166,7 @@ class PotentialField:
         torque = k_rot · log(q_goal ⊗ q⁻¹). Units N and N·m (unit mass and inertia).
         """
         pose = _check_pose("pose", pose)
-        return wrench_from_checked(self._core.wrench(pose.position, pose.orientation))
+        return wrench_from_checked(*self._core.wrench(pose.position, pose.orientation))
 
     def twist(self, pose: Pose, previous: Twist | None = None, dt: float = 0.0) -> Twist:
         """The constrained twist at ``pose``: the task-space autonomy vector (m/s, rad/s, world frame).
@@ -179,20 +179,19 @@ class PotentialField:
         # core reads their arrays as they are. dt: a plain float within (0, inf) needs no further check.
         if not isinstance(pose, Pose):
             raise InvalidInput("pose", pose, "expected a pfield.Pose")
-        out = np.empty(6)
         if previous is None:
-            outcome = self._core.twist_into(pose.position, pose.orientation, None, None, 0.0, out)
+            linear, angular, outcome = self._core.twist(pose.position, pose.orientation, None, None, 0.0)
         else:
             if not isinstance(previous, Twist):
                 raise InvalidInput("previous", previous, "expected a pfield.Twist or None")
             step = dt if dt.__class__ is float and 0.0 < dt < math.inf else finite("dt", dt)
             if step <= 0.0:
                 raise InvalidInput("dt", dt, "must be > 0 when a previous twist is given")
-            outcome = self._core.twist_into(pose.position, pose.orientation, previous.linear, previous.angular, step,
-                                            out)
+            linear, angular, outcome = self._core.twist(pose.position, pose.orientation, previous.linear,
+                                                        previous.angular, step)
         if outcome:  # the core applied the output contract (pfield.safety): HALTED is the outcome to report
             self._halted(outcome, pose)
-        return twist_from_checked(out)
+        return twist_from_checked(linear, angular)
 
     @staticmethod
     def _halted(outcome: int, pose: Pose) -> None:

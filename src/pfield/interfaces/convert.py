@@ -110,7 +110,10 @@ def pose_from_msg(message: gm.Pose, field: str = "pose") -> Pose:
     :data:`MAX_QUATERNION_NORM`] (normalised here)."""
     position = point_from_msg(message.position, f"{field}.position")
     orientation = quaternion_from_msg(message.orientation, f"{field}.orientation")
-    return pose_from_checked(position, orientation)  # both checked just now
+    unit = orientation / float(np.linalg.norm(orientation))  # normalised as normalize_quaternion does
+    unit.setflags(write=False)
+    position.setflags(write=False)
+    return pose_from_checked(position, unit)  # both checked just now
 
 
 def pose_to_msg(pose: Pose) -> gm.Pose:

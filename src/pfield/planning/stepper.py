@@ -25,6 +25,7 @@ from pfield.planning._whole_body_core import core_robot, planner
 from pfield.planning.options import PlanOptions
 from pfield.planning.whole_body import WholeBodyOptions, kernel_parameters, make_scene, pack_robot
 from pfield.robot.model import LIMIT_TOLERANCE, RobotModel
+from pfield.spatial import Twist, readonly_parts, twist_from_checked
 
 __all__ = ["WholeBodyStep", "WholeBodyStepper"]
 
@@ -143,18 +144,22 @@ class WholeBodyStepper:
 
     def twist(self, q: ArrayLike, prev_joint_velocities: ArrayLike | None = None,
               dt: float = 0.0) -> NDArray[np.float64]:
-        """The end-effector twist (6,) of :meth:`step` alone (the shared-control service's hot path: one compiled
-        call writes it, under the output contract)."""
-        out = np.empty(6)
+        """The end-effector twist (6,) of :meth:`step` alone, under the output contract (:meth:`autonomy_vector`)."""
+        return self.autonomy_vector(q, prev_joint_velocities, dt).as_array()
+
+    def autonomy_vector(self, q: ArrayLike, prev_joint_velocities: ArrayLike | None = None, dt: float = 0.0) -> Twist:
+        """The end-effector twist of :meth:`step` alone, as a :class:`~pfield.spatial.Twist` (the shared-control
+        service's hot path: one compiled call answers it, under the output contract), validated as :meth:`row`."""
         try:
-            outcome = self._twist(q, prev_joint_velocities, dt, out)
-        except TypeError:
+            linear, angular, outcome = self._twist(q, prev_joint_velocities, dt)
+        except TypeError:  # another type: the validating path converts it
             outcome = -1
         if outcome < 0:
-            return self.evaluate(self.robot.check_joint_angles(q, "joint_angles"), prev_joint_velocities, dt)[_TWIST]
+            row = self.evaluate(self.robot.check_joint_angles(q, "joint_angles"), prev_joint_velocities, dt)
+            return twist_from_checked(*readonly_parts(row[_TWIST]))
         if outcome == _HALTED:
             _LOG.warning("whole-body step: %s", safety.describe(_HALTED))
-        return out
+        return twist_from_checked(linear, angular)
 
     def evaluate(self, q: NDArray[np.float64], previous: ArrayLike | None, dt: float) -> NDArray[np.float64]:
         """The compiled step's row at already validated ``q``: ``STEP_OUT`` then q̇ (under the output contract)."""

@@ -38,7 +38,7 @@ from pfield.robot._loader import (
 )
 from pfield.robot.catalog import builtin_spec, example_robot_data_root
 from pfield.robot.limits import default_accelerations, read_joint_limits
-from pfield.spatial import Pose
+from pfield.spatial import Pose, pose_from_checked
 
 if TYPE_CHECKING:
     from pfield.geometry.resources import ResourceResolver
@@ -351,16 +351,15 @@ class RobotModel:
 
     def forward_kinematics(self, q: ArrayLike) -> Pose:
         """End-effector pose in the world (robot root) frame at joint angles ``q``."""
-        pose = np.empty(7)
-        # the core checks q as check_joint_angles does (False when q breaks the rule, TypeError when it is not an
+        # the core checks q as check_joint_angles does (None when q breaks the rule, TypeError when it is not an
         # array the core reads as float64, e.g. a list): then check_joint_angles raises its error or converts
         try:
-            done = self._core_kinematics.forward_kinematics(q, pose)
+            parts = self._core_kinematics.forward_kinematics(q)
         except TypeError:
-            done = False
-        if not done:
-            self._core_kinematics.forward_kinematics(self.check_joint_angles(q), pose)
-        return _trusted_pose(pose)
+            parts = None
+        if parts is None:
+            parts = self._core_kinematics.forward_kinematics(self.check_joint_angles(q))
+        return pose_from_checked(*parts)
 
     def jacobian(self, q: ArrayLike) -> NDArray[np.float64]:
         """6×n end-effector Jacobian, world-aligned axes, linear rows first: ``[v; ω] = J(q) q̇``."""
@@ -393,17 +392,6 @@ class RobotModel:
 
     def __repr__(self) -> str:
         return f"RobotModel({self.name!r}, joints={list(self._joint_names)}, end_effector={self.end_effector!r})"
-
-
-def _trusted_pose(values: NDArray[np.float64]) -> Pose:
-    """A Pose from a fresh kernel output (7: finite position, unit quaternion), skipping re-validation; its two
-    arrays are read-only views of ``values``."""
-    values.setflags(write=False)
-    pose = object.__new__(Pose)
-    fields = pose.__dict__
-    fields["position"] = values[:3]
-    fields["orientation"] = values[3:]
-    return pose
 
 
 def _frozen(values: ArrayLike) -> NDArray[np.float64]:

@@ -53,7 +53,7 @@ from pfield.geometry import Obstacle, empty_packed, pack_obstacles
 from pfield.planning.whole_body import WholeBodyOptions, core_robot, obstacle_bounds, pack_robot
 from pfield.robot.model import LIMIT_TOLERANCE, RobotModel
 from pfield.shared_control.autonomy import whole_body_stepper
-from pfield.spatial import Pose, Twist, twist_from_checked
+from pfield.spatial import Pose, Twist, readonly_parts, twist_from_checked
 
 __all__ = ["ARBITRATIONS", "Assistance", "AssistanceOptions", "AssistanceScene", "Flag", "servo_scale",
            "task_space_assistance", "whole_body_assistance"]
@@ -291,8 +291,9 @@ def _answer(scene: AssistanceScene, result: Any, autonomy: Twist, joint_velociti
     # the frozen answer filled in one step: its __init__ would call object.__setattr__ once per field
     answer = object.__new__(Assistance)
     answer.__dict__.update(
-        autonomy_vector=autonomy, joint_velocities=joint_velocities, blended_command=twist_from_checked(result.blended),
-        alpha=alpha, speed_scale=result.speed_scale,
+        autonomy_vector=autonomy, joint_velocities=joint_velocities,
+        blended_command=twist_from_checked(*readonly_parts(result.blended)), alpha=alpha,
+        speed_scale=result.speed_scale,
         nearest_obstacle_id=scene._ids[nearest] if nearest >= 0 else "",  # type: ignore[attr-defined]
         nearest_distance=distance, nearest_normal=result.normal, robot_point=robot_point,
         obstacle_point=result.obstacle_point, time_to_collision=result.time_to_collision, flags=flags,
@@ -394,7 +395,7 @@ def whole_body_assistance(scene: AssistanceScene, robot: RobotModel, joint_angle
         result = _assist_step(work, robot, joint_angles, prev_joint_velocities, step, user, mode, user_joints)
         if result.autonomy_outcome == safety.HALTED:
             _LOG.warning("whole-body step: %s", safety.describe(safety.HALTED))
-        autonomy = twist_from_checked(result.autonomy)
+        autonomy = twist_from_checked(*readonly_parts(result.autonomy))
         goal_flags = (Flag.AT_GOAL if result.at_goal else 0) | (Flag.STALLED if result.stalled else 0)
     flags |= goal_flags | (Flag.AT_JOINT_LIMIT if result.at_limit else 0) | \
         (Flag.NEAR_SINGULARITY if result.singular else 0) | _limited(result.outcome)

@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pfield.planning import WholeBodyOptions, WholeBodyStepper
 from pfield.robot.model import RobotModel
-from pfield.spatial import Pose, Twist, twist_from_checked
+from pfield.spatial import Pose, Twist, readonly_parts, twist_from_checked
 
 __all__ = ["WholeBodyAutonomy", "task_space_autonomy_vector", "whole_body_autonomy", "whole_body_autonomy_vector",
            "whole_body_row", "whole_body_stepper"]
@@ -114,7 +114,8 @@ def whole_body_autonomy(field: Any, robot: RobotModel, q: ArrayLike, prev_joint_
                     or pose.rotation_distance(query_pose) > pose_tolerance[1])
         if mismatch:
             _warn_mismatch(query_pose, pose)
-    return WholeBodyAutonomy(twist_from_checked(step.twist), step.joint_velocities, pose, mismatch, step.clearance)
+    return WholeBodyAutonomy(twist_from_checked(*readonly_parts(step.twist)), step.joint_velocities, pose, mismatch,
+                             step.clearance)
 
 
 def whole_body_autonomy_vector(field: Any, robot: RobotModel, q: ArrayLike,
@@ -125,7 +126,7 @@ def whole_body_autonomy_vector(field: Any, robot: RobotModel, q: ArrayLike,
         cached: WholeBodyStepper | None = getattr(_CACHE, "entry", None)
         if cached is None or cached.field is not field or cached.robot is not robot:
             cached = _stepper(field, robot, None)
-        return twist_from_checked(cached.twist(q, prev_joint_velocities, dt))
+        return cached.autonomy_vector(q, prev_joint_velocities, dt)
     return whole_body_autonomy(field, robot, q, prev_joint_velocities, dt, query_pose).twist
 
 

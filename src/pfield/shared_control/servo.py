@@ -62,7 +62,7 @@ from pfield.shared_control.assistance import (
     whole_body_assistance,
 )
 from pfield.shared_control.servo_config import ServoConfig, unitless_scaled, unitless_scaled_joints
-from pfield.spatial import Twist, rotate_vectors, twist_from_checked
+from pfield.spatial import Twist, readonly_parts, rotate_vectors, twist_from_checked
 
 __all__ = ["LEAVING_MIN_SCALE", "MIN_PERIOD", "REACH", "STATUS_MESSAGES", "Servo", "ServoCommand", "ServoStatus"]
 
@@ -310,7 +310,7 @@ class Servo:
         if command.end_effector:  # the end-effector frame turns with the tool: rotate by FK of the joints commanded now
             orientation = self.robot.forward_kinematics(q).orientation
             linear, angular = rotate_vectors(orientation, linear), rotate_vectors(orientation, angular)
-        user = twist_from_checked(np.concatenate([linear, angular]))  # finite: checked when the command came in
+        user = twist_from_checked(*readonly_parts(np.concatenate([linear, angular])))  # checked when it came in
         return whole_body_assistance(scene, self.robot, q, user, self.arbitration, prev_joint_velocities=previous,
                                      dt=dt)
 
