@@ -52,7 +52,10 @@ class Stream:
         self._thread.start()
 
     def _run(self, period: float) -> None:
+        stamped = hasattr(self._message, "header")
         while not self._stop.wait(period):
+            if stamped:  # dated as a driver dates them: the servo takes a command's age from its stamp
+                self._message.header.stamp.sec, self._message.header.stamp.nanosec = divmod(time.time_ns(), 10**9)
             self._publisher.publish(self._message)
 
     def stop(self) -> None:
@@ -78,6 +81,20 @@ def state_in(client: BlockingClient, results: dict[str, Any]) -> None:
     results["explicit"] = client.call(*AUTONOMY, request | {"joint_angles": READY})
 
 
+def at_rest(commands: Inbox, quiet: float = 0.3, timeout: float = 30.0) -> dict[str, Any]:
+    """The servo's last command once the arm is held still: all velocities zero and nothing more for ``quiet`` s. A
+    stopped stream's messages may still wait in the node's queue; the servo dates them by their stamps, so after
+    ``quiet`` (> ``incoming_command_timeout``) none of them can move the arm again."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        count = len(commands.messages)
+        time.sleep(quiet)
+        if commands.messages and len(commands.messages) == count and \
+                not any(commands.messages[-1]["points"][0]["velocities"]):
+            return commands.messages[-1]
+    raise TimeoutError(f"the arm was not held still within {timeout} s")
+
+
 def joy_drives(client: BlockingClient, results: dict[str, Any]) -> None:
     commands = _volatile(client, OUT, "trajectory_msgs/msg/JointTrajectory")
     status = client.subscribe(STATUS, "std_msgs/msg/Int8")
@@ -87,13 +104,13 @@ def joy_drives(client: BlockingClient, results: dict[str, Any]) -> None:
     time.sleep(0.3)
     joy.stop()
     results["timeout_status"] = status.wait_for(lambda m: m["data"] == 10, timeout=30.0)
-    results["joy_last"] = commands.wait_for(lambda m: not any(m["points"][0]["velocities"]), timeout=30.0)
+    results["joy_last"] = at_rest(commands)
     commands.messages.clear()
     twist = Stream(client, "/pfield_servo/delta_twist_cmds", "geometry_msgs/msg/TwistStamped",
                    {"header": {"frame_id": "panda_hand_tcp"}, "twist": {"linear": {"z": 0.02}}}, 100.0)
     results["tool_command"] = commands.wait_for(lambda m: any(m["points"][0]["velocities"]), timeout=60.0)
     twist.stop()
-    commands.wait_for(lambda m: not any(m["points"][0]["velocities"]), timeout=30.0)
+    at_rest(commands)
     commands.messages.clear()
     jog = Stream(client, "/pfield_servo/delta_joint_cmds", "control_msgs/msg/JointJog",
                  {"joint_names": ["panda_joint7"], "velocities": [0.3]}, 100.0)

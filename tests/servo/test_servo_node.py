@@ -171,6 +171,36 @@ def test_twists_in_the_tool_frame_and_refused_input(robot: Any) -> None:
     assert servo.servo._command is before
 
 
+def test_a_stamped_command_is_as_old_as_its_stamp(robot: Any) -> None:
+    """MoveIt Servo's rule: a non-zero ``header.stamp`` dates a command for ``incoming_command_timeout`` (0.1 s). One
+    that waited in a queue for longer stops the arm instead of moving it; a zero stamp counts from the arrival, and
+    so does a stamp ahead of this machine's clock."""
+    topic = "command_out_topic"
+
+    def velocities_after(stamp: float | None, message: str) -> np.ndarray:
+        manager, servo, recorder = make(robot)
+        manager.on_joint_states(measured(robot))
+        header = {} if stamp is None else {"stamp": std_msgs.Time.from_seconds(stamp).model_dump()}
+        if message == "twist":
+            servo.on_twist(gm.TwistStamped.model_validate({"header": header, "twist": {"linear": {"z": 0.05}}}))
+        elif message == "joy":
+            servo.on_joy(Joy.model_validate({"header": header, "axes": [0.0, 0.0, 0.5, 0.0, 0.0, 0.0]}))
+        else:
+            servo.on_joint_jog(JointJog.model_validate({"header": header, "joint_names": ["panda_joint7"],
+                                                        "velocities": [0.3]}))
+        statuses = [m.data for m in recorder.messages.get(servo.topics["status_topic"], [])]
+        commands = recorder.messages.get(servo.topics[topic], [])  # none at all while the arm stands still
+        velocities = np.array(commands[-1].points[0].velocities) if commands else np.zeros(robot.n_joints)
+        assert (statuses[-1] == ServoStatus.COMMAND_TIMEOUT) == (not velocities.any()), (statuses, velocities)
+        return velocities
+
+    for message in ("twist", "joy", "jog"):
+        assert velocities_after(None, message).any()  # no stamp: its arrival
+        assert velocities_after(time.time() - 0.02, message).any()  # 20 ms old: within the timeout
+        assert not velocities_after(time.time() - 0.5, message).any()  # waited 0.5 s somewhere: too old to move
+        assert velocities_after(time.time() + 5.0, message).any()  # ahead of this clock: from its arrival
+
+
 def test_a_joint_jog_drives_the_servo_loop_and_bad_jogs_are_refused(robot: Any) -> None:
     """control_msgs/JointJog on ``joint_command_in_topic`` (Servo's ``~/delta_joint_cmds``): the named joints at
     their velocities in any order, the others still; an unknown or repeated name, a count that does not match, a

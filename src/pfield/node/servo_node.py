@@ -8,11 +8,13 @@ files give them), or from Python: ``ServoNode(bus, manager, config)``.
 Topics in: ``cartesian_command_in_topic`` (geometry_msgs/TwistStamped: ``header.frame_id`` empty means
 ``robot_link_command_frame``; the fixed frame, a static frame, or the end-effector link, which turns with the tool),
 ``joint_command_in_topic`` (control_msgs/JointJog: ``velocities`` of the joints in ``joint_names``, the others
-still, an empty jog all still; ``displacements``, ``duration`` and ``header.stamp`` are not used (a command's age runs
-from its arrival), and a jog with names but only displacements is refused, as is an unknown or repeated joint name),
+still, an empty jog all still; ``displacements`` and ``duration`` are not used, and a jog with names but only
+displacements is refused, as is an unknown or repeated joint name),
 ``joy_topic`` (sensor_msgs/Joy, mapped by ``joy_device``), ``joint_topic`` (sensor_msgs/JointState, into the
 manager's joint-state cache; ``/joint_states``, the default, is then this node's subscription instead of the
 manager's, so that joint states are handled on the servo's thread: :attr:`ManagerNode.joint_states_subscriber`).
+A command's age, for ``incoming_command_timeout``, runs from its ``header.stamp`` when that is not zero (MoveIt Servo's
+rule), else from its arrival (:meth:`ServoNode._take`).
 Services: MoveIt Servo's ``~/pause_servo`` (std_srvs/SetBool) and ``~/start_servo`` / ``~/stop_servo``
 (std_srvs/Trigger): paused, a moving arm gets one command holding it where it was commanded, then nothing is published
 and commands are dropped until it resumes from the measured joints (:meth:`ServoNode.pause`).
@@ -252,7 +254,7 @@ class ServoNode(Node):
         frame = message.header.frame_id or self.config.robot_link_command_frame
         values = [finite(f"twist.{part}.{axis}", getattr(getattr(message.twist, part), axis))
                   for part in ("linear", "angular") for axis in "xyz"]
-        self._command(Twist(values[:3], values[3:]), frame, "twist", unitless=True)
+        self._command(Twist(values[:3], values[3:]), frame, "twist", message.header.stamp, unitless=True)
 
     def on_joint_jog(self, message: control_msgs.JointJog) -> None:
         """An operator joint jog (module docstring): velocities by joint name, the unnamed joints still; stepped at
@@ -276,30 +278,37 @@ class ServoNode(Node):
                 raise InvalidInput("joint_jog.joint_names", name, "named twice")
             seen.add(name)
             values[order[name]] = finite(f"joint_jog.velocities[{name}]", velocity)
-        self._take(lambda now: self.servo.command_joints(values, now))
+        self._take(lambda received: self.servo.command_joints(values, received), message.header.stamp)
 
     def on_joy(self, message: sensor_msgs.Joy) -> None:
         """A joystick state, mapped by ``joy_device`` (docs/servo.md); stepped at once."""
         twist = joy_twist(message.axes, message.buttons, self.config)
         frame = self.config.joy_frame or self.config.robot_link_command_frame
-        self._command(twist, frame, "joy", unitless=False)
+        self._command(twist, frame, "joy", message.header.stamp, unitless=False)
 
-    def _command(self, twist: Twist, frame: str, field: str, unitless: bool) -> None:
+    def _command(self, twist: Twist, frame: str, field: str, stamp: std_msgs.Time, unitless: bool) -> None:
         """The twist into the servo (a static frame's rotated now, an end-effector twist at every step); a step."""
         state = self.manager.state
         end_effector = bool(frame) and frame == self.manager.robot.end_effector and frame != state.params.fixed_frame
         if not end_effector:
             transform = state.params.frames().lookup(f"{field}.header.frame_id", frame)
             twist = twist if transform is None else rotate_twist(twist, transform.orientation)
-        self._take(lambda now: self.servo.command(twist, now, end_effector_frame=end_effector, unitless=unitless))
+        self._take(lambda received: self.servo.command(twist, received, end_effector_frame=end_effector,
+                                                       unitless=unitless), stamp)
 
-    def _take(self, store: Callable[[float], None]) -> None:
-        """A validated command: ``store(now)`` gives it to the loop, its interval goes into the mean (Timing), and a
-        step follows; while paused it is dropped."""
+    def _take(self, store: Callable[[float], None], stamp: std_msgs.Time) -> None:
+        """A validated command: ``store(received)`` gives it to the loop, its interval goes into the mean (Timing),
+        and a step follows; while paused it is dropped. ``received`` (monotonic s) dates the command for
+        ``incoming_command_timeout``: by its ``header.stamp`` when that is not zero, as MoveIt Servo does (this
+        machine's clock; a command that waited in a queue is as old as it is, and one older than the timeout stops the
+        arm instead of moving it), else by its arrival; a stamp ahead of this clock counts from the arrival."""
         if self._paused:
             return
         now = time.monotonic()
-        store(now)
+        received = now
+        if stamp.sec or stamp.nanosec:
+            received -= max(time.time() - stamp.to_seconds(), 0.0)
+        store(received)
         interval = min(now - self._last_command, 2.0 * self.config.publish_period)
         mean = self._command_interval
         self._command_interval = interval if mean == float("inf") else 0.8 * mean + 0.2 * interval
