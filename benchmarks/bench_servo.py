@@ -121,13 +121,14 @@ SPEED = 0.002
 """m/s: the operator's speed."""
 
 
-def _twists(interface_class: Any) -> list[Any]:
-    """The :data:`DIRECTIONS` TwistStamped messages, index k's header stamp ``sec`` = k (the echo node returns it)."""
+def _twists(interface_class: Any, tagged: bool) -> list[Any]:
+    """The :data:`DIRECTIONS` TwistStamped messages; ``tagged`` (for the echo node, which returns it): index k's
+    header stamp ``sec`` = k. The servo's are not stamped (it would date them by a stamp; it answers the direction)."""
     twist_class = interface_class("geometry_msgs/msg/TwistStamped")
     messages = []
     for k in range(DIRECTIONS):
         message = twist_class()
-        message.header.stamp.sec = k
+        message.header.stamp.sec = k if tagged else 0
         message.twist.linear.x = SPEED * math.cos(2 * math.pi * k / DIRECTIONS)
         message.twist.linear.y = SPEED * math.sin(2 * math.pi * k / DIRECTIONS)
         messages.append(message)
@@ -224,7 +225,7 @@ def _measure_ros(commands: int, target: str) -> dict[str, Any]:
         state = to_ros(lookup_type("sensor_msgs/msg/JointState").model_validate(
             {"name": list(robot.joint_names), "position": robot.named_configuration("ready").tolist()}),
             interface_class("sensor_msgs/msg/JointState"))
-        twist = _twists(interface_class)
+        twist = _twists(interface_class, tagged=target == "echo")
         states = client.create_publisher(interface_class("sensor_msgs/msg/JointState"), "/joint_states", 10)
         twists = client.create_publisher(interface_class("geometry_msgs/msg/TwistStamped"),
                                          "/pfield_servo/delta_twist_cmds", 10)

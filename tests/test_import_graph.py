@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import ast
 from collections.abc import Iterator
+from importlib.machinery import EXTENSION_SUFFIXES
 from pathlib import Path
 
 import pfield
@@ -57,22 +58,32 @@ def _module_name(path: Path) -> str:
 
 
 def _is_module(name: str) -> bool:
+    """A module of ``src/pfield``: a .py file, a package, or a compiled extension (``pfield._core``)."""
     relative = Path(*name.split(".")[1:]) if "." in name else Path()
-    return (ROOT / relative).with_suffix(".py").is_file() or (ROOT / relative / "__init__.py").is_file()
+    if (ROOT / relative).with_suffix(".py").is_file() or (ROOT / relative / "__init__.py").is_file():
+        return True
+    return any((ROOT / relative.parent / (relative.name + suffix)).is_file() for suffix in EXTENSION_SUFFIXES)
+
+
+def _is_type_checking(test: ast.expr) -> bool:
+    """``if TYPE_CHECKING:`` or ``if typing.TYPE_CHECKING:`` (not ``if not TYPE_CHECKING:``, whose body runs)."""
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or \
+        (isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
 
 
 def _type_checking_nodes(tree: ast.AST) -> set[int]:
     skipped: set[int] = set()
     for node in ast.walk(tree):
-        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+        if isinstance(node, ast.If) and _is_type_checking(node.test):
             skipped |= {id(inner) for statement in node.body for inner in ast.walk(statement)}
     return skipped
 
 
-def _import_statements(path: Path) -> Iterator[ast.Import | ast.ImportFrom]:
-    """The import statements of a file that run (those under ``if TYPE_CHECKING:`` never do)."""
+def _import_statements(path: Path, typing_too: bool = False) -> Iterator[ast.Import | ast.ImportFrom]:
+    """The import statements of a file that run (those under ``if TYPE_CHECKING:`` never do; ``typing_too``: those
+    as well)."""
     tree = ast.parse(path.read_text(), str(path))
-    skipped = _type_checking_nodes(tree)
+    skipped = set() if typing_too else _type_checking_nodes(tree)
     yield from (node for node in ast.walk(tree) if isinstance(node, ast.Import | ast.ImportFrom)
                 and id(node) not in skipped)
 
@@ -194,13 +205,14 @@ def _private_imports() -> Iterator[str]:
     """Imports of another package's private module (``pfield.node._base``) or private name (``_fast_twist``)."""
     for path in sorted(ROOT.rglob("*.py")):
         module = _module_name(path)
-        for node in _import_statements(path):
+        for node in _import_statements(path, typing_too=True):  # a type's private home is private too
             for target, name in _imported(module, path, node):
                 shared = any(target == bottom or target.startswith(bottom + ".") for bottom in SHARED_PRIVATE)
                 if _layer(target) == _layer(module) or shared:
                     continue
                 private_module = any(part.startswith("_") for part in target.split(".")[1:])
-                private_name = name is not None and name.startswith("_") and not name.endswith("__")
+                private_name = name is not None and name.startswith("_") and not \
+                    (name.startswith("__") and name.endswith("__"))
                 if private_module or private_name:
                     yield f"{module}:{node.lineno} imports {target}" + (f".{name}" if name else "")
 

@@ -19,7 +19,7 @@ from pfield.interfaces.sensor_msgs import JointState, Joy
 from pfield.interfaces.std_srvs import SetBool_Request, Trigger_Request
 from pfield.node._base import Bus
 from pfield.node.manager import ManagerNode
-from pfield.node.servo_node import ServoNode
+from pfield.node.servo_node import STAMP_TRUSTED_AGE, ServoNode
 from pfield.shared_control.servo import ServoStatus
 from pfield.shared_control.servo_config import ServoConfig
 from pfield.spatial import Twist
@@ -171,16 +171,20 @@ def test_twists_in_the_tool_frame_and_refused_input(robot: Any) -> None:
     assert servo.servo._command is before
 
 
-def test_a_stamped_command_is_as_old_as_its_stamp(robot: Any) -> None:
-    """MoveIt Servo's rule: a non-zero ``header.stamp`` dates a command for ``incoming_command_timeout`` (0.1 s). One
-    that waited in a queue for longer stops the arm instead of moving it; a zero stamp counts from the arrival, and
-    so does a stamp ahead of this machine's clock."""
+def test_a_stamped_command_is_as_old_as_its_stamp(robot: Any, caplog: pytest.LogCaptureFixture) -> None:
+    """MoveIt Servo's rule: a non-zero ``header.stamp``, read against the node's ``stamp_clock`` (ROS time over
+    rclpy), dates a command for ``incoming_command_timeout`` (0.1 s). One that waited in a queue for longer stops the
+    arm instead of moving it; a zero stamp counts from the arrival, and so do a stamp ahead of the clock and one
+    further behind it than STAMP_TRUSTED_AGE (another clock: simulated time), with a warning."""
     topic = "command_out_topic"
 
-    def velocities_after(stamp: float | None, message: str) -> np.ndarray:
+    def velocities_after(age: float | None, message: str, clock: float | None = None) -> np.ndarray:
         manager, servo, recorder = make(robot)
+        if clock is not None:
+            servo.stamp_clock = lambda: clock
         manager.on_joint_states(measured(robot))
-        header = {} if stamp is None else {"stamp": std_msgs.Time.from_seconds(stamp).model_dump()}
+        now = servo.stamp_clock()  # the stamp made just before the call: the node's own steps take milliseconds
+        header = {} if age is None else {"stamp": std_msgs.Time.from_seconds(now - age).model_dump()}
         if message == "twist":
             servo.on_twist(gm.TwistStamped.model_validate({"header": header, "twist": {"linear": {"z": 0.05}}}))
         elif message == "joy":
@@ -196,9 +200,15 @@ def test_a_stamped_command_is_as_old_as_its_stamp(robot: Any) -> None:
 
     for message in ("twist", "joy", "jog"):
         assert velocities_after(None, message).any()  # no stamp: its arrival
-        assert velocities_after(time.time() - 0.02, message).any()  # 20 ms old: within the timeout
-        assert not velocities_after(time.time() - 0.5, message).any()  # waited 0.5 s somewhere: too old to move
-        assert velocities_after(time.time() + 5.0, message).any()  # ahead of this clock: from its arrival
+        assert velocities_after(0.02, message).any()  # 20 ms old: within the timeout
+        assert not velocities_after(0.5, message).any()  # waited 0.5 s somewhere: too old to move
+        assert velocities_after(-5.0, message).any()  # ahead of the clock: from its arrival
+        assert velocities_after(0.02, message, clock=1000.0).any()  # simulated time: read against the node's clock
+        assert not velocities_after(0.5, message, clock=1000.0).any()
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="pfield.node.servo_node"):
+        assert velocities_after(STAMP_TRUSTED_AGE + 5.0, "twist").any()  # another clock: from its arrival
+    assert "the publisher's clock is not this node's" in caplog.text
 
 
 def test_a_joint_jog_drives_the_servo_loop_and_bad_jogs_are_refused(robot: Any) -> None:

@@ -157,6 +157,7 @@ inline void require(bool condition, const std::string& message) {
 
 namespace nanobind::detail {
 
+// Arguments only: a binding never returns Doubles (it answers in new arrays, readonly_copy).
 template <typename Flat, bool Writable>
 struct flat_doubles_caster {
   NB_TYPE_CASTER(Flat, const_name("numpy.ndarray[dtype=float64, shape=(*), order='C']"))
@@ -167,7 +168,6 @@ struct flat_doubles_caster {
     value = {static_cast<decltype(value.data)>(PyArray_DATA(array)), static_cast<std::size_t>(PyArray_DIM(array, 0))};
     return true;
   }
-  static handle from_cpp(const Flat&, rv_policy, cleanup_list*) noexcept { return handle(); }  // arguments only
 };
 
 template <>

@@ -9,8 +9,10 @@ fields and explained in ``docs/field.md``.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, fields
 from dataclasses import replace as _dataclass_replace
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -22,10 +24,7 @@ from pfield.errors import InvalidInput
 
 __all__ = ["POSITIVE_FIELDS", "FieldConfig"]
 
-# Fields that must be > 0, with the reason zero makes no sense; every other field must be >= 0. The
-# gains (attractive, rotational, repulsive, damper, circulation) may be 0: a zero gain switches its term
-# off (attractive_gain 0 is the "repulsive only" field of the seed's plots).
-POSITIVE_FIELDS = {
+POSITIVE_FIELDS: Mapping[str, str] = MappingProxyType({
     "max_linear_velocity": "a speed limit of 0 would forbid all motion",
     "max_angular_velocity": "a speed limit of 0 would forbid all rotation",
     "max_linear_acceleration": "an acceleration limit of 0 would keep the twist at its first value",
@@ -38,7 +37,10 @@ POSITIVE_FIELDS = {
                            "with repulsive_gain 0",
     "stagnation_window": "a window of 0 s would report stagnation at once",
     "stagnation_progress": "every step would count as progress, so stagnation could never be reported",
-}
+})
+"""Fields that must be > 0, with the reason zero makes no sense; every other field must be >= 0. The gains
+(attractive, rotational, repulsive, damper, circulation) may be 0: a zero gain switches its term off
+(attractive_gain 0 is the "repulsive only" field of the seed's plots)."""
 
 
 @dataclass(frozen=True)

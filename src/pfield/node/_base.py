@@ -14,6 +14,7 @@ report planner failures there instead of raising.
 from __future__ import annotations
 
 import threading
+import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -141,6 +142,9 @@ class Node(ABC):
 
     def __init__(self, bus: Bus) -> None:
         self.bus = bus
+        self.stamp_clock: Callable[[], float] = time.time
+        """The clock messages' header stamps are read against (s since the epoch): this machine's wall clock, or the
+        rclpy node's (ROS time, which follows ``use_sim_time``) once a ROS 2 transport serves the node."""
 
     @abstractmethod
     def services(self) -> list[ServiceSpec]: ...

@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 import re
 import threading
 import time
@@ -86,6 +87,11 @@ _RUNTIME = frozenset({"incoming_command_timeout", "scale_linear", "scale_rotatio
                       "halt_all_joints_in_cartesian_mode", "halt_all_joints_in_joint_mode",
                       "publish_joint_accelerations", "command_in_type"})
 """Parameters that may change while the node runs (the others shape its topics and loop: read-only)."""
+STAMP_TRUSTED_AGE = 1.0
+"""s: a command stamped longer than this before its arrival is dated by its arrival instead (no queue of a working
+node holds a command this long, so its stamp comes from another clock); shorter, by its stamp."""
+CLOCK_WARNING_PERIOD = 10.0
+"""s: at most one warning this often about stamps on another clock."""
 FOLLOWING = 1.2
 """Commands whose mean interval is at most this many ``publish_period`` drive the output (module docstring, Timing):
 the mean is exponential, weight 0.2 on the newest interval, each counted at most 2 periods (one late command does not
@@ -144,6 +150,7 @@ class ServoNode(Node):
         self._was_moving = False
         self._status: tuple[int | None, str] = (None, "")  # (code, words) last published; None: nothing yet
         self._paused = False  # by ~/pause_servo or ~/stop_servo: no steps, commands dropped
+        self._clock_warned = -math.inf  # when stamps on another clock were last warned about
         if ignored:
             servo_only = [n for n in ignored if n.split(".", 1)[-1] in SERVO_ONLY_PARAMETERS
                           or n in SERVO_ONLY_PARAMETERS]
@@ -299,21 +306,35 @@ class ServoNode(Node):
     def _take(self, store: Callable[[float], None], stamp: std_msgs.Time) -> None:
         """A validated command: ``store(received)`` gives it to the loop, its interval goes into the mean (Timing),
         and a step follows; while paused it is dropped. ``received`` (monotonic s) dates the command for
-        ``incoming_command_timeout``: by its ``header.stamp`` when that is not zero, as MoveIt Servo does (this
-        machine's clock; a command that waited in a queue is as old as it is, and one older than the timeout stops the
-        arm instead of moving it), else by its arrival; a stamp ahead of this clock counts from the arrival."""
+        ``incoming_command_timeout``: by its ``header.stamp`` when that is not zero, read against :attr:`stamp_clock`
+        (ROS time over rclpy), as MoveIt Servo does — a command that waited in a queue is as old as it is, and one
+        older than the timeout stops the arm instead of moving it — else by its arrival. A stamp ahead of that clock
+        counts from the arrival, and so does one more than :data:`STAMP_TRUSTED_AGE` behind it (a publisher on another
+        clock: simulated time, an unsynchronised machine), with a warning."""
         if self._paused:
             return
         now = time.monotonic()
         received = now
         if stamp.sec or stamp.nanosec:
-            received -= max(time.time() - stamp.to_seconds(), 0.0)
+            age = self.stamp_clock() - stamp.to_seconds()
+            if age > STAMP_TRUSTED_AGE:  # no queue holds a command this long: the publisher's clock is not this one
+                self._warn_clock(age)
+            else:
+                received -= max(age, 0.0)
         store(received)
         interval = min(now - self._last_command, 2.0 * self.config.publish_period)
         mean = self._command_interval
         self._command_interval = interval if mean == float("inf") else 0.8 * mean + 0.2 * interval
         self._last_command = now
         self.step(now)
+
+    def _warn_clock(self, age: float) -> None:
+        now = time.monotonic()
+        if now - self._clock_warned >= CLOCK_WARNING_PERIOD:
+            self._clock_warned = now
+            _log.warning("%s: a command stamped %.3g s before its arrival: the publisher's clock is not this node's "
+                         "(simulated time? an unsynchronised machine?); dating such commands by their arrival",
+                         self.name, age)
 
     # ---- the loop ---------------------------------------------------------------------------------------
     def tick(self, now: float) -> None:

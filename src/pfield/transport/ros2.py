@@ -221,6 +221,8 @@ class _NodeAdapter:
         self._streams = streams
         self._in_flight = in_flight
         self.ros_node = RclpyNode(node.name.lstrip("/") or "pfield", context=context)
+        clock = self.ros_node.get_clock()
+        node.stamp_clock = lambda: clock.now().nanoseconds * 1e-9  # ROS time: header stamps are read against it
         self._short = MutuallyExclusiveCallbackGroup()
         self.streams_commands = any(not spec.latched for spec in node.publications())
         """The node streams commands: it spins on an executor of its own and keeps only its latest inputs."""
