@@ -112,8 +112,7 @@ def pose_from_msg(message: gm.Pose, field: str = "pose") -> Pose:
     orientation = quaternion_from_msg(message.orientation, f"{field}.orientation")
     unit = orientation / float(np.linalg.norm(orientation))  # normalised as normalize_quaternion does
     unit.setflags(write=False)
-    position.setflags(write=False)
-    return pose_from_checked(position, unit)  # both checked just now
+    return pose_from_checked(position, unit)  # both checked just now (point_from_msg's arrays are read-only)
 
 
 def pose_to_msg(pose: Pose) -> gm.Pose:

@@ -143,8 +143,15 @@ class Node(ABC):
     def __init__(self, bus: Bus) -> None:
         self.bus = bus
         self.stamp_clock: Callable[[], float] = time.time
-        """The clock messages' header stamps are read against (s since the epoch): this machine's wall clock, or the
-        rclpy node's (ROS time, which follows ``use_sim_time``) once a ROS 2 transport serves the node."""
+        """The clock of header stamps, those read and those written (s since the epoch): this machine's wall clock, or
+        the rclpy node's (ROS time, which follows ``use_sim_time``) once a ROS 2 transport serves the node."""
+
+    def stamp_age(self, stamp: Any) -> float | None:
+        """Seconds since a message's ``header.stamp`` (a ``builtin_interfaces/Time``) on :attr:`stamp_clock`; None for
+        a zero stamp (the publisher did not date it). Negative for a stamp ahead of that clock."""
+        if not (stamp.sec or stamp.nanosec):
+            return None
+        return float(self.stamp_clock() - stamp.to_seconds())
 
     @abstractmethod
     def services(self) -> list[ServiceSpec]: ...

@@ -506,7 +506,7 @@ class ManagerNode(Node):
         else:
             assert pose is not None
             twist = field.twist(pose)
-        vector = twist_stamped(twist, state.params.fixed_frame, time.time())
+        vector = twist_stamped(twist, state.params.fixed_frame, self.stamp_clock())
         response = pfi.ComputeAutonomyVector_Response(autonomy_vector=vector)
         self._answered("autonomy", request, state, started)
         return response
@@ -575,8 +575,7 @@ class ManagerNode(Node):
         arbitration = request.arbitration or state.params.assistance_arbitration
         user = request.user_command
         command = self.operator_twist(user, state, q, pose)
-        stamp = user.header.stamp.sec + 1e-9 * user.header.stamp.nanosec
-        age = time.time() - stamp if stamp > 0 else None
+        age = self.stamp_age(user.header.stamp)
         scene = self._scene.get(state)
         if method == WHOLE_BODY:
             answer = whole_body_assistance(scene, self.robot, q, command, arbitration,
@@ -584,7 +583,7 @@ class ManagerNode(Node):
         else:
             assert pose is not None
             answer = task_space_assistance(scene, pose, command, arbitration, input_age=age)
-        frame, now = state.params.fixed_frame, time.time()
+        frame, now = state.params.fixed_frame, self.stamp_clock()
         response = pfi.ComputeAssistance_Response.model_validate({  # one validation pass for the whole answer
             "autonomy_vector": twist_stamped_fields(answer.autonomy_vector, frame, now),
             "joint_velocities": np.asarray(answer.joint_velocities, dtype=float).tolist(),

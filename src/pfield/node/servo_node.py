@@ -314,14 +314,11 @@ class ServoNode(Node):
         if self._paused:
             return
         now = time.monotonic()
-        received = now
-        if stamp.sec or stamp.nanosec:
-            age = self.stamp_clock() - stamp.to_seconds()
-            if age > STAMP_TRUSTED_AGE:  # no queue holds a command this long: the publisher's clock is not this one
-                self._warn_clock(age)
-            else:
-                received -= max(age, 0.0)
-        store(received)
+        age = self.stamp_age(stamp)
+        if age is not None and age > STAMP_TRUSTED_AGE:  # no queue holds a command this long: another clock's stamp
+            self._warn_clock(age)
+            age = None
+        store(now - max(age or 0.0, 0.0))
         interval = min(now - self._last_command, 2.0 * self.config.publish_period)
         mean = self._command_interval
         self._command_interval = interval if mean == float("inf") else 0.8 * mean + 0.2 * interval
