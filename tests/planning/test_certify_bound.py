@@ -2,12 +2,15 @@
 
 * every vertex of every collision element of every link lies within the link's covering capsule (the claim of
   pfield.robot.geometry the bound rests on), on the built-in robots and the UR5 + Robotiq of the MBM set;
-* the per-object capsule bound (:meth:`CollisionChecker.covering_distances`) is never above coal's distances;
+* the per-object capsule bound (:meth:`CollisionChecker.covering_distances`) is never above coal's distances, against
+  every kind of obstacle (ellipsoids and meshes through boxes that contain them);
 * :func:`certify_path` (bound first, coal where the bound cannot clear) returns exactly the verdict of coal on every
   pair at every grid configuration, on random paths past obstacles of every exact kind, both outcomes exercised.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import coal
 import numpy as np
@@ -16,7 +19,7 @@ from scipy.spatial.transform import Rotation
 
 from core_scenes import needs_ur5, ur5_at_tool0
 from pfield import Box, Obstacle, Pose, RobotModel
-from pfield.geometry import Capsule, Cylinder, Ellipsoid, Sphere
+from pfield.geometry import Capsule, Cylinder, Ellipsoid, Mesh, Sphere
 from pfield.planning.certify import certify_path, resolution_grid
 from pfield.robot.catalog import BUILTIN_ROBOTS
 from pfield.robot.collision import CollisionChecker
@@ -71,10 +74,20 @@ def test_covering_capsule_contains_every_collision_vertex(name: str) -> None:
     assert checked == set(range(len(geometry.link_names)))  # every link has its elements checked
 
 
+def _rock() -> Mesh:
+    """A lumpy closed mesh (an icosphere with its vertices pushed in and out), off-centre in its frame."""
+    import trimesh
+
+    ball = trimesh.creation.icosphere(subdivisions=1, radius=0.05)
+    lumps = 1.0 + 0.3 * np.sin(7.0 * ball.vertices[:, 0] / 0.05 + 3.0 * ball.vertices[:, 2] / 0.05)
+    return Mesh.from_arrays(ball.vertices * lumps[:, None] + (0.02, -0.01, 0.03), ball.faces, "rock")
+
+
 def _obstacles(robot: RobotModel, q: np.ndarray, rng: np.random.Generator, spread: float) -> list[Obstacle]:
-    """One obstacle of each exact kind near the end effector at ``q`` (``spread``: how far off, m)."""
+    """One obstacle of each kind near the end effector at ``q`` (``spread``: how far off, m)."""
     centre = robot.forward_kinematics(q).position
-    shapes = [Box(0.1, 0.08, 0.12), Sphere(0.05), Cylinder(0.04, 0.15), Capsule(0.03, 0.1)]
+    shapes = [Box(0.1, 0.08, 0.12), Sphere(0.05), Cylinder(0.04, 0.15), Capsule(0.03, 0.1),
+              Ellipsoid(0.06, 0.03, 0.09), _rock()]
     out = []
     for k, shape in enumerate(shapes):
         direction = rng.normal(size=3)
@@ -90,20 +103,26 @@ def _random_q(robot: RobotModel, rng: np.random.Generator) -> np.ndarray:
 
 @pytest.mark.parametrize("name", ["panda", pytest.param("ur5", marks=needs_ur5)])
 def test_covering_bound_is_never_above_coal(name: str) -> None:
-    """At random configurations near obstacles of every exact kind, each pair's capsule bound ≤ coal's hull distance
-    (itself ≤ the meshes'), and where coal finds contact the bound is not positive."""
+    """At random configurations near obstacles of every kind, each pair's capsule bound ≤ coal's hull distance
+    (itself ≤ the meshes') where that is positive, and where coal finds contact the bound is not positive (a
+    penetration depth is not bounded: the certificate and the checks read only the sign there); the ellipsoid's and
+    the mesh's bounds (through their boxes) are finite and clear some pairs."""
     robot = _robot(name)
     rng = np.random.default_rng(11)
-    below = 0
+    below = proxied_cleared = 0
     for _ in range(8):
         q = _random_q(robot, rng)
         checker = CollisionChecker(robot, _obstacles(robot, q, rng, 0.08))
         bound = checker.covering_distances(q[None])[:, 0]
         exact = checker.pair_distances(q, np.arange(len(checker.pair_names)))
-        assert bound.shape == exact.shape and np.all(bound <= exact + 1e-9)
-        assert np.all(bound[exact <= 0.0] <= 0.0)
+        clear = exact > 0.0
+        assert bound.shape == exact.shape and np.all(bound[clear] <= exact[clear] + 1e-9)
+        assert np.all(bound[~clear] <= 0.0)
         below += int(np.sum(bound > 0.0))
-    assert below > 0  # the bound clears pairs, it is not −inf everywhere
+        proxied = [p for p, pair in enumerate(checker.pair_names) if pair.endswith(("/o4", "/o5"))]
+        assert np.all(np.isfinite(bound[proxied]))
+        proxied_cleared += int(np.sum(bound[proxied] > 0.0))
+    assert below > 0 and proxied_cleared > 0  # the bound clears pairs, it is not −inf everywhere
 
 
 def _plain_verdict(checker: CollisionChecker, qs: np.ndarray) -> tuple[int, int, float] | None:
@@ -182,8 +201,8 @@ def _walk(bound: np.ndarray, reach: np.ndarray) -> np.ndarray:
 @pytest.mark.parametrize("name", ["panda", pytest.param("ur5", marks=needs_ur5)])
 def test_covering_needed_is_the_walk_on_the_bound_and_refuses_bad_shapes(name: str) -> None:
     """The compiled walk marks exactly the grid points the written-out walk on :meth:`covering_distances` and the
-    motion bound marks (the tolerance taken off the bound), and every grid point of the pairs with no bound (an
-    ellipsoid's: coal decides them); arrays of the wrong shape are refused."""
+    motion bound marks (the tolerance taken off the bound), an ellipsoid's pairs among them (bounded through the box
+    of its semi-axes, so the walk clears grid points of theirs too); arrays of the wrong shape are refused."""
     robot = _robot(name)
     rng = np.random.default_rng(2)
     q_a = _random_q(robot, rng)
@@ -197,9 +216,47 @@ def test_covering_needed_is_the_walk_on_the_bound_and_refuses_bad_shapes(name: s
     expected = _walk(checker.covering_distances(grid) - 1e-6, reach.T)
     assert needed.shape == expected.shape and 0 < needed.sum() < needed.size  # the bound clears some, not all
     assert np.array_equal(needed, expected)
-    unbounded = [p for p, pair in enumerate(checker.pair_names) if pair.endswith("/egg")]
-    assert unbounded and needed[unbounded].all()
+    egg_pairs = [p for p, pair in enumerate(checker.pair_names) if pair.endswith("/egg")]
+    assert egg_pairs and not needed[egg_pairs].all()
     with pytest.raises(ValueError, match="travel"):
         checker.covering_needed(grid, travel[:-1], 1e-6)
     with pytest.raises(ValueError, match="qs"):
         checker.covering_needed(grid[:, :-1], travel, 1e-6)
+
+
+def _counting(pair_distances: Callable[..., np.ndarray], calls: list[int]) -> Callable[..., np.ndarray]:
+    """``pair_distances`` that appends the number of pairs of each call to ``calls``."""
+
+    def counted(q: np.ndarray, pairs: np.ndarray, refine: float = 0.0) -> np.ndarray:
+        calls.append(len(pairs))
+        return pair_distances(q, pairs, refine)
+
+    return counted
+
+
+@pytest.mark.parametrize("name", ["panda", pytest.param("ur5", marks=needs_ur5)])
+def test_distances_are_those_of_coal_on_every_pair(name: str) -> None:
+    """:meth:`CollisionChecker.distances` (branch and bound on the covering capsules) answers what coal on every pair
+    answers — each class's smallest distance and its first pair — at random configurations near obstacles of every
+    kind, in contact and clear, with coal run on a fraction of the pairs where the robot is clear."""
+    robot = _robot(name)
+    rng = np.random.default_rng(23)
+    outcomes, asked, every = [], 0, 0
+    for trial in range(12):
+        q = _random_q(robot, rng)
+        checker = CollisionChecker(robot, _obstacles(robot, q, rng, 0.03 * trial))
+        values = checker.pair_distances(q, np.arange(len(checker.pair_names)))
+        expected = []
+        for pairs in (np.flatnonzero(~checker.self_pair), np.flatnonzero(checker.self_pair)):
+            first = int(pairs[np.argmin(values[pairs])])
+            expected += [float(values[first]), checker.pair_names[first]]
+        calls: list[int] = []
+        checker.pair_distances = _counting(checker.pair_distances, calls)  # type: ignore[method-assign]
+        assert list(checker.distances(q)) == expected, trial
+        contact = expected[0] <= 0.0 or expected[2] <= 0.0
+        outcomes.append(contact)
+        assert checker.check(q).in_collision == contact
+        if not contact:
+            asked, every = asked + sum(calls[:2]), every + len(values)
+    assert any(outcomes) and not all(outcomes)
+    assert asked < every / 2

@@ -12,7 +12,8 @@ waypoint and at most ``resolution`` rad (max-norm of the joint change, 0.01 by d
   stays clear — continuously, not only at grid points — while Δ_p(s) − Δ_p(s_0) < d_p − ε;
 * so pair p is next computed at the first grid point where that no longer holds, and never later: the
   certificate is never weaker than checking every pair at every grid point (whose verdict it returns exactly),
-  and where the bound covers a stretch it is continuous there. ε = 1e-6 m covers coal's GJK tolerance.
+  and where the bound covers a stretch it is continuous there. ε = :data:`~pfield.robot.collision.DISTANCE_TOLERANCE`
+  (1e-6 m) covers coal's GJK tolerance.
 
 d_p comes in two stages. First, for every pair and the whole grid in one compiled call
 (:meth:`CollisionChecker.covering_needed`), a lower bound from covering capsules: each collision object inside its
@@ -39,14 +40,13 @@ from numpy.typing import ArrayLike, NDArray
 from pfield._validation import positive
 from pfield.errors import InvalidInput
 from pfield.geometry import Obstacle
-from pfield.robot.collision import UNBOUNDED_WEIGHT, CollisionChecker
+from pfield.robot.collision import DISTANCE_TOLERANCE, UNBOUNDED_WEIGHT, CollisionChecker
 from pfield.robot.model import LIMIT_TOLERANCE, RobotModel
 
 __all__ = ["CERTIFICATE_RESOLUTION", "Certificate", "certify_path"]
 
 CERTIFICATE_RESOLUTION = 0.01
 """(rad or m) largest max-norm joint change between two configurations the certificate answers for."""
-_GJK_TOLERANCE = 1e-6  # m: coal's distance is exact to about this; the advancement keeps it in hand
 _REFINE = 0.0  # m: hull distances as they are (refining below 1–10 cm with mesh distances saved no checks)
 
 
@@ -123,7 +123,7 @@ def certify_path(robot: RobotModel, obstacles: Sequence[Obstacle], joint_positio
     n_points, n_pairs = len(grid), len(checker.pair_names)
     # the covering capsules first, in one compiled call: a pair goes to coal only at the grid points where neither
     # their bound nor its advancement from an earlier grid point clears it
-    needed = checker.covering_needed(grid, travel, _GJK_TOLERANCE) if n_pairs else np.zeros((0, n_points), bool)
+    needed = checker.covering_needed(grid, travel, DISTANCE_TOLERANCE) if n_pairs else np.zeros((0, n_points), bool)
     pair_of, point_of = np.nonzero(needed)  # sorted by pair, then by grid index
     starts = np.searchsorted(pair_of, np.arange(n_pairs + 1))
     due = np.where(starts[1:] > starts[:-1], np.append(point_of, n_points)[starts[:-1]], n_points)
@@ -148,7 +148,7 @@ def certify_path(robot: RobotModel, obstacles: Sequence[Obstacle], joint_positio
             if row is None:
                 row = rows[p] = travel @ weights[p]
             pending = point_of[starts[p]:starts[p + 1]]
-            clear_to = max(index + 1, int(np.searchsorted(row, row[index] + d - _GJK_TOLERANCE, side="left")))
+            clear_to = max(index + 1, int(np.searchsorted(row, row[index] + d - DISTANCE_TOLERANCE, side="left")))
             following = int(np.searchsorted(pending, clear_to, side="left"))
             due[p] = pending[following] if following < len(pending) else n_points
     return Certificate(True, grid_points=n_points, placements=placements, distance_calls=calls,

@@ -33,8 +33,14 @@ from pfield.geometry import Box, Capsule, Cylinder, Ellipsoid, Mesh, Obstacle, S
 from pfield.robot._fit import segment_distances
 from pfield.robot.geometry import adjacent_joints
 from pfield.robot.model import RobotModel
+from pfield.spatial import Pose
 
-__all__ = ["UNBOUNDED_WEIGHT", "CapsuleClearances", "CollisionChecker", "CollisionReport", "capsule_clearances"]
+__all__ = ["DISTANCE_TOLERANCE", "UNBOUNDED_WEIGHT", "CapsuleClearances", "CollisionChecker", "CollisionReport",
+           "capsule_clearances"]
+
+DISTANCE_TOLERANCE = 1e-6
+"""(m) how far coal's distance may be from the exact one (its GJK tolerance): a lower bound of a pair's distance
+decides nothing closer than this (:meth:`CollisionChecker.distances`, the certificate's advancement)."""
 
 
 @dataclass(frozen=True)
@@ -218,16 +224,14 @@ class CollisionChecker:
         """The compiled covering capsules of the collision objects (:meth:`covering_distances`): the robot bound
         with one capsule per object, the obstacles, and the slack (P,) taken off each pair's value."""
         covering, axis_length = _covering_capsules(self.robot)
-        packed = pack_obstacles(list(self._obstacle_list)) if self._obstacle_list else empty_packed()
+        proxies = [_covering_proxy(o) for o in self._obstacle_list]
+        packed = pack_obstacles(proxies) if proxies else empty_packed()
         obstacles = _robot_core.Obstacles(*packed, np.ascontiguousarray(packed.rows[:, 0:3]),
                                           np.full(len(packed.kinds), np.inf))
-        # segment_obstacle_distance is the exact minimum for spheres, capsules and boxes; within |b - a| 2^-24 of it
-        # for cylinders (bisection); no bound for ellipsoids and meshes (infinite slack: coal decides)
-        per_obstacle = np.array([0.0 if isinstance(o.shape, Sphere | Box | Capsule) else
-                                 2.0 ** -20 if isinstance(o.shape, Cylinder) else math.inf
-                                 for o in self._obstacle_list]).reshape(1, -1)
-        bounded = np.isfinite(per_obstacle)  # (a zero-length axis times no bound is still no bound)
-        slack = np.where(bounded, axis_length[:, None] * np.where(bounded, per_obstacle, 0.0), math.inf).reshape(-1)
+        # segment_obstacle_distance is the exact minimum for spheres, capsules and boxes (the proxies of ellipsoids
+        # and meshes among them); within |b - a| 2^-24 of it for cylinders (bisection)
+        per_obstacle = np.array([2.0 ** -20 if isinstance(o.shape, Cylinder) else 0.0 for o in proxies])
+        slack = (axis_length[:, None] * per_obstacle.reshape(1, -1)).reshape(-1)
         return covering, obstacles, np.concatenate([slack, np.zeros(len(self._pairs))])
 
     def covering_distances(self, qs: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -239,7 +243,8 @@ class CollisionChecker:
         else the corners of the shape's local bounding box): a capsule that contains the hull and so the mesh
         (ρ_g ≤ the link's covering radius). A pair's bound is the capsules' distance (capsule–obstacle: the axis's
         exact signed distance less ρ; self pairs: segment–segment less both radii), never more than the exact
-        distance coal computes; −inf where no exact capsule distance exists (ellipsoid and mesh obstacles)."""
+        distance coal computes. Against an ellipsoid or a mesh, the capsule's distance to a box that contains it
+        (:func:`_covering_proxy`)."""
         bound, obstacles, slack = self._covering
         obstacle, own = _distance.covering_clearances(bound, np.ascontiguousarray(qs, dtype=np.float64), obstacles)
         n = len(qs)
@@ -300,15 +305,35 @@ class CollisionChecker:
         return out
 
     def distances(self, q: ArrayLike) -> tuple[float, str, float, str]:
-        """(robot–obstacle distance, its pair, self distance, its pair) in m at joint angles ``q``."""
+        """(robot–obstacle distance, its pair, self distance, its pair) in m at joint angles ``q``: of each class
+        of pairs the smallest :meth:`pair_distances` value, the first pair in :attr:`pair_names` order on a tie
+        (``inf`` and "" for a class without pairs).
+
+        Branch and bound on the covering capsules' lower bounds (:meth:`covering_distances`, one compiled call):
+        coal computes each class's pair of smallest bound, then every pair whose bound is within
+        :data:`DISTANCE_TOLERANCE` of that class's best (or of 0 while the best is a contact, where a deeper pair
+        could hide under its bound); no other pair can come below the best, so the answer is that of coal on every
+        pair, from a few calls: on the xArm7 among 5 spheres, 2–7 of its 51 pairs at clear configurations."""
         values = self.robot.check_joint_angles(q)
-        every = self.pair_distances(values, np.arange(len(self.pair_names)))
-        robot_obstacle, own = every[self._obstacle_pair], every[~self._obstacle_pair]
-        names = np.array(self.pair_names, dtype=object)
-        best, best_pair = (float(robot_obstacle.min()), str(names[self._obstacle_pair][robot_obstacle.argmin()])) \
-            if robot_obstacle.size else (math.inf, "")
-        near, near_pair = (float(own.min()), str(names[~self._obstacle_pair][own.argmin()])) \
-            if own.size else (math.inf, "")
+        if not self.pair_names:
+            return math.inf, "", math.inf, ""
+        bounds = self.covering_distances(values[None])[:, 0] - DISTANCE_TOLERANCE
+        classes = [c for c in (np.flatnonzero(self._obstacle_pair), np.flatnonzero(~self._obstacle_pair)) if len(c)]
+        leaders = np.array([c[np.argmin(bounds[c])] for c in classes])
+        known = dict(zip(leaders.tolist(), self.pair_distances(values, leaders).tolist(), strict=True))
+        rest = np.concatenate([c[(bounds[c] <= max(known[int(lead)], 0.0)) & (c != lead)]
+                               for c, lead in zip(classes, leaders, strict=True)])
+        known.update(zip(rest.tolist(), self.pair_distances(values, rest).tolist(), strict=True))
+
+        def nearest(pairs: NDArray[np.int64]) -> tuple[float, str]:
+            computed = sorted((int(p), known[int(p)]) for p in pairs if int(p) in known)
+            if not computed:
+                return math.inf, ""
+            pair, distance = min(computed, key=lambda item: item[1])  # the first of equal minima: index order
+            return float(distance), self.pair_names[pair]
+
+        best, best_pair = nearest(np.flatnonzero(self._obstacle_pair))
+        near, near_pair = nearest(np.flatnonzero(~self._obstacle_pair))
         return best, best_pair, near, near_pair
 
     def check(self, q: ArrayLike, margin: float = 0.0) -> CollisionReport:
@@ -373,6 +398,23 @@ def _covering_capsules(robot: RobotModel) -> tuple[_robot_core.Robot, NDArray[np
                               np.zeros(len(objects) + 1, dtype=np.int64), np.zeros(0, dtype=np.int64),
                               np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), radii)
     return bound, np.linalg.norm(b - a, axis=1)
+
+
+def _covering_proxy(obstacle: Obstacle) -> Obstacle:
+    """What the covering capsules measure against (:meth:`CollisionChecker.covering_distances`): the obstacle itself
+    where the compiled segment distance is exact (spheres, capsules, boxes) or nearly (cylinders); for an ellipsoid
+    the box of its semi-axes, for a mesh the box of its vertices in its frame. Each contains its obstacle, so a
+    distance to it is a lower bound of the obstacle's."""
+    shape = obstacle.shape
+    if isinstance(shape, Ellipsoid):
+        return Obstacle(obstacle.id, Box(2.0 * shape.semi_x, 2.0 * shape.semi_y, 2.0 * shape.semi_z), obstacle.pose)
+    if isinstance(shape, Mesh):
+        vertices = shape.data.vertices
+        low, high = vertices.min(axis=0), vertices.max(axis=0)
+        extent = np.maximum(high - low, 1e-9)  # a flat mesh gets a box as thin as Box accepts, still containing it
+        centre = obstacle.pose.transform_points(0.5 * (low + high))
+        return Obstacle(obstacle.id, Box(*extent.tolist()), Pose(centre.reshape(3), obstacle.pose.orientation))
+    return obstacle
 
 
 def _self_pairs(robot: RobotModel) -> list[tuple[int, int]]:
