@@ -66,6 +66,33 @@ def test_motion_bound_holds_against_coal(which: str, request: pytest.FixtureRequ
     assert q0.shape == (robot.n_joints,)
 
 
+@needs_ur5
+@pytest.mark.parametrize("which", ["ur5", "panda"])
+def test_pair_distances_bound_the_meshes_and_agree_on_contact(which: str, request: pytest.FixtureRequest) -> None:
+    """At random configurations (many with touching hulls: the UR5's base and upper arm overlap as hulls while their
+    meshes keep 1.5 cm), every pair's distance is at most the meshes' own where those are apart, and is ≤ 0 exactly
+    where the meshes are in contact; the UR5's base–upper-arm pair at its mid configuration is positive, within
+    5 mm of its meshes' distance."""
+    robot = request.getfixturevalue(which)
+    rng = np.random.default_rng(17)
+    checker = CollisionChecker(robot, [Obstacle("ball", Box(0.2, 0.2, 0.2), Pose((0.4, 0.2, 0.4)))])
+    pairs = np.arange(len(checker.pair_names))
+    contacts = 0
+    for _ in range(16):
+        q = _random_q(robot, rng)
+        values, meshes = checker.pair_distances(q, pairs), checker.pair_distances(q, pairs, np.inf)
+        apart = meshes > 0.0
+        assert np.all(values[apart] <= meshes[apart] + 1e-6)
+        assert np.array_equal(values <= 0.0, ~apart)
+        contacts += int(np.sum(~apart))
+    assert contacts > 0
+    if which == "ur5":
+        pair = [checker.pair_names.index("base_link_0/upper_arm_link_0")]
+        q = robot.mid_configuration
+        value, mesh = checker.pair_distances(q, pair)[0], checker.pair_distances(q, pair, np.inf)[0]
+        assert 0.0 < value <= mesh + 1e-6 and value > mesh - 0.005
+
+
 def _grid_verdict(checker: CollisionChecker, qs: np.ndarray, resolution: float) -> int | None:
     """The first grid configuration (index) in contact when every one is checked exactly, else None."""
     index = 0
