@@ -65,10 +65,12 @@ def whole_body_fallback(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.S
                         last: NDArray[np.float64], goal: Pose, params: NDArray[np.float64], max_iterations: int,
                         config: FieldConfig, obstacles: Sequence[Obstacle] | None,
                         options: GlobalOptions, cancel: NDArray[np.uint8] | None = None,
-                        goal_configuration: NDArray[np.float64] | None = None) -> FallbackOutcome:
+                        goal_configuration: NDArray[np.float64] | None = None,
+                        checker: CollisionChecker | None = None) -> FallbackOutcome:
     """Joint-space fallback from ``start`` (``last``: the field's final configuration, the first IK seed);
     ``cancel`` (a :class:`~pfield.planning.CancelToken`'s flag) stops the search and the tracking.
-    ``goal_configuration``: the caller's joint goal at ``goal``, searched to instead of IK solutions.
+    ``goal_configuration``: the caller's joint goal at ``goal``, searched to instead of IK solutions. ``checker``:
+    the exact check of ``robot`` among ``obstacles`` (the plan's own; by default one is made).
 
     The search runs first with the goal's pairs allowed ``options.endpoint_band`` deeper than at the goal (a grasp
     goal's fitted model overlaps the object its meshes hold clear, and without the band hardly any motion leaves
@@ -90,15 +92,15 @@ def whole_body_fallback(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.S
     margin = search_margin(config, options)
     # twice the joint-limit dampers' stop: the tracking's target keeps some room from it
     joint_margin = 2.0 * float(params[_wb.JOINT_SAFETY])
+    listed = list(obstacles or ())
+    exact = checker or CollisionChecker(robot, listed)
     goals, why = goal_configurations(robot, goal, (last, start), arrays, scene, margin, obstacles, options,
-                                     joint_margin, goal_configuration, start=start)
+                                     joint_margin, goal_configuration, start=start, checker=exact)
     if not goals:
         _LOG.info("global fallback: %s", why)
         return FallbackOutcome(None, PlanStatus.GOAL_INVALID, why, None)
     deadline = time.perf_counter() + options.time_limit
     outcome = FallbackOutcome(None, PlanStatus.GLOBAL_TIME_LIMIT, "global fallback: no time left", None)
-    listed = list(obstacles or ())
-    exact = CollisionChecker(robot, listed)
     forbidden: list[Region] = []  # contacts the exact check found, kept across the attempts (contact_region)
     slack = self_contact_slack(arrays, margin)  # the self pairs may touch on the fitted model
     for goal_band in (options.endpoint_band, 0.0):  # the goal's band first, then none (endpoint_scene)

@@ -203,7 +203,8 @@ def goal_configurations(robot: RobotModel, goal: Pose, seeds: Sequence[NDArray[n
                         arrays: _wb.RobotArrays, scene: _wb.Scene, margin: float,
                         obstacles: Sequence[Obstacle] | None, options: GlobalOptions, joint_margin: float = 0.0,
                         given: NDArray[np.float64] | None = None, *,
-                        start: NDArray[np.float64] | None = None) -> tuple[list[NDArray[np.float64]], str]:
+                        start: NDArray[np.float64] | None = None,
+                        checker: CollisionChecker | None = None) -> tuple[list[NDArray[np.float64]], str]:
     """Up to ``options.goal_configurations`` distinct collision-free joint configurations at ``goal`` (module
     docstring, step 1), or ([], why): the goal is invalid. Preferred first: those whose link model keeps
     ``margin`` and whose joints stay ``joint_margin`` (rad or m) inside their limits — the joint-limit
@@ -223,9 +224,13 @@ def goal_configurations(robot: RobotModel, goal: Pose, seeds: Sequence[NDArray[n
     finds a contact (obstacles or the robot's own links) the goal is invalid. It is
     searched to as given even on a joint limit: the tracking's last stretch is the field's approach to the
     pose, which gets there (moving such joints ``joint_margin`` inside lost 3 of 80 MotionBenchMaker
-    problems to stagnation, all solved as given)."""
+    problems to stagnation, all solved as given).
+
+    ``checker``: the exact check of ``robot`` among ``obstacles`` (the plan's, whose shapes and bounds are built
+    already); by default one is made."""
+    checker = checker or CollisionChecker(robot, list(obstacles or ()))
     if given is not None:
-        if _exactly_clear(robot, obstacles, [given], 1):
+        if _exactly_clear(checker, [given], 1):
             return [given], ""
         return [], "goal invalid: the given goal configuration collides (exact mesh check)"
     rng = np.random.default_rng(options.seed)
@@ -255,9 +260,9 @@ def goal_configurations(robot: RobotModel, goal: Pose, seeds: Sequence[NDArray[n
     for tier in (clear, at_limit, unverified):
         tier.sort(key=lambda q: float(np.linalg.norm(q - origin)))
     found = (clear + at_limit)[:options.goal_configurations]
-    found = _exactly_clear(robot, obstacles, found, len(found))  # the link model may miss a pair: the meshes decide
+    found = _exactly_clear(checker, found, len(found))  # the link model may miss a pair: the meshes decide
     if len(found) < options.goal_configurations and unverified:
-        found += _exactly_clear(robot, obstacles, unverified, options.goal_configurations - len(found))
+        found += _exactly_clear(checker, unverified, options.goal_configurations - len(found))
     if found:
         return found, ""
     if reachable == 0:
@@ -286,15 +291,12 @@ def nearest_equivalent(robot: RobotModel, q: NDArray[np.float64], reference: NDA
     return out
 
 
-def _exactly_clear(robot: RobotModel, obstacles: Sequence[Obstacle] | None, qs: Sequence[NDArray[np.float64]],
+def _exactly_clear(checker: CollisionChecker, qs: Sequence[NDArray[np.float64]],
                    count: int) -> list[NDArray[np.float64]]:
-    """The first ``count`` of ``qs`` that the exact mesh check (coal) clears: no obstacle and no self pair (not
-    adjacent, not disabled by the SRDF) in contact."""
-    from pfield.robot.collision import CollisionChecker
-
+    """The first ``count`` of ``qs`` that the exact mesh check (coal, ``checker``) clears: no obstacle and no self
+    pair (not adjacent, not disabled by the SRDF) in contact."""
     if not qs or count <= 0:
         return []
-    checker = CollisionChecker(robot, list(obstacles or ()))
     found: list[NDArray[np.float64]] = []
     for q in qs:
         if len(found) == count:
