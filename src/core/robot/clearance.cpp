@@ -295,6 +295,7 @@ void covering_needed(const KinematicsView& kinematics, const LinkModelView& link
   const std::size_t pairs = caps * m + links.pair_count;
   std::vector<double> rotations(9 * n), origins(3 * n), ends(6 * caps * count);  // per k: caps a, then caps b
   std::vector<double> reach(count);
+  const double* reached = nullptr;  // the weights `reach` was computed with
   Frames frames{rotations.data(), origins.data()};
   const auto world_at = [&](std::size_t k) {
     double* a = ends.data() + 6 * caps * k;
@@ -312,10 +313,15 @@ void covering_needed(const KinematicsView& kinematics, const LinkModelView& link
       continue;
     }
     const double* w = weights + p * n;
-    for (std::size_t k = 0; k < count; ++k) {
-      double sum = 0.0;
-      for (std::size_t j = 0; j < n; ++j) sum += w[j] * travel[k * n + j];
-      reach[k] = sum;
+    // a pair's reach along the path, computed again only when its weights differ from the last computed pair's (an
+    // object's obstacle pairs share its weights: the reach is computed once per object, not once per obstacle)
+    if (reached == nullptr || !std::equal(w, w + n, reached)) {
+      for (std::size_t k = 0; k < count; ++k) {
+        double sum = 0.0;
+        for (std::size_t j = 0; j < n; ++j) sum += w[j] * travel[k * n + j];
+        reach[k] = sum;
+      }
+      reached = w;
     }
     const double* row = reach.data();
     std::size_t k = 0;
