@@ -71,8 +71,8 @@ def test_motion_bound_holds_against_coal(which: str, request: pytest.FixtureRequ
 def test_pair_distances_bound_the_meshes_and_agree_on_contact(which: str, request: pytest.FixtureRequest) -> None:
     """At random configurations (many with touching hulls: the UR5's base and upper arm overlap as hulls while their
     meshes keep 1.5 cm), every pair's distance is at most the meshes' own where those are apart, and is ≤ 0 exactly
-    where the meshes are in contact; the UR5's base–upper-arm pair at its mid configuration is positive, within
-    5 mm of its meshes' distance."""
+    where the meshes are in contact; the UR5's base–upper-arm pair at its mid configuration (hulls overlapping) is
+    positive, within 5 mm of its meshes' distance."""
     robot = request.getfixturevalue(which)
     rng = np.random.default_rng(17)
     checker = CollisionChecker(robot, [Obstacle("ball", Box(0.2, 0.2, 0.2), Pose((0.4, 0.2, 0.4)))])
