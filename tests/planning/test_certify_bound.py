@@ -19,6 +19,7 @@ from scipy.spatial.transform import Rotation
 
 from core_scenes import needs_ur5, ur5_at_tool0
 from pfield import Box, Obstacle, Pose, RobotModel
+from pfield.errors import InvalidInput
 from pfield.geometry import Capsule, Cylinder, Ellipsoid, Mesh, Sphere
 from pfield.planning.certify import certify_path, resolution_grid
 from pfield.robot.catalog import BUILTIN_ROBOTS
@@ -260,3 +261,24 @@ def test_distances_are_those_of_coal_on_every_pair(name: str) -> None:
             asked, every = asked + sum(calls[:2]), every + len(values)
     assert any(outcomes) and not all(outcomes)
     assert asked < every / 2
+
+
+@pytest.mark.parametrize("name", ["panda", pytest.param("ur5", marks=needs_ur5)])
+def test_contact_is_checks_verdict(name: str) -> None:
+    """:meth:`CollisionChecker.contact` is None exactly where :meth:`CollisionChecker.check` finds nothing within
+    the margin, and :meth:`check`'s report otherwise, at random configurations near obstacles of every kind and
+    margins 0, 1 cm and 5 cm; a bad margin is refused by name."""
+    robot = _robot(name)
+    rng = np.random.default_rng(29)
+    verdicts = []
+    for trial in range(12):
+        q = _random_q(robot, rng)
+        checker = CollisionChecker(robot, _obstacles(robot, q, rng, 0.03 * trial))
+        for margin in (0.0, 0.01, 0.05):
+            report, found = checker.check(q, margin), checker.contact(q, margin)
+            assert (found is None) == (not report.in_collision), (trial, margin)
+            assert found is None or found == report
+            verdicts.append(report.in_collision)
+    assert any(verdicts) and not all(verdicts)
+    with pytest.raises(InvalidInput, match="margin"):
+        CollisionChecker(robot, []).contact(robot.mid_configuration, -0.01)

@@ -301,7 +301,7 @@ def _exactly_clear(checker: CollisionChecker, qs: Sequence[NDArray[np.float64]],
     for q in qs:
         if len(found) == count:
             break
-        if not checker.check(q).in_collision:
+        if checker.contact(q) is None:
             found.append(q)
     return found
 

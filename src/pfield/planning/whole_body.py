@@ -286,8 +286,8 @@ def _endpoint_collision(checker: CollisionChecker, start: NDArray[np.float64], g
     for q, status, what in ((start, PlanStatus.START_INVALID, "start"), (goal, PlanStatus.GOAL_INVALID, "goal")):
         if q is None:
             continue
-        report = checker.check(q)
-        if report.in_collision:
+        report = checker.contact(q)
+        if report is not None:
             kind = "self-collision" if report.self_distance <= report.distance else "collision"
             distance = min(report.distance, report.self_distance)
             return (f"{kind}: the {what} configuration collides ({report.pair}, exact mesh distance "

@@ -8,7 +8,8 @@
   the meshes themselves decide) against
   the obstacles' exact shapes with coal (Pan et al., "FCL", ICRA 2012, coal is its successor); self
   collisions over the link pairs that are neither adjacent (one joint apart) nor disabled by the SRDF.
-  ``check(q, margin)`` reports whether any distance is below ``margin`` (m) and which pair;
+  ``check(q, margin)`` reports whether any distance is below ``margin`` (m) and which pair, ``contact(q, margin)``
+  the same verdict from coal on the few pairs whose cheap bound can decide it;
   :meth:`CollisionChecker.pair_distances` gives the distance of chosen pairs and
   :attr:`CollisionChecker.motion_weights` how far a joint motion can bring each pair closer (the bound of the
   trajectory certificate, :mod:`pfield.planning.certify`).
@@ -340,8 +341,27 @@ class CollisionChecker:
         return best, best_pair, near, near_pair
 
     def check(self, q: ArrayLike, margin: float = 0.0) -> CollisionReport:
-        """Whether the robot at ``q`` is closer than ``margin`` (m, ≥ 0) to an obstacle or to itself."""
+        """Whether the robot at ``q`` is closer than ``margin`` (m, ≥ 0) to an obstacle or to itself, with the
+        smallest distances (:meth:`contact` when only the verdict is wanted)."""
         limit = nonnegative("margin", margin)
+        return self._report(self.robot.check_joint_angles(q), limit)
+
+    def contact(self, q: ArrayLike, margin: float = 0.0) -> CollisionReport | None:
+        """:meth:`check`'s report when the robot at ``q`` is closer than ``margin`` (m, ≥ 0) to an obstacle or to
+        itself, else None: decided by coal on the pairs whose covering-capsule bound comes within ``margin`` (all
+        others are farther), so a clear configuration costs those calls alone: at MotionBenchMaker starts, 0.1 of
+        the Panda's ~250 pairs on average (0.014 ms) where :meth:`check` needs 8 (0.088 ms), 1.1 of the UR5's."""
+        limit = nonnegative("margin", margin)
+        values = self.robot.check_joint_angles(q)
+        if not self.pair_names:
+            return None
+        bounds = self.covering_distances(values[None])[:, 0] - DISTANCE_TOLERANCE
+        near = np.flatnonzero(bounds <= limit)
+        if not len(near) or self.pair_distances(values, near).min() > limit:
+            return None
+        return self._report(values, limit)
+
+    def _report(self, q: NDArray[np.float64], limit: float) -> CollisionReport:
         distance, pair, own, own_pair = self.distances(q)
         if distance <= limit and distance <= own:
             return CollisionReport(True, distance, own, pair)
