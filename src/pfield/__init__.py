@@ -7,8 +7,9 @@ commands (``pfield topic``, ``pfield service`` …), which need none of them, st
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING
+
+from pfield._lazy import lazy_exports
 
 __version__ = "0.1.0"
 
@@ -79,14 +80,4 @@ if TYPE_CHECKING:
     from pfield.spatial import Pose, Twist, Wrench
 
 
-def __getattr__(name: str) -> object:
-    module = _HOME_OF.get(name)
-    if module is None:
-        raise AttributeError(f"module 'pfield' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value  # once loaded, a plain attribute
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *__all__})
+__getattr__, __dir__ = lazy_exports(__name__, _HOME_OF, globals())

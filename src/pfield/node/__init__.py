@@ -10,8 +10,9 @@ the demo as they serve the nodes.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from pfield._lazy import lazy_exports
 from pfield.node._base import Bus, Node, PublicationSpec, ServiceSpec, SubscriptionSpec, distinct_buses
 
 __all__ = ["Bus", "Node", "PublicationSpec", "ServiceSpec", "SubscriptionSpec", "distinct_buses", "make_resolver",
@@ -21,14 +22,7 @@ if TYPE_CHECKING:
     from pfield.node._frames import parse_transform_option
     from pfield.node._planning import make_resolver
 
-_LAZY = {"make_resolver": "_planning", "parse_transform_option": "_frames"}
+__getattr__, __dir__ = lazy_exports(__name__, {"make_resolver": "pfield.node._planning",
+                                              "parse_transform_option": "pfield.node._frames"}, globals())
 """Names whose modules load the planners or the message conversions: imported on first use, so ``import
 pfield.node`` (every transport does) stays light."""
-
-
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        import importlib
-
-        return getattr(importlib.import_module(f"pfield.node.{_LAZY[name]}"), name)
-    raise AttributeError(f"module 'pfield.node' has no attribute {name!r}")

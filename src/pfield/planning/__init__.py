@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from pfield._lazy import lazy_exports
 from pfield.planning.cancel import CancelToken
 from pfield.planning.options import PlanOptions
 from pfield.planning.result import PlannedPath
@@ -26,13 +27,7 @@ if TYPE_CHECKING:
 __all__ = ["CancelToken", "PlanOptions", "PlanStatus", "PlannedPath", "WholeBodyOptions", "WholeBodyStep",
            "WholeBodyStepper", "plan_task_space", "plan_whole_body"]
 
-_LAZY = {"WholeBodyStep": "stepper", "WholeBodyStepper": "stepper", "plan_task_space": "task_space",
-         "WholeBodyOptions": "whole_body", "plan_whole_body": "whole_body"}
-
-
-def __getattr__(name: str) -> object:
-    if name in _LAZY:
-        import importlib
-
-        return getattr(importlib.import_module(f"pfield.planning.{_LAZY[name]}"), name)
-    raise AttributeError(f"module 'pfield.planning' has no attribute {name!r}")
+__getattr__, __dir__ = lazy_exports(__name__, {
+    "WholeBodyStep": "pfield.planning.stepper", "WholeBodyStepper": "pfield.planning.stepper",
+    "plan_task_space": "pfield.planning.task_space", "WholeBodyOptions": "pfield.planning.whole_body",
+    "plan_whole_body": "pfield.planning.whole_body"}, globals())

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from pfield._lazy import lazy_exports
 from pfield.robot.description import RobotDescription
 from pfield.robot.model import RobotModel
 
@@ -12,11 +13,5 @@ if TYPE_CHECKING:
 
 __all__ = ["RobotDescription", "RobotModel", "fit_cache_directory"]
 
-
-def __getattr__(name: str) -> Any:
-    """:func:`fit_cache_directory` (where link-model fits are kept on disk), imported on first use with the fitting."""
-    if name == "fit_cache_directory":
-        from pfield.robot._fit import fit_cache_directory
-
-        return fit_cache_directory
-    raise AttributeError(f"module 'pfield.robot' has no attribute {name!r}")
+__getattr__, __dir__ = lazy_exports(__name__, {"fit_cache_directory": "pfield.robot._fit"}, globals())
+""":func:`fit_cache_directory` (where link-model fits are kept on disk), imported on first use with the fitting."""

@@ -7,7 +7,9 @@ it owns no state of its own beyond connections.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from pfield._lazy import lazy_exports
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8357
@@ -18,12 +20,6 @@ __all__ = ["DEFAULT_HOST", "DEFAULT_PORT", "DEFAULT_URL", "ServerLimits"]
 if TYPE_CHECKING:
     from pfield.transport._server import ServerLimits
 
-
-def __getattr__(name: str) -> Any:
-    """:class:`ServerLimits` (the HTTP server's bounds, which ``pfield serve`` sets), imported on first use: the
-    server's module loads asyncio, which a ROS 2 transport does not need."""
-    if name == "ServerLimits":
-        from pfield.transport._server import ServerLimits
-
-        return ServerLimits
-    raise AttributeError(f"module 'pfield.transport' has no attribute {name!r}")
+__getattr__, __dir__ = lazy_exports(__name__, {"ServerLimits": "pfield.transport._server"}, globals())
+""":class:`ServerLimits` (the HTTP server's bounds, which ``pfield serve`` sets), imported on first use: the server's
+module loads asyncio, which a ROS 2 transport does not need."""
