@@ -62,7 +62,7 @@ def _plan_steps(field: PotentialField, count: int, pose: Pose) -> float:
     every step is one RK4 step with its clearance and segment checks); returns the waypoints made."""
     start = np.concatenate([pose.position, pose.orientation])
     poses, twists, clearances = np.empty((count + 1, 7)), np.empty((count + 1, 6)), np.empty(count + 1)
-    made, _, _ = field._core.plan(start, 0.01, 0.0, 0.0, count, count + 1, 0.0, np.zeros(1, np.uint8), poses, twists,
+    made, _, _ = field.compiled.plan(start, 0.01, 0.0, 0.0, count, count + 1, 0.0, np.zeros(1, np.uint8), poses, twists,
                                   clearances)
     return float(made)
 
@@ -71,7 +71,7 @@ def _rk4_steps(field: PotentialField, count: int, pose: Pose) -> float:
     """``count`` RK4 steps from ``pose`` with a zero previous twist (the numba engine's row: the planner's step
     without its bookkeeping); returns the sum of their mean v_x."""
     start = np.concatenate([pose.position, pose.orientation])
-    return float(field._core.rk4_steps(start, np.zeros(6), 0.01, count))
+    return float(field.compiled.rk4_steps(start, np.zeros(6), 0.01, count))
 
 
 def _mesh_scene(name: str, directory: Path) -> list[Obstacle]:
@@ -117,7 +117,7 @@ def _scene_rows(name: str, field: PotentialField, quick: bool) -> list[BenchRow]
         ("one plan-loop step compiled", lambda: _plan_steps(field, steps, pose), steps, rk4_c),
     ]
     if name == "spheres_10":  # the floor under "limited twist from Python" (docs/core.md, issue 32)
-        core = field._core
+        core = field.compiled
         position, orientation, linear, angular = pose.position, pose.orientation, previous.linear, previous.angular
 
         def floor_twist() -> Twist:

@@ -89,8 +89,8 @@ def _unit(quats: NDArray[np.float64]) -> NDArray[np.float64]:
 def _one_pose(field: PotentialField, positions: NDArray[np.float64],
               quats: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     units = _unit(quats)
-    twists = np.array([np.concatenate(field._core.twist(p, q)[:2]) for p, q in zip(positions, units, strict=True)])
-    wrenches = np.array([np.concatenate(field._core.wrench(p, q)) for p, q in zip(positions, units, strict=True)])
+    twists = np.array([np.concatenate(field.compiled.twist(p, q)[:2]) for p, q in zip(positions, units, strict=True)])
+    wrenches = np.array([np.concatenate(field.compiled.wrench(p, q)) for p, q in zip(positions, units, strict=True)])
     return twists, wrenches
 
 
@@ -118,11 +118,11 @@ def test_threads_and_batch_sizes_do_not_change_a_bit() -> None:
     count = 2 * core_field.PARALLEL_FROM + core_field.CHUNK // 2 + 3  # a partial chunk and a partial block of lanes
     positions = _positions(rng, obstacles, count)
     quats = _quaternions(rng, positions.shape[0])
-    plain_twists, plain_wrenches = (field._core.twists(positions, quats, threads=1)[0],
-                                    field._core.wrenches(positions, quats, threads=1)[0])
+    plain_twists, plain_wrenches = (field.compiled.twists(positions, quats, threads=1)[0],
+                                    field.compiled.wrenches(positions, quats, threads=1)[0])
     for threads in (0, 2, 3):
-        _assert_same_bits(field._core.twists(positions, quats, threads=threads)[0], plain_twists)
-        _assert_same_bits(field._core.wrenches(positions, quats, threads=threads)[0], plain_wrenches)
+        _assert_same_bits(field.compiled.twists(positions, quats, threads=threads)[0], plain_twists)
+        _assert_same_bits(field.compiled.wrenches(positions, quats, threads=threads)[0], plain_wrenches)
     _assert_same_bits(field.twists(positions, quats), plain_twists)
     pieces = [slice(start, start + 1000) for start in range(0, positions.shape[0], 1000)]
     _assert_same_bits(np.concatenate([field.twists(positions[s], quats[s]) for s in pieces]), plain_twists)

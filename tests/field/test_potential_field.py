@@ -224,10 +224,10 @@ def test_twist_is_the_cores_one_pose_answer_to_the_bit(scene: str) -> None:
     for _ in range(20):
         pose = Pose(rng.uniform((0.0, -0.3, 0.0), (1.0, 0.7, 1.0)), quaternion_exp(rng.normal(size=3)))
         previous = Twist(rng.normal(scale=0.2, size=3), rng.normal(scale=0.2, size=3))
-        plain = np.concatenate(field._core.twist(pose.position, pose.orientation)[:2])
+        plain = np.concatenate(field.compiled.twist(pose.position, pose.orientation)[:2])
         assert np.array_equal(field.twist(pose).as_array().view(np.int64), plain.view(np.int64))
-        limited = np.concatenate(field._core.twist(pose.position, pose.orientation, previous.linear, previous.angular,
-                                                   0.01)[:2])
+        limited = np.concatenate(field.compiled.twist(pose.position, pose.orientation, previous.linear,
+                                                      previous.angular, 0.01)[:2])
         for dt in (0.01, np.float64(0.01)):
             answer = field.twist(pose, previous, dt)
             assert np.array_equal(answer.as_array().view(np.int64), limited.view(np.int64))
@@ -244,7 +244,7 @@ def test_the_rk4_figure_is_the_plans_first_step() -> None:
     query = evaluation_query()
     start = np.concatenate([query.position, query.orientation])
     poses, twists, clearances = np.empty((2, 7)), np.empty((2, 6)), np.empty(2)
-    field._core.plan(start, 0.01, 0.0, 0.0, 1, 2, 0.0, np.zeros(1, np.uint8), poses, twists, clearances)
-    assert field._core.rk4_steps(start, np.zeros(6), 0.01, 1) == twists[0, 0]
+    field.compiled.plan(start, 0.01, 0.0, 0.0, 1, 2, 0.0, np.zeros(1, np.uint8), poses, twists, clearances)
+    assert field.compiled.rk4_steps(start, np.zeros(6), 0.01, 1) == twists[0, 0]
     # stage 0 of a later step moves along the previous step's first stage by h = 0: the same twists again
-    assert field._core.rk4_steps(start, np.zeros(6), 0.01, 3) == twists[0, 0] + twists[0, 0] + twists[0, 0]
+    assert field.compiled.rk4_steps(start, np.zeros(6), 0.01, 3) == twists[0, 0] + twists[0, 0] + twists[0, 0]

@@ -139,6 +139,12 @@ class PotentialField:
         """The packed inputs of the compiled kernels (for other compiled consumers, e.g. whole-body)."""
         return self._arrays
 
+    @property
+    def compiled(self) -> Any:
+        """The compiled field over :attr:`arrays` (``pfield._core.field.Field``): what the planners and
+        :class:`~pfield.field.PreparedTwist` run, on arguments they have checked."""
+        return self._core
+
     def with_goal(self, goal: Pose) -> PotentialField:
         """The same field with another goal (the obstacles are not packed again)."""
         return self._from_parts(self._config, _check_pose("goal", goal), self._obstacles, self._arrays.packed)

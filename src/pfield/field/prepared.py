@@ -48,7 +48,7 @@ class PreparedTwist:
         if not isinstance(field, PotentialField):
             raise InvalidInput("field", field, "expected a pfield.PotentialField")
         self.field = field
-        self._prepared = _core_field.Prepared(field._core)
+        self._prepared = _core_field.Prepared(field.compiled)
         # NumPy views of the core object's memory: write the pose and the previous twist in place
         self.pose: NDArray[np.float64] = self._prepared.pose
         self.previous: NDArray[np.float64] = self._prepared.previous

@@ -84,9 +84,9 @@ def plan_task_space(
     poses, twists, clearances = buffers
     start_array = np.concatenate([start.position, start.orientation])
     cancel = _NEVER_CANCELLED if settings.cancel is None else settings.cancel.flag
-    count, code, obstacle = field._core.plan(start_array, step, settings.goal_tolerance, settings.rotation_tolerance,
-                                             iterations, window, settings.stagnation_progress, cancel, poses, twists,
-                                             clearances)
+    count, code, obstacle = field.compiled.plan(start_array, step, settings.goal_tolerance,
+                                                settings.rotation_tolerance, iterations, window,
+                                                settings.stagnation_progress, cancel, poses, twists, clearances)
     status = _STATUSES[code]
     if status is PlanStatus.COLLISION and count == 1 and field.clearances(poses[:1, :3])[0] <= 0.0:
         status = PlanStatus.START_INVALID
