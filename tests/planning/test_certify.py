@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import itertools
 
+import coal
 import numpy as np
 import pytest
 
@@ -66,31 +67,36 @@ def test_motion_bound_holds_against_coal(which: str, request: pytest.FixtureRequ
     assert q0.shape == (robot.n_joints,)
 
 
+def _meshes_apart(checker: CollisionChecker, q: np.ndarray, pair: int) -> tuple[float, bool]:
+    """The reference for one pair, coal on the meshes themselves (no hulls): their distance and whether they collide."""
+    a, b, obstacle = checker._records[pair]
+    placed = checker._placements(q, {a} if obstacle else {a, b})
+    other, pose = (checker._obstacles[b][1], checker._obstacles[b][2]) if obstacle else (checker._meshes[b], placed[b])
+    distance = coal.distance(checker._meshes[a], placed[a], other, pose, coal.DistanceRequest(), coal.DistanceResult())
+    hit = coal.CollisionResult()
+    coal.collide(checker._meshes[a], placed[a], other, pose, coal.CollisionRequest(), hit)
+    return float(distance), bool(hit.isCollision())
+
+
 @needs_ur5
 @pytest.mark.parametrize("which", ["ur5", "panda"])
 def test_pair_distances_bound_the_meshes_and_agree_on_contact(which: str, request: pytest.FixtureRequest) -> None:
-    """At random configurations (many with touching hulls: the UR5's base and upper arm overlap as hulls while their
-    meshes keep 1.5 cm), every pair's distance is at most the meshes' own where those are apart, and is ≤ 0 exactly
-    where the meshes are in contact; the UR5's base–upper-arm pair at its mid configuration (hulls overlapping) is
-    positive, within 5 mm of its meshes' distance."""
+    """At the mid configuration (where the UR5's base and upper arm overlap as hulls while their meshes keep 1.5 cm)
+    and random ones, every pair's distance is at most coal's distance between the meshes themselves where those do
+    not collide, and is ≤ 0 exactly where coal's collision test finds them in contact."""
     robot = request.getfixturevalue(which)
     rng = np.random.default_rng(17)
     checker = CollisionChecker(robot, [Obstacle("ball", Box(0.2, 0.2, 0.2), Pose((0.4, 0.2, 0.4)))])
     pairs = np.arange(len(checker.pair_names))
-    contacts = 0
-    for _ in range(16):
-        q = _random_q(robot, rng)
-        values, meshes = checker.pair_distances(q, pairs), checker.pair_distances(q, pairs, np.inf)
-        apart = meshes > 0.0
-        assert np.all(values[apart] <= meshes[apart] + 1e-6)
-        assert np.array_equal(values <= 0.0, ~apart)
-        contacts += int(np.sum(~apart))
-    assert contacts > 0
-    if which == "ur5":
-        pair = [checker.pair_names.index("base_link_0/upper_arm_link_0")]
-        q = robot.mid_configuration
-        value, mesh = checker.pair_distances(q, pair)[0], checker.pair_distances(q, pair, np.inf)[0]
-        assert 0.0 < value <= mesh + 1e-6 and value > mesh - 0.005
+    contacts = apart = 0
+    for q in [robot.mid_configuration, *(_random_q(robot, rng) for _ in range(8))]:
+        values = checker.pair_distances(q, pairs)
+        for pair, value in zip(pairs.tolist(), values, strict=True):
+            distance, hit = _meshes_apart(checker, q, pair)
+            assert (value <= 0.0) == hit, (checker.pair_names[pair], value, distance)
+            assert hit or value <= distance + 1e-6, (checker.pair_names[pair], value, distance)
+            contacts, apart = contacts + hit, apart + (not hit)
+    assert contacts > 0 and apart > 0
 
 
 def _grid_verdict(checker: CollisionChecker, qs: np.ndarray, resolution: float) -> int | None:

@@ -308,7 +308,7 @@ void covering_needed(const KinematicsView& kinematics, const LinkModelView& link
   }
   for (std::size_t p = 0; p < pairs; ++p) {
     std::uint8_t* out = needed + p * count;
-    if (!(slack[p] < kInf)) {  // no bound for this pair (an ellipsoid or a mesh): needed everywhere, not computed
+    if (!(slack[p] < kInf)) {  // no bound for this pair (the caller's infinite slack): needed everywhere, not computed
       std::fill(out, out + count, std::uint8_t{1});
       continue;
     }

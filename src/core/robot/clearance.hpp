@@ -211,7 +211,8 @@ void clearances_at(const KinematicsView& kinematics, const LinkModelView& links,
 // (link_pair_distance, radii self_r), into own[k * pairs + p]. No cutoff and no fitted primitives: when capsule l
 // contains a body, its value is a lower bound of that body's distance wherever segment_obstacle_distance is the
 // exact minimum (spheres, capsules, boxes in closed form; cylinders and ellipsoids by bisection, within
-// |b - a| 2^-24 of it; meshes sampled: no bound).
+// |b - a| 2^-24 of it; meshes sampled: no bound). pfield's certificate passes ellipsoids and meshes as boxes that
+// contain them (pfield.robot.collision._covering_proxy), so every pair it asks about has a bound.
 void covering_clearances(const KinematicsView& kinematics, const LinkModelView& links, const double* qs,
                          std::size_t count, const geometry::PackedView& packed, double* obstacle, double* own);
 
@@ -224,7 +225,7 @@ void covering_clearances(const KinematicsView& kinematics, const LinkModelView& 
 // covering_clearances value less slack[p] is a lower bound b of its distance; b > 0 clears k and every following k'
 // with reach[k'] < reach[k] + b (conservative advancement: the pair closes by at most reach[k'] - reach[k]), which
 // the walk then skips; b <= 0 marks k needed (needed[p * count + k] = 1, else 0). A pair whose slack is not finite
-// (no bound: ellipsoids and meshes) is needed at every k, its capsule distance not computed.
+// (a caller's way of saying it has no bound) is needed at every k, its capsule distance not computed.
 void covering_needed(const KinematicsView& kinematics, const LinkModelView& links, const double* qs,
                      std::size_t count, const geometry::PackedView& packed, const double* travel,
                      const double* weights, const double* slack, std::uint8_t* needed);

@@ -325,16 +325,18 @@ class CollisionChecker:
         classes = [c for c in (np.flatnonzero(self._obstacle_pair), np.flatnonzero(~self._obstacle_pair)) if len(c)]
         leaders = np.array([c[np.argmin(bounds[c])] for c in classes])
         known = dict(zip(leaders.tolist(), self.pair_distances(values, leaders).tolist(), strict=True))
-        rest = np.concatenate([c[(bounds[c] <= max(known[int(lead)], 0.0)) & (c != lead)]
+        # (written as "not above", so that a NaN bound or a NaN best asks coal rather than skips)
+        rest = np.concatenate([c[~(bounds[c] > max(known[int(lead)], 0.0)) & (c != lead)]
                                for c, lead in zip(classes, leaders, strict=True)])
         known.update(zip(rest.tolist(), self.pair_distances(values, rest).tolist(), strict=True))
 
         def nearest(pairs: NDArray[np.int64]) -> tuple[float, str]:
-            computed = sorted((int(p), known[int(p)]) for p in pairs if int(p) in known)
+            computed = [int(p) for p in pairs if int(p) in known]  # in index order
             if not computed:
                 return math.inf, ""
-            pair, distance = min(computed, key=lambda item: item[1])  # the first of equal minima: index order
-            return float(distance), self.pair_names[pair]
+            found = np.array([known[p] for p in computed])
+            first = int(np.argmin(found))  # the first of equal minima (or the first NaN), as over every pair
+            return float(found[first]), self.pair_names[computed[first]]
 
         best, best_pair = nearest(np.flatnonzero(self._obstacle_pair))
         near, near_pair = nearest(np.flatnonzero(~self._obstacle_pair))
@@ -356,7 +358,7 @@ class CollisionChecker:
         if not self.pair_names:
             return None
         bounds = self.covering_distances(values[None])[:, 0] - DISTANCE_TOLERANCE
-        near = np.flatnonzero(bounds <= limit)
+        near = np.flatnonzero(~(bounds > limit))  # a NaN bound asks coal
         if not len(near) or self.pair_distances(values, near).min() > limit:
             return None
         return self._report(values, limit)
