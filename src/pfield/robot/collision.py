@@ -184,6 +184,8 @@ class CollisionChecker:
         second = [i for _ in range(n_objects) for i in range(n_obstacles)] + [j for _, j in self._pairs]
         self._first, self._second = np.array(first, dtype=np.int64), np.array(second, dtype=np.int64)
         self._obstacle_pair = np.arange(len(first)) < n_objects * n_obstacles
+        self._classes = (np.flatnonzero(self._obstacle_pair), np.flatnonzero(~self._obstacle_pair))
+        """The robot–obstacle pairs' indices and the self pairs' (each class answered on its own by distances)."""
         self._records = list(zip(first, second, self._obstacle_pair.tolist(), strict=True))
         self._request, self._result = coal.DistanceRequest(), coal.DistanceResult()
         self.pair_names: tuple[str, ...] = tuple(
@@ -318,35 +320,13 @@ class CollisionChecker:
         :data:`DISTANCE_TOLERANCE` of that class's best (or of 0 while the best is a contact, where a deeper pair
         could hide under its bound); no other pair can come below the best, so the answer is that of coal on every
         pair, from a few calls: on the xArm7 among 5 spheres, 2–7 of its 51 pairs at clear configurations."""
-        values = self.robot.check_joint_angles(q)
-        if not self.pair_names:
-            return math.inf, "", math.inf, ""
-        bounds = self.covering_distances(values[None])[:, 0] - DISTANCE_TOLERANCE
-        classes = [c for c in (np.flatnonzero(self._obstacle_pair), np.flatnonzero(~self._obstacle_pair)) if len(c)]
-        leaders = np.array([c[np.argmin(bounds[c])] for c in classes])
-        known = dict(zip(leaders.tolist(), self.pair_distances(values, leaders).tolist(), strict=True))
-        # (written as "not above", so that a NaN bound or a NaN best asks coal rather than skips)
-        rest = np.concatenate([c[~(bounds[c] > max(known[int(lead)], 0.0)) & (c != lead)]
-                               for c, lead in zip(classes, leaders, strict=True)])
-        known.update(zip(rest.tolist(), self.pair_distances(values, rest).tolist(), strict=True))
-
-        def nearest(pairs: NDArray[np.int64]) -> tuple[float, str]:
-            computed = [int(p) for p in pairs if int(p) in known]  # in index order
-            if not computed:
-                return math.inf, ""
-            found = np.array([known[p] for p in computed])
-            first = int(np.argmin(found))  # the first of equal minima (or the first NaN), as over every pair
-            return float(found[first]), self.pair_names[computed[first]]
-
-        best, best_pair = nearest(np.flatnonzero(self._obstacle_pair))
-        near, near_pair = nearest(np.flatnonzero(~self._obstacle_pair))
-        return best, best_pair, near, near_pair
+        return self._distances(self.robot.check_joint_angles(q))
 
     def check(self, q: ArrayLike, margin: float = 0.0) -> CollisionReport:
         """Whether the robot at ``q`` is closer than ``margin`` (m, ≥ 0) to an obstacle or to itself, with the
         smallest distances (:meth:`contact` when only the verdict is wanted)."""
         limit = nonnegative("margin", margin)
-        return self._report(self.robot.check_joint_angles(q), limit)
+        return self._report(self._distances(self.robot.check_joint_angles(q)), limit)
 
     def contact(self, q: ArrayLike, margin: float = 0.0) -> CollisionReport | None:
         """:meth:`check`'s report when the robot at ``q`` is closer than ``margin`` (m, ≥ 0) to an obstacle or to
@@ -357,20 +337,54 @@ class CollisionChecker:
         values = self.robot.check_joint_angles(q)
         if not self.pair_names:
             return None
-        bounds = self.covering_distances(values[None])[:, 0] - DISTANCE_TOLERANCE
+        bounds = self._bounds(values)
         near = np.flatnonzero(~(bounds > limit))  # a NaN bound asks coal
-        if not len(near) or self.pair_distances(values, near).min() > limit:
+        found = self.pair_distances(values, near)
+        if not len(near) or found.min() > limit:
             return None
-        return self._report(values, limit)
+        return self._report(self._distances(values, bounds, dict(zip(near.tolist(), found.tolist(), strict=True))),
+                            limit)
 
-    def _report(self, q: NDArray[np.float64], limit: float) -> CollisionReport:
-        distance, pair, own, own_pair = self.distances(q)
+    def _bounds(self, values: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Each pair's covering-capsule bound at validated joint angles, less :data:`DISTANCE_TOLERANCE`: what a
+        pair's coal distance is not below."""
+        return self.covering_distances(values[None])[:, 0] - DISTANCE_TOLERANCE
+
+    def _distances(self, values: NDArray[np.float64], bounds: NDArray[np.float64] | None = None,
+                   known: dict[int, float] | None = None) -> tuple[float, str, float, str]:
+        """:meth:`distances` at validated joint angles; ``bounds``: :meth:`_bounds` there, ``known``: coal's values
+        of some pairs there (pair index → distance), when the caller has them."""
+        classes = [c for c in self._classes if len(c)]
+        if not classes:
+            return math.inf, "", math.inf, ""
+        bounds = self._bounds(values) if bounds is None else bounds
+        known = {} if known is None else known
+        leaders = [int(c[np.argmin(bounds[c])]) for c in classes]
+        asked = [lead for lead in leaders if lead not in known]
+        known.update(zip(asked, self.pair_distances(values, asked).tolist(), strict=True))
+        # (written as "not above", so that a NaN bound or a NaN best asks coal rather than skips)
+        rest = [int(p) for c, lead in zip(classes, leaders, strict=True)
+                for p in c[~(bounds[c] > max(known[lead], 0.0))] if int(p) not in known]
+        known.update(zip(rest, self.pair_distances(values, rest).tolist(), strict=True))
+
+        def nearest(pairs: NDArray[np.int64]) -> tuple[float, str]:
+            computed = [int(p) for p in pairs if int(p) in known]  # in index order
+            if not computed:
+                return math.inf, ""
+            found = np.array([known[p] for p in computed])
+            first = int(np.argmin(found))  # the first of equal minima (or the first NaN), as over every pair
+            return float(found[first]), self.pair_names[computed[first]]
+
+        return (*nearest(self._classes[0]), *nearest(self._classes[1]))
+
+    @staticmethod
+    def _report(distances: tuple[float, str, float, str], limit: float) -> CollisionReport:
+        distance, pair, own, own_pair = distances
         if distance <= limit and distance <= own:
             return CollisionReport(True, distance, own, pair)
         if own <= limit:
             return CollisionReport(True, distance, own, own_pair)
         return CollisionReport(False, distance, own, "")
-
 
 @dataclass(frozen=True, eq=False)
 class _RobotTables:
