@@ -4,8 +4,9 @@ viser has no authentication, so when the page is served on another interface the
 127.0.0.1 and puts this TCP gate on the public address: a connection is admitted when its first request
 carries the token, as ``?token=…`` in the URL, as the ``pfield_token`` cookie or as
 ``Authorization: Bearer …``. A request admitted through the URL gets the cookie in its response, so the
-page's own WebSocket (same host, no query) is admitted too. Admitted connections are piped unchanged
-to viser; others get 401 and are closed. Tokens are compared in constant time.
+page's own WebSocket (same host, no query) is admitted too. Admitted connections are piped to viser,
+a plain request's response marked ``Connection: close`` (viser answers one request per connection);
+others get 401 and are closed. Tokens are compared in constant time.
 """
 
 from __future__ import annotations
@@ -42,6 +43,15 @@ def _presented(head: bytes) -> tuple[list[str], bool]:
                 if key == _COOKIE:
                     tokens.append(cookie)
     return tokens, bool(from_url)
+
+
+def _upgrades(head: bytes) -> bool:
+    """Whether a request head asks to switch protocols (the page's WebSocket)."""
+    for line in head.decode("latin-1").split("\r\n")[1:]:
+        name, _, value = line.partition(":")
+        if name.strip().lower() == "upgrade" and value.strip():
+            return True
+    return False
 
 
 class TokenGate:
@@ -100,16 +110,21 @@ class TokenGate:
             writer.close()
             return
         up_writer.write(head)
+        try:
+            answer = await up_reader.readuntil(b"\r\n\r\n")
+        except (asyncio.IncompleteReadError, asyncio.LimitOverrunError, ConnectionError):
+            writer.close()
+            up_writer.close()
+            return
+        status, _, rest = answer.partition(b"\r\n")
+        added = b""
         if from_url:  # hand the browser the cookie with the first response
-            try:
-                answer = await up_reader.readuntil(b"\r\n\r\n")
-            except (asyncio.IncompleteReadError, asyncio.LimitOverrunError, ConnectionError):
-                writer.close()
-                up_writer.close()
-                return
-            status, _, rest = answer.partition(b"\r\n")
-            cookie = f"Set-Cookie: {_COOKIE}={self._token}; HttpOnly; SameSite=Strict; Path=/\r\n".encode()
-            writer.write(status + b"\r\n" + cookie + rest)
+            added += f"Set-Cookie: {_COOKIE}={self._token}; HttpOnly; SameSite=Strict; Path=/\r\n".encode()
+        if not _upgrades(head):
+            # viser closes a plain HTTP connection after one response without saying so; saying it
+            # keeps a keep-alive client from sending its next request down a closing connection
+            added += b"Connection: close\r\n"
+        writer.write(status + b"\r\n" + added + rest)
         await asyncio.gather(self._pipe(reader, up_writer), self._pipe(up_reader, writer))
 
     @staticmethod
