@@ -126,9 +126,10 @@ inline double sign_of(double x) { return x >= 0.0 ? 1.0 : -1.0; }
 // its bounding box's gap; NaN for a row naming no packed mesh.
 [[gnu::always_inline]] inline SignedDistance ellipsoid_within(const Vec3& q, double a, double b, double c,
                                                               double cutoff) {
-  const SignedDistance bound = sphere_at(q, max_of(max_of(a, b), c));
-  if (bound.distance <= cutoff) return ellipsoid_local(q, a, b, c);
-  return bound;
+  const double radius = max_of(max_of(a, b), c);
+  // sphere_at's distance (|q| - r, also at the centre) first: its normal only when the bound is the answer
+  if (std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z) - radius <= cutoff) return ellipsoid_local(q, a, b, c);
+  return sphere_at(q, radius);
 }
 SignedDistance mesh_within(const PackedView& packed, double mesh, const Vec3& q, double cutoff);
 
