@@ -23,6 +23,7 @@
 #include <cstdint>
 #include <limits>
 
+#include "geometry/ellipsoid.hpp"
 #include "geometry/mesh_bvh.hpp"
 #include "geometry/packed.hpp"
 
@@ -35,8 +36,9 @@ SignedDistance cylinder_local(Vec3 q, double r, double half_height);  // a 2D bo
 SignedDistance capsule_local(Vec3 q, double r, double half_height);   // |q - segment z in [-hh, hh]| - r
 
 // Semi-axes a, b, c: the closest point by D. Eberly's "Distance from a Point to an Ellipse, an Ellipsoid, or a
-// Hyperellipsoid" (Geometric Tools, 2013-2020), its root solved by safeguarded Halley steps (sdf.cpp); the normal
-// is the surface normal at the closest point, proportional to (x/a^2, y/b^2, z/c^2).
+// Hyperellipsoid" (Geometric Tools, 2013-2020), its root solved by safeguarded Halley steps (ellipsoid.hpp, inline
+// in the obstacle loops); the normal is the surface normal at the closest point, proportional to (x/a^2, y/b^2,
+// z/c^2).
 SignedDistance ellipsoid_local(Vec3 q, double a, double b, double c);
 
 namespace detail {
@@ -121,14 +123,13 @@ inline double sign_of(double x) { return x >= 0.0 ? 1.0 : -1.0; }
 }
 
 // The costly kinds in the obstacle's local frame. An ellipsoid: exact within the cutoff, else possibly its bounding
-// sphere's distance, a lower bound (here, so that a caller that reads the distance alone drops that sphere's
-// normal; the exact part, ellipsoid_local, is out of line). A mesh (sdf.cpp): exact within the cutoff, else possibly
+// sphere's distance, a lower bound. A mesh (sdf.cpp): exact within the cutoff, else possibly
 // its bounding box's gap; NaN for a row naming no packed mesh.
 [[gnu::always_inline]] inline SignedDistance ellipsoid_within(const Vec3& q, double a, double b, double c,
                                                               double cutoff) {
   const double radius = max_of(max_of(a, b), c);
   // sphere_at's distance (|q| - r, also at the centre) first: its normal only when the bound is the answer
-  if (std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z) - radius <= cutoff) return ellipsoid_local(q, a, b, c);
+  if (std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z) - radius <= cutoff) return ellipsoid::signed_distance(q, a, b, c);
   return sphere_at(q, radius);
 }
 SignedDistance mesh_within(const PackedView& packed, double mesh, const Vec3& q, double cutoff);

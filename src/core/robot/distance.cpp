@@ -51,14 +51,14 @@ LocalSegment local_segment(const double* row, Vec3 a, Vec3 b) {
 // The local signed distance of a primitive that is neither a sphere, a capsule, a box nor a mesh (the signed
 // distance dispatch with no cutoff: cylinders, ellipsoids, and unknown codes as spheres).
 SignedDistance convex_local(Kind kind, Vec3 q, double s0, double s1, double s2) {
-  if (kind == Kind::Cylinder) return geometry::cylinder_local(q, s0, s1);
+  if (kind == Kind::Cylinder) return geometry::detail::cylinder_at(q, s0, s1);
   if (kind == Kind::Ellipsoid) {
     // the dispatch's bounding-sphere test, with cutoff inf: it passes unless the bound is NaN
-    const SignedDistance bound = geometry::sphere_local(q, py_max(py_max(s0, s1), s2));
-    if (bound.distance <= kInf) return geometry::ellipsoid_local(q, s0, s1, s2);
+    const SignedDistance bound = geometry::detail::sphere_at(q, py_max(py_max(s0, s1), s2));
+    if (bound.distance <= kInf) return geometry::detail::ellipsoid::signed_distance(q, s0, s1, s2);
     return bound;
   }
-  return geometry::sphere_local(q, s0);
+  return geometry::detail::sphere_at(q, s0);
 }
 
 // The slope grad d . u of d along the segment at p0 + t u (obstacle frame).
