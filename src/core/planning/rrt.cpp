@@ -170,7 +170,7 @@ bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, 
     const Vec3 apart = m1.middle - m2.middle;
     if (std::sqrt(dot(apart, apart)) - (m1.half + links.cap_r[l1]) - (m2.half + links.cap_r[l2]) >= need + kSphereSlack)
       continue;
-    if (robot::segment_segment_distance(ws.world.capsule_a(l1), ws.world.capsule_b(l1), ws.world.capsule_a(l2),
+    if (robot::detail::segment_segment_distance(ws.world.capsule_a(l1), ws.world.capsule_b(l1), ws.world.capsule_a(l2),
                                         ws.world.capsule_b(l2)) -
             links.cap_r[l1] - links.cap_r[l2] >=
         need)

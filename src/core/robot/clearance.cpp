@@ -149,7 +149,7 @@ LinkObstacleDistance link_obstacle_distance_below(const LinkModelView& links, co
 LinkPairDistance link_pair_distance(const LinkModelView& links, const WorldSegments& world, std::size_t l1,
                                     std::size_t l2) {
   const Vec3 a1 = world.capsule_a(l1), b1 = world.capsule_b(l1), a2 = world.capsule_a(l2), b2 = world.capsule_b(l2);
-  const SegmentParameters st = closest_segment_points(a1, b1, a2, b2);
+  const SegmentParameters st = detail::closest_segment_points(a1, b1, a2, b2);
   const Vec3 p1{a1.x + st.s * (b1.x - a1.x), a1.y + st.s * (b1.y - a1.y), a1.z + st.s * (b1.z - a1.z)};
   const Vec3 p2{a2.x + st.t * (b2.x - a2.x), a2.y + st.t * (b2.y - a2.y), a2.z + st.t * (b2.z - a2.z)};
   const double dx = p1.x - p2.x, dy = p1.y - p2.y, dz = p1.z - p2.z;
@@ -160,7 +160,7 @@ LinkPairDistance link_pair_distance(const LinkModelView& links, const WorldSegme
 namespace {
 // The closest points of segments a1-b1 and a2-b2 and their distance less r1 and r2.
 LinkPairDistance segment_pair(Vec3 a1, Vec3 b1, double r1, Vec3 a2, Vec3 b2, double r2) {
-  const SegmentParameters st = closest_segment_points(a1, b1, a2, b2);
+  const SegmentParameters st = detail::closest_segment_points(a1, b1, a2, b2);
   const Vec3 p1{a1.x + st.s * (b1.x - a1.x), a1.y + st.s * (b1.y - a1.y), a1.z + st.s * (b1.z - a1.z)};
   const Vec3 p2{a2.x + st.t * (b2.x - a2.x), a2.y + st.t * (b2.y - a2.y), a2.z + st.t * (b2.z - a2.z)};
   const double dx = p1.x - p2.x, dy = p1.y - p2.y, dz = p1.z - p2.z;
@@ -183,7 +183,7 @@ LinkPairDistance fitted_pair_distance_below(const LinkModelView& links, const Wo
   thread_local std::vector<std::size_t> near;
   near.clear();
   for (std::size_t j = first2; j < stop2; ++j)
-    if (segment_segment_distance(row3(world.prim_a, j), row3(world.prim_b, j), a1, b1) - links.prim_r[j] -
+    if (detail::segment_segment_distance(row3(world.prim_a, j), row3(world.prim_b, j), a1, b1) - links.prim_r[j] -
             links.cap_r[l1] <
         cutoff)
       near.push_back(j);
@@ -192,7 +192,7 @@ LinkPairDistance fitted_pair_distance_below(const LinkModelView& links, const Wo
     const Vec3 pa = row3(world.prim_a, i), pb = row3(world.prim_b, i);
     const double ri = links.prim_r[i];
     // l2's bounding capsule contains its primitives: none of them is nearer primitive i than it
-    if (segment_segment_distance(pa, pb, a2, b2) - ri - links.cap_r[l2] >= best.distance) continue;
+    if (detail::segment_segment_distance(pa, pb, a2, b2) - ri - links.cap_r[l2] >= best.distance) continue;
     for (const std::size_t j : near) {
       const LinkPairDistance d =
           segment_pair(pa, pb, ri, row3(world.prim_a, j), row3(world.prim_b, j), links.prim_r[j]);

@@ -116,7 +116,7 @@ void primitive_segments(const LinkModelView& links, const Frames& frames, WorldS
 // against the link's bounding capsule, world ends in `world`).
 inline double capsule_lower_bound(const ObstacleSet& obstacles, std::size_t i, const WorldSegments& world,
                                   const LinkModelView& links, std::size_t link) {
-  return point_segment_distance(obstacles.centre(i), world.capsule_a(link), world.capsule_b(link)) -
+  return detail::point_segment_distance(obstacles.centre(i), world.capsule_a(link), world.capsule_b(link)) -
          obstacles.bounds[i] - links.cap_r[link];
 }
 

@@ -117,42 +117,14 @@ double box_reach_minimiser(const LocalSegment& s, const double* h) {
 
 }  // namespace
 
-double point_segment_distance(Vec3 c, Vec3 a, Vec3 b) {
-  const Vec3 d = b - a;
-  const double t = closest_parameter(c - a, d, math::dot(d, d));
-  const double ex = c.x - (a.x + t * d.x), ey = c.y - (a.y + t * d.y), ez = c.z - (a.z + t * d.z);
-  return std::sqrt(ex * ex + ey * ey + ez * ez);
-}
+double point_segment_distance(Vec3 c, Vec3 a, Vec3 b) { return detail::point_segment_distance(c, a, b); }
 
 SegmentParameters closest_segment_points(Vec3 p1, Vec3 q1, Vec3 p2, Vec3 q2) {
-  using detail::clamp01;
-  const Vec3 d1 = q1 - p1, d2 = q2 - p2, r = p1 - p2;
-  const double a = math::dot(d1, d1), e = math::dot(d2, d2), f = math::dot(d2, r);
-  constexpr double eps = 1e-14;
-  if (a <= eps && e <= eps) return {0.0, 0.0};
-  if (a <= eps) return {0.0, clamp01(f / e)};
-  const double c = math::dot(d1, r);
-  if (e <= eps) return {clamp01(-c / a), 0.0};
-  const double b = math::dot(d1, d2);
-  const double denom = a * e - b * b;
-  double s = denom > eps ? clamp01((b * f - c * e) / denom) : 0.0;
-  double t = (b * s + f) / e;
-  if (t < 0.0) {
-    t = 0.0;
-    s = clamp01(-c / a);
-  } else if (t > 1.0) {
-    t = 1.0;
-    s = clamp01((b - c) / a);
-  }
-  return {s, t};
+  return detail::closest_segment_points(p1, q1, p2, q2);
 }
 
 double segment_segment_distance(Vec3 p1, Vec3 q1, Vec3 p2, Vec3 q2) {
-  const SegmentParameters st = closest_segment_points(p1, q1, p2, q2);
-  const double dx = (p1.x + st.s * (q1.x - p1.x)) - (p2.x + st.t * (q2.x - p2.x));
-  const double dy = (p1.y + st.s * (q1.y - p1.y)) - (p2.y + st.t * (q2.y - p2.y));
-  const double dz = (p1.z + st.s * (q1.z - p1.z)) - (p2.z + st.t * (q2.z - p2.z));
-  return std::sqrt(0.0 + dx * dx + dy * dy + dz * dz);  // summed from 0.0, as the numba loop did
+  return detail::segment_segment_distance(p1, q1, p2, q2);
 }
 
 double box_minimiser(const PackedView& packed, std::size_t i, Vec3 a, Vec3 b) {
@@ -203,7 +175,7 @@ SegmentDistance round_segment_distance(const PackedView& packed, std::size_t i, 
     const double half = row[13];
     const Vec3 z{half * row[5], half * row[8], half * row[11]};
     const Vec3 a2 = c - z, b2 = c + z;
-    const SegmentParameters st = closest_segment_points(a, b, a2, b2);
+    const SegmentParameters st = detail::closest_segment_points(a, b, a2, b2);
     t = st.s;
     q = along(a2, b2, st.t);
   }

@@ -19,11 +19,13 @@
 // point-segment distance, the sphere obstacle's closed form and the fitted primitives' culling bound
 // (clearance.cpp) all take their t from it.
 //
-// closest_parameter is inline (the culling loops inline it) and does arithmetic: call it only from files compiled
-// with -ffp-contract=off (every file under src/core/{field,planning,robot,math,shared_control}), not from the
-// binding files, or the bits may differ; everything else here is defined in distance.cpp.
+// closest_parameter and the point-segment and segment-segment distances of namespace detail are inline (the culling
+// loops and the search's state checks inline them) and do arithmetic: call them only from files compiled with
+// -ffp-contract=off (every file under src/core/{field,planning,robot,math,shared_control}), not from the binding
+// files, or the bits may differ; everything else here is defined in distance.cpp.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 
 #include "geometry/packed.hpp"
@@ -50,21 +52,66 @@ inline double closest_parameter(Vec3 offset, Vec3 e, double length2) {
   return length2 <= kDegenerateLength2 ? 0.0 : detail::clamp01(math::dot(offset, e) / length2);
 }
 
-// Euclidean distance (m) from point c to segment a-b: |c - (a + t e)| with t = closest_parameter.
-double point_segment_distance(Vec3 c, Vec3 a, Vec3 b);
-
 // Parameters s (on p1-q1) and t (on p2-q2) in [0, 1] of the closest points of two segments.
 struct SegmentParameters {
   double s = 0.0;
   double t = 0.0;
 };
 
+// The point-segment and segment-segment distances, inline: the state checks of the global search and the link
+// model's distances call them for every pair they look at, and an out-of-line call passed the four Vec3 ends
+// through memory and made the caller's loop spill its state. The out-of-line versions after the namespace are
+// these, for pfield._core.robot_distance.
+namespace detail {
+
+// Euclidean distance (m) from point c to segment a-b: |c - (a + t e)| with t = closest_parameter.
+[[gnu::always_inline]] inline double point_segment_distance(const Vec3& c, const Vec3& a, const Vec3& b) {
+  const Vec3 d = b - a;
+  const double t = closest_parameter(c - a, d, math::dot(d, d));
+  const double ex = c.x - (a.x + t * d.x), ey = c.y - (a.y + t * d.y), ez = c.z - (a.z + t * d.z);
+  return std::sqrt(ex * ex + ey * ey + ez * ez);
+}
+
 // Ericson 5.1.9: the unconstrained minimiser clamped onto s, t recomputed from it and clamped, s recomputed when
 // t was clamped; degenerate segments (length^2 <= 1e-14) reduce to point-segment, parallel ones (a e - b^2 <=
 // 1e-14) take s = 0.
-SegmentParameters closest_segment_points(Vec3 p1, Vec3 q1, Vec3 p2, Vec3 q2);
+[[gnu::always_inline]] inline SegmentParameters closest_segment_points(const Vec3& p1, const Vec3& q1, const Vec3& p2,
+                                                                      const Vec3& q2) {
+  const Vec3 d1 = q1 - p1, d2 = q2 - p2, r = p1 - p2;
+  const double a = math::dot(d1, d1), e = math::dot(d2, d2), f = math::dot(d2, r);
+  constexpr double eps = 1e-14;
+  if (a <= eps && e <= eps) return {0.0, 0.0};
+  if (a <= eps) return {0.0, clamp01(f / e)};
+  const double c = math::dot(d1, r);
+  if (e <= eps) return {clamp01(-c / a), 0.0};
+  const double b = math::dot(d1, d2);
+  const double denom = a * e - b * b;
+  double s = denom > eps ? clamp01((b * f - c * e) / denom) : 0.0;
+  double t = (b * s + f) / e;
+  if (t < 0.0) {
+    t = 0.0;
+    s = clamp01(-c / a);
+  } else if (t > 1.0) {
+    t = 1.0;
+    s = clamp01((b - c) / a);
+  }
+  return {s, t};
+}
 
 // Euclidean distance (m) between segments p1-q1 and p2-q2.
+[[gnu::always_inline]] inline double segment_segment_distance(const Vec3& p1, const Vec3& q1, const Vec3& p2,
+                                                             const Vec3& q2) {
+  const SegmentParameters st = closest_segment_points(p1, q1, p2, q2);
+  const double dx = (p1.x + st.s * (q1.x - p1.x)) - (p2.x + st.t * (q2.x - p2.x));
+  const double dy = (p1.y + st.s * (q1.y - p1.y)) - (p2.y + st.t * (q2.y - p2.y));
+  const double dz = (p1.z + st.s * (q1.z - p1.z)) - (p2.z + st.t * (q2.z - p2.z));
+  return std::sqrt(0.0 + dx * dx + dy * dy + dz * dz);  // summed from 0.0, as the numba loop did
+}
+
+}  // namespace detail
+
+double point_segment_distance(Vec3 c, Vec3 a, Vec3 b);
+SegmentParameters closest_segment_points(Vec3 p1, Vec3 q1, Vec3 p2, Vec3 q2);
 double segment_segment_distance(Vec3 p1, Vec3 q1, Vec3 p2, Vec3 q2);
 
 // The minimum over t in [0, 1] of the signed distance of a + t (b - a) to an obstacle: d (m, negative inside), the
