@@ -3,8 +3,9 @@
 // its own state around every call and receives the 32-byte result through memory. Signed distances of 2000 points
 // to ten ellipsoids: 98 ns per ellipsoid out of line, 77 inline with the root's loop out of line (below), 80 with
 // that inline too (and 30 kB more code); the numba kernel took 89.
-// Every expression keeps the operand order of the Python kernel this replaced (issue 32); the files that include it
-// are compiled without fused multiply-adds (CMakeLists.txt), so the distances keep their last bit wherever inlined.
+// Every expression keeps the operand order of the Python kernel this replaced (issue 32). It does arithmetic inline:
+// call it only from files compiled with -ffp-contract=off (src/core/geometry and the folders of CMakeLists.txt's
+// PFIELD_FIELD_SOURCES), not from the binding files, or the bits may differ.
 #pragma once
 
 #include <cmath>
@@ -17,48 +18,16 @@ namespace ellipsoid {
 
 inline double square(double x) { return x * x; }
 
-// The numba kernel's constants.
-constexpr int kMaxIterations = 128;
-constexpr double kRelTol = 1e-15;
-constexpr double kHalleyTol = 1e-9;
-constexpr double kNoise = 1e-15;
-constexpr double kFlat = 1e-100;
+// Coordinates below kFlat of their semi-axis count as on the plane (the numba kernel's constant).
+inline constexpr double kFlat = 1e-100;
 
 // Root u = s + 1 > 0 of sum (n_i / (u + c_i))^2 - 1 with n = (r0 z0, r1 z1, z2), c = (r0 - 1, r1 - 1, 0): F is
 // convex and decreasing on the bracket [z2, |n|] ([z2, 1] inside, g < 0). Solving for u rather than s keeps the
 // root's relative precision near the pole s = -1. Halley steps inside the shrinking bracket, else bisection
-// (geometric while the bracket spans orders of magnitude). z1 = 0 gives the 2D problem. Out of line: its loop is
-// most of the code, and the call costs little beside its iterations.
-[[gnu::noinline]] inline double ellipsoid_root(double r0, double r1, double z0, double z1, double z2, double g) {
-  const double n0 = r0 * z0, n1 = r1 * z1;
-  const double c0 = r0 - 1.0, c1 = r1 - 1.0;
-  double lo = z2;
-  double hi = g < 0.0 ? 1.0 : std::sqrt(n0 * n0 + n1 * n1 + z2 * z2);
-  double u = hi;
-  for (int iteration = 0; iteration < kMaxIterations; ++iteration) {
-    const double i0 = 1.0 / (u + c0), i1 = 1.0 / (u + c1), i2 = 1.0 / u;
-    const double a0 = n0 * i0, a1 = n1 * i1, a2 = z2 * i2;
-    const double f = a0 * a0 + a1 * a1 + a2 * a2 - 1.0;
-    if (std::abs(f) <= kNoise) return u;  // F at its rounding-noise floor: u is the root to machine precision
-    if (f > 0.0) {
-      lo = u;
-    } else {
-      hi = u;
-    }
-    const double b0 = a0 * a0 * i0, b1 = a1 * a1 * i1, b2 = a2 * a2 * i2;
-    const double df = -2.0 * (b0 + b1 + b2);
-    const double ddf = 6.0 * (b0 * i0 + b1 * i1 + b2 * i2);
-    double next = u - 2.0 * f * df / (2.0 * df * df - f * ddf);  // Halley's step
-    if (lo < next && next < hi) {
-      if (std::abs(next - u) <= kHalleyTol * u) return next;  // cubic convergence: the error is now ~tol^3
-    } else {
-      next = hi > 4.0 * lo ? std::sqrt(lo * hi) : 0.5 * (lo + hi);
-    }
-    if (hi - lo <= kRelTol * hi) return next;
-    u = next;
-  }
-  return u;
-}
+// (geometric while the bracket spans orders of magnitude). z1 = 0 gives the 2D problem. Out of line, in sdf.cpp (one
+// copy, compiled with the geometry's flags): its loop is most of the code, and the call costs little beside its
+// iterations.
+double ellipsoid_root(double r0, double r1, double z0, double z1, double z2, double g);
 
 struct Planar {
   double x0, x1;

@@ -19,6 +19,48 @@ using detail::min_of;
 
 }  // namespace
 
+// ellipsoid.hpp's root (the numba kernel's constants).
+namespace detail::ellipsoid {
+namespace {
+constexpr int kMaxIterations = 128;
+constexpr double kRelTol = 1e-15;
+constexpr double kHalleyTol = 1e-9;
+constexpr double kNoise = 1e-15;
+}  // namespace
+
+double ellipsoid_root(double r0, double r1, double z0, double z1, double z2, double g) {
+  const double n0 = r0 * z0, n1 = r1 * z1;
+  const double c0 = r0 - 1.0, c1 = r1 - 1.0;
+  double lo = z2;
+  double hi = g < 0.0 ? 1.0 : std::sqrt(n0 * n0 + n1 * n1 + z2 * z2);
+  double u = hi;
+  for (int iteration = 0; iteration < kMaxIterations; ++iteration) {
+    const double i0 = 1.0 / (u + c0), i1 = 1.0 / (u + c1), i2 = 1.0 / u;
+    const double a0 = n0 * i0, a1 = n1 * i1, a2 = z2 * i2;
+    const double f = a0 * a0 + a1 * a1 + a2 * a2 - 1.0;
+    if (std::abs(f) <= kNoise) return u;  // F at its rounding-noise floor: u is the root to machine precision
+    if (f > 0.0) {
+      lo = u;
+    } else {
+      hi = u;
+    }
+    const double b0 = a0 * a0 * i0, b1 = a1 * a1 * i1, b2 = a2 * a2 * i2;
+    const double df = -2.0 * (b0 + b1 + b2);
+    const double ddf = 6.0 * (b0 * i0 + b1 * i1 + b2 * i2);
+    double next = u - 2.0 * f * df / (2.0 * df * df - f * ddf);  // Halley's step
+    if (lo < next && next < hi) {
+      if (std::abs(next - u) <= kHalleyTol * u) return next;  // cubic convergence: the error is now ~tol^3
+    } else {
+      next = hi > 4.0 * lo ? std::sqrt(lo * hi) : 0.5 * (lo + hi);
+    }
+    if (hi - lo <= kRelTol * hi) return next;
+    u = next;
+  }
+  return u;
+}
+
+}  // namespace detail::ellipsoid
+
 SignedDistance detail::mesh_within(const PackedView& packed, double mesh, const Vec3& q, double cutoff) {
   if (!(mesh > -1.0 && mesh < static_cast<double>(packed.mesh_count)))  // int(mesh) outside [0, count)
     return {kNaN, {kNaN, kNaN, kNaN}};

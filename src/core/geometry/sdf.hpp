@@ -1,4 +1,5 @@
-// Exact signed distances of points to the packed obstacles (the numba kernels' bits: issue 32, sdf.cpp).
+// Exact signed distances of points to the packed obstacles (the numba kernels' bits: issue 32, sdf.cpp and
+// ellipsoid.hpp).
 //
 // d is the Euclidean signed distance in metres, negative inside. The normal is the unit gradient grad d in the
 // world frame: outside it points from the closest surface point to p, inside it is the outward surface normal at
@@ -36,9 +37,9 @@ SignedDistance cylinder_local(Vec3 q, double r, double half_height);  // a 2D bo
 SignedDistance capsule_local(Vec3 q, double r, double half_height);   // |q - segment z in [-hh, hh]| - r
 
 // Semi-axes a, b, c: the closest point by D. Eberly's "Distance from a Point to an Ellipse, an Ellipsoid, or a
-// Hyperellipsoid" (Geometric Tools, 2013-2020), its root solved by safeguarded Halley steps (ellipsoid.hpp, inline
-// in the obstacle loops); the normal is the surface normal at the closest point, proportional to (x/a^2, y/b^2,
-// z/c^2).
+// Hyperellipsoid" (Geometric Tools, 2013-2020), its root solved by safeguarded Halley steps (ellipsoid.hpp: inline
+// in the obstacle loops, the root's loop out of line); the normal is the surface normal at the closest point,
+// proportional to (x/a^2, y/b^2, z/c^2).
 SignedDistance ellipsoid_local(Vec3 q, double a, double b, double c);
 
 namespace detail {

@@ -4,8 +4,8 @@ viser has no authentication, so when the page is served on another interface the
 127.0.0.1 and puts this TCP gate on the public address: a connection is admitted when its first request
 carries the token, as ``?token=…`` in the URL, as the ``pfield_token`` cookie or as
 ``Authorization: Bearer …``. A request admitted through the URL gets the cookie in its response, so the
-page's own WebSocket (same host, no query) is admitted too. Admitted connections are piped to viser,
-a plain request's response marked ``Connection: close`` (viser answers one request per connection);
+page's own WebSocket (same host, no query) is admitted too. Admitted connections are piped to viser, every
+response but a switch to WebSocket marked ``Connection: close`` (viser answers one request per connection);
 others get 401 and are closed. Tokens are compared in constant time.
 """
 
@@ -45,13 +45,10 @@ def _presented(head: bytes) -> tuple[list[str], bool]:
     return tokens, bool(from_url)
 
 
-def _upgrades(head: bytes) -> bool:
-    """Whether a request head asks to switch protocols (the page's WebSocket)."""
-    for line in head.decode("latin-1").split("\r\n")[1:]:
-        name, _, value = line.partition(":")
-        if name.strip().lower() == "upgrade" and value.strip():
-            return True
-    return False
+def _switches(status_line: bytes) -> bool:
+    """Whether a response's status line switches protocols (101: the page's WebSocket from here on)."""
+    parts = status_line.split(b" ", 2)
+    return len(parts) > 1 and parts[1] == b"101"
 
 
 class TokenGate:
@@ -120,9 +117,9 @@ class TokenGate:
         added = b""
         if from_url:  # hand the browser the cookie with the first response
             added += f"Set-Cookie: {_COOKIE}={self._token}; HttpOnly; SameSite=Strict; Path=/\r\n".encode()
-        if not _upgrades(head):
-            # viser closes a plain HTTP connection after one response without saying so; saying it
-            # keeps a keep-alive client from sending its next request down a closing connection
+        if not _switches(status):
+            # viser closes the connection after any answer but a switch to WebSocket, without saying so; saying
+            # it keeps a keep-alive client from sending its next request down a closing connection
             added += b"Connection: close\r\n"
         writer.write(status + b"\r\n" + added + rest)
         await asyncio.gather(self._pipe(reader, up_writer), self._pipe(up_reader, writer))
