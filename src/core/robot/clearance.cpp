@@ -146,17 +146,6 @@ LinkObstacleDistance link_obstacle_distance_below(const LinkModelView& links, co
   return out;
 }
 
-LinkPairDistance link_pair_distance(const LinkModelView& links, const WorldSegments& world, std::size_t l1,
-                                    std::size_t l2) {
-  const Vec3 a1 = world.capsule_a(l1), b1 = world.capsule_b(l1), a2 = world.capsule_a(l2), b2 = world.capsule_b(l2);
-  const SegmentParameters st = detail::closest_segment_points(a1, b1, a2, b2);
-  const Vec3 p1{a1.x + st.s * (b1.x - a1.x), a1.y + st.s * (b1.y - a1.y), a1.z + st.s * (b1.z - a1.z)};
-  const Vec3 p2{a2.x + st.t * (b2.x - a2.x), a2.y + st.t * (b2.y - a2.y), a2.z + st.t * (b2.z - a2.z)};
-  const double dx = p1.x - p2.x, dy = p1.y - p2.y, dz = p1.z - p2.z;
-  const double d = std::sqrt(dx * dx + dy * dy + dz * dz) - links.self_r[l1] - links.self_r[l2];
-  return {d, p1, p2};
-}
-
 namespace {
 // The closest points of segments a1-b1 and a2-b2 and their distance less r1 and r2.
 LinkPairDistance segment_pair(Vec3 a1, Vec3 b1, double r1, Vec3 a2, Vec3 b2, double r2) {
@@ -169,6 +158,12 @@ LinkPairDistance segment_pair(Vec3 a1, Vec3 b1, double r1, Vec3 a2, Vec3 b2, dou
 
 Vec3 row3(const double* rows, std::size_t k) { return {rows[3 * k], rows[3 * k + 1], rows[3 * k + 2]}; }
 }  // namespace
+
+LinkPairDistance link_pair_distance(const LinkModelView& links, const WorldSegments& world, std::size_t l1,
+                                    std::size_t l2) {
+  return segment_pair(world.capsule_a(l1), world.capsule_b(l1), links.self_r[l1], world.capsule_a(l2),
+                      world.capsule_b(l2), links.self_r[l2]);
+}
 
 LinkPairDistance fitted_pair_distance_below(const LinkModelView& links, const WorldSegments& world, std::size_t l1,
                                             std::size_t l2, double cutoff) {

@@ -385,8 +385,8 @@ tree, and a restart throws it away: on the UR5 cage problems 5, 60, 62, 70, 80 a
 (about 0.3 s) solved none within 2 s; with 80 000, 3; with 120 000, 3; with 200 000, 4 (the 700 UR5 problems: 692
 solved with 40 000, 696 with 200 000, 0 claims in collision either way; each of the six solved in 2.4–4.3 s with a
 15 s limit). 200 000 checks: about 1.6 s on the UR5 when this was measured (8 µs per check, the numba engine); with
-the compiled core 0.6 s (2.8 µs per check on the cage problems, 2026-12-06), so within the default 2 s a search
-restarts at most twice, and with a longer limit the tail is still cut."""
+the compiled core about 0.5 s (2.7 µs per check on the cage problems, 2026-12-06), so within the default 2 s a
+search restarts at most three times, and with a longer limit the tail is still cut."""
 _RESTART_SEED = 7919  # seed offset of each restart's trees (the nearer-goal search takes seed + 1)
 NEARER_GOAL_SHARE = 1.0
 """Budget of the search for nearer goals, as a share of the states the first search checked (:func:`_search`):

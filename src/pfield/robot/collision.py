@@ -386,6 +386,7 @@ class CollisionChecker:
             return CollisionReport(True, distance, own, own_pair)
         return CollisionReport(False, distance, own, "")
 
+
 @dataclass(frozen=True, eq=False)
 class _RobotTables:
     """What :class:`CollisionChecker` needs of a robot alone, computed once per robot (:func:`_robot_tables`)."""
