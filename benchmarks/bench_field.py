@@ -13,8 +13,8 @@ parameters. For every scene:
   check and the advance), per step of a 2000-step plan (no numba row: its bench timed the RK4 step alone).
 
 * **floor** (spheres_10 only): a call of the core with ``twist``'s arguments that does nothing, and a call that
-  computes nothing but answers as ``twist`` does (two new read-only arrays) with the :class:`~pfield.spatial.Twist`
-  made of them: what ``twist`` from Python cannot go below without changing its API or value types;
+  computes nothing but answers as ``twist`` does (a new :class:`~pfield.spatial.Twist` of two new read-only arrays,
+  made in the core): what ``twist`` from Python cannot go below without changing its API or value types;
 * **prepared limited twist**: :class:`pfield.field.PreparedTwist` (bound arrays, validated once, one compiled
   call per pose; target ≤ 1 µs with 10 spheres), previous twist and dt 0.01 as above.
 
@@ -44,7 +44,7 @@ from pfield._core import field as core_field
 from pfield.field import PotentialField, PreparedTwist
 from pfield.geometry import Mesh, Obstacle, ResourceResolver
 from pfield.planning.scenes import BENCH_GOAL, DEFAULT_PARAMS, EVALUATION_SCENES, evaluation_query, evaluation_scene
-from pfield.spatial import Pose, Twist, twist_from_checked
+from pfield.spatial import Pose, Twist
 
 SECTION = "field evaluation (µs per call)"
 # C++ original (REFERENCE §3): wrench, limited twist, one RK4 step, µs.
@@ -118,16 +118,11 @@ def _scene_rows(name: str, field: PotentialField, quick: bool) -> list[BenchRow]
     ]
     if name == "spheres_10":  # the floor under "limited twist from Python" (docs/core.md, issue 32)
         core = field.compiled
-        position, orientation, linear, angular = pose.position, pose.orientation, previous.linear, previous.angular
-
-        def floor_twist() -> Twist:
-            parts = core.call_floor_parts(position, orientation, linear, angular, 0.01)
-            return twist_from_checked(parts[0], parts[1])
-
         figures += [
-            ("floor: a call with twist's arguments that does nothing", lambda: core.call_floor(
-                position, orientation, linear, angular, 0.01), 1, twist_c),
-            ("floor: a call answering as twist does, plus the Twist result", floor_twist, 1, twist_c),
+            ("floor: a call with twist's arguments that does nothing",
+             lambda: core.call_floor(pose, previous, 0.01), 1, twist_c),
+            ("floor: a call answering as twist does (a new Twist)",
+             lambda: core.call_floor_value(pose, previous, 0.01), 1, twist_c),
         ]
     rows = []
     for label, fn, per, reference in figures:

@@ -22,6 +22,7 @@ from hypothesis import HealthCheck, Phase, example, given, note, settings
 from hypothesis import strategies as st
 
 from pfield import Box, Capsule, FieldConfig, Obstacle, Pose, PotentialField, PreparedTwist, Sphere, Twist, safety
+from pfield._core import safety as core_safety
 from pfield.errors import InvalidInput
 from pfield.mobile import ControllerConfig
 from pfield.mobile.controller import BaseController
@@ -278,6 +279,23 @@ def test_a_twist_over_a_limit_is_scaled_by_one_factor_keeping_its_direction() ->
     assert safety.limit_twist(values, 0.05, 0.4) == safety.SCALED
     np.testing.assert_allclose(values[:3], [0.05 / math.sqrt(3)] * 3, rtol=1e-14)
     np.testing.assert_allclose(values[3:], [-0.05 / math.sqrt(3), 0.0, 0.0], rtol=1e-14)  # the same factor
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.tuples(*[st.floats(-3.0, 3.0, allow_subnormal=False)] * 3), st.floats(1e-3, 3.0),
+       st.sampled_from([-1e-3, -1e-9, -1e-12, 0.0, 1e-12, 1e-9, 1e-3]))
+def test_a_parts_scale_is_the_same_whether_it_is_clearly_within_or_not(
+        direction: tuple[float, float, float], limit: float, excess: float) -> None:
+    """part_scale answers a part clearly within its limit without the scaled norm (limits.cpp); the same part and
+    limit times 2^600 take the scaled norm, whose factor does not change under a power of two: the bits agree."""
+    norm = math.hypot(*direction)
+    if norm == 0.0:
+        return
+    v = [c / norm * limit * (1.0 + excess) for c in direction]
+    near = core_safety.part_scale(*v, limit)
+    far = core_safety.part_scale(*(math.ldexp(c, 600) for c in v), math.ldexp(limit, 600))
+    assert near == far
+    assert (near == 1.0) if excess < -1e-10 else (excess <= 0.0 or near < 1.0)
 
 
 def test_a_non_finite_command_is_zeroed_and_halted() -> None:

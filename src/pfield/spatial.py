@@ -47,7 +47,6 @@ __all__ = [
 Vec3: TypeAlias = NDArray[np.float64]  # (3,)
 Quat: TypeAlias = NDArray[np.float64]  # (4,) x, y, z, w
 Points: TypeAlias = NDArray[np.float64]  # (N, 3)
-_new = object.__new__
 
 _IDENTITY_QUAT = (0.0, 0.0, 0.0, 1.0)
 MIN_QUATERNION_NORM = 1e-9
@@ -179,7 +178,7 @@ def _frozen_vector(field_name: str, value: Any, length: int) -> NDArray[np.float
     return as_vector(field_name, value, length)
 
 
-@dataclass(frozen=True, eq=False, init=False)
+@dataclass(frozen=True, eq=False, init=False, slots=True)
 class Pose:
     """A rigid transform: ``position`` (m) and unit ``orientation`` quaternion (x, y, z, w).
 
@@ -275,7 +274,7 @@ class Pose:
         )
 
 
-@dataclass(frozen=True, eq=False, init=False)
+@dataclass(frozen=True, eq=False, init=False, slots=True)
 class Twist:
     """Spatial velocity: ``linear`` (m/s) and ``angular`` (rad/s), both in the world frame."""
 
@@ -304,7 +303,7 @@ class Twist:
         return hash((self.linear.tobytes(), self.angular.tobytes()))
 
 
-@dataclass(frozen=True, eq=False, init=False)
+@dataclass(frozen=True, eq=False, init=False, slots=True)
 class Wrench:
     """Generalised force: ``force`` (N) and ``torque`` (N·m), both in the world frame."""
 
@@ -334,34 +333,28 @@ class Wrench:
 
 
 # Value types of values a caller has already checked: a control loop's kernel outputs (the core answers in new
-# read-only arrays) and validated messages become Poses, Twists and Wrenches without their checks run twice.
+# read-only arrays) and validated messages become Poses, Twists and Wrenches without their checks run twice. The
+# core's hot bindings (PotentialField.twist) read these slotted classes' arrays and answer in new instances
+# themselves, as these functions build them (src/core/python/values.hpp).
+_core.register_value_types(Pose, Twist, Wrench)
 
 
 def pose_from_checked(position: NDArray[np.float64], orientation: NDArray[np.float64]) -> Pose:
     """The :class:`Pose` of a finite (3,) position and a unit quaternion (4,) that a caller has checked: float64,
     read-only and held by nothing else (a kernel's answer); adopted as they are, without copies or checks."""
-    pose = _new(Pose)
-    fields = pose.__dict__  # frozen: filled without __setattr__
-    fields["position"] = position
-    fields["orientation"] = orientation
+    pose: Pose = _core.adopt_pose(position, orientation)
     return pose
 
 
 def twist_from_checked(linear: NDArray[np.float64], angular: NDArray[np.float64]) -> Twist:
     """The :class:`Twist` of two finite (3,) parts a caller has checked, as :func:`pose_from_checked` takes them."""
-    twist = _new(Twist)
-    fields = twist.__dict__
-    fields["linear"] = linear
-    fields["angular"] = angular
+    twist: Twist = _core.adopt_twist(linear, angular)
     return twist
 
 
 def wrench_from_checked(force: NDArray[np.float64], torque: NDArray[np.float64]) -> Wrench:
     """The :class:`Wrench` of two finite (3,) parts a caller has checked, as :func:`pose_from_checked` takes them."""
-    wrench = _new(Wrench)
-    fields = wrench.__dict__
-    fields["force"] = force
-    fields["torque"] = torque
+    wrench: Wrench = _core.adopt_wrench(force, torque)
     return wrench
 
 

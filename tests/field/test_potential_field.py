@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import copy
+import logging
 import math
+import pickle
+from dataclasses import dataclass
 
 import numpy as np
 import pytest
@@ -13,7 +17,7 @@ from pfield.errors import InvalidInput
 from pfield.field import FieldConfig, PotentialField
 from pfield.geometry import Box, Obstacle, Sphere
 from pfield.planning.scenes import BENCH_GOAL, DEFAULT_PARAMS, evaluation_query, evaluation_scene
-from pfield.spatial import Pose, Twist, quaternion_exp
+from pfield.spatial import Pose, Twist, Wrench, quaternion_exp
 
 BALL = Obstacle("ball", Sphere(radius=0.1), Pose((0.5, 0.0, 0.0)))
 
@@ -235,6 +239,51 @@ def test_twist_is_the_cores_one_pose_answer_to_the_bit(scene: str) -> None:
     first, second = field.twist(Pose()), field.twist(Pose())
     assert first.linear is not second.linear and first == second
     assert field.twist(Pose(), Twist(), 1) == field.twist(Pose(), Twist(), 1.0)  # an int dt is a number
+
+
+@dataclass(frozen=True, eq=False, init=False)
+class _NamedPose(Pose):
+    """A user's subclass of Pose: not the class the core reads (the Python layer checks and answers it)."""
+
+    name: str = "tool"
+
+
+def test_a_subclass_of_a_value_type_gets_the_same_answers() -> None:
+    field = PotentialField(DEFAULT_PARAMS, BENCH_GOAL, evaluation_scene("spheres_10"))
+    query = evaluation_query()
+    named = _NamedPose(query.position, query.orientation)
+    previous = Twist((0.1, 0.0, 0.0), (0.0, 0.0, 0.1))
+    assert field.compiled.twist_value(named, previous, 0.01) is None  # not the registered class
+    assert field.twist(named, previous, 0.01) == field.twist(query, previous, 0.01)
+    assert field.wrench(named) == field.wrench(query)
+    assert field.compiled.wrench_value(named) is None
+
+
+def test_the_cores_answers_are_value_types_like_any_other() -> None:
+    """A Twist or a Wrench the core made (python/values.hpp) is one as pfield.spatial builds it: read-only arrays
+    of its own, equal to the one built from the same numbers, pickled and copied the same way."""
+    field = PotentialField(DEFAULT_PARAMS, BENCH_GOAL, evaluation_scene("boxes_10"))
+    twist, wrench = field.twist(evaluation_query()), field.wrench(evaluation_query())
+    assert type(twist) is Twist and type(wrench) is Wrench
+    for value, built in ((twist, Twist(twist.linear, twist.angular)), (wrench, Wrench(wrench.force, wrench.torque))):
+        assert value == built and hash(value) == hash(built)
+        assert pickle.loads(pickle.dumps(value)) == value and copy.deepcopy(value) == value
+        for array in (getattr(value, name) for name in value.__slots__):
+            assert array.dtype == np.float64 and array.shape == (3,) and not array.flags.writeable
+            assert array.base is None  # its own buffer
+    with pytest.raises(AttributeError):
+        twist.linear = np.zeros(3)  # type: ignore[misc]
+
+
+def test_a_halted_twist_is_zero_and_reported(caplog: pytest.LogCaptureFixture) -> None:
+    """An answer the output contract halts (a gain so large the field's twist is not finite) goes through the
+    Python layer, which logs it: zeros, and a warning naming the pose."""
+    config = DEFAULT_PARAMS.replace(attractive_gain=1e308, attractive_threshold=1e308)
+    field = PotentialField(config, Pose((1e308, 0.0, 0.0)), [])
+    with caplog.at_level(logging.WARNING, logger="pfield"):
+        answer = field.twist(Pose((-1e308, 0.0, 0.0)))
+    assert not answer.as_array().any()
+    assert "was not finite: answered zero" in caplog.text
 
 
 def test_the_rk4_figure_is_the_plans_first_step() -> None:

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 #include <tuple>
@@ -20,6 +21,7 @@
 #include "planning/task_space.hpp"
 #include "python/arrays.hpp"
 #include "python/packed.hpp"
+#include "python/values.hpp"
 #include "safety/limits.hpp"
 
 namespace pfield::python {
@@ -82,6 +84,29 @@ class BoundField {
     return {readonly_copy(out, 3), readonly_copy(out + 3, 3), outcome};
   }
 
+  // PotentialField.twist's answer, a new pfield.Twist, when its arguments are the ones its hot path takes: exactly
+  // a pfield.Pose, and None or exactly a pfield.Twist with a float dt in (0, inf) (python/values.hpp: read as they
+  // were built and checked). Else None, and None for an answer the output contract halted (a non-finite twist):
+  // PotentialField.twist then checks its arguments, and reports, in Python.
+  nb::object twist_value(nb::handle pose, nb::handle previous, nb::handle dt) const {
+    const double *p, *q;
+    if (!values::read(pose, values::Kind::Pose, p, q)) return nb::none();
+    double out[6];
+    int outcome;
+    if (previous.is_none()) {
+      outcome = limited_twist(p, q, nullptr, 0.0, out);
+    } else {
+      const double *l, *a;
+      if (!values::read(previous, values::Kind::Twist, l, a) || !PyFloat_CheckExact(dt.ptr())) return nb::none();
+      const double step = PyFloat_AS_DOUBLE(dt.ptr());
+      if (!(step > 0.0 && step < std::numeric_limits<double>::infinity())) return nb::none();
+      const double before[6] = {l[0], l[1], l[2], a[0], a[1], a[2]};
+      outcome = limited_twist(p, q, before, step, out);
+    }
+    if (outcome == static_cast<int>(safety::Outcome::Halted)) return nb::none();
+    return values::make(values::Kind::Twist, out, out + 3);
+  }
+
   // PreparedTwist's call: the bound pose (7,) and previous twist (6,) in, the twist into `out` (6,) under the
   // output contract; 0, or the input's defect, leaving `out` unchanged: 1 position not finite, 2 not a unit
   // quaternion within 1e-9, 3 a previous twist that is not finite.
@@ -95,6 +120,15 @@ class BoundField {
       return 3;
     limited_twist(p, p + 3, use_previous ? previous.data() : nullptr, dt, out.data());
     return 0;
+  }
+
+  // PotentialField.wrench's answer, a new pfield.Wrench, for exactly a pfield.Pose (as twist_value); else None.
+  nb::object wrench_value(nb::handle pose) const {
+    const double *p, *q;
+    if (!values::read(pose, values::Kind::Pose, p, q)) return nb::none();
+    const field::Wrench w = field::field_wrench(field_, vec3(p), quat(q));
+    const double force[3] = {w.force.x, w.force.y, w.force.z}, torque[3] = {w.torque.x, w.torque.y, w.torque.z};
+    return values::make(values::Kind::Wrench, force, torque);
   }
 
   // The raw wrench at a pose: (force (3,), torque (3,)), new read-only arrays (pfield.spatial.wrench_from_checked).
@@ -307,24 +341,30 @@ void bind_field(nb::module_& m) {
            "(linear (3,), angular (3,), the output contract's outcome): the constrained twist at a pose (float64 "
            "arrays of 3 and 4 values, a unit quaternion), new read-only arrays; rate-limited against the previous "
            "twist's linear and angular parts (3,) when given.")
+      .def("twist_value", &BoundField::twist_value, "pose"_a.none(), "previous"_a.none(), "dt"_a.none(),
+           "PotentialField.twist's answer (a new pfield.Twist) for exactly a pfield.Pose, and None or exactly a "
+           "pfield.Twist with a float dt in (0, inf); else None (the Python layer checks and answers), and None "
+           "for an answer the output contract halted.")
       .def(
-          "call_floor",
-          [](const BoundField&, nb::handle, nb::handle, nb::handle, nb::handle, double) { return 0; },
-          "position"_a, "orientation"_a, "previous_linear"_a.none(), "previous_angular"_a.none(), "dt"_a,
-          "Does nothing with twist's arguments: the benchmarks' floor of a call from Python.")
+          "call_floor", [](const BoundField&, nb::handle, nb::handle, nb::handle) { return nb::none(); }, "pose"_a,
+          "previous"_a.none(), "dt"_a.none(),
+          "Does nothing with twist_value's arguments: the benchmarks' floor of a call from Python.")
       .def(
-          "call_floor_parts",
-          [](const BoundField&, nb::handle, nb::handle, nb::handle, nb::handle, double) {
+          "call_floor_value",
+          [](const BoundField&, nb::handle, nb::handle, nb::handle) {
             const double zeros[3] = {0.0, 0.0, 0.0};
-            return std::make_tuple(readonly_copy(zeros, 3), readonly_copy(zeros, 3), 0);
+            return values::make(values::Kind::Twist, zeros, zeros);
           },
-          "position"_a, "orientation"_a, "previous_linear"_a.none(), "previous_angular"_a.none(), "dt"_a,
-          "Computes nothing and answers as twist does (two new read-only arrays): the benchmarks' floor of a call "
+          "pose"_a, "previous"_a.none(), "dt"_a.none(),
+          "Computes nothing and answers as twist_value does (a new pfield.Twist): the benchmarks' floor of a call "
           "and its answer.")
       .def("evaluate", &BoundField::evaluate, "pose"_a, "previous"_a, "use_previous"_a, "dt"_a, "out"_a,
            "PreparedTwist's call: 0, or 1/2 for a pose whose position / quaternion is not valid.")
       .def("wrench", &BoundField::wrench, "position"_a, "orientation"_a,
            "(force (3,), torque (3,)): the raw wrench at a pose, new read-only arrays.")
+      .def("wrench_value", &BoundField::wrench_value, "pose"_a.none(),
+           "PotentialField.wrench's answer (a new pfield.Wrench, the raw wrench) for exactly a pfield.Pose; else "
+           "None (the Python layer checks).")
       .def(
           "twists",
           [](const BoundField& self, const Rows<3>& positions, const Rows<4>& orientations, unsigned threads) {

@@ -7,6 +7,7 @@
 
 #include "math/so3.hpp"
 #include "python/arrays.hpp"
+#include "python/values.hpp"
 
 namespace pfield::python {
 namespace {
@@ -33,6 +34,18 @@ void write(const Vec3& v, double* out) { out[0] = v.x, out[1] = v.y, out[2] = v.
 
 void bind_spatial(nb::module_& m) {
   m.doc() = "Quaternion and SO(3) maps over batches (pfield.spatial's compiled core; x, y, z, w order).";
+  m.def("register_value_types", &values::register_types, "pose"_a, "twist"_a, "wrench"_a,
+        "pfield.spatial's Pose, Twist and Wrench (slotted classes), registered once at import: the hot bindings "
+        "read and answer them directly (python/values.hpp).");
+  m.def(
+      "adopt_pose", [](nb::handle a, nb::handle b) { return values::adopt(values::Kind::Pose, a, b); },
+      "position"_a, "orientation"_a, "A new Pose holding both arrays as they are (pose_from_checked).");
+  m.def(
+      "adopt_twist", [](nb::handle a, nb::handle b) { return values::adopt(values::Kind::Twist, a, b); },
+      "linear"_a, "angular"_a, "A new Twist holding both arrays as they are (twist_from_checked).");
+  m.def(
+      "adopt_wrench", [](nb::handle a, nb::handle b) { return values::adopt(values::Kind::Wrench, a, b); },
+      "force"_a, "torque"_a, "A new Wrench holding both arrays as they are (wrench_from_checked).");
   m.def(
       "multiply",
       [](const Rows<4>& a, const Rows<4>& b) {

@@ -171,8 +171,11 @@ class PotentialField:
         m_i/√(1 + (m_i/F_cap)²) · n_i, m_i = η (1/d_i − 1/Q)/d_i², over obstacles with d_i < Q;
         torque = k_rot · log(q_goal ⊗ q⁻¹). Units N and N·m (unit mass and inertia).
         """
-        pose = _check_pose("pose", pose)
-        return wrench_from_checked(*self._core.wrench(pose.position, pose.orientation))
+        answer = self._core.wrench_value(pose)  # a Pose read as it was built and checked (twist below)
+        if answer is None:
+            pose = _check_pose("pose", pose)
+            answer = wrench_from_checked(*self._core.wrench(pose.position, pose.orientation))
+        return answer
 
     def twist(self, pose: Pose, previous: Twist | None = None, dt: float = 0.0) -> Twist:
         """The constrained twist at ``pose``: the task-space autonomy vector (m/s, rad/s, world frame).
@@ -182,7 +185,13 @@ class PotentialField:
         ‖v − v_prev‖ ≤ a_max·``dt`` and ‖ω − ω_prev‖ ≤ α_max·``dt`` (``dt`` > 0 s required then).
         """
         # A Pose and a Twist were validated when they were built (finite, unit quaternion; read-only arrays): the
-        # core reads their arrays as they are. dt: a plain float within (0, inf) needs no further check.
+        # core reads them as they are and answers a Twist, for exactly those classes and a float dt in (0, inf).
+        answer = self._core.twist_value(pose, previous, dt)
+        return self._twist_checked(pose, previous, dt) if answer is None else answer
+
+    def _twist_checked(self, pose: Pose, previous: Twist | None, dt: float) -> Twist:
+        """:meth:`twist` for the arguments its hot path hands back: checked here (the errors), then answered from
+        their arrays; a halted answer (not finite, zeros under the output contract) is logged."""
         if not isinstance(pose, Pose):
             raise InvalidInput("pose", pose, "expected a pfield.Pose")
         if previous is None:
@@ -190,7 +199,7 @@ class PotentialField:
         else:
             if not isinstance(previous, Twist):
                 raise InvalidInput("previous", previous, "expected a pfield.Twist or None")
-            step = dt if dt.__class__ is float and 0.0 < dt < math.inf else finite("dt", dt)
+            step = finite("dt", dt)
             if step <= 0.0:
                 raise InvalidInput("dt", dt, "must be > 0 when a previous twist is given")
             linear, angular, outcome = self._core.twist(pose.position, pose.orientation, previous.linear,
