@@ -29,11 +29,13 @@ double attraction_potential(double px, double py, const Goal& goal, const FieldP
 Components repulsion_at(double px, double py, const ObstaclePoints& obstacles, const FieldParams& params) {
   double value = 0.0, fx = 0.0, fy = 0.0;
   const double slope = params.kr_slope, dist = params.kr_dist;
+  const double *ox = obstacles.x, *oy = obstacles.y, *weight = obstacles.weight;  // see potential_batch
+  const std::size_t count = obstacles.count;
 #pragma omp simd reduction(+ : value, fx, fy)
-  for (std::size_t j = 0; j < obstacles.count; ++j) {
-    const double dx = px - obstacles.x[j], dy = py - obstacles.y[j];
+  for (std::size_t j = 0; j < count; ++j) {
+    const double dx = px - ox[j], dy = py - oy[j];
     const double r = std::sqrt(dx * dx + dy * dy);
-    const double hill = obstacles.weight[j] * math::fast_exp(slope * (dist - r));
+    const double hill = weight[j] * math::fast_exp(slope * (dist - r));
     value += hill;
     const double inv_r = r > 0.0 ? 1.0 / std::max(r, 1e-300) : 0.0;  // a subnormal r: no infinity
     fx += hill * dx * inv_r;
@@ -66,13 +68,17 @@ Vec2 velocity_at(double px, double py, const Goal& goal, const ObstaclePoints& o
 void potential_batch(const double* points, std::size_t n, const Goal& goal, const ObstaclePoints& obstacles,
                      const FieldParams& params, double* out) {
   const double slope = params.kr_slope, dist = params.kr_dist;
+  // The columns as locals: read through `obstacles` in the loop, GCC built each lane's address from the struct's
+  // pointer and loaded the lanes one by one (a gather, 3.7x slower than the contiguous loads it makes here).
+  const double *ox = obstacles.x, *oy = obstacles.y, *weight = obstacles.weight;
+  const std::size_t count = obstacles.count;
   for (std::size_t i = 0; i < n; ++i) {
     const double px = points[2 * i], py = points[2 * i + 1];
     double hills = 0.0;
 #pragma omp simd reduction(+ : hills)
-    for (std::size_t j = 0; j < obstacles.count; ++j) {
-      const double dx = px - obstacles.x[j], dy = py - obstacles.y[j];
-      hills += obstacles.weight[j] * math::fast_exp(slope * (dist - std::sqrt(dx * dx + dy * dy)));
+    for (std::size_t j = 0; j < count; ++j) {
+      const double dx = px - ox[j], dy = py - oy[j];
+      hills += weight[j] * math::fast_exp(slope * (dist - std::sqrt(dx * dx + dy * dy)));
     }
     out[i] = hills * (params.kr_height / slope);
     if (goal.present) out[i] += attraction_potential(px, py, goal, params);
