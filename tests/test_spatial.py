@@ -13,9 +13,11 @@ from pfield.errors import InvalidInput
 from pfield.spatial import (
     Pose,
     Twist,
+    Wrench,
     euler_zyx_from_quaternion,
     geodesic_angle,
     matrix_from_quaternion,
+    pose_from_checked,
     quaternion_exp,
     quaternion_from_euler_zyx,
     quaternion_from_matrix,
@@ -23,6 +25,8 @@ from pfield.spatial import (
     quaternion_log,
     quaternion_multiply,
     rotate_vectors,
+    twist_from_checked,
+    wrench_from_checked,
 )
 
 unit = st.floats(-1.0, 1.0, allow_nan=False)
@@ -135,3 +139,25 @@ def test_twist_round_trip() -> None:
     t = Twist.from_array([1, 2, 3, 4, 5, 6])
     np.testing.assert_array_equal(t.linear, [1, 2, 3])
     assert Twist.from_array(t.as_array()) == t
+
+
+class _Unslotted:
+    """A class whose fields are plain class attributes: not a value type the core can read."""
+
+    position = orientation = linear = angular = force = torque = None
+
+
+def test_the_core_registers_slotted_value_types_only_and_a_refusal_changes_nothing() -> None:
+    from pfield._core import spatial as core
+
+    with pytest.raises(TypeError, match="slotted"):
+        core.register_value_types(Pose, _Unslotted, Wrench)
+    with pytest.raises(TypeError, match="classes"):
+        core.register_value_types(Pose, Twist, "Wrench")
+    position, orientation = np.array([0.1, 0.2, 0.3]), np.array([0.0, 0.0, 0.0, 1.0])
+    for array in (position, orientation):
+        array.flags.writeable = False
+    pose = pose_from_checked(position, orientation)  # still the registered classes
+    assert type(pose) is Pose and pose.position is position and pose.orientation is orientation
+    assert type(twist_from_checked(position, position)) is Twist
+    assert type(wrench_from_checked(position, position)) is Wrench

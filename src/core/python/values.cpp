@@ -49,15 +49,17 @@ nb::object instance(const ValueType& entry, nb::object first, nb::object second)
 void register_types(nb::handle pose, nb::handle twist, nb::handle wrench) {
   const nb::handle types[3] = {pose, twist, wrench};
   const char* const names[3][2] = {{"position", "orientation"}, {"linear", "angular"}, {"force", "torque"}};
+  ValueType entries[3];  // all three checked before any is registered: a refused call changes nothing
   for (int k = 0; k < 3; ++k) {
     if (!PyType_Check(types[k].ptr())) throw nb::type_error("register_value_types: expected three classes");
-    ValueType entry;
-    entry.offsets[0] = slot_offset(types[k], names[k][0]);
-    entry.offsets[1] = slot_offset(types[k], names[k][1]);
-    entry.sizes[1] = k == static_cast<int>(Kind::Pose) ? 4 : 3;
-    entry.type = reinterpret_cast<PyTypeObject*>(nb::handle(types[k]).inc_ref().ptr());
+    entries[k].offsets[0] = slot_offset(types[k], names[k][0]);
+    entries[k].offsets[1] = slot_offset(types[k], names[k][1]);
+    entries[k].sizes[1] = k == static_cast<int>(Kind::Pose) ? 4 : 3;
+  }
+  for (int k = 0; k < 3; ++k) {
+    entries[k].type = reinterpret_cast<PyTypeObject*>(nb::handle(types[k]).inc_ref().ptr());
     Py_XDECREF(registry[k].type);
-    registry[k] = entry;
+    registry[k] = entries[k];
   }
 }
 
