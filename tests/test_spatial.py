@@ -147,6 +147,14 @@ class _Unslotted:
     position = orientation = linear = angular = force = torque = None
 
 
+class _Borrowed:
+    """A slotted class whose fields are Pose's member descriptors: their offsets are Pose's, not its own."""
+
+    __slots__ = ()
+    position = Pose.position
+    orientation = Pose.orientation
+
+
 def test_the_core_registers_slotted_value_types_only_and_a_refusal_changes_nothing() -> None:
     from pfield._core import spatial as core
 
@@ -154,6 +162,8 @@ def test_the_core_registers_slotted_value_types_only_and_a_refusal_changes_nothi
         core.register_value_types(Pose, _Unslotted, Wrench)
     with pytest.raises(TypeError, match="classes"):
         core.register_value_types(Pose, Twist, "Wrench")
+    with pytest.raises(TypeError, match="its own class"):  # another class's slots: offsets of another layout
+        core.register_value_types(_Borrowed, Twist, Wrench)
     position, orientation = np.array([0.1, 0.2, 0.3]), np.array([0.0, 0.0, 0.0, 1.0])
     for array in (position, orientation):
         array.flags.writeable = False

@@ -87,7 +87,8 @@ class BoundField {
   // PotentialField.twist's answer, a new pfield.Twist, when its arguments are the ones its hot path takes: exactly
   // a pfield.Pose, and None or exactly a pfield.Twist with a float dt in (0, inf) (python/values.hpp: read as they
   // were built and checked). Else None, and None for an answer the output contract halted (a non-finite twist):
-  // PotentialField.twist then checks its arguments, and reports, in Python.
+  // PotentialField.twist then checks its arguments, and reports, in Python. The arrays are read in place through
+  // borrowed pointers while the GIL is held: this call must not release it.
   nb::object twist_value(nb::handle pose, nb::handle previous, nb::handle dt) const {
     const double *p, *q;
     if (!values::read(pose, values::Kind::Pose, p, q)) return nb::none();

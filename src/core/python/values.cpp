@@ -24,14 +24,22 @@ PyObject*& slot(PyObject* object, Py_ssize_t offset) {
   return *reinterpret_cast<PyObject**>(reinterpret_cast<char*>(object) + offset);
 }
 
-// The offset of `name`'s slot in `type`'s instances: its member descriptor's (a slotted class's field).
+// The offset of `name`'s slot in `type`'s instances: its member descriptor's (a slotted class's field), checked to
+// be the class's own layout (a descriptor borrowed from another class would point elsewhere) and within it.
 Py_ssize_t slot_offset(nb::handle type, const char* name) {
+  auto* cls = reinterpret_cast<PyTypeObject*>(type.ptr());
   nb::object descriptor = nb::getattr(type, name);
-  if (Py_TYPE(descriptor.ptr()) != &PyMemberDescr_Type)
+  if (Py_TYPE(descriptor.ptr()) != &PyMemberDescr_Type || cls->tp_dictoffset != 0 ||
+      PyType_HasFeature(cls, Py_TPFLAGS_MANAGED_DICT))
     throw nb::type_error("register_value_types: expected slotted classes (dataclass(slots=True))");
-  const PyMemberDef* member = reinterpret_cast<PyMemberDescrObject*>(descriptor.ptr())->d_member;
-  if (member->type != T_OBJECT_EX) throw nb::type_error("register_value_types: expected object slots");
-  return member->offset;
+  auto* member_descriptor = reinterpret_cast<PyMemberDescrObject*>(descriptor.ptr());
+  const PyMemberDef* member = member_descriptor->d_member;
+  const Py_ssize_t offset = member->offset;
+  if (!PyType_IsSubtype(cls, PyDescr_TYPE(member_descriptor)) || member->type != T_OBJECT_EX ||
+      offset < static_cast<Py_ssize_t>(sizeof(PyObject)) ||
+      offset + static_cast<Py_ssize_t>(sizeof(PyObject*)) > cls->tp_basicsize)
+    throw nb::type_error("register_value_types: expected each field to be an object slot of its own class");
+  return offset;
 }
 
 // A new instance of `entry`'s class with both slots set to `first` and `second` (new references it takes).
@@ -58,8 +66,9 @@ void register_types(nb::handle pose, nb::handle twist, nb::handle wrench) {
   }
   for (int k = 0; k < 3; ++k) {
     entries[k].type = reinterpret_cast<PyTypeObject*>(nb::handle(types[k]).inc_ref().ptr());
-    Py_XDECREF(registry[k].type);
+    PyTypeObject* replaced = registry[k].type;
     registry[k] = entries[k];
+    Py_XDECREF(replaced);  // after the swap: its deallocation may run Python code that reaches the registry
   }
 }
 

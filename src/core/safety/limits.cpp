@@ -11,9 +11,12 @@ namespace pfield::safety {
 double part_scale(double x, double y, double z, double limit) {
   const double largest = std::max(std::abs(x), std::max(std::abs(y), std::abs(z)));
   // A part clearly within its limit, the common case, answers 1 without the scaled norm's divisions and hypot:
-  // below 1e150 the plain sum of squares cannot overflow and is within a few ulp of |v|^2, so a sum under
-  // (1 - 1e-9) limit^2 is a part whose scaled ratio below would also be > 1 (the same 1.0 either way).
-  if (largest < 1e150 && limit > 0.0 && x * x + y * y + z * z < (1.0 - 1e-9) * (limit * limit)) return 1.0;
+  // with its largest component in [1e-150, 1e150) the plain sum of squares neither overflows nor falls among the
+  // subnormals and is within a few ulp of |v|^2, so a sum under (1 - 1e-9) limit^2 is a part whose scaled ratio
+  // below would also be > 1 (the same 1.0 either way).
+  if (largest >= 1e-150 && largest < 1e150 && limit > 0.0 &&
+      x * x + y * y + z * z < (1.0 - 1e-9) * (limit * limit))
+    return 1.0;
   if (largest == 0.0) return 1.0;
   const double ratio = (limit / largest) / std::hypot(x / largest, y / largest, z / largest);
   return ratio < 1.0 ? ratio : 1.0;
