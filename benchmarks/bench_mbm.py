@@ -10,7 +10,7 @@ start joints to the goal *pose* = FK of the goal joints at the Panda's TCP (``pa
 tolerance 1 cm (and 0.05 rad), at most 10000 steps. Parameters: rosYaml except max_linear_velocity 0.25 m/s,
 max_angular_velocity 1.0 rad/s, rotational_attractive_gain 0.6 and max_angular_acceleration 1.0 (the seed's 5
 cm/s makes every plan slow), safety_distance 2 mm and influence_distance 5 cm (MBM goals are grasp poses next
-to objects), stagnation_window 2 s (``pfield.scene.MBM_CONFIG``). Reported per scene: success rate, median
+to objects), stagnation_window 0.5 s (``pfield.scene.MBM_CONFIG``). Reported per scene: success rate, median
 planning time, the status counts, median end-effector path length of the successful plans, the minimum link-
 model clearance over all plans (negative where a start's fitted model already overlaps an obstacle: such pairs
 may not approach further), the exact minimum distance of the robot's collision meshes (coal, convex hulls) at
