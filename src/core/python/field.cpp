@@ -48,6 +48,11 @@ void write_twist(const field::Twist& t, double* out) {
   out[3] = t.angular.x, out[4] = t.angular.y, out[5] = t.angular.z;
 }
 
+void write_wrench(const field::Wrench& w, double* out) {
+  out[0] = w.force.x, out[1] = w.force.y, out[2] = w.force.z;
+  out[3] = w.torque.x, out[4] = w.torque.y, out[5] = w.torque.z;
+}
+
 class BoundField {
  public:
   BoundField(const Vector& goal, const Vector& params, const Rows<8>& aux, const Kinds& kinds, const Rows<16>& rows,
@@ -75,11 +80,9 @@ class BoundField {
     double out[6];
     int outcome;
     if (previous_linear.is_none() || previous_angular.is_none()) {
-      outcome = limited_twist(p, q, nullptr, dt, out);
+      outcome = limited_twist(p, q, nullptr, nullptr, dt, out);
     } else {
-      const double *l = doubles(previous_linear, 3), *a = doubles(previous_angular, 3);
-      const double previous[6] = {l[0], l[1], l[2], a[0], a[1], a[2]};
-      outcome = limited_twist(p, q, previous, dt, out);
+      outcome = limited_twist(p, q, doubles(previous_linear, 3), doubles(previous_angular, 3), dt, out);
     }
     return {readonly_copy(out, 3), readonly_copy(out + 3, 3), outcome};
   }
@@ -95,14 +98,13 @@ class BoundField {
     double out[6];
     int outcome;
     if (previous.is_none()) {
-      outcome = limited_twist(p, q, nullptr, 0.0, out);
+      outcome = limited_twist(p, q, nullptr, nullptr, 0.0, out);
     } else {
       const double *l, *a;
       if (!values::read(previous, values::Kind::Twist, l, a) || !PyFloat_CheckExact(dt.ptr())) return nb::none();
       const double step = PyFloat_AS_DOUBLE(dt.ptr());
       if (!(step > 0.0 && step < std::numeric_limits<double>::infinity())) return nb::none();
-      const double before[6] = {l[0], l[1], l[2], a[0], a[1], a[2]};
-      outcome = limited_twist(p, q, before, step, out);
+      outcome = limited_twist(p, q, l, a, step, out);
     }
     if (outcome == static_cast<int>(safety::Outcome::Halted)) return nb::none();
     return values::make(values::Kind::Twist, out, out + 3);
@@ -119,7 +121,8 @@ class BoundField {
     if (use_previous && std::isnan(safety::twist_scale(previous.data(), params().max_linear_velocity,
                                                       params().max_angular_velocity)))
       return 3;
-    limited_twist(p, p + 3, use_previous ? previous.data() : nullptr, dt, out.data());
+    const double* before = use_previous ? previous.data() : nullptr;
+    limited_twist(p, p + 3, before, use_previous ? before + 3 : nullptr, dt, out.data());
     return 0;
   }
 
@@ -127,16 +130,16 @@ class BoundField {
   nb::object wrench_value(nb::handle pose) const {
     const double *p, *q;
     if (!values::read(pose, values::Kind::Pose, p, q)) return nb::none();
-    const field::Wrench w = field::field_wrench(field_, vec3(p), quat(q));
-    const double force[3] = {w.force.x, w.force.y, w.force.z}, torque[3] = {w.torque.x, w.torque.y, w.torque.z};
-    return values::make(values::Kind::Wrench, force, torque);
+    double out[6];
+    write_wrench(field::field_wrench(field_, vec3(p), quat(q)), out);
+    return values::make(values::Kind::Wrench, out, out + 3);
   }
 
   // The raw wrench at a pose: (force (3,), torque (3,)), new read-only arrays (pfield.spatial.wrench_from_checked).
   std::tuple<nb::object, nb::object> wrench(nb::handle position, nb::handle orientation) const {
-    const field::Wrench w = field::field_wrench(field_, vec3(doubles(position, 3)), quat(doubles(orientation, 4)));
-    const double force[3] = {w.force.x, w.force.y, w.force.z}, torque[3] = {w.torque.x, w.torque.y, w.torque.z};
-    return {readonly_copy(force, 3), readonly_copy(torque, 3)};
+    double out[6];
+    write_wrench(field::field_wrench(field_, vec3(doubles(position, 3)), quat(doubles(orientation, 4))), out);
+    return {readonly_copy(out, 3), readonly_copy(out + 3, 3)};
   }
 
   // Twists (under the output contract, as twist()) or wrenches at N poses (field/batch.hpp), on every core from
@@ -194,18 +197,21 @@ class BoundField {
   }
   static void contract_row(double* twist, const FieldParams& params) { contract(twist, params); }
 
-  // The twist under the output contract into out (6): previous (6, or null) clipped to the speed limits first.
-  int limited_twist(const double* position, const double* orientation, const double* previous, double dt,
-                    double* out) const {
+  // The twist under the output contract into out (6): the previous twist's linear and angular parts (3 each, or
+  // both null: none) clipped to the speed limits first.
+  int limited_twist(const double* position, const double* orientation, const double* previous_linear,
+                    const double* previous_angular, double dt, double* out) const {
     const double vmax = params().max_linear_velocity, wmax = params().max_angular_velocity;
+    const bool given = previous_linear != nullptr;
     field::Twist before{};
-    if (previous != nullptr) {
-      double clipped[6] = {previous[0], previous[1], previous[2], previous[3], previous[4], previous[5]};
+    if (given) {
+      const double *l = previous_linear, *a = previous_angular;
+      double clipped[6] = {l[0], l[1], l[2], a[0], a[1], a[2]};
       safety::limit_twist(clipped, vmax, wmax);  // a previous command beyond the limits was never sent
       before = twist_of(clipped);
     }
-    const ConstrainedTwist t = field::constrained_twist(field_, vec3(position), quat(orientation),
-                                                        previous != nullptr ? &before : nullptr, dt);
+    const ConstrainedTwist t =
+        field::constrained_twist(field_, vec3(position), quat(orientation), given ? &before : nullptr, dt);
     write_twist(t.twist, out);
     return static_cast<int>(contract(out, params()));
   }
