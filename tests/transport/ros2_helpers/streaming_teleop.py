@@ -49,15 +49,13 @@ AFTER = 1.0
 RELIABLE = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 
 
-def _latest_joints(client: BlockingClient, names: list[str], timeout: float) -> list[float]:
-    """The arm's joints from the next ``/joint_states``, in ``names``' order."""
-    latest: list[Any] = []
-    subscription = client.node.create_subscription(interface_class("sensor_msgs/msg/JointState"), "/joint_states",
-                                                   latest.append, RELIABLE)
+def _latest_joints(latest: list[Any], names: list[str], timeout: float) -> list[float]:
+    """The arm's joints from the next ``/joint_states`` that ``latest`` (a subscription's list, kept for the whole
+    scenario: one reader to discover, not one per session) receives, in ``names``' order."""
+    latest.clear()
     deadline = time.monotonic() + timeout
     while not latest and time.monotonic() < deadline:
         time.sleep(0.02)
-    client.node.destroy_subscription(subscription)
     if not latest:
         raise TimeoutError(f"no /joint_states within {timeout} s")
     message = latest[-1]
@@ -105,6 +103,9 @@ def main() -> None:
     try:
         client.node.create_subscription(interface_class("trajectory_msgs/msg/JointTrajectory"), OUT_TOPIC,
                                         lambda _: arrivals.append(time.monotonic()), RELIABLE)
+        states: list[Any] = []
+        client.node.create_subscription(interface_class("sensor_msgs/msg/JointState"), "/joint_states",
+                                        states.append, RELIABLE)
         twist_class = interface_class("geometry_msgs/msg/TwistStamped")
         publisher = client.node.create_publisher(twist_class, TWIST_TOPIC, RELIABLE)
         twist = twist_class()
@@ -118,7 +119,7 @@ def main() -> None:
             raise TimeoutError("the servo sent no command within 180 s of twists")
         for session in range(SESSIONS):
             time.sleep(2 * AFTER)  # the servo has stopped: each session starts from rest
-            start = _latest_joints(client, names, timeout=60.0)
+            start = _latest_joints(states, names, timeout=60.0)
             with TrajectoryClient(ACTION) as controller:
                 outcome = controller.execute(_trajectory(names, start, 1.0 if session % 2 == 0 else -1.0))
             twist.twist.linear.z = 0.05 * (1 if session % 2 == 0 else -1)  # the tool down, then up again
