@@ -381,9 +381,10 @@ std::vector<double> shorten(StateChecker& checker, StateChecker& clearance, cons
     const double length = cumulative[i] + segment_length(before, a.data(), n) + segment_length(a.data(), b.data(), n) +
                           segment_length(b.data(), after, n) + (total - cumulative[k + 1]);
     if (!(length < total)) continue;
-    if (!clearance.edge_valid(a.data(), b.data()) || !checker.edge_valid(before, a.data()) ||
-        !checker.edge_valid(b.data(), after))
-      continue;
+    // the cut pieces before -> p(s1) and p(s2) -> after are parts of segments already on the path, whose samples
+    // were checked: only the new segment is checked as an edge (it checks p(s2) as its last sample), and p(s1), a
+    // point between two checked samples, as a state
+    if (!clearance.edge_valid(a.data(), b.data()) || !checker.state_valid(a.data())) continue;
     next.assign(current.begin(), current.begin() + static_cast<std::ptrdiff_t>((i + 1) * n));
     if (segment_length(before, a.data(), n) > 0.0) next.insert(next.end(), a.begin(), a.end());
     if (segment_length(b.data(), after, n) > 0.0) next.insert(next.end(), b.begin(), b.end());

@@ -112,7 +112,9 @@ class GlobalOptions:
     5.55 rad after 25 / 50 / 100 / 200 partial shortcuts, for about 10 / 16 / 27 / 50 ms of shortening per
     plan on a shared 2-core machine. Without the clearance, one of the 10 table_under_pick plans was pulled so
     close to the table that its tracking stalled (ITERATION_LIMIT); with 1 cm all 40 sampled problems of the
-    four dev scenes are solved.
+    four dev scenes are solved. The partial shortcuts check their new segment and its first end, not the cut pieces
+    (parts of checked segments, ``planning::shorten``): on 15 UR5 table problems the same paths (one of 15 differs in
+    its states checked, not its length) for 35–45 % less shortening time.
     """
 
     time_limit: float = DEFAULT_GLOBAL_TIME_LIMIT
