@@ -196,6 +196,21 @@ def test_a_zigzag_in_free_space_shortens_to_the_straight_segment() -> None:
     assert path_length(short) == 1.0
 
 
+def test_a_partial_shortcut_saving_less_than_the_least_share_is_not_checked() -> None:
+    """A shortcut is checked only when it would save at least 0.5 % of the path (planning::kLeastShortening): a bend
+    that the straight line shortens by 0.02 % gets no partial shortcut, only the greedy vertex pass's one edge."""
+    packed = pack_obstacles([Obstacle("far", Sphere(0.1), Pose((10.0, 10.0, 10.0)))])
+    for bend, partial in ((0.01, False), (0.3, True)):  # the straight line saves 0.02 % / 14 % of the bent path
+        checker = core.Checker(core_obstacles(make_scene(packed)), 0.01, 0.005)
+        clearance = core.Checker(core_obstacles(make_scene(packed)), 0.01, 0.005)
+        bent = np.array([[0.0, 0.0, 0.0], [0.5, bend, 0.0], [1.0, 0.0, 0.0]])
+        short = checker.shorten(bent, 100, core.Trees(bent[0], bent[-1][None], 10, 0), clearance)
+        np.testing.assert_array_equal(short, bent[[0, -1]])  # the greedy pass straightens both
+        # that pass checks the straight metre every 5 mm: 200 states; partial shortcuts check more, and their ends
+        assert (clearance.states_checked > 200) == partial
+        assert (checker.states_checked > 0) == partial
+
+
 def test_shortening_refuses_a_clearance_checker_of_another_space(panda: RobotModel) -> None:
     arrays, scene, start, goal = _problem(panda, 40)
     joint = core.Checker(core_scene(arrays, scene), MARGIN, 0.02)

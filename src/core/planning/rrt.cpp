@@ -380,7 +380,7 @@ std::vector<double> shorten(StateChecker& checker, StateChecker& clearance, cons
     const double* after = &current[(k + 1) * n];  // the vertex after p(s2)
     const double length = cumulative[i] + segment_length(before, a.data(), n) + segment_length(a.data(), b.data(), n) +
                           segment_length(b.data(), after, n) + (total - cumulative[k + 1]);
-    if (!(length < total)) continue;
+    if (!(length < total - kLeastShortening * total)) continue;  // too little to pay for the new segment's check
     // the cut pieces before -> p(s1) and p(s2) -> after are parts of segments already on the path, whose samples
     // were checked: only the new segment is checked as an edge (it checks p(s2) as its last sample), and p(s1), a
     // point between two checked samples, as a state

@@ -114,7 +114,9 @@ class GlobalOptions:
     close to the table that its tracking stalled (ITERATION_LIMIT); with 1 cm all 40 sampled problems of the
     four dev scenes are solved. The partial shortcuts check their new segment and its first end, not the cut pieces
     (parts of checked segments, ``planning::shorten``): on 15 UR5 table problems the same paths (one of 15 differs in
-    its states checked, not its length) for 35–45 % less shortening time.
+    its states checked, not its length) for 35–45 % less shortening time; and a partial shortcut is checked only when
+    it would save at least 0.5 % of the path (``planning::kLeastShortening``): on every valid UR5 MotionBenchMaker
+    problem the median plan 27.0 → 21.6 ms, median path lengths per scene +0–2.5 %.
     """
 
     time_limit: float = DEFAULT_GLOBAL_TIME_LIMIT
