@@ -192,14 +192,14 @@ constexpr double kLeastShortening = 0.005;
 // configurations on the path rather than its vertices): each of `attempts` draws two arc-length positions s1 < s2
 // (from `random`) on different segments, and replaces the part between the points p(s1), p(s2) by the straight
 // segment p(s1) -> p(s2) when the result is shorter by at least kLeastShortening of the path's length, that segment
-// passes clearance.edge_valid and p(s1) passes checker.state_valid. The cut pieces (vertex -> p(s1), p(s2) -> next vertex) are parts of segments already on the
-// path, whose samples were checked every `resolution`, so they are not checked again: re-checking them on their own
-// sample grid was 40-45 % of the states this shortening checked on MotionBenchMaker's UR5 table scenes (issue 34).
-// Then the greedy vertex pass of `shortcut` with `clearance` (it never lengthens, by the triangle inequality, and drops
-// vertices on a straight line). `clearance` is `checker` or a stricter one (a larger margin: a new segment keeps
-// room from the obstacles for the tracking that follows it). Every segment of the result passed one of the two edge
-// tests, or is a part of one that did (or of one of `path`'s) whose ends passed a state test; its Euclidean length
-// never exceeds the input's. Returns the rows (dimension each).
+// passes clearance.edge_valid and p(s1) passes checker.state_valid. The cut pieces (vertex -> p(s1), p(s2) -> next
+// vertex) are parts of segments already on the path, whose samples were checked every `resolution`, so they are not
+// checked again: re-checking them on their own sample grid was 40-45 % of the states this shortening checked on
+// MotionBenchMaker's UR5 table scenes (issue 34). Then the greedy vertex pass of `shortcut` with `clearance` (it never
+// lengthens, by the triangle inequality, and drops vertices on a straight line). `clearance` is `checker` or a
+// stricter one (a larger margin: a new segment keeps room from the obstacles for the tracking that follows it). Every
+// segment of the result passed one of the two edge tests, or is a part of one that did (or of one of `path`'s) whose
+// ends passed a state test; its Euclidean length never exceeds the input's. Returns the rows (dimension each).
 std::vector<double> shorten(StateChecker& checker, StateChecker& clearance, const double* path, std::size_t rows,
                             std::int64_t attempts, std::uint64_t& random);
 
