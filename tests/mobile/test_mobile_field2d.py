@@ -122,4 +122,17 @@ def test_bad_weights_are_rejected():
 def test_fast_exp_is_accurate_to_a_few_ulp():
     x = np.concatenate([np.linspace(-700.0, 700.0, 100_001), RNG.uniform(-50.0, 5.0, 10_000), [0.0]])
     assert np.max(np.abs(np.array([fast_exp(v) for v in x.tolist()]) / np.exp(x) - 1.0)) < 1e-15
-    assert fast_exp(1e308) == fast_exp(700.0) and fast_exp(-1e308) > 0.0  # clipped, never inf or 0
+    assert fast_exp(-1e308) == fast_exp(-700.0) > 0.0  # clipped below: never 0
+
+
+def test_the_largest_exponents_the_parameters_allow_stay_finite():
+    # fast_exp's domain ends at +700; the field's exponents end at kr_slope*kr_dist, which the parameters keep <= 300
+    params = VectorFieldParams(kr_dist=2.0, kr_slope=150.0)
+    with pytest.raises(InvalidInput, match="kr_slope"):
+        VectorFieldParams(kr_dist=2.0, kr_slope=151.0)
+    obstacle = np.array([[0.0, 0.0]])
+    peak = potential([[0.0, 0.0]], None, obstacle, params)[0]
+    assert peak == pytest.approx(params.kr_height / 150.0 * math.exp(300.0), rel=1e-14)
+    far = potential([[1e150, -1e150], [3.0, 0.0]], None, obstacle, params)  # exponents far below -700: clipped
+    assert np.all(np.isfinite(far)) and np.all(far > 0.0)
+    assert np.all(np.isfinite(velocity([[1e-300, 0.0], [0.0, 0.0]], None, obstacle, params)))

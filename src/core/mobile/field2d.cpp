@@ -25,6 +25,11 @@ double attraction_potential(double px, double py, const Goal& goal, const FieldP
   return std::pow(d2, 0.5 * params.ka);  // 0^0 = 1
 }
 
+// One obstacle point's hill at distance r, w e^(kr_slope (kr_dist - r)): V_r's term without kr_height / kr_slope.
+inline double hill(double weight, double r, double slope, double dist) {
+  return weight * math::fast_exp(slope * (dist - r));
+}
+
 // (V_r, -dV_r/dx, -dV_r/dy) summed over the weighted obstacle points; the reduction is vectorised.
 Components repulsion_at(double px, double py, const ObstaclePoints& obstacles, const FieldParams& params) {
   double value = 0.0, fx = 0.0, fy = 0.0;
@@ -35,11 +40,11 @@ Components repulsion_at(double px, double py, const ObstaclePoints& obstacles, c
   for (std::size_t j = 0; j < count; ++j) {
     const double dx = px - ox[j], dy = py - oy[j];
     const double r = std::sqrt(dx * dx + dy * dy);
-    const double hill = weight[j] * math::fast_exp(slope * (dist - r));
-    value += hill;
+    const double h = hill(weight[j], r, slope, dist);
+    value += h;
     const double inv_r = r > 0.0 ? 1.0 / std::max(r, 1e-300) : 0.0;  // a subnormal r: no infinity
-    fx += hill * dx * inv_r;
-    fy += hill * dy * inv_r;
+    fx += h * dx * inv_r;
+    fy += h * dy * inv_r;
   }
   Components out;
   out.potential = value * (params.kr_height / slope);
@@ -72,16 +77,26 @@ void potential_batch(const double* points, std::size_t n, const Goal& goal, cons
   // pointer and loaded the lanes one by one (a gather, 3.7x slower than the contiguous loads it makes here).
   const double *ox = obstacles.x, *oy = obstacles.y, *weight = obstacles.weight;
   const std::size_t count = obstacles.count;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double px = points[2 * i], py = points[2 * i + 1];
-    double hills = 0.0;
-#pragma omp simd reduction(+ : hills)
+  const double scale = params.kr_height / slope;
+  auto finish = [&](std::size_t i, double hills) {
+    out[i] = hills * scale;
+    if (goal.present) out[i] += attraction_potential(points[2 * i], points[2 * i + 1], goal, params);
+  };
+  // Two points per pass over the obstacles: each column is loaded once for both, and the two sums are independent
+  // chains (the bench's 200x200 image of 720 points: 21.9 ms one point per pass, 17.0 ms two). An odd last point
+  // is paired with itself.
+  for (std::size_t a = 0; a < n; a += 2) {
+    const std::size_t b = std::min(a + 1, n - 1);
+    const double ax = points[2 * a], ay = points[2 * a + 1], bx = points[2 * b], by = points[2 * b + 1];
+    double hills_a = 0.0, hills_b = 0.0;
+#pragma omp simd reduction(+ : hills_a, hills_b)
     for (std::size_t j = 0; j < count; ++j) {
-      const double dx = px - ox[j], dy = py - oy[j];
-      hills += weight[j] * math::fast_exp(slope * (dist - std::sqrt(dx * dx + dy * dy)));
+      const double adx = ax - ox[j], ady = ay - oy[j], bdx = bx - ox[j], bdy = by - oy[j];
+      hills_a += hill(weight[j], std::sqrt(adx * adx + ady * ady), slope, dist);
+      hills_b += hill(weight[j], std::sqrt(bdx * bdx + bdy * bdy), slope, dist);
     }
-    out[i] = hills * (params.kr_height / slope);
-    if (goal.present) out[i] += attraction_potential(px, py, goal, params);
+    finish(a, hills_a);
+    finish(b, hills_b);
   }
 }
 
