@@ -78,14 +78,19 @@ void leaf_closest(const PackedView& packed, std::int64_t first, std::int64_t cou
 TrianglePoint closest_point_on_triangle(const double* v, Vec3 p) { return triangle_point(v, p); }
 
 MeshClosest mesh_closest_point(const PackedView& packed, std::int64_t root, Vec3 p) {
-  std::int64_t stack[kStackSize];
-  stack[0] = root;
+  // each entry keeps its box's squared distance, computed once when its parent pushed it
+  struct Pending {
+    std::int64_t node;
+    double distance_squared;
+  };
+  Pending stack[kStackSize];
+  stack[0] = {root, box_distance_squared(packed, root, p)};
   std::size_t top = 1;
   MeshClosest best{std::numeric_limits<double>::infinity(), -1, Feature::Face, {}};
   while (top > 0) {
-    const std::int64_t k = stack[--top];
-    if (box_distance_squared(packed, k, p) >= best.distance_squared) continue;
-    const std::int64_t* node = packed.node(k);
+    const Pending entry = stack[--top];
+    if (entry.distance_squared >= best.distance_squared) continue;
+    const std::int64_t* node = packed.node(entry.node);
     if (node[2] == 1) {
       leaf_closest(packed, node[0], node[1], p, best);
       continue;
@@ -94,11 +99,11 @@ MeshClosest mesh_closest_point(const PackedView& packed, std::int64_t root, Vec3
     const double d_left = box_distance_squared(packed, left, p);
     const double d_right = box_distance_squared(packed, right, p);
     const bool right_nearer = d_right < d_left;
-    const std::int64_t near = right_nearer ? right : left, far = right_nearer ? left : right;
-    const double d_near = right_nearer ? d_right : d_left, d_far = right_nearer ? d_left : d_right;
+    const Pending near = right_nearer ? Pending{right, d_right} : Pending{left, d_left};
+    const Pending far = right_nearer ? Pending{left, d_left} : Pending{right, d_right};
     if (top + 2 > kStackSize) break;  // unreachable for trees check_packed accepted; never out of bounds
-    if (d_far < best.distance_squared) stack[top++] = far;
-    if (d_near < best.distance_squared) stack[top++] = near;
+    if (far.distance_squared < best.distance_squared) stack[top++] = far;
+    if (near.distance_squared < best.distance_squared) stack[top++] = near;
   }
   return best;
 }
