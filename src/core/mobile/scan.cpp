@@ -13,9 +13,9 @@ constexpr double kPi = 3.14159265358979323846;
 bool valid(double r, const ScanGeometry& scan) { return scan.range_min <= r && r <= scan.range_max; }
 
 // Which beams become points: every valid one, or the nearest valid one per sector.
-std::vector<bool> select_beams(const double* ranges, std::size_t count, const ScanGeometry& scan,
-                               ScanWeighting weighting, double sector_angle) {
-  std::vector<bool> keep(count, false);
+std::vector<unsigned char> select_beams(const double* ranges, std::size_t count, const ScanGeometry& scan,
+                                        ScanWeighting weighting, double sector_angle) {
+  std::vector<unsigned char> keep(count, 0);
   if (weighting != ScanWeighting::Sector) {
     for (std::size_t i = 0; i < count; ++i) keep[i] = valid(ranges[i], scan);
     return keep;
@@ -30,13 +30,14 @@ std::vector<bool> select_beams(const double* ranges, std::size_t count, const Sc
     double offset = scan.angle_min + static_cast<double>(i) * scan.angle_increment + kPi;
     offset -= 2.0 * kPi * std::floor(offset * (0.5 / kPi));  // wrapped into [0, 2 pi) without a float modulo
     const std::size_t sector = std::min(static_cast<std::size_t>(offset * inverse), sectors - 1);
-    if (r < best[sector]) {
-      best[sector] = r;
-      best_index[sector] = static_cast<std::ptrdiff_t>(i);
-    }
+    // unconditional stores (conditional moves): whether a beam is its sector's nearest so far is a coin toss
+    // to the branch predictor
+    const bool nearer = r < best[sector];
+    best_index[sector] = nearer ? static_cast<std::ptrdiff_t>(i) : best_index[sector];
+    best[sector] = nearer ? r : best[sector];
   }
   for (std::ptrdiff_t index : best_index)
-    if (index >= 0) keep[static_cast<std::size_t>(index)] = true;
+    if (index >= 0) keep[static_cast<std::size_t>(index)] = 1;
   return keep;
 }
 
@@ -44,8 +45,8 @@ std::vector<bool> select_beams(const double* ranges, std::size_t count, const Sc
 
 ScanPoints scan_points(const double* ranges, std::size_t count, const ScanGeometry& scan, const Pose2D& sensor,
                        ScanWeighting weighting, double sector_angle) {
-  const std::vector<bool> keep = select_beams(ranges, count, scan, weighting, sector_angle);
-  const std::size_t kept = static_cast<std::size_t>(std::count(keep.begin(), keep.end(), true));
+  const std::vector<unsigned char> keep = select_beams(ranges, count, scan, weighting, sector_angle);
+  const std::size_t kept = static_cast<std::size_t>(std::count(keep.begin(), keep.end(), 1));
   ScanPoints out;
   out.points.resize(2 * kept);
   out.weights.assign(kept, 1.0);

@@ -37,6 +37,7 @@ __all__ = ["SCAN_WEIGHTINGS", "LaserScanLike", "ObstaclePoints", "compose_pose2d
            "scan_ranges_obstacles"]
 
 SCAN_WEIGHTINGS = ("sector", "arc_length", "sum")
+_CORE_WEIGHTING = {name: _mobile.ScanWeighting(k) for k, name in enumerate(SCAN_WEIGHTINGS)}
 _MAX_BEAMS = 1_000_000
 
 
@@ -87,12 +88,13 @@ def scan_ranges_obstacles(ranges: ArrayLike, angle_min: float, angle_increment: 
     r_max = positive("range_max", range_max)
     if r_max < r_min:
         raise InvalidInput("range_max", range_max, f"must be >= range_min ({range_min})")
-    if weighting not in SCAN_WEIGHTINGS:
+    core_weighting = _CORE_WEIGHTING.get(weighting) if isinstance(weighting, str) else None
+    if core_weighting is None:
         raise InvalidInput("scan_weighting", weighting, f"must be one of {SCAN_WEIGHTINGS}")
     sector = positive("scan_sector_angle", sector_angle)
     sx, sy, syaw = as_vector("sensor_pose", sensor_pose, 3)
     points, weights = _mobile.scan_points(values, a_min, inc, r_min, r_max, float(sx), float(sy), float(syaw),
-                                          _mobile.ScanWeighting(SCAN_WEIGHTINGS.index(weighting)), sector)
+                                          core_weighting, sector)
     return ObstaclePoints(points, weights)
 
 
