@@ -15,6 +15,7 @@ from pfield.interfaces.geometry_msgs import PoseStamped
 from pfield.interfaces.sensor_msgs import JointState
 from pfield.node._base import Bus
 from pfield.node.manager import ManagerNode
+from pfield.robot.model import MEASURED_BOUNDS_ERROR
 from pfield.spatial import rotate_vectors
 
 Q = [0.0, -0.3, 0.0, 0.6, 0.0, 0.9, 0.0]
@@ -105,6 +106,21 @@ def test_bad_joint_states_are_refused_whole(node: ManagerNode, robot: Any, field
     with pytest.raises(InvalidInput, match=field) as error:
         node.on_joint_states(message)
     assert reason in str(error.value) and node.joint_states.held is before
+
+
+def test_a_measured_position_just_past_a_limit_is_taken_at_the_limit(node: ManagerNode, robot: Any) -> None:
+    # a robot held at a limit reports positions past it; up to MEASURED_BOUNDS_ERROR they count as at the limit
+    lower = float(robot.lower_limits[3])
+    past = list(Q)
+    past[3] = lower - 0.9e-3
+    node.on_joint_states(joint_states(robot, past))
+    held = node.joint_states.held
+    assert held is not None and held.positions[3] == lower
+    assert list(held.positions[:3]) == list(Q[:3]) and list(held.positions[4:]) == list(Q[4:])
+    past[3] = lower - MEASURED_BOUNDS_ERROR - 1e-3  # farther: the state is wrong, refused whole
+    with pytest.raises(InvalidInput, match=r"joint_states.position\[3\]") as error:
+        node.on_joint_states(joint_states(robot, past))
+    assert "outside the limits" in str(error.value) and node.joint_states.held is held
 
 
 def test_duplicate_joint_names_are_refused(node: ManagerNode, robot: Any) -> None:

@@ -132,7 +132,10 @@ class SimArm:
             return np.array(state.positions)
 
     def _record(self, t: float, q: np.ndarray) -> None:
-        self.trail.append([t, *self.robot.forward_kinematics(q).position.tolist()])
+        # the physics may hold a joint a little past its limit (MuJoCo's limits are soft: panda_joint4 0.9 mrad below
+        # its lower one after teleop pressed it there): a measured state, taken as pfield takes one
+        measured = self.robot.check_measured_joint_angles(q, "positions")
+        self.trail.append([t, *self.robot.forward_kinematics(measured).position.tolist()])
 
     def report(self) -> dict[str, Any]:
         with self.lock:

@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 from pfield import FieldConfig, Obstacle, Pose, RobotModel, Sphere, Twist
 from pfield.errors import InvalidInput
 from pfield.robot.collision import capsule_clearances
+from pfield.robot.model import MEASURED_BOUNDS_ERROR
 from pfield.shared_control import AssistanceScene
 from pfield.shared_control.servo import LEAVING_MIN_SCALE, Servo, ServoStatus
 from pfield.shared_control.servo_config import ServoConfig
@@ -222,6 +223,22 @@ def test_bad_input_is_refused_and_changes_nothing(robot: RobotModel, empty_scene
         Servo(robot).step(q, 0.0)
     assert servo._command is state[0] and servo._positions is state[1] and servo._last_step == state[3]
     assert np.array_equal(servo._velocities, state[2]) and first.moving
+
+
+def test_a_measured_state_just_past_a_limit_is_taken_at_it(robot: RobotModel, empty_scene: AssistanceScene) -> None:
+    """A robot pressed against a limit reports positions past it (MuJoCo's Panda: panda_joint4 0.9 mrad below its
+    lower limit): the servo steps from the limit, jogs back inside and holds a jog further out; farther past
+    (beyond MEASURED_BOUNDS_ERROR) the state is refused."""
+    q = ready(robot)
+    q[3] = robot.lower_limits[3] - 0.9e-3
+    for direction, moves in ((1.0, True), (-1.0, False)):
+        servo = Servo(robot, ServoConfig(publish_period=PERIOD), empty_scene, arbitration="safety_only")
+        commands = _jog(servo, q, [0.0, 0.0, 0.0, 0.1 * direction, 0.0, 0.0, 0.0], 50)
+        assert all(c.positions[3] >= robot.lower_limits[3] for c in commands)
+        assert (commands[-1].velocities[3] > 0.0) if moves else (commands[-1].velocities[3] == 0.0)
+    q[3] = robot.lower_limits[3] - MEASURED_BOUNDS_ERROR - 1e-3
+    with pytest.raises(InvalidInput, match=r"joint_angles\[3\]"):
+        Servo(robot, ServoConfig(publish_period=PERIOD), empty_scene).step(q, 0.0)
 
 
 def _jog(servo: Servo, q: np.ndarray, velocities: list[float], steps: int) -> list[Any]:

@@ -2,9 +2,10 @@
 
 :class:`JointStateCache` keeps the latest ``sensor_msgs/JointState`` as joint angles in the robot model's tree
 order: a message may list the joints in any order and carry joints the model does not have (a gripper's, another
-arm's), which are ignored; it must name every joint of the model, with finite positions within the limits, else it
-is refused whole (``InvalidInput`` naming the field) and the previous state stays. Velocities are kept when the
-message has them for every joint. The age of a state is measured on the node's monotonic clock from the moment it
+arm's), which are ignored; it must name every joint of the model, with finite positions within the limits (a
+measured state: up to :data:`~pfield.robot.model.MEASURED_BOUNDS_ERROR` beyond one is taken at the limit), else it is
+refused whole (``InvalidInput`` naming the field) and the previous state stays. Velocities are kept when the message
+has them for every joint. The age of a state is measured on the node's monotonic clock from the moment it
 was received (the header stamp is the publisher's clock, which need not be this machine's).
 
 A request that leaves ``joint_angles`` empty is answered at :meth:`JointStateCache.latest`; a state older than
@@ -80,7 +81,8 @@ class JointStateCache:
             raise InvalidInput("joint_states.velocity", f"{len(velocities)} values",
                                f"must be empty or have one value per name ({len(names)} names)")
         index = self._order(names)
-        q = self.robot.check_joint_angles(np.asarray(positions, dtype=np.float64)[index], "joint_states.position")
+        q = self.robot.check_measured_joint_angles(np.asarray(positions, dtype=np.float64)[index],
+                                                   "joint_states.position")
         qd = None
         if velocities:
             picked = np.asarray(velocities, dtype=np.float64)[index]

@@ -8,7 +8,9 @@ Joint angles policy (every public entry point): a wrong count or a non-finite va
 :class:`~pfield.errors.InvalidInput`; an angle outside the URDF limits by more than
 ``LIMIT_TOLERANCE`` (1e-4 rad or m, the size of a float32 rounding of a ROS message) is **rejected**
 with an error naming the joint and its limits; smaller excursions are clamped onto the limit. Rejecting
-is safer than clamping: a configuration outside the limits means the caller's state is wrong.
+is safer than clamping: a configuration outside the limits means the caller's state is wrong. A *measured* state
+(:meth:`RobotModel.check_measured_joint_angles`: ``/joint_states``, the servo's input) may be up to
+``MEASURED_BOUNDS_ERROR`` beyond a limit and is then taken at the limit: a robot held there reports positions past it.
 """
 
 from __future__ import annotations
@@ -44,10 +46,17 @@ if TYPE_CHECKING:
     from pfield.geometry.resources import ResourceResolver
     from pfield.robot.geometry import RobotGeometry
 
-__all__ = ["LIMIT_TOLERANCE", "KinematicArrays", "RobotModel"]
+__all__ = ["LIMIT_TOLERANCE", "MEASURED_BOUNDS_ERROR", "KinematicArrays", "RobotModel"]
 
 _LOG = logging.getLogger(__name__)
 LIMIT_TOLERANCE = 1e-4
+MEASURED_BOUNDS_ERROR = 0.05
+"""rad or m: how far beyond a joint's limit a measured position is still taken, clamped onto the limit
+(:meth:`RobotModel.check_measured_joint_angles`; MoveIt's ``start_state_max_bounds_error``, 0.05 by default, lets its
+planners start that far out the same way). A robot held at a limit reports positions past it: its controller
+overshoots, its encoders round (the tests' MuJoCo Panda showed panda_joint4 0.9 mrad below its lower limit after
+teleop pressed it there); refusing those states left the servo without a state exactly where the operator has to
+steer back."""
 _NOT_FINITE, _BEYOND_LIMITS = _core_kinematics.LimitStatus.NotFinite, _core_kinematics.LimitStatus.BeyondLimits
 
 _BUILTIN_ALIASES: dict[str, dict[str, str]] = {"panda": {"ready": "default"}}
@@ -331,6 +340,19 @@ class RobotModel:
                                f"outside the limits of {self._joint_names[bad]} "
                                f"[{self._lower[bad]:.6g}, {self._upper[bad]:.6g}]")
         return values
+
+    def check_measured_joint_angles(self, q: ArrayLike, field: str = "joint_angles") -> NDArray[np.float64]:
+        """Validated copy of a *measured* ``q``: as :meth:`check_joint_angles`, except that a position at most
+        :data:`MEASURED_BOUNDS_ERROR` beyond a limit is taken at the limit (module docstring)."""
+        try:
+            values = np.array(q, dtype=np.float64)
+        except (TypeError, ValueError):
+            return self.check_joint_angles(q, field)  # raises the standard message
+        if values.shape != (self.n_joints,):
+            return self.check_joint_angles(q, field)
+        lower, upper = self._lower, self._upper
+        near = (values >= lower - MEASURED_BOUNDS_ERROR) & (values <= upper + MEASURED_BOUNDS_ERROR)  # NaN: not near
+        return self.check_joint_angles(np.where(near, np.clip(values, lower, upper), values), field)
 
     def pinocchio_configuration(self, q: ArrayLike) -> NDArray[np.float64]:
         """Pinocchio's configuration vector for angles ``q`` (continuous joints become (cos, sin))."""

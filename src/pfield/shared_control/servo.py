@@ -215,9 +215,10 @@ class Servo:
 
     # ---- the loop ---------------------------------------------------------------------------------------
     def step(self, joint_angles: ArrayLike, now: float, scene: AssistanceScene | None = None) -> ServoCommand:
-        """One cycle at time ``now`` (s) from the measured ``joint_angles`` (used when not streaming)."""
+        """One cycle at time ``now`` (s) from the measured ``joint_angles`` (used when not streaming; up to
+        :data:`~pfield.robot.model.MEASURED_BOUNDS_ERROR` past a limit taken at the limit)."""
         config = self.config
-        measured = self.robot.check_joint_angles(joint_angles, "joint_angles")
+        measured = self.robot.check_measured_joint_angles(joint_angles, "joint_angles")
         now = finite("now", now)
         scene = scene or self.scene
         if scene is None:
