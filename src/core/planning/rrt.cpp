@@ -101,6 +101,7 @@ CapsuleWorkspace::CapsuleWorkspace(const robot::RobotView& robot)
   const std::size_t caps = robot.links.capsule_count, prims = robot.links.primitive_count;
   double* ends = segment_ends.data();
   world = {ends, ends + 3 * caps, ends + 6 * caps, ends + 6 * caps + 3 * prims};
+  placement = {&robot.links, &frames, &world, placed.data()};
 }
 
 bool ForbiddenRegions::contains(const double* q) const {
@@ -122,7 +123,7 @@ bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, 
   const std::size_t count = obstacles.count();
   robot::joint_transforms(robot.kinematics, q, ws.frames);
   robot::capsule_segments(links, ws.frames, ws.world);
-  std::fill(ws.placed.begin(), ws.placed.end(), 0);
+  ws.placement.reset();
   for (std::size_t c = 0; c < links.capsule_count; ++c) {
     const Vec3 a = ws.world.capsule_a(c), b = ws.world.capsule_b(c);
     double half = 0.0;
@@ -144,13 +145,7 @@ bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, 
       const double lower = robot::capsule_lower_bound(obstacles, i, ws.world, links, c);
       if (lower >= need) continue;
       // the two-level distance; its fine level reads the link's primitives (robot/clearance.hpp's rule for when)
-      if (!ws.placed[c] && lower < robot::kFineRange + robot::kFineMargin) {
-        robot::world_segment_range(ws.frames, links.prim_joint, links.prim_a, links.prim_b,
-                                   static_cast<std::size_t>(links.link_start[c]),
-                                   static_cast<std::size_t>(links.link_start[c + 1]), ws.world.prim_a,
-                                   ws.world.prim_b);
-        ws.placed[c] = 1;
-      }
+      if (lower < robot::kFineRange + robot::kFineMargin) ws.placement.place(c);
       if (robot::link_obstacle_distance_below(links, ws.world, obstacles, c, i, need, need).distance < need)
         return false;
     }
@@ -170,20 +165,9 @@ bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, 
     const Vec3 apart = m1.middle - m2.middle;
     if (std::sqrt(dot(apart, apart)) - (m1.half + links.cap_r[l1]) - (m2.half + links.cap_r[l2]) >= need + kSphereSlack)
       continue;
-    if (robot::detail::segment_segment_distance(ws.world.capsule_a(l1), ws.world.capsule_b(l1), ws.world.capsule_a(l2),
-                                        ws.world.capsule_b(l2)) -
-            links.cap_r[l1] - links.cap_r[l2] >=
-        need)
-      continue;
-    for (const std::size_t l : {l1, l2}) {
-      if (ws.placed[l]) continue;
-      robot::world_segment_range(ws.frames, links.prim_joint, links.prim_a, links.prim_b,
-                                 static_cast<std::size_t>(links.link_start[l]),
-                                 static_cast<std::size_t>(links.link_start[l + 1]), ws.world.prim_a, ws.world.prim_b);
-      ws.placed[l] = 1;
-    }
-    // "not below need" comes back as need itself: compared with need, not as distance - offset < margin
-    if (robot::fitted_pair_distance_below(links, ws.world, l1, l2, need).distance < need) return false;
+    // then the capsules, whose primitives are placed only when the pair gets that far; "not below need" comes back
+    // as need itself or more: compared with need, not as distance - offset < margin
+    if (robot::fitted_pair_distance_below(links, ws.world, l1, l2, need, &ws.placement).distance < need) return false;
   }
   return true;
 }

@@ -71,6 +71,7 @@ struct CapsuleWorkspace {
   std::vector<AxisMiddle> middles;         // (caps,) each capsule's axis for this q
   robot::Frames frames;
   robot::WorldSegments world;
+  robot::PrimitivePlacement placement;     // places a link's primitives on first use (flags: placed)
 };
 
 // Whether configuration q keeps every link-obstacle pair (c, i) at least margin + obstacle_offsets[c, i] apart and

@@ -77,14 +77,17 @@ void self_rows(const robot::RobotView& robot, const WholeBodyScene& scene, const
   double clearance = kInf;
   std::int64_t nearest = -1;
   double* jlin2 = ws.jlin2.data();
-  // the fitted level needs every primitive in the world (the step placed those near obstacles only)
-  if (scene.fitted_self && links.pair_count > 0) robot::primitive_segments(links, ws.frames, ws.world);
+  // the fitted level needs the primitives of the links in pairs whose bounding capsules come within the influence
+  // distance (the step placed those near obstacles only): placed by the pair that first needs them
+  robot::PrimitivePlacement placement{&links, &ws.frames, &ws.world, ws.placed.data()};
+  placement.reset();
   for (std::size_t k = 0; k < links.pair_count; ++k) {
     const auto c1 = static_cast<std::size_t>(links.self_pairs[2 * k]);
     const auto c2 = static_cast<std::size_t>(links.self_pairs[2 * k + 1]);
     // below the influence distance exactly; a farther pair (d >= its distance) gives no row either way
     const robot::LinkPairDistance pair = scene.fitted_self
-                                             ? robot::fitted_pair_distance_below(links, ws.world, c1, c2, influence)
+                                             ? robot::fitted_pair_distance_below(links, ws.world, c1, c2, influence,
+                                                                                 &placement)
                                              : robot::link_pair_distance(links, ws.world, c1, c2);
     const double d = hold ? py_max(pair.distance, safety) : pair.distance - scene.self_offsets[k];
     if (d < clearance) {
@@ -175,6 +178,7 @@ WholeBodyWorkspace::WholeBodyWorkspace(std::size_t joints, std::size_t capsules,
       free(joints),
       limited(joints),
       segment_ends(6 * (capsules + primitives)),
+      placed(capsules),
       qp(max_rows, joints),
       frames{rotations.data(), origins.data()},
       world{segment_ends.data(), segment_ends.data() + 3 * capsules, segment_ends.data() + 6 * capsules,

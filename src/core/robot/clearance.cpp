@@ -165,8 +165,18 @@ LinkPairDistance link_pair_distance(const LinkModelView& links, const WorldSegme
                       world.capsule_b(l2), links.self_r[l2]);
 }
 
+void PrimitivePlacement::reset() const { std::fill(placed, placed + links->capsule_count, 0); }
+
+void PrimitivePlacement::place(std::size_t link) const {
+  if (placed[link]) return;
+  world_segment_range(*frames, links->prim_joint, links->prim_a, links->prim_b,
+                      static_cast<std::size_t>(links->link_start[link]),
+                      static_cast<std::size_t>(links->link_start[link + 1]), world->prim_a, world->prim_b);
+  placed[link] = 1;
+}
+
 LinkPairDistance fitted_pair_distance_below(const LinkModelView& links, const WorldSegments& world, std::size_t l1,
-                                            std::size_t l2, double cutoff) {
+                                            std::size_t l2, double cutoff, PrimitivePlacement* placement) {
   const Vec3 a1 = world.capsule_a(l1), b1 = world.capsule_b(l1), a2 = world.capsule_a(l2), b2 = world.capsule_b(l2);
   const LinkPairDistance bounding = segment_pair(a1, b1, links.cap_r[l1], a2, b2, links.cap_r[l2]);
   const auto first1 = static_cast<std::size_t>(links.link_start[l1]);
@@ -174,6 +184,10 @@ LinkPairDistance fitted_pair_distance_below(const LinkModelView& links, const Wo
   const auto first2 = static_cast<std::size_t>(links.link_start[l2]);
   const auto stop2 = static_cast<std::size_t>(links.link_start[l2 + 1]);
   if (bounding.distance >= cutoff || first1 == stop1 || first2 == stop2) return bounding;
+  if (placement != nullptr) {
+    placement->place(l1);
+    placement->place(l2);
+  }
   // the primitives of l2 that reach below the cutoff from l1's bounding capsule (it contains l1's primitives)
   thread_local std::vector<std::size_t> near;
   near.clear();

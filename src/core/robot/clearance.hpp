@@ -183,8 +183,25 @@ LinkPairDistance link_pair_distance(const LinkModelView& links, const WorldSegme
 // forearm's (8 cm about a 0.4 m axis) overlaps the wrist's by up to 4.4 cm along motions whose meshes are clear, and
 // the global search, whose goals fold the wrist over the forearm, found no path in 10 s where it finds one in 0.1 s
 // on the fitted primitives.
+//
+// `placement` (optional): moves a link's primitives into the world when the pair first needs them, so that a caller
+// places only the links of pairs whose bounding capsules come within the cutoff (without it, world.prim_* must
+// already hold them, as above).
+struct PrimitivePlacement;
 LinkPairDistance fitted_pair_distance_below(const LinkModelView& links, const WorldSegments& world, std::size_t l1,
-                                            std::size_t l2, double cutoff);
+                                            std::size_t l2, double cutoff, PrimitivePlacement* placement = nullptr);
+
+// Which links' primitives are in the world at the current joint frames; place(link) moves a link's there once.
+// reset() at every new configuration (the frames changed).
+struct PrimitivePlacement {
+  const LinkModelView* links = nullptr;
+  const Frames* frames = nullptr;
+  const WorldSegments* world = nullptr;
+  unsigned char* placed = nullptr;  // (caps,) flags
+
+  void reset() const;
+  void place(std::size_t link) const;
+};
 
 // fitted_pair_distance_below for every self pair at configuration q (n,), exact (no cutoff), into own (pairs,).
 void fitted_self_clearances_at(const KinematicsView& kinematics, const LinkModelView& links, const double* q,
