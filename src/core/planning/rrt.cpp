@@ -102,6 +102,17 @@ CapsuleWorkspace::CapsuleWorkspace(const robot::RobotView& robot)
   double* ends = segment_ends.data();
   world = {ends, ends + 3 * caps, ends + 6 * caps, ends + 6 * caps + 3 * prims};
   placement = {&robot.links, &frames, &world, placed.data()};
+  // runs of two or more capsules on the same joint (the link model lists a joint's capsules together)
+  const std::int64_t* joint = robot.links.cap_joint;
+  group_of.assign(caps, -1);
+  for (std::size_t c = 0, end = 0; c < caps; c = end) {
+    for (end = c + 1; end < caps && joint[end] == joint[c];) ++end;
+    if (end - c < 2) continue;
+    std::fill(group_of.begin() + static_cast<std::ptrdiff_t>(c), group_of.begin() + static_cast<std::ptrdiff_t>(end),
+              static_cast<std::int64_t>(groups.size()));
+    groups.push_back({});
+    group_share.push_back(1.0 / static_cast<double>(end - c));
+  }
 }
 
 bool ForbiddenRegions::contains(const double* q) const {
@@ -114,6 +125,33 @@ bool ForbiddenRegions::contains(const double* q) const {
   }
   return false;
 }
+
+namespace {
+
+// (m) how far beyond its sphere a group's obstacle distance is computed exactly (the signed distances answer with a
+// lower bound beyond their cutoff, which is all the test needs): more than any margin and offset
+constexpr double kGroupReach = 1.0;
+
+// Each group's bounding sphere at this q: centred at the mean of its capsules' axis midpoints, reaching the
+// farthest capsule surface; the group distances marked not yet computed.
+void group_spheres(const robot::LinkModelView& links, CapsuleWorkspace& ws, std::size_t obstacle_count) {
+  if (ws.groups.empty()) return;
+  for (AxisMiddle& sphere : ws.groups) sphere = {{0.0, 0.0, 0.0}, 0.0};
+  for (std::size_t c = 0; c < links.capsule_count; ++c) {
+    if (ws.group_of[c] < 0) continue;
+    const auto g = static_cast<std::size_t>(ws.group_of[c]);
+    ws.groups[g].middle = ws.groups[g].middle + ws.group_share[g] * ws.middles[c].middle;
+  }
+  for (std::size_t c = 0; c < links.capsule_count; ++c) {
+    if (ws.group_of[c] < 0) continue;
+    AxisMiddle& sphere = ws.groups[static_cast<std::size_t>(ws.group_of[c])];
+    const Vec3 apart = ws.middles[c].middle - sphere.middle;
+    sphere.half = py_max(sphere.half, std::sqrt(dot(apart, apart)) + ws.middles[c].half + links.cap_r[c]);
+  }
+  ws.group_distance.assign(ws.groups.size() * obstacle_count, std::numeric_limits<double>::quiet_NaN());
+}
+
+}  // namespace
 
 bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, const double* q, double margin,
                     CapsuleWorkspace& ws) {
@@ -132,11 +170,23 @@ bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, 
     half += (b.z - a.z) * (b.z - a.z);
     ws.middles[c] = {{0.5 * (a.x + b.x), 0.5 * (a.y + b.y), 0.5 * (a.z + b.z)}, 0.5 * std::sqrt(half)};
   }
+  group_spheres(links, ws, count);
   for (std::size_t c = 0; c < links.capsule_count; ++c) {
     const AxisMiddle& axis = ws.middles[c];
     const double radius = links.cap_r[c];
+    const std::int64_t group = ws.group_of[c];
+    double* group_distance = group >= 0 ? ws.group_distance.data() + static_cast<std::size_t>(group) * count : nullptr;
     for (std::size_t i = 0; i < count; ++i) {
       const double need = margin + scene.obstacle_offsets[c * count + i];
+      // the group's sphere first (computed once per obstacle and q): a lower bound of every member's distance
+      if (group_distance != nullptr) {
+        if (std::isnan(group_distance[i])) {
+          const AxisMiddle& sphere = ws.groups[static_cast<std::size_t>(group)];
+          group_distance[i] = geometry::obstacle_distance(packed, i, sphere.middle, sphere.half + kGroupReach) -
+                              sphere.half;
+        }
+        if (group_distance[i] >= need + kSphereSlack) continue;
+      }
       // the signed distance at the axis's midpoint first: for a long box (a cage's bar, a shelf) the obstacle's
       // bounding sphere bounds nothing, and for a sphere it is the two bounding spheres' distance. Its cutoff: a
       // mesh or an ellipsoid farther than the test needs answers with a lower bound, not its exact distance.
