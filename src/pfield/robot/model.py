@@ -325,6 +325,16 @@ class RobotModel:
     # ---- validation -------------------------------------------------------------------------------------
     def check_joint_angles(self, q: ArrayLike, field: str = "joint_angles") -> NDArray[np.float64]:
         """Validated copy of ``q`` (see the module docstring for the limits policy)."""
+        return self._checked_angles(q, field, LIMIT_TOLERANCE)
+
+    def check_measured_joint_angles(self, q: ArrayLike, field: str = "joint_angles") -> NDArray[np.float64]:
+        """Validated copy of a *measured* ``q``: as :meth:`check_joint_angles`, except that a position at most
+        :data:`MEASURED_BOUNDS_ERROR` beyond a limit is taken at the limit (module docstring)."""
+        return self._checked_angles(q, field, MEASURED_BOUNDS_ERROR)
+
+    def _checked_angles(self, q: ArrayLike, field: str, tolerance: float) -> NDArray[np.float64]:
+        """``q`` as a float64 copy of n finite values, each at most ``tolerance`` beyond its limits and clamped onto
+        them (the core's check_limits), else ``InvalidInput`` naming the field."""
         try:
             values = np.array(q, dtype=np.float64)
         except (TypeError, ValueError):
@@ -332,7 +342,7 @@ class RobotModel:
         if values.shape != (self.n_joints,):
             as_vector(field, q, self.n_joints)  # raises the standard message (count / not numbers)
             values = np.array(values, dtype=np.float64).reshape(-1)
-        status, bad = self._core_kinematics.check_limits(values, LIMIT_TOLERANCE)
+        status, bad = self._core_kinematics.check_limits(values, tolerance)
         if status is _NOT_FINITE:
             raise InvalidInput(field, q, "must be finite (no NaN or inf)")
         if status is _BEYOND_LIMITS:
@@ -340,19 +350,6 @@ class RobotModel:
                                f"outside the limits of {self._joint_names[bad]} "
                                f"[{self._lower[bad]:.6g}, {self._upper[bad]:.6g}]")
         return values
-
-    def check_measured_joint_angles(self, q: ArrayLike, field: str = "joint_angles") -> NDArray[np.float64]:
-        """Validated copy of a *measured* ``q``: as :meth:`check_joint_angles`, except that a position at most
-        :data:`MEASURED_BOUNDS_ERROR` beyond a limit is taken at the limit (module docstring)."""
-        try:
-            values = np.array(q, dtype=np.float64)
-        except (TypeError, ValueError):
-            return self.check_joint_angles(q, field)  # raises the standard message
-        if values.shape != (self.n_joints,):
-            return self.check_joint_angles(q, field)
-        lower, upper = self._lower, self._upper
-        near = (values >= lower - MEASURED_BOUNDS_ERROR) & (values <= upper + MEASURED_BOUNDS_ERROR)  # NaN: not near
-        return self.check_joint_angles(np.where(near, np.clip(values, lower, upper), values), field)
 
     def pinocchio_configuration(self, q: ArrayLike) -> NDArray[np.float64]:
         """Pinocchio's configuration vector for angles ``q`` (continuous joints become (cos, sin))."""
