@@ -16,6 +16,12 @@
 namespace pfield::planning {
 namespace {
 
+// Primitive placement into ws.world at ws.frames, its flags ws.placed: which links this configuration has placed
+// (step_segments resets them; all_segments sets them all).
+robot::PrimitivePlacement primitive_placement(const robot::LinkModelView& links, WholeBodyWorkspace& ws) {
+  return {&links, &ws.frames, &ws.world, ws.placed.data()};
+}
+
 using field::stepped_damper_speed;
 using math::Quat;
 using math::Vec3;
@@ -78,9 +84,8 @@ void self_rows(const robot::RobotView& robot, const WholeBodyScene& scene, const
   std::int64_t nearest = -1;
   double* jlin2 = ws.jlin2.data();
   // the fitted level needs the primitives of the links in pairs whose bounding capsules come within the influence
-  // distance (the step placed those near obstacles only): placed by the pair that first needs them
-  robot::PrimitivePlacement placement{&links, &ws.frames, &ws.world, ws.placed.data()};
-  placement.reset();
+  // distance: placed by the pair that first needs them, unless step_segments placed them (near an obstacle)
+  const robot::PrimitivePlacement placement = primitive_placement(links, ws);
   for (std::size_t k = 0; k < links.pair_count; ++k) {
     const auto c1 = static_cast<std::size_t>(links.self_pairs[2 * k]);
     const auto c2 = static_cast<std::size_t>(links.self_pairs[2 * k + 1]);
@@ -229,11 +234,14 @@ void task(const robot::RobotView& robot, const Goal& goal, const WholeBodyParams
 void all_segments(const robot::RobotView& robot, WholeBodyWorkspace& ws) {
   robot::capsule_segments(robot.links, ws.frames, ws.world);
   robot::primitive_segments(robot.links, ws.frames, ws.world);
+  std::fill(ws.placed.begin(), ws.placed.end(), 1);
 }
 
 void step_segments(const robot::RobotView& robot, const WholeBodyScene& scene, WholeBodyWorkspace& ws) {
   robot::capsule_segments(robot.links, ws.frames, ws.world);
-  robot::near_segments(robot.links, ws.frames, scene.obstacles, ws.world);
+  const robot::PrimitivePlacement placement = primitive_placement(robot.links, ws);
+  placement.reset();
+  robot::near_segments(robot.links, ws.frames, scene.obstacles, ws.world, &placement);
 }
 
 std::size_t velocity_from_segments(const double* q, const double* previous, const robot::RobotView& robot,

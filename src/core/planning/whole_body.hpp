@@ -125,7 +125,7 @@ struct WholeBodyWorkspace {
   std::vector<double> free;         // (n,) the null-space repulsion qd_rep
   std::vector<double> limited;      // (n,) qd under the rate limit
   std::vector<double> segment_ends; // world ends: capsules a, b (caps, 3) each, then primitives a, b (prims, 3)
-  std::vector<unsigned char> placed;  // (caps,) whose primitives the self pairs placed this step
+  std::vector<unsigned char> placed;  // (caps,) the links whose primitives are in `world` for this step's frames
   math::QpWorkspace qp;
   StepResult result{};
   robot::Frames frames;             // views of rotations / origins

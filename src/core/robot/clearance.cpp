@@ -55,16 +55,15 @@ void primitive_segments(const LinkModelView& links, const Frames& frames, WorldS
 }
 
 void near_segments(const LinkModelView& links, const Frames& frames, const ObstacleSet& obstacles,
-                   WorldSegments& world) {
+                   WorldSegments& world, const PrimitivePlacement* placement) {
+  const PrimitivePlacement unflagged{&links, &frames, &world, nullptr};
+  const PrimitivePlacement& place = placement != nullptr ? *placement : unflagged;
   const std::size_t count = obstacles.count();
   for (std::size_t link = 0; link < links.capsule_count; ++link) {
     bool near = false;
     for (std::size_t i = 0; i < count && !near; ++i)
       near = capsule_lower_bound(obstacles, i, world, links, link) < kFineRange + kFineMargin;
-    if (near)
-      world_segment_range(frames, links.prim_joint, links.prim_a, links.prim_b,
-                          static_cast<std::size_t>(links.link_start[link]),
-                          static_cast<std::size_t>(links.link_start[link + 1]), world.prim_a, world.prim_b);
+    if (near) place.place(link);
   }
 }
 
@@ -165,18 +164,20 @@ LinkPairDistance link_pair_distance(const LinkModelView& links, const WorldSegme
                       world.capsule_b(l2), links.self_r[l2]);
 }
 
-void PrimitivePlacement::reset() const { std::fill(placed, placed + links->capsule_count, 0); }
+void PrimitivePlacement::reset() const {
+  if (placed != nullptr) std::fill(placed, placed + links->capsule_count, 0);
+}
 
 void PrimitivePlacement::place(std::size_t link) const {
-  if (placed[link]) return;
+  if (placed != nullptr && placed[link]) return;
   world_segment_range(*frames, links->prim_joint, links->prim_a, links->prim_b,
                       static_cast<std::size_t>(links->link_start[link]),
                       static_cast<std::size_t>(links->link_start[link + 1]), world->prim_a, world->prim_b);
-  placed[link] = 1;
+  if (placed != nullptr) placed[link] = 1;
 }
 
 LinkPairDistance fitted_pair_distance_below(const LinkModelView& links, const WorldSegments& world, std::size_t l1,
-                                            std::size_t l2, double cutoff, PrimitivePlacement* placement) {
+                                            std::size_t l2, double cutoff, const PrimitivePlacement* placement) {
   const Vec3 a1 = world.capsule_a(l1), b1 = world.capsule_b(l1), a2 = world.capsule_a(l2), b2 = world.capsule_b(l2);
   const LinkPairDistance bounding = segment_pair(a1, b1, links.cap_r[l1], a2, b2, links.cap_r[l2]);
   const auto first1 = static_cast<std::size_t>(links.link_start[l1]);

@@ -124,8 +124,10 @@ inline double capsule_lower_bound(const ObstacleSet& obstacles, std::size_t i, c
 // only links whose cheap bound is below kFineRange + kFineMargin for some obstacle. The others keep stale values
 // that link_obstacle_distance_below never reads: their capsule level answers (its distance is at least the cheap
 // bound, so at least kFineRange; the margin covers rounding). Without obstacles nothing is transformed.
+// `placement` (optional): places through it, so that its flags record the links placed for this configuration.
+struct PrimitivePlacement;
 void near_segments(const LinkModelView& links, const Frames& frames, const ObstacleSet& obstacles,
-                   WorldSegments& world);
+                   WorldSegments& world, const PrimitivePlacement* placement = nullptr);
 
 // The coarse level: the bounding capsule (axis a-b, radius) against obstacle i. At kFineRange or farther the
 // capsule's distance stands for the pair (exact, the closest point on the capsule's axis); nearer, not exact and
@@ -187,17 +189,18 @@ LinkPairDistance link_pair_distance(const LinkModelView& links, const WorldSegme
 // `placement` (optional): moves a link's primitives into the world when the pair first needs them, so that a caller
 // places only the links of pairs whose bounding capsules come within the cutoff (without it, world.prim_* must
 // already hold them, as above).
-struct PrimitivePlacement;
 LinkPairDistance fitted_pair_distance_below(const LinkModelView& links, const WorldSegments& world, std::size_t l1,
-                                            std::size_t l2, double cutoff, PrimitivePlacement* placement = nullptr);
+                                            std::size_t l2, double cutoff,
+                                            const PrimitivePlacement* placement = nullptr);
 
-// Which links' primitives are in the world at the current joint frames; place(link) moves a link's there once.
-// reset() at every new configuration (the frames changed).
+// The one way a link's fitted primitives are moved into the world at the current joint frames: place(link). With
+// flags, which links are there for this configuration, each placed once (reset() at every new configuration: the
+// frames changed); without (placed null), every call places.
 struct PrimitivePlacement {
   const LinkModelView* links = nullptr;
   const Frames* frames = nullptr;
   const WorldSegments* world = nullptr;
-  unsigned char* placed = nullptr;  // (caps,) flags
+  unsigned char* placed = nullptr;  // (caps,) flags, or null
 
   void reset() const;
   void place(std::size_t link) const;
