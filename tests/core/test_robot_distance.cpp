@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "geometry/packed.hpp"
@@ -63,6 +64,39 @@ TEST(closest_points_of_crossing_parallel_and_degenerate_segments) {
   CHECK(point_segment_distance({2, 0, 0}, {0, 0, 0}, {1, 0, 0}) == 1.0);      // beyond the end
   CHECK(point_segment_distance({0, 0.5, 0}, {1, 0, 0}, {1, 0, 0}) == std::sqrt(1.25));  // a point segment
   CHECK(closest_parameter({0.5, 0, 0}, {1e-8, 0, 0}, 1e-16) == 0.0);      // shorter than 1e-7 m: a point
+}
+
+// The batch form the fitted self pairs cull with is the pairwise distance bit for bit, in every branch: skew and
+// crossing segments, t clamped below and above, parallel ones, point segments on either side, against a proper
+// and a degenerate second segment, and rows after an offset `first`.
+TEST(segment_distances_to_a_segment_are_the_pairwise_distances_bit_for_bit) {
+  std::vector<double> a, b;
+  const auto add = [&](Vec3 p, Vec3 q) {
+    a.insert(a.end(), {p.x, p.y, p.z});
+    b.insert(b.end(), {q.x, q.y, q.z});
+  };
+  add({0, 0, 0}, {1, 0, 0});             // not used: before `first`
+  add({0.5, -1, 1}, {0.5, 1, 1});        // crossing above the middle
+  add({0.25, 1, 0}, {2, 1, 0});          // parallel
+  add({-3, 0.5, 0}, {-2, 0.5, 0.3});     // beyond the start: t clamped to 0
+  add({3, 0.5, 0}, {4, -0.5, 0.3});      // beyond the end: t clamped to 1
+  add({0.5, 0.5, 0}, {0.5, 0.5, 0});     // a point
+  add({0.3, 0.2, 0.1}, {0.3, 0.2, 0.1 + 1e-8});  // shorter than 1e-7 m: a point
+  std::uint64_t random = 0x9E3779B97F4A7C15ULL;  // and skew segments at random (xorshift64)
+  const auto next = [&] {
+    random ^= random << 13, random ^= random >> 7, random ^= random << 17;
+    return static_cast<double>(random >> 11) * (4.0 / 9007199254740992.0) - 2.0;
+  };
+  for (int k = 0; k < 40; ++k) add({next(), next(), next()}, {next(), next(), next()});
+  const std::size_t rows = a.size() / 3;
+  for (const auto& [p2, q2] : {std::pair<Vec3, Vec3>{{0, 0, 0}, {1, 0, 0}}, {{0.1, 0.2, 0.3}, {-0.4, 0.9, 0.2}},
+                               {{0.2, 0.1, 0}, {0.2, 0.1, 0}}}) {
+    std::vector<double> out(rows - 1, -1.0);
+    segment_distances_to(a.data(), b.data(), 1, rows, p2, q2, out.data());
+    for (std::size_t k = 1; k < rows; ++k)
+      CHECK(out[k - 1] == segment_segment_distance({a[3 * k], a[3 * k + 1], a[3 * k + 2]},
+                                                   {b[3 * k], b[3 * k + 1], b[3 * k + 2]}, p2, q2));
+  }
 }
 
 TEST(segments_beside_through_and_along_round_obstacles) {

@@ -36,11 +36,31 @@ LinkObstacleDistance bound_only(double distance, ClearanceLevel level) {
 
 void world_segment_range(const Frames& frames, const std::int64_t* joints, const double* a, const double* b,
                          std::size_t start, std::size_t stop, double* out_a, double* out_b) {
-  for (std::size_t c = start; c < stop; ++c) {
-    const Vec3 wa = transform_point(frames, joints[c], point_at(a, c));  // joint -1: the base, the end as is
-    const Vec3 wb = transform_point(frames, joints[c], point_at(b, c));
-    out_a[3 * c] = wa.x, out_a[3 * c + 1] = wa.y, out_a[3 * c + 2] = wa.z;
-    out_b[3 * c] = wb.x, out_b[3 * c + 1] = wb.y, out_b[3 * c + 2] = wb.z;
+  // a run of segments on one joint (a link's primitives) with that joint's frame in registers, as transform_point
+  // computes each coordinate (the same bits), so that the loop runs in SIMD lanes
+  for (std::size_t c = start, end = start; c < stop; c = end) {
+    const std::int64_t joint = joints[c];
+    for (end = c + 1; end < stop && joints[end] == joint;) ++end;
+    if (joint < 0) {  // the base: the ends as they are
+      std::copy(a + 3 * c, a + 3 * end, out_a + 3 * c);
+      std::copy(b + 3 * c, b + 3 * end, out_b + 3 * c);
+      continue;
+    }
+    const double* rotation = frames.rotation(joint);
+    const double r0 = rotation[0], r1 = rotation[1], r2 = rotation[2], r3 = rotation[3], r4 = rotation[4];
+    const double r5 = rotation[5], r6 = rotation[6], r7 = rotation[7], r8 = rotation[8];
+    const double o0 = frames.origins[3 * joint], o1 = frames.origins[3 * joint + 1], o2 = frames.origins[3 * joint + 2];
+#pragma omp simd
+    for (std::size_t k = c; k < end; ++k) {
+      const double ax = a[3 * k], ay = a[3 * k + 1], az = a[3 * k + 2];
+      const double bx = b[3 * k], by = b[3 * k + 1], bz = b[3 * k + 2];
+      out_a[3 * k] = r0 * ax + r1 * ay + r2 * az + o0;
+      out_a[3 * k + 1] = r3 * ax + r4 * ay + r5 * az + o1;
+      out_a[3 * k + 2] = r6 * ax + r7 * ay + r8 * az + o2;
+      out_b[3 * k] = r0 * bx + r1 * by + r2 * bz + o0;
+      out_b[3 * k + 1] = r3 * bx + r4 * by + r5 * bz + o1;
+      out_b[3 * k + 2] = r6 * bx + r7 * by + r8 * bz + o2;
+    }
   }
 }
 
@@ -189,20 +209,23 @@ LinkPairDistance fitted_pair_distance_below(const LinkModelView& links, const Wo
     placement->place(l1);
     placement->place(l2);
   }
-  // the primitives of l2 that reach below the cutoff from l1's bounding capsule (it contains l1's primitives)
+  // each link's primitives measured against the other's bounding capsule (which contains the other's primitives),
+  // in one vectorised pass each: l2's that reach below the cutoff from l1's capsule are the candidates
+  thread_local std::vector<double> apart;
   thread_local std::vector<std::size_t> near;
+  apart.resize(std::max(stop1 - first1, stop2 - first2));
+  detail::segment_distances_to(world.prim_a, world.prim_b, first2, stop2, a1, b1, apart.data());
   near.clear();
   for (std::size_t j = first2; j < stop2; ++j)
-    if (detail::segment_segment_distance(row3(world.prim_a, j), row3(world.prim_b, j), a1, b1) - links.prim_r[j] -
-            links.cap_r[l1] <
-        cutoff)
-      near.push_back(j);
+    if (apart[j - first2] - links.prim_r[j] - links.cap_r[l1] < cutoff) near.push_back(j);
   LinkPairDistance best{cutoff, bounding.first, bounding.second};  // "not below the cutoff" unless a pair is
-  for (std::size_t i = first1; i < stop1 && !near.empty(); ++i) {
-    const Vec3 pa = row3(world.prim_a, i), pb = row3(world.prim_b, i);
+  if (near.empty()) return best;
+  detail::segment_distances_to(world.prim_a, world.prim_b, first1, stop1, a2, b2, apart.data());
+  for (std::size_t i = first1; i < stop1; ++i) {
     const double ri = links.prim_r[i];
     // l2's bounding capsule contains its primitives: none of them is nearer primitive i than it
-    if (detail::segment_segment_distance(pa, pb, a2, b2) - ri - links.cap_r[l2] >= best.distance) continue;
+    if (apart[i - first1] - ri - links.cap_r[l2] >= best.distance) continue;
+    const Vec3 pa = row3(world.prim_a, i), pb = row3(world.prim_b, i);
     for (const std::size_t j : near) {
       const LinkPairDistance d =
           segment_pair(pa, pb, ri, row3(world.prim_a, j), row3(world.prim_b, j), links.prim_r[j]);

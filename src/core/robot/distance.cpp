@@ -127,6 +127,11 @@ double segment_segment_distance(Vec3 p1, Vec3 q1, Vec3 p2, Vec3 q2) {
   return detail::segment_segment_distance(p1, q1, p2, q2);
 }
 
+void segment_distances_to(const double* a, const double* b, std::size_t first, std::size_t stop, Vec3 p2, Vec3 q2,
+                          double* out) {
+  detail::segment_distances_to(a, b, first, stop, p2, q2, out);
+}
+
 double box_minimiser(const PackedView& packed, std::size_t i, Vec3 a, Vec3 b) {
   const double* row = packed.row(i);
   const LocalSegment s = local_segment(row, a, b);
