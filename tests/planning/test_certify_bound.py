@@ -126,6 +126,29 @@ def test_covering_bound_is_never_above_coal(name: str) -> None:
     assert below > 0 and proxied_cleared > 0  # the bound clears pairs, it is not −inf everywhere
 
 
+@pytest.mark.parametrize("name", ["panda", pytest.param("ur5", marks=needs_ur5)])
+def test_one_sided_self_distances_are_lower_bounds_with_the_meshes_sign(name: str) -> None:
+    """The certificate's self pairs whose hulls touch (``pair_distances(lower=True)``): a positive value never
+    above the meshes' distance, and no contact where the meshes have none; where the meshes touch, their own
+    answer. At random configurations of the UR5 the one-sided distance answers (positive below the meshes' value)
+    for some pairs, its forearm and wrist_2 among them (the Panda's hulls touch at none of these)."""
+    robot = _robot(name)
+    checker = CollisionChecker(robot)
+    own = np.flatnonzero(checker.self_pair)
+    rng = np.random.default_rng(3)
+    answered = set()
+    for _ in range(40):
+        q = _random_q(robot, rng)
+        exact = checker.pair_distances(q, own)
+        lower = checker.pair_distances(q, own, lower=True)
+        clear = exact > 0.0
+        assert np.all(lower[clear] > 0.0) and np.all(lower[clear] <= exact[clear] + 1e-9)
+        np.testing.assert_array_equal(lower[~clear], exact[~clear])
+        answered |= {checker.pair_names[p] for p in own[clear & (lower < exact)]}
+    if name == "ur5":
+        assert any(pair.startswith("forearm_link") and "wrist_2_link" in pair for pair in answered), answered
+
+
 def _plain_verdict(checker: CollisionChecker, qs: np.ndarray) -> tuple[int, int, float] | None:
     """Coal on every pair at every grid configuration: (first grid index in contact, its closest pair, distance)."""
     grid, _, _ = resolution_grid(qs, 0.01)

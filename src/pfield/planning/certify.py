@@ -21,8 +21,10 @@ link's covering capsule (the axis of :mod:`pfield.robot.geometry`'s, the radius 
 the capsules' distance (segment–obstacle signed distance, exact for spheres, capsules, boxes and, within
 2^-20 of the axis length, cylinders; segment–segment for self pairs) never exceeds the exact one. The same
 advancement runs on it; only the grid points it cannot clear go to the second stage, coal on the link meshes'
-convex hulls (where they touch, the meshes), whose distances advance again. A grid point is declared in contact
-only by coal, so the verdict, the first contact and its pair are those of coal on every pair at every grid point.
+convex hulls (where two links' hulls touch, one mesh against the other's hull, and where that is not positive
+either, the meshes: :meth:`CollisionChecker.pair_distances` with ``lower``), whose distances advance again. A grid
+point is declared in contact only by coal, so the verdict, the first contact and its pair are those of coal on
+every pair at every grid point.
 
 Contact (distance ≤ 0) at a grid point fails the certificate, naming the pair, the waypoint and where.
 """
@@ -135,7 +137,7 @@ def certify_path(robot: RobotModel, obstacles: Sequence[Obstacle], joint_positio
         if index >= n_points:
             break
         pairs = np.flatnonzero(due == index)
-        distances = checker.pair_distances(grid[index], pairs, _REFINE)
+        distances = checker.pair_distances(grid[index], pairs, _REFINE, lower=True)
         placements, calls = placements + 1, calls + len(pairs)
         worst = int(np.argmin(distances))
         if distances[worst] <= 0.0:
