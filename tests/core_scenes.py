@@ -15,8 +15,12 @@ import trimesh
 from pfield.geometry import Box, Capsule, Cylinder, Ellipsoid, Mesh, Sphere
 from pfield.robot import RobotModel
 
-UR5 = Path(__file__).resolve().parents[2] / "shared" / "benchmarks" / "mbm" / "ur5"
+MBM = Path(__file__).resolve().parents[2] / "shared" / "benchmarks" / "mbm"
+UR5 = MBM / "ur5"
+PANDA_PROBLEMS = MBM / "panda_problems_dev.tar.bz2"
 needs_ur5 = pytest.mark.skipif(not (UR5 / "ur5.urdf").exists(), reason="the UR5 benchmark files are not here")
+needs_panda_problems = pytest.mark.skipif(not PANDA_PROBLEMS.exists(),
+                                          reason="the Panda's MotionBenchMaker problems are not here")
 UR5_FOREARM_WRIST_2 = np.array([-0.395, -0.366, 1.431, 1.929, -1.037, -0.057])
 """A UR5 configuration where the meshes of forearm_link and wrist_2_link intersect (a pair the SRDF keeps)."""
 
@@ -59,17 +63,27 @@ UR5_ARM = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_
            "wrist_3_joint")
 
 
+PANDA_ARM = tuple(f"panda_joint{k}" for k in range(1, 8))
+
+
 def ur5_problem(scene: str, index: int) -> tuple[list[Any], np.ndarray, np.ndarray]:
     """Obstacles, start and goal joints (:data:`UR5_ARM`) of one problem of the UR5's MotionBenchMaker archive, read
     straight from the tarball."""
+    return mbm_problem(UR5 / "ur5_problems.tar.bz2", scene, index, UR5_ARM, "base_link")
+
+
+def mbm_problem(path: Path, scene: str, index: int, joints: tuple[str, ...],
+                base: str) -> tuple[list[Any], np.ndarray, np.ndarray]:
+    """Obstacles, start and goal joints (``joints``' order) of problem ``index`` of ``scene`` in the MotionBenchMaker
+    archive at ``path`` (``base``: the robot's root frame), read straight from the tarball."""
     import tarfile
 
     import yaml
 
     from pfield.scene import WORLD_FRAMES, request_from_moveit, scene_obstacles
 
-    frames = (*WORLD_FRAMES, "base_link")
-    with tarfile.open(UR5 / "ur5_problems.tar.bz2") as archive:
+    frames = (*WORLD_FRAMES, base)
+    with tarfile.open(path) as archive:
         def read(kind: str) -> object:
             member = archive.extractfile(f"problems/{scene}/{kind}{index:04d}.yaml")
             assert member is not None
@@ -77,5 +91,5 @@ def ur5_problem(scene: str, index: int) -> tuple[list[Any], np.ndarray, np.ndarr
 
         obstacles, request = scene_obstacles(read("scene"), frames), request_from_moveit(read("request"), frames)
     assert request.goal_joints is not None
-    return (obstacles, np.array([request.start[j] for j in UR5_ARM]),
-            np.array([request.goal_joints[j] for j in UR5_ARM]))
+    return (obstacles, np.array([request.start[j] for j in joints]),
+            np.array([request.goal_joints[j] for j in joints]))

@@ -10,7 +10,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core_scenes import UR5_FOREARM_WRIST_2, needs_ur5, ur5_at_tool0, ur5_problem
+from core_scenes import (
+    PANDA_ARM,
+    PANDA_PROBLEMS,
+    UR5_FOREARM_WRIST_2,
+    mbm_problem,
+    needs_panda_problems,
+    needs_ur5,
+    ur5_at_tool0,
+    ur5_problem,
+)
 from pfield import FieldConfig, PotentialField, RobotModel
 from pfield._core import rrt as core_rrt
 from pfield._core.robot_distance import fitted_self_clearances_at
@@ -128,3 +137,36 @@ def test_table_under_pick_5_turns_the_wrist_through_the_forearm_wrist_2_band(ur5
     assert path.joint_positions is not None and path.trajectory is not None
     np.testing.assert_allclose(path.joint_positions[-1], goal, atol=0.05)
     assert certify_path(ur5, obstacles, np.array(path.trajectory.positions)).clear
+
+
+@needs_panda_problems
+def test_a_searched_path_whose_tracking_stalls_is_searched_again_with_another_seed(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The Panda's bookshelf_small #5 (fingers open 65 mm, as MotionBenchMaker's robot): the first seed's searched
+    path, with the goal's band and without, is one whose tracking stalls 2 mm under the top shelf (STAGNATION),
+    and there is no contact to forbid; the second seed's path is tracked and certified. With one seed the plan
+    fails."""
+    from pfield.planning import fallback
+    from pfield.scene import MBM_CONFIG, MBM_OPTIONS
+
+    panda = RobotModel.builtin("panda", {"panda_finger_joint1": 0.065, "panda_finger_joint2": 0.065})
+    obstacles, start, goal = mbm_problem(PANDA_PROBLEMS, "bookshelf_small_panda", 5, PANDA_ARM, "panda_link0")
+    field = PotentialField(MBM_CONFIG, panda.forward_kinematics(goal), obstacles)
+    searched = []
+    tracked = fallback.track
+
+    def track(*args: object, **kwargs: object) -> tuple:  # type: ignore[type-arg]
+        loop = tracked(*args, **kwargs)
+        searched.append(PlanStatus(loop[0]))
+        return loop
+
+    monkeypatch.setattr(fallback, "track", track)
+    path = field.plan_whole_body(panda, start, options=MBM_OPTIONS, goal_configuration=goal)
+    assert path.success and path.planner == "field+global", path.failure_reason
+    assert searched == [PlanStatus.STAGNATION, PlanStatus.STAGNATION, PlanStatus.REACHED]
+    assert path.joint_positions is not None and certify_path(panda, obstacles, path.joint_positions).clear
+
+    monkeypatch.setattr(fallback, "SEARCH_SEEDS", 1)
+    searched.clear()
+    again = field.plan_whole_body(panda, start, options=MBM_OPTIONS, goal_configuration=goal)
+    assert not again.success and searched == [PlanStatus.STAGNATION, PlanStatus.STAGNATION]

@@ -98,11 +98,18 @@ class GlobalOptions:
         goal_configurations: most goal configurations the search starts from (its second tree's roots).
         tracking_gain: k_p (1/s) of the joint-space moving attractor; tracking_lead: largest lag (rad).
 
-    ``joint_resolution`` 0.02 rad: finer than OMPL's default (1 % of the space's extent, about 0.13 rad for
+    ``joint_resolution`` 0.03 rad: finer than OMPL's default (1 % of the space's extent, about 0.13 rad for
     a Panda) and MoveIt's (0.5 %); the searched path is a guide, the tracking's dampers keep the clearance
     and the exact mesh check verifies the whole tracked motion (:mod:`pfield.planning.certify`). On the
     MotionBenchMaker table scenes 0.01 rad cost twice the states for the same success (table_under_pick:
-    median search 8.5 → 4.7 ms, 20/20 both). ``tracking_lead`` 0.05 rad: at 0.02 the target waited for the
+    median search 8.5 → 4.7 ms at 0.02, 20/20 both). From 0.02 to 0.03 (every valid MotionBenchMaker problem,
+    pfield alone, one process, 2026-12-06): UR5 (700) median 19.9 → 20.2 ms, p95 163 → 95 ms (cage 460 → 262,
+    bookshelf_small 192 → 123, bookshelf_tall 96 → 92, bookshelf_thin 91 → 73), Panda (399) median 6.3 → 6.4 ms,
+    p95 18.1 → 16.2 ms; every problem solved and none claimed in collision with either (at 0.03 with a second
+    search seed, :data:`pfield.planning.fallback.SEARCH_SEEDS`). At 0.04 the UR5's bookshelf tails grew again
+    (p95 small 174, tall 166 ms).
+
+    ``tracking_lead`` 0.05 rad: at 0.02 the target waited for the
     arm (whose lag correction is capped at the speed it can brake from) so often that the tracked motions
     took 1.3–2.6 times their profile's duration (table_under_pick: 1150 steps for a 437-step profile).
 
@@ -122,7 +129,7 @@ class GlobalOptions:
     time_limit: float = DEFAULT_GLOBAL_TIME_LIMIT
     seed: int = 0
     joint_step: float = 1.0
-    joint_resolution: float = 0.02
+    joint_resolution: float = 0.03
     exact_resolution: float = 0.01
     point_step: float = 0.1
     point_resolution: float = 0.005
