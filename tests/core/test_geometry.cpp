@@ -103,6 +103,43 @@ TEST(sphere_distance_normal_and_centre) {
   CHECK(same(sphere_local({0.375, 0.5, 0.0}, 0.125), 0.5, 0.6, 0.8, 0.0));
 }
 
+// The boxes as columns: one point against every box in one pass gives obstacle_distance's values bit for bit, at
+// points outside, on a face, inside (every tie of the inside rule) and rotated; other kinds get no slot.
+TEST(box_columns_are_obstacle_distance_bit_for_bit) {
+  std::vector<std::int64_t> kinds;
+  std::vector<double> rows;
+  const auto add = [&](Kind kind, const std::array<double, kRowWidth>& row) {
+    kinds.push_back(static_cast<std::int64_t>(kind));
+    rows.insert(rows.end(), row.begin(), row.end());
+  };
+  add(Kind::Box, row_at({0, 0, 0}, {1, 1, 1}));
+  add(Kind::Sphere, row_at({3, 0, 0}, {0.5, 0, 0}));
+  add(Kind::Box, row_at({0.3, -0.2, 0.5}, {0.2, 0.4, 0.1}));
+  // a box turned by 30 degrees about z, and one by Rx(30 degrees) Ry(30 degrees)
+  const double c = std::cos(0.5235987755982988), s = std::sin(0.5235987755982988);
+  add(Kind::Box, {1, 2, 3, c, -s, 0, s, c, 0, 0, 0, 1, 0.3, 0.2, 0.1, -1});
+  add(Kind::Box, {-1, 0.5, 0.2, c, 0, s, s * s, c, -s * c, -s * c, s, c * c, 0.25, 0.5, 0.75, -1});
+  PackedView packed;
+  packed.kinds = kinds.data();
+  packed.rows = rows.data();
+  packed.obstacle_count = kinds.size();
+  const BoxColumns boxes(packed);
+  CHECK(boxes.size() == 4 && boxes.slot[0] == 0 && boxes.slot[1] == -1 && boxes.slot[2] == 1 && boxes.slot[4] == 3);
+  std::vector<double> out(boxes.size());
+  std::uint64_t random = 0x2545F4914F6CDD1DULL;  // xorshift64
+  const auto next = [&] {
+    random ^= random << 13, random ^= random >> 7, random ^= random << 17;
+    return static_cast<double>(random >> 11) * (6.0 / 9007199254740992.0) - 3.0;
+  };
+  std::vector<Vec3> points{{0, 0, 0}, {1, 0, 0}, {0.5, 0.5, 0}, {0.5, 0.5, 0.5}, {2, 2, 2}, {0.3, -0.2, 0.5}};
+  for (int k = 0; k < 200; ++k) points.push_back({next(), next(), next()});
+  for (const Vec3& p : points) {
+    boxes.distances(p, out.data());
+    for (std::size_t i = 0; i < kinds.size(); ++i)
+      if (boxes.slot[i] >= 0) CHECK(out[static_cast<std::size_t>(boxes.slot[i])] == obstacle_distance(packed, i, p));
+  }
+}
+
 TEST(box_faces_corners_and_inside_ties) {
   const double hx = 0.25, hy = 0.125, hz = 0.5;
   CHECK(same(box_local({0.75, 0.0, 0.0}, hx, hy, hz), 0.5, 1.0, 0.0, 0.0));

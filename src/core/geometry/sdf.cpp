@@ -9,6 +9,26 @@
 #include <limits>
 
 namespace pfield::geometry {
+
+BoxColumns::BoxColumns(const PackedView& packed) : slot(packed.obstacle_count, -1) {
+  for (std::size_t i = 0; i < packed.obstacle_count; ++i) {
+    if (static_cast<Kind>(packed.kinds[i]) != Kind::Box) continue;
+    const double* row = packed.row(i);
+    slot[i] = static_cast<std::int64_t>(size());
+    // to_local's q = R^T (p - c): local x is row[3], row[6], row[9] in the world, and so on
+    const auto push = [](Columns3& column, double x, double y, double z) {
+      column.x.push_back(x);
+      column.y.push_back(y);
+      column.z.push_back(z);
+    };
+    push(centre, row[0], row[1], row[2]);
+    push(x_axis, row[3], row[6], row[9]);
+    push(y_axis, row[4], row[7], row[10]);
+    push(z_axis, row[5], row[8], row[11]);
+    push(half, row[12], row[13], row[14]);
+  }
+}
+
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();

@@ -115,6 +115,11 @@ CapsuleWorkspace::CapsuleWorkspace(const robot::RobotView& robot)
   }
 }
 
+void CapsuleWorkspace::use_boxes(const geometry::PackedView& packed) {
+  boxes = geometry::BoxColumns(packed);
+  box_at.assign(boxes.size(), 0.0);
+}
+
 bool ForbiddenRegions::contains(const double* q) const {
   for (std::size_t r = 0, count = radii.size(); r < count; ++r) {
     const double* centre = centres.data() + r * dimension;
@@ -149,6 +154,14 @@ void group_spheres(const robot::LinkModelView& links, CapsuleWorkspace& ws, std:
     sphere.half = py_max(sphere.half, std::sqrt(dot(apart, apart)) + ws.middles[c].half + links.cap_r[c]);
   }
   ws.group_distance.assign(ws.groups.size() * obstacle_count, std::numeric_limits<double>::quiet_NaN());
+  if (ws.boxes.size() == 0) return;
+  // the boxes' distances from each sphere's centre in one pass (the others on first use)
+  for (std::size_t g = 0; g < ws.groups.size(); ++g) {
+    ws.boxes.distances(ws.groups[g].middle, ws.box_at.data());
+    double* row = ws.group_distance.data() + g * obstacle_count;
+    for (std::size_t i = 0; i < obstacle_count; ++i)
+      if (ws.boxes.slot[i] >= 0) row[i] = ws.box_at[static_cast<std::size_t>(ws.boxes.slot[i])] - ws.groups[g].half;
+  }
 }
 
 }  // namespace
@@ -176,6 +189,9 @@ bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, 
     const double radius = links.cap_r[c];
     const std::int64_t group = ws.group_of[c];
     double* group_distance = group >= 0 ? ws.group_distance.data() + static_cast<std::size_t>(group) * count : nullptr;
+    // a capsule on its own: its axis midpoint against every box in one pass (a group's members go to their sphere)
+    const bool columns = group < 0 && ws.boxes.size() > 0;
+    if (columns) ws.boxes.distances(axis.middle, ws.box_at.data());
     for (std::size_t i = 0; i < count; ++i) {
       const double need = margin + scene.obstacle_offsets[c * count + i];
       // the group's sphere first (computed once per obstacle and q): a lower bound of every member's distance
@@ -190,8 +206,10 @@ bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, 
       // the signed distance at the axis's midpoint first: for a long box (a cage's bar, a shelf) the obstacle's
       // bounding sphere bounds nothing, and for a sphere it is the two bounding spheres' distance. Its cutoff: a
       // mesh or an ellipsoid farther than the test needs answers with a lower bound, not its exact distance.
-      if (geometry::obstacle_distance(packed, i, axis.middle, need + axis.half + radius) - axis.half - radius >= need)
-        continue;
+      const std::int64_t box = columns ? ws.boxes.slot[i] : -1;
+      const double at_middle = box >= 0 ? ws.box_at[static_cast<std::size_t>(box)]
+                                        : geometry::obstacle_distance(packed, i, axis.middle, need + axis.half + radius);
+      if (at_middle - axis.half - radius >= need) continue;
       const double lower = robot::capsule_lower_bound(obstacles, i, ws.world, links, c);
       if (lower >= need) continue;
       // the two-level distance; its fine level reads the link's primitives (robot/clearance.hpp's rule for when)
@@ -232,7 +250,9 @@ StateChecker::StateChecker(const robot::RobotView& robot, const WholeBodyScene& 
       margin_(margin),
       resolution_(resolution),
       point_(dimension_),
-      capsules_(std::make_unique<CapsuleWorkspace>(robot)) {}
+      capsules_(std::make_unique<CapsuleWorkspace>(robot)) {
+  capsules_->use_boxes(*scene.obstacles.packed);
+}
 
 StateChecker::StateChecker(const geometry::PackedView& packed, double margin, double resolution)
     : space_(StateSpace::Point),

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "geometry/packed.hpp"
+#include "geometry/sdf.hpp"
 #include "planning/whole_body.hpp"
 #include "robot/clearance.hpp"
 #include "robot/robot.hpp"
@@ -78,6 +79,13 @@ struct CapsuleWorkspace {
   robot::Frames frames;
   robot::WorldSegments world;
   robot::PrimitivePlacement placement;     // places a link's primitives on first use (flags: placed)
+  // The scene's boxes as columns (use_boxes), so that a point's distance to all of them is one SIMD pass: each
+  // link's axis midpoint and each group's sphere centre; box_at holds one pass's values.
+  geometry::BoxColumns boxes;
+  std::vector<double> box_at;              // (boxes,)
+
+  // From now on the checks among these obstacles measure points against their boxes in one pass.
+  void use_boxes(const geometry::PackedView& packed);
 };
 
 // Whether configuration q keeps every link-obstacle pair (c, i) at least margin + obstacle_offsets[c, i] apart and

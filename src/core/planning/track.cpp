@@ -140,6 +140,7 @@ void overlapping_waypoints(const double* qs, std::size_t count, const robot::Rob
                            const WholeBodyScene& scene, bool* out) {
   const std::size_t n = robot.kinematics.joint_count;
   CapsuleWorkspace ws(robot);
+  ws.use_boxes(*scene.obstacles.packed);
   for (std::size_t k = 0; k < count; ++k) out[k] = !capsules_valid(robot, scene, qs + k * n, 0.0, ws);
 }
 
