@@ -309,9 +309,10 @@ class CollisionChecker:
                 if one_sided > 0.0:
                     out[k] = one_sided
                     continue
-            # where hulls touch, the meshes' own distance (a BVH traversal). One link's hull against the other's mesh
-            # first is 3-4 times cheaper where it clears the pair (the UR5's base and upper arm) but a call more where
-            # it does not: on 140 UR5 and 136 Panda MBM plans, alternated in one process, no faster
+            # where hulls touch, the meshes' own distance (a BVH traversal). For that value (not ``lower``), one
+            # link's hull against the other's mesh first is 3-4 times cheaper where it clears the pair (the UR5's base
+            # and upper arm) but a call more where it does not: on 140 UR5 and 136 Panda MBM plans, alternated in
+            # one process, no faster
             if d < refine or d <= 0.0:
                 result.clear()
                 mesh = coal.distance(self._meshes[a], placed[a], exact, pose, request, result)
@@ -324,8 +325,9 @@ class CollisionChecker:
         return out
 
     def _one_sided(self, a: int, b: int, placed: dict[int, coal.Transform3s]) -> float:
-        """A positive lower bound of objects a and b's mesh distance, the first positive of one mesh against the
-        other's hull (the hull containing its mesh), the hull of fewer triangles first; else 0."""
+        """A positive lower bound of objects a and b's mesh distance: the first positive distance of one object's
+        mesh against the other's convex hull (which contains the other's mesh), the hull of the object with fewer
+        triangles first; else 0."""
         meshes = self._meshes
         if not (isinstance(meshes[a], coal.BVHModelBase) and isinstance(meshes[b], coal.BVHModelBase)):
             return 0.0  # a primitive's hull is itself: the meshes' distance is as cheap
