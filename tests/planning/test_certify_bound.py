@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from core_scenes import needs_ur5, ur5_at_tool0
+from core_scenes import UR5_FOREARM_WRIST_2, needs_ur5, ur5_at_tool0
 from pfield import Box, Obstacle, Pose, RobotModel
 from pfield.errors import InvalidInput
 from pfield.geometry import Capsule, Cylinder, Ellipsoid, Mesh, Sphere
@@ -137,15 +137,18 @@ def test_one_sided_self_distances_are_lower_bounds_with_the_meshes_sign(name: st
     own = np.flatnonzero(checker.self_pair)
     rng = np.random.default_rng(3)
     answered = set()
-    for _ in range(40):
-        q = _random_q(robot, rng)
+    contacts = 0
+    known = [UR5_FOREARM_WRIST_2] if name == "ur5" else []  # a configuration with meshes in contact
+    for q in [*known, *(_random_q(robot, rng) for _ in range(40))]:
         exact = checker.pair_distances(q, own)
         lower = checker.pair_distances(q, own, lower=True)
         clear = exact > 0.0
         assert np.all(lower[clear] > 0.0) and np.all(lower[clear] <= exact[clear] + 1e-9)
         np.testing.assert_array_equal(lower[~clear], exact[~clear])
+        contacts += int(np.sum(~clear))
         answered |= {checker.pair_names[p] for p in own[clear & (lower < exact)]}
     if name == "ur5":
+        assert contacts > 0  # the contact branch ran
         assert any(pair.startswith("forearm_link") and "wrist_2_link" in pair for pair in answered), answered
 
 

@@ -29,6 +29,28 @@ BoxColumns::BoxColumns(const PackedView& packed) : slot(packed.obstacle_count, -
   }
 }
 
+void BoxColumns::distances(const Vec3& p, double* out) const {
+  const std::size_t count = size();
+  const double px = p.x, py = p.y, pz = p.z;
+  const double *cx = centre.x.data(), *cy = centre.y.data(), *cz = centre.z.data();
+  const double *xx = x_axis.x.data(), *xy = x_axis.y.data(), *xz = x_axis.z.data();
+  const double *yx = y_axis.x.data(), *yy = y_axis.y.data(), *yz = y_axis.z.data();
+  const double *zx = z_axis.x.data(), *zy = z_axis.y.data(), *zz = z_axis.z.data();
+  const double *hx = half.x.data(), *hy = half.y.data(), *hz = half.z.data();
+#pragma omp simd
+  for (std::size_t b = 0; b < count; ++b) {
+    const double dx = px - cx[b], dy = py - cy[b], dz = pz - cz[b];
+    const double qx = xx[b] * dx + xy[b] * dy + xz[b] * dz;
+    const double qy = yx[b] * dx + yy[b] * dy + yz[b] * dz;
+    const double qz = zx[b] * dx + zy[b] * dy + zz[b] * dz;
+    const double ex = std::abs(qx) - hx[b], ey = std::abs(qy) - hy[b], ez = std::abs(qz) - hz[b];
+    const double ox = detail::max_of(ex, 0.0), oy = detail::max_of(ey, 0.0), oz = detail::max_of(ez, 0.0);
+    const double outside = std::sqrt(ox * ox + oy * oy + oz * oz);
+    const double inside = ex >= ey && ex >= ez ? ex : (ey >= ez ? ey : ez);
+    out[b] = ex > 0.0 || ey > 0.0 || ez > 0.0 ? outside : inside;
+  }
+}
+
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
