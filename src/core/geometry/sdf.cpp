@@ -43,6 +43,8 @@ void BoxColumns::distances(const Vec3& p, double* out) const {
     const double qx = xx[b] * dx + xy[b] * dy + xz[b] * dz;
     const double qy = yx[b] * dx + yy[b] * dy + yz[b] * dz;
     const double qz = zx[b] * dx + zy[b] * dy + zz[b] * dz;
+    // detail::box_distance with its branches as selects: that function branch-free made the scalar loops over a
+    // scene's obstacles 2.2 times slower (geometry bench, nearest of 10 boxes: 0.039 -> 0.086 us per point)
     const double ex = std::abs(qx) - hx[b], ey = std::abs(qy) - hy[b], ez = std::abs(qz) - hz[b];
     const double ox = detail::max_of(ex, 0.0), oy = detail::max_of(ey, 0.0), oz = detail::max_of(ez, 0.0);
     const double outside = std::sqrt(ox * ox + oy * oy + oz * oz);

@@ -115,11 +115,16 @@ def whole_body_fallback(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.S
                 if not fresh:
                     break  # no contact, or one the search's resolution stepped over (a forbidden region holds it)
                 forbidden += fresh  # contacts: search again around them, with the same band
-            if outcome.loop is not None or outcome.search is None or not outcome.search.found:
+            if _settled(outcome):
                 break  # reached, or the search itself failed (without the band it is no easier)
-        if outcome.loop is not None or outcome.search is None or not outcome.search.found:
+        if _settled(outcome):
             break  # else a path was found and its motion failed with nothing new to forbid: another seed
     return outcome
+
+
+def _settled(outcome: FallbackOutcome) -> bool:
+    """Whether another band or seed cannot help: the motion was reached, or the search itself found no path."""
+    return outcome.loop is not None or outcome.search is None or not outcome.search.found
 
 
 SEARCH_SEEDS = 3

@@ -172,6 +172,8 @@ class CollisionChecker:
         self._obstacle_list = tuple(obstacles)
         self._shapes = _convex_hulls(robot)
         self._meshes = [obj.geometry for obj in self._geometry.geometryObjects]
+        self._triangles = [int(m.num_tris) if isinstance(m, coal.BVHModelBase) else None for m in self._meshes]
+        """Each collision object's triangle count, None for a primitive shape (:meth:`_one_sided`)."""
         self._tables = _robot_tables(robot)
         self._pairs = self._tables.pairs
         objects = self._geometry.geometryObjects
@@ -328,13 +330,13 @@ class CollisionChecker:
         """A positive lower bound of objects a and b's mesh distance: the first positive distance of one object's
         mesh against the other's convex hull (which contains the other's mesh), the hull of the object with fewer
         triangles first; else 0."""
-        meshes = self._meshes
-        if not (isinstance(meshes[a], coal.BVHModelBase) and isinstance(meshes[b], coal.BVHModelBase)):
+        count_a, count_b = self._triangles[a], self._triangles[b]
+        if count_a is None or count_b is None:
             return 0.0  # a primitive's hull is itself: the meshes' distance is as cheap
         request, result = self._request, self._result
-        for hull, mesh in sorted(((a, b), (b, a)), key=lambda pair: meshes[pair[0]].num_tris):
+        for hull, mesh in ((a, b), (b, a)) if count_a <= count_b else ((b, a), (a, b)):
             result.clear()
-            d = coal.distance(self._shapes[hull], placed[hull], meshes[mesh], placed[mesh], request, result)
+            d = coal.distance(self._shapes[hull], placed[hull], self._meshes[mesh], placed[mesh], request, result)
             if d > 0.0:
                 return float(d)
         return 0.0
