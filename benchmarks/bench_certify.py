@@ -2,7 +2,7 @@
 
 Data: the MotionBenchMaker problems of ``../shared/benchmarks/mbm/`` (the Panda dev set and the UR5 + Robotiq set;
 see their READMEs), extracted to a temporary directory at run time. For the first ``--limit`` problems of each
-chosen scene, the whole-body planner runs as the MBM bench runs it (``pfield.scene.MBM_CONFIG``/``MBM_OPTIONS``, the
+chosen scene, the whole-body planner runs as the MBM bench runs it (``pfield.scene.MBM_CONFIG``/``mbm_options``, the
 joint goal given as ``goal_configuration``); then the returned joint path is certified again, alone, with a fresh
 checker (its construction included): the wall time of that call is the certificate's cost per plan. Reported per
 robot: median and p95 ms, grid configurations, placements (configurations where exact distances were computed) and
@@ -27,7 +27,7 @@ from benchmarks.bench_mbm import extracted_scene_folders
 from pfield.field import PotentialField
 from pfield.planning.certify import certify_path
 from pfield.robot import RobotModel
-from pfield.scene import MBM_CONFIG, MBM_OPTIONS, WORLD_FRAMES, request_from_moveit, scene_obstacles
+from pfield.scene import MBM_CONFIG, WORLD_FRAMES, mbm_options, request_from_moveit, scene_obstacles
 
 MBM = Path(__file__).resolve().parents[2] / "shared" / "benchmarks" / "mbm"
 UR5 = MBM / "ur5"
@@ -76,7 +76,8 @@ def measure(name: str, limit: int, paths: Path | None = None) -> list[dict[str, 
                     joint_positions, success = stored[key_name], bool(stored[key_name + "/reached"])
                 else:
                     field = PotentialField(MBM_CONFIG, robot.forward_kinematics(goal), obstacles)
-                    path = field.plan_whole_body(robot, start, options=MBM_OPTIONS, goal_configuration=goal)
+                    path = field.plan_whole_body(robot, start, options=mbm_options(robot.velocity_limits),
+                                                 goal_configuration=goal)
                     assert path.joint_positions is not None
                     joint_positions, success = path.joint_positions, path.success
                     planned[key_name], planned[key_name + "/reached"] = joint_positions, np.array(success)

@@ -6,6 +6,7 @@ value of each flag is refused by each command with exit status 2, naming the fla
 from __future__ import annotations
 
 import csv
+import itertools
 import json
 import math
 import os
@@ -55,6 +56,9 @@ def test_batch_plans_ur5_moveit_problems_by_joint_name(tmp_path: Path) -> None:
         assert record["joint_names"] == ARM
         assert {len(q) for q in record["positions"]} == {6}
         assert record["positions"][0] == pytest.approx(state["position"][:6])
+        # the UR5's step (mbm_options: its joints' 0.5 rad/s limits), not the Panda's 0.02 s
+        steps = [b - a for a, b in itertools.pairwise(record["times"])]
+        assert len(steps) > 1 and steps == pytest.approx([0.05] * len(steps))
 
 
 @pytest.fixture(scope="module")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import tarfile
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -13,9 +14,12 @@ from pfield.errors import InvalidInput
 from pfield.geometry import Box, Cylinder, Mesh, Sphere
 from pfield.scene import (
     MBM_CONFIG,
+    MBM_JOINT_STEP,
     MBM_OPTIONS,
+    MBM_STEP_RANGE,
     Problem,
     RobotSpec,
+    mbm_options,
     read_moveit_problem,
     read_problems,
     request_from_moveit,
@@ -61,7 +65,32 @@ def test_an_mbm_request_locks_the_fingers_at_0_065_and_keeps_the_arm_joints(box_
     assert dict(problem.start) == dict(zip(state["name"][:7], state["position"][:7], strict=True))
     assert problem.goal_joints == {c["joint_name"]: c["position"]
                                    for c in request["goal_constraints"][0]["joint_constraints"]}
-    assert (problem.scene, problem.index, problem.options) == ("box_panda", 1, MBM_OPTIONS)
+    # the options are chosen for the robot when it is built (mbm_options), not here
+    assert (problem.scene, problem.index, problem.options) == ("box_panda", 1, None)
+
+
+def test_mbm_options_step_the_fastest_joint_by_0_05_rad_within_20_to_50_ms() -> None:
+    """Panda: 2.61 rad/s → 0.0192 s, raised to 0.02; the MBM UR5: 0.5 rad/s → 0.1 s, cut to 0.05; between, exact."""
+    from pfield.robot import RobotModel
+
+    assert MBM_JOINT_STEP == 0.05 and MBM_STEP_RANGE == (0.02, 0.05)
+    panda = RobotModel.builtin("panda")
+    assert float(np.max(panda.velocity_limits)) == pytest.approx(2.61)
+    assert mbm_options(panda.velocity_limits).dt == 0.02
+    assert mbm_options([0.5] * 6).dt == 0.05
+    assert mbm_options([1.0, 1.25, 0.3]).dt == 0.05 / 1.25
+    stepped = mbm_options([1.25])
+    assert stepped == replace(MBM_OPTIONS, dt=0.04)  # everything else is the set's
+    for bad in ([], [1.0, 0.0], [-1.0], [float("nan")], [float("inf")]):
+        with pytest.raises(InvalidInput, match="velocity_limits"):
+            mbm_options(bad)
+
+
+def test_a_problem_leaves_its_options_to_its_robot_only_with_a_robot() -> None:
+    whole_body = Problem("s", 1, start={"j": 0.0}, goal_joints={"j": 0.1}, robot=RobotSpec("panda"), options=None)
+    assert whole_body.options is None
+    with pytest.raises(InvalidInput, match="options"):
+        Problem("s", 1, start=Pose(), goal=Pose((0.1, 0.0, 0.0)), options=None)
 
 
 MESH_SCENE = """
@@ -235,7 +264,6 @@ TABLE_PICK = tuple(f"problems/table_pick_panda/{kind}{i:04d}.yaml" for i in (1, 
 def test_the_mbm_stagnation_window_keeps_the_fields_plans_and_ends_its_failures_sooner(tmp_path: Path) -> None:
     """MBM_CONFIG's 0.5 s window against the 10 s default: a plan the field completes is the same plan to the last
     waypoint; one that stagnates is reported as stagnation, in fewer steps."""
-    from dataclasses import replace
 
     from pfield.field import PotentialField
     from pfield.planning import PlanStatus

@@ -26,7 +26,7 @@ from pfield.geometry import Box, Obstacle
 from pfield.planning import CancelToken, PlanOptions, PlanStatus
 from pfield.planning.result import PlannedPath
 from pfield.robot import RobotModel
-from pfield.scene import Problem, RobotSpec
+from pfield.scene import Problem, RobotSpec, mbm_options
 from pfield.spatial import Pose
 
 __all__ = ["RECORD_FIELDS", "TIMING_FIELDS", "Workspace", "problem_seed", "solve"]
@@ -99,12 +99,14 @@ def _joints(robot: RobotModel, values: Mapping[str, float], field: str) -> np.nd
 
 
 def _plan(problem: Problem, workspace: Workspace, token: CancelToken) -> tuple[PlannedPath, RobotModel | None]:
-    options = replace(problem.options, cancel=token)
     if problem.robot is None:
         assert problem.goal is not None and isinstance(problem.start, type(problem.goal))
+        assert problem.options is not None  # Problem refuses None without a robot
         field = PotentialField(problem.config, problem.goal, problem.obstacles)
-        return field.plan(problem.start, options=options), None
+        return field.plan(problem.start, options=replace(problem.options, cancel=token)), None
     robot = workspace.robot(problem.robot)
+    options = replace(mbm_options(robot.velocity_limits) if problem.options is None else problem.options,
+                      cancel=token)
     start = _joints(robot, problem.start, "start")  # type: ignore[arg-type]
     goal, goal_q = problem.goal, None
     if goal is None:  # a joint goal: the field's goal is its pose, the fallback searches to the joints

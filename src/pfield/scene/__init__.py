@@ -11,14 +11,17 @@ from pfield.scene.files import load_scene
 from pfield.scene.moveit import WORLD_FRAMES, MotionRequest, pose_from_moveit, request_from_moveit, scene_obstacles
 from pfield.scene.problems import (
     MBM_CONFIG,
+    MBM_JOINT_STEP,
     MBM_OPTIONS,
+    MBM_STEP_RANGE,
     Problem,
     RobotSpec,
+    mbm_options,
     read_moveit_problem,
     read_problems,
     scene_folders,
 )
 
-__all__ = ["MBM_CONFIG", "MBM_OPTIONS", "WORLD_FRAMES", "MotionRequest", "Problem", "RobotSpec", "load_scene",
-           "pose_from_moveit", "read_moveit_problem", "read_problems", "request_from_moveit", "scene_folders",
-           "scene_obstacles"]
+__all__ = ["MBM_CONFIG", "MBM_JOINT_STEP", "MBM_OPTIONS", "MBM_STEP_RANGE", "WORLD_FRAMES", "MotionRequest", "Problem",
+           "RobotSpec", "load_scene", "mbm_options", "pose_from_moveit", "read_moveit_problem", "read_problems",
+           "request_from_moveit", "scene_folders", "scene_obstacles"]

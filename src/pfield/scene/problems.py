@@ -26,8 +26,11 @@ from __future__ import annotations
 import re
 import tempfile
 from collections.abc import Iterable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
+
+import numpy as np
+from numpy.typing import ArrayLike
 
 from pfield._validation import text
 from pfield.errors import InvalidInput
@@ -41,8 +44,8 @@ from pfield.scene.files import load_scene
 from pfield.scene.moveit import WORLD_FRAMES, request_from_moveit, scene_obstacles
 from pfield.spatial import Pose
 
-__all__ = ["MBM_CONFIG", "MBM_OPTIONS", "Problem", "RobotSpec", "read_moveit_problem", "read_problems",
-           "scene_folders"]
+__all__ = ["MBM_CONFIG", "MBM_JOINT_STEP", "MBM_OPTIONS", "MBM_STEP_RANGE", "Problem", "RobotSpec", "mbm_options",
+           "read_moveit_problem", "read_problems", "scene_folders"]
 
 MBM_CONFIG = FieldConfig(max_linear_velocity=0.25, max_angular_velocity=1.0, rotational_attractive_gain=0.6,
                          max_angular_acceleration=1.0, safety_distance=0.002, influence_distance=0.05,
@@ -59,11 +62,37 @@ the goal slowly, now hands over to the fallback: 14 on the Panda box scene, one 
 table_pick; the box scene's median path length went down (4.83 → 4.67 rad) and its p95 up (6 → 9 ms). (From 10 s to 2 s,
 earlier: the failing attempts ended after 464–541 steps on average instead of 646–1029.)"""
 MBM_OPTIONS = PlanOptions(dt=0.02, goal_tolerance=0.01, max_iterations=10000, global_time_limit=5.0)
-"""Planning options for MoveIt problem sets: dt 0.02 s, 1 cm (and the config's 0.05 rad), 10000 steps, and the global
-fallback's search limited to 5 s, MoveIt's own default planning time (``MoveGroupInterface``'s
-``allowed_planning_time``) and the time OMPL gets beside pfield in ``make bench``'s MotionBenchMaker table. With the
-library's 2 s, the UR5 cage problems 62 and 80 ended at the limit in the table's run of 2026-12-05 (98 of 100), where
-their searches take 1.5–4.7 s; a plan that the field or a short search solves is not slowed by the longer limit."""
+"""Planning options for MoveIt problem sets: dt 0.02 s (a plan's robot sets its own: :func:`mbm_options`), 1 cm (and
+the config's 0.05 rad), 10000 steps, and the global fallback's search limited to 5 s, MoveIt's own default planning
+time (``MoveGroupInterface``'s ``allowed_planning_time``) and the time OMPL gets beside pfield in ``make bench``'s
+MotionBenchMaker table. With the library's 2 s, the UR5 cage problems 62 and 80 ended at the limit in the table's run
+of 2026-12-05 (98 of 100), where their searches take 1.5–4.7 s; a plan that the field or a short search solves is not
+slowed by the longer limit."""
+MBM_JOINT_STEP = 0.05
+"""rad: how far a robot's fastest joint may move in one step of a MoveIt problem's plan (:func:`mbm_options`)."""
+MBM_STEP_RANGE = (0.02, 0.05)
+"""s: the shortest and the longest step :func:`mbm_options` chooses."""
+
+
+def mbm_options(velocity_limits: ArrayLike) -> PlanOptions:
+    """:data:`MBM_OPTIONS` with the step of a robot whose joints' velocity limits are ``velocity_limits``
+    (``RobotModel.velocity_limits``): the time its fastest joint takes to move :data:`MBM_JOINT_STEP` at its limit,
+    within :data:`MBM_STEP_RANGE` (Panda 0.02 s, the UR5 of ``../shared/benchmarks/mbm/ur5``, 0.5 rad/s, 0.05 s).
+
+    The field and its tracking of a searched path take one step per ``dt`` of the motion, so a slow robot at a fixed
+    step pays for steps in which its joints hardly move (the UR5 at 0.02 s: 0.01 rad; its plans last 9–12 s, 450–600
+    steps). Measured on 30 problems of each MotionBenchMaker UR5 scene (pfield alone, one process, 2026-12-07), dt
+    0.02 → 0.05 s: every problem solved, none claimed in contact, median planning time 17.5 → 13.1 ms (table_pick 16.0
+    → 10.9, box 8.1 → 6.4, cage 27.6 → 23.8), median joint path length within 1 % and trajectory duration within
+    2 %; at 0.1 s the trajectories lasted 8–18 % longer (the retiming has fewer waypoints to spread a turn over). The
+    Panda's steps stay at 0.02 s: at 0.04 its fastest joints move 0.1 rad per step and its table_pick paths were 5 %
+    longer, at 0.05 26 %."""
+    limits = np.asarray(velocity_limits, dtype=np.float64)
+    if limits.ndim != 1 or len(limits) == 0 or not np.all(np.isfinite(limits) & (limits > 0.0)):
+        raise InvalidInput("velocity_limits", limits.tolist(), "expected the robot's positive, finite joint velocity "
+                           "limits (one per joint)")
+    shortest, longest = MBM_STEP_RANGE
+    return replace(MBM_OPTIONS, dt=min(longest, max(shortest, MBM_JOINT_STEP / float(np.max(limits)))))
 _ARCHIVE = re.compile(r"\.(tar|tar\.gz|tgz|tar\.bz2|tbz2|tar\.xz|txz)$")
 _REQUEST = "request[0-9][0-9][0-9][0-9].yaml"
 
@@ -92,7 +121,8 @@ class Problem:
     goal_joints: Mapping[str, float] | None = None
     robot: RobotSpec | None = None
     config: FieldConfig = field(default_factory=FieldConfig)
-    options: PlanOptions = field(default_factory=PlanOptions)
+    options: PlanOptions | None = field(default_factory=PlanOptions)
+    """None (whole-body problems only): :func:`mbm_options` of the robot, chosen when the robot is built."""
     error: str = ""
     """Why the problem could not be read (:meth:`unreadable`); a batch reports it instead of planning."""
 
@@ -108,9 +138,11 @@ class Problem:
                 raise InvalidInput(f"obstacles[{i}]", obstacle, "expected a pfield.Obstacle")
         if not isinstance(self.config, FieldConfig):
             raise InvalidInput("config", self.config, "expected a pfield.FieldConfig")
-        if not isinstance(self.options, PlanOptions):
-            raise InvalidInput("options", self.options, "expected a pfield.PlanOptions")
-        if self.options.cancel is not None:
+        if self.options is None and self.robot is None:
+            raise InvalidInput("options", None, "a task-space problem needs its PlanOptions (None is for a robot's)")
+        if self.options is not None and not isinstance(self.options, PlanOptions):
+            raise InvalidInput("options", self.options, "expected a pfield.PlanOptions or None")
+        if self.options is not None and self.options.cancel is not None:
             raise InvalidInput("options.cancel", self.options.cancel, "a problem's options cannot carry a CancelToken")
         if self.robot is not None and not isinstance(self.robot, RobotSpec):
             raise InvalidInput("robot", self.robot, "expected a pfield.scene.RobotSpec or None")
@@ -141,9 +173,9 @@ def _description(robot: str | RobotDescription | None) -> RobotDescription:
 
 
 def read_moveit_problem(scene_file: Path, request_file: Path, index: int, robot: str | RobotDescription = "panda",
-                        config: FieldConfig = MBM_CONFIG, options: PlanOptions = MBM_OPTIONS) -> Problem:
+                        config: FieldConfig = MBM_CONFIG, options: PlanOptions | None = None) -> Problem:
     """The whole-body problem of one MoveIt scene/request pair for ``robot`` (a built-in name or a
-    :class:`RobotDescription`).
+    :class:`RobotDescription`); ``options`` None: :func:`mbm_options` of the robot when it is planned.
 
     Joints are matched by name: the request's joints the robot does not move (a gripper's joints that are
     fixed in this URDF) are ignored. Of a joint goal, every joint of the robot the goal does not name is locked
@@ -197,7 +229,7 @@ def scene_folders(root: Path) -> list[Path]:
     return sorted({p.parent for p in root.rglob(_REQUEST)}, key=lambda p: (p.name, str(p)))
 
 
-def _folder_problems(folder: Path, robot: RobotDescription, config: FieldConfig, options: PlanOptions,
+def _folder_problems(folder: Path, robot: RobotDescription, config: FieldConfig, options: PlanOptions | None,
                      limit: int | None) -> Iterator[Problem]:
     for request in sorted(folder.glob(_REQUEST))[:limit]:
         number = request.stem.removeprefix("request")
@@ -213,7 +245,7 @@ def _folder_problems(folder: Path, robot: RobotDescription, config: FieldConfig,
 
 def _path_problems(path: Path, robot: RobotDescription, config: FieldConfig | None, options: PlanOptions | None,
                    wanted: set[str] | None, limit: int | None, found: set[str]) -> Iterator[Problem]:
-    moveit = (robot, config or MBM_CONFIG, options or MBM_OPTIONS)
+    moveit = (robot, config or MBM_CONFIG, options)
     if path.is_dir():
         folders = scene_folders(path)
         if not folders:
@@ -246,7 +278,8 @@ def read_problems(paths: Iterable[str | Path], robot: str | RobotDescription | N
                   scenes: Sequence[str] | None = None, limit: int | None = None) -> list[Problem]:
     """Every problem of ``paths`` in order (see the module text). ``robot`` is the robot of MoveIt problems: a
     built-in name or a :class:`RobotDescription` (default ``"panda"``); ``config``/``options`` replace the
-    defaults (:data:`MBM_CONFIG`, :data:`MBM_OPTIONS` for MoveIt problems; a scene file's own for scene files).
+    defaults (:data:`MBM_CONFIG`, :func:`mbm_options` of the robot for MoveIt problems; a scene file's own for scene
+    files).
     ``scenes`` keeps only the scenes of these names (the robot's suffix optional: ``box`` for ``box_ur5``, with
     the URDF's file stem or robot name, or ``_panda``), ``limit`` the first N problems of each scene.
     Two problems with the same ``(scene, index)`` are refused."""
