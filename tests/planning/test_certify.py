@@ -140,6 +140,40 @@ def test_certificate_agrees_with_checking_every_grid_configuration(which: str, r
 
 
 @needs_ur5
+def test_looking_ahead_answers_as_the_plain_walk_with_fewer_placements(ur5: RobotModel,
+                                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    """The certificate's look-ahead (a distance at a later grid point clears the stretch back to the pair's due point
+    too) against the plain forward walk (``_AHEAD = 0``: never ahead): the same verdict, first contact, pair and
+    distance on long UR5 paths past a box that is clear of them, grazed or hit, and fewer placements where a pair's
+    distance holds (the base and the upper arm keep about 15 mm along a shoulder motion)."""
+    from pfield.planning import certify
+
+    rng = np.random.default_rng(11)
+    cases = []
+    for trial in range(8):
+        q_a = _random_q(ur5, rng)
+        q_b = np.clip(q_a + rng.normal(size=ur5.n_joints) * 0.8, ur5.lower_limits, ur5.upper_limits)
+        middle = 0.5 * (q_a + q_b)
+        direction = rng.normal(size=3)
+        offset = direction / np.linalg.norm(direction) * (0.05 * trial)
+        box = Obstacle("block", Box(0.1, 0.1, 0.1), Pose(ur5.forward_kinematics(middle).position + offset))
+        cases.append((np.array([q_a, middle, q_b]), box))
+    shoulder = np.array([[0.0, -1.2, 1.6, -1.97, -1.57, 0.0], [1.5, -0.4, 1.6, -1.97, -1.57, 0.0]])
+    cases.append((shoulder, Obstacle("far", Box(0.1, 0.1, 0.1), Pose((3.0, 0.0, 0.0)))))
+    counts = {}
+    for ahead in (0.0, certify._AHEAD):
+        monkeypatch.setattr(certify, "_AHEAD", ahead)
+        results = [certify_path(ur5, [box], qs, 0.01, CollisionChecker(ur5, [box])) for qs, box in cases]
+        counts[ahead] = [(c.clear, c.pair, c.distance, c.waypoint, c.fraction, c.grid_points) for c in results], \
+            [c.placements for c in results]
+    (plain, plain_placements), (looked, looked_placements) = counts.values()
+    assert looked == plain
+    assert {verdict[0] for verdict in plain} == {True, False}  # both outcomes were exercised
+    assert looked_placements[-1] <= 0.7 * plain_placements[-1] and plain_placements[-1] >= 20
+    assert sum(looked_placements) < sum(plain_placements)
+
+
+@needs_ur5
 def test_certificate_names_the_contact_and_refuses_bad_input(ur5: RobotModel) -> None:
     q = np.array([0.0, -1.2, 1.6, -1.97, -1.57, 0.0])
     box = _box_near(ur5, q)

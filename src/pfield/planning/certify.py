@@ -13,7 +13,11 @@ waypoint and at most ``resolution`` rad (max-norm of the joint change, 0.01 by d
 * so pair p is next computed at the first grid point where that no longer holds, and never later: the
   certificate is never weaker than checking every pair at every grid point (whose verdict it returns exactly),
   and where the bound covers a stretch it is continuous there. ε = :data:`~pfield.robot.collision.DISTANCE_TOLERANCE`
-  (1e-6 m) covers coal's GJK tolerance.
+  (1e-6 m) covers coal's GJK tolerance;
+* the bound holds both ways, so a pair due at grid point k whose last distance was d is first computed further on,
+  at the last point t where Δ_p(t) − Δ_p(k) < 0.9 d: if its distance there exceeds Δ_p(t) − Δ_p(k) + ε, every point
+  from k to t is clear too, and one computation has answered for both sides of t; else the pair is computed at k
+  (a contact is only ever reported from its due point, so it is the first one).
 
 d_p comes in two stages. First, for every pair and the whole grid in one compiled call
 (:meth:`CollisionChecker.covering_needed`), a lower bound from covering capsules: each collision object inside its
@@ -31,6 +35,8 @@ Contact (distance ≤ 0) at a grid point fails the certificate, naming the pair,
 
 from __future__ import annotations
 
+import bisect
+import heapq
 import math
 import time
 from collections.abc import Sequence
@@ -50,6 +56,10 @@ __all__ = ["CERTIFICATE_RESOLUTION", "Certificate", "certify_path"]
 CERTIFICATE_RESOLUTION = 0.01
 """(rad or m) largest max-norm joint change between two configurations the certificate answers for."""
 _REFINE = 0.0  # m: hull distances as they are (refining below 1–10 cm with mesh distances saved no checks)
+_AHEAD = 0.9
+"""Share of a pair's last distance the certificate looks ahead by (:func:`certify_path`). Measured on the 97
+certificates of 25 UR5 MotionBenchMaker plans each of table_pick, bookshelf_thin and cage (the same verdicts, first
+contacts and pairs as without looking ahead): placements per certificate 130 → 99, 86, 88 at 0.6, 0.9, 1.0."""
 
 
 @dataclass(frozen=True)
@@ -128,31 +138,61 @@ def certify_path(robot: RobotModel, obstacles: Sequence[Obstacle], joint_positio
     needed = checker.covering_needed(grid, travel, DISTANCE_TOLERANCE) if n_pairs else np.zeros((0, n_points), bool)
     pair_of, point_of = np.nonzero(needed)  # sorted by pair, then by grid index
     starts = np.searchsorted(pair_of, np.arange(n_pairs + 1))
-    due = np.where(starts[1:] > starts[:-1], np.append(point_of, n_points)[starts[:-1]], n_points)
-    rows: dict[int, NDArray[np.float64]] = {}  # Δ_p at each grid point (monotone in the index), of the pairs due
+    # each pair's grid points to answer for, of the pairs that have any (Python lists: bisect is 5x faster on them
+    # than numpy's searchsorted on one value)
+    pending = {p: point_of[starts[p]:starts[p + 1]].tolist()
+               for p in np.flatnonzero(starts[1:] > starts[:-1]).tolist()}
+    due = [(points[0], p) for p, points in pending.items()]  # a heap of (next grid point, pair)
+    heapq.heapify(due)
+    rows: dict[int, list[float]] = {}  # Δ_p at each grid point (monotone in the index), of the pairs computed
+    known: dict[int, float] = {}  # each pair's last computed distance (m)
     weights = np.minimum(checker.motion_weights, UNBOUNDED_WEIGHT)
     placements = calls = 0
-    while n_pairs:
-        index = int(due.min())
-        if index >= n_points:
-            break
-        pairs = np.flatnonzero(due == index)
-        distances = checker.pair_distances(grid[index], pairs, _REFINE, lower=True)
-        placements, calls = placements + 1, calls + len(pairs)
-        worst = int(np.argmin(distances))
-        if distances[worst] <= 0.0:
-            pair = int(pairs[worst])
-            return Certificate(False, checker.pair_names[pair], bool(checker.self_pair[pair]), float(distances[worst]),
-                               int(segment[index]), float(fraction[index]), grid[index].copy(), index + 1,
-                               placements, calls, time.perf_counter() - begin)
-        for p, d in zip(pairs.tolist(), distances, strict=True):
+
+    def reschedule(p: int, row: list[float], index: int, distance: float) -> None:
+        """Pair p is clear from ``index`` on while Δ_p stays below Δ_p(index) + ``distance`` − ε: due again at its
+        first grid point past that."""
+        clear_to = max(index + 1, bisect.bisect_left(row, row[index] + distance - DISTANCE_TOLERANCE))
+        points = pending[p]
+        following = bisect.bisect_left(points, clear_to)
+        if following < len(points):
+            heapq.heappush(due, (points[following], p))
+
+    while due:
+        index = due[0][0]
+        pairs = []  # the pairs computed at index itself
+        while due and due[0][0] == index:
+            p = heapq.heappop(due)[1]
             row = rows.get(p)
             if row is None:
-                row = rows[p] = travel @ weights[p]
-            pending = point_of[starts[p]:starts[p + 1]]
-            clear_to = max(index + 1, int(np.searchsorted(row, row[index] + d - DISTANCE_TOLERANCE, side="left")))
-            following = int(np.searchsorted(pending, clear_to, side="left"))
-            due[p] = pending[following] if following < len(pending) else n_points
+                row = rows[p] = (travel @ weights[p]).tolist()
+            last = known.get(p, 0.0)
+            # looking ahead: a distance d at a grid point t > index clears, besides the points after t, every point k
+            # of [index, t] with Δ_p(t) − Δ_p(k) < d − ε (the bound holds both ways), so where a pair's distance
+            # holds, one computation at t answers for twice the stretch. t: where the last distance, 90 % of it,
+            # would be used up; when d falls short, the pair is computed at index as without looking ahead
+            ahead = min(bisect.bisect_left(row, row[index] + _AHEAD * last) - 1, pending[p][-1])
+            if last > 0.0 and ahead > index:
+                d = float(checker.pair_distances(grid[ahead], (p,), _REFINE, lower=True)[0])
+                placements, calls = placements + 1, calls + 1
+                if row[ahead] - row[index] < d - DISTANCE_TOLERANCE:
+                    known[p] = d
+                    reschedule(p, row, ahead, d)
+                    continue
+            pairs.append(p)
+        if not pairs:
+            continue
+        distances = checker.pair_distances(grid[index], pairs, _REFINE, lower=True).tolist()
+        placements, calls = placements + 1, calls + len(pairs)
+        worst = min(range(len(pairs)), key=distances.__getitem__)  # the first of equal minima, as argmin
+        if distances[worst] <= 0.0:  # every grid point before index is clear of every pair: the first contact
+            pair = pairs[worst]
+            return Certificate(False, checker.pair_names[pair], bool(checker.self_pair[pair]), distances[worst],
+                               int(segment[index]), float(fraction[index]), grid[index].copy(), index + 1,
+                               placements, calls, time.perf_counter() - begin)
+        for p, d in zip(pairs, distances, strict=True):
+            known[p] = d
+            reschedule(p, rows[p], index, d)
     return Certificate(True, grid_points=n_points, placements=placements, distance_calls=calls,
                        seconds=time.perf_counter() - begin)
 
