@@ -66,6 +66,19 @@ UR5_ARM = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_
 PANDA_ARM = tuple(f"panda_joint{k}" for k in range(1, 8))
 
 
+def random_configuration(robot: RobotModel, rng: np.random.Generator) -> np.ndarray:
+    """A configuration drawn uniformly within the robot's limits, each joint within [-π, π]."""
+    return rng.uniform(np.maximum(robot.lower_limits, -np.pi), np.minimum(robot.upper_limits, np.pi))
+
+
+def random_three_waypoints(robot: RobotModel, rng: np.random.Generator, spread: float) -> np.ndarray:
+    """(3, n): a random configuration, one ``spread``·N(0, 1) rad per joint away from it (within the limits), and
+    their middle in between (the middle is where the certificate tests put their obstacles)."""
+    q_a = random_configuration(robot, rng)
+    q_b = np.clip(q_a + rng.normal(size=robot.n_joints) * spread, robot.lower_limits, robot.upper_limits)
+    return np.array([q_a, 0.5 * (q_a + q_b), q_b])
+
+
 def ur5_problem(scene: str, index: int) -> tuple[list[Any], np.ndarray, np.ndarray]:
     """Obstacles, start and goal joints (:data:`UR5_ARM`) of one problem of the UR5's MotionBenchMaker archive, read
     straight from the tarball."""

@@ -12,7 +12,14 @@ import coal
 import numpy as np
 import pytest
 
-from core_scenes import UR5_FOREARM_WRIST_2, needs_ur5, ur5_at_tool0, ur5_problem
+from core_scenes import (
+    UR5_FOREARM_WRIST_2,
+    needs_ur5,
+    random_configuration,
+    random_three_waypoints,
+    ur5_at_tool0,
+    ur5_problem,
+)
 from pfield import Box, FieldConfig, Obstacle, Pose, PotentialField, RobotModel
 from pfield.errors import InvalidInput
 from pfield.planning import PlanStatus
@@ -35,10 +42,14 @@ def _box_near(robot: RobotModel, q: np.ndarray, size: float = 0.12) -> Obstacle:
     return Obstacle("block", Box(size, size, size), Pose(robot.forward_kinematics(q).position))
 
 
-def _random_q(robot: RobotModel, rng: np.random.Generator) -> np.ndarray:
-    lower = np.maximum(robot.lower_limits, -np.pi)
-    upper = np.minimum(robot.upper_limits, np.pi)
-    return rng.uniform(lower, upper)
+def _past_a_box(robot: RobotModel, rng: np.random.Generator, spread: float, distance: float
+                ) -> tuple[np.ndarray, Obstacle]:
+    """Three random waypoints (:func:`random_three_waypoints`) and a 10 cm box ``distance`` (m) from the end effector
+    at the middle one, in a random direction."""
+    qs = random_three_waypoints(robot, rng, spread)
+    direction = rng.normal(size=3)
+    offset = direction / np.linalg.norm(direction) * distance
+    return qs, Obstacle("block", Box(0.1, 0.1, 0.1), Pose(robot.forward_kinematics(qs[1]).position + offset))
 
 
 @needs_ur5
@@ -48,13 +59,13 @@ def test_motion_bound_holds_against_coal(which: str, request: pytest.FixtureRequ
     on random motions of up to ~0.15 rad per joint; and the hulls' distance is never above the meshes'."""
     robot = request.getfixturevalue(which)
     rng = np.random.default_rng(3)
-    q0 = _random_q(robot, rng)
+    q0 = random_configuration(robot, rng)
     checker = CollisionChecker(robot, [Obstacle("ball", Box(0.2, 0.2, 0.2), Pose((0.4, 0.2, 0.4)))])
     pairs = np.arange(len(checker.pair_names))
     weights = checker.motion_weights
     assert weights.shape == (len(pairs), robot.n_joints) and np.all(weights >= 0.0)
     for _ in range(12):
-        q = _random_q(robot, rng)
+        q = random_configuration(robot, rng)
         dq = rng.normal(size=robot.n_joints) * 0.05
         moved = np.clip(q + dq, robot.lower_limits, robot.upper_limits)
         before = checker.pair_distances(q, pairs, np.inf)  # the meshes' own distances, which the bound is about
@@ -89,7 +100,7 @@ def test_pair_distances_bound_the_meshes_and_agree_on_contact(which: str, reques
     checker = CollisionChecker(robot, [Obstacle("ball", Box(0.2, 0.2, 0.2), Pose((0.4, 0.2, 0.4)))])
     pairs = np.arange(len(checker.pair_names))
     contacts = apart = 0
-    for q in [robot.mid_configuration, *(_random_q(robot, rng) for _ in range(8))]:
+    for q in [robot.mid_configuration, *(random_configuration(robot, rng) for _ in range(8))]:
         values = checker.pair_distances(q, pairs)
         for pair, value in zip(pairs.tolist(), values, strict=True):
             distance, hit = _meshes_apart(checker, q, pair)
@@ -122,13 +133,7 @@ def test_certificate_agrees_with_checking_every_grid_configuration(which: str, r
     rng = np.random.default_rng(7)
     verdicts = []
     for trial in range(10):
-        q_a = _random_q(robot, rng)
-        q_b = np.clip(q_a + rng.normal(size=robot.n_joints) * 0.3, robot.lower_limits, robot.upper_limits)
-        middle = 0.5 * (q_a + q_b)
-        direction = rng.normal(size=3)
-        offset = direction / np.linalg.norm(direction) * (0.04 * trial)  # from inside the gripper to well clear
-        box = Obstacle("block", Box(0.1, 0.1, 0.1), Pose(robot.forward_kinematics(middle).position + offset))
-        qs = np.array([q_a, middle, q_b])
+        qs, box = _past_a_box(robot, rng, 0.3, 0.04 * trial)  # from inside the gripper to well clear
         checker = CollisionChecker(robot, [box])
         certificate = certify_path(robot, [box], qs, 0.01, checker)
         first = _grid_verdict(checker, qs, 0.01)
@@ -149,15 +154,7 @@ def test_looking_ahead_answers_as_the_plain_walk_with_fewer_placements(ur5: Robo
     from pfield.planning import certify
 
     rng = np.random.default_rng(11)
-    cases = []
-    for trial in range(8):
-        q_a = _random_q(ur5, rng)
-        q_b = np.clip(q_a + rng.normal(size=ur5.n_joints) * 0.8, ur5.lower_limits, ur5.upper_limits)
-        middle = 0.5 * (q_a + q_b)
-        direction = rng.normal(size=3)
-        offset = direction / np.linalg.norm(direction) * (0.05 * trial)
-        box = Obstacle("block", Box(0.1, 0.1, 0.1), Pose(ur5.forward_kinematics(middle).position + offset))
-        cases.append((np.array([q_a, middle, q_b]), box))
+    cases = [_past_a_box(ur5, rng, 0.8, 0.05 * trial) for trial in range(8)]
     shoulder = np.array([[0.0, -1.2, 1.6, -1.97, -1.57, 0.0], [1.5, -0.4, 1.6, -1.97, -1.57, 0.0]])
     cases.append((shoulder, Obstacle("far", Box(0.1, 0.1, 0.1), Pose((3.0, 0.0, 0.0)))))
     counts = {}

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from core_scenes import UR5_FOREARM_WRIST_2, needs_ur5, ur5_at_tool0
+from core_scenes import UR5_FOREARM_WRIST_2, needs_ur5, random_configuration, random_three_waypoints, ur5_at_tool0
 from pfield import Box, Obstacle, Pose, RobotModel
 from pfield.errors import InvalidInput
 from pfield.geometry import Capsule, Cylinder, Ellipsoid, Mesh, Sphere
@@ -98,10 +98,6 @@ def _obstacles(robot: RobotModel, q: np.ndarray, rng: np.random.Generator, sprea
     return out
 
 
-def _random_q(robot: RobotModel, rng: np.random.Generator) -> np.ndarray:
-    return rng.uniform(np.maximum(robot.lower_limits, -np.pi), np.minimum(robot.upper_limits, np.pi))
-
-
 @pytest.mark.parametrize("name", ["panda", pytest.param("ur5", marks=needs_ur5)])
 def test_covering_bound_is_never_above_coal(name: str) -> None:
     """At random configurations near obstacles of every kind, each pair's capsule bound ≤ coal's hull distance
@@ -112,7 +108,7 @@ def test_covering_bound_is_never_above_coal(name: str) -> None:
     rng = np.random.default_rng(11)
     below = proxied_cleared = 0
     for _ in range(8):
-        q = _random_q(robot, rng)
+        q = random_configuration(robot, rng)
         checker = CollisionChecker(robot, _obstacles(robot, q, rng, 0.08))
         bound = checker.covering_distances(q[None])[:, 0]
         exact = checker.pair_distances(q, np.arange(len(checker.pair_names)))
@@ -139,7 +135,7 @@ def test_one_sided_self_distances_are_lower_bounds_with_the_meshes_sign(name: st
     answered = set()
     contacts = 0
     known = [UR5_FOREARM_WRIST_2] if name == "ur5" else []  # a configuration with meshes in contact
-    for q in [*known, *(_random_q(robot, rng) for _ in range(40))]:
+    for q in [*known, *(random_configuration(robot, rng) for _ in range(40))]:
         exact = checker.pair_distances(q, own)
         lower = checker.pair_distances(q, own, lower=True)
         clear = exact > 0.0
@@ -174,11 +170,8 @@ def test_fast_certificate_agrees_with_coal_on_every_grid_configuration(name: str
     rng = np.random.default_rng(5)
     outcomes = []
     for trial in range(10):
-        q_a = _random_q(robot, rng)
-        q_b = np.clip(q_a + rng.normal(size=robot.n_joints) * 0.4, robot.lower_limits, robot.upper_limits)
-        middle = 0.5 * (q_a + q_b)
-        obstacles = _obstacles(robot, middle, rng, 0.05 * trial)
-        qs = np.array([q_a, middle, q_b])
+        qs = random_three_waypoints(robot, rng, 0.4)
+        obstacles = _obstacles(robot, qs[1], rng, 0.05 * trial)
         checker = CollisionChecker(robot, obstacles)
         certificate = certify_path(robot, obstacles, qs, 0.01, checker)
         plain = _plain_verdict(checker, qs)
@@ -232,7 +225,7 @@ def test_covering_needed_is_the_walk_on_the_bound_and_refuses_bad_shapes(name: s
     of its semi-axes, so the walk clears grid points of theirs too); arrays of the wrong shape are refused."""
     robot = _robot(name)
     rng = np.random.default_rng(2)
-    q_a = _random_q(robot, rng)
+    q_a = random_configuration(robot, rng)
     qs = np.array([q_a, np.clip(q_a + rng.normal(size=robot.n_joints) * 0.5, robot.lower_limits, robot.upper_limits)])
     egg = Obstacle("egg", Ellipsoid(0.05, 0.04, 0.08), Pose(robot.forward_kinematics(q_a).position + 0.3))
     checker = CollisionChecker(robot, [*_obstacles(robot, q_a, rng, 0.15), egg])
@@ -270,7 +263,7 @@ def test_distances_are_those_of_coal_on_every_pair(name: str) -> None:
     rng = np.random.default_rng(23)
     outcomes, asked, every = [], 0, 0
     for trial in range(12):
-        q = _random_q(robot, rng)
+        q = random_configuration(robot, rng)
         checker = CollisionChecker(robot, _obstacles(robot, q, rng, 0.03 * trial))
         values = checker.pair_distances(q, np.arange(len(checker.pair_names)))
         expected = []
@@ -298,7 +291,7 @@ def test_contact_is_checks_verdict(name: str) -> None:
     rng = np.random.default_rng(29)
     verdicts = []
     for trial in range(12):
-        q = _random_q(robot, rng)
+        q = random_configuration(robot, rng)
         checker = CollisionChecker(robot, _obstacles(robot, q, rng, 0.03 * trial))
         for margin in (0.0, 0.01, 0.05):
             report, found = checker.check(q, margin), checker.contact(q, margin)
