@@ -179,7 +179,8 @@ class SearchResult:
 # ---- whole body ---------------------------------------------------------------------------------------
 
 def endpoint_scene(scene: _wb.Scene, arrays: _wb.RobotArrays, ends: Sequence[NDArray[np.float64]],
-                   margin: float, band: float, goal_band: float = 0.0) -> _wb.Scene:
+                   margin: float, band: float, goal_band: float = 0.0,
+                   measured: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]]] | None = None) -> _wb.Scene:
     """``scene`` with the offsets min(0, d(end) − margin − b) over the ``ends``: a pair closer than
     ``margin`` at the start (b = ``band``) or at a goal (b = ``goal_band``) may go that much deeper than there, no
     deeper.
@@ -190,15 +191,23 @@ def endpoint_scene(scene: _wb.Scene, arrays: _wb.RobotArrays, ends: Sequence[NDA
     finger primitives overlap the object its meshes hold clear, and with no band 1–9 % of the short motions out of
     such a goal passed the search's test where 33–60 % are clear on the meshes), but a band there also lets the
     fingers sweep into the object the meshes hold: :func:`pfield.planning.fallback.whole_body_fallback` tries the
-    goal with the band first, then, when that motion fails, without."""
+    goal with the band first, then, when that motion fails, without.
+
+    ``measured``: the ends' :func:`~pfield.planning._whole_body_core.pair_distances` in ``scene``, when the caller
+    has them (:func:`end_distances`)."""
     obstacle_offsets, self_offsets = np.zeros_like(scene.obstacle_offsets), np.zeros_like(scene.self_offsets)
-    for index, q in enumerate(ends):
+    for index, (obstacle, own) in enumerate(measured or end_distances(arrays, scene, ends)):
         extra = band if index == 0 else goal_band
-        obstacle, own = pair_distances(np.ascontiguousarray(q), arrays, scene)
         obstacle_offsets = np.minimum(obstacle_offsets, np.where(obstacle < margin, obstacle - margin - extra, 0.0))
         self_offsets = np.minimum(self_offsets, np.where(own < margin, own - margin - extra, 0.0))
     return scene._replace(obstacle_offsets=obstacle_offsets - _ROUNDING * (obstacle_offsets < 0.0),
                           self_offsets=self_offsets - _ROUNDING * (self_offsets < 0.0))
+
+
+def end_distances(arrays: _wb.RobotArrays, scene: _wb.Scene, ends: Sequence[NDArray[np.float64]]
+                  ) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
+    """The fitted model's pair distances (link × obstacle, self pairs) at each of ``ends`` in ``scene``."""
+    return [pair_distances(np.ascontiguousarray(q), arrays, scene) for q in ends]
 
 
 def _joint_checker(arrays: _wb.RobotArrays, scene: _wb.Scene, margin: float, resolution: float) -> _core.Checker:
@@ -456,12 +465,14 @@ def joint_space_search(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Sc
     self pair may go that much deeper than the margin (:func:`self_contact_slack`), in the search and the
     tracking."""
     scene = scene._replace(fitted_self=True)  # self pairs on the fitted primitives (module docstring)
-    search_scene = endpoint_scene(scene, arrays, (start, *goals), margin, options.endpoint_band, goal_band)
+    ends = (start, *goals)
+    measured = end_distances(arrays, scene, ends)  # for both scenes below
+    search_scene = endpoint_scene(scene, arrays, ends, margin, options.endpoint_band, goal_band, measured)
     if self_slack is not None:
         search_scene = search_scene._replace(self_offsets=np.minimum(search_scene.self_offsets, -self_slack))
     checker = _joint_checker(arrays, search_scene, margin, options.joint_resolution)
-    clearance = _joint_checker(arrays, _clearance_scene(scene, search_scene, arrays, (start, *goals), margin, options,
-                                                        goal_band), margin + options.smoothing_clearance,
+    clearance = _joint_checker(arrays, _clearance_scene(scene, search_scene, arrays, ends, margin, options,
+                                                        goal_band, measured), margin + options.smoothing_clearance,
                                options.joint_resolution)
     for region in forbidden:  # contact_region's arrays: contiguous float64
         checker.forbid(*region)
@@ -548,7 +559,8 @@ def sampling_window(robot: RobotModel, box: tuple[NDArray[np.float64], NDArray[n
 
 def _clearance_scene(scene: _wb.Scene, search_scene: _wb.Scene, arrays: _wb.RobotArrays,
                      ends: Sequence[NDArray[np.float64]], margin: float, options: GlobalOptions,
-                     goal_band: float = 0.0) -> _wb.Scene:
+                     goal_band: float = 0.0,
+                     measured: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]]] | None = None) -> _wb.Scene:
     """The offsets under which a checker of margin ``margin + smoothing_clearance`` keeps that much more from
     the obstacles only: link–obstacle pairs get :func:`endpoint_scene`'s offsets at the larger margin (a pair
     closer than it at an end may go as deep as there, no deeper), self pairs their search offsets less the
@@ -556,7 +568,7 @@ def _clearance_scene(scene: _wb.Scene, search_scene: _wb.Scene, arrays: _wb.Robo
     centimetre of each other everywhere (the UR5's forearm and wrist): a clearance between them would refuse
     every shortcut."""
     wide = endpoint_scene(scene, arrays, ends, margin + options.smoothing_clearance, options.endpoint_band,
-                          goal_band)
+                          goal_band, measured)
     return wide._replace(self_offsets=search_scene.self_offsets - options.smoothing_clearance)
 
 
