@@ -155,7 +155,7 @@ def test_looking_ahead_answers_as_the_plain_walk_with_fewer_placements(ur5: Robo
 
     rng = np.random.default_rng(11)
     cases = [_past_a_box(ur5, rng, 0.8, 0.05 * trial) for trial in range(8)]
-    shoulder = np.array([[0.0, -1.2, 1.6, -1.97, -1.57, 0.0], [1.5, -0.4, 1.6, -1.97, -1.57, 0.0]])
+    shoulder = np.array([[0.0, -1.2, 1.6, -1.97, -1.57, 0.0], [3.0, -0.4, 1.6, -1.97, -1.57, 0.0]])
     cases.append((shoulder, Obstacle("far", Box(0.1, 0.1, 0.1), Pose((3.0, 0.0, 0.0)))))
     counts = {}
     for ahead in (0.0, certify._AHEAD):
@@ -166,7 +166,7 @@ def test_looking_ahead_answers_as_the_plain_walk_with_fewer_placements(ur5: Robo
     (plain, plain_placements), (looked, looked_placements) = counts.values()
     assert looked == plain
     assert {verdict[0] for verdict in plain} == {True, False}  # both outcomes were exercised
-    assert looked_placements[-1] <= 0.7 * plain_placements[-1] and plain_placements[-1] >= 20
+    assert looked_placements[-1] <= 0.7 * plain_placements[-1] and plain_placements[-1] >= 25
     assert sum(looked_placements) < sum(plain_placements)
 
 

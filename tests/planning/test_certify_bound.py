@@ -301,3 +301,42 @@ def test_contact_is_checks_verdict(name: str) -> None:
     assert any(verdicts) and not all(verdicts)
     with pytest.raises(InvalidInput, match="margin"):
         CollisionChecker(robot, []).contact(robot.mid_configuration, -0.01)
+
+
+@needs_ur5
+def test_a_self_pair_turned_about_one_links_axis_is_bounded_by_that_links_distance_from_it() -> None:
+    """The UR5's base and upper arm: the shoulder pan and lift move the upper arm (up to 0.62 and 0.49 m from their
+    axes) about the base, whose hull is never further than the pair's weights from the pan axis (fixed in its frame:
+    exactly its largest distance) nor from the lift axis (which passes through a point of the pan axis); and the
+    meshes' distance changes no faster than those weights say, against coal on small shoulder motions."""
+    from pfield.robot import collision
+
+    robot = ur5_at_tool0()
+    checker = CollisionChecker(robot, [])
+    pair = checker.pair_names.index("base_link_0/upper_arm_link_0")
+    base = checker._records[pair][0]
+    weights = checker.motion_weights[pair]
+    assert np.all(weights[2:] == 0.0)
+    upper = checker._records[pair][1]
+    own = collision._robot_tables(robot).bounds[upper]
+    assert weights[0] < 0.2 * own[0] and weights[1] < 0.3 * own[1]  # 0.11 and 0.14 m against 0.62 and 0.49
+    objects = robot.collision_model.geometryObjects
+    hull = collision._local_points(collision._convex_hulls(robot)[base], objects[base].placement)  # root frame
+    rng = np.random.default_rng(17)
+    farthest = np.zeros(2)
+    for _ in range(40):
+        q = random_configuration(robot, rng)
+        rotations, origins = robot.joint_frames(q)
+        for j in (0, 1):
+            axis = rotations[j] @ robot.kinematics.axes[j]
+            offsets = hull - origins[j]
+            distance = np.sqrt(np.maximum(np.sum(offsets**2, axis=1) - (offsets @ axis) ** 2, 0.0)).max()
+            assert distance <= weights[j] + 1e-12
+            farthest[j] = max(farthest[j], distance)
+        step = np.zeros(robot.n_joints)
+        step[:2] = rng.uniform(-0.01, 0.01, size=2)
+        moved = np.clip(q + step, robot.lower_limits, robot.upper_limits)
+        before, after = (checker.pair_distances(c, [pair], np.inf)[0] for c in (q, moved))
+        if before > 0.0 and after > 0.0:
+            assert abs(after - before) <= weights @ np.abs(moved - q) + 1e-6
+    assert farthest[0] == pytest.approx(weights[0], abs=1e-12)  # the pan axis is fixed in the base's frame: exact
