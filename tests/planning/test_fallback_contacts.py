@@ -57,8 +57,9 @@ def test_a_forbidden_region_refuses_its_states_and_no_others() -> None:
 
 @needs_ur5
 def test_a_contact_region_holds_only_configurations_closer_than_the_margin(ur5: RobotModel) -> None:
-    """Around the forearm/wrist_2 contact, every configuration of the region keeps that pair closer than the margin
-    on the meshes (the motion bound makes it so); an end near the contact bounds the region so that it stays out."""
+    """Around the forearm/wrist_2 contact, every configuration of the region's core (Σ w |Δq| < margin) keeps that
+    pair closer than the margin on the meshes (the motion bound makes it so), and the region reaches further by the
+    hulls' depth; an end near the contact bounds the region so that it stays out."""
     exact = CollisionChecker(ur5)
     certificate = certify_path(ur5, [], UR5_FOREARM_WRIST_2[None])
     assert not certificate.clear and certificate.pair == "forearm_link_0/wrist_2_link_0"
@@ -70,9 +71,9 @@ def test_a_contact_region_holds_only_configurations_closer_than_the_margin(ur5: 
     rng = np.random.default_rng(5)
     for _ in range(40):
         step = rng.normal(size=6)
-        step *= rng.uniform(0.0, radius) / max(float(weights @ np.abs(step)), 1e-12)
+        step *= rng.uniform(0.0, margin) / max(float(weights @ np.abs(step)), 1e-12)
         inside = centre + step
-        assert float(weights @ np.abs(inside - centre)) < radius
+        assert float(weights @ np.abs(inside - centre)) < margin < radius
         assert exact.pair_distances(inside, np.array([pair]), refine=margin)[0] < margin  # the meshes, not hulls
     near = centre + np.array([0.0, 0.0, 0.0, 0.2 * radius / weights[3], 0.0, 0.0])
     _, _, bounded = contact_region(exact, certificate, margin, [near])

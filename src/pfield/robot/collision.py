@@ -205,14 +205,16 @@ class CollisionChecker:
         r_gj bounds the distance of object g from joint j's axis at *every* configuration: the distance from
         joint j's origin (on its axis) ≤ Σ |joint origin offsets| down the chain to g's joint + the largest
         travel of the prismatic joints between + the largest distance of g's convex hull (or bounding box) from
-        its joint's origin. Obstacle pairs: w = r of the object (obstacles are static). Self pairs: the joints
-        that carry both objects move them rigidly together, so only the joints of one object's chain and not
-        the other's count, each with the smaller of its own object's r and the other object's distance from the
-        joint's axis (:func:`_cross_bounds`, where one is known): at the closest points p_a, p_b (d > 0) the
-        distance changes at the rate n·(v_b − v_a), n = (p_b − p_a)/d, and a rotation ω about axis j (through o_j)
-        that moves b alone adds n·(ω × (p_b − o_j)) = n·(ω × (p_a − o_j)), since n·(ω × (p_b − p_a)) = 0: its
-        rate is bounded by either point's distance from the axis. (The UR5's base and upper arm: the shoulder pan
-        turns the upper arm, 0.62 m from its axis at most, about the base, 0.07 m from it.)
+        its joint's origin, or where smaller, its distance from a line or point of the axis fixed in g's frame
+        (:func:`_axis_bounds`: a joint's own axis; the wrist 1 axis, which meets wrist 2's). Obstacle pairs:
+        w = r of the object (obstacles are static). Self pairs: the joints that carry both objects move them
+        rigidly together, so only the joints of one object's chain and not the other's count, each with the
+        smaller of its own object's r and the other object's distance from the joint's axis
+        (:func:`_axis_bounds` again, where one is known): at the closest points p_a, p_b (d > 0) the distance
+        changes at the rate n·(v_b − v_a), n = (p_b − p_a)/d, and a rotation ω about axis j (through o_j) that
+        moves b alone adds n·(ω × (p_b − o_j)) = n·(ω × (p_a − o_j)), since n·(ω × (p_b − p_a)) = 0: its rate is
+        bounded by either point's distance from the axis. (The UR5's base and upper arm: the shoulder pan turns
+        the upper arm, 0.51 m from its axis at most, about the base, 0.11 m from it.)
         """
         radii, supports, cross = self._tables.bounds, self._tables.supports, self._tables.cross
         first, second, obstacle = self._first, self._second, self._obstacle_pair
@@ -427,9 +429,9 @@ class _RobotTables:
     object_joint: NDArray[np.int64]  # (G,) each object's joint (−1: the base)
     local_rotation: NDArray[np.float64]  # (G, 3, 3) each object's placement in its joint's frame
     local_position: NDArray[np.float64]  # (G, 3)
-    bounds: NDArray[np.float64]  # (G, n) r_gj of CollisionChecker.motion_weights
+    bounds: NDArray[np.float64]  # (G, n) r_gj of CollisionChecker.motion_weights (0 where j does not move g)
     supports: NDArray[np.bool_]  # (G, n) whether joint j moves object g
-    cross: NDArray[np.float64]  # (G, n) g's distance from the axis of a joint j that does not move it (_cross_bounds)
+    cross: NDArray[np.float64]  # (G, n) g's distance from the axis of a joint j that does not move it (_axis_bounds)
     names: tuple[str, ...]  # (G,) each object's name
     pair_names: tuple[str, ...]  # "object/object" of each self pair
     meshes: list[coal.CollisionGeometry]  # (G,) each object's own geometry (its mesh, or a primitive shape)
@@ -450,8 +452,9 @@ def _robot_tables(robot: RobotModel) -> _RobotTables:
     positions = np.array([obj.placement.translation for obj in objects]).reshape(-1, 3)
     names = tuple(str(obj.name) for obj in objects)
     meshes = [obj.geometry for obj in objects]
-    return _RobotTables(tuple(pairs), joints, rotations, positions, _object_bounds(robot, shapes), supports,
-                        _cross_bounds(robot, shapes), names,
+    walked, axis = _object_bounds(robot, shapes), _axis_bounds(robot, shapes)
+    return _RobotTables(tuple(pairs), joints, rotations, positions, np.where(supports, np.minimum(walked, axis), 0.0),
+                        supports, np.where(supports, np.inf, axis), names,
                         tuple(f"{names[a]}/{names[b]}" for a, b in pairs), meshes,
                         [int(m.num_tris) if isinstance(m, coal.BVHModelBase) else None for m in meshes],
                         [(int(j), coal.Transform3s(r, t))
@@ -538,36 +541,45 @@ def _object_bounds(robot: RobotModel, shapes: Sequence[coal.CollisionGeometry]) 
     return bounds
 
 
-def _cross_bounds(robot: RobotModel, shapes: Sequence[coal.CollisionGeometry]) -> NDArray[np.float64]:
-    """(G, n) for object g and a revolute joint j that does not move it, the largest distance (m) of g's convex hull
-    from joint j's axis at every configuration, where a fixed point or line of g's frame bounds it; inf elsewhere
-    (and for the joints that move g). Two cases, measured over g's hull vertices (:func:`_local_points`):
+def _axis_bounds(robot: RobotModel, shapes: Sequence[coal.CollisionGeometry]) -> NDArray[np.float64]:
+    """(G, n) for object g and a revolute joint j, the largest distance (m) of g's convex hull from j's axis at every
+    configuration where a line or a point fixed in g's frame bounds it (inf elsewhere), over g's hull vertices
+    (:func:`_local_points`):
 
-    * j is a child joint of g's joint (the axis is fixed in g's frame): the distance from the axis line;
-    * j's parent joint i is a revolute child joint of g's joint and the two axes meet (the UR5's shoulder pan and
-      lift): the point where they meet lies on i's axis, so it stays put in g's frame as i turns, and j's axis
-      passes through it: the distance from that point bounds the distance from j's axis."""
+    * the axis is fixed in g's frame (j is g's joint, or a child joint of it): the distance from that line;
+    * j's axis meets the axis of a joint between it and g's frame (j is the parent of g's joint, or the child of a
+      child of it), at a point of that joint's axis, which the joint's turning leaves in place: the distance from
+      that point (the UR5's shoulder pan and lift, wrist 1 and wrist 2)."""
     k = robot.kinematics
     directions = np.einsum("nij,nj->ni", k.place_rot, k.axes)  # each joint's axis in its parent joint's frame
-    cross = np.full((len(shapes), robot.n_joints), np.inf)
+    bounds = np.full((len(shapes), robot.n_joints), np.inf)
+    revolute = k.kinds == 0
+
+    def from_line(points: NDArray[np.float64], origin: NDArray[np.float64], direction: NDArray[np.float64]) -> float:
+        offsets = points - origin
+        along = offsets @ direction
+        return float(np.sqrt(np.maximum(np.einsum("ij,ij->i", offsets, offsets) - along * along, 0.0)).max())
+
     for g, obj in enumerate(robot.collision_model.geometryObjects):
         own = int(obj.parentJoint) - 1
-        points = _local_points(shapes[g], obj.placement)
-        for j in range(robot.n_joints):
+        points = _local_points(shapes[g], obj.placement)  # in the frame of g's joint
+        for j in np.flatnonzero(revolute).tolist():
             parent = int(k.parents[j])
-            if k.kinds[j] != 0:
-                continue
-            if parent == own:  # the axis through place_pos[j] along directions[j], in g's joint frame
-                offsets = points - k.place_pos[j]
-                along = offsets @ directions[j]
-                cross[g, j] = float(np.sqrt(np.maximum(
-                    np.einsum("ij,ij->i", offsets, offsets) - along * along, 0.0)).max())
-            elif parent >= 0 and int(k.parents[parent]) == own and k.kinds[parent] == 0:
-                meet = _axes_meet(k.axes[parent], k.place_pos[j], directions[j])  # in the frame of joint `parent`
+            if j == own:
+                bounds[g, j] = from_line(points, np.zeros(3), k.axes[j])
+            elif parent == own:
+                bounds[g, j] = from_line(points, k.place_pos[j], directions[j])
+            elif own >= 0 and j == int(k.parents[own]) and revolute[own]:
+                meet = _axes_meet(k.axes[j], k.place_pos[own], directions[own])  # in j's frame, on g's joint axis
+                if meet is not None:
+                    where = k.place_rot[own].T @ (meet - k.place_pos[own])  # in g's joint frame
+                    bounds[g, j] = float(np.linalg.norm(points - where, axis=1).max())
+            elif parent >= 0 and int(k.parents[parent]) == own and revolute[parent]:
+                meet = _axes_meet(k.axes[parent], k.place_pos[j], directions[j])  # in the parent's frame, on its axis
                 if meet is not None:
                     where = k.place_rot[parent] @ meet + k.place_pos[parent]  # in g's joint frame
-                    cross[g, j] = float(np.linalg.norm(points - where, axis=1).max())
-    return cross
+                    bounds[g, j] = float(np.linalg.norm(points - where, axis=1).max())
+    return bounds
 
 
 def _axes_meet(axis: NDArray[np.float64], origin: NDArray[np.float64], direction: NDArray[np.float64]
