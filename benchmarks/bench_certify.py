@@ -76,7 +76,7 @@ def measure(name: str, limit: int, paths: Path | None = None) -> list[dict[str, 
                     joint_positions, success = stored[key_name], bool(stored[key_name + "/reached"])
                 else:
                     field = PotentialField(MBM_CONFIG, robot.forward_kinematics(goal), obstacles)
-                    path = field.plan_whole_body(robot, start, options=mbm_options(robot.velocity_limits),
+                    path = field.plan_whole_body(robot, start, options=mbm_options(robot),
                                                  goal_configuration=goal)
                     assert path.joint_positions is not None
                     joint_positions, success = path.joint_positions, path.success

@@ -17,7 +17,7 @@ Per problem (problem loading: :func:`benchmarks.bench_mbm.read_problem`; joint v
   pinocchio + coal on the link meshes, the obstacles' exact shapes, the self pairs the SRDF does not disable);
   only valid problems are planned, and success counts over them;
 * **pfield** — ``PotentialField(MBM_CONFIG, FK(goal), obstacles).plan_whole_body(robot, start,
-  options=mbm_options(robot.velocity_limits), goal_configuration=goal)``: the field, and when it stagnates its global
+  options=mbm_options(robot), goal_configuration=goal)``: the field, and when it stagnates its global
   fallback (5 s, the time limit of ``MBM_OPTIONS``), as a user calls it (``pfield batch`` plans MoveIt problems with
   the same options: the robot's step, Panda 0.02 s, UR5 0.05 s);
 * **OMPL RRT-Connect** — ``ompl`` 2.0.1 (the ``bench`` extra), default range, from the start joints to the goal
@@ -184,7 +184,7 @@ def _counting() -> Iterator[_StateCounter]:
 
 
 def _pfield(robot: RobotModel, field_: PotentialField, start: np.ndarray, goal: np.ndarray) -> Outcome:
-    options = mbm_options(robot.velocity_limits)
+    options = mbm_options(robot)
     with _counting() as counter:
         begin, cpu = time.perf_counter(), time.process_time()
         path = field_.plan_whole_body(robot, start, options=options, goal_configuration=goal)

@@ -367,3 +367,14 @@ def test_every_axis_bound_holds_at_random_configurations(name: str) -> None:
                 farthest = np.sqrt(np.maximum(np.sum(offsets**2, axis=1) - (offsets @ axis) ** 2, 0.0)).max()
                 bound = tables.bounds[g, j] if tables.supports[g, j] else tables.cross[g, j]
                 assert farthest <= bound + 1e-9, (name, objects[g].name, int(j))
+
+
+def test_pair_distances_checks_its_joint_angles() -> None:
+    """A list is read as the array it names; a wrong length or a value beyond a limit is refused naming ``q``."""
+    robot = _robot("panda")
+    checker = CollisionChecker(robot, [Obstacle("ball", Sphere(0.1), Pose((0.6, 0.0, 0.4)))])
+    q = robot.mid_configuration
+    np.testing.assert_array_equal(checker.pair_distances(q.tolist(), [0, 1]), checker.pair_distances(q, [0, 1]))
+    for bad in (q[:3], np.where(np.arange(robot.n_joints) == 0, robot.upper_limits + 0.1, q)):
+        with pytest.raises(InvalidInput, match=r"^q"):
+            checker.pair_distances(bad, [0])

@@ -10,8 +10,10 @@ import numpy as np
 import pytest
 import yaml
 
+from core_scenes import UR5, ur5_at_tool0
 from pfield.errors import InvalidInput
 from pfield.geometry import Box, Cylinder, Mesh, Sphere
+from pfield.robot import RobotModel
 from pfield.scene import (
     MBM_CONFIG,
     MBM_JOINT_STEP,
@@ -69,21 +71,32 @@ def test_an_mbm_request_locks_the_fingers_at_0_065_and_keeps_the_arm_joints(box_
     assert (problem.scene, problem.index, problem.options) == ("box_panda", 1, None)
 
 
-def test_mbm_options_step_the_fastest_joint_by_0_05_rad_within_20_to_50_ms() -> None:
-    """Panda: 2.61 rad/s → 0.0192 s, raised to 0.02; the MBM UR5: 0.5 rad/s → 0.1 s, cut to 0.05; between, exact."""
-    from pfield.robot import RobotModel
+def _rail(tmp_path: Path, revolute_speed: float) -> RobotModel:
+    """A prismatic rail (10 m/s) carrying one revolute joint (``revolute_speed`` rad/s, none when 0)."""
+    arm = "" if revolute_speed == 0.0 else f"""
+  <joint name='turn' type='revolute'><parent link='carriage'/><child link='arm'/><axis xyz='0 0 1'/>
+    <limit lower='-2' upper='2' velocity='{revolute_speed}' effort='1'/></joint>"""
+    urdf = tmp_path / f"rail_{revolute_speed}.urdf"
+    links = "<link name='base'/><link name='carriage'/>" + ("<link name='arm'/>" if arm else "")
+    urdf.write_text(f"""<robot name='rail'>{links}
+  <joint name='rail' type='prismatic'><parent link='base'/><child link='carriage'/><axis xyz='1 0 0'/>
+    <limit lower='0' upper='1' velocity='10' effort='1'/></joint>{arm}
+</robot>""")
+    return RobotModel.from_urdf(urdf, "arm" if arm else "carriage")
 
+
+def test_mbm_options_step_the_fastest_revolute_joint_by_0_05_rad_within_20_to_50_ms(tmp_path: Path) -> None:
+    """Panda: 2.61 rad/s → 0.0192 s, raised to 0.02; the MBM UR5: 0.5 rad/s → 0.1 s, cut to 0.05; between, exact;
+    a prismatic joint's m/s are not counted, and without a revolute joint the set's own 0.02 s."""
     assert MBM_JOINT_STEP == 0.05 and MBM_STEP_RANGE == (0.02, 0.05)
     panda = RobotModel.builtin("panda")
     assert float(np.max(panda.velocity_limits)) == pytest.approx(2.61)
-    assert mbm_options(panda.velocity_limits).dt == 0.02
-    assert mbm_options([0.5] * 6).dt == 0.05
-    assert mbm_options([1.0, 1.25, 0.3]).dt == 0.05 / 1.25
-    stepped = mbm_options([1.25])
-    assert stepped == replace(MBM_OPTIONS, dt=0.04)  # everything else is the set's
-    for bad in ([], [1.0, 0.0], [-1.0], [float("nan")], [float("inf")]):
-        with pytest.raises(InvalidInput, match="velocity_limits"):
-            mbm_options(bad)
+    assert mbm_options(panda).dt == 0.02
+    if (UR5 / "ur5.urdf").exists():  # ../shared's UR5
+        assert mbm_options(ur5_at_tool0()).dt == 0.05
+    stepped = mbm_options(_rail(tmp_path, 1.25))  # the rail's 10 m/s would make it 0.005 s, raised to 0.02
+    assert stepped == replace(MBM_OPTIONS, dt=0.05 / 1.25)  # everything else is the set's
+    assert mbm_options(_rail(tmp_path, 0.0)) is MBM_OPTIONS
 
 
 def test_a_problem_leaves_its_options_to_its_robot_only_with_a_robot() -> None:

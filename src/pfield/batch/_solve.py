@@ -105,7 +105,7 @@ def _plan(problem: Problem, workspace: Workspace, token: CancelToken) -> tuple[P
         field = PotentialField(problem.config, problem.goal, problem.obstacles)
         return field.plan(problem.start, options=replace(problem.options, cancel=token)), None
     robot = workspace.robot(problem.robot)
-    options = replace(mbm_options(robot.velocity_limits) if problem.options is None else problem.options,
+    options = replace(mbm_options(robot) if problem.options is None else problem.options,
                       cancel=token)
     start = _joints(robot, problem.start, "start")  # type: ignore[arg-type]
     goal, goal_q = problem.goal, None

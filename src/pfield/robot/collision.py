@@ -166,15 +166,12 @@ class CollisionChecker:
 
     def __init__(self, robot: RobotModel, obstacles: Sequence[Obstacle] = ()) -> None:
         self.robot = robot
-        self._geometry = robot.collision_model  # read only
-        self._model = robot.pinocchio_model
         self._obstacles = [(o.id, _coal_geometry(o), _transform(o)) for o in obstacles]
         self._obstacle_list = tuple(obstacles)
         self._shapes = _convex_hulls(robot)
         self._tables = tables = _robot_tables(robot)
         self._meshes, self._triangles, self._local = tables.meshes, tables.triangles, tables.local
         self._pairs = tables.pairs
-        self._object_joint = tables.object_joint
         n_objects, n_obstacles = len(tables.names), len(self._obstacles)
         # pair table: (first object, second object or obstacle, second is an obstacle)
         first = [g for g in range(n_objects) for _ in range(n_obstacles)] + [i for i, _ in self._pairs]
@@ -279,13 +276,15 @@ class CollisionChecker:
         for g in objects:  # one object at a time: the calls see a few objects, where vectorising costs more
             joint, local = self._local[g]
             # coal composes the joint's frame with the object's (2.5 us for two objects, where numpy's products
-            # and a new transform took 6)
-            placed[g] = local if joint < 0 else coal.Transform3s(rotations[joint], origins[joint]) * local
+            # and a new transform took 6); an object on the root gets a copy of its placement, not the shared one
+            placed[g] = coal.Transform3s(local) if joint < 0 else \
+                coal.Transform3s(rotations[joint], origins[joint]) * local
         return placed
 
-    def pair_distances(self, q: NDArray[np.float64], pairs: NDArray[np.int64] | Sequence[int],
+    def pair_distances(self, q: ArrayLike, pairs: NDArray[np.int64] | Sequence[int],
                        refine: float = 0.0, lower: bool = False) -> NDArray[np.float64]:
-        """Distances (m) of the pairs ``pairs`` (indices into :attr:`pair_names`) at validated joint angles ``q``:
+        """Distances (m) of the pairs ``pairs`` (indices into :attr:`pair_names`) at joint angles ``q`` (checked:
+        ``InvalidInput`` naming ``q``):
         of the link meshes' convex hulls (a lower bound of the meshes' distance); where that is below ``refine``
         (m), of the meshes themselves (coal's BVH distance, never smaller: the hull contains the mesh). ≤ 0 only
         when coal's collision test finds the meshes in contact; the smallest positive float when they are not
@@ -299,7 +298,8 @@ class CollisionChecker:
         first one-sided distance took 76 and 69 µs and was positive wherever the meshes' was (2325 calls of two
         bookshelf plans), and as tight (median 16.0 against 16.3 mm)."""
         records = [self._records[int(p)] for p in pairs]
-        placed = self._placements(q, {g for a, b, obstacle in records for g in ((a,) if obstacle else (a, b))})
+        values = self.robot.check_joint_angles(q, "q")
+        placed = self._placements(values, {g for a, b, obstacle in records for g in ((a,) if obstacle else (a, b))})
         request, result = self._request, self._result  # one result, cleared before each call (coal keeps minima)
         out = np.empty(len(records))
         for k, (a, b, obstacle) in enumerate(records):
@@ -427,8 +427,6 @@ class _RobotTables:
 
     pairs: tuple[tuple[int, int], ...]  # the checked self pairs of collision objects
     object_joint: NDArray[np.int64]  # (G,) each object's joint (−1: the base)
-    local_rotation: NDArray[np.float64]  # (G, 3, 3) each object's placement in its joint's frame
-    local_position: NDArray[np.float64]  # (G, 3)
     bounds: NDArray[np.float64]  # (G, n) r_gj of CollisionChecker.motion_weights (0 where j does not move g)
     supports: NDArray[np.bool_]  # (G, n) whether joint j moves object g
     cross: NDArray[np.float64]  # (G, n) g's distance from the axis of a joint j that does not move it (_axis_bounds)
@@ -453,7 +451,7 @@ def _robot_tables(robot: RobotModel) -> _RobotTables:
     names = tuple(str(obj.name) for obj in objects)
     meshes = [obj.geometry for obj in objects]
     walked, axis = _object_bounds(robot, shapes), _axis_bounds(robot, shapes)
-    return _RobotTables(tuple(pairs), joints, rotations, positions, np.where(supports, np.minimum(walked, axis), 0.0),
+    return _RobotTables(tuple(pairs), joints, np.where(supports, np.minimum(walked, axis), 0.0),
                         supports, np.where(supports, np.inf, axis), names,
                         tuple(f"{names[a]}/{names[b]}" for a, b in pairs), meshes,
                         [int(m.num_tris) if isinstance(m, coal.BVHModelBase) else None for m in meshes],
@@ -523,8 +521,9 @@ def _self_pairs(robot: RobotModel) -> list[tuple[int, int]]:
 
 
 def _object_bounds(robot: RobotModel, shapes: Sequence[coal.CollisionGeometry]) -> NDArray[np.float64]:
-    """(G, n) r_gj of :attr:`CollisionChecker.motion_weights` (m; 1 for prismatic j; inf where a prismatic joint
-    between is unbounded; 0 where j does not carry g)."""
+    """(G, n) the walked part of r_gj (:attr:`CollisionChecker.motion_weights`, which takes the smaller of it and
+    :func:`_axis_bounds`'): m; 1 for prismatic j; inf where a prismatic joint between is unbounded; 0 where j does
+    not carry g."""
     k = robot.kinematics
     offset = np.linalg.norm(k.place_pos, axis=1)
     travel = np.where(k.kinds == 1, np.maximum(np.abs(robot.lower_limits), np.abs(robot.upper_limits)), 0.0)
@@ -560,6 +559,9 @@ def _axis_bounds(robot: RobotModel, shapes: Sequence[coal.CollisionGeometry]) ->
         along = offsets @ direction
         return float(np.sqrt(np.maximum(np.einsum("ij,ij->i", offsets, offsets) - along * along, 0.0)).max())
 
+    def from_point(points: NDArray[np.float64], where: NDArray[np.float64]) -> float:
+        return float(np.linalg.norm(points - where, axis=1).max())
+
     for g, obj in enumerate(robot.collision_model.geometryObjects):
         own = int(obj.parentJoint) - 1
         points = _local_points(shapes[g], obj.placement)  # in the frame of g's joint
@@ -571,14 +573,12 @@ def _axis_bounds(robot: RobotModel, shapes: Sequence[coal.CollisionGeometry]) ->
                 bounds[g, j] = from_line(points, k.place_pos[j], directions[j])
             elif own >= 0 and j == int(k.parents[own]) and revolute[own]:
                 meet = _axes_meet(k.axes[j], k.place_pos[own], directions[own])  # in j's frame, on g's joint axis
-                if meet is not None:
-                    where = k.place_rot[own].T @ (meet - k.place_pos[own])  # in g's joint frame
-                    bounds[g, j] = float(np.linalg.norm(points - where, axis=1).max())
+                if meet is not None:  # in g's joint frame
+                    bounds[g, j] = from_point(points, k.place_rot[own].T @ (meet - k.place_pos[own]))
             elif parent >= 0 and int(k.parents[parent]) == own and revolute[parent]:
                 meet = _axes_meet(k.axes[parent], k.place_pos[j], directions[j])  # in the parent's frame, on its axis
-                if meet is not None:
-                    where = k.place_rot[parent] @ meet + k.place_pos[parent]  # in g's joint frame
-                    bounds[g, j] = float(np.linalg.norm(points - where, axis=1).max())
+                if meet is not None:  # in g's joint frame
+                    bounds[g, j] = from_point(points, k.place_rot[parent] @ meet + k.place_pos[parent])
     return bounds
 
 

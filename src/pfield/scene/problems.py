@@ -1,7 +1,8 @@
 """Planning problems: one value per plan to make, read from pfield scene files and MoveIt problem sets.
 
 A :class:`Problem` carries everything one plan needs (obstacles, start, goal, field parameters, planning
-options and, for whole-body problems, the robot to build) as plain picklable values, so a batch can send
+options — for MoveIt problems, those of the robot, :func:`mbm_options`, chosen when it is built — and, for
+whole-body problems, the robot to build) as plain picklable values, so a batch can send
 it to another process or a Ray worker. :func:`read_problems` turns paths into problems, in a stable order:
 
 * a pfield scene file (``*.yaml``, :mod:`pfield.scene.files`) → one task-space problem;
@@ -28,9 +29,9 @@ import tempfile
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from pfield._validation import text
 from pfield.errors import InvalidInput
@@ -43,6 +44,9 @@ from pfield.scene._archives import extract_archive
 from pfield.scene.files import load_scene
 from pfield.scene.moveit import WORLD_FRAMES, request_from_moveit, scene_obstacles
 from pfield.spatial import Pose
+
+if TYPE_CHECKING:
+    from pfield.robot.model import RobotModel
 
 __all__ = ["MBM_CONFIG", "MBM_JOINT_STEP", "MBM_OPTIONS", "MBM_STEP_RANGE", "Problem", "RobotSpec", "mbm_options",
            "read_moveit_problem", "read_problems", "scene_folders"]
@@ -74,25 +78,28 @@ MBM_STEP_RANGE = (0.02, 0.05)
 """s: the shortest and the longest step :func:`mbm_options` chooses."""
 
 
-def mbm_options(velocity_limits: ArrayLike) -> PlanOptions:
-    """:data:`MBM_OPTIONS` with the step of a robot whose joints' velocity limits are ``velocity_limits``
-    (``RobotModel.velocity_limits``): the time its fastest joint takes to move :data:`MBM_JOINT_STEP` at its limit,
-    within :data:`MBM_STEP_RANGE` (Panda 0.02 s, the UR5 of ``../shared/benchmarks/mbm/ur5``, 0.5 rad/s, 0.05 s).
+def mbm_options(robot: RobotModel) -> PlanOptions:
+    """:data:`MBM_OPTIONS` with ``robot``'s step: the time its fastest revolute joint takes to turn
+    :data:`MBM_JOINT_STEP` at its velocity limit, within :data:`MBM_STEP_RANGE` (Panda 0.02 s; the UR5 of
+    ``../shared/benchmarks/mbm/ur5``, 0.5 rad/s, 0.05 s); a robot without a revolute joint of finite, positive
+    limit gets :data:`MBM_OPTIONS`' own 0.02 s (prismatic limits are m/s, another unit).
 
     The field and its tracking of a searched path take one step per ``dt`` of the motion, so a slow robot at a fixed
     step pays for steps in which its joints hardly move (the UR5 at 0.02 s: 0.01 rad; its plans last 9–12 s, 450–600
-    steps). Measured on 30 problems of each MotionBenchMaker UR5 scene (pfield alone, one process, 2026-12-07), dt
-    0.02 → 0.05 s: every problem solved, none claimed in contact, median planning time 17.5 → 13.1 ms (table_pick 16.0
-    → 10.9, box 8.1 → 6.4, cage 27.6 → 23.8), median joint path length within 1 % and trajectory duration within
-    2 %; at 0.1 s the trajectories lasted 8–18 % longer (the retiming has fewer waypoints to spread a turn over). The
-    Panda's steps stay at 0.02 s: at 0.04 its fastest joints move 0.1 rad per step and its table_pick paths were 5 %
-    longer, at 0.05 26 %."""
-    limits = np.asarray(velocity_limits, dtype=np.float64)
-    if limits.ndim != 1 or len(limits) == 0 or not np.all(np.isfinite(limits) & (limits > 0.0)):
-        raise InvalidInput("velocity_limits", limits.tolist(), "expected the robot's positive, finite joint velocity "
-                           "limits (one per joint)")
+    steps). Measured on the 700 MotionBenchMaker UR5 problems (pfield alone, one process, 2026-12-07) against the
+    table of 2026-12-06 (0.02 s): every problem solved at 0.05 s, none claimed in contact, median planning time
+    18.6 → 13.4 ms (table_pick 17.0 → 11.2, box 8.4 → 5.9, cage 31.5 → 26.4), median joint path length and
+    trajectory duration within 2 % on every scene; on 30 problems per scene, at 0.1 s the trajectories lasted
+    8–18 % longer (the retiming has fewer waypoints to spread a turn over). The Panda's steps stay at 0.02 s: at
+    0.04 s its fastest joints turn 0.1 rad per step and its table_pick paths were 5 % longer, at 0.05 s 26 %."""
+    limits = np.asarray(robot.velocity_limits, dtype=np.float64)
+    usable = limits[(np.asarray(robot.kinematics.kinds) == 0) & np.isfinite(limits) & (limits > 0.0)]
+    if len(usable) == 0:
+        return MBM_OPTIONS
     shortest, longest = MBM_STEP_RANGE
-    return replace(MBM_OPTIONS, dt=min(longest, max(shortest, MBM_JOINT_STEP / float(np.max(limits)))))
+    return replace(MBM_OPTIONS, dt=min(longest, max(shortest, MBM_JOINT_STEP / float(np.max(usable)))))
+
+
 _ARCHIVE = re.compile(r"\.(tar|tar\.gz|tgz|tar\.bz2|tbz2|tar\.xz|txz)$")
 _REQUEST = "request[0-9][0-9][0-9][0-9].yaml"
 
