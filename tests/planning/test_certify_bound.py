@@ -303,6 +303,12 @@ def test_contact_is_checks_verdict(name: str) -> None:
         CollisionChecker(robot, []).contact(robot.mid_configuration, -0.01)
 
 
+def _farthest_from_axis(points: np.ndarray, origin: np.ndarray, axis: np.ndarray) -> float:
+    """The largest distance (m) of ``points`` (world) from the line through ``origin`` along unit ``axis``."""
+    offsets = points - origin
+    return float(np.sqrt(np.maximum(np.sum(offsets**2, axis=1) - (offsets @ axis) ** 2, 0.0)).max())
+
+
 @needs_ur5
 def test_a_self_pair_turned_about_one_links_axis_is_bounded_by_that_links_distance_from_it() -> None:
     """The UR5's base and upper arm: the shoulder pan and lift move the upper arm (up to 0.51 and 0.48 m from their
@@ -318,19 +324,17 @@ def test_a_self_pair_turned_about_one_links_axis_is_bounded_by_that_links_distan
     weights = checker.motion_weights[pair]
     assert np.all(weights[2:] == 0.0)
     upper = checker._records[pair][1]
-    own = collision._robot_tables(robot).bounds[upper]
+    tables = collision._robot_tables(robot)
+    own = tables.bounds[upper]
     assert weights[0] < 0.25 * own[0] and weights[1] < 0.3 * own[1]  # 0.11 and 0.14 m against 0.51 and 0.48
-    objects = robot.collision_model.geometryObjects
-    hull = collision._local_points(collision._convex_hulls(robot)[base], objects[base].placement)  # root frame
+    hull = tables.hulls[base]  # the base is on the root: its joint's frame is the world
     rng = np.random.default_rng(17)
     farthest = np.zeros(2)
     for _ in range(40):
         q = random_configuration(robot, rng)
         rotations, origins = robot.joint_frames(q)
         for j in (0, 1):
-            axis = rotations[j] @ robot.kinematics.axes[j]
-            offsets = hull - origins[j]
-            distance = np.sqrt(np.maximum(np.sum(offsets**2, axis=1) - (offsets @ axis) ** 2, 0.0)).max()
+            distance = _farthest_from_axis(hull, origins[j], rotations[j] @ robot.kinematics.axes[j])
             assert distance <= weights[j] + 1e-12
             farthest[j] = max(farthest[j], distance)
         step = np.zeros(robot.n_joints)
@@ -352,19 +356,16 @@ def test_every_axis_bound_holds_at_random_configurations(name: str) -> None:
     robot = _robot(name)
     tables = collision._robot_tables(robot)
     objects = robot.collision_model.geometryObjects
-    hulls = [collision._local_points(shape, obj.placement)
-             for shape, obj in zip(collision._convex_hulls(robot), objects, strict=True)]
     revolute = np.flatnonzero(robot.kinematics.kinds == 0)
     assert np.isfinite(tables.cross).any()  # some bound of a joint that does not move the object was found
     rng = np.random.default_rng(23)
     for _ in range(25):
         rotations, origins = robot.joint_frames(random_configuration(robot, rng))
-        for g, hull in enumerate(hulls):
+        for g, hull in enumerate(tables.hulls):
             own = int(tables.object_joint[g])
             world = hull if own < 0 else hull @ rotations[own].T + origins[own]
             for j in revolute:
-                axis, offsets = rotations[j] @ robot.kinematics.axes[j], world - origins[j]
-                farthest = np.sqrt(np.maximum(np.sum(offsets**2, axis=1) - (offsets @ axis) ** 2, 0.0)).max()
+                farthest = _farthest_from_axis(world, origins[j], rotations[j] @ robot.kinematics.axes[j])
                 bound = tables.bounds[g, j] if tables.supports[g, j] else tables.cross[g, j]
                 assert farthest <= bound + 1e-9, (name, objects[g].name, int(j))
 

@@ -435,6 +435,7 @@ class _RobotTables:
     meshes: list[coal.CollisionGeometry]  # (G,) each object's own geometry (its mesh, or a primitive shape)
     triangles: list[int | None]  # (G,) each mesh's triangle count, None for a primitive shape (_one_sided)
     local: list[tuple[int, coal.Transform3s]]  # (G,) (joint, the object's placement in its frame)
+    hulls: list[NDArray[np.float64]]  # (G,) points whose hull holds the object, in its joint's frame (_local_points)
 
 
 @functools.lru_cache(maxsize=8)
@@ -450,13 +451,14 @@ def _robot_tables(robot: RobotModel) -> _RobotTables:
     positions = np.array([obj.placement.translation for obj in objects]).reshape(-1, 3)
     names = tuple(str(obj.name) for obj in objects)
     meshes = [obj.geometry for obj in objects]
-    walked, axis = _object_bounds(robot, shapes), _axis_bounds(robot, shapes)
+    hulls = [_local_points(shape, obj.placement) for shape, obj in zip(shapes, objects, strict=True)]
+    walked, axis = _object_bounds(robot, joints, hulls), _axis_bounds(robot, joints, hulls)
     return _RobotTables(tuple(pairs), joints, np.where(supports, np.minimum(walked, axis), 0.0),
                         supports, np.where(supports, np.inf, axis), names,
                         tuple(f"{names[a]}/{names[b]}" for a, b in pairs), meshes,
                         [int(m.num_tris) if isinstance(m, coal.BVHModelBase) else None for m in meshes],
                         [(int(j), coal.Transform3s(r, t))
-                         for j, r, t in zip(joints, rotations, positions, strict=True)])
+                         for j, r, t in zip(joints, rotations, positions, strict=True)], hulls)
 
 
 @functools.lru_cache(maxsize=8)
@@ -466,12 +468,11 @@ def _covering_capsules(robot: RobotModel) -> tuple[_robot_core.Robot, NDArray[np
     object's link's covering capsule (:attr:`RobotModel.geometry`, in the joint's frame), the radius reaching the
     object's hull (so the capsule contains the hull, and the hull the mesh)."""
     objects = robot.collision_model.geometryObjects
-    shapes, tables = _convex_hulls(robot), _robot_tables(robot)
+    tables = _robot_tables(robot)
     g, model = robot.geometry, robot.pinocchio_model
     links = {name: l for l, name in enumerate(g.link_names)}
     a, b, radii = np.zeros((len(objects), 3)), np.zeros((len(objects), 3)), np.zeros(len(objects))
-    for k, obj in enumerate(objects):
-        points = _local_points(shapes[k], obj.placement)
+    for k, (obj, points) in enumerate(zip(objects, tables.hulls, strict=True)):
         l = links.get(model.frames[obj.parentFrame].name)
         if l is not None and int(g.joints[l]) == tables.object_joint[k]:
             a[k], b[k] = g.a[l], g.b[l]
@@ -520,19 +521,21 @@ def _self_pairs(robot: RobotModel) -> list[tuple[int, int]]:
     return pairs
 
 
-def _object_bounds(robot: RobotModel, shapes: Sequence[coal.CollisionGeometry]) -> NDArray[np.float64]:
+def _object_bounds(robot: RobotModel, joints: NDArray[np.int64], hulls: Sequence[NDArray[np.float64]]
+                   ) -> NDArray[np.float64]:
     """(G, n) the walked part of r_gj (:attr:`CollisionChecker.motion_weights`, which takes the smaller of it and
     :func:`_axis_bounds`'): m; 1 for prismatic j; inf where a prismatic joint between is unbounded; 0 where j does
-    not carry g."""
+    not carry g. ``joints``: each object's joint; ``hulls``: points whose hull contains it, in that joint's frame
+    (the largest distance from the joint's origin is at one of them: a convex function's maximum over a hull)."""
     k = robot.kinematics
     offset = np.linalg.norm(k.place_pos, axis=1)
     travel = np.where(k.kinds == 1, np.maximum(np.abs(robot.lower_limits), np.abs(robot.upper_limits)), 0.0)
-    bounds = np.zeros((len(shapes), robot.n_joints))
-    for g, obj in enumerate(robot.collision_model.geometryObjects):
-        joint = int(obj.parentJoint) - 1
+    bounds = np.zeros((len(hulls), robot.n_joints))
+    for g, (joint, points) in enumerate(zip(joints.tolist(), hulls, strict=True)):
         if joint < 0:
             continue
-        length, i = _local_reach(shapes[g], obj.placement), joint  # distance bound from joint i's origin, walking up
+        # distance bound from joint i's origin, walking up
+        length, i = float(np.linalg.norm(points, axis=1).max()), joint
         while i >= 0:
             bounds[g, i] = 1.0 if k.kinds[i] == 1 else length
             length += offset[i] + travel[i]
@@ -540,10 +543,11 @@ def _object_bounds(robot: RobotModel, shapes: Sequence[coal.CollisionGeometry]) 
     return bounds
 
 
-def _axis_bounds(robot: RobotModel, shapes: Sequence[coal.CollisionGeometry]) -> NDArray[np.float64]:
+def _axis_bounds(robot: RobotModel, joints: NDArray[np.int64], hulls: Sequence[NDArray[np.float64]]
+                 ) -> NDArray[np.float64]:
     """(G, n) for object g and a revolute joint j, the largest distance (m) of g's convex hull from j's axis at every
-    configuration where a line or a point fixed in g's frame bounds it (inf elsewhere), over g's hull vertices
-    (:func:`_local_points`):
+    configuration where a line or a point fixed in g's frame bounds it (inf elsewhere), over ``hulls`` (each object's
+    points, in the frame of its joint ``joints``):
 
     * the axis is fixed in g's frame (j is g's joint, or a child joint of it): the distance from that line;
     * j's axis meets the axis of a joint between it and g's frame (j is the parent of g's joint, or the child of a
@@ -551,7 +555,7 @@ def _axis_bounds(robot: RobotModel, shapes: Sequence[coal.CollisionGeometry]) ->
       that point (the UR5's shoulder pan and lift, wrist 1 and wrist 2)."""
     k = robot.kinematics
     directions = np.einsum("nij,nj->ni", k.place_rot, k.axes)  # each joint's axis in its parent joint's frame
-    bounds = np.full((len(shapes), robot.n_joints), np.inf)
+    bounds = np.full((len(hulls), robot.n_joints), np.inf)
     revolute = k.kinds == 0
 
     def from_line(points: NDArray[np.float64], origin: NDArray[np.float64], direction: NDArray[np.float64]) -> float:
@@ -562,9 +566,7 @@ def _axis_bounds(robot: RobotModel, shapes: Sequence[coal.CollisionGeometry]) ->
     def from_point(points: NDArray[np.float64], where: NDArray[np.float64]) -> float:
         return float(np.linalg.norm(points - where, axis=1).max())
 
-    for g, obj in enumerate(robot.collision_model.geometryObjects):
-        own = int(obj.parentJoint) - 1
-        points = _local_points(shapes[g], obj.placement)  # in the frame of g's joint
+    for g, (own, points) in enumerate(zip(joints.tolist(), hulls, strict=True)):
         for j in np.flatnonzero(revolute).tolist():
             parent = int(k.parents[j])
             if j == own:
@@ -606,8 +608,3 @@ def _local_points(shape: coal.CollisionGeometry, placement: pin.SE3) -> NDArray[
         points = np.array([[(low, high)[(c >> i) & 1][i] for i in range(3)] for c in range(8)])
     return points @ np.asarray(placement.rotation).T + np.asarray(placement.translation)  # type: ignore[no-any-return]
 
-
-def _local_reach(shape: coal.CollisionGeometry, placement: pin.SE3) -> float:
-    """Largest distance (m) of ``shape`` (placed by ``placement`` in its joint's frame) from the joint's origin:
-    over :func:`_local_points` (a convex function's maximum over their hull is at one of them)."""
-    return float(np.linalg.norm(_local_points(shape, placement), axis=1).max())
