@@ -64,8 +64,9 @@ from benchmarks._common import BenchRow, ExactRobot, ExactScene, Report
 from benchmarks.bench_mbm import ARCHIVE, CONFIG, extracted_scene_folders, problem_indices, read_problem
 from pfield.field import PotentialField
 from pfield.robot import RobotModel
-from pfield.robot._loader import load_urdf, read_disabled_pairs
+from pfield.robot._loader import load_urdf
 from pfield.robot.catalog import builtin_spec, example_robot_data_root
+from pfield.robot.srdf import read_disabled_pairs
 from pfield.scene import mbm_options
 
 SECTION = "MotionBenchMaker: pfield (field + global fallback) and OMPL RRT-Connect, exact check"

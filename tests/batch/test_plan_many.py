@@ -55,6 +55,20 @@ def test_a_problem_that_fails_while_planning_is_reported_and_the_batch_goes_on(p
     assert records[0]["error"].startswith("InvalidInput: start") and "panda_joint2" in records[0]["error"]
 
 
+def test_one_worker_in_this_process_is_warmed_up_before_its_first_problem(
+        problem_paths: list[Path], monkeypatch: pytest.MonkeyPatch) -> None:
+    """As a spawned worker is: every robot of the batch makes its warm-up plan before the first problem is timed,
+    so no record's time carries the robot's first use."""
+    import pfield.batch._solve as solving
+
+    events: list[str] = []
+    warm = solving._warm_plan
+    monkeypatch.setattr(solving, "_warm_plan", lambda robot: events.append(f"warm {robot.name}") or warm(robot))
+    problem = read_problems(problem_paths)[0]
+    records = list(plan_many([problem], workers=1, progress=lambda r: events.append(f"record {r['index']}")))
+    assert records[0]["status"] == "reached" and events == ["warm panda", "record 1"], events
+
+
 def test_the_problem_seed_depends_on_the_key_and_seed_only() -> None:
     a, b = Problem("s", 1, start=Pose(), goal=Pose()), Problem("s", 2, start=Pose(), goal=Pose())
     assert problem_seed(0, a) == problem_seed(0, Problem("s", 1, start=Pose((1, 0, 0)), goal=Pose()))

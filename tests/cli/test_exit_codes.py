@@ -104,13 +104,13 @@ def test_serve_on_a_port_in_use_exits_2_before_printing_anything(node_server: No
     ("ur5", "error: --robot='ur5': neither a built-in robot (panda, xarm7) nor a URDF file: give a built-in name, "
             "or --robot FILE.urdf --end-effector LINK\n"),
     ("{urdf}", "error: --end-effector=None: a URDF robot needs its end-effector link (the link whose pose is "
-               "planned); links of arm.urdf: "),
+               "planned); links of arm.urdf: base\n"),
 ])
 def test_serve_names_an_unknown_robot_before_the_end_effector(robot: str, says: str, tmp_path: os.PathLike[str]
                                                               ) -> None:
     """``--robot ur5`` answered ``--end-effector=None: a URDF robot needs --end-effector LINK``."""
     urdf = f"{tmp_path}/arm.urdf"
     with open(urdf, "w") as file:
-        file.write("<robot name='arm'/>")
+        file.write("<robot name='arm'><link name='base'/></robot>")
     done = _serve("--robot", robot.format(urdf=urdf), "--port", str(free_port()))
     assert done.returncode == 2 and done.stderr.startswith(says.format(urdf=urdf)), done.stderr

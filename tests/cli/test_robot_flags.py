@@ -19,6 +19,7 @@ from typing import Any
 import pytest
 from pfield_node_server import NodeServer
 
+from pfield.robot.catalog import example_robot_data_root
 from serve_process import PFIELD, REPO, SRC, free_port, pfield_serve
 
 UR5 = REPO.parent / "shared" / "benchmarks" / "mbm" / "ur5"
@@ -26,6 +27,8 @@ ARM = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_join
 FLAGS = ["--robot", str(UR5 / "ur5.urdf"), "--srdf", str(UR5 / "ur5.srdf"), "--end-effector", "tool0",
          "--package-path", f"meshes={UR5 / 'meshes'}"]
 SCENE = REPO / "tests" / "data" / "ur5" / "scene.yaml"
+PANDA_SRDF = example_robot_data_root() / "robots" / "panda_description" / "srdf" / "panda.srdf"
+"""Another robot's SRDF (example-robot-data's Panda): no link it names is the UR5's."""
 START = [0.0, -1.2, 1.6, -1.97, -1.57, 0.0]
 """rad: the UR5's start in SCENE (the issue's example), its tool 1.165 m high, pointing down."""
 
@@ -140,6 +143,13 @@ BAD = [
     (["--locked-joint", "wrist_3_joint=nan"], "error: --locked-joint=nan: must be finite"),
     (["--locked-joint", "wrist_9_joint=0"], "error: --locked-joint wrist_9_joint=0.0: no such movable joint in "
                                             "the URDF; joints: shoulder_pan_joint,"),
+    # files swapped, or another robot's: refused before a model is built
+    (["--srdf", str(UR5 / "ur5.urdf")], f"error: --srdf='{UR5 / 'ur5.urdf'}': not an SRDF: it has <link> elements"),
+    (["--robot", str(UR5 / "ur5.srdf")], f"error: --robot='{UR5 / 'ur5.srdf'}': not a URDF: it has no <link> "
+                                         "elements (an SRDF?)"),
+    (["--srdf", str(PANDA_SRDF)], "error: --srdf="),
+    # a package root that is a folder, but not the package's: the first mesh it cannot find is named, with the flag
+    (["--package-path", f"meshes={UR5}"], f"error: link 'base_link' of {UR5 / 'ur5.urdf'}: 'package://meshes/ur5/"),
 ]
 COMMANDS = {
     "serve": ["serve", "--port", str(free_port())],
@@ -181,6 +191,9 @@ def test_every_command_refuses_each_bad_flag_naming_it(command: str, tmp_path: P
             code, stderr = result.exit_code, result.stderr
         assert code == 2, (bad, stderr)
         assert stderr.startswith(says), (bad, stderr)
+        assert bad[0] != "--srdf" or bad[1] != str(PANDA_SRDF) or "it describes another robot: none of the links " \
+            "it names (panda_hand, panda_leftfinger, panda_link0, panda_link1, …) is a link of the URDF" in stderr
+        assert bad[1] != f"meshes={UR5}" or "check --package-path meshes=DIR" in stderr, stderr
         assert stderr.count("\n") == 1, stderr
     assert list(tmp_path.iterdir()) == []
 
@@ -207,7 +220,8 @@ def test_plan_refuses_robot_flags_without_a_robot_and_a_bad_start(tmp_path: Path
     # a locked joint leaves the robot five: six values are one too many
     result = runner.invoke(app, ["plan", *FLAGS, "--locked-joint", "wrist_3_joint=0", "--start-joints",
                                  ",".join(map(str, START)), "-o", out])
-    assert result.exit_code == 2 and "expected 5 numbers, got 6" in result.stderr, result.stderr
+    assert result.exit_code == 2 and "expected 5 numbers, for shoulder_pan_joint, shoulder_lift_joint, elbow_joint, " \
+        "wrist_1_joint, wrist_2_joint (locked joints excluded), got 6" in result.stderr, result.stderr
     assert list(tmp_path.iterdir()) == []
 
 

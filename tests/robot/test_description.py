@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from pfield.errors import InvalidInput
-from pfield.robot.description import RobotDescription, package_path_map
+from pfield.geometry.resources import package_path_map
+from pfield.robot.description import RobotDescription
 from pfield.scene import Problem, read_moveit_problem, read_problems
 
 UR5 = Path(__file__).resolve().parents[3] / "shared" / "benchmarks" / "mbm" / "ur5"
@@ -73,6 +74,8 @@ def test_locked_joints_and_built_in_names() -> None:
     ({"robot": "/nonexistent/ur5.urdf"}, "robot", "no such URDF file"),
     ({"robot": str(UR5 / "README.md")}, "robot", "not valid XML"),
     ({"srdf": "/nonexistent/ur5.srdf"}, "srdf", "no such SRDF file"),
+    ({"srdf": str(UR5 / "ur5.urdf")}, "srdf", "not an SRDF: it has <link> elements (a URDF?)"),
+    ({"robot": str(UR5 / "ur5.srdf")}, "robot", "not a URDF: it has no <link> elements (an SRDF?)"),
     ({"end_effector": None}, "end_effector", "needs its end-effector link"),
     ({"end_effector": "tool9"}, "end_effector", "no such link in ur5.urdf; links: offset_link, base_link,"),
     ({"package_paths": ["meshes"]}, "package_paths", "expected NAME=DIR"),
@@ -139,3 +142,26 @@ def test_a_missing_file_in_another_folder_reads_the_same(tmp_path: Path, monkeyp
     with pytest.raises(InvalidInput) as info:
         RobotDescription("ur5.urdf", end_effector="tool0")
     assert info.value.field == "robot" and info.value.value == "ur5.urdf"
+
+
+def test_an_srdf_is_checked_against_its_urdf(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    """Another robot's SRDF is refused (none of its links is the URDF's); links the URDF has lost since are
+    logged and their pairs ignored, as MoveIt does; ``from_urdf`` takes package roots as ``NAME=DIR`` too."""
+    from pfield.robot import RobotModel
+
+    other = tmp_path / "other.srdf"
+    other.write_text('<robot name="arm"><disable_collisions link1="hand" link2="link7" reason="Adjacent"/></robot>')
+    with pytest.raises(InvalidInput) as info:
+        ur5(srdf=str(other))
+    assert info.value.field == "srdf" and "it describes another robot: none of the links it names (hand, link7, " \
+        "…) is a link of the URDF" in info.value.reason
+    with pytest.raises(InvalidInput) as info:
+        RobotModel.from_urdf(UR5 / "ur5.urdf", "tool0", {"meshes": UR5 / "meshes"}, srdf=other)
+    assert info.value.field == "srdf"
+    edited = tmp_path / "edited.srdf"
+    edited.write_text('<robot name="ur5"><disable_collisions link1="base_link" link2="shoulder_link"/>'
+                      '<disable_collisions link1="base_link" link2="old_camera_link"/></robot>')
+    with caplog.at_level("WARNING", logger="pfield.robot.srdf"):
+        robot = RobotModel.from_urdf(UR5 / "ur5.urdf", "tool0", f"meshes={UR5 / 'meshes'}", srdf=edited)
+    assert "names links the URDF does not have (their pairs are ignored): old_camera_link" in caplog.text
+    assert robot.disabled_pairs is not None and frozenset(("base_link", "shoulder_link")) in robot.disabled_pairs

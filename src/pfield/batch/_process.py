@@ -37,8 +37,9 @@ def _solve_in_worker(problem: Problem, timeout: float | None, seed: int) -> dict
 
 def run_in_process(problems: Sequence[Problem], robots: tuple[RobotSpec, ...], timeout: float | None,
                    seed: int) -> Iterator[dict[str, Any]]:
-    """The records of ``problems`` in order, planned one after the other in this process."""
-    workspace = Workspace(robots)
+    """The records of ``problems`` in order, planned one after the other in this process (warmed up first, as a
+    worker is: no record's time carries a robot's first use)."""
+    workspace = Workspace(robots, warm=True)
     for problem in problems:
         yield solve(problem, workspace, timeout, seed)
 

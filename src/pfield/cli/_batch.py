@@ -45,8 +45,9 @@ def batch(
 
     Fields: scene, index, success, status, seconds, cpu_seconds, steps, planner, joint_names, positions,
     times, clearances, error. Exit code 0 when every problem was planned (whether or not it reached its goal),
-    1 when a problem could not be planned (status error), 2 for bad arguments, an unwritable --out (checked
-    before anything is read or planned) or a problem file or archive that cannot be read or is out of bounds.
+    1 when a problem could not be planned (status error), 2 for bad arguments (a --robot URDF is read, its meshes
+    found, before anything is planned), an unwritable --out (checked before anything is read or planned) or a
+    problem file or archive that cannot be read or is out of bounds.
     """
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
@@ -60,6 +61,8 @@ def batch(
     with cli_errors():
         check_writable("--out", out)
         description = robot_description(robot, srdf, end_effector, package_path, locked_joint)
+        if not description.is_builtin:  # its files (meshes through --package-path) are read now, not per problem
+            description.build()
         todo = read_problems(problems, robot=description, scenes=scenes, limit=limit)
         done = finished_keys(out) if resume else set()
         todo = [p for p in todo if p.key not in done]

@@ -46,9 +46,13 @@ def start_joints(robot: RobotModel, value: str | None) -> Any:
     try:
         values = [float(part) for part in value.split(",")]
     except ValueError:
-        known = f"; named states: {', '.join(named)}" if named else ""
+        known = f"; named states: {', '.join(named)}" if named else "; the robot has no named states (an SRDF's)"
         raise InvalidInput("--start-joints", value, f"expected {robot.n_joints} comma-separated numbers or a named "
                                                     f"state{known}") from None
+    if len(values) != robot.n_joints:  # say which joints (a --locked-joint takes one away)
+        raise InvalidInput("--start-joints", value, f"expected {robot.n_joints} numbers, for "
+                                                    f"{', '.join(robot.joint_names)} (locked joints excluded), "
+                                                    f"got {len(values)}")
     return robot.check_joint_angles(values, "--start-joints")
 
 
@@ -56,6 +60,7 @@ def _plan(scene_file: Path | None, output: Path, csv: Path | None, console: Cons
           robot: RobotModel | None = None, start: str | None = None) -> int:
     from pfield.field import PotentialField
     from pfield.scene.files import load_scene
+    from pfield.viz.arm import save_arm_plot
     from pfield.viz.plots import save_path_plot
 
     with tempfile.TemporaryDirectory() as meshes:
@@ -65,9 +70,11 @@ def _plan(scene_file: Path | None, output: Path, csv: Path | None, console: Cons
                     "max_iterations": scene["max_iterations"]}
         if robot is None:
             path = field.plan(scene["start"], **settings)
-        else:
+            save_path_plot(path, output, scene["obstacles"], scene["goal"])
+        else:  # the arm at key moments, its end effector's path and the clearance (viz.save_arm_plot)
             path = field.plan_whole_body(robot, start_joints(robot, start), **settings)
-        save_path_plot(path, output, scene["obstacles"], scene["goal"])
+            status = "reached the goal" if path.success else path.failure_reason
+            save_arm_plot(path, robot, scene["obstacles"], output, f"{robot.name} whole-body plan: {status}")
     if csv is not None:
         path.to_csv(csv)
     state = "[green]reached the goal[/green]" if path.success else f"[red]failed[/red]: {path.failure_reason}"

@@ -46,7 +46,7 @@ def _flag(field: str) -> str:
 def parse_package_paths(values: list[str] | None) -> dict[str, Path]:
     """``{NAME: DIR}`` of ``--package-path NAME=DIR`` options (errors name ``--package-path``). Packages not given
     here are looked up in the ament index (``AMENT_PREFIX_PATH``) by the resource resolver."""
-    from pfield.robot.description import package_path_map
+    from pfield.geometry.resources import package_path_map
 
     return package_path_map(values or [], "--package-path")
 

@@ -18,14 +18,15 @@ raises :class:`~pfield.errors.ResourceNotFound` saying what to configure.
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from urllib.parse import unquote, urlparse
 
+from pfield._validation import text
 from pfield.errors import InvalidInput, ResourceNotAllowed, ResourceNotFound
 
-__all__ = ["ResourceResolver"]
+__all__ = ["PackagePaths", "ResourceResolver", "package_path_map"]
 
 _PACKAGE = "package://"
 
@@ -107,7 +108,10 @@ class ResourceResolver:
         resolved = (directory / unquote(relative)).resolve()
         if not _inside(resolved, directory):
             raise ResourceNotAllowed(f"{uri!r} resolves to {resolved}, outside package {package!r} ({directory})")
-        return _existing(uri, resolved)
+        if not resolved.is_file():  # the package's folder is wrong more often than the file is missing
+            raise ResourceNotFound(f"{uri!r}: no such file {resolved} (package {package!r} is {directory}: its "
+                                   f"folder must hold {unquote(relative)!r}; check --package-path {package}=DIR)")
+        return resolved
 
     def package_directory(self, package: str) -> Path:
         """The directory of ROS package ``package`` (configured paths first, then the ament index)."""
@@ -122,6 +126,42 @@ class ResourceResolver:
             f"package {package!r} is unknown: add --package-path {package}=DIR "
             f"(or ResourceResolver(package_paths={{{package!r}: DIR}})) or source its ROS workspace"
         )
+
+
+PackagePaths = Mapping[str, str | Path] | Iterable[str | tuple[str, str | Path]]
+"""Package roots: a mapping ``{NAME: DIR}``, ``(NAME, DIR)`` pairs or ``"NAME=DIR"`` strings
+(:func:`package_path_map`)."""
+
+
+def package_path_map(values: PackagePaths | None, field: str = "package_paths") -> dict[str, Path]:
+    """``{NAME: absolute DIR}`` of package roots given as a mapping, ``(NAME, DIR)`` pairs or ``"NAME=DIR"``
+    strings (a relative ``DIR`` is relative to the current directory). Refuses, naming ``field``, an entry that
+    is not ``NAME=DIR``, a ``DIR`` that is not a directory and a name given twice with two folders."""
+    if values is None:
+        return {}
+    if isinstance(values, str | bytes):
+        values = [values]  # type: ignore[list-item]
+    items = values.items() if isinstance(values, Mapping) else values
+    paths: dict[str, Path] = {}
+    for item in items:
+        if isinstance(item, str):
+            name, sep, directory = item.partition("=")
+            if not sep or not name.strip() or not directory.strip():
+                raise InvalidInput(field, item, "expected NAME=DIR (a package name, '=', its root folder), "
+                                                "e.g. meshes=./meshes")
+        elif isinstance(item, tuple) and len(item) == 2:
+            name, directory = text(field, item[0]), str(item[1])
+        else:
+            raise InvalidInput(field, item, "expected NAME=DIR strings, (NAME, DIR) pairs or a mapping")
+        name = text(field, name).strip()
+        folder = Path(directory).expanduser()
+        if not folder.is_dir():
+            raise InvalidInput(field, f"{name}={directory}", f"{directory} is not a directory")
+        folder = folder.resolve()
+        if paths.get(name, folder) != folder:
+            raise InvalidInput(field, f"{name}={directory}", f"package {name!r} is given twice, with two folders")
+        paths[name] = folder
+    return paths
 
 
 def _existing(uri: str, path: Path) -> Path:

@@ -18,9 +18,9 @@ import pinocchio as pin
 
 from pfield._validation import finite
 from pfield.errors import InvalidInput, ResourceNotAllowed, ResourceNotFound
-from pfield.geometry.resources import ResourceResolver
+from pfield.geometry.resources import PackagePaths, ResourceResolver, package_path_map
 
-__all__ = ["LoadedRobot", "load_urdf", "read_disabled_pairs", "resolve_mesh_uri"]
+__all__ = ["LoadedRobot", "load_urdf", "resolve_mesh_uri"]
 
 _LOG = logging.getLogger(__name__)
 _ONE_DOF_JOINTS = ("JointModelR", "JointModelP", "JointModelRevoluteUnaligned", "JointModelPrismaticUnaligned",
@@ -86,7 +86,7 @@ def _check_supported(model: pin.Model, field: str) -> None:
                                "lock it with locked_joints={name: value}")
 
 
-def load_urdf(urdf_path: str | Path, package_paths: dict[str, str | Path] | None = None,
+def load_urdf(urdf_path: str | Path, package_paths: PackagePaths | None = None,
               locked_joints: dict[str, float] | None = None,
               resolver: ResourceResolver | None = None) -> LoadedRobot:
     """Build pinocchio's kinematic and collision models from a URDF, locking ``locked_joints``.
@@ -99,10 +99,7 @@ def load_urdf(urdf_path: str | Path, package_paths: dict[str, str | Path] | None
     """
     path = Path(urdf_path).expanduser().resolve()
     text = _read_text("urdf", path)
-    roots = {name: Path(root).expanduser().resolve() for name, root in (package_paths or {}).items()}
-    for name, root in roots.items():
-        if not root.is_dir():
-            raise ResourceNotFound(f"package_paths[{name!r}]: {str(root)!r} is not a directory")
+    roots = package_path_map(package_paths)  # a mapping, (NAME, DIR) pairs or "NAME=DIR" strings, as everywhere
     if resolver is None:
         resolver = ResourceResolver(package_paths=roots, allowed_roots=[path.parent, *roots.values()],
                                     use_ament=True)
@@ -135,23 +132,6 @@ def _lock(model: pin.Model, geometry: pin.GeometryModel,
         q_ref[model.joints[joint_id].idx_q] = finite(f"locked_joints[{name!r}]", value)
     reduced, reduced_geometry = pin.buildReducedModel(model, geometry, ids, q_ref)
     return reduced, reduced_geometry
-
-
-def read_disabled_pairs(srdf_path: str | Path) -> set[frozenset[str]]:
-    """Link pairs of the SRDF's ``<disable_collisions link1=… link2=…/>`` elements."""
-    path = Path(srdf_path).expanduser()
-    text = _read_text("srdf", path)
-    try:
-        root = ET.fromstring(text)
-    except ET.ParseError as exc:
-        raise InvalidInput("srdf", str(path), f"not valid XML: {exc}") from exc
-    pairs = set()
-    for element in root.iter("disable_collisions"):
-        first, second = element.get("link1"), element.get("link2")
-        if first and second:
-            pairs.add(frozenset((first, second)))
-    _LOG.debug("SRDF %s disables %d link pairs", path, len(pairs))
-    return pairs
 
 
 def joint_axis(model: pin.Model, joint_id: int) -> tuple[np.ndarray, int]:

@@ -19,7 +19,7 @@ flags (``--robot``, ``--srdf``, ``--end-effector``, ``--package-path``, ``--lock
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from functools import lru_cache
 from pathlib import Path
@@ -27,12 +27,14 @@ from typing import TYPE_CHECKING, Any
 
 from pfield._validation import finite, text
 from pfield.errors import InvalidInput
+from pfield.geometry.resources import package_path_map
 from pfield.robot.catalog import BUILTIN_ROBOTS, builtin_spec, example_robot_data_root
+from pfield.robot.srdf import check_srdf_links, read_disabled_pairs
 
 if TYPE_CHECKING:
     from pfield.robot.model import RobotModel
 
-__all__ = ["RobotDescription", "UrdfOutline", "package_path_map", "urdf_outline"]
+__all__ = ["RobotDescription", "UrdfOutline", "urdf_outline"]
 
 _URDF_MAX_BYTES = 64 * 1024 * 1024
 """A URDF larger than this is refused before it is parsed (real ones are below 1 MiB; meshes are separate files)."""
@@ -62,6 +64,8 @@ def _outline(path: str, stamp: tuple[int, int], field: str) -> UrdfOutline:
     if root.tag != "robot":
         raise InvalidInput(field, path, f"not a URDF: the root element is <{root.tag}>, not <robot>")
     links = tuple(str(link.get("name")) for link in root.findall("link") if link.get("name"))
+    if not links:
+        raise InvalidInput(field, path, "not a URDF: it has no <link> elements (an SRDF?); give the robot's URDF")
     joints = root.findall("joint")
     children = {joint.find("child").get("link") for joint in joints if joint.find("child") is not None}  # type: ignore[union-attr]
     roots = [link for link in links if link not in children]
@@ -79,38 +83,6 @@ def urdf_outline(path: str | Path, field: str = "robot") -> UrdfOutline:
     if stat.st_size > _URDF_MAX_BYTES:
         raise InvalidInput(field, str(path), f"the URDF has {stat.st_size} bytes, above {_URDF_MAX_BYTES}")
     return _outline(str(file.resolve()), (stat.st_mtime_ns, stat.st_size), field)
-
-
-def package_path_map(values: Mapping[str, str | Path] | Iterable[str | tuple[str, str | Path]] | None,
-                     field: str = "package_paths") -> dict[str, Path]:
-    """``{NAME: absolute DIR}`` of package roots given as a mapping, ``(NAME, DIR)`` pairs or ``"NAME=DIR"``
-    strings (a relative ``DIR`` is relative to the current directory). Refuses, naming ``field``, an entry that
-    is not ``NAME=DIR``, a ``DIR`` that is not a directory and a name given twice with two folders."""
-    if values is None:
-        return {}
-    if isinstance(values, str | bytes):
-        values = [values]  # type: ignore[list-item]
-    items = values.items() if isinstance(values, Mapping) else values
-    paths: dict[str, Path] = {}
-    for item in items:
-        if isinstance(item, str):
-            name, sep, directory = item.partition("=")
-            if not sep or not name.strip() or not directory.strip():
-                raise InvalidInput(field, item, "expected NAME=DIR (a package name, '=', its root folder), "
-                                                "e.g. meshes=./meshes")
-        elif isinstance(item, tuple) and len(item) == 2:
-            name, directory = text(field, item[0]), str(item[1])
-        else:
-            raise InvalidInput(field, item, "expected NAME=DIR strings, (NAME, DIR) pairs or a mapping")
-        name = text(field, name).strip()
-        folder = Path(directory).expanduser()
-        if not folder.is_dir():
-            raise InvalidInput(field, f"{name}={directory}", f"{directory} is not a directory")
-        folder = folder.resolve()
-        if paths.get(name, folder) != folder:
-            raise InvalidInput(field, f"{name}={directory}", f"package {name!r} is given twice, with two folders")
-        paths[name] = folder
-    return paths
 
 
 def _locked(values: Any) -> tuple[tuple[str, float], ...]:
@@ -177,6 +149,7 @@ class RobotDescription:
                 if not srdf.is_file():
                     raise InvalidInput("srdf", str(self.srdf), "no such SRDF file")
                 object.__setattr__(self, "srdf", str(srdf.resolve()))
+                check_srdf_links(read_disabled_pairs(srdf), outline.links, str(self.srdf))  # an SRDF, and this robot's
             if self.end_effector is None or not text("end_effector", self.end_effector).strip():
                 raise InvalidInput("end_effector", self.end_effector,
                                    f"a URDF robot needs its end-effector link (the link whose pose is planned); "

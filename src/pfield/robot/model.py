@@ -16,7 +16,6 @@ is safer than clamping: a configuration outside the limits means the caller's st
 from __future__ import annotations
 
 import logging
-import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from functools import cached_property
 from pathlib import Path
@@ -32,18 +31,17 @@ from pfield._validation import as_vector, positive
 from pfield.errors import InvalidInput
 from pfield.robot._loader import (
     LoadedRobot,
-    _read_text,
     joint_axis,
     load_urdf,
-    read_disabled_pairs,
     resolve_mesh_uri,
 )
 from pfield.robot.catalog import builtin_spec, example_robot_data_root
 from pfield.robot.limits import default_accelerations, read_joint_limits
+from pfield.robot.srdf import check_srdf_links, read_disabled_pairs, read_group_states
 from pfield.spatial import Pose, pose_from_checked
 
 if TYPE_CHECKING:
-    from pfield.geometry.resources import ResourceResolver
+    from pfield.geometry.resources import PackagePaths, ResourceResolver
     from pfield.robot.geometry import RobotGeometry
 
 __all__ = ["LIMIT_TOLERANCE", "MEASURED_BOUNDS_ERROR", "KinematicArrays", "RobotModel"]
@@ -62,34 +60,6 @@ _NOT_FINITE, _BEYOND_LIMITS = _core_kinematics.LimitStatus.NotFinite, _core_kine
 _BUILTIN_ALIASES: dict[str, dict[str, str]] = {"panda": {"ready": "default"}}
 """Extra names of SRDF group states of the built-in robots: the Panda SRDF's ``default`` state
 (0, −π/4, 0, −3π/4, 0, π/2, π/4) is the pose MoveIt's panda_moveit_config calls ``ready``."""
-
-
-def read_group_states(srdf_path: str | Path, joint_names: tuple[str, ...]) -> dict[str, NDArray[np.float64]]:
-    """The SRDF's ``<group_state name=… group=…><joint name=… value=…/>`` elements as joint vectors.
-
-    Joints the model does not have (locked fingers) are ignored; a state that does not set every model joint
-    is skipped (it describes another group), as is one whose values are not numbers.
-    """
-    path = Path(srdf_path).expanduser()
-    try:
-        root = ET.fromstring(_read_text("srdf", path))
-    except ET.ParseError as exc:
-        raise InvalidInput("srdf", str(path), f"not valid XML: {exc}") from exc
-    states: dict[str, NDArray[np.float64]] = {}
-    for element in root.iter("group_state"):
-        values: dict[str, float] = {}
-        try:
-            for joint in element.iter("joint"):
-                values[joint.get("name", "")] = float(joint.get("value", "nan").split()[0])
-        except ValueError:
-            _LOG.debug("SRDF %s: group state %r has a non-numeric value", path, element.get("name"))
-            continue
-        name = element.get("name")
-        if name and all(j in values for j in joint_names):
-            states[name] = np.array([values[j] for j in joint_names])
-        else:
-            _LOG.debug("SRDF %s: group state %r does not set every joint; skipped", path, name)
-    return states
 
 
 class KinematicArrays(NamedTuple):
@@ -178,10 +148,11 @@ class RobotModel:
 
     # ---- construction -------------------------------------------------------------------------------
     @classmethod
-    def from_urdf(cls, path: str | Path, end_effector: str, package_paths: dict[str, str | Path] | None = None,
+    def from_urdf(cls, path: str | Path, end_effector: str, package_paths: PackagePaths | None = None,
                   srdf: str | Path | None = None, locked_joints: dict[str, float] | None = None,
                   resolver: ResourceResolver | None = None, joint_limits: str | Path | None = None) -> RobotModel:
-        """Load a URDF. ``package_paths`` maps package names to their root folders (for ``package://``).
+        """Load a URDF. ``package_paths`` maps package names to their root folders (for ``package://``): a mapping,
+        ``(NAME, DIR)`` pairs or ``"NAME=DIR"`` strings, a relative ``DIR`` relative to the current directory.
 
         ``srdf`` (optional) supplies the disabled self-collision pairs and the named configurations (its group
         states); without it adjacent links are excluded. ``locked_joints`` maps joint names to fixed values
@@ -191,6 +162,8 @@ class RobotModel:
         """
         loaded = load_urdf(path, package_paths, locked_joints, resolver)
         disabled = read_disabled_pairs(srdf) if srdf is not None else None
+        if disabled is not None:
+            check_srdf_links(disabled, (frame.name for frame in loaded.model.frames), srdf)  # type: ignore[arg-type]
         robot = cls(loaded, end_effector, disabled, joint_limits=joint_limits)
         if srdf is not None:
             robot._adopt_group_states(read_group_states(srdf, _joint_names(loaded)), srdf)

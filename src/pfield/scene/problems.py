@@ -303,7 +303,11 @@ def read_problems(paths: Iterable[str | Path], robot: str | RobotDescription | N
     if wanted is not None:
         unknown = wanted - {_short(name, description) for name in found}
         if unknown:
-            raise InvalidInput("scenes", sorted(unknown), f"no such scene; known: {sorted(found)}")
+            near = sorted(name for name in found if any(name.startswith(f"{u}_") for u in unknown))
+            hint = (f"; {', '.join(near)} would match with their robot given (a scene's robot suffix may be left "
+                    f"out for the problems' own robot, here {description}): give the robot of these problems"
+                    ) if near else ""
+            raise InvalidInput("scenes", sorted(unknown), f"no such scene; known: {sorted(found)}{hint}")
         problems = [p for p in problems if _short(p.scene, description) in wanted]
     if limit is not None:
         counts: dict[str, int] = {}
