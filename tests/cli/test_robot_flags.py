@@ -149,7 +149,8 @@ BAD = [
                                          "elements (an SRDF?)"),
     (["--srdf", str(PANDA_SRDF)], "error: --srdf="),
     # a package root that is a folder, but not the package's: the first mesh it cannot find is named, with the flag
-    (["--package-path", f"meshes={UR5}"], f"error: link 'base_link' of {UR5 / 'ur5.urdf'}: 'package://meshes/ur5/"),
+    (["--package-path", f"meshes={UR5}"], f"error: link 'base_link' of {(UR5 / 'ur5.urdf').resolve()}: "
+                                          "'package://meshes/ur5/"),  # the file read
 ]
 COMMANDS = {
     "serve": ["serve", "--port", str(free_port())],

@@ -82,7 +82,10 @@ def urdf_outline(path: str | Path, field: str = "robot") -> UrdfOutline:
         raise InvalidInput(field, str(path), "no such URDF file") from None
     if stat.st_size > _URDF_MAX_BYTES:
         raise InvalidInput(field, str(path), f"the URDF has {stat.st_size} bytes, above {_URDF_MAX_BYTES}")
-    return _outline(str(file.resolve()), (stat.st_mtime_ns, stat.st_size), field)
+    try:
+        return _outline(str(file.resolve()), (stat.st_mtime_ns, stat.st_size), field)
+    except InvalidInput as exc:  # named as the caller gave it, not as resolved (a symbolic link, "..")
+        raise InvalidInput(exc.field, str(path), exc.reason) from None
 
 
 def _locked(values: Any) -> tuple[tuple[str, float], ...]:
@@ -148,8 +151,8 @@ class RobotDescription:
                 srdf = Path(text("srdf", str(self.srdf))).expanduser()
                 if not srdf.is_file():
                     raise InvalidInput("srdf", str(self.srdf), "no such SRDF file")
-                object.__setattr__(self, "srdf", str(srdf.resolve()))
                 check_srdf_links(read_disabled_pairs(srdf), outline.links, str(self.srdf))  # an SRDF, and this robot's
+                object.__setattr__(self, "srdf", str(srdf.resolve()))
             if self.end_effector is None or not text("end_effector", self.end_effector).strip():
                 raise InvalidInput("end_effector", self.end_effector,
                                    f"a URDF robot needs its end-effector link (the link whose pose is planned); "
