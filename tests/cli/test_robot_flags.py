@@ -236,3 +236,46 @@ def test_view_without_a_robot_refuses_robot_flags(tmp_path: Path) -> None:
     assert result.exit_code == 2 and result.stderr.startswith("error: --robot='none': --srdf, --end-effector and "
                                                               "--locked-joint describe a robot"), result.stderr
     assert not out.exists()
+
+
+def test_an_error_found_while_building_the_model_names_its_flag(tmp_path: Path) -> None:
+    """What only pinocchio finds (here a joint whose child link does not exist) is named by flag, as the checks
+    made before it are: ``--robot``, not the library's ``urdf``."""
+    from typer.testing import CliRunner
+
+    from pfield.cli import app
+
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text('<robot name="arm"><link name="base"/><link name="tip"/><joint name="j" type="revolute">'
+                    '<parent link="base"/><child link="nowhere"/><limit lower="-1" upper="1" effort="1" velocity="1"/>'
+                    '</joint></robot>')
+    for command in (["plan", "--scene", str(SCENE), "--start-joints", "0", "-o", str(tmp_path / "never.png")],
+                    ["view", "--export", str(tmp_path / "never.html")]):
+        result = CliRunner().invoke(app, [*command, "--robot", str(urdf), "--end-effector", "tip"])
+        assert result.exit_code == 2, result.stderr
+        # (a long path is quoted cut in its middle: its end names the file)
+        assert result.stderr.startswith("error: --robot='") and "arm.urdf': pinocchio could not parse it" in \
+            result.stderr, result.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["arm.urdf"]
+
+
+def test_relative_paths_from_another_folder_name_the_robot_first_and_where_they_were_looked_for(
+        tmp_path: Path) -> None:
+    """The docs' ``R=../shared/…`` flags typed in another folder: the URDF is named first (not its package root),
+    with the absolute path it was looked for at; then, the URDF given absolutely, the SRDF and the package root."""
+    relative = "../shared/benchmarks/mbm/ur5"
+    flags = ["--robot", f"{relative}/ur5.urdf", "--srdf", f"{relative}/ur5.srdf", "--end-effector", "tool0",
+             "--package-path", f"meshes={relative}/meshes"]
+    command = ["plan", "--scene", str(SCENE), "--start-joints", "home", "-o", "never.png"]
+    done = pfield(*command, *flags, cwd=tmp_path)
+    assert done.returncode == 2 and done.stderr.startswith(
+        f"error: --robot='{relative}/ur5.urdf': no such URDF file (looked for {tmp_path}/{relative}/ur5.urdf: "
+        "relative paths are read from the current folder)"), done.stderr
+    done = pfield(*command, *flags[2:], "--robot", str(UR5 / "ur5.urdf"), cwd=tmp_path)
+    assert done.returncode == 2 and done.stderr.startswith(f"error: --srdf='{relative}/ur5.srdf': no such SRDF file "
+                                                           f"(looked for {tmp_path}/{relative}/ur5.srdf"), done.stderr
+    done = pfield(*command, *flags[4:], "--robot", str(UR5 / "ur5.urdf"), cwd=tmp_path)
+    assert done.returncode == 2 and done.stderr.startswith(
+        f"error: --package-path='meshes={relative}/meshes': {relative}/meshes is not a directory (looked for "
+        f"{tmp_path}/{relative}/meshes"), done.stderr
+    assert list(tmp_path.iterdir()) == []

@@ -12,6 +12,7 @@ from pfield.cli._robot_options import (
     LockedJointOption,
     PackagePathOption,
     SrdfOption,
+    build_robot,
     robot_description,
 )
 
@@ -62,7 +63,7 @@ def batch(
         check_writable("--out", out)
         description = robot_description(robot, srdf, end_effector, package_path, locked_joint)
         if not description.is_builtin:  # its files (meshes through --package-path) are read now, not per problem
-            description.build()
+            build_robot(description)
         todo = read_problems(problems, robot=description, scenes=scenes, limit=limit)
         done = finished_keys(out) if resume else set()
         todo = [p for p in todo if p.key not in done]

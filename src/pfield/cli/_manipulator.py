@@ -21,6 +21,7 @@ from pfield.cli._robot_options import (
     LockedJointOption,
     PackagePathOption,
     SrdfOption,
+    build_robot,
     robot_description,
 )
 from pfield.errors import InvalidInput
@@ -112,7 +113,7 @@ def register(app: typer.Typer) -> None:
                 check_writable("--csv", csv)
             model = None
             if robot is not None:
-                model = robot_description(robot, srdf, end_effector, package_path, locked_joint).build()
+                model = build_robot(robot_description(robot, srdf, end_effector, package_path, locked_joint))
                 start_joints(model, start)  # judged before planning
             elif start is not None or srdf is not None or end_effector is not None or package_path or locked_joint:
                 raise InvalidInput("--robot", None, "--start-joints, --srdf, --end-effector, --package-path and "

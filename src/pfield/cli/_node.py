@@ -27,6 +27,7 @@ from pfield.cli._robot_options import (
     PackagePathOption,
     RobotOption,
     SrdfOption,
+    build_robot,
     parse_package_paths,
     robot_description,
 )
@@ -166,7 +167,7 @@ def nodes_from_options(robot: RobotDescription, params: Path | None, mesh_root: 
     packages = robot.package_path_map
     transforms = parse_static_transforms(static_transform or [])
     parameters = load_ros_parameters(params) if params else {}
-    context = ServeContext(Bus(), robot.build(), packages,
+    context = ServeContext(Bus(), build_robot(robot), packages,
                            [p.resolve() for p in mesh_root or []], map_file, footprint,
                            static_transforms=transforms)
     nodes = build_nodes(context, parameters, csv_dir)

@@ -17,9 +17,10 @@ from pfield.errors import InvalidInput
 
 if TYPE_CHECKING:
     from pfield.robot.description import RobotDescription
+    from pfield.robot.model import RobotModel
 
 __all__ = ["EndEffectorOption", "LockedJointOption", "PackagePathOption", "RobotOption", "SrdfOption",
-           "parse_locked_joints", "parse_package_paths", "robot_description"]
+           "build_robot", "parse_locked_joints", "parse_package_paths", "robot_description"]
 
 RobotOption = Annotated[str, typer.Option("--robot", help="a built-in robot (panda, xarm7) or a URDF file")]
 SrdfOption = Annotated[Path | None, typer.Option(
@@ -32,8 +33,8 @@ PackagePathOption = Annotated[list[str] | None, typer.Option(
 LockedJointOption = Annotated[list[str] | None, typer.Option(
     "--locked-joint", help="NAME=VALUE: lock this joint at VALUE (rad or m) (repeatable)")]
 
-_FLAGS = {"robot": "--robot", "srdf": "--srdf", "end_effector": "--end-effector", "package_paths": "--package-path",
-          "locked_joints": "--locked-joint"}
+_FLAGS = {"robot": "--robot", "urdf": "--robot", "srdf": "--srdf", "end_effector": "--end-effector",
+          "package_paths": "--package-path", "locked_joints": "--locked-joint"}
 
 
 def _flag(field: str) -> str:
@@ -75,13 +76,21 @@ def robot_description(robot: str, srdf: Path | None = None, end_effector: str | 
     """The :class:`RobotDescription` of the robot flags; an error names the flag and the value."""
     from pfield.robot.description import RobotDescription
 
-    packages = parse_package_paths(package_path)
     locked = parse_locked_joints(locked_joint)
-    try:
+    try:  # the package roots as given: the description checks them after the robot's files
         return RobotDescription(robot, tuple(locked.items()), None if srdf is None else str(srdf), end_effector,
-                                tuple((name, str(folder)) for name, folder in packages.items()))
+                                tuple(package_path or ()))  # type: ignore[arg-type]
     except InvalidInput as exc:
         reason = exc.reason
         if exc.field == "robot" and reason.startswith(("neither", "no such")):  # the advice in flags
-            reason = reason.split(":")[0] + ": give a built-in name, or --robot FILE.urdf --end-effector LINK"
+            reason = reason.partition(": give")[0] + ": give a built-in name, or --robot FILE.urdf --end-effector LINK"
         raise InvalidInput(_flag(exc.field), exc.value, reason) from None
+
+
+def build_robot(description: RobotDescription) -> RobotModel:
+    """``description.build()`` (pinocchio reads the files, the meshes are found), an error naming the flag of the
+    field it names (``srdf`` → ``--srdf``), as the description's own errors do."""
+    try:
+        return description.build()
+    except InvalidInput as exc:
+        raise InvalidInput(_flag(exc.field), exc.value, exc.reason) from None

@@ -16,6 +16,7 @@ from pfield.cli._robot_options import (
     LockedJointOption,
     PackagePathOption,
     SrdfOption,
+    build_robot,
     parse_package_paths,
     robot_description,
 )
@@ -56,14 +57,14 @@ def view(
 
         if export is not None:
             check_writable("--export", export)
-        packages = parse_package_paths(package_path)
         if robot.strip().lower() != "none":
-            model = robot_description(robot, srdf, end_effector, package_path, locked_joint).build()
+            model = build_robot(robot_description(robot, srdf, end_effector, package_path, locked_joint))
         elif srdf is not None or end_effector is not None or locked_joint:
             raise InvalidInput("--robot", robot, "--srdf, --end-effector and --locked-joint describe a robot: give "
                                                  "--robot NAME|FILE.urdf, or leave them out")
         else:
             model = None
+        packages = parse_package_paths(package_path)  # after the robot's own flags (its URDF is named first)
         roots = [p.resolve() for p in mesh_root or []]
         resolver = ResourceResolver(package_paths=packages, allowed_roots=[*roots, *packages.values(), Path.cwd()])
         offline = plan is not None or scene is not None or map is not None

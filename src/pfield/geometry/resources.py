@@ -26,7 +26,7 @@ from urllib.parse import unquote, urlparse
 from pfield._validation import text
 from pfield.errors import InvalidInput, ResourceNotAllowed, ResourceNotFound
 
-__all__ = ["PackagePaths", "ResourceResolver", "package_path_map"]
+__all__ = ["PackagePaths", "ResourceResolver", "package_path_map", "relative_to_cwd"]
 
 _PACKAGE = "package://"
 
@@ -156,12 +156,20 @@ def package_path_map(values: PackagePaths | None, field: str = "package_paths") 
         name = text(field, name).strip()
         folder = Path(directory).expanduser()
         if not folder.is_dir():
-            raise InvalidInput(field, f"{name}={directory}", f"{directory} is not a directory")
+            raise InvalidInput(field, f"{name}={directory}", f"{directory} is not a directory{relative_to_cwd(folder)}")
         folder = folder.resolve()
         if paths.get(name, folder) != folder:
             raise InvalidInput(field, f"{name}={directory}", f"package {name!r} is given twice, with two folders")
         paths[name] = folder
     return paths
+
+
+def relative_to_cwd(path: Path) -> str:
+    """For a message about a path the caller gave: where a relative ``path`` was looked for, ``" (looked for
+    ABSOLUTE: relative paths are read from the current folder)"``; "" for an absolute one."""
+    if path.is_absolute():
+        return ""
+    return f" (looked for {Path.cwd() / path}: relative paths are read from the current folder)"
 
 
 def _existing(uri: str, path: Path) -> Path:

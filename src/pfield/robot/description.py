@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 from pfield._validation import finite, text
 from pfield.errors import InvalidInput
-from pfield.geometry.resources import package_path_map
+from pfield.geometry.resources import package_path_map, relative_to_cwd
 from pfield.robot.catalog import BUILTIN_ROBOTS, builtin_spec, example_robot_data_root
 from pfield.robot.srdf import check_srdf_links, read_disabled_pairs
 
@@ -128,9 +128,8 @@ class RobotDescription:
     def __post_init__(self) -> None:
         robot = text("robot", self.robot).strip()
         key = robot.lower()
-        packages = package_path_map(self.package_paths)
-        object.__setattr__(self, "package_paths", tuple(sorted((k, str(v)) for k, v in packages.items())))
-        object.__setattr__(self, "locked_joints", _locked(self.locked_joints))
+        # the robot and its files first (a user running from another folder hears about the URDF before its
+        # package roots), then the package roots and the locked joints
         if key in BUILTIN_ROBOTS:
             object.__setattr__(self, "robot", key)
             for name in ("srdf", "end_effector"):
@@ -141,7 +140,7 @@ class RobotDescription:
             path = Path(robot).expanduser()
             if not path.is_file():
                 names = ", ".join(sorted(BUILTIN_ROBOTS))
-                what = "no such URDF file" if path.suffix or "/" in robot else \
+                what = f"no such URDF file{relative_to_cwd(path)}" if path.suffix or "/" in robot else \
                     f"neither a built-in robot ({names}) nor a URDF file"
                 raise InvalidInput("robot", robot, f"{what}: give a built-in name, or the path of a URDF file "
                                                    "with its end-effector link")
@@ -150,7 +149,7 @@ class RobotDescription:
             if self.srdf is not None:
                 srdf = Path(text("srdf", str(self.srdf))).expanduser()
                 if not srdf.is_file():
-                    raise InvalidInput("srdf", str(self.srdf), "no such SRDF file")
+                    raise InvalidInput("srdf", str(self.srdf), f"no such SRDF file{relative_to_cwd(srdf)}")
                 check_srdf_links(read_disabled_pairs(srdf), outline.links, str(self.srdf))  # an SRDF, and this robot's
                 object.__setattr__(self, "srdf", str(srdf.resolve()))
             if self.end_effector is None or not text("end_effector", self.end_effector).strip():
@@ -160,6 +159,9 @@ class RobotDescription:
             if self.end_effector not in outline.links:
                 raise InvalidInput("end_effector", self.end_effector,
                                    f"no such link in {path.name}; links: {', '.join(outline.links)}")
+        packages = package_path_map(self.package_paths)
+        object.__setattr__(self, "package_paths", tuple(sorted((k, str(v)) for k, v in packages.items())))
+        object.__setattr__(self, "locked_joints", _locked(self.locked_joints))
         joints = self.urdf_joints
         for name, value in self.locked_joints:
             if name not in joints:
