@@ -186,6 +186,7 @@ def test_pfield_view_exports_an_offline_plan(tmp_path: Path) -> None:
     result = _view("--plan", str(plan_file), "--scene", str(SCENE), "--robot", "none", "--export", str(out))
     assert result.exit_code == 0, result.output
     assert out.exists() and "__VISER_EMBED_DATA__" in out.read_text()
+    assert result.stdout == f"wrote {out}\n"  # not the banner of the throwaway server the page was drawn on
 
 
 def test_pfield_view_refuses_a_bad_scene(tmp_path: Path) -> None:
