@@ -98,6 +98,22 @@ def test_plan_plans_the_ur5_whole_body(tmp_path: Path) -> None:
     assert math.dist((x, y, z), (0.35, 0.55, 1.165)) <= 0.01
 
 
+def test_plan_draws_the_arm(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``plan --robot`` draws ``save_arm_plot``'s picture (the arm at key moments), titled with the robot."""
+    from typer.testing import CliRunner
+
+    import pfield.viz.arm
+    from pfield.cli import app
+
+    drawn: list[tuple[str, str, int]] = []
+    monkeypatch.setattr(pfield.viz.arm, "save_arm_plot", lambda path, robot, obstacles, file, title: drawn.append(
+        (robot.name, title, len(obstacles))))
+    result = CliRunner().invoke(app, ["plan", "--scene", str(SCENE), *FLAGS, "--start-joints", "home", "-o",
+                                      str(tmp_path / "ur5.png")])
+    assert result.exit_code == 0, result.stderr
+    assert drawn == [("ur5_robotiq85", "ur5_robotiq85 whole-body plan: reached the goal", 1)]
+
+
 def test_view_draws_the_ur5(tmp_path: Path) -> None:
     with_robot, without = tmp_path / "ur5.html", tmp_path / "none.html"
     done = pfield("view", "--scene", str(SCENE), *FLAGS, "--export", str(with_robot))
@@ -194,7 +210,7 @@ def test_every_command_refuses_each_bad_flag_naming_it(command: str, tmp_path: P
         assert stderr.startswith(says), (bad, stderr)
         assert bad[0] != "--srdf" or bad[1] != str(PANDA_SRDF) or "it describes another robot: none of the links " \
             "it names (panda_hand, panda_leftfinger, panda_link0, panda_link1, …) is a link of the URDF" in stderr
-        assert bad[1] != f"meshes={UR5}" or "check --package-path meshes=DIR" in stderr, stderr
+        assert bad[1] != f"meshes={UR5}" or "on the command line --package-path meshes=DIR" in stderr, stderr
         assert stderr.count("\n") == 1, stderr
     assert list(tmp_path.iterdir()) == []
 
@@ -264,6 +280,8 @@ def test_relative_paths_from_another_folder_name_the_robot_first_and_where_they_
     """The docs' ``R=../shared/…`` flags typed in another folder: the URDF is named first (not its package root),
     with the absolute path it was looked for at; then, the URDF given absolutely, the SRDF and the package root."""
     relative = "../shared/benchmarks/mbm/ur5"
+    tmp_path = tmp_path / "elsewhere" / "here"  # where ../shared is not (tmp_path's own parent may be /tmp)
+    tmp_path.mkdir(parents=True)
     flags = ["--robot", f"{relative}/ur5.urdf", "--srdf", f"{relative}/ur5.srdf", "--end-effector", "tool0",
              "--package-path", f"meshes={relative}/meshes"]
     command = ["plan", "--scene", str(SCENE), "--start-joints", "home", "-o", "never.png"]

@@ -4,6 +4,7 @@ built once; every bad part refused naming its field; MoveIt problems read for a 
 from __future__ import annotations
 
 import pickle
+import shutil
 import tarfile
 from pathlib import Path
 
@@ -153,8 +154,8 @@ def test_an_srdf_is_checked_against_its_urdf(tmp_path: Path, caplog: pytest.LogC
     other.write_text('<robot name="arm"><disable_collisions link1="hand" link2="link7" reason="Adjacent"/></robot>')
     with pytest.raises(InvalidInput) as info:
         ur5(srdf=str(other))
-    assert info.value.field == "srdf" and "it describes another robot: none of the links it names (hand, link7, " \
-        "…) is a link of the URDF" in info.value.reason
+    assert info.value.field == "srdf" and "it describes another robot: none of the links it names (hand, link7) " \
+        "is a link of the URDF" in info.value.reason
     with pytest.raises(InvalidInput) as info:
         RobotModel.from_urdf(UR5 / "ur5.urdf", "tool0", {"meshes": UR5 / "meshes"}, srdf=other)
     assert info.value.field == "srdf"
@@ -164,4 +165,21 @@ def test_an_srdf_is_checked_against_its_urdf(tmp_path: Path, caplog: pytest.LogC
     with caplog.at_level("WARNING", logger="pfield.robot.srdf"):
         robot = RobotModel.from_urdf(UR5 / "ur5.urdf", "tool0", f"meshes={UR5 / 'meshes'}", srdf=edited)
     assert "names links the URDF does not have (their pairs are ignored): old_camera_link" in caplog.text
+    caplog.clear()  # once per file: a batch makes a description per problem (with_locked)
+    with caplog.at_level("WARNING", logger="pfield.robot.srdf"):
+        ur5(srdf=str(edited)).with_locked({"wrist_3_joint": 0.0})
+    assert "old_camera_link" not in caplog.text
     assert robot.disabled_pairs is not None and frozenset(("base_link", "shoulder_link")) in robot.disabled_pairs
+
+
+def test_an_unknown_scene_names_another_robots_scenes_only_when_they_are(ur5_folder: Path, tmp_path: Path) -> None:
+    """``box`` among the UR5's scenes read for the Panda: ``box_ur5`` is named, with the advice to give its robot;
+    not a scene that only starts with the name (``box_top_ur5`` for ``box``, for either robot; ``bo``)."""
+    with pytest.raises(InvalidInput) as info:
+        read_problems(ur5_folder, scenes=["box"])
+    assert "box_ur5 would match with their robot given" in info.value.reason
+    longer = shutil.copytree(ur5_folder, tmp_path / "box_top_ur5")
+    for robot, scene in ((ur5(), "box"), ("panda", "box"), ("panda", "bo")):
+        with pytest.raises(InvalidInput) as info:
+            read_problems(longer, robot=robot, scenes=[scene])
+        assert "would match" not in info.value.reason, info.value.reason

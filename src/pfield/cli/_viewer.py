@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
 import logging
 import tempfile
 import time
@@ -76,7 +78,8 @@ def view(
 
             grid = load_map(map)
         try:
-            viewer = Viewer(model, packages, host=host, port=0 if export is not None else port, token=page_token)
+            with _throwaway(export):
+                viewer = Viewer(model, packages, host=host, port=0 if export is not None else port, token=page_token)
         except InvalidInput as exc:
             raise InvalidInput("--host", host, "serving the page beyond this machine needs --page-token "
                                                "(or PFIELD_VIEW_TOKEN)") if exc.field == "host" else exc from None
@@ -104,7 +107,15 @@ def view(
     except KeyboardInterrupt:
         pass
     finally:
-        viewer.close()
+        with _throwaway(export):
+            viewer.close()
+
+
+def _throwaway(export: Path | None) -> contextlib.AbstractContextManager[object]:
+    """For ``--export``, this command's standard output held back while the page's throwaway server starts and
+    stops: viser 1.1 prints its banner and "Server stopped" whatever its ``verbose``, naming a port that is gone once
+    the file is written. (Only here, a command with no other thread printing: the swap is process-wide.)"""
+    return contextlib.redirect_stdout(io.StringIO()) if export is not None else contextlib.nullcontext()
 
 
 def register(app: typer.Typer) -> None:

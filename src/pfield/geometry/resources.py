@@ -109,8 +109,11 @@ class ResourceResolver:
         if not _inside(resolved, directory):
             raise ResourceNotAllowed(f"{uri!r} resolves to {resolved}, outside package {package!r} ({directory})")
         if not resolved.is_file():  # the package's folder is wrong more often than the file is missing
+            given = package in self.package_paths  # a root the caller gave (else the ament index's)
+            advice = (f"; check its root (package_paths={{{package!r}: DIR}}, on the command line --package-path "
+                      f"{package}=DIR)") if given else ""
             raise ResourceNotFound(f"{uri!r}: no such file {resolved} (package {package!r} is {directory}: its "
-                                   f"folder must hold {unquote(relative)!r}; check --package-path {package}=DIR)")
+                                   f"folder must hold {unquote(relative)!r}{advice})")
         return resolved
 
     def package_directory(self, package: str) -> Path:

@@ -76,14 +76,15 @@ def _resolve_uris(text: str, urdf_path: Path, resolver: ResourceResolver) -> str
     return _MESH_FILENAME.sub(absolute, text)
 
 
-def _check_supported(model: pin.Model, field: str) -> None:
+def _check_supported(model: pin.Model, field: str, urdf: Path) -> None:
     for joint_id in range(1, model.njoints):
         joint = model.joints[joint_id]
-        short = joint.shortname()
+        short, name = joint.shortname(), model.names[joint_id]
         if joint.nv != 1 or not short.startswith(_ONE_DOF_JOINTS):
-            raise InvalidInput(field, model.names[joint_id],
-                               f"joint type {short} is not supported (only revolute, continuous and prismatic); "
-                               "lock it with locked_joints={name: value}")
+            raise InvalidInput(field, str(urdf),
+                               f"joint {name!r} is a {short}, not supported (only revolute, continuous and "
+                               f"prismatic joints move): lock it (locked_joints={{{name!r}: value}}, on the command "
+                               f"line --locked-joint {name}=VALUE)")
 
 
 def load_urdf(urdf_path: str | Path, package_paths: PackagePaths | None = None,
@@ -108,9 +109,9 @@ def load_urdf(urdf_path: str | Path, package_paths: PackagePaths | None = None,
         model = pin.buildModelFromXML(resolved)
         geometry = pin.buildGeomFromUrdfString(model, resolved, pin.COLLISION)
     except (RuntimeError, ValueError) as exc:
-        raise InvalidInput("urdf", str(path), f"pinocchio could not parse it: {exc}") from exc
+        raise InvalidInput("urdf", str(urdf_path), f"pinocchio could not parse it: {exc}") from exc
     model, geometry = _lock(model, geometry, locked_joints or {})
-    _check_supported(model, "urdf")
+    _check_supported(model, "urdf", Path(urdf_path))
     try:
         robot_name = ET.fromstring(text).get("name", path.stem)
     except ET.ParseError:

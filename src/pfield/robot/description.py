@@ -10,10 +10,12 @@ picklable (it travels to worker processes and Ray actors, which call :meth:`~Rob
 
 Everything that can be checked without pinocchio is checked when it is made, through
 :mod:`pfield._validation`, and each error names the field: ``robot`` (neither a built-in name nor a URDF
-file), ``srdf`` (no such file), ``end_effector`` (missing for a URDF, or not one of its links: the links are
+file, or a file with no ``<link>``), ``srdf`` (no such file, not an SRDF, or another robot's:
+:mod:`pfield.robot.srdf`), ``end_effector`` (missing for a URDF, or not one of its links: the links are
 listed), ``package_paths`` (not ``NAME=DIR``, or ``DIR`` is not a directory), ``locked_joints[NAME]`` (not a
 finite number, or no such movable joint: the joints are listed). The command line maps these fields to its
-flags (``--robot``, ``--srdf``, ``--end-effector``, ``--package-path``, ``--locked-joint``).
+flags (``--robot``, ``--srdf``, ``--end-effector``, ``--package-path``, ``--locked-joint``). The robot and its
+files are checked first, then the package roots and the locked joints.
 """
 
 from __future__ import annotations

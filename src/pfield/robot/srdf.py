@@ -43,15 +43,23 @@ def read_srdf(srdf_path: str | Path) -> ET.Element:
 
 def check_srdf_links(disabled: set[frozenset[str]], links: Iterable[str], srdf_path: str | Path) -> None:
     """Refuse (naming ``srdf``) an SRDF none of whose disabled pairs' links is a link of the URDF (links
-    ``links``): it describes another robot. Some unknown links (a URDF edited since) are logged, as MoveIt does."""
+    ``links``): it describes another robot. Some unknown links (a URDF edited since) are logged, as MoveIt does,
+    once per SRDF and set of links (a batch checks one description per problem)."""
     named = set().union(*disabled) if disabled else set()
     unknown = sorted(named - set(links))
     if named and len(unknown) == len(named):
+        more = ", …" if len(unknown) > _NAMED else ""
         raise InvalidInput("srdf", str(srdf_path), f"it describes another robot: none of the links it names "
-                                                    f"({', '.join(unknown[:4])}, …) is a link of the URDF")
-    if unknown:
+                                                    f"({', '.join(unknown[:_NAMED])}{more}) is a link of the URDF")
+    key = (str(Path(srdf_path).expanduser().resolve()), tuple(unknown))
+    if unknown and key not in _WARNED:
+        _WARNED.add(key)
         _LOG.warning("SRDF %s names links the URDF does not have (their pairs are ignored): %s", srdf_path,
                      ", ".join(unknown))
+
+
+_NAMED = 4  # links an error quotes
+_WARNED: set[tuple[str, tuple[str, ...]]] = set()  # (SRDF, its unknown links) already logged
 
 
 def read_disabled_pairs(srdf_path: str | Path) -> set[frozenset[str]]:

@@ -303,7 +303,10 @@ def read_problems(paths: Iterable[str | Path], robot: str | RobotDescription | N
     if wanted is not None:
         unknown = wanted - {_short(name, description) for name in found}
         if unknown:
-            near = sorted(name for name in found if any(name.startswith(f"{u}_") for u in unknown))
+            # another robot's scenes: the asked name and one more word, not one of this robot's suffixes
+            ours = {*description.short_names, "panda"}
+            near = sorted(name for name in found for u in unknown if name.startswith(f"{u}_")
+                          and "_" not in name[len(u) + 1:] and name[len(u) + 1:] not in ours)
             hint = (f"; {', '.join(near)} would match with their robot given (a scene's robot suffix may be left "
                     f"out for the problems' own robot, here {description}): give the robot of these problems"
                     ) if near else ""

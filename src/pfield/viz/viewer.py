@@ -25,8 +25,6 @@ the plan without a server.
 
 from __future__ import annotations
 
-import contextlib
-import io
 import logging
 import math
 import threading
@@ -80,12 +78,10 @@ class Viewer:
         if token:  # viser on loopback behind a token gate on the asked address
             from pfield.viz._viewer_gate import TokenGate
 
-            with _quiet():
-                self.server = viser.ViserServer(host="127.0.0.1", port=0, label="pfield", verbose=False)
+            self.server = viser.ViserServer(host="127.0.0.1", port=0, label="pfield", verbose=False)
             self._gate = TokenGate(host, port, self.server.get_port(), token).start()
         else:
-            with _quiet():
-                self.server = viser.ViserServer(host=host, port=port, label="pfield", verbose=False)
+            self.server = viser.ViserServer(host=host, port=port, label="pfield", verbose=False)
         self.server.scene.set_up_direction("+z")
         self.robot = robot
         try:
@@ -445,21 +441,13 @@ class Viewer:
     def _stop_server(self) -> None:
         if self._gate is not None:
             self._gate.stop()
-        with _quiet():
-            self.server.stop()
+        self.server.stop()
 
     def __enter__(self) -> Viewer:
         return self
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-def _quiet() -> contextlib.redirect_stdout[io.StringIO]:
-    """Standard output swallowed: viser 1.1 prints its own server's banner (and "Server stopped") whatever its
-    ``verbose``, an address that is not the page's behind a token gate and a throwaway one for ``--export``; the
-    viewer's callers print the page's own address."""
-    return contextlib.redirect_stdout(io.StringIO())
 
 
 def show_plan(path: PlannedPath, obstacles: Sequence[Any] = (), robot: Any = None, *, goal: Pose | None = None,
