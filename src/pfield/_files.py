@@ -19,7 +19,7 @@ from typing import BinaryIO
 
 from pfield.errors import InvalidInput
 
-__all__ = ["check_writable", "open_regular", "read_bytes", "read_text"]
+__all__ = ["check_writable", "open_regular", "read_bytes", "read_text", "relative_to_cwd"]
 
 _KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISCHR, "a character device"),
           (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
@@ -95,3 +95,11 @@ def check_writable(field: str, path: str | Path) -> Path:
     except OSError as exc:
         raise InvalidInput(field, str(path), f"cannot create a file in {folder} ({exc.strerror})") from None
     return target
+
+
+def relative_to_cwd(path: Path) -> str:
+    """For a message about a path the caller gave: where a relative ``path`` was looked for, ``" (looked for
+    ABSOLUTE: relative paths are read from the current folder)"``; "" for an absolute one."""
+    if path.is_absolute():
+        return ""
+    return f" (looked for {Path.cwd() / path}: relative paths are read from the current folder)"

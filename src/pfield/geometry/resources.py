@@ -23,10 +23,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from urllib.parse import unquote, urlparse
 
+from pfield._files import relative_to_cwd
 from pfield._validation import text
 from pfield.errors import InvalidInput, ResourceNotAllowed, ResourceNotFound
 
-__all__ = ["PackagePaths", "ResourceResolver", "package_path_map", "relative_to_cwd"]
+__all__ = ["PackagePaths", "ResourceResolver", "package_path_map"]
 
 _PACKAGE = "package://"
 
@@ -108,13 +109,11 @@ class ResourceResolver:
         resolved = (directory / unquote(relative)).resolve()
         if not _inside(resolved, directory):
             raise ResourceNotAllowed(f"{uri!r} resolves to {resolved}, outside package {package!r} ({directory})")
-        if not resolved.is_file():  # the package's folder is wrong more often than the file is missing
-            given = package in self.package_paths  # a root the caller gave (else the ament index's)
-            advice = (f"; check its root (package_paths={{{package!r}: DIR}}, on the command line --package-path "
-                      f"{package}=DIR)") if given else ""
-            raise ResourceNotFound(f"{uri!r}: no such file {resolved} (package {package!r} is {directory}: its "
-                                   f"folder must hold {unquote(relative)!r}{advice})")
-        return resolved
+        # the package's folder is wrong more often than the file is missing; a root the caller gave can be mended
+        advice = (f"; check its root (package_paths={{{package!r}: DIR}}, on the command line --package-path "
+                  f"{package}=DIR)") if package in self.package_paths else ""
+        return _existing(uri, resolved, f" (package {package!r} is {directory}: its folder must hold "
+                                        f"{unquote(relative)!r}{advice})")
 
     def package_directory(self, package: str) -> Path:
         """The directory of ROS package ``package`` (configured paths first, then the ament index)."""
@@ -167,15 +166,7 @@ def package_path_map(values: PackagePaths | None, field: str = "package_paths") 
     return paths
 
 
-def relative_to_cwd(path: Path) -> str:
-    """For a message about a path the caller gave: where a relative ``path`` was looked for, ``" (looked for
-    ABSOLUTE: relative paths are read from the current folder)"``; "" for an absolute one."""
-    if path.is_absolute():
-        return ""
-    return f" (looked for {Path.cwd() / path}: relative paths are read from the current folder)"
-
-
-def _existing(uri: str, path: Path) -> Path:
+def _existing(uri: str, path: Path, hint: str = "") -> Path:
     if not path.is_file():
-        raise ResourceNotFound(f"{uri!r}: no such file {path}")
+        raise ResourceNotFound(f"{uri!r}: no such file {path}{hint}")
     return path

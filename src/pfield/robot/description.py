@@ -27,9 +27,10 @@ from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from pfield._files import relative_to_cwd
 from pfield._validation import finite, text
 from pfield.errors import InvalidInput
-from pfield.geometry.resources import package_path_map, relative_to_cwd
+from pfield.geometry.resources import package_path_map
 from pfield.robot.catalog import BUILTIN_ROBOTS, builtin_spec, example_robot_data_root
 from pfield.robot.srdf import check_srdf_links, read_disabled_pairs
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import logging
 import xml.etree.ElementTree as ET
 from collections.abc import Iterable
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -26,18 +27,34 @@ _LOG = logging.getLogger(__name__)
 
 
 def read_srdf(srdf_path: str | Path) -> ET.Element:
-    """The root element of an SRDF file; refuses (naming ``srdf``) a file that is not XML, whose root is not
-    ``<robot>``, or that has ``<link>`` elements (a URDF given as the SRDF)."""
+    """The root element of an SRDF file (parsed once per file version: a description's check, the disabled pairs
+    and the group states of one build, and a batch's description per problem read it; not to be modified);
+    refuses (naming ``srdf``) a file that is not XML, whose root is not ``<robot>``, or that has ``<link>``
+    elements (a URDF given as the SRDF)."""
     path = Path(srdf_path).expanduser()
+    try:
+        found = path.stat()
+    except OSError:
+        found = None  # read_text names what is wrong with it
+    stamp = (found.st_mtime_ns, found.st_size) if found is not None else (0, -1)
+    try:
+        return _parsed(str(path.resolve()), stamp)
+    except InvalidInput as exc:  # named as the caller gave it
+        raise InvalidInput(exc.field, str(path), exc.reason) from None
+
+
+@lru_cache(maxsize=16)
+def _parsed(path: str, stamp: tuple[int, int]) -> ET.Element:
+    del stamp  # part of the cache key only: an edited file is read again
     try:
         root = ET.fromstring(read_text("srdf", path, SRDF_MAX_BYTES))
     except ET.ParseError as exc:
-        raise InvalidInput("srdf", str(path), f"not valid XML: {exc}") from exc
+        raise InvalidInput("srdf", path, f"not valid XML: {exc}") from exc
     if root.tag != "robot":
-        raise InvalidInput("srdf", str(path), f"not an SRDF: the root element is <{root.tag}>, not <robot>")
+        raise InvalidInput("srdf", path, f"not an SRDF: the root element is <{root.tag}>, not <robot>")
     if root.find("link") is not None:
-        raise InvalidInput("srdf", str(path), "not an SRDF: it has <link> elements (a URDF?); give the robot's "
-                                              "semantic description (MoveIt's .srdf)")
+        raise InvalidInput("srdf", path, "not an SRDF: it has <link> elements (a URDF?); give the robot's "
+                                         "semantic description (MoveIt's .srdf)")
     return root
 
 
