@@ -67,6 +67,26 @@ TEST(gradient_matches_central_differences) {
   }
 }
 
+TEST(batches_agree_with_the_single_point_evaluation) {
+  // the batches pair points per pass over the obstacles (an odd last point with itself): every row, both of a pair
+  // and the odd one, is the single-point evaluation's (to rounding: the vectorised sums may add in another order)
+  const FieldParams params{2.5, Attraction::Power, 0.3, 1.5, 2.0};
+  const Goal goal{0.4, 0.2, true};
+  // five points (an odd count), the fourth on an obstacle point
+  const std::vector<double> points = {-1.0, 0.5, 0.3, -1.1, 2.2, 1.9, 1.0, 0.5, -2.5, 0.0};
+  const std::size_t n = points.size() / 2;
+  std::vector<double> potential(n), only(n), attraction(2 * n), repulsion(2 * n);
+  components_batch(points.data(), n, goal, obstacles(), params, potential.data(), attraction.data(), repulsion.data());
+  potential_batch(points.data(), n, goal, obstacles(), params, only.data());
+  for (std::size_t i = 0; i < n; ++i) {
+    const Components c = components_at(points[2 * i], points[2 * i + 1], goal, obstacles(), params);
+    const auto near = [](double a, double b) { return std::abs(a - b) <= 1e-13 * (1.0 + std::abs(b)); };
+    CHECK(near(potential[i], c.potential) && near(only[i], c.potential));
+    CHECK(near(attraction[2 * i], c.attraction.x) && near(attraction[2 * i + 1], c.attraction.y));
+    CHECK(near(repulsion[2 * i], c.repulsion.x) && near(repulsion[2 * i + 1], c.repulsion.y));
+  }
+}
+
 TEST(no_direction_no_nan) {
   const FieldParams params{0.5, Attraction::Power, 0.0, 1.0, 1.0};
   const double ox = 1.0, oy = 1.0, w = 1.0;
