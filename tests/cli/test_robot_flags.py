@@ -10,6 +10,7 @@ import itertools
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 import tarfile
@@ -96,6 +97,14 @@ def test_plan_plans_the_ur5_whole_body(tmp_path: Path) -> None:
     assert [first[i] for i in joints] == pytest.approx(START)
     x, y, z = (last[header.index(name)] for name in ("x", "y", "z"))
     assert math.dist((x, y, z), (0.35, 0.55, 1.165)) <= 0.01
+    # what a controller would execute, beside the planner's step time; the scene's start pose is said to be unused
+    printed = " ".join(done.stdout.split())
+    length, duration = (float(re.search(pattern, printed).group(1)) for pattern in
+                        (r"joint path ([0-9.]+) rad", r"trajectory ([0-9.]+) s within the joint limits"))
+    path = [[float(row[i]) for i in joints] for row in rows[1:]]
+    assert length == pytest.approx(sum(math.dist(a, b) for a, b in itertools.pairwise(path)), abs=0.005)
+    assert 0.5 < duration < last[header.index("time")]  # retimed: faster than the field's own steps
+    assert "the scene file's start pose is not used" in printed
 
 
 def test_plan_draws_the_arm(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -105,13 +114,13 @@ def test_plan_draws_the_arm(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> 
     import pfield.viz.arm
     from pfield.cli import app
 
-    drawn: list[tuple[str, str, int]] = []
-    monkeypatch.setattr(pfield.viz.arm, "save_arm_plot", lambda path, robot, obstacles, file, title: drawn.append(
-        (robot.name, title, len(obstacles))))
+    drawn: list[tuple[str, str, int, tuple[float, ...]]] = []
+    monkeypatch.setattr(pfield.viz.arm, "save_arm_plot", lambda path, robot, obstacles, file, title, goal: drawn.append(
+        (robot.name, title, len(obstacles), tuple(goal.position))))
     result = CliRunner().invoke(app, ["plan", "--scene", str(SCENE), *FLAGS, "--start-joints", "home", "-o",
                                       str(tmp_path / "ur5.png")])
     assert result.exit_code == 0, result.stderr
-    assert drawn == [("ur5_robotiq85", "ur5_robotiq85 whole-body plan: reached the goal", 1)]
+    assert drawn == [("ur5_robotiq85", "ur5_robotiq85 whole-body plan: reached the goal", 1, (0.35, 0.55, 1.165))]
 
 
 def test_view_draws_the_ur5(tmp_path: Path) -> None:

@@ -104,6 +104,23 @@ def test_arm_plot_shows_the_arm_at_key_moments_to_scale_with_path_and_clearance(
     assert save_arm_plot(path, robot, obstacles, tmp_path / "arm.png").stat().st_size > 0
 
 
+def test_arm_plot_marks_the_goal_in_every_3d_panel(panda_plan) -> None:
+    """The goal is a star in each snapshot and in the path panel (labelled "goal" there, in place of "end")."""
+    from pfield.demo.whole_body import PANDA_GOAL
+
+    robot, path, obstacles = panda_plan
+    far = Pose(PANDA_GOAL.position + np.array([0.0, 0.0, 0.8]), PANDA_GOAL.orientation)  # above the scene's extent
+    figure = plot_arm_plan(path, robot, obstacles, snapshots=3, goal=far)
+    for ax in figure.axes[:4]:
+        stars = [c for c in ax.collections if hasattr(c, "_offsets3d")
+                 and np.allclose(np.asarray(c._offsets3d, dtype=float).ravel(), far.position)]
+        assert len(stars) == 1 and _inside_limits(ax, far.position, far.position)
+    labels = [t.get_text() for t in figure.axes[3].get_legend().get_texts()]
+    assert "goal" in labels and "end" not in labels
+    assert "end" in [t.get_text() for t in plot_arm_plan(path, robot, obstacles, snapshots=3).axes[3].get_legend()
+                     .get_texts()]
+
+
 def test_arm_plot_rejects_bad_input(panda_plan) -> None:
     robot, path, obstacles = panda_plan
     task_space = PotentialField(FieldConfig(), Pose((0.3, 0.0, 0.3))).plan(Pose((0.3, 0.0, 0.29)))
@@ -111,6 +128,8 @@ def test_arm_plot_rejects_bad_input(panda_plan) -> None:
         plot_arm_plan(task_space, robot, obstacles)
     with pytest.raises(InvalidInput, match="snapshots"):
         plot_arm_plan(path, robot, obstacles, snapshots=0)
+    with pytest.raises(InvalidInput, match="goal"):
+        plot_arm_plan(path, robot, obstacles, goal=(0.3, 0.0, 0.3))
 
 
 def test_costmap_plot_has_a_cost_key_and_marks_cells_outside_the_map(tmp_path: Path) -> None:

@@ -60,6 +60,7 @@ def start_joints(robot: RobotModel, value: str | None) -> Any:
 def _plan(scene_file: Path | None, output: Path, csv: Path | None, console: Console,
           robot: RobotModel | None = None, start: str | None = None) -> int:
     from pfield.field import PotentialField
+    from pfield.planning.scenes import SEED_START
     from pfield.scene.files import load_scene
     from pfield.viz.arm import save_arm_plot
     from pfield.viz.plots import save_path_plot
@@ -75,13 +76,19 @@ def _plan(scene_file: Path | None, output: Path, csv: Path | None, console: Cons
         else:  # the arm at key moments, its end effector's path and the clearance (viz.save_arm_plot)
             path = field.plan_whole_body(robot, start_joints(robot, start), **settings)
             status = "reached the goal" if path.success else path.failure_reason
-            save_arm_plot(path, robot, scene["obstacles"], output, f"{robot.name} whole-body plan: {status}")
+            save_arm_plot(path, robot, scene["obstacles"], output, f"{robot.name} whole-body plan: {status}",
+                          goal=scene["goal"])
     if csv is not None:
         path.to_csv(csv)
     state = "[green]reached the goal[/green]" if path.success else f"[red]failed[/red]: {path.failure_reason}"
     who = "" if robot is None else f"{robot.name} ({path.planner}): "
-    console.print(f"{who}{state}: {len(path)} waypoints over {path.duration:.2f} s, min clearance "
+    executed = "" if path.trajectory_duration is None else (
+        f"; joint path {path.joint_path_length:.2f} rad, trajectory {path.trajectory_duration:.2f} s within the "
+        f"joint limits")
+    console.print(f"{who}{state}: {len(path)} waypoints over {path.duration:.2f} s{executed}, min clearance "
                   f"{path.min_clearance:.4g} m; plot written to {output}" + (f", waypoints to {csv}" if csv else ""))
+    if robot is not None and scene_file is not None and scene["start"] is not SEED_START:
+        console.print("the scene file's start pose is not used: a whole-body plan starts from --start-joints")
     return 0 if path.success else 1
 
 

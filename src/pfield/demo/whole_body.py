@@ -76,7 +76,7 @@ def run(out_dir: Path, console: Console) -> None:
     if not path.success:
         raise RuntimeError(f"the Panda whole-body demo failed: {path.failure_reason}")
     picture = save_arm_plot(path, panda, PANDA_OBSTACLES, out_dir / "whole_body_panda.png",
-                            "Panda whole-body plan: link capsules at 5 waypoints")
+                            "Panda whole-body plan past a pitcher on a table (link capsules)", goal=PANDA_GOAL)
     path.to_csv(out_dir / "whole_body_panda.csv")
     console.print(f"wrote {picture.name} and whole_body_panda.csv")
 

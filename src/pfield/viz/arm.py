@@ -4,10 +4,10 @@ Small multiples, so the motion reads at a glance: the top row shows the arm alon
 start, the closest approach to an obstacle, the end, and evenly spaced moments between), each panel with the
 obstacles and the end-effector path up to that moment; below, the end-effector path large among the
 obstacles, coloured by time with the key moments numbered, and the clearance over time with the moments
-marked. Each link is drawn as the capsule pfield plans with (:attr:`RobotModel.geometry`): a cylinder of the
-capsule's radius around its segment with hemispherical caps, so what the picture shows is what the planner
-keeps clear of the obstacles. The kinematic chain (joint origins, end effector) is drawn as a thin line with
-dots. Every 3D panel has one scale on its three axes.
+marked; a goal, when given, is a gold star in every 3D panel. Each link is drawn as the capsule pfield plans
+with (:attr:`RobotModel.geometry`): a cylinder of the capsule's radius around its segment with hemispherical
+caps, so what the picture shows is what the planner keeps clear of the obstacles. The kinematic chain (joint
+origins, end effector) is drawn as a thin line with dots. Every 3D panel has one scale on its three axes.
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 from pfield.errors import InvalidInput
 from pfield.geometry import Obstacle
 from pfield.planning.result import PlannedPath
+from pfield.spatial import Pose
 from pfield.viz.plots import draw_obstacles, obstacle_bounds, set_equal_box
 
 if TYPE_CHECKING:
@@ -92,14 +93,18 @@ def _scene_cloud(path: PlannedPath, obstacles: Sequence[Obstacle]) -> NDArray[np
 
 
 def plot_arm_plan(path: PlannedPath, robot: RobotModel, obstacles: Sequence[Obstacle] = (), title: str = "",
-                  snapshots: int = 4) -> Figure:
+                  snapshots: int = 4, goal: Pose | None = None) -> Figure:
     """A figure of a whole-body plan (see the module docstring): ``snapshots`` panels of the arm at key
     moments, the end-effector path and the clearance over time. ``figure.axes[:k]`` are the snapshot panels,
-    then the path panel and the clearance panel."""
+    then the path panel and the clearance panel. ``goal``: the end-effector goal, marked where the path should
+    have ended (a failed plan's picture shows how far it stayed)."""
     if not isinstance(path, PlannedPath) or path.joint_positions is None:
         raise InvalidInput("path", type(path).__name__, "expected a whole-body pfield.PlannedPath (joint positions)")
     if isinstance(snapshots, bool) or not isinstance(snapshots, int) or not 1 <= snapshots <= 8:
         raise InvalidInput("snapshots", snapshots, "must be an integer in [1, 8]")
+    if goal is not None and not isinstance(goal, Pose):
+        raise InvalidInput("goal", goal, "expected a pfield.Pose or None")
+    target = np.empty((0, 3)) if goal is None else goal.position[None, :]
     moments = key_moments(path, snapshots)
     figure = Figure(figsize=(3.4 * max(len(moments), 3), 9.0), layout="constrained")
     FigureCanvasAgg(figure)
@@ -112,7 +117,9 @@ def plot_arm_plan(path: PlannedPath, robot: RobotModel, obstacles: Sequence[Obst
         handles = draw_obstacles(ax, obstacles)
         arm = draw_arm(ax, robot, path.joint_positions[index], colour, alpha=0.35)
         ax.plot(*path.positions[:index + 1].T, color="crimson", linewidth=1.5)
-        set_equal_box(ax, np.concatenate([_scene_cloud(path, obstacles), arm]))
+        if goal is not None:
+            ax.scatter(*goal.position, marker="*", s=90, color="gold", edgecolors="k", depthshade=False)
+        set_equal_box(ax, np.concatenate([_scene_cloud(path, obstacles), arm, target]))
         clearance = f" · clearance {100 * clearances[index]:.1f} cm" if clearances.size == len(path) and \
             np.isfinite(clearances[index]) else ""
         ax.set_title(f"({k + 1}) t = {path.times[index]:.2f} s{clearance}", fontsize=9)
@@ -132,12 +139,15 @@ def plot_arm_plan(path: PlannedPath, robot: RobotModel, obstacles: Sequence[Obst
     for k, (index, colour) in enumerate(zip(moments, colours, strict=True)):
         ax.scatter(*points[index], color=colour, s=40, edgecolors="k", depthshade=False)
         ax.text(*points[index], f" {k + 1}", fontsize=9)
-    ax.scatter(*points[-1], marker="*", s=160, color="gold", edgecolors="k", depthshade=False, label="end")
-    set_equal_box(ax, np.concatenate([points, obstacle_bounds(obstacles)]) if len(obstacles) else points, 0.05)
+    if goal is not None:
+        ax.scatter(*goal.position, marker="*", s=220, color="gold", edgecolors="k", depthshade=False, label="goal")
+    else:
+        ax.scatter(*points[-1], marker="*", s=160, color="gold", edgecolors="k", depthshade=False, label="end")
+    set_equal_box(ax, np.concatenate([points, obstacle_bounds(obstacles), target]), 0.05)
     ax.set(xlabel="x (m)", ylabel="y (m)", zlabel="z (m)")
     ax.set_title("end-effector path (colour: time)", fontsize=10)
     ax.view_init(elev=25, azim=-60)
-    ax.legend(handles=handles, loc="upper left", fontsize=8, framealpha=0.85)
+    ax.legend(handles=[*ax.get_legend_handles_labels()[0], *handles], loc="upper left", fontsize=8, framealpha=0.85)
     # the clearance over time
     ax2: Any = figure.add_subplot(grid[1, len(moments):])
     if clearances.size == len(path):
@@ -155,9 +165,9 @@ def plot_arm_plan(path: PlannedPath, robot: RobotModel, obstacles: Sequence[Obst
 
 
 def save_arm_plot(path: PlannedPath, robot: RobotModel, obstacles: Sequence[Obstacle], file: str | Path,
-                  title: str = "", snapshots: int = 4) -> Path:
+                  title: str = "", snapshots: int = 4, goal: Pose | None = None) -> Path:
     """Write :func:`plot_arm_plan` as a PNG (110 dpi); return the file path."""
-    figure = plot_arm_plan(path, robot, obstacles, title, snapshots)
+    figure = plot_arm_plan(path, robot, obstacles, title, snapshots, goal)
     target = Path(file)
     target.parent.mkdir(parents=True, exist_ok=True)
     figure.savefig(target, dpi=110)
