@@ -160,7 +160,9 @@ def _shape(message: ObstacleMsg, make_mesh: Callable[[str, float, float, float],
         return geometry.Ellipsoid(semi_x=message.semi_x, semi_y=message.semi_y, semi_z=message.semi_z)
     if kind == "Capsule":
         return geometry.Capsule(radius=message.radius, height=message.height)
-    return make_mesh(message.mesh_resource, message.scale_x, message.scale_y, message.scale_z)
+    if kind == "Mesh":
+        return make_mesh(message.mesh_resource, message.scale_x, message.scale_y, message.scale_z)
+    raise TypeError(f"no conversion from the message of obstacle shape {kind}")  # obstacle_from_msg checked the type
 
 
 def obstacle_from_msg(message: ObstacleMsg, make_mesh: Callable[[str, float, float, float], Any],

@@ -49,7 +49,9 @@ def _shape_marker(shape: Any, grow: float) -> tuple[int, tuple[float, float, flo
     if kind == "Capsule":  # drawn as its bounding cylinder (shaft plus both caps)
         d = 2.0 * (shape.radius + grow)
         return Marker.CYLINDER, (d, d, shape.height + d)
-    return None
+    if kind == "Mesh":
+        return None
+    raise TypeError(f"no RViz marker for obstacle shape {kind}")
 
 
 def _obstacle_markers(obstacles: Sequence[Any], header: Header, influence_distance: float) -> list[Marker]:

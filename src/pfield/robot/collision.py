@@ -116,7 +116,8 @@ def _coal_geometry(obstacle: Obstacle) -> coal.CollisionGeometry:
         return coal.Capsule(shape.radius, shape.height)
     if isinstance(shape, Ellipsoid):
         return coal.Ellipsoid(shape.semi_x, shape.semi_y, shape.semi_z)
-    assert isinstance(shape, Mesh)
+    if not isinstance(shape, Mesh):
+        raise TypeError(f"no coal geometry for obstacle shape {type(shape).__name__}")
     model = coal.BVHModelOBBRSS()
     model.beginModel(len(shape.data.faces), len(shape.data.vertices))
     model.addVertices(np.asarray(shape.data.vertices, dtype=np.float64))
@@ -500,6 +501,8 @@ def _covering_proxy(obstacle: Obstacle) -> Obstacle:
         extent = np.maximum(high - low, 1e-9)  # a flat mesh gets a box as thin as Box accepts, still containing it
         centre = obstacle.pose.transform_points(0.5 * (low + high))
         return Obstacle(obstacle.id, Box(*extent.tolist()), Pose(centre.reshape(3), obstacle.pose.orientation))
+    if not isinstance(shape, (Sphere, Capsule, Box, Cylinder)):
+        raise TypeError(f"no covering proxy for obstacle shape {type(shape).__name__}")
     return obstacle
 
 

@@ -201,7 +201,8 @@ def _add_obstacle(spec: mujoco.MjSpec, obstacle: Obstacle) -> list[str]:
         kind, size = primitives[type(shape)]
         spec.worldbody.add_geom(name=name, type=kind, size=size(shape), **place)
         return [name]
-    assert isinstance(shape, Mesh)
+    if not isinstance(shape, Mesh):
+        raise TypeError(f"no MuJoCo geom for obstacle shape {type(shape).__name__}")
     import trimesh
 
     vertices, faces = np.asarray(shape.data.vertices), np.asarray(shape.data.faces)
