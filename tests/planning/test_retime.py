@@ -121,6 +121,44 @@ def test_the_robot_acceleration_limits_default_to_a_pace_real_arms_follow(xarm: 
                              joint_limits=limits)
 
 
+def test_a_joint_without_a_velocity_limit_is_refused_before_planning_with_the_ways_to_give_one(
+        xarm: RobotModel, tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    """URDF exporters write <limit velocity="0"/> as a placeholder: the plan was computed, then its retiming raised
+    "velocity_limits[1]=0.0: must be > 0". The robot still loads (its kinematics need no limit), with a warning;
+    whole-body plans, steppers and assistance refuse it before any work, naming the joint; a joint_limits.yaml
+    that gives the limit, or locking the joint, makes the robot usable."""
+    from pfield.planning.stepper import WholeBodyStepper
+    from pfield.robot.catalog import example_robot_data_root
+    from pfield.shared_control.assistance import AssistanceScene, whole_body_assistance
+
+    text = xarm.urdf_path.read_text()
+    start = text.index('<joint name="joint2" type="revolute"')
+    limit = text.index('velocity="3.14"', start)
+    urdf = tmp_path / "xarm7.urdf"
+    urdf.write_text(text[:limit] + 'velocity="0"' + text[limit + len('velocity="3.14"'):])
+    packages = {"example-robot-data": example_robot_data_root()}
+    with caplog.at_level("WARNING", logger="pfield.robot.model"):
+        robot = RobotModel.from_urdf(urdf, xarm.end_effector, packages)
+    assert "joint 'joint2' of xarm7.urdf has velocity limit 0" in caplog.text
+    np.testing.assert_allclose(robot.forward_kinematics(np.zeros(7)).position,
+                               xarm.forward_kinematics(np.zeros(7)).position)
+    field = PotentialField(FieldConfig(), Pose((0.4, 0.2, 0.4), (1.0, 0.0, 0.0, 0.0)))
+    refusals = [lambda: field.plan_whole_body(robot, np.zeros(7), 0.02, 0.01, 100),
+                lambda: WholeBodyStepper(field, robot),
+                lambda: whole_body_assistance(AssistanceScene(field), robot, np.zeros(7))]
+    for refused in refusals:
+        with pytest.raises(InvalidInput, match=r"joint 'joint2' of xarm7.urdf has velocity limit 0; .*"
+                                               r"joint_limits.yaml.*--locked-joint joint2=VALUE") as info:
+            refused()
+        assert info.value.field == "robot"
+    limits = tmp_path / "joint_limits.yaml"
+    limits.write_text("joint_limits:\n  joint2: {has_velocity_limits: true, max_velocity: 1.5}\n")
+    given = RobotModel.from_urdf(urdf, xarm.end_effector, packages, joint_limits=limits)
+    assert given.velocity_limits[1] == 1.5 and field.plan_whole_body(given, np.zeros(7), 0.02, 0.01, 10).iterations
+    locked = RobotModel.from_urdf(urdf, xarm.end_effector, packages, locked_joints={"joint2": 0.3})
+    assert "joint2" not in locked.joint_names and WholeBodyStepper(field, locked) is not None
+
+
 def test_a_plan_is_retimed_with_the_robot_limits_not_the_field_s(xarm: RobotModel) -> None:
     field = PotentialField(FieldConfig(), Pose((0.4, 0.2, 0.4), (1.0, 0.0, 0.0, 0.0)))
     path = field.plan_whole_body(xarm, [0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0], 0.02, 0.01, 10000)

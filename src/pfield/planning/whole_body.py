@@ -53,6 +53,7 @@ from pfield.planning.result import PlannedPath
 from pfield.planning.retime import retime_joint_path
 from pfield.planning.status import ROOT_CAUSES, PlanStatus
 from pfield.robot.collision import CollisionChecker
+from pfield.robot.limits import missing_velocity_limit
 from pfield.robot.model import RobotModel
 from pfield.spatial import Pose
 
@@ -102,7 +103,11 @@ def obstacle_bounds(packed: PackedObstacles) -> tuple[NDArray[np.float64], NDArr
 
 
 def pack_robot(robot: RobotModel, config: FieldConfig, options: WholeBodyOptions) -> _wb.RobotArrays:
-    """The robot's kinematics, link model and limits as the kernel's :class:`RobotArrays`."""
+    """The robot's kinematics, link model and limits as the kernel's :class:`RobotArrays` (the one door of whole-body
+    plans, steppers and assistance: a joint without a velocity limit is refused here, naming it)."""
+    missing = missing_velocity_limit(robot.joint_names, robot.velocity_limits, robot.urdf_path.name)
+    if missing:
+        raise InvalidInput("robot", robot.name, missing)
     k, g = robot.kinematics, robot.geometry
     if options.acceleration_limits is None:
         accel = np.where(k.kinds == 0, config.max_angular_acceleration, config.max_linear_acceleration)

@@ -31,7 +31,7 @@ from pfield._validation import positive
 from pfield.errors import InvalidInput, ResourceNotFound
 
 __all__ = ["DEFAULT_JOINT_ACCELERATION", "DEFAULT_PRISMATIC_ACCELERATION", "JointLimits", "default_accelerations",
-           "read_joint_limits"]
+           "missing_velocity_limit", "read_joint_limits"]
 
 DEFAULT_JOINT_ACCELERATION = 1.4
 """rad/s²: revolute joints without a configured limit — the default joint acceleration of Universal Robots'
@@ -47,6 +47,22 @@ class JointLimits(NamedTuple):
 
     velocity: NDArray[np.float64]
     acceleration: NDArray[np.float64]
+
+
+def missing_velocity_limit(joint_names: Sequence[str], velocity: NDArray[np.float64], urdf: str) -> str:
+    """Empty when every joint has a finite velocity limit > 0; else what is wrong and how to give one.
+
+    URDF exporters write ``<limit velocity="0"/>`` as a placeholder, and a continuous joint may have no
+    ``<limit>`` (pinocchio reads infinity). Whole-body plans, steps and assistance scale joint velocities into the
+    limits and retime within them, so they need one (MoveIt's time parameterisation refuses such a joint too);
+    forward kinematics, Jacobians and IK do not."""
+    for name, limit in zip(joint_names, velocity.tolist(), strict=True):
+        if not (np.isfinite(limit) and limit > 0.0):
+            return (f"joint {name!r} of {urdf} has velocity limit {limit:g}; moving it needs a finite limit > 0: set "
+                    f"<limit velocity=...> in the URDF, give max_velocity in a MoveIt joint_limits.yaml "
+                    f"(RobotModel.from_urdf(..., joint_limits=...)), or lock the joint (locked_joints={{{name!r}: "
+                    f"value}}, on the command line --locked-joint {name}=VALUE)")
+    return ""
 
 
 def default_accelerations(kinds: Sequence[int] | NDArray[np.int64]) -> NDArray[np.float64]:

@@ -36,7 +36,7 @@ from pfield.robot._loader import (
     resolve_mesh_uri,
 )
 from pfield.robot.catalog import builtin_spec, example_robot_data_root
-from pfield.robot.limits import default_accelerations, read_joint_limits
+from pfield.robot.limits import default_accelerations, missing_velocity_limit, read_joint_limits
 from pfield.robot.srdf import check_srdf_links, read_disabled_pairs, read_group_states
 from pfield.spatial import Pose, pose_from_checked
 
@@ -138,6 +138,9 @@ class RobotModel:
         if joint_limits is not None:
             limits = read_joint_limits(joint_limits, self._joint_names, self._velocity, self.kinematics.kinds)
             self._velocity, self._acceleration = _frozen(limits.velocity), _frozen(limits.acceleration)
+        missing = missing_velocity_limit(self._joint_names, self._velocity, loaded.urdf_path.name)
+        if missing:  # refused where it matters (planning.whole_body.pack_robot); said now, while the robot is built
+            _LOG.warning("%s; whole-body plans, steps and assistance refuse this robot until then", missing)
         self._idx_q = np.array(idx_q)
         # the core's robot (pfield._core.robot.Robot: the tree and the limits, without the link model, which is
         # fitted on first use), bound once with its kinematics: each kinematics call passes only q
