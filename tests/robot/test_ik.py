@@ -13,8 +13,8 @@ from pfield.planning.joint_trajectory import attach_joint_trajectory
 from pfield.planning.result import PlannedPath
 from pfield.planning.scenes import SEED_GOAL, SEED_START
 from pfield.robot import RobotModel
-from pfield.robot.ik import solve_ik
-from pfield.spatial import Pose
+from pfield.robot.ik import differential_ik, solve_ik
+from pfield.spatial import Pose, Twist
 
 SEED_Q0 = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0])
 
@@ -52,6 +52,35 @@ def test_ik_bad_input(xarm: RobotModel) -> None:
     assert info.value.field == "position_tolerance"
     with pytest.raises(errors.InvalidInput):
         solve_ik(xarm, (0.3, 0.0, 0.4), SEED_Q0)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("name", ["xarm", "panda"])
+def test_differential_ik_is_damped_least_squares(name: str, xarm: RobotModel, panda: RobotModel) -> None:
+    """q̇ = Jᵀ(J Jᵀ + λ²I)⁻¹ v, the closed form; it realises v to O(λ²) away from singularities and tends to the
+    minimum-norm solution as λ → 0; a Twist and 6 numbers give the same answer."""
+    robot = xarm if name == "xarm" else panda
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        q = rng.uniform(np.maximum(robot.lower_limits, -2.5), np.minimum(robot.upper_limits, 2.5))
+        v = rng.normal(size=6) * [0.1, 0.1, 0.1, 0.3, 0.3, 0.3]
+        jac = robot.jacobian(q)
+        qd = differential_ik(robot, q, v)
+        np.testing.assert_allclose(qd, jac.T @ np.linalg.solve(jac @ jac.T + 1e-4 * np.eye(6), v), atol=1e-12)
+        exact = differential_ik(robot, q, v, damping=1e-12)
+        np.testing.assert_allclose(jac @ exact, v, atol=1e-6)
+        np.testing.assert_allclose(exact, np.linalg.pinv(jac) @ v, atol=1e-6)  # the minimum-norm solution
+        np.testing.assert_array_equal(differential_ik(robot, list(q), Twist(v[:3], v[3:])), qd)
+
+
+def test_differential_ik_bad_input(xarm: RobotModel) -> None:
+    for args, field in (((SEED_Q0[:3], np.zeros(6)), "q"), ((SEED_Q0, np.zeros(5)), "twist"),
+                        ((SEED_Q0, [0, 0, np.nan, 0, 0, 0]), "twist"), ((np.full(7, 9.0), np.zeros(6)), "q[0]")):
+        with pytest.raises(errors.InvalidInput) as info:
+            differential_ik(xarm, *args)
+        assert info.value.field == field
+    with pytest.raises(errors.InvalidInput) as info:
+        differential_ik(xarm, SEED_Q0, np.zeros(6), damping=0.0)
+    assert info.value.field == "damping"
 
 
 def test_task_space_plan_gets_joint_angles_for_every_waypoint(xarm: RobotModel) -> None:

@@ -16,6 +16,7 @@
 #include <utility>
 #include <vector>
 
+#include "math/dls.hpp"
 #include "python/arrays.hpp"
 #include "python/robot_arrays.hpp"
 #include "robot/ik.hpp"
@@ -142,6 +143,20 @@ class Kinematics {
     jacobian_.resize(6 * joints());
     robot::end_effector_kinematics(view(), q_.data(), frames, jacobian_.data());
     return robot::condition_number(jacobian_.data(), joints());
+  }
+
+  // q_dot (n,) = J^T (J J^T + damping I)^-1 twist (math::damped_least_squares) into out: the joint velocities that
+  // realise an end-effector twist (6,: linear, angular, world-aligned) in the damped least-squares sense; false
+  // (out untouched) when q is refused as by jacobian. twist and damping come checked (pfield.robot.ik).
+  bool differential_ik(const Vector& q, const Vector& twist, double damping, OutVector& out) {
+    if (twist.shape(0) != 6 || out.shape(0) != joints())
+      throw std::invalid_argument("twist, out: expected 6 values and one per joint");
+    if (!accept(q, q_.data())) return false;
+    Frames frames{rotations_.data(), origins_.data()};
+    jacobian_.resize(6 * joints());
+    robot::end_effector_kinematics(view(), q_.data(), frames, jacobian_.data());
+    math::damped_least_squares(jacobian_.data(), 6, joints(), nullptr, damping, twist.data(), out.data());
+    return true;
   }
 
   // (rotation (3, 3), position (3,), Jacobian (6, n)) of the end effector at q.
@@ -330,6 +345,9 @@ void bind_robot_kinematics(nb::module_& m) {
       .def("condition_number", &Kinematics::condition_number, "q"_a,
            "kappa = sigma_max / sigma_min of the end effector's Jacobian at q (inf at a singularity); None when q is "
            "refused as by jacobian.")
+      .def("differential_ik", &Kinematics::differential_ik, "q"_a, "twist"_a, "damping"_a, "out"_a,
+           "J^T (J J^T + damping I)^-1 twist at q into out (n,); False (out untouched) when q is refused as by "
+           "jacobian.")
       .def("end_effector_kinematics", &Kinematics::end_effector_kinematics, "q"_a,
            "The end effector's (rotation (3, 3), position (3,), Jacobian (6, n)) at q.")
       .def("end_effector_positions", &Kinematics::end_effector_positions, "qs"_a,

@@ -146,13 +146,14 @@ def simulate_arm(robot: Any, obstacles: Sequence[Obstacle], q0: NDArray[np.float
     """The same operator driving a whole robot's end effector (static obstacles).
 
     The operator's end-effector twist (linear part; angular 0) becomes joint velocities by damped least
-    squares (λ = 0.01) for ``none`` and ``servo``; ``servo`` scales them by MoveIt Servo's law at the exact
-    scene (0.02 m) and self (0.01 m) distances; ``pfield`` executes
+    squares (λ = 0.01, :func:`pfield.robot.ik.differential_ik`) for ``none`` and ``servo``; ``servo`` scales them
+    by MoveIt Servo's law at the exact scene (0.02 m) and self (0.01 m) distances; ``pfield`` executes
     :func:`pfield.shared_control.whole_body_assistance`'s ``joint_velocities``. Joints are integrated and clipped
     to their limits. Collisions and clearances: exact URDF-geometry distances (coal,
     :class:`pfield.robot.collision.CollisionChecker`); a self-collision counts too.
     """
     from pfield.robot.collision import CollisionChecker
+    from pfield.robot.ik import differential_ik
     from pfield.shared_control.assistance import whole_body_assistance
 
     op, config = operator or Operator(), config or FieldConfig(max_linear_velocity=0.08)
@@ -181,7 +182,7 @@ def simulate_arm(robot: Any, obstacles: Sequence[Obstacle], q0: NDArray[np.float
             answer = whole_body_assistance(scene, robot, q, Twist(command), ARBITRATION)
             qd, alpha = answer.joint_velocities, answer.alpha
         else:
-            qd = jac.T @ np.linalg.solve(jac @ jac.T + 1e-4 * np.eye(6), twist)
+            qd = differential_ik(robot, q, twist)  # damped least squares, λ² = 1e-4 (solve_ik's)
             if mode == "servo":
                 qd = qd * min(servo_scale(scene_distance, SERVO_SCENE_THRESHOLD), servo_scale(self_distance, 0.01))
         executed = (jac @ qd)[:3]

@@ -22,12 +22,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pfield._core import robot_kinematics as _core_kinematics
-from pfield._validation import positive
+from pfield._validation import as_vector, positive
 from pfield.errors import InvalidInput
 from pfield.robot.model import RobotModel
-from pfield.spatial import Pose
+from pfield.spatial import Pose, Twist
 
-__all__ = ["IKResult", "IKSolver", "solve_ik"]
+__all__ = ["IKResult", "IKSolver", "differential_ik", "solve_ik"]
 
 _VALID = _core_kinematics.IKInput.Valid
 _BAD_POSITION, _BAD_ORIENTATION = _core_kinematics.IKInput.BadPosition, _core_kinematics.IKInput.BadOrientation
@@ -89,6 +89,27 @@ def solve_ik(robot: RobotModel, target: Pose, q_seed: ArrayLike, *, max_iteratio
     result.__dict__.update(success=outcome.success, q=q, iterations=outcome.iterations,
                            position_error=outcome.position_error, rotation_error=outcome.rotation_error)
     return result
+
+
+def differential_ik(robot: RobotModel, q: ArrayLike, twist: Twist | ArrayLike, damping: float = 1e-4
+                    ) -> NDArray[np.float64]:
+    """Joint velocities q̇ (n,) that realise an end-effector ``twist`` at ``q`` in the damped least-squares sense:
+    q̇ = Jᵀ (J Jᵀ + λ² I)⁻¹ v (Wampler 1986; Buss 2004, eq. 11), with J the world-aligned Jacobian
+    (:meth:`RobotModel.jacobian`) and v = ``twist`` (a :class:`~pfield.spatial.Twist`, or 6 values: linear m/s then
+    angular rad/s, world frame). ``damping`` is λ² (as :func:`solve_ik`'s): near a singularity it trades accuracy for
+    bounded joint speeds. No limits are applied (:func:`pfield.safety.limit_joint_command` does that): this is the
+    step of a plain teleoperation, the baseline the field's assistance is compared with."""
+    velocity = np.concatenate([twist.linear, twist.angular]) if isinstance(twist, Twist) else \
+        as_vector("twist", twist, 6)
+    lam2 = positive("damping", damping)
+    out = np.empty(robot.n_joints)
+    try:  # as forward_kinematics: the core takes q as given when it is n float64 values within the limits
+        done = robot._core_kinematics.differential_ik(q, velocity, lam2, out)
+    except TypeError:
+        done = False
+    if not done:
+        robot._core_kinematics.differential_ik(robot.check_joint_angles(q, "q"), velocity, lam2, out)
+    return out
 
 
 def solve_ik_path(robot: RobotModel, q_seed: NDArray[np.float64], positions: ArrayLike, orientations: ArrayLike,
