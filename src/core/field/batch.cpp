@@ -44,12 +44,18 @@ struct alignas(64) ObstacleRows {
   double values[kRows * kLanes];
 };
 
-// q / |q| (computed as q * (1 / |q|)) when q is finite with |q| >= kMinQuaternionNorm; false otherwise.
+// q / |q| (computed as q * (1 / |q|)) when q is finite with |q| >= kMinQuaternionNorm; false otherwise. Components
+// whose squares would overflow are scaled by the largest first, as pfield.spatial.normalize_quaternion does, so a
+// quaternion a Pose accepts is accepted here too.
 bool unit_quaternion(const double* o, Quat& q) {
-  const double norm = std::sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2] + o[3] * o[3]);
+  double c[4] = {o[0], o[1], o[2], o[3]};
+  const double largest = std::max(std::max(std::abs(c[0]), std::abs(c[1])), std::max(std::abs(c[2]), std::abs(c[3])));
+  if (largest > 1e150 && std::isfinite(largest))
+    for (double& value : c) value /= largest;
+  const double norm = std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2] + c[3] * c[3]);
   if (!(std::isfinite(norm) && norm >= kMinQuaternionNorm)) return false;
   const double inverse = 1.0 / norm;
-  q = {o[0] * inverse, o[1] * inverse, o[2] * inverse, o[3] * inverse};
+  q = {c[0] * inverse, c[1] * inverse, c[2] * inverse, c[3] * inverse};
   return true;
 }
 
