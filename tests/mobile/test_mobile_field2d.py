@@ -69,6 +69,19 @@ def test_no_goal_means_no_attraction_and_weights_scale_hills():
     assert doubled.repulsion[0] == pytest.approx(2.0 * parts.repulsion[0], rel=1e-14)
 
 
+def test_components_at_is_one_row_of_field_components_by_name():
+    from pfield.mobile.field2d import components_at
+
+    params = VectorFieldParams(ka=2.0, kr_dist=0.2, kr_height=1.5, kr_slope=3.0)
+    obstacles = np.array([[0.5, 0.2], [-0.3, 0.8], [1.0, -1.0]])
+    rows = field_components([[0.1, -0.2]], [2.0, 1.0], obstacles, params)
+    one = components_at(0.1, -0.2, np.array([2.0, 1.0]), True, np.ascontiguousarray(obstacles[:, 0]),
+                        np.ascontiguousarray(obstacles[:, 1]), np.ones(3), params.core_field)
+    assert one.potential == pytest.approx(rows.potential[0], rel=1e-13)
+    assert one.attraction == pytest.approx(tuple(rows.attraction[0]), rel=1e-13)
+    assert one.repulsion == pytest.approx(tuple(rows.repulsion[0]), rel=1e-13)
+
+
 def test_no_nan_on_goal_or_obstacle_point():
     params = VectorFieldParams(ka=0.5, kr_dist=0.0, kr_height=2.0, kr_slope=1.0)
     points = np.array([[0.0, 0.0], [1.0, 1.0]])

@@ -67,6 +67,15 @@ void bind_mobile(nb::module_& m) {
       .def_ro("max_speed", &SpeedLimits::max_speed)
       .def_ro("mode", &SpeedLimits::mode);
 
+  nb::class_<mobile::Components>(m, "Components", "V and the raw parts of -grad V at one point (components_at).")
+      .def_ro("potential", &mobile::Components::potential, "V")
+      .def_prop_ro(
+          "attraction", [](const mobile::Components& c) { return std::make_tuple(c.attraction.x, c.attraction.y); },
+          "(x, y) of the attraction's -grad V_a")
+      .def_prop_ro(
+          "repulsion", [](const mobile::Components& c) { return std::make_tuple(c.repulsion.x, c.repulsion.y); },
+          "(x, y) of the repulsion's -grad V_r");
+
   nb::enum_<ScanWeighting>(m, "ScanWeighting")
       .value("SECTOR", ScanWeighting::Sector)
       .value("ARC_LENGTH", ScanWeighting::ArcLength)
@@ -156,12 +165,10 @@ void bind_mobile(nb::module_& m) {
       "components_at",
       [](double px, double py, const Vector& goal, bool has_goal, const Vector& ox, const Vector& oy,
          const Vector& weights, const FieldParams& params) {
-        const mobile::Components c = mobile::components_at(px, py, goal_of(goal, has_goal),
-                                                           obstacle_points(ox, oy, weights), params);
-        return std::make_tuple(c.potential, c.attraction.x, c.attraction.y, c.repulsion.x, c.repulsion.y);
+        return mobile::components_at(px, py, goal_of(goal, has_goal), obstacle_points(ox, oy, weights), params);
       },
       "px"_a, "py"_a, "goal"_a, "has_goal"_a, "obstacles_x"_a, "obstacles_y"_a, "weights"_a, "params"_a,
-      "(V, a_x, a_y, r_x, r_y): the potential and the raw attractive and repulsive parts of -grad V.");
+      "Components: the potential and the raw attractive and repulsive parts of -grad V.");
 
   m.def(
       "velocity_at",

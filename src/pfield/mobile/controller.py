@@ -201,8 +201,7 @@ class BaseController:
         diff = self._config.drive == "diff_drive"
         ux, uy = clamp_norm(teleop.linear_x, 0.0 if diff else teleop.linear_y, 0.0, p.max_spd_norm, HARD)
         wz = float(np.clip(teleop.angular_z, -self._config.max_angular_speed, self._config.max_angular_speed))
-        _, _, _, rx, ry = components_at(x, y, _NO_GOAL, False, *self._columns, self._obstacles.weights,
-                                        p.core_field)
+        rx, ry = components_at(x, y, _NO_GOAL, False, *self._columns, self._obstacles.weights, p.core_field).repulsion
         rx, ry = clamp_norm(rx, ry, 0.0, p.max_spd_norm, p.core_limits.mode)
         c, s = math.cos(yaw), math.sin(yaw)
         bx, by = c * rx + s * ry, -s * rx + c * ry

@@ -33,8 +33,9 @@ __all__ = ["FieldComponents", "components_at", "field_components", "gradient", "
            "velocity_at"]
 
 components_at = _mobile.components_at
-"""``components_at(px, py, goal, has_goal, obstacles_x, obstacles_y, weights, params.core_field)`` → (V, a_x, a_y,
-r_x, r_y): the potential and the raw attractive and repulsive parts of −∇V at one point (validated inputs)."""
+"""``components_at(px, py, goal, has_goal, obstacles_x, obstacles_y, weights, params.core_field)`` → the core's
+``Components`` at one point (validated inputs): ``potential`` V, ``attraction`` and ``repulsion`` the (x, y) of the
+raw attractive and repulsive parts of −∇V."""
 velocity_at = _mobile.velocity_at
 """``velocity_at(px, py, goal, has_goal, obstacles_x, obstacles_y, weights, params.core_field, params.core_limits)``
 → (v_x, v_y): the clamped command at one point, what the controller runs every tick (validated inputs)."""
