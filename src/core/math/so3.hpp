@@ -2,8 +2,8 @@
 //
 // Rotation vectors are axis * angle (rad), the so(3) exponential coordinates (Sola, Deray & Atchuthan 2018, "A
 // micro Lie theory", eqs. 101-102). Below kSmallAngle exp and log use their Taylor series, whose next terms are
-// under half an ulp there, avoiding the closed forms' 0/0 at the identity. pfield/_spatial_kernels.py holds the
-// same formulas for the kernels not yet moved to the core; the results agree to the last bit.
+// under half an ulp there, avoiding the closed forms' 0/0 at the identity. Python reaches them through
+// pfield.spatial (quaternion_exp, quaternion_log, ...), bound in python/spatial.cpp.
 #pragma once
 
 #include <cmath>
