@@ -150,7 +150,9 @@ TEST(batch_names_the_first_invalid_row_in_plain_and_threaded_runs) {
           static_cast<std::int64_t>(n - 2));
     std::fill(rows.orientations.begin() + 4 * 1000, rows.orientations.begin() + 4 * 1001, 0.0);  // zero quaternion
     CHECK(batch_wrenches(scene.field, rows.poses(), out.data(), {threads}).invalid_row == 1000);
-    rows.orientations[4 * 17] = 1e200;  // its squared norm overflows
+    rows.orientations[4 * 17] = 1e200;  // its squared norm overflows: scaled first, a valid row
+    CHECK(batch_twists(scene.field, rows.poses(), out.data(), {threads}).invalid_row == 1000);
+    rows.orientations[4 * 17] = std::numeric_limits<double>::infinity();
     CHECK(batch_twists(scene.field, rows.poses(), out.data(), {threads}).invalid_row == 17);
     rows.positions[3 * 4] = std::numeric_limits<double>::infinity();
     CHECK(batch_wrenches(scene.field, rows.poses(), out.data(), {threads}).invalid_row == 4);
