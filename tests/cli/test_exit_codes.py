@@ -114,3 +114,20 @@ def test_serve_names_an_unknown_robot_before_the_end_effector(robot: str, says: 
         file.write("<robot name='arm'><link name='base'/></robot>")
     done = _serve("--robot", robot.format(urdf=urdf), "--port", str(free_port()))
     assert done.returncode == 2 and done.stderr.startswith(says.format(urdf=urdf)), done.stderr
+
+
+@pytest.mark.parametrize("command", [["ros2", "node"], ["ros2", "execute", "trajectory.yaml"]])
+@pytest.mark.parametrize("extra", [["--pramas", "servo.yaml"], ["panda"]])
+def test_ros2_commands_refuse_what_is_neither_their_option_nor_after_ros_args(command: list[str],
+                                                                              extra: list[str]) -> None:
+    """A misspelled option was handed to rclpy, which ignored it: the node started without its parameters."""
+    result = CliRunner().invoke(app, [*command, *extra])
+    assert result.exit_code == 2, result.output
+    assert result.stderr.startswith(f"error: argument={extra[0]!r}: not an option of") and "--ros-args" in \
+        result.stderr
+
+
+@pytest.mark.parametrize("command", [["serve"], ["ros2", "node"], ["view", "--export", "never.html"]])
+def test_a_misspelled_log_level_is_a_usage_error(command: list[str]) -> None:
+    result = CliRunner().invoke(app, [*command, "--log-level", "verbose"])
+    assert result.exit_code == 2 and "'verbose' is not one of" in result.output and "Traceback" not in result.output

@@ -19,7 +19,7 @@ import typer
 
 from pfield.cli._exit_codes import FAILED, OK, USAGE
 from pfield.cli._node import cli_errors
-from pfield.cli._ros2 import _check_ros2
+from pfield.cli._ros2 import _check_ros2, ros_arguments
 from pfield.errors import InvalidInput
 
 __all__ = ["register"]
@@ -89,6 +89,7 @@ def execute(
     )
 
     with cli_errors():
+        ros_args = ros_arguments(ctx)  # a misspelled option first: it may be why the rest looks wrong
         message = _load_trajectory(trajectory)
         options = ExecutionOptions(path_tolerance=_parse_tolerances("--path-tolerance", path_tolerance),
                                    goal_tolerance=_parse_tolerances("--goal-tolerance", goal_tolerance),
@@ -98,7 +99,7 @@ def execute(
         build_goal(message, options)  # every refusal before ROS starts
     console = Console(stderr=True)
     try:
-        client = TrajectoryClient(action, args=list(ctx.args))
+        client = TrajectoryClient(action, args=ros_args)
     except InvalidInput as exc:
         console.print(f"error: {exc}")
         raise typer.Exit(USAGE) from None

@@ -7,6 +7,7 @@ serve (none when its options are absent).
 
 from __future__ import annotations
 
+import enum
 import logging
 import sys
 from collections.abc import Callable, Iterator
@@ -50,7 +51,18 @@ MeshRootOption = Annotated[list[Path] | None, typer.Option(help="directory meshe
 MapOption = Annotated[Path | None, typer.Option(help="map_server YAML for the costmap node")]
 FootprintOption = Annotated[str | None, typer.Option(help="nav2 footprint '[\\[x, y], ...]' for the costmap")]
 CsvDirOption = Annotated[Path | None, typer.Option(help="save every planned path as CSV here")]
-LogLevelOption = Annotated[str, typer.Option(help="debug, info, warning or error")]
+
+
+class LogLevel(enum.StrEnum):
+    """The values of ``--log-level``: a misspelled one is a usage error (exit status 2) before anything starts."""
+
+    debug = "debug"
+    info = "info"
+    warning = "warning"
+    error = "error"
+
+
+LogLevelOption = Annotated[LogLevel, typer.Option(case_sensitive=False, help="how much the command logs")]
 StaticTransformOption = Annotated[list[str] | None, typer.Option(
     help="FRAME=x,y,z[,qx,qy,qz,qw]: pose of FRAME in the fixed frame; messages in FRAME are accepted and "
          "transformed (repeatable; the static_transforms parameter)")]
@@ -194,7 +206,7 @@ def serve(
     token: Annotated[str | None, typer.Option(envvar="PFIELD_TOKEN", help="bearer token clients must send")]
     = None,
     csv_dir: CsvDirOption = None,
-    log_level: LogLevelOption = "info",
+    log_level: LogLevelOption = LogLevel.info,
     allow_origin: Annotated[list[str] | None, typer.Option(
         help="ORIGIN (scheme://host:port) of a web page allowed to change state and open WebSockets "
              "(repeatable; the server's own loopback origin is always allowed)")] = None,

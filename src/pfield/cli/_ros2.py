@@ -17,6 +17,7 @@ import typer
 from pfield.cli._node import (
     CsvDirOption,
     FootprintOption,
+    LogLevel,
     LogLevelOption,
     MapOption,
     MeshRootOption,
@@ -33,6 +34,7 @@ from pfield.cli._robot_options import (
     SrdfOption,
     robot_description,
 )
+from pfield.errors import InvalidInput
 
 __all__ = ["register"]
 
@@ -53,6 +55,17 @@ def _check_ros2() -> None:
             raise typer.Exit(2)
 
 
+def ros_arguments(ctx: typer.Context) -> list[str]:
+    """The arguments after ``--ros-args`` that a ROS 2 command passes to rclpy; anything else it was not given as one
+    of its own options is refused (a misspelled ``--params`` would otherwise be handed to rclpy, which ignores it,
+    and the node would start without the parameters)."""
+    extra = list(ctx.args)
+    if extra and extra[0] != "--ros-args":
+        raise InvalidInput("argument", extra[0], f"not an option of {ctx.command_path} (see --help); ROS 2 "
+                                                 f"arguments go after --ros-args, e.g. --ros-args -p name:=value")
+    return extra
+
+
 @ros2_app.command(context_settings={"allow_extra_args": True, "ignore_unknown_options": True})
 def node(
     ctx: typer.Context,
@@ -67,7 +80,7 @@ def node(
     footprint: FootprintOption = None,
     static_transform: StaticTransformOption = None,
     csv_dir: CsvDirOption = None,
-    log_level: LogLevelOption = "info",
+    log_level: LogLevelOption = LogLevel.info,
 ) -> None:
     """Serve /pfield_manager (and the other configured nodes) over ROS 2 until Ctrl-C.
 
@@ -77,6 +90,7 @@ def node(
     logging.basicConfig(level=log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
     _check_ros2()
     with cli_errors():
+        ros_arguments(ctx)
         description = robot_description(robot, srdf, end_effector, package_path, locked_joint)
         nodes = nodes_from_options(description, params, mesh_root, map, footprint, csv_dir, static_transform)
     from pfield import warmup
@@ -88,7 +102,7 @@ def node(
 
     with cli_errors():  # a bad --ros-args parameter value
         try:
-            run(nodes, args=list(ctx.args), on_ready=announce)
+            run(nodes, args=ros_arguments(ctx), on_ready=announce)
         finally:
             for pfield_node in nodes:
                 pfield_node.close()

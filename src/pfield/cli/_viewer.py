@@ -12,7 +12,7 @@ from typing import Annotated
 
 import typer
 
-from pfield.cli._node import MeshRootOption, cli_errors
+from pfield.cli._node import LogLevel, LogLevelOption, MeshRootOption, cli_errors
 from pfield.cli._robot_options import (
     EndEffectorOption,
     LockedJointOption,
@@ -47,7 +47,7 @@ def view(
     page_token: Annotated[str | None, typer.Option(envvar="PFIELD_VIEW_TOKEN",
                                                    help="token the page's visitors must give (?token=...)")] = None,
     port: Annotated[int, typer.Option(help="TCP port of the page")] = 8080,
-    log_level: Annotated[str, typer.Option(help="debug, info, warning or error")] = "warning",
+    log_level: LogLevelOption = LogLevel.warning,
 ) -> None:
     """Open the 3D viewer: obstacles, influence zones, goal gizmo, plans, the robot and the field arrows."""
     logging.basicConfig(level=log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
