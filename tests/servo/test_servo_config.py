@@ -102,6 +102,8 @@ def test_params_section_builds_the_servo_node_and_logs_what_it_ignores(caplog: p
     ({"joint_command_in_topic": "delta joint cmds"}, "joint_command_in_topic"),
     ({"halt_all_joints_in_joint_mode": "yes"}, "halt_all_joints_in_joint_mode"),
     ({"publish_period": 0.01, "moveit_servo": {"publish_period": 0.02}}, "publish_period"),
+    ({"publish_period": 1e-6}, r"publish_period=1e-06: must be in \[0.001, 1\] s"),  # an idle loop burnt a core
+    ({"publish_period": 2.0}, "publish_period"),
 ])
 def test_bad_values_are_refused_by_name(values: dict[str, Any], field: str) -> None:
     with pytest.raises(InvalidInput, match=field):
