@@ -143,6 +143,8 @@ def test_bad_input_is_refused_and_changes_nothing(panda: RobotModel, free_plan: 
         (lambda: sim.step(positions=np.full(7, 4.0)), r"positions\[0\]"),
         (lambda: sim.step(velocities=[0.0] * 6 + [np.inf]), "velocities"),
         (lambda: sim.step(velocities=np.zeros(7), dt=0.0), "dt"),
+        (lambda: sim.step(velocities=np.zeros(7), dt=1e6), r"dt=1000000.0: must be <= 60 s"),  # hours of stepping
+        (lambda: Simulation(panda, timestep=1.0), r"timestep=1.0: must be <= 0.01 s"),
         (lambda: sim.reset([np.nan] * 7), "q"),
     ]
     for call, field in cases:

@@ -40,8 +40,13 @@ from pfield.sim.model import DEFAULT_TIMESTEP, GEOM_OBSTACLE, GEOM_ROBOT, SimMod
 from pfield.sim.report import ContactTally, ExecutionReport, JointState
 from pfield.spatial import Pose
 
-__all__ = ["DEFAULT_SETTLE", "Simulation", "hermite_reference"]
+__all__ = ["DEFAULT_SETTLE", "MAX_STEP_DURATION", "MAX_TIMESTEP", "Simulation", "hermite_reference"]
 
+MAX_TIMESTEP = 0.01
+"""s: the longest physics step a Simulation takes (100 Hz; the default is 1 ms, see pfield.sim.model)."""
+MAX_STEP_DURATION = 60.0
+"""s: the longest one :meth:`Simulation.step` holds a command (a minute of simulated time, under a second of CPU at
+1 ms): a call returns in bounded time whatever dt it is given."""
 DEFAULT_SETTLE = 0.5
 """s: how long :meth:`Simulation.execute` holds the final point after the trajectory (the servos settle)."""
 
@@ -70,6 +75,12 @@ def hermite_reference(trajectory: TimedJointTrajectory, times: ArrayLike) -> tup
     return positions, velocities
 
 
+
+def _at_most(field: str, value: float, limit: float, why: str) -> float:
+    if value > limit:
+        raise InvalidInput(field, value, f"must be <= {limit:g} s: {why}")
+    return value
+
 class _Counter:
     """Running contact tally of one run (reset with the simulation)."""
 
@@ -95,7 +106,9 @@ class Simulation:
                  timestep: float = DEFAULT_TIMESTEP, gravity_compensation: bool = True,
                  q0: ArrayLike | None = None) -> None:
         self.robot = robot
-        self.sim_model: SimModel = build_model(robot, obstacles, gains=gains, timestep=positive("timestep", timestep),
+        step = _at_most("timestep", positive("timestep", timestep), MAX_TIMESTEP,
+                        "longer physics steps make a stiff arm unstable")
+        self.sim_model: SimModel = build_model(robot, obstacles, gains=gains, timestep=step,
                                                gravity_compensation=gravity_compensation)
         self.model = self.sim_model.model
         self.data = mujoco.MjData(self.model)
@@ -150,7 +163,8 @@ class Simulation:
         n = self.robot.n_joints
         target = None if positions is None else self.robot.check_joint_angles(positions, "positions")
         rate = np.zeros(n) if velocities is None else np.array(as_vector("velocities", velocities, n))
-        count = 1 if dt is None else max(1, round(positive("dt", dt) / self.timestep))
+        count = 1 if dt is None else max(1, round(_at_most("dt", positive("dt", dt), MAX_STEP_DURATION,
+                                                           "hold longer commands over several calls") / self.timestep))
         h = self.timestep
         for k in range(count):
             if target is None:
