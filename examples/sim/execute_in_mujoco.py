@@ -19,6 +19,7 @@ import numpy as np
 from pfield import RobotModel
 from pfield.demo.whole_body import PANDA_GOAL, PANDA_OBSTACLES, plan_panda_demo
 from pfield.sim import Simulation, render_frame
+from pfield.sim.render import PIXELS
 from pfield.sim.simulation import hermite_reference
 
 
@@ -28,6 +29,13 @@ def main() -> None:
     parser.add_argument("--width", type=int, default=960, help="picture width in pixels")
     parser.add_argument("--height", type=int, default=640, help="picture height in pixels")
     args = parser.parse_args()
+    for name in ("width", "height"):  # render_frame's range, checked before the minute of planning and simulating
+        if not PIXELS[0] <= getattr(args, name) <= PIXELS[1]:
+            parser.error(f"--{name} {getattr(args, name)}: expected a whole number of pixels in {list(PIXELS)}")
+    try:
+        args.output_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        parser.error(f"--output-dir {args.output_dir}: {exc.strerror}")
     robot = RobotModel.builtin("panda")
     path, _start = plan_panda_demo(robot)
     print(f"plan: success={path.success}, {len(path)} waypoints, trajectory {path.duration:.2f} s retimed to "

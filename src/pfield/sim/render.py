@@ -17,7 +17,10 @@ from pfield.errors import InvalidInput
 from pfield.sim.model import mujoco
 from pfield.sim.simulation import Simulation
 
-__all__ = ["render_frame"]
+__all__ = ["PIXELS", "render_frame"]
+
+PIXELS = (16, 4096)
+"""The range of a picture's width and height (pixels)."""
 
 _TRAIL_RGBA = np.array([0.15, 0.45, 0.95, 1.0], dtype=np.float32)
 
@@ -34,8 +37,8 @@ def render_frame(sim: Simulation, output: str | Path, *, width: int = 800, heigh
     if not isinstance(sim, Simulation):
         raise InvalidInput("sim", sim, "expected a pfield.sim.Simulation")
     for name, value in (("width", width), ("height", height)):
-        if not isinstance(value, int) or not 16 <= value <= 4096:
-            raise InvalidInput(name, value, "expected a whole number of pixels in [16, 4096]")
+        if not isinstance(value, int) or not PIXELS[0] <= value <= PIXELS[1]:
+            raise InvalidInput(name, value, f"expected a whole number of pixels in [{PIXELS[0]}, {PIXELS[1]}]")
     points = None if trail is None else as_points("trail", trail)
     camera = mujoco.MjvCamera()
     camera.lookat[:] = as_vector("lookat", lookat, 3)
