@@ -7,14 +7,15 @@ translucent; ``trail`` (N, 3) points, e.g. a plan's end-effector path, are drawn
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from pfield._validation import as_points, as_vector, positive
 from pfield.errors import InvalidInput
-from pfield.sim.model import mujoco
+from pfield.sim.model import GEOM_OBSTACLE, GEOM_ROBOT, mujoco
 from pfield.sim.simulation import Simulation
 
 __all__ = ["PIXELS", "render_frame"]
@@ -25,14 +26,27 @@ PIXELS = (16, 4096)
 _TRAIL_RGBA = np.array([0.15, 0.45, 0.95, 1.0], dtype=np.float32)
 
 
+def _framing(sim: Simulation) -> tuple[NDArray[np.float64], float]:
+    """(centre, distance) of a camera that frames the robot and the obstacles: the centre of the box around their
+    geoms' bounding spheres, and the distance at which MuJoCo's 45° field of view holds the sphere around that box
+    (its half diagonal / sin 22.5°, at least 0.5 m)."""
+    model, data = sim.model, sim.data
+    shown = np.isin(sim.sim_model.geom_kind, (GEOM_ROBOT, GEOM_OBSTACLE)) & (model.geom_rbound > 0.0)
+    centres, radii = data.geom_xpos[shown], model.geom_rbound[shown][:, None]
+    low, high = (centres - radii).min(axis=0), (centres + radii).max(axis=0)
+    return 0.5 * (low + high), max(0.5, 0.5 * float(np.linalg.norm(high - low)) / math.sin(math.radians(22.5)))
+
+
 def render_frame(sim: Simulation, output: str | Path, *, width: int = 800, height: int = 600,
-                 lookat: ArrayLike = (0.35, 0.0, 0.35), distance: float = 2.0, azimuth: float = 135.0,
+                 lookat: ArrayLike | None = None, distance: float | None = None, azimuth: float = 135.0,
                  elevation: float = -25.0, trail: ArrayLike | None = None) -> Path:
     """Render the simulation's current state to the PNG ``output`` (its folder is created) and return its path.
 
     The free camera looks at ``lookat`` (m, world frame) from ``distance`` (m) at ``azimuth`` and ``elevation``
-    (degrees, MuJoCo's convention). Raises :class:`~pfield.errors.InvalidInput` for bad sizes, and
-    :class:`RuntimeError` from MuJoCo when no OpenGL backend works (install libegl1 or libosmesa6).
+    (degrees, MuJoCo's convention); by default it frames the robot and the obstacles (the centre of the box around
+    them, from where the view holds it), whatever the robot's size and where it stands. Raises
+    :class:`~pfield.errors.InvalidInput` for bad sizes, and :class:`RuntimeError` from MuJoCo when no OpenGL backend
+    works (install libegl1 or libosmesa6).
     """
     if not isinstance(sim, Simulation):
         raise InvalidInput("sim", sim, "expected a pfield.sim.Simulation")
@@ -41,8 +55,9 @@ def render_frame(sim: Simulation, output: str | Path, *, width: int = 800, heigh
             raise InvalidInput(name, value, f"expected a whole number of pixels in [{PIXELS[0]}, {PIXELS[1]}]")
     points = None if trail is None else as_points("trail", trail)
     camera = mujoco.MjvCamera()
-    camera.lookat[:] = as_vector("lookat", lookat, 3)
-    camera.distance = positive("distance", distance)
+    centre, reach = _framing(sim)
+    camera.lookat[:] = centre if lookat is None else as_vector("lookat", lookat, 3)
+    camera.distance = reach if distance is None else positive("distance", distance)
     camera.azimuth, camera.elevation = float(azimuth), float(elevation)
     model = sim.model
     model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
