@@ -91,6 +91,29 @@ def test_missing_or_stale_joint_states_say_what_to_do(node: ManagerNode, robot: 
     assert node.get_parameters()["joint_state_timeout"] == 0.0
 
 
+def test_refused_joint_states_are_named_where_a_request_needs_one(node: ManagerNode, robot: Any) -> None:
+    """Messages that arrive and are refused are not a silent driver: the request's error says how many were refused
+    and why the last was; a good message clears that."""
+    request = pfi.ComputeAutonomyVector_Request.model_validate(whole_body())
+    wrong = joint_states(robot, Q).model_copy(update={"name": ["joint1"], "position": [0.0], "velocity": []})
+    for _ in range(3):
+        with pytest.raises(InvalidInput):
+            node.on_joint_states(wrong)
+    with pytest.raises(InvalidInput, match=r"no joint state taken yet: 3 message\(s\) on /joint_states were refused, "
+                                           r"the last: joint_states.name=.*lacks the joints"):
+        node.compute_autonomy_vector(request)
+    message = joint_states(robot, Q)
+    node.joint_states.update(message.name, message.position, message.velocity, now=time.monotonic() - 5.0)
+    with pytest.raises(InvalidInput) as fresh:  # the good one, stale: no refusal since it
+        node.compute_autonomy_vector(request)
+    assert "refused" not in str(fresh.value) and "is the robot driver running?" in str(fresh.value)
+    with pytest.raises(InvalidInput):
+        node.on_joint_states(wrong)
+    with pytest.raises(InvalidInput, match=r"beyond joint_state_timeout = 1 s; 1 message\(s\) on /joint_states were "
+                                           r"refused since, the last: joint_states.name"):
+        node.compute_autonomy_vector(request)
+
+
 @pytest.mark.parametrize(("fields", "field", "reason"), [
     ({"name": ["joint1"], "position": [0.0], "velocity": []}, "joint_states.name", "lacks the joints"),
     ({"position": [0.0] * 7}, "joint_states.position", "one value per name"),

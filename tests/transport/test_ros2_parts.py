@@ -22,7 +22,7 @@ from pfield.node._base import Bus  # noqa: E402
 from pfield.node.manager import ManagerNode  # noqa: E402
 from pfield.transport._ros2_params import _validate, _widen  # noqa: E402
 from pfield.transport._ros2_publisher import BusPublisher  # noqa: E402
-from pfield.transport.ros2 import _failure_response  # noqa: E402
+from pfield.transport.ros2 import DROP_LOG_PERIOD, DropLog, _failure_response  # noqa: E402
 
 
 def test_failure_responses_carry_the_reason_where_the_type_can() -> None:
@@ -114,3 +114,23 @@ def test_an_integer_beyond_a_double_is_refused_by_the_node_not_raised() -> None:
     assert not result.successful and result.reason.startswith("influence_distance=")
     assert node.get_parameters() == before
     assert _widen(ros_node, [Parameter("influence_distance", value=1)])[0].value == 1.0
+
+
+def test_dropped_messages_are_warned_once_a_period_with_a_count(caplog: Any) -> None:
+    """A 500 Hz driver naming a joint wrongly wrote 500 warnings a second: now each kind of refusal (the field its
+    error names, and its reason) the first time at once, then once a period saying how many more of it were
+    dropped."""
+    from pfield.errors import InvalidInput
+
+    drops = DropLog("/joint_states")
+    with caplog.at_level("WARNING", logger="pfield.transport.ros2"):
+        for k in range(1000):  # two periods of messages every 0.01 s, every tenth with another fault
+            field = "joint_states.position" if k % 10 else "joint_states.name"
+            drops.dropped(InvalidInput(field, k, "bad"), now=100.0 + 0.01 * k)
+    lines = [r.getMessage() for r in caplog.records]
+    assert len(lines) == 2 * math.ceil(1000 * 0.01 / DROP_LOG_PERIOD)  # each kind once a period
+    assert lines[0] == "/joint_states: dropped message: joint_states.name=0: bad"
+    assert lines[1] == "/joint_states: dropped message: joint_states.position=1: bad"
+    assert lines[2] == "/joint_states: dropped message: joint_states.name=500: bad (49 more like it dropped since " \
+        "the last warning)"
+    assert lines[3].startswith("/joint_states: dropped message: joint_states.position=501: bad (449 more like it")

@@ -52,6 +52,7 @@ class JointStateCache:
         self._lock = threading.Lock()
         self._state: MeasuredState | None = None
         self._index: dict[tuple[str, ...], NDArray[np.intp]] = {}
+        self._refused: tuple[int, str] = (0, "")  # messages refused since the last one taken, and the last reason
 
     def _order(self, names: list[str]) -> NDArray[np.intp]:
         """Indices into a message's arrays of the model's joints, cached per name list (publishers repeat theirs)."""
@@ -73,7 +74,20 @@ class JointStateCache:
 
     def update(self, names: list[str], positions: list[float], velocities: list[float],
                now: float | None = None) -> MeasuredState:
-        """Take one message's fields (validated first; nothing changes when refused)."""
+        """Take one message's fields (validated first; nothing changes when refused but the count of refusals that
+        :meth:`latest` reports)."""
+        try:
+            state = self._checked(names, positions, velocities, now)
+        except InvalidInput as exc:
+            with self._lock:
+                self._refused = (self._refused[0] + 1, str(exc))
+            raise
+        with self._lock:
+            self._state, self._refused = state, (0, "")
+        return state
+
+    def _checked(self, names: list[str], positions: list[float], velocities: list[float],
+                 now: float | None) -> MeasuredState:
         if len(positions) != len(names):
             raise InvalidInput("joint_states.position", f"{len(positions)} values",
                                f"must have one value per name ({len(names)} names)")
@@ -87,25 +101,29 @@ class JointStateCache:
         if velocities:
             picked = np.asarray(velocities, dtype=np.float64)[index]
             qd = picked if np.isfinite(picked).all() else None  # unknown velocities: positions alone still count
-        state = MeasuredState(q, qd, time.monotonic() if now is None else now)
-        with self._lock:
-            self._state = state
-        return state
+        return MeasuredState(q, qd, time.monotonic() if now is None else now)
 
     def latest(self, max_age: float, field: str = "joint_angles", now: float | None = None) -> MeasuredState:
         """The latest state if it is at most ``max_age`` s old (0: any age), else ``InvalidInput`` on ``field``."""
         with self._lock:
-            state = self._state
+            state, (refused, reason) = self._state, self._refused
         given = field != "joint_states"  # a request's field (joint_angles …) may also be filled in by the caller
         empty = "empty and " if given else ""
+        # messages that arrive and are refused are not a silent driver: say so, with the last reason
+        why = f"; {refused} message(s) on {JOINT_STATES_TOPIC} were refused since, the last: {reason}" if refused \
+            else ""
         if state is None:
+            if refused:
+                raise InvalidInput(field, [], f"{empty}no joint state taken yet: {refused} message(s) on "
+                                   f"{JOINT_STATES_TOPIC} were refused, the last: {reason}")
             raise InvalidInput(field, [], f"{empty}no joint state received yet: publish sensor_msgs/JointState on "
                                f"{JOINT_STATES_TOPIC} (joint_state_broadcaster does)"
                                + (f" or give {field}" if given else ""))
         age = (time.monotonic() if now is None else now) - state.received
         if max_age > 0 and age > max_age:
             raise InvalidInput(field, [], f"{empty}the last joint state on {JOINT_STATES_TOPIC} is {age:.3g} s old, "
-                               f"beyond joint_state_timeout = {max_age:g} s: is the robot driver running?"
+                               f"beyond joint_state_timeout = {max_age:g} s"
+                               + (why or ": is the robot driver running?")
                                + (f" (give {field}, or raise joint_state_timeout)" if given
                                   else " (or raise joint_state_timeout)"))
         return state

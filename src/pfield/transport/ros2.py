@@ -37,6 +37,7 @@ Fast DDS shared-memory segments in ``/dev/shm`` (docs/ros2.md).
 from __future__ import annotations
 
 import logging
+import math
 import signal
 import sys
 import threading
@@ -146,6 +147,37 @@ def _streaming_stopped() -> None:
         _streaming_hosts -= 1
         if _streaming_hosts == 0:
             sys.setswitchinterval(_switch_before)
+
+
+DROP_LOG_PERIOD = 5.0
+"""s between two warnings of one kind of a topic's dropped messages (:class:`DropLog`)."""
+_DROP_KINDS = 64  # kinds of refusal a DropLog remembers
+
+
+class DropLog:
+    """The warnings of a topic's refused messages: each kind of refusal (its field and reason) at most once per
+    :data:`DROP_LOG_PERIOD` s, the first at once, then with how many more of that kind were dropped (a 500 Hz driver
+    naming a joint wrongly wrote 500 lines a second). Thread-safe."""
+
+    def __init__(self, topic: str) -> None:
+        self.topic = topic
+        self._lock = threading.Lock()
+        self._kinds: dict[str, tuple[float, int]] = {}  # kind -> (when last warned, dropped since)
+
+    def dropped(self, error: object, now: float | None = None) -> None:
+        now = time.monotonic() if now is None else now
+        # the same refusal again (one field, one reason: what a flood repeats), whatever its value
+        kind = f"{type(error).__name__}:{getattr(error, 'field', '')}:{getattr(error, 'reason', error)}"
+        with self._lock:
+            logged, since = self._kinds.get(kind, (-math.inf, 0))
+            if now - logged < DROP_LOG_PERIOD:
+                self._kinds[kind] = (logged, since + 1)
+                return
+            if len(self._kinds) >= _DROP_KINDS:  # a bounded table: the oldest kinds go
+                self._kinds = dict(sorted(self._kinds.items(), key=lambda item: item[1][0])[_DROP_KINDS // 2:])
+            self._kinds[kind] = (now, 0)
+        _LOG.warning("%s: dropped message: %s%s", self.topic, error,
+                     f" ({since} more like it dropped since the last warning)" if since else "")
 
 
 def _subscription_qos(spec: SubscriptionSpec, latest_only: bool) -> QoSProfile:
@@ -265,12 +297,14 @@ class _NodeAdapter:
     def _add_subscription(self, spec: SubscriptionSpec) -> None:
         qos = _subscription_qos(spec, self.streams_commands)
 
+        drops = DropLog(spec.topic)
+
         def receive(message: Any) -> None:
             with self._in_flight.track():
                 try:
                     spec.handler(from_ros(message, spec.model))
                 except _BAD_INPUT as error:
-                    _LOG.warning("%s: dropped message: %s", spec.topic, error)
+                    drops.dropped(error)
                 except Exception:  # a bug must not take the node down
                     _LOG.exception("%s: handler failed", spec.topic)
 
