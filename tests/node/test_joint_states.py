@@ -181,7 +181,8 @@ def test_a_twist_in_the_end_effector_frame_is_rotated_by_forward_kinematics(node
 
 def test_other_frames_are_still_refused(node: ManagerNode) -> None:
     before = node.state
-    with pytest.raises(UnknownFrame, match=r"user_command\.header\.frame_id"):
+    with pytest.raises(UnknownFrame, match=r"user_command\.header\.frame_id='link5': twists must be given in the "
+                                           r"fixed frame 'world', the end-effector frame 'link_eef', or a frame"):
         node.compute_assistance(pfi.ComputeAssistance_Request.model_validate(whole_body(
             joint_angles=Q, user_command={"header": {"frame_id": "link5"}})))
     with pytest.raises(InvalidInput, match=r"joint_angles"):  # an end-effector twist with no joints to rotate it by

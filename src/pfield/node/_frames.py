@@ -103,15 +103,17 @@ class StaticTransforms:
         self.fixed_frame = fixed_frame
         self.transforms = dict(transforms)
 
-    def lookup(self, field: str, frame_id: str) -> Pose | None:
+    def lookup(self, field: str, frame_id: str, what: str = "poses", end_effector: str = "") -> Pose | None:
         """``T_fixed_frame`` of ``frame_id`` (a pose ``p`` in that frame is ``T_fixed_frame * p`` in the fixed
         frame); None for the fixed frame itself or ``""``. Raises :class:`UnknownFrame` naming ``field`` for a
-        frame without a configured transform."""
+        frame without a configured transform; its message speaks of ``what`` is refused and names the
+        ``end_effector`` frame where the caller also takes that one (operator twists)."""
         if frame_id in ("", self.fixed_frame):
             return None
         if frame_id in self.transforms:
             return self.transforms[frame_id]
         known = ", ".join(sorted(self.transforms)) or "none"
-        raise UnknownFrame(field, frame_id, f"poses must be given in the fixed frame {self.fixed_frame!r} or a "
-                           f"frame with a static transform (configured: {known}); configure one with the "
+        tool = f", the end-effector frame {end_effector!r}," if end_effector else ""
+        raise UnknownFrame(field, frame_id, f"{what} must be given in the fixed frame {self.fixed_frame!r}{tool} or "
+                           f"a frame with a static transform (configured: {known}); configure one with the "
                            f"{PARAMETER} parameter or --static-transform FRAME=x,y,z[,qx,qy,qz,qw]")

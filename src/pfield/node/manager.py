@@ -614,7 +614,7 @@ class ManagerNode(Node):
             assert pose is not None
             orientation = pose.orientation
             return rotate_twist(command, orientation)
-        transform = state.params.frames().lookup(f"{field}.header.frame_id", frame)
+        transform = state.params.frames().lookup(f"{field}.header.frame_id", frame, "twists", self.robot.end_effector)
         return command if transform is None else rotate_twist(command, transform.orientation)
 
 

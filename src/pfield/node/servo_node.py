@@ -298,7 +298,8 @@ class ServoNode(Node):
         state = self.manager.state
         end_effector = bool(frame) and frame == self.manager.robot.end_effector and frame != state.params.fixed_frame
         if not end_effector:
-            transform = state.params.frames().lookup(f"{field}.header.frame_id", frame)
+            transform = state.params.frames().lookup(f"{field}.header.frame_id", frame, "twists",
+                                                     self.manager.robot.end_effector)
             twist = twist if transform is None else rotate_twist(twist, transform.orientation)
         self._take(lambda received: self.servo.command(twist, received, end_effector_frame=end_effector,
                                                        unitless=unitless), stamp)

@@ -85,8 +85,9 @@ def declare_parameters(ros_node: RclpyNode, node: Node) -> list[str]:
     for name, value in current.items():
         try:
             ros_value = _ros_value(value)
-        except TypeError:
-            _LOG.warning("parameter %s=%r has no ROS parameter type; not exposed over ROS 2", name, value)
+        except TypeError:  # a mapping (static_transforms): set from the YAML or the command line, not over ROS 2
+            _LOG.info("parameter %s has no ROS parameter type: not exposed over ROS 2 (set it in the --params YAML "
+                      "or with its command-line option)", name)
             continue
         try:
             ros_node.declare_parameter(name, ros_value, _descriptor(name, ros_value, rows.get(name)))
