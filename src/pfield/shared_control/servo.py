@@ -90,7 +90,7 @@ class ServoStatus(NamedIntEnum):
     DECELERATE_FOR_COLLISION = 4
     """pfield: the approach to an obstacle is limited by the dampers; motion along it passes (steering)."""
     HALT_FOR_COLLISION = 5
-    """pfield: in contact; only motion away from the obstacle passes."""
+    """pfield: in contact, or the next step would end closer than the safety distance; only motion away passes."""
     JOINT_BOUND = 6
     COMMAND_TIMEOUT = 10
     """No command within ``incoming_command_timeout``: decelerating to (or holding) a stop."""
@@ -103,7 +103,8 @@ STATUS_MESSAGES = {
     ServoStatus.HALT_FOR_SINGULARITY: "very close to a singularity, stopped",
     ServoStatus.DECELERATE_FOR_LEAVING_SINGULARITY: "moving away from a singularity, decelerating",
     ServoStatus.DECELERATE_FOR_COLLISION: "close to an obstacle: approach limited, steering along it",
-    ServoStatus.HALT_FOR_COLLISION: "in contact with an obstacle: only motion away passes",
+    ServoStatus.HALT_FOR_COLLISION: "at an obstacle (in contact, or a step from the safety distance): only motion "
+                                    "away passes",
     ServoStatus.JOINT_BOUND: "at a joint limit margin, halting motion toward it",
     ServoStatus.COMMAND_TIMEOUT: "no command within incoming_command_timeout: stopping",
 }
