@@ -51,6 +51,16 @@ def test_ros_parameter_files(tmp_path: Path, robot: Any) -> None:
         load_ros_parameters(params)
 
 
+def test_a_section_for_no_node_here_is_warned_with_the_near_name(robot: Any, caplog: pytest.LogCaptureFixture) -> None:
+    """Another node's section of a shared file is ignored, as ROS 2 does; a misspelled one names the node meant."""
+    context = ServeContext(Bus(), robot, {}, [])
+    with caplog.at_level("WARNING", logger="pfield.cli._node"):
+        build_nodes(context, {"/pfield_manger": {"attractive_gain": 2.0}, "/camera_driver": {"fps": 30}}, None)
+    assert sorted(r.getMessage() for r in caplog.records) == [
+        "--params: no node /camera_driver here; its parameters are ignored",
+        "--params: no node /pfield_manger here; its parameters are ignored (did you mean /pfield_manager?)"]
+
+
 @pytest.mark.parametrize(("host", "token", "allowed"), [
     ("127.0.0.1", None, True), ("localhost", None, True), ("::1", None, True),
     ("0.0.0.0", None, False), ("192.168.1.5", None, False), ("0.0.0.0", "s3cret", True),

@@ -61,15 +61,22 @@ def test_params_section_builds_the_servo_node_and_logs_what_it_ignores(caplog: p
     from pfield.robot import RobotModel
 
     manager = ManagerNode(Bus(), RobotModel.builtin("panda"))
-    section = {"moveit_servo": yaml.safe_load(SERVO_FILE.read_text()) | {"my_own_setting": 3}}
+    section = {"moveit_servo": yaml.safe_load(SERVO_FILE.read_text()) | {"my_own_setting": 3,
+                                                                         "incoming_command_timout": 0.5}}
     with caplog.at_level(logging.INFO, logger="pfield.node.servo_node"):
         node = servo_from_parameters(manager, {"/servo_node": section})
     assert isinstance(node, ServoNode)
     _check_shared(node.config)
     assert node.topics["cartesian_command_in_topic"] == "/pfield_servo/delta_twist_cmds"
     assert node.topics["command_out_topic"] == "/panda_arm_controller/joint_trajectory"
-    line = next(r.getMessage() for r in caplog.records if "ignored" in r.getMessage())
-    assert "moveit_servo.use_smoothing" in line and "unknown parameters ignored: moveit_servo.my_own_setting" in line
+    line = next(r.getMessage() for r in caplog.records if "MoveIt Servo parameters" in r.getMessage())
+    assert "moveit_servo.use_smoothing" in line and "my_own_setting" not in line
+    # neither pfield's nor MoveIt Servo's: a warning each, with the near name of a misspelling
+    unknown = sorted(r.getMessage() for r in caplog.records if r.levelno == logging.WARNING)
+    assert unknown == ["servo configuration: unknown parameter moveit_servo.incoming_command_timout ignored (did you "
+                       "mean incoming_command_timeout?)",
+                       "servo configuration: unknown parameter moveit_servo.my_own_setting ignored"]
+    assert node.config.incoming_command_timeout != 0.5
     assert servo_from_parameters(manager, {"/pfield_manager": {}}) is None
     parameters = node.get_parameters()
     assert parameters["scale.linear"] == 0.2 and parameters["joint_limit_margins"] == [0.12]

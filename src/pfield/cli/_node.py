@@ -7,6 +7,7 @@ serve (none when its options are absent).
 
 from __future__ import annotations
 
+import difflib
 import enum
 import logging
 import sys
@@ -140,8 +141,10 @@ def build_nodes(context: ServeContext, params: dict[str, dict[str, Any]], csv_di
         if name in SERVO_NODE_NAMES:  # a MoveIt Servo section: builds the servo loop below, on the manager as set
             continue
         targets = list(by_name.values()) if name == "/**" else [by_name[name]] if name in by_name else []
-        if not targets:
-            _log.warning("--params: no node %s here; its parameters are ignored", name)
+        if not targets:  # another node's section of a shared file, or a misspelling
+            near = difflib.get_close_matches(name, [*by_name, *SERVO_NODE_NAMES], n=1, cutoff=0.8)
+            _log.warning("--params: no node %s here; its parameters are ignored%s", name,
+                         f" (did you mean {near[0]}?)" if near else "")
         for node in targets:
             node.set_parameters(values if name != "/**" else {k: v for k, v in values.items()
                                                               if k in node.get_parameters()})

@@ -67,6 +67,7 @@ from pfield.shared_control.servo_config import (
     SERVO_ONLY_PARAMETERS,
     ServoConfig,
     joy_twist,
+    nearest_parameter,
     servo_config_from_mapping,
 )
 from pfield.spatial import Twist
@@ -155,9 +156,13 @@ class ServoNode(Node):
             servo_only = [n for n in ignored if n.split(".", 1)[-1] in SERVO_ONLY_PARAMETERS
                           or n in SERVO_ONLY_PARAMETERS]
             unknown = [n for n in ignored if n not in servo_only]
-            _log.info("servo configuration: ignored MoveIt Servo parameters pfield does not use: %s%s",
-                      ", ".join(servo_only) or "none", f"; unknown parameters ignored: {', '.join(unknown)}"
-                      if unknown else "")
+            if servo_only:
+                _log.info("servo configuration: ignored MoveIt Servo parameters pfield does not use: %s",
+                          ", ".join(servo_only))
+            for name in unknown:  # neither pfield's nor MoveIt Servo's: most likely a misspelling
+                near = nearest_parameter(name)
+                _log.warning("servo configuration: unknown parameter %s ignored%s", name,
+                             f" (did you mean {near}?)" if near else "")
         self.ignored = tuple(ignored)
         self._header = std_msgs.Header()
         self._joint_names = list(manager.robot.joint_names)

@@ -24,6 +24,7 @@ releasing it is a zero command. Joystick twists are in ``joy_frame`` (empty: ``r
 from __future__ import annotations
 
 import dataclasses
+import difflib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -36,7 +37,7 @@ from pfield.errors import InvalidInput
 from pfield.spatial import Twist
 
 __all__ = ["COMMAND_OUT_TYPES", "JOY_DEVICES", "SERVO_NAMES", "SERVO_ONLY_PARAMETERS", "ServoConfig", "joy_twist",
-           "servo_config_from_mapping", "unitless_scaled", "unitless_scaled_joints"]
+           "nearest_parameter", "servo_config_from_mapping", "unitless_scaled", "unitless_scaled_joints"]
 
 COMMAND_OUT_TYPES = ("trajectory_msgs/JointTrajectory", "std_msgs/Float64MultiArray")
 JOY_DEVICES = ("spacemouse", "gamepad")
@@ -208,6 +209,17 @@ SERVO_NAMES = {"scale_linear": "scale.linear", "scale_rotational": "scale.rotati
 _ALIASES = {servo: field for field, servo in SERVO_NAMES.items()} | {"ee_frame_name": "ee_frame"}
 """A Servo file's names that are not a field's: the dotted ones, and older releases' ``ee_frame_name``."""
 _FIELDS = frozenset(f.name for f in dataclasses.fields(ServoConfig))
+
+
+def nearest_parameter(name: str) -> str | None:
+    """The Servo parameter pfield uses whose name is nearest ``name`` (a misspelling's likely meaning), or None when
+    none is near (difflib's ratio >= 0.8)."""
+    short = name
+    for prefix in _PREFIXES:
+        short = short.removeprefix(prefix)
+    names = sorted(_FIELDS - set(SERVO_NAMES)) + sorted(SERVO_NAMES.values())
+    close = difflib.get_close_matches(short, names, n=1, cutoff=0.8)
+    return close[0] if close else None
 
 
 def _flatten(values: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
