@@ -591,12 +591,24 @@ def create_app(nodes: Sequence[Node], *, token: str | None = None,
 
 def run_server(app: FastAPI, host: str, port: int, *, limits: ServerLimits | None = None,
                log_level: str = "warning") -> None:
-    """Serve ``app`` on ``host:port`` until interrupted (``pfield serve``), with ``limits`` applied."""
+    """Serve ``app`` on ``host:port`` until Ctrl-C or SIGTERM (``pfield serve``), with ``limits`` applied; a stop
+    asked for that way returns (the command exits 0, as ``pfield ros2 node`` does)."""
     import uvicorn
+
+    class Server(uvicorn.Server):
+        @contextlib.contextmanager
+        def capture_signals(self) -> Iterator[None]:
+            # uvicorn shuts down gracefully on the signal, then raises it again so the process dies by it (status
+            # 130 or 143): the stop was asked for, so it is forgotten and run() returns
+            with super().capture_signals():
+                try:
+                    yield
+                finally:
+                    getattr(self, "_captured_signals", []).clear()
 
     limits = limits or ServerLimits()
     limits.apply_to_process()
-    uvicorn.Server(uvicorn_config(app, limits, host=host, port=port, log_level=log_level)).run()
+    Server(uvicorn_config(app, limits, host=host, port=port, log_level=log_level)).run()
 
 
 class ServerThread:
