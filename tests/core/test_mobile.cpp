@@ -68,11 +68,12 @@ TEST(gradient_matches_central_differences) {
 }
 
 TEST(batches_agree_with_the_single_point_evaluation) {
-  // the batches pair points per pass over the obstacles (an odd last point with itself): every row, both of a pair
-  // and the odd one, is the single-point evaluation's (to rounding: the vectorised sums may add in another order)
+  // the batches take four points per pass over the obstacles (the last pass repeats the last point): every row, a
+  // full pass's and the short last one's, is the single-point evaluation's (to rounding: the vectorised sums may add
+  // in another order)
   const FieldParams params{2.5, Attraction::Power, 0.3, 1.5, 2.0};
   const Goal goal{0.4, 0.2, true};
-  // five points (an odd count), the fourth on an obstacle point
+  // five points (a full pass and one more), the fourth on an obstacle point
   const std::vector<double> points = {-1.0, 0.5, 0.3, -1.1, 2.2, 1.9, 1.0, 0.5, -2.5, 0.0};
   const std::size_t n = points.size() / 2;
   std::vector<double> potential(n), only(n), attraction(2 * n), repulsion(2 * n);
