@@ -100,8 +100,7 @@ LoopResult plan_task_space(const field::Field& field, const double* start, const
               geometry::min_signed_distance(*field.packed, {p.x, p.y, p.z}).index};
     const double position_error =
         std::sqrt((g.x - p.x) * (g.x - p.x) + (g.y - p.y) * (g.y - p.y) + (g.z - p.z) * (g.z - p.z));
-    const double dot = std::abs(q.x * goal.x + q.y * goal.y + q.z * goal.z + q.w * goal.w);
-    const double rotation_error = 2.0 * std::acos(std::min(dot, 1.0));
+    const double rotation_error = math::angle(q, goal);
     if (position_error <= settings.goal_tolerance && rotation_error <= settings.rotation_tolerance)
       return {i + 1, PlanStatus::Reached, -1};
     if (i == limit) return {i + 1, PlanStatus::IterationLimit, stage.nearest};
