@@ -143,3 +143,19 @@ def test_serve_stopped_by_ctrl_c_or_sigterm_exits_0(stop: int, tmp_path: Path) -
     with pfield_serve(log=tmp_path / "serve.log", stop=stop) as (_, process):
         pass
     assert process.returncode == 0, (tmp_path / "serve.log").read_text()
+
+
+@pytest.mark.parametrize("command", [["serve"], ["ros2", "node"]])
+def test_ctrl_c_while_a_server_starts_is_a_quiet_stop(command: list[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    """Ctrl-C before the signal handlers are in place (the robot still loading) printed a KeyboardInterrupt traceback;
+    it is the same asked-for stop as later: one line, status 0."""
+    import pfield.cli._node
+    import pfield.cli._ros2
+
+    def interrupted(*_: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(pfield.cli._node, "robot_description", interrupted)
+    monkeypatch.setattr(pfield.cli._ros2, "robot_description", interrupted)
+    result = CliRunner().invoke(app, [*command, *(["--port", str(free_port())] if command == ["serve"] else [])])
+    assert result.exit_code == 0 and result.stderr.strip() == "stopped", result.output

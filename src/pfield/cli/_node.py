@@ -158,6 +158,17 @@ def _check_host(host: str, token: str | None) -> None:
 
 
 @contextmanager
+def stopped_quietly() -> Iterator[None]:
+    """A server command's body: Ctrl-C before its signal handlers are in place (while the robot loads, a second
+    after start) is the same asked-for stop as after, so it ends with status 0 and one line, not a traceback."""
+    try:
+        yield
+    except KeyboardInterrupt:
+        typer.echo("stopped", err=True)
+        raise typer.Exit(0) from None
+
+
+@contextmanager
 def cli_errors() -> Iterator[None]:
     """Turn a :class:`PfieldError` raised inside into one line ``error: ...`` on stderr and exit status 2
     (``USAGE``: the command is wrong as given)."""
@@ -221,22 +232,23 @@ def serve(
     """Start the pfield node (HTTP + WebSocket) with the ROS names of the seed's interfaces.
 
     Exit status 2, before anything is printed or started, for bad options or a port in use."""
-    from pfield.transport.http import create_app, run_server
-
     logging.basicConfig(level=log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
-    with cli_errors():
-        _check_host(host, token)
-        check_port_free(host, port)
-        limits = ServerLimits(max_connections=max_connections, header_timeout=header_timeout)
-        description = robot_description(robot, srdf, end_effector, package_path, locked_joint)
-        nodes = nodes_from_options(description, params, mesh_root, map, footprint, csv_dir, static_transform)
-    from pfield import warmup
+    with stopped_quietly():
+        from pfield.transport.http import create_app, run_server
 
-    warmup.start_background()  # GET /health says "ready" once the self-check has run and the robot is fitted
-    app = create_app(nodes, token=token, ready=warmup.ready, allowed_origins=allow_origin or ())
-    typer.echo(f"pfield node on http://{host}:{port} ({', '.join(n.name for n in nodes)})", err=True)
-    sys.stderr.flush()
-    run_server(app, host, port, limits=limits, log_level="warning" if log_level != "debug" else "debug")
+        with cli_errors():
+            _check_host(host, token)
+            check_port_free(host, port)
+            limits = ServerLimits(max_connections=max_connections, header_timeout=header_timeout)
+            description = robot_description(robot, srdf, end_effector, package_path, locked_joint)
+            nodes = nodes_from_options(description, params, mesh_root, map, footprint, csv_dir, static_transform)
+        from pfield import warmup
+
+        warmup.start_background()  # GET /health says "ready" once the self-check has run and the robot is fitted
+        app = create_app(nodes, token=token, ready=warmup.ready, allowed_origins=allow_origin or ())
+        typer.echo(f"pfield node on http://{host}:{port} ({', '.join(n.name for n in nodes)})", err=True)
+        sys.stderr.flush()
+        run_server(app, host, port, limits=limits, log_level="warning" if log_level != "debug" else "debug")
 
 
 def register(app: typer.Typer) -> None:

@@ -25,6 +25,7 @@ from pfield.cli._node import (
     StaticTransformOption,
     cli_errors,
     nodes_from_options,
+    stopped_quietly,
 )
 from pfield.cli._robot_options import (
     EndEffectorOption,
@@ -88,24 +89,25 @@ def node(
     --params pfield.yaml --ros-args -p influence_distance:=0.15
     """
     logging.basicConfig(level=log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
-    _check_ros2()
-    with cli_errors():
-        ros_arguments(ctx)
-        description = robot_description(robot, srdf, end_effector, package_path, locked_joint)
-        nodes = nodes_from_options(description, params, mesh_root, map, footprint, csv_dir, static_transform)
-    from pfield import warmup
-    from pfield.transport.ros2 import run
+    with stopped_quietly():
+        _check_ros2()
+        with cli_errors():
+            ros_arguments(ctx)
+            description = robot_description(robot, srdf, end_effector, package_path, locked_joint)
+            nodes = nodes_from_options(description, params, mesh_root, map, footprint, csv_dir, static_transform)
+        from pfield import warmup
+        from pfield.transport.ros2 import run
 
-    warmup.start_background()  # logs "self-check passed" (pfield.warmup, INFO) once the engine has planned
-    def announce() -> None:  # after the signal handlers: from this line on, Ctrl-C or SIGTERM stops cleanly
-        typer.echo(f"pfield ROS 2 nodes: {', '.join(n.name for n in nodes)} (Ctrl-C stops)", err=True)
+        warmup.start_background()  # logs "self-check passed" (pfield.warmup, INFO) once the engine has planned
+        def announce() -> None:  # after the signal handlers: from this line on, Ctrl-C or SIGTERM stops cleanly
+            typer.echo(f"pfield ROS 2 nodes: {', '.join(n.name for n in nodes)} (Ctrl-C stops)", err=True)
 
-    with cli_errors():  # a bad --ros-args parameter value
-        try:
-            run(nodes, args=ros_arguments(ctx), on_ready=announce)
-        finally:
-            for pfield_node in nodes:
-                pfield_node.close()
+        with cli_errors():  # a bad --ros-args parameter value
+            try:
+                run(nodes, args=ros_arguments(ctx), on_ready=announce)
+            finally:
+                for pfield_node in nodes:
+                    pfield_node.close()
 
 
 def register(app: typer.Typer) -> None:
