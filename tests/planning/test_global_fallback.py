@@ -226,3 +226,27 @@ def test_a_goal_configuration_off_the_goal_or_the_limits_is_refused(xarm: RobotM
     with pytest.raises(InvalidInput) as info:
         field.plan_whole_body(xarm, start, 0.02, 0.01, 100, goal_configuration=at_goal.q + shift)
     assert info.value.field == name and why in str(info.value)
+
+
+def test_a_joint_goal_is_reached_in_its_own_configuration_not_another_at_its_pose() -> None:
+    """A MoveIt joint goal (goal_configuration): the field is attracted by its pose and reached it in another
+    configuration of the redundant arm (0.61 rad away here; the Panda's MotionBenchMaker bookshelf plans 5.4 rad,
+    the UR5's flipped wrists 2.7-4.1 rad), and that counted as reached. Beyond JOINT_GOAL_TOLERANCE the global
+    fallback searches to the configuration asked for."""
+    from pfield.planning.whole_body import JOINT_GOAL_TOLERANCE
+
+    panda = RobotModel.builtin("panda")
+    ready = panda.named_configuration("ready")
+    goal = panda.forward_kinematics(ready)
+    other = solve_ik(panda, goal, ready + np.array([1.0, 0.3, -1.2, 0.2, 1.0, 0.3, 0.5]))
+    assert other.success and np.max(np.abs(other.q - ready)) > 0.5  # another posture at the same pose
+    start = other.q + np.array([0.0, -0.15, 0.0, -0.2, 0.0, 0.1, 0.0])
+    field = PotentialField(FieldConfig(), goal)
+    by_pose = field.plan_whole_body(panda, start, dt=0.02)
+    assert by_pose.success and by_pose.planner == "field"
+    assert np.max(np.abs(by_pose.joint_positions[-1] - ready)) > JOINT_GOAL_TOLERANCE  # the pose, its own posture
+    asked = field.plan_whole_body(panda, start, dt=0.02, goal_configuration=ready)
+    assert asked.success and asked.planner == "field+global", asked.failure_reason
+    assert np.max(np.abs(asked.joint_positions[-1] - ready)) <= JOINT_GOAL_TOLERANCE
+    alone = field.plan_whole_body(panda, start, dt=0.02, goal_configuration=ready, global_fallback=False)
+    assert not alone.success and "another configuration than the joint goal" in alone.failure_reason

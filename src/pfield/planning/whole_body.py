@@ -65,6 +65,13 @@ of a robot (the whole-body assistance) takes."""
 
 _LOG = logging.getLogger(__name__)
 
+JOINT_GOAL_TOLERANCE = 0.1
+"""rad (or m): how far from a joint goal (``goal_configuration``) a plan may end on any joint and count as reached.
+The field is attracted by the goal's pose, and the pose tolerances leave the joints that much room (the UR5's
+MotionBenchMaker plans: 0.009-0.062 rad); a redundant arm's other posture or another IK branch at the same pose (the
+Panda's box and bookshelf problems: 0.7 and 5.4 rad, median; the UR5's flipped wrists: 2.7-4.1 rad) is not the
+configuration asked for, so the global fallback searches to it."""
+
 
 @dataclass(frozen=True)
 class WholeBodyOptions:
@@ -235,8 +242,16 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
             # the path ends before the contact: its waypoints up to the one before it (the start at least)
             count = max(1, certificate.waypoint + (1 if certificate.fraction > 0.0 else 0))
             qs, qds, pos, quats, twists, clear = (a[:count] for a in (qs, qds, pos, quats, twists, clear))
-    # --- global fallback: the field stopped short (or its motion failed the certificate); search, then let the
-    # field track the found path (the fallback certifies its own motion)
+    if status == PlanStatus.REACHED and goal_q is not None:
+        off = float(np.max(np.abs(qs[-1] - goal_q)))
+        if off > JOINT_GOAL_TOLERANCE:  # the goal pose, but not the configuration asked for: search to that one
+            status = PlanStatus.STAGNATION
+            certificate_reason = (f"the field reached the goal pose in another configuration than the joint goal "
+                                  f"(a joint {off:.3g} rad from it, beyond {JOINT_GOAL_TOLERANCE:g})")
+            _LOG.info("whole-body plan: %s", certificate_reason)
+    # --- global fallback: the field stopped short (or its motion failed the certificate, or ended in another
+    # configuration than the joint goal); search, then let the field track the found path (the fallback certifies
+    # its own motion)
     planner, fallback_reason, field_status = FIELD_PLANNER, "", status
     if settings.global_fallback and status in (PlanStatus.STAGNATION, PlanStatus.ITERATION_LIMIT,
                                                PlanStatus.COLLISION, PlanStatus.SELF_COLLISION):
@@ -342,10 +357,11 @@ def plan_whole_body(field: Any, robot: RobotModel, q0: ArrayLike, dt: float | No
             stopped before), search a joint path globally and let the field track it
             (:mod:`pfield.planning.fallback`); :attr:`PlannedPath.planner` tells which produced the path.
         goal_configuration: joint positions (tree order) at the goal pose, e.g. a MoveIt request's joint
-            goal: the global fallback searches to this configuration instead of solving the IK for several.
-            The field itself is attracted by the pose (the plan succeeds at the pose, whatever the
-            redundant joints). Outside the limits, or its end effector not at the goal pose within the
-            tolerances → ``InvalidInput``; colliding → the fallback ends with ``GOAL_INVALID`` at once.
+            goal: the plan is reached only within :data:`JOINT_GOAL_TOLERANCE` of it on every joint. The field
+            is attracted by the pose; when it reaches the pose in another configuration (a redundant arm's other
+            posture, another IK branch), the global fallback searches to this one (no IK). Outside the limits, or
+            its end effector not at the goal pose within the tolerances → ``InvalidInput``; colliding → the
+            fallback ends with ``GOAL_INVALID`` at once.
 
     Returns:
         A :class:`PlannedPath` with joint names, positions and velocities for every waypoint (the start
