@@ -19,7 +19,8 @@ from typing import BinaryIO
 
 from pfield.errors import InvalidInput
 
-__all__ = ["check_writable", "open_regular", "read_bytes", "read_text", "relative_to_cwd"]
+__all__ = ["PICTURE_SUFFIXES", "check_picture", "check_writable", "open_regular", "read_bytes", "read_text",
+           "relative_to_cwd", "writable_folder"]
 
 _KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISCHR, "a character device"),
           (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
@@ -95,6 +96,35 @@ def check_writable(field: str, path: str | Path) -> Path:
     except OSError as exc:
         raise InvalidInput(field, str(path), f"cannot create a file in {folder} ({exc.strerror})") from None
     return target
+
+
+PICTURE_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg", ".eps", ".tif", ".tiff", ".webp")
+"""The picture formats a command's ``--output`` may name (matplotlib writes each by the file's suffix)."""
+
+
+def check_picture(field: str, path: str | Path) -> Path:
+    """``path`` as a picture pfield may write (:func:`check_writable`) in a format it can write, checked before the
+    work whose picture it is."""
+    target = check_writable(field, path)
+    if target.suffix.lower() not in PICTURE_SUFFIXES:
+        raise InvalidInput(field, str(path), f"not a picture format pfield writes; end it in one of "
+                                             f"{', '.join(PICTURE_SUFFIXES)}")
+    return target
+
+
+def writable_folder(field: str, path: str | Path) -> Path:
+    """``path`` as a folder pfield may write files into, created (with its parents) when missing; a file there or
+    a place no folder can be made (``/proc``, read-only) is an ``InvalidInput`` naming ``field``."""
+    folder = Path(path)
+    if folder.exists() and not folder.is_dir():
+        raise InvalidInput(field, str(path), "is a file; give a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        raise InvalidInput(field, str(path), f"cannot write files there ({exc.strerror})") from None
+    return folder
 
 
 def relative_to_cwd(path: Path) -> str:

@@ -59,3 +59,31 @@ def test_resume_reads_only_a_regular_results_file_and_skips_lines_that_are_not_r
     assert finished_keys(out) == {("scene", 0)}
     again = runner.invoke(app, ["batch", scene, "--out", str(out), "--resume"])
     assert again.exit_code == 0 and "0 problems planned (1 already in" in again.output, again.output
+
+
+def test_ctrl_c_stops_a_batch_at_once_keeping_what_it_planned(tmp_path: Path) -> None:
+    """Ctrl-C (to the whole process group, as a terminal sends it) in the middle of a two-worker batch: a worker that
+    took it could die holding the pool's queue lock while the other waited on its pipe, and the batch hung at exit
+    (2 runs in 4). The workers leave Ctrl-C to the parent, which stops them and says what it kept."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    ur5 = Path(__file__).resolve().parents[2].parent / "shared" / "benchmarks" / "mbm" / "ur5"
+    out = tmp_path / "records.jsonl"
+    command = [str(Path(sys.executable).with_name("pfield")), "batch", str(ur5 / "ur5_problems.tar.bz2"), "--robot",
+               str(ur5 / "ur5.urdf"), "--srdf", str(ur5 / "ur5.srdf"), "--end-effector", "tool0", "--package-path",
+               f"meshes={ur5 / 'meshes'}", "--workers", "2", "--out", str(out)]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               start_new_session=True)
+    deadline = time.monotonic() + 300
+    while not (out.exists() and len(out.read_text().splitlines()) >= 20):
+        assert process.poll() is None and time.monotonic() < deadline, process.communicate()
+        time.sleep(0.05)
+    os.killpg(process.pid, signal.SIGINT)
+    _, stderr = process.communicate(timeout=60)
+    kept = len(out.read_text().splitlines())
+    assert process.returncode == 1 and "Traceback" not in stderr, stderr
+    assert f"interrupted: {kept} problems planned and kept in" in " ".join(stderr.split()) and 20 <= kept < 700
+    assert all(json.loads(line)["status"] for line in out.read_text().splitlines())  # whole records only

@@ -159,3 +159,22 @@ def test_ctrl_c_while_a_server_starts_is_a_quiet_stop(command: list[str], monkey
     monkeypatch.setattr(pfield.cli._ros2, "robot_description", interrupted)
     result = CliRunner().invoke(app, [*command, *(["--port", str(free_port())] if command == ["serve"] else [])])
     assert result.exit_code == 0 and result.stderr.strip() == "stopped", result.output
+
+
+@pytest.mark.parametrize(("args", "says"), [
+    (["find-valid-pose", "--x", "-1", "--y", "-1.6", "--yaw", "inf"], "--yaw=inf: must be finite"),
+    (["find-valid-pose", "--x", "-1", "--y", "-1.6", "-o", "{tmp}/f.txt"], "not a picture format pfield writes"),
+    (["find-valid-pose", "--x", "-1", "--y", "-1.6", "-o", "{tmp}/no/f.png"], "does not exist"),
+    (["plan", "-o", "{tmp}/p.txt"], "not a picture format pfield writes"),
+    (["plot2d", "-o", "{tmp}/a_file"], "is a file; give a folder"),
+    (["sim2d", "grid_pass", "-o", "{tmp}/a_file"], "is a file; give a folder"),
+    (["sim2d", "{tmp}/long.yaml", "-o", "{tmp}/out"], "steps, above 1e+06; simulate less time"),
+])
+def test_outputs_and_values_are_checked_before_the_work(args: list[str], says: str, tmp_path: Path) -> None:
+    """These planned, drew or simulated first and then failed with a traceback (matplotlib's unknown format, a
+    FileExistsError, a math domain error; YAML's 1e9 is text, and a billion-second run would not end)."""
+    (tmp_path / "a_file").write_text("")
+    (tmp_path / "long.yaml").write_text("name: long\nstart: [0, 0, 0]\ngoal: [1, 0]\nduration: 1e9\n")
+    result = CliRunner().invoke(app, [a.replace("{tmp}", str(tmp_path)) for a in args])
+    assert result.exit_code == 2, result.output
+    assert says in " ".join(result.output.split()) and "Traceback" not in result.output

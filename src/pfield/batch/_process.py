@@ -9,9 +9,11 @@ The robots are built once per worker by the pool's initializer; each problem the
 from __future__ import annotations
 
 import multiprocessing
+import signal
 from collections.abc import Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
 from typing import Any
 
 from pfield.batch._solve import Workspace, _error, solve
@@ -27,12 +29,30 @@ _NO_WORKERS = ("the worker processes could not start (a script that calls plan_m
 
 def _start_worker(robots: tuple[RobotSpec, ...]) -> None:
     global _WORKSPACE
+    # Ctrl-C reaches the whole process group: it is the parent's to handle (it stops the pool). A worker that took
+    # it itself could die holding the pool's queue lock while another waited on its pipe: the batch hung at exit.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     _WORKSPACE = Workspace(robots, warm=True)
 
 
 def _solve_in_worker(problem: Problem, timeout: float | None, seed: int) -> dict[str, Any]:
     assert _WORKSPACE is not None, "the pool initializer builds the workspace"
     return solve(problem, _WORKSPACE, timeout, seed)
+
+
+@contextmanager
+def _stopped_on_exit(pool: ProcessPoolExecutor) -> Iterator[None]:
+    """Leaves the pool's ``with`` at once when the records stop being asked for (Ctrl-C in the parent, the caller
+    closing the generator): the problems not started are cancelled and the workers still planning are terminated,
+    where ``shutdown(wait=True)`` would wait for each of them to finish (up to the problems' time limit)."""
+    try:
+        yield
+    except BaseException:
+        workers = list((getattr(pool, "_processes", None) or {}).values())  # shutdown() lets go of them
+        pool.shutdown(wait=False, cancel_futures=True)
+        for process in workers:  # what Python 3.14's terminate_workers() does
+            process.terminate()
+        raise
 
 
 def run_in_process(problems: Sequence[Problem], robots: tuple[RobotSpec, ...], timeout: float | None,
@@ -59,7 +79,7 @@ def run_processes(problems: Sequence[Problem], robots: tuple[RobotSpec, ...], wo
     position = 0
     while position < len(problems):
         with ProcessPoolExecutor(workers, mp_context=context, initializer=_start_worker,
-                                 initargs=(robots,)) as pool:
+                                 initargs=(robots,)) as pool, _stopped_on_exit(pool):
             pending: list[tuple[Problem, Future[dict[str, Any]]]] = []
             delivered = 0
             while position < len(problems) or pending:

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import signal
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
+from pfield.cli._exit_codes import FAILED
 from pfield.cli._robot_options import (
     EndEffectorOption,
     LockedJointOption,
@@ -80,12 +83,32 @@ def batch(
 
             records = plan_many(todo, workers=workers, backend=backend, seed=seed, timeout=timeout, address=address,
                                 progress=report)
-            written = write_records(records, out, append=resume)
+            kept = _Counted(records)
+            try:
+                written = write_records(kept, out, append=resume)
+            except KeyboardInterrupt:  # every finished record is on disk, line by line
+                signal.signal(signal.SIGINT, signal.SIG_IGN)  # the stop is under way: a second Ctrl-C adds nothing
+                progress.stop()
+                console.print(f"interrupted: {kept.count} problems planned and kept in {out}; the same command "
+                              f"with --resume plans the rest", highlight=False)
+                raise typer.Exit(FAILED) from None  # unfinished: --resume finishes it
     summary = ", ".join(f"{k} {v}" for k, v in sorted(counts.items()) if v) or "nothing to do"
     console.print(f"{written} problems planned ({len(done)} already in {out}): {summary}; results in {out}",
                   highlight=False)
     if counts["error"]:
         raise typer.Exit(1)
+
+
+class _Counted:
+    """The records, counted as they are taken (what an interrupted batch kept)."""
+
+    def __init__(self, records: Iterable[dict[str, object]]) -> None:
+        self._records, self.count = iter(records), 0
+
+    def __iter__(self) -> Iterator[dict[str, object]]:
+        for record in self._records:
+            self.count += 1
+            yield record
 
 
 def register(app: typer.Typer) -> None:

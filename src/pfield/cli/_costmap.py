@@ -49,10 +49,14 @@ def register(app: typer.Typer) -> None:
         Exit status 1 when no pose was found (state LETHAL), 2 for bad options or files."""
         import yaml
 
+        from pfield._files import check_picture
+        from pfield._validation import finite
         from pfield.costmap import PoseState, example_map_path
         from pfield.demo.tools import run_find_valid_pose
 
         try:
+            check_picture("--output", output)
+            finite("--yaw", yaw)
             values = (load_ros_parameters(params).get("/costmap", {}) if params else {})
             if footprint:
                 values["footprint"] = footprint

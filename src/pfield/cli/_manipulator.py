@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 import typer
 
-from pfield._files import check_writable
+from pfield._files import check_picture, check_writable
 from pfield.cli._node import cli_errors
 from pfield.cli._robot_options import (
     EndEffectorOption,
@@ -115,7 +115,7 @@ def register(app: typer.Typer) -> None:
         from rich.console import Console
 
         with cli_errors():
-            check_writable("--output", output)
+            check_picture("--output", output)
             if csv is not None:
                 check_writable("--csv", csv)
             model = None

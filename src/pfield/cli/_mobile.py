@@ -45,9 +45,15 @@ def register(app: typer.Typer) -> None:
         """Plot the seed's 2D vector field: radial profiles (unclamped/clamped) and field plots (PNG)."""
         from rich.console import Console
 
+        from pfield._files import writable_folder
         from pfield.viz.plots2d import save_seed_plots
 
         console = Console()
+        try:
+            writable_folder("--output-dir", output_dir)
+        except PfieldError as exc:
+            console.print(f"[red]error:[/red] {exc}")
+            raise typer.Exit(2) from None
         with console.status("plotting the 2D field"):
             paths = save_seed_plots(output_dir)
         for path in paths:
@@ -64,6 +70,7 @@ def register(app: typer.Typer) -> None:
         """Simulate the 2D controller in a scenario; writes a PNG and an animated GIF."""
         from rich.console import Console
 
+        from pfield._files import writable_folder
         from pfield.demo.tools import run_sim2d
 
         console = Console()
@@ -71,6 +78,7 @@ def register(app: typer.Typer) -> None:
             _list_scenarios(console)
             return
         try:
+            writable_folder("--output-dir", output_dir)
             run_sim2d(scenario, output_dir, drive, gif, console)
         except PfieldError as exc:
             console.print(f"[red]error:[/red] {exc}")

@@ -17,13 +17,19 @@ from typing import Any, Literal
 
 import yaml
 
-from pfield._validation import as_vector, positive
+from pfield._validation import as_vector, integer, positive
 from pfield.errors import InvalidInput, ResourceNotFound
 from pfield.mobile.config import ControllerConfig
 from pfield.mobile.params import VectorFieldParams
 from pfield.mobile.world import World2D
 
 __all__ = ["BUILTIN_SCENARIOS", "Scenario", "load_scenario", "seed_params"]
+
+
+MAX_STEPS = 1_000_000
+"""Steps (duration x rate) a scenario may take at most."""
+MAX_LASER_BEAMS = 100_000
+"""Beams a simulated laser may have at most."""
 
 
 @dataclass(frozen=True)
@@ -58,10 +64,15 @@ class Scenario:
         object.__setattr__(self, "extent", tuple(float(v) for v in as_vector("extent", self.extent, 4)))
         if self.sensor not in ("points", "laser"):
             raise InvalidInput("sensor", self.sensor, "must be 'points' or 'laser'")
-        if int(self.laser_beams) < 1:
-            raise InvalidInput("laser_beams", self.laser_beams, "must be >= 1")
-        for name in ("laser_range", "robot_radius", "rate", "duration"):
-            positive(name, getattr(self, name))
+        beams = integer("laser_beams", self.laser_beams)
+        if not 1 <= beams <= MAX_LASER_BEAMS:
+            raise InvalidInput("laser_beams", self.laser_beams, f"must be in [1, {MAX_LASER_BEAMS}]")
+        object.__setattr__(self, "laser_beams", beams)
+        for name in ("laser_range", "robot_radius", "rate", "duration"):  # stored as numbers (YAML reads 1e9 as text)
+            object.__setattr__(self, name, positive(name, getattr(self, name)))
+        if self.duration * self.rate > MAX_STEPS:  # a run must end: at 45 µs a step, a million take under a minute
+            raise InvalidInput("duration", self.duration, f"at rate {self.rate:g} Hz that is "
+                               f"{self.duration * self.rate:.3g} steps, above {MAX_STEPS:g}; simulate less time")
 
     def with_drive(self, drive: str) -> Scenario:
         """The same scenario with ``config.drive`` replaced (``holonomic`` or ``diff_drive``)."""
