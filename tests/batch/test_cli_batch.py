@@ -87,3 +87,14 @@ def test_ctrl_c_stops_a_batch_at_once_keeping_what_it_planned(tmp_path: Path) ->
     assert process.returncode == 1 and "Traceback" not in stderr, stderr
     assert f"interrupted: {kept} problems planned and kept in" in " ".join(stderr.split()) and 20 <= kept < 700
     assert all(json.loads(line)["status"] for line in out.read_text().splitlines())  # whole records only
+
+
+def test_another_robots_problems_are_refused_before_planning(tmp_path: Path) -> None:
+    """The UR5's MotionBenchMaker archive without --robot: 700 'error' records whose reason spoke of the Panda's
+    joints, exit 1. Problems that name none of the robot's joints are another robot's: refused at once, exit 2."""
+    ur5 = Path(__file__).resolve().parents[2].parent / "shared" / "benchmarks" / "mbm" / "ur5"
+    result = CliRunner().invoke(app, ["batch", str(ur5 / "ur5_problems.tar.bz2"), "--limit", "1", "--out",
+                                      str(tmp_path / "never.jsonl")])
+    said = " ".join(result.output.split())
+    assert result.exit_code == 2 and "names none of the joints of panda" in said and "another robot's problem" in said
+    assert not (tmp_path / "never.jsonl").exists()

@@ -173,6 +173,9 @@ class Problem:
         return cls(scene, index, error=text("error", error) or "unreadable problem")
 
 
+_OTHER_ROBOT = "another robot's problem"  # the words of a problem that names none of the robot's joints
+
+
 def _description(robot: str | RobotDescription | None) -> RobotDescription:
     if isinstance(robot, RobotDescription):
         return robot
@@ -207,6 +210,11 @@ def read_moveit_problem(scene_file: Path, request_file: Path, index: int, robot:
     own = dict(description.locked_joints)
     catalog = [name for name in description.locked if name not in own]
     free = [name for name in description.urdf_joints if name not in description.locked]
+    named = set(request.start) | set(request.goal_joints or ())
+    if free and not named & set(free):  # not one of this robot's joints: the problems of another robot
+        raise InvalidInput(f"{request_file.name}: request", sorted(named)[:3],
+                           f"names none of the joints of {description} ({', '.join(free)}): {_OTHER_ROBOT}; give "
+                           "the robot of these problems (--robot PATH.urdf --srdf ... --end-effector ..., or robot=)")
     if request.goal_joints is not None:
         catalog += [name for name in free if name not in request.goal_joints]
     missing = [name for name in catalog if name not in request.start and name not in description.locked]
@@ -312,6 +320,8 @@ def read_problems(paths: Iterable[str | Path], robot: str | RobotDescription | N
                     ) if near else ""
             raise InvalidInput("scenes", sorted(unknown), f"no such scene; known: {sorted(found)}{hint}")
         problems = [p for p in problems if _short(p.scene, description) in wanted]
+    if problems and all(_OTHER_ROBOT in (p.error or "") for p in problems):  # refused whole, not planned N times
+        raise InvalidInput("robot", str(description), problems[0].error or "")
     if limit is not None:
         counts: dict[str, int] = {}
         kept = []
