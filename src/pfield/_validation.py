@@ -6,7 +6,9 @@ names it, e.g. ``InvalidInput("radius", -0.1, "must be > 0")``.
 
 from __future__ import annotations
 
+import difflib
 import math
+from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
@@ -137,6 +139,13 @@ def in_range(field: str, value: Any, low: float, high: float, unit: str = "") ->
         suffix = f" {unit}" if unit else ""
         raise InvalidInput(field, value, f"must be in [{low:g}, {high:g}]{suffix}")
     return number
+
+
+def nearest_name(name: str, known: Iterable[str]) -> str | None:
+    """The name of ``known`` nearest ``name`` (a misspelling's likely meaning, for a "did you mean" hint), or None
+    when none is near (difflib's ratio >= 0.8)."""
+    close = difflib.get_close_matches(name, list(known), n=1, cutoff=0.8)
+    return close[0] if close else None
 
 
 def scaled_norm(values: NDArray[np.float64]) -> float:

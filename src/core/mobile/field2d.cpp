@@ -25,6 +25,10 @@ double attraction_potential(double px, double py, const Goal& goal, const FieldP
   return std::pow(d2, 0.5 * params.ka);  // 0^0 = 1
 }
 
+// The hill h's gradient factor h / r along the unit direction (dx, dy) / r; 0 where the direction is undefined, and
+// a subnormal r gives no infinity.
+inline double per_distance(double h, double r) { return r > 0.0 ? h / std::max(r, 1e-300) : 0.0; }
+
 // One obstacle point's hill at distance r, w e^(kr_slope (kr_dist - r)): V_r's term without kr_height / kr_slope.
 inline double hill(double weight, double r, double slope, double dist) {
   return weight * math::fast_exp(slope * (dist - r));
@@ -42,7 +46,7 @@ Components repulsion_at(double px, double py, const ObstaclePoints& obstacles, c
     const double r = std::sqrt(dx * dx + dy * dy);
     const double h = hill(weight[j], r, slope, dist);
     value += h;
-    const double along = r > 0.0 ? h / std::max(r, 1e-300) : 0.0;  // h / r: a subnormal r gives no infinity
+    const double along = per_distance(h, r);
     fx += along * dx;
     fy += along * dy;
   }
@@ -141,9 +145,8 @@ void components_batch(const double* points, std::size_t n, const Goal& goal, con
       const double rc = std::sqrt(cdx * cdx + cdy * cdy), rd = std::sqrt(ddx * ddx + ddy * ddy);
       const double ha = hill(weight[j], ra, slope, dist), hb = hill(weight[j], rb, slope, dist);
       const double hc = hill(weight[j], rc, slope, dist), hd = hill(weight[j], rd, slope, dist);
-      // h / r, as repulsion_at
-      const double ia = ra > 0.0 ? ha / std::max(ra, 1e-300) : 0.0, ib = rb > 0.0 ? hb / std::max(rb, 1e-300) : 0.0;
-      const double ic = rc > 0.0 ? hc / std::max(rc, 1e-300) : 0.0, id = rd > 0.0 ? hd / std::max(rd, 1e-300) : 0.0;
+      const double ia = per_distance(ha, ra), ib = per_distance(hb, rb), ic = per_distance(hc, rc);
+      const double id = per_distance(hd, rd);
       va += ha, fxa += ia * adx, fya += ia * ady;
       vb += hb, fxb += ib * bdx, fyb += ib * bdy;
       vc += hc, fxc += ic * cdx, fyc += ic * cdy;

@@ -7,7 +7,6 @@ serve (none when its options are absent).
 
 from __future__ import annotations
 
-import difflib
 import enum
 import logging
 import sys
@@ -19,7 +18,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from pfield._validation import is_loopback_host
+from pfield._validation import is_loopback_host, nearest_name
 from pfield.cli import _node_client
 from pfield.cli._exit_codes import USAGE
 from pfield.cli._port import check_port_free
@@ -142,9 +141,9 @@ def build_nodes(context: ServeContext, params: dict[str, dict[str, Any]], csv_di
             continue
         targets = list(by_name.values()) if name == "/**" else [by_name[name]] if name in by_name else []
         if not targets:  # another node's section of a shared file, or a misspelling
-            near = difflib.get_close_matches(name, [*by_name, *SERVO_NODE_NAMES], n=1, cutoff=0.8)
+            near = nearest_name(name, [*by_name, *SERVO_NODE_NAMES])
             _log.warning("--params: no node %s here; its parameters are ignored%s", name,
-                         f" (did you mean {near[0]}?)" if near else "")
+                         f" (did you mean {near}?)" if near else "")
         for node in targets:
             node.set_parameters(values if name != "/**" else {k: v for k, v in values.items()
                                                               if k in node.get_parameters()})

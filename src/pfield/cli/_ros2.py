@@ -92,7 +92,7 @@ def node(
     with stopped_quietly():
         _check_ros2()
         with cli_errors():
-            ros_arguments(ctx)
+            ros_args = ros_arguments(ctx)
             description = robot_description(robot, srdf, end_effector, package_path, locked_joint)
             nodes = nodes_from_options(description, params, mesh_root, map, footprint, csv_dir, static_transform)
         from pfield import warmup
@@ -104,7 +104,7 @@ def node(
 
         with cli_errors():  # a bad --ros-args parameter value
             try:
-                run(nodes, args=ros_arguments(ctx), on_ready=announce)
+                run(nodes, args=ros_args, on_ready=announce)
             finally:
                 for pfield_node in nodes:
                     pfield_node.close()

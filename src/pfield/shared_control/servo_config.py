@@ -24,7 +24,6 @@ releasing it is a zero command. Joystick twists are in ``joy_frame`` (empty: ``r
 from __future__ import annotations
 
 import dataclasses
-import difflib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -213,13 +212,11 @@ _FIELDS = frozenset(f.name for f in dataclasses.fields(ServoConfig))
 
 def nearest_parameter(name: str) -> str | None:
     """The Servo parameter pfield uses whose name is nearest ``name`` (a misspelling's likely meaning), or None when
-    none is near (difflib's ratio >= 0.8)."""
+    none is near (:func:`pfield._validation.nearest_name`)."""
     short = name
     for prefix in _PREFIXES:
         short = short.removeprefix(prefix)
-    names = sorted(_FIELDS - set(SERVO_NAMES)) + sorted(SERVO_NAMES.values())
-    close = difflib.get_close_matches(short, names, n=1, cutoff=0.8)
-    return close[0] if close else None
+    return _validation.nearest_name(short, sorted(_FIELDS - set(SERVO_NAMES)) + sorted(SERVO_NAMES.values()))
 
 
 def _flatten(values: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
