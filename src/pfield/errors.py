@@ -25,6 +25,7 @@ __all__ = [
     "ResourceNotAllowed",
     "ResourceNotFound",
     "UnknownFrame",
+    "Unreachable",
     "short_repr",
 ]
 
@@ -133,3 +134,8 @@ class ResourceNotAllowed(PfieldError, PermissionError):
 
 class PlanningFailed(PfieldError):
     """A planner could not produce a result at all (not merely an unsuccessful plan)."""
+
+
+class Unreachable(PfieldError, ConnectionError):
+    """A service the caller named (a Ray cluster's address) does not answer: the same call may succeed once it
+    runs (the CLI exits 1, not 2)."""

@@ -44,6 +44,18 @@ def test_bad_arguments_exit_2_naming_the_option(problem_paths: list[Path], tmp_p
         assert result.exit_code == 2 and words in result.output, (args, result.output)
     missing = runner.invoke(app, ["batch", str(tmp_path / "nothing"), "--out", out])
     assert missing.exit_code == 2 and "no such file" in missing.output
+    # the settings are refused before a problem is read (the problem path here does not exist)
+    early = runner.invoke(app, ["batch", str(tmp_path / "nothing"), "--out", out, "--workers", "0"])
+    assert early.exit_code == 2 and "workers" in early.output and "no such file" not in early.output, early.output
+
+
+def test_a_ray_address_where_no_cluster_answers_fails_at_once(problem_paths: list[Path], tmp_path: Path) -> None:
+    """Ray's own connection retries such an address for minutes; the batch gives up within CONNECT_TIMEOUT (nothing
+    listens on loopback port 1: refused at once), exit 1 as for any service that may answer later."""
+    result = CliRunner().invoke(app, ["batch", *map(str, problem_paths), "--out", str(tmp_path / "x.jsonl"),
+                                      "--backend", "ray", "--address", "127.0.0.1:1"])
+    assert result.exit_code == 1, result.output
+    assert "no Ray cluster answers at 127.0.0.1:1" in result.output and "ray start --head" in result.output
 
 
 def test_resume_reads_only_a_regular_results_file_and_skips_lines_that_are_not_records(

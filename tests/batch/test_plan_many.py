@@ -10,7 +10,7 @@ from typing import Any
 
 import pytest
 
-from pfield.batch import RECORD_FIELDS, TIMING_FIELDS, Workspace, plan_many, problem_seed, solve
+from pfield.batch import RECORD_FIELDS, TIMING_FIELDS, Workspace, plan_many, problem_seed, ray_endpoint, solve
 from pfield.errors import InvalidInput
 from pfield.planning import PlanOptions, PlanStatus
 from pfield.scene import Problem, read_problems
@@ -80,12 +80,22 @@ def test_the_problem_seed_depends_on_the_key_and_seed_only() -> None:
     ({"workers": 0}, "workers"), ({"workers": 1.5}, "workers"), ({"workers": True}, "workers"),
     ({"backend": "mpi"}, "backend"), ({"seed": "x"}, "seed"), ({"timeout": -1.0}, "timeout"),
     ({"timeout": float("inf")}, "timeout"), ({"address": "127.0.0.1:6379"}, "address"),
+    ({"backend": "ray", "address": "127.0.0.1"}, "address"), ({"backend": "ray", "address": "host:0"}, "address"),
+    ({"backend": "ray", "address": "ray://:6379"}, "address"),
 ])
 def test_bad_arguments_are_refused_before_anything_runs(kwargs: dict[str, Any], field: str) -> None:
     problem = Problem("s", 0, start=Pose(), goal=Pose((0.1, 0, 0)))
     with pytest.raises(InvalidInput) as raised:
         plan_many([problem], **kwargs)
     assert raised.value.field == field
+
+
+def test_ray_addresses_are_read_as_host_and_port() -> None:
+    assert ray_endpoint("127.0.0.1:6379") == ("127.0.0.1", 6379)
+    assert ray_endpoint("ray://head.local:10001") == ("head.local", 10001)
+    assert ray_endpoint("[::1]:6379") == ("::1", 6379)
+    for bad in ("auto", "6379", "head:", "head:65536", "head:x1"):
+        assert ray_endpoint(bad) is None, bad
 
 
 def test_bad_problem_lists_are_refused_naming_the_entry() -> None:

@@ -29,11 +29,43 @@ from pfield.batch._solve import RECORD_FIELDS, TIMING_FIELDS, Workspace, problem
 from pfield.errors import InvalidInput
 from pfield.scene import Problem
 
-__all__ = ["BACKENDS", "RECORD_FIELDS", "TIMING_FIELDS", "Workspace", "finished_keys", "plan_many", "problem_seed",
-           "solve", "write_records"]
+__all__ = ["BACKENDS", "RECORD_FIELDS", "TIMING_FIELDS", "Workspace", "check_settings", "finished_keys", "plan_many",
+           "problem_seed", "solve", "write_records"]
 
 BACKENDS = ("process", "ray")
 Progress = Callable[[dict[str, Any]], None]
+
+
+def check_settings(workers: Any = 1, backend: Any = "process", seed: Any = 0, timeout: Any = None,
+                   address: Any = None) -> tuple[int, float | None]:
+    """:func:`plan_many`'s settings checked (``InvalidInput`` naming the field): (workers, timeout). The CLI
+    calls it before it reads a problem, so a wrong setting is refused at once."""
+    count = integer("workers", workers)
+    if count < 1:
+        raise InvalidInput("workers", workers, "must be >= 1")
+    if backend not in BACKENDS:
+        raise InvalidInput("backend", backend, f"expected one of {', '.join(BACKENDS)}")
+    integer("seed", seed)
+    limit = None if timeout is None else positive("timeout", timeout)
+    if limit is not None and not math.isfinite(limit):
+        raise InvalidInput("timeout", timeout, "must be finite (or None for no limit)")
+    if address is not None:
+        if backend != "ray" or not isinstance(address, str) or not address:
+            raise InvalidInput("address", address, "a non-empty Ray address, only with backend='ray'")
+        if address != "auto" and ray_endpoint(address) is None:
+            raise InvalidInput("address", address, "expected HOST:PORT (ray start --head prints it), "
+                                                   "ray://HOST:PORT or auto")
+    return count, limit
+
+
+def ray_endpoint(address: str) -> tuple[str, int] | None:
+    """(host, port) of a Ray address ``HOST:PORT`` or ``ray://HOST:PORT`` (IPv6 hosts in brackets), None when it
+    is neither."""
+    host, colon, port = address.removeprefix("ray://").rpartition(":")
+    host = host.removeprefix("[").removesuffix("]")
+    if not colon or not host or not port.isdigit() or not 0 < int(port) < 65536:
+        return None
+    return host, int(port)
 
 
 def _check(problems: Iterable[Problem], workers: Any, backend: Any, seed: Any, timeout: Any,
@@ -48,17 +80,7 @@ def _check(problems: Iterable[Problem], workers: Any, backend: Any, seed: Any, t
     if len(set(keys)) != len(keys):
         twice = sorted({k for k in keys if keys.count(k) > 1})
         raise InvalidInput("problems", twice, "two problems have the same (scene, index)")
-    count = integer("workers", workers)
-    if count < 1:
-        raise InvalidInput("workers", workers, "must be >= 1")
-    if backend not in BACKENDS:
-        raise InvalidInput("backend", backend, f"expected one of {', '.join(BACKENDS)}")
-    integer("seed", seed)
-    limit = None if timeout is None else positive("timeout", timeout)
-    if limit is not None and not math.isfinite(limit):
-        raise InvalidInput("timeout", timeout, "must be finite (or None for no limit)")
-    if address is not None and (backend != "ray" or not isinstance(address, str) or not address):
-        raise InvalidInput("address", address, "a non-empty Ray address, only with backend='ray'")
+    count, limit = check_settings(workers, backend, seed, timeout, address)
     return items, count, limit
 
 

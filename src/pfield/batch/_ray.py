@@ -11,14 +11,19 @@ is passed on).
 from __future__ import annotations
 
 import os
+import socket
 from collections.abc import Iterator, Sequence
 from typing import Any
 
 from pfield.batch._solve import Workspace, solve
-from pfield.errors import PfieldError
+from pfield.errors import PfieldError, Unreachable
 from pfield.scene import Problem, RobotSpec
 
-__all__ = ["run_ray"]
+__all__ = ["CONNECT_TIMEOUT", "run_ray"]
+
+CONNECT_TIMEOUT = 5.0
+"""(s) how long the driver waits for a cluster's address to accept a connection before it gives up: Ray's own
+``ray.init(address=...)`` retries an address where nothing listens for minutes, logging a warning every 5 s."""
 
 
 def _ray() -> Any:
@@ -39,6 +44,23 @@ class _Planner:
         return solve(problem, self._workspace, timeout, seed)
 
 
+def _answering(address: str) -> None:
+    """Raise :class:`Unreachable` unless something accepts a TCP connection at ``address`` within
+    :data:`CONNECT_TIMEOUT` (``auto`` is Ray's own look-up, which fails at once when there is no cluster)."""
+    from pfield.batch import ray_endpoint
+
+    endpoint = ray_endpoint(address)
+    if endpoint is None:
+        return
+    try:
+        with socket.create_connection(endpoint, timeout=CONNECT_TIMEOUT):
+            pass
+    except OSError as exc:
+        raise Unreachable(f"no Ray cluster answers at {address} ({exc.strerror or exc}): start one with "
+                          "'ray start --head' and pass the address it prints, or leave out --address to plan on "
+                          "a local cluster") from None
+
+
 def run_ray(problems: Sequence[Problem], robots: tuple[RobotSpec, ...], workers: int, timeout: float | None,
             seed: int, address: str | None) -> Iterator[dict[str, Any]]:
     """The records of ``problems`` in order, planned by ``workers`` Ray actors."""
@@ -49,6 +71,7 @@ def run_ray(problems: Sequence[Problem], robots: tuple[RobotSpec, ...], workers:
     if not ray.is_initialized():
         env = {"env_vars": {"PYTHONPATH": os.environ["PYTHONPATH"]}} if os.environ.get("PYTHONPATH") else None
         if address:
+            _answering(address)
             ray.init(address=address, runtime_env=env, log_to_driver=False)
         else:
             # a local cluster listens on loopback only

@@ -49,20 +49,22 @@ def batch(
 
     Fields: scene, index, success, status, seconds, cpu_seconds, steps, planner, joint_names, positions,
     times, clearances, error. Exit code 0 when every problem was planned (whether or not it reached its goal),
-    1 when a problem could not be planned (status error), 2 for bad arguments (a --robot URDF is read, its meshes
-    found, before anything is planned), an unwritable --out (checked before anything is read or planned) or a
-    problem file or archive that cannot be read or is out of bounds.
+    1 when a problem could not be planned (status error) or no Ray cluster answers at --address, 2 for bad
+    arguments (--workers, --backend, --timeout, --address and an unwritable --out are checked before anything is
+    read; a --robot URDF is read, its meshes found, before anything is planned) or a problem file or archive that
+    cannot be read or is out of bounds.
     """
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     from pfield._files import check_writable
-    from pfield.batch import finished_keys, plan_many, write_records
+    from pfield.batch import check_settings, finished_keys, plan_many, write_records
     from pfield.cli._node import cli_errors
     from pfield.scene import read_problems
 
     console = Console(stderr=True)
     with cli_errors():
+        check_settings(workers, backend, seed, timeout, address)  # before anything is read
         check_writable("--out", out)
         description = robot_description(robot, srdf, end_effector, package_path, locked_joint)
         if not description.is_builtin:  # its files (meshes through --package-path) are read now, not per problem

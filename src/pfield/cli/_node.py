@@ -20,7 +20,7 @@ import typer
 
 from pfield._validation import is_loopback_host, nearest_name
 from pfield.cli import _node_client
-from pfield.cli._exit_codes import USAGE
+from pfield.cli._exit_codes import FAILED, USAGE
 from pfield.cli._port import check_port_free
 from pfield.cli._robot_options import (
     EndEffectorOption,
@@ -32,7 +32,7 @@ from pfield.cli._robot_options import (
     parse_package_paths,
     robot_description,
 )
-from pfield.errors import InvalidInput, PfieldError
+from pfield.errors import InvalidInput, PfieldError, Unreachable
 from pfield.transport import DEFAULT_HOST, DEFAULT_PORT, ServerLimits
 
 if TYPE_CHECKING:
@@ -170,9 +170,13 @@ def stopped_quietly() -> Iterator[None]:
 @contextmanager
 def cli_errors() -> Iterator[None]:
     """Turn a :class:`PfieldError` raised inside into one line ``error: ...`` on stderr and exit status 2
-    (``USAGE``: the command is wrong as given)."""
+    (``USAGE``: the command is wrong as given), or 1 (``FAILED``) for :class:`Unreachable` (a service that may
+    answer later)."""
     try:
         yield
+    except Unreachable as exc:
+        typer.echo("error: " + " ".join(str(exc).splitlines()), err=True)
+        raise typer.Exit(FAILED) from None
     except PfieldError as exc:
         typer.echo("error: " + " ".join(str(exc).splitlines()), err=True)
         raise typer.Exit(USAGE) from None
