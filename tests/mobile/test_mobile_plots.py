@@ -39,6 +39,21 @@ def test_sim2d_writes_png_and_animated_gif(tmp_path):
     _assert_not_blank(gif, min_colours=5)
 
 
+def test_sim2d_exit_code_says_whether_the_run_ended_as_the_scenario_expects(tmp_path):
+    """0 for the expected outcome (grid_blocked is documented to end stuck), 1 for any other: a script can tell."""
+    blocked = runner.invoke(app, ["sim2d", "grid_blocked", "--no-gif", "--output-dir", str(tmp_path)])
+    assert blocked.exit_code == 0 and "stuck" in blocked.output, blocked.output
+    short = tmp_path / "short.yaml"  # 6 m to go at most 1 m/s in 2 s: a timeout
+    short.write_text("name: short\nstart: [0, 0, 0]\ngoal: [6, 0]\nduration: 2\n")
+    timed_out = runner.invoke(app, ["sim2d", str(short), "--no-gif", "--output-dir", str(tmp_path)])
+    assert timed_out.exit_code == 1 and "timeout" in timed_out.output, timed_out.output
+    assert (tmp_path / "sim2d_short_holonomic.png").is_file()  # the picture of a failed run is written too
+    wrong = tmp_path / "wrong.yaml"
+    wrong.write_text("name: wrong\nstart: [0, 0, 0]\ngoal: [6, 0]\nexpected: arrived\n")
+    refused = runner.invoke(app, ["sim2d", str(wrong), "--no-gif", "--output-dir", str(tmp_path)])
+    assert refused.exit_code == 2 and "expected" in refused.output and "arrived" in refused.output, refused.output
+
+
 def test_sim2d_bad_input_fails_cleanly(tmp_path):
     unknown = runner.invoke(app, ["sim2d", "nowhere", "--output-dir", str(tmp_path)])
     assert unknown.exit_code == 2 and "nowhere" in unknown.output

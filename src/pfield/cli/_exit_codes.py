@@ -6,8 +6,9 @@ code  name         meaning
 0     ``OK``       done, and the outcome succeeded (a service response without a ``success`` field counts as done)
 1     ``FAILED``   the command ran and its outcome failed; the same command may succeed later or in another state:
                    ``success: false`` in a service response, a ``batch`` problem in status ``error``, a ``plan``
-                   that did not reach its goal, ``find-valid-pose`` finding only LETHAL, no message within
-                   ``--timeout``, the node unreachable or busy (HTTP 408, 429, 5xx)
+                   that did not reach its goal, a ``sim2d`` run that ended otherwise than its scenario expects,
+                   ``find-valid-pose`` finding only LETHAL, no message within ``--timeout``, the node or a Ray
+                   cluster unreachable, the node busy (HTTP 408, 429, 5xx)
 2     ``USAGE``    the command itself is wrong and was refused as given; repeating it cannot help: click's usage
                    errors (an unknown option, a missing argument), an invalid value, YAML argument, name or file,
                    a request the node refuses as given (HTTP 4xx but 408 and 429), ``serve`` on a port in use

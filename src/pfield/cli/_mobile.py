@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 
 import typer
 
+from pfield.cli._exit_codes import FAILED, USAGE
 from pfield.cli._node import ServeContext, register_node_factory
 from pfield.errors import PfieldError
 
@@ -53,7 +54,7 @@ def register(app: typer.Typer) -> None:
             writable_folder("--output-dir", output_dir)
         except PfieldError as exc:
             console.print(f"[red]error:[/red] {exc}")
-            raise typer.Exit(2) from None
+            raise typer.Exit(USAGE) from None
         with console.status("plotting the 2D field"):
             paths = save_seed_plots(output_dir)
         for path in paths:
@@ -67,7 +68,10 @@ def register(app: typer.Typer) -> None:
         gif: bool = typer.Option(True, "--gif/--no-gif", help="Also write an animated GIF."),
         list_scenarios: bool = typer.Option(False, "--list", help="List the built-in scenarios and exit."),
     ) -> None:
-        """Simulate the 2D controller in a scenario; writes a PNG and an animated GIF."""
+        """Simulate the 2D controller in a scenario; writes a PNG and an animated GIF.
+
+        Exit code 0 when the run ends as the scenario expects (goal_reached; stuck for grid_blocked), 1 when it
+        ends otherwise (a collision, a timeout, stuck short of a goal it should reach), 2 for bad arguments."""
         from rich.console import Console
 
         from pfield._files import writable_folder
@@ -79,7 +83,9 @@ def register(app: typer.Typer) -> None:
             return
         try:
             writable_folder("--output-dir", output_dir)
-            run_sim2d(scenario, output_dir, drive, gif, console)
+            result = run_sim2d(scenario, output_dir, drive, gif, console)
         except PfieldError as exc:
             console.print(f"[red]error:[/red] {exc}")
-            raise typer.Exit(2) from exc
+            raise typer.Exit(USAGE) from exc
+        if result.outcome != result.scenario.expected:
+            raise typer.Exit(FAILED)

@@ -7,12 +7,15 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from pfield.node import Bus
+
+if TYPE_CHECKING:
+    from pfield.mobile.sim import SimResult
 
 __all__ = ["run_find_valid_pose", "run_sim2d"]
 
@@ -51,8 +54,8 @@ def _progress(console: Console) -> Progress:
                     TextColumn("{task.fields[note]}"), TimeElapsedColumn(), console=console, transient=True)
 
 
-def run_sim2d(scenario_name: str, output_dir: Path, drive: str | None, gif: bool, console: Console) -> str:
-    """Simulate one scenario with a progress bar, write its PNG (and GIF); return the outcome."""
+def run_sim2d(scenario_name: str, output_dir: Path, drive: str | None, gif: bool, console: Console) -> SimResult:
+    """Simulate one scenario with a progress bar, write its PNG (and GIF); return the run."""
     from pfield.mobile.scenarios import load_scenario
     from pfield.mobile.sim import simulate
     from pfield.viz.plots2d_sim import render_gif, render_png
@@ -77,4 +80,4 @@ def run_sim2d(scenario_name: str, output_dir: Path, drive: str | None, gif: bool
                   f"{result.times[-1]:.1f} s, {result.final_distance_to_goal:.2f} m from the goal, min clearance "
                   f"{result.min_clearance:.2f} m (expected: {scenario.expected})")
     console.print(f"wrote {png}" + (f" and {stem.with_suffix('.gif')}" if gif else ""))
-    return result.outcome
+    return result

@@ -64,6 +64,9 @@ class Scenario:
         object.__setattr__(self, "extent", tuple(float(v) for v in as_vector("extent", self.extent, 4)))
         if self.sensor not in ("points", "laser"):
             raise InvalidInput("sensor", self.sensor, "must be 'points' or 'laser'")
+        if self.expected not in ("goal_reached", "stuck"):
+            raise InvalidInput("expected", self.expected, "must be 'goal_reached' or 'stuck' (pfield sim2d exits 1 "
+                                                          "when the run ends otherwise)")
         beams = integer("laser_beams", self.laser_beams)
         if not 1 <= beams <= MAX_LASER_BEAMS:
             raise InvalidInput("laser_beams", self.laser_beams, f"must be in [1, {MAX_LASER_BEAMS}]")
