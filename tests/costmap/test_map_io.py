@@ -148,6 +148,19 @@ def test_bad_yaml_fields(tmp_path: Path, override: dict[str, object], field: str
     assert info.value.field == field
 
 
+@pytest.mark.parametrize(("key", "typo"), [("resolution", "resolutoin"), ("negate", "negat"), ("image", "imgae"),
+                                           ("free_thresh", "free_tresh")])
+def test_a_misspelt_key_is_named_beside_the_missing_one(tmp_path: Path, key: str, typo: str) -> None:
+    path = _write(tmp_path, PIXELS, **{key: None, typo: 0.05 if key != "image" else "map.pgm"})
+    with pytest.raises(InvalidInput) as info:
+        load_map(path)
+    assert info.value.field == key
+    assert f"missing in map YAML {path} (it has '{typo}': did you mean '{key}'?)" in str(info.value)
+    unrelated = _write(tmp_path, PIXELS, **{key: None, "comment": "x"})  # nothing like it: no hint
+    with pytest.raises(InvalidInput, match=f"missing in map YAML {unrelated}$"):
+        load_map(unrelated)
+
+
 def test_missing_or_malformed_files(tmp_path: Path) -> None:
     with pytest.raises(ResourceNotFound):
         load_map(tmp_path / "nope.yaml")

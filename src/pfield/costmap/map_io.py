@@ -31,6 +31,7 @@ import yaml
 from numpy.typing import NDArray
 from PIL import Image, UnidentifiedImageError
 
+from pfield._validation import nearest_name
 from pfield.errors import InvalidInput, ResourceNotFound
 
 __all__ = [
@@ -141,9 +142,21 @@ class OccupancyMap:
         }
 
 
+_MAP_KEYS = ("image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh", "mode")
+"""The keys of a map_server YAML that pfield reads (others are ignored, as map_server does)."""
+
+
+def _missing(doc: dict[str, Any], key: str, path: Path) -> InvalidInput:
+    """The error for ``key`` missing from the map YAML, naming a key of it that looks like its misspelling."""
+    others = [str(k) for k in doc if str(k) not in _MAP_KEYS]
+    near = next((k for k in others if nearest_name(k, [key]) is not None), None)
+    hint = f" (it has {near!r}: did you mean {key!r}?)" if near is not None else ""
+    return InvalidInput(key, None, f"missing in map YAML {path}{hint}")
+
+
 def _number(doc: dict[str, Any], key: str, path: Path) -> float:
     if key not in doc:
-        raise InvalidInput(key, None, f"missing in map YAML {path}")
+        raise _missing(doc, key, path)
     value = doc[key]
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise InvalidInput(key, value, f"must be a number (map YAML {path})")
@@ -163,6 +176,9 @@ def load_map_yaml(path: str | Path) -> MapMetadata:
         raise InvalidInput("map_yaml", str(path), f"malformed YAML: {exc}") from exc
     if not isinstance(doc, dict):
         raise InvalidInput("map_yaml", str(path), "expected a mapping with image, resolution, origin, ...")
+    for key in ("image", "origin", "negate"):
+        if key not in doc:
+            raise _missing(doc, key, path)
     image = doc.get("image")
     if not isinstance(image, str) or not image:
         raise InvalidInput("image", image, f"missing or empty in map YAML {path}")
