@@ -44,6 +44,12 @@ def test_bad_arguments_exit_2_naming_the_option(problem_paths: list[Path], tmp_p
         assert result.exit_code == 2 and words in result.output, (args, result.output)
     missing = runner.invoke(app, ["batch", str(tmp_path / "nothing"), "--out", out])
     assert missing.exit_code == 2 and "no such file" in missing.output
+    # one file of a MoveIt pair is not read as a pfield scene: the folder is asked for
+    moveit = Path(__file__).resolve().parents[2] / "examples" / "batch" / "moveit"
+    for name in ("request0001.yaml", "scene0001.yaml"):
+        single = runner.invoke(app, ["batch", str(moveit / name), "--out", out])
+        assert single.exit_code == 2 and "a MoveIt file, not a pfield scene" in single.output, single.output
+        assert "give that folder" in single.output
     # the settings are refused before a problem is read (the problem path here does not exist)
     early = runner.invoke(app, ["batch", str(tmp_path / "nothing"), "--out", out, "--workers", "0"])
     assert early.exit_code == 2 and "workers" in early.output and "no such file" not in early.output, early.output

@@ -44,7 +44,13 @@ def _solve_in_worker(problem: Problem, timeout: float | None, seed: int) -> dict
 def _stopped_on_exit(pool: ProcessPoolExecutor) -> Iterator[None]:
     """Leaves the pool's ``with`` at once when the records stop being asked for (Ctrl-C in the parent, the caller
     closing the generator): the problems not started are cancelled and the workers still planning are terminated,
-    where ``shutdown(wait=True)`` would wait for each of them to finish (up to the problems' time limit)."""
+    where ``shutdown(wait=True)`` would wait for each of them to finish (up to the problems' time limit).
+
+    A worker terminated while it wrote a result leaves half a message in the result pipe, and the pool's manager
+    thread waits for the rest of it for ever (the parent's own copy of the pipe's write end keeps it open): the
+    process then hung at exit, joining that thread (1 Ctrl-C in about 10 on a two-worker batch). So once the workers
+    are gone, the parent closes its write end too: the thread reads the end of the pipe, takes the pool for broken
+    and finishes."""
     try:
         yield
     except BaseException:
@@ -52,7 +58,16 @@ def _stopped_on_exit(pool: ProcessPoolExecutor) -> Iterator[None]:
         pool.shutdown(wait=False, cancel_futures=True)
         for process in workers:  # what Python 3.14's terminate_workers() does
             process.terminate()
+        for process in workers:
+            process.join(_WORKER_EXIT)
+        writer = getattr(getattr(pool, "_result_queue", None), "_writer", None)
+        if writer is not None and not any(process.is_alive() for process in workers):
+            writer.close()
         raise
+
+
+_WORKER_EXIT = 5.0
+"""(s) how long a terminated worker is waited for before the parent lets go of the pool."""
 
 
 def run_in_process(problems: Sequence[Problem], robots: tuple[RobotSpec, ...], timeout: float | None,

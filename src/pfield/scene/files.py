@@ -44,6 +44,11 @@ def _mapping(data: Any, name: str) -> dict[str, Any]:
     return data
 
 
+_MOVEIT_KEYS = frozenset({"group_name", "goal_constraints", "start_state", "world", "robot_state",
+                           "fixed_frame_transforms"})
+"""Keys of a MoveIt PlanningScene or MotionPlanRequest message, none of which a pfield scene has."""
+
+
 def load_scene(path: Path | None, mesh_directory: Path) -> dict[str, Any]:
     """Obstacles, start, goal, FieldConfig and planning arguments of a scene file (None: the seed scene).
 
@@ -63,6 +68,11 @@ def load_scene(path: Path | None, mesh_directory: Path) -> dict[str, Any]:
     if path is None:
         return scene | {"obstacles": seed_obstacles(mesh_directory)}
     data = _mapping(load_yaml_file(path, "scene"), "scene")
+    moveit = sorted(str(key) for key in data if key in _MOVEIT_KEYS)
+    if moveit:
+        raise InvalidInput("scene", str(path), f"a MoveIt file, not a pfield scene (it has {', '.join(moveit)}): "
+                                               "pfield batch reads MoveIt problems from the folder that holds their "
+                                               "sceneNNNN.yaml/requestNNNN.yaml pairs; give that folder")
     for key in data:
         if key not in SCENE_KEYS:
             raise InvalidInput(str(key), data[key], f"unknown scene key in {path}; known: {', '.join(SCENE_KEYS)}")
