@@ -233,6 +233,14 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
         start, arrays, scene, np.array(goal.position, dtype=np.float64),
         np.array(goal.orientation, dtype=np.float64), params, settings.max_iterations, cancel)
     certificate_reason = ""
+    # a joint goal first: a motion that ends in another configuration is not kept, so it is not certified either
+    if status == PlanStatus.REACHED and goal_q is not None:
+        off = float(np.max(np.abs(qs[-1] - goal_q)))
+        if off > JOINT_GOAL_TOLERANCE:  # the goal pose, but not the configuration asked for: search to that one
+            status = PlanStatus.STAGNATION
+            certificate_reason = (f"the field reached the goal pose in another configuration than the joint goal "
+                                  f"(a joint {off:.3g} rad from it, beyond {JOINT_GOAL_TOLERANCE:g})")
+            _LOG.info("whole-body plan: %s", certificate_reason)
     if status == PlanStatus.REACHED:  # the planner's certificate: the field's motion on the exact meshes
         certificate = certify_path(robot, list(obstacles or ()), qs, checker=checker)
         if not certificate.clear:
@@ -242,13 +250,6 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
             # the path ends before the contact: its waypoints up to the one before it (the start at least)
             count = max(1, certificate.waypoint + (1 if certificate.fraction > 0.0 else 0))
             qs, qds, pos, quats, twists, clear = (a[:count] for a in (qs, qds, pos, quats, twists, clear))
-    if status == PlanStatus.REACHED and goal_q is not None:
-        off = float(np.max(np.abs(qs[-1] - goal_q)))
-        if off > JOINT_GOAL_TOLERANCE:  # the goal pose, but not the configuration asked for: search to that one
-            status = PlanStatus.STAGNATION
-            certificate_reason = (f"the field reached the goal pose in another configuration than the joint goal "
-                                  f"(a joint {off:.3g} rad from it, beyond {JOINT_GOAL_TOLERANCE:g})")
-            _LOG.info("whole-body plan: %s", certificate_reason)
     # --- global fallback: the field stopped short (or its motion failed the certificate, or ended in another
     # configuration than the joint goal); search, then let the field track the found path (the fallback certifies
     # its own motion)
