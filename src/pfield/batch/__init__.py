@@ -25,12 +25,13 @@ from typing import IO, Any
 
 from pfield._files import open_regular
 from pfield._validation import integer, positive
+from pfield.batch._ray import ray_endpoint
 from pfield.batch._solve import RECORD_FIELDS, TIMING_FIELDS, Workspace, problem_seed, solve
 from pfield.errors import InvalidInput
 from pfield.scene import Problem
 
 __all__ = ["BACKENDS", "RECORD_FIELDS", "TIMING_FIELDS", "Workspace", "check_settings", "finished_keys", "plan_many",
-           "problem_seed", "solve", "write_records"]
+           "problem_seed", "ray_endpoint", "solve", "write_records"]
 
 BACKENDS = ("process", "ray")
 Progress = Callable[[dict[str, Any]], None]
@@ -56,16 +57,6 @@ def check_settings(workers: Any = 1, backend: Any = "process", seed: Any = 0, ti
             raise InvalidInput("address", address, "expected HOST:PORT (ray start --head prints it), "
                                                    "ray://HOST:PORT or auto")
     return count, limit
-
-
-def ray_endpoint(address: str) -> tuple[str, int] | None:
-    """(host, port) of a Ray address ``HOST:PORT`` or ``ray://HOST:PORT`` (IPv6 hosts in brackets), None when it
-    is neither."""
-    host, colon, port = address.removeprefix("ray://").rpartition(":")
-    host = host.removeprefix("[").removesuffix("]")
-    if not colon or not host or not port.isdigit() or not 0 < int(port) < 65536:
-        return None
-    return host, int(port)
 
 
 def _check(problems: Iterable[Problem], workers: Any, backend: Any, seed: Any, timeout: Any,

@@ -50,19 +50,24 @@ def _stopped_on_exit(pool: ProcessPoolExecutor) -> Iterator[None]:
     thread waits for the rest of it for ever (the parent's own copy of the pipe's write end keeps it open): the
     process then hung at exit, joining that thread (1 Ctrl-C in about 10 on a two-worker batch). So once the workers
     are gone, the parent closes its write end too: the thread reads the end of the pipe, takes the pool for broken
-    and finishes."""
+    and finishes, closing the pool's pipes; the parent waits for that, or the interpreter's exit hook could write to
+    a pipe the thread had just closed (a traceback at exit, "Bad file descriptor")."""
     try:
         yield
     except BaseException:
-        workers = list((getattr(pool, "_processes", None) or {}).values())  # shutdown() lets go of them
+        # shutdown() lets go of the workers, the manager thread and the result pipe: taken before it
+        workers = list((getattr(pool, "_processes", None) or {}).values())
+        manager = getattr(pool, "_executor_manager_thread", None)
+        writer = getattr(getattr(pool, "_result_queue", None), "_writer", None)
         pool.shutdown(wait=False, cancel_futures=True)
         for process in workers:  # what Python 3.14's terminate_workers() does
             process.terminate()
         for process in workers:
             process.join(_WORKER_EXIT)
-        writer = getattr(getattr(pool, "_result_queue", None), "_writer", None)
         if writer is not None and not any(process.is_alive() for process in workers):
             writer.close()
+        if manager is not None:  # it closes the pool's pipes: done before the interpreter's exit writes to them
+            manager.join(_WORKER_EXIT)
         raise
 
 

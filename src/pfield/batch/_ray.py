@@ -19,7 +19,7 @@ from pfield.batch._solve import Workspace, solve
 from pfield.errors import PfieldError, Unreachable
 from pfield.scene import Problem, RobotSpec
 
-__all__ = ["CONNECT_TIMEOUT", "run_ray"]
+__all__ = ["CONNECT_TIMEOUT", "ray_endpoint", "run_ray"]
 
 CONNECT_TIMEOUT = 5.0
 """(s) how long the driver waits for a cluster's address to accept a connection before it gives up: Ray's own
@@ -44,11 +44,19 @@ class _Planner:
         return solve(problem, self._workspace, timeout, seed)
 
 
+def ray_endpoint(address: str) -> tuple[str, int] | None:
+    """(host, port) of a Ray address ``HOST:PORT`` or ``ray://HOST:PORT`` (IPv6 hosts in brackets), None when it
+    is neither."""
+    host, colon, port = address.removeprefix("ray://").rpartition(":")
+    host = host.removeprefix("[").removesuffix("]")
+    if not colon or not host or not port.isdigit() or not 0 < int(port) < 65536:
+        return None
+    return host, int(port)
+
+
 def _answering(address: str) -> None:
     """Raise :class:`Unreachable` unless something accepts a TCP connection at ``address`` within
     :data:`CONNECT_TIMEOUT` (``auto`` is Ray's own look-up, which fails at once when there is no cluster)."""
-    from pfield.batch import ray_endpoint
-
     endpoint = ray_endpoint(address)
     if endpoint is None:
         return
