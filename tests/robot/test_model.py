@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import shutil
 import warnings
 from pathlib import Path
@@ -238,6 +239,30 @@ def test_mid_configuration_is_the_middle_of_each_range_and_zero_for_a_continuous
     assert middle.tolist() == [-0.25, 0.0]
     middle[0] = 9.0  # a fresh array: the robot's own is untouched
     assert robot.mid_configuration[0] == -0.25
+
+
+@pytest.mark.parametrize("angle", [0.0, 0.5, -2.0, 3.0])
+def test_a_locked_continuous_joint_is_turned_by_its_angle(tmp_path: Path, angle: float) -> None:
+    """pinocchio keeps a continuous joint as (cos θ, sin θ): the locked value is the angle θ (it was written into
+    the cos slot, which scaled the rotation: a quaternion of norm 0.71 at 0, a link fit that failed)."""
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(
+        "<robot name='arm'><link name='base'/>"
+        "<link name='l1'><collision><origin xyz='0.1 0 0'/><geometry><box size='0.2 0.04 0.04'/></geometry>"
+        "</collision></link><link name='tool'/>"
+        "<joint name='j1' type='continuous'><parent link='base'/><child link='l1'/><axis xyz='0 0 1'/>"
+        "<limit velocity='1' effort='1'/></joint>"
+        "<joint name='j2' type='revolute'><parent link='l1'/><child link='tool'/><origin xyz='0.2 0 0'/>"
+        "<axis xyz='0 1 0'/><limit lower='-1' upper='1' velocity='1' effort='1'/></joint></robot>")
+    free = RobotModel.from_urdf(urdf, end_effector="tool")
+    locked = RobotModel.from_urdf(urdf, end_effector="tool", locked_joints={"j1": angle})
+    assert locked.joint_names == ("j2",)
+    for q2 in (-0.7, 0.0, 0.4):
+        pose, expected = locked.forward_kinematics([q2]), free.forward_kinematics([angle, q2])
+        np.testing.assert_allclose(pose.position, expected.position, atol=1e-12)
+        np.testing.assert_allclose(abs(np.dot(pose.orientation, expected.orientation)), 1.0, atol=1e-12)
+    np.testing.assert_allclose(locked.forward_kinematics([0.0]).position, [0.2 * math.cos(angle),
+                                                                            0.2 * math.sin(angle), 0.0], atol=1e-12)
 
 
 def test_end_effector_positions_of_any_array_layout() -> None:

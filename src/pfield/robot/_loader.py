@@ -8,6 +8,7 @@ the caller allowed (no network).
 from __future__ import annotations
 
 import logging
+import math
 import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
@@ -130,7 +131,14 @@ def _lock(model: pin.Model, geometry: pin.GeometryModel,
             raise InvalidInput(f"locked_joints[{name!r}]", value, f"no such joint; joints: {list(model.names)[1:]}")
         joint_id = model.getJointId(name)
         ids.append(joint_id)
-        q_ref[model.joints[joint_id].idx_q] = finite(f"locked_joints[{name!r}]", value)
+        joint, angle = model.joints[joint_id], finite(f"locked_joints[{name!r}]", value)
+        if joint.nv != 1:
+            raise InvalidInput(f"locked_joints[{name!r}]", value, f"a joint of {joint.nv} degrees of freedom "
+                                                                  f"({joint.shortname()}) cannot be locked at one value")
+        if joint.nq == 2:  # a continuous joint: pinocchio's configuration is (cos θ, sin θ), not θ
+            q_ref[joint.idx_q:joint.idx_q + 2] = (math.cos(angle), math.sin(angle))
+        else:
+            q_ref[joint.idx_q] = angle
     reduced, reduced_geometry = pin.buildReducedModel(model, geometry, ids, q_ref)
     return reduced, reduced_geometry
 
