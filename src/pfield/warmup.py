@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["NODE_STEPS", "STEPS", "CheckReport", "CheckStep", "check", "fit_in_background", "ready",
+__all__ = ["NODE_STEPS", "STEPS", "CheckReport", "CheckStep", "check", "fit_in_background", "ready", "start_up_errors",
            "start_background"]
 
 _LOG = logging.getLogger(__name__)
@@ -158,6 +158,7 @@ fits its own robot (:func:`fit_in_background`)."""
 
 _READY = threading.Event()
 _FITTED: list[threading.Event] = []  # one per fit_in_background call, set when its fit has ended
+_FIT_FAILURES: list[str] = []  # why each failed fit failed
 _THREAD: threading.Thread | None = None
 _THREAD_LOCK = threading.Lock()
 
@@ -188,8 +189,14 @@ def check(progress: Progress | None = None, steps: Sequence[CheckStep] | None = 
 
 def ready() -> bool:
     """True once :func:`start_background`'s check has finished in this process and every
-    :func:`fit_in_background` fit has ended (thread-safe; never blocks)."""
-    return _READY.is_set() and all(done.is_set() for done in tuple(_FITTED))
+    :func:`fit_in_background` fit has ended, none of them failed (thread-safe; never blocks)."""
+    return _READY.is_set() and all(done.is_set() for done in tuple(_FITTED)) and not _FIT_FAILURES
+
+
+def start_up_errors() -> list[str]:
+    """Why the start-up work cannot be done: each :func:`fit_in_background` fit that failed (a robot whose link
+    model cannot be fitted cannot plan; ``GET /health`` reports it)."""
+    return list(_FIT_FAILURES)
 
 
 def fit_in_background(robot: Any) -> threading.Thread:
@@ -205,7 +212,8 @@ def fit_in_background(robot: Any) -> threading.Thread:
         try:
             _ = robot.geometry  # a cached_property: reading it fits the links
         except Exception as exc:  # the node keeps serving what needs no link model
-            _LOG.error("fitting the link model of robot %s failed: %s", robot.name, exc)
+            _FIT_FAILURES.append(f"fitting the link model of robot {robot.name} failed: {exc}")
+            _LOG.error("%s", _FIT_FAILURES[-1])
         else:
             _LOG.info("robot %s: link model ready (%.1f s)", robot.name, time.perf_counter() - began)
         finally:

@@ -130,6 +130,37 @@ def test_a_process_that_ends_while_the_check_runs_waits_for_it_and_exits_cleanly
     assert "terminate called" not in done.stderr
 
 
+FAILED_FIT = """
+import sys
+from pfield import warmup
+from pfield.robot import RobotModel
+robot = RobotModel.from_urdf(sys.argv[1], end_effector="tool")
+warmup.start_background().join()
+warmup.fit_in_background(robot).join()
+assert not warmup.ready()
+print(warmup.start_up_errors())
+"""
+
+NO_VOLUME = (
+    "<robot name='flat'><link name='base'/>"
+    "<link name='l1'><collision><geometry><box size='0.1 0.1 0'/></geometry></collision></link><link name='tool'/>"
+    "<joint name='j1' type='revolute'><parent link='base'/><child link='l1'/><axis xyz='0 0 1'/>"
+    "<limit lower='-1' upper='1' velocity='1' effort='1'/></joint>"
+    "<joint name='j2' type='fixed'><parent link='l1'/><child link='tool'/><origin xyz='0.1 0 0'/></joint></robot>")
+
+
+def test_a_robot_whose_link_model_cannot_be_fitted_is_never_ready_and_says_which_link(tmp_path: Path) -> None:
+    """A node whose robot cannot be fitted cannot plan: it used to report ready all the same (GET /health reads
+    these two)."""
+    urdf = tmp_path / "flat.urdf"
+    urdf.write_text(NO_VOLUME)
+    done = _python(FAILED_FIT.replace("sys.argv[1]", repr(str(urdf))), tmp_path / "cache")
+    assert done.returncode == 0, done.stderr
+    assert "fitting the link model of robot flat failed: link l1='box': its collision geometry cannot be fitted" \
+        in done.stdout, done.stdout
+    assert "a shape of no volume" in done.stdout
+
+
 def test_health_says_ready_once_the_node_has_checked_itself(node_server: NodeServer) -> None:
     deadline = time.monotonic() + 300
     health = httpx.get(f"{node_server.url}/health").json()

@@ -336,6 +336,16 @@ def test_health_reports_readiness_from_the_callable() -> None:
         warm.set()
         health = httpx.get(f"{server.url}/health").json()
         assert health["ready"] is True and health["start_up"] == "done" and health["nodes"] == ["/faulty"]
+        assert "errors" not in health
+
+
+def test_health_reports_start_up_work_that_failed() -> None:
+    failures: list[str] = []
+    with ServerThread(create_app([FaultyNode(Bus())], ready=lambda: True, errors=lambda: failures)) as server:
+        assert httpx.get(f"{server.url}/health").json()["start_up"] == "done"
+        failures.append("fitting the link model of robot flat failed: link l1=...")
+        health = httpx.get(f"{server.url}/health").json()
+        assert health["ready"] is False and health["start_up"] == "failed" and health["errors"] == failures
 
 
 def test_json_null_is_not_a_message_of_defaults(served: tuple[FaultyNode, ServerThread]) -> None:

@@ -248,7 +248,8 @@ def serve(
         from pfield import warmup
 
         warmup.start_background()  # GET /health says "ready" once the self-check has run and the robot is fitted
-        app = create_app(nodes, token=token, ready=warmup.ready, allowed_origins=allow_origin or ())
+        app = create_app(nodes, token=token, ready=warmup.ready, errors=warmup.start_up_errors,
+                         allowed_origins=allow_origin or ())
         typer.echo(f"pfield node on http://{host}:{port} ({', '.join(n.name for n in nodes)})", err=True)
         sys.stderr.flush()
         run_server(app, host, port, limits=limits, log_level="warning" if log_level != "debug" else "debug")

@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from pfield.errors import InvalidInput
 from pfield._core.robot_distance import segment_segment_distance
 from pfield.robot._fit import TARGET_GAP, LinkFit, LinkSurface, cached_fit, fit_single_capsule, measure
 
@@ -163,6 +164,16 @@ def _element_surface(obj: pin.GeometryObject) -> tuple[NDArray[np.float64], NDAr
     return points, np.asarray(hull.simplices, dtype=np.int64), float(hull.volume)
 
 
+def _unfittable(link: str, source: str, cause: Exception) -> InvalidInput:
+    """The error of a link whose collision geometry cannot be fitted, naming the link and its geometry (the
+    cause alone names an array or a qhull option)."""
+    why = f"{cause.field}: {cause.reason}" if isinstance(cause, InvalidInput) else \
+        " ".join(str(cause).split()).split(". ")[0][:160] or type(cause).__name__
+    return InvalidInput(f"link {link}", source, f"its collision geometry cannot be fitted ({why}); check the link's "
+                                               "<collision> shapes and meshes (a shape of no volume, a mesh of no "
+                                               "triangles)")
+
+
 def _link_surfaces(robot: RobotModel) -> dict[str, tuple[int, pin.SE3, LinkSurface]]:
     """Per link: (joint index, the link frame in its joint frame, the collision surface in the link frame)."""
     model = robot.pinocchio_model
@@ -170,9 +181,12 @@ def _link_surfaces(robot: RobotModel) -> dict[str, tuple[int, pin.SE3, LinkSurfa
     for obj in robot.collision_model.geometryObjects:
         frame = model.frames[obj.parentFrame]
         entry = parts.setdefault(frame.name, (int(obj.parentJoint) - 1, frame.placement, []))
-        vertices, triangles, volume = _element_surface(obj)
-        in_link = entry[1].inverse() * obj.placement
         source = str(obj.meshPath) if hasattr(obj.geometry, "vertices") else type(obj.geometry).__name__.lower()
+        try:
+            vertices, triangles, volume = _element_surface(obj)
+        except Exception as exc:  # scipy's qhull on a shape without volume, say: named by its link
+            raise _unfittable(frame.name, source, exc) from exc
+        in_link = entry[1].inverse() * obj.placement
         entry[2].append((vertices @ np.asarray(in_link.rotation).T + np.asarray(in_link.translation), triangles,
                          volume, source))
     surfaces = {}
@@ -237,7 +251,10 @@ def fit_robot_geometry(robot: RobotModel, target_gap: float = TARGET_GAP, *,
     surfaces = _link_surfaces(robot)
     for index, (link, (joint, placement, surface)) in enumerate(surfaces.items(), 1):
         rotation, translation = np.asarray(placement.rotation), np.asarray(placement.translation)
-        fit = cached_fit(surface, target_gap, progress=f"{index}/{len(surfaces)}")
+        try:
+            fit = cached_fit(surface, target_gap, progress=f"{index}/{len(surfaces)}")
+        except (InvalidInput, ValueError, RuntimeError) as exc:
+            raise _unfittable(link, ", ".join(surface.sources) or link, exc) from exc
         if one_capsule:
             fit = LinkFit(fit.bound, *measure(surface, fit.bound), fit.bound, fit.bound_volume_ratio,
                           fit.bound_mean_gap)

@@ -9,7 +9,8 @@ Routes (DESIGN §3.2; a ROS name ``/pfield/plan_path`` appears without its leadi
 * ``GET /param/<node>`` / ``PUT /param/<node>``: all parameters / set some (all-or-nothing).
 * ``GET /topics``, ``GET /services``, ``GET /nodes``: listings for ``pfield topic list`` etc.
 
-* ``GET /health``: ``{"ready": bool, "start_up": "done" | "running", ...}`` plus the caps' counters.
+* ``GET /health``: ``{"ready": bool, "start_up": "done" | "running" | "failed", ...}`` plus the caps' counters
+  (``"errors"`` when start-up work failed).
 
 Browser protections and body checks run first, for every route (:mod:`pfield.transport._asgi`): a ``Host``
 other than this server is refused (421), a state-changing request or WebSocket from another page's
@@ -511,7 +512,7 @@ async def _tick_forever(node: Node) -> None:
 
 
 def _add_health_route(app: FastAPI, routes: _Routes, ready: Callable[[], bool] | None,
-                      limits: dict[str, Any]) -> None:
+                      errors: Callable[[], list[str]] | None, limits: dict[str, Any]) -> None:
     started = time.monotonic()
 
     @app.get("/health", tags=["listings"])
@@ -521,11 +522,16 @@ def _add_health_route(app: FastAPI, routes: _Routes, ready: Callable[[], bool] |
         ``ready`` (bool) and ``start_up`` (``"done"`` | ``"running"``) say the same: the ``ready`` callable of
         :func:`create_app` has returned true (for ``pfield serve``: :func:`pfield.warmup.ready`, its self-check and
         its robot's link-model fit have ended; a failed self-check step is logged and the node serves what works).
-        The kernels are compiled ahead of time (the core, :mod:`pfield._core`), so nothing compiles here: this
-        field replaced ``"kernels": "warm" | "compiling"`` of the numba engine."""
-        done = True if ready is None else bool(ready())
+        ``"start_up": "failed"`` (and ``ready`` false) with ``"errors"``: start-up work that cannot be done (for
+        ``pfield serve``, :func:`pfield.warmup.start_up_errors`: a robot whose link model cannot be fitted, so it
+        cannot plan); the node serves what needs no such work. The kernels are compiled ahead of time (the core,
+        :mod:`pfield._core`), so nothing compiles here: this field replaced ``"kernels": "warm" | "compiling"`` of
+        the numba engine."""
+        failed = [] if errors is None else list(errors())
+        done = not failed and (True if ready is None else bool(ready()))
         fanout: TopicFanout = app.state.fanout
-        return {"ready": done, "start_up": "done" if done else "running",
+        state = {"start_up": "failed", "errors": failed} if failed else {"start_up": "done" if done else "running"}
+        return {"ready": done, **state,
                 "nodes": sorted(routes.nodes), "uptime_s": round(time.monotonic() - started, 3),
                 "websocket": {"connections": fanout.connections, "dropped_messages": fanout.dropped},
                 "topics_kept": sum(len(bus.topics()) for bus in routes.buses),
@@ -536,7 +542,7 @@ def create_app(nodes: Sequence[Node], *, token: str | None = None,
                max_request_bytes: int = DEFAULT_MAX_REQUEST_BYTES, workers: int = 2,
                ws_queue_size: int = 1000, ws_queue_bytes: int = 16_000_000,
                allowed_origins: Sequence[str] = (), allowed_hosts: Sequence[str] = (),
-               ready: Callable[[], bool] | None = None) -> FastAPI:
+               ready: Callable[[], bool] | None = None, errors: Callable[[], list[str]] | None = None) -> FastAPI:
     """The FastAPI app serving ``nodes`` (see the module docstring for the routes).
 
     ``token``: required bearer token (set it whenever binding beyond 127.0.0.1); ``workers``: threads
@@ -544,7 +550,8 @@ def create_app(nodes: Sequence[Node], *, token: str | None = None,
     per WebSocket before the oldest drop; ``allowed_origins``: pages (``http://host:port``) besides this
     server's own loopback origins that may change state and open WebSockets (they also get CORS headers);
     ``allowed_hosts``: ``Host`` names accepted besides the loopback names and the bound address;
-    ``ready``: says whether the node's start-up work has finished (``GET /health``; None: always ready).
+    ``ready``: says whether the node's start-up work has finished (``GET /health``; None: always ready);
+    ``errors``: why start-up work cannot be done, if any (``GET /health`` then says ``"start_up": "failed"``).
     """
     routes = _Routes(nodes, workers)
 
@@ -571,7 +578,7 @@ def create_app(nodes: Sequence[Node], *, token: str | None = None,
     limits = {"max_request_bytes": max_request_bytes, "max_json_depth": MAX_JSON_DEPTH,
               "ws_queue_messages": ws_queue_size, "ws_queue_bytes": ws_queue_bytes,
               "undeclared_topics_kept": min((bus.max_undeclared for bus in routes.buses), default=0)}
-    _add_health_route(app, routes, ready, limits)
+    _add_health_route(app, routes, ready, errors, limits)
 
     @app.websocket("/ws/topic/{topic:path}")
     async def stream(websocket: WebSocket, topic: str) -> None:
