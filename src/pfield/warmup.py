@@ -40,8 +40,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["NODE_STEPS", "STEPS", "CheckReport", "CheckStep", "check", "fit_in_background", "ready", "start_up_errors",
-           "start_background"]
+__all__ = ["NODE_STEPS", "STEPS", "CheckReport", "CheckStep", "check", "fit_in_background", "ready", "start_background",
+           "start_up_errors"]
 
 _LOG = logging.getLogger(__name__)
 

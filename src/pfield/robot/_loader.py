@@ -133,8 +133,9 @@ def _lock(model: pin.Model, geometry: pin.GeometryModel,
         ids.append(joint_id)
         joint, angle = model.joints[joint_id], finite(f"locked_joints[{name!r}]", value)
         if joint.nv != 1:
-            raise InvalidInput(f"locked_joints[{name!r}]", value, f"a joint of {joint.nv} degrees of freedom "
-                                                                  f"({joint.shortname()}) cannot be locked at one value")
+            raise InvalidInput(f"locked_joints[{name!r}]", value,
+                               f"a joint of {joint.nv} degrees of freedom ({joint.shortname()}) cannot be locked at "
+                               "one value")
         if joint.nq == 2:  # a continuous joint: pinocchio's configuration is (cos θ, sin θ), not θ
             q_ref[joint.idx_q:joint.idx_q + 2] = (math.cos(angle), math.sin(angle))
         else:

@@ -28,8 +28,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from pfield.errors import InvalidInput
 from pfield._core.robot_distance import segment_segment_distance
+from pfield.errors import InvalidInput
 from pfield.robot._fit import TARGET_GAP, LinkFit, LinkSurface, cached_fit, fit_single_capsule, measure
 
 if TYPE_CHECKING:
