@@ -170,6 +170,23 @@ def test_an_srdf_is_checked_against_its_urdf(tmp_path: Path, caplog: pytest.LogC
         ur5(srdf=str(edited)).with_locked({"wrist_3_joint": 0.0})
     assert "old_camera_link" not in caplog.text
     assert robot.disabled_pairs is not None and frozenset(("base_link", "shoulder_link")) in robot.disabled_pairs
+    # an SRDF with no disabled pairs (groups and states only, as example-robot-data's kinova.srdf): its group states'
+    # joints tell (its chain's base link "base" is a UR5 link too)
+    states_only = tmp_path / "states.srdf"
+    states_only.write_text('<robot name="kinova"><group name="arm"><chain base_link="base" tip_link="tip"/></group>'
+                           '<group_state name="up" group="arm"><joint name="j2s6s200_joint_1" value="1.5"/>'
+                           '<joint name="j2s6s200_joint_2" value="2.6"/></group_state></robot>')
+    for make in (lambda: ur5(srdf=str(states_only)),
+                 lambda: RobotModel.from_urdf(UR5 / "ur5.urdf", "tool0", {"meshes": UR5 / "meshes"}, srdf=states_only)):
+        with pytest.raises(InvalidInput) as info:
+            make()
+        assert info.value.field == "srdf" and "none of the joints its group states set (j2s6s200_joint_1, " \
+            "j2s6s200_joint_2) is a joint of the URDF" in info.value.reason, info.value.reason
+    own = tmp_path / "own.srdf"  # this robot's states, one of them of a locked joint only: accepted
+    own.write_text('<robot name="ur5"><group_state name="flat" group="wrist"><joint name="wrist_3_joint" value="0"/>'
+                   '</group_state></robot>')
+    assert RobotModel.from_urdf(UR5 / "ur5.urdf", "tool0", {"meshes": UR5 / "meshes"}, srdf=own,
+                                locked_joints={"wrist_3_joint": 0.0}).named_configurations() == {}
 
 
 def test_an_unknown_scene_names_another_robots_scenes_only_when_they_are(ur5_folder: Path, tmp_path: Path) -> None:

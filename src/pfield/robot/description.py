@@ -153,7 +153,8 @@ class RobotDescription:
                 srdf = Path(text("srdf", str(self.srdf))).expanduser()
                 if not srdf.is_file():
                     raise InvalidInput("srdf", str(self.srdf), f"no such SRDF file{relative_to_cwd(srdf)}")
-                check_srdf_links(read_disabled_pairs(srdf), outline.links, str(self.srdf))  # an SRDF, and this robot's
+                # an SRDF, and this robot's
+                check_srdf_links(read_disabled_pairs(srdf), outline.links, str(self.srdf), outline.joints)
                 object.__setattr__(self, "srdf", str(srdf.resolve()))
             if self.end_effector is None or not text("end_effector", self.end_effector).strip():
                 raise InvalidInput("end_effector", self.end_effector,

@@ -166,7 +166,8 @@ class RobotModel:
         loaded = load_urdf(path, package_paths, locked_joints, resolver)
         disabled = read_disabled_pairs(srdf) if srdf is not None else None
         if disabled is not None:
-            check_srdf_links(disabled, (frame.name for frame in loaded.model.frames), srdf)  # type: ignore[arg-type]
+            check_srdf_links(disabled, (frame.name for frame in loaded.model.frames), srdf,  # type: ignore[arg-type]
+                             (*_joint_names(loaded), *(locked_joints or {})))
         robot = cls(loaded, end_effector, disabled, joint_limits=joint_limits)
         if srdf is not None:
             robot._adopt_group_states(read_group_states(srdf, _joint_names(loaded)), srdf)

@@ -58,16 +58,28 @@ def _parsed(path: str, stamp: tuple[int, int]) -> ET.Element:
     return root
 
 
-def check_srdf_links(disabled: set[frozenset[str]], links: Iterable[str], srdf_path: str | Path) -> None:
-    """Refuse (naming ``srdf``) an SRDF none of whose disabled pairs' links is a link of the URDF (links
-    ``links``): it describes another robot. Some unknown links (a URDF edited since) are logged, as MoveIt does,
-    once per SRDF and set of links (a batch checks one description per problem)."""
+def check_srdf_links(disabled: set[frozenset[str]], links: Iterable[str], srdf_path: str | Path,
+                     joints: Iterable[str] | None = None) -> None:
+    """Refuse (naming ``srdf``) an SRDF that describes another robot: none of its disabled pairs' links is a link of
+    the URDF (links ``links``), or none of the joints its group states set is a movable joint of the URDF
+    (``joints``, when given; an SRDF without disabled pairs, such as a group-states-only one, is told apart by
+    these). Some unknown links (a URDF edited since) are logged, as MoveIt does, once per SRDF and set of links (a
+    batch checks one description per problem)."""
+    names = set(links)
     named = set().union(*disabled) if disabled else set()
-    unknown = sorted(named - set(links))
+    unknown = sorted(named - names)
     if named and len(unknown) == len(named):
         more = ", …" if len(unknown) > _NAMED else ""
         raise InvalidInput("srdf", str(srdf_path), f"it describes another robot: none of the links it names "
                                                     f"({', '.join(unknown[:_NAMED])}{more}) is a link of the URDF")
+    if joints is not None:
+        stated = sorted({str(joint.get("name")) for state in read_srdf(srdf_path).iter("group_state")
+                         for joint in state.iter("joint") if joint.get("name")})
+        if stated and not set(stated) & set(joints):
+            more = ", …" if len(stated) > _NAMED else ""
+            raise InvalidInput("srdf", str(srdf_path), f"it describes another robot: none of the joints its group "
+                                                        f"states set ({', '.join(stated[:_NAMED])}{more}) is a joint "
+                                                        "of the URDF")
     key = (str(Path(srdf_path).expanduser().resolve()), tuple(unknown))
     if unknown and key not in _WARNED:
         _WARNED.add(key)
