@@ -212,11 +212,17 @@ def test_named_configurations_of_a_urdf_with_an_srdf(tmp_path) -> None:
         '<robot name="xarm7"><group_state name="bent" group="xarm7">'
         + "".join(f'<joint name="joint{i}" value="{0.1 * i}"/>' for i in range(1, 8))
         + '</group_state><group_state name="partial" group="wrist"><joint name="joint7" value="1"/></group_state>'
-        + '<group_state name="odd" group="xarm7"><joint name="joint1" value="x"/></group_state></robot>')
+        + '<group_state name="odd" group="xarm7"><joint name="joint1" value="x"/></group_state>'
+        + '<group_state name="wide" group="xarm7">'
+        + "".join(f'<joint name="joint{i}" value="{9.0 if i == 1 else 0.0}"/>' for i in range(1, 8))
+        + '</group_state></robot>')
     robot = RobotModel.from_urdf(root / "robots/xarm_description/urdf/xarm7.urdf", "link_eef",
                                  {"example-robot-data": root}, srdf=srdf)
     assert list(robot.named_configurations()) == ["bent"]  # states of other groups / bad values are skipped
     np.testing.assert_allclose(robot.named_configuration("bent"), 0.1 * np.arange(1, 8))
+    with pytest.raises(errors.InvalidInput) as info:  # outside the limits: skipped at load, and said so when asked
+        robot.named_configuration("wide")
+    assert "the SRDF's group state 'wide' was skipped when" in info.value.reason and "joint1" in info.value.reason
     no_srdf = RobotModel.from_urdf(root / "robots/xarm_description/urdf/xarm7.urdf", "link_eef",
                                    {"example-robot-data": root})
     assert no_srdf.named_configurations() == {}

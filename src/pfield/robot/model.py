@@ -148,6 +148,7 @@ class RobotModel:
         self._core_kinematics = _core_kinematics.Kinematics(robot, LIMIT_TOLERANCE)
         self._named = {str(key): _frozen(self.check_joint_angles(value, f"named_configurations[{key!r}]"))
                        for key, value in (named_configurations or {}).items()}
+        self._skipped: dict[str, str] = {}  # group states of the SRDF not adopted, and why
 
     # ---- construction -------------------------------------------------------------------------------
     @classmethod
@@ -183,6 +184,8 @@ class RobotModel:
                 self._named[str(name)] = _frozen(self.check_joint_angles(q, f"group_state[{name!r}]"))
             except InvalidInput as exc:
                 _LOG.warning("SRDF %s: group state %r skipped: %s", source, name, exc)
+                self._skipped[str(name)] = (f"the SRDF's group state {name!r} was skipped when {self.name} loaded "
+                                            f"({exc})")
 
     @classmethod
     def builtin(cls, name: str, locked_joints: dict[str, float] | None = None) -> RobotModel:
@@ -283,6 +286,8 @@ class RobotModel:
 
     def named_configuration(self, name: str) -> NDArray[np.float64]:
         """Joint angles of the named configuration ``name`` (see :meth:`named_configurations`)."""
+        if name in self._skipped:
+            raise InvalidInput("name", name, self._skipped[name])
         if name not in self._named:
             known = ", ".join(sorted(self._named)) or "none (load the robot with an SRDF that has group states)"
             raise InvalidInput("name", name, f"no such named configuration of {self.name}; known: {known}")
