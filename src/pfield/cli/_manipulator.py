@@ -8,6 +8,7 @@ scene's goal pose (the scene's start pose is then not used). The scene file form
 
 from __future__ import annotations
 
+import math
 import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -85,10 +86,15 @@ def _plan(scene_file: Path | None, output: Path, csv: Path | None, console: Cons
     executed = "" if path.trajectory_duration is None else (
         f"; joint path {path.joint_path_length:.2f} rad, trajectory {path.trajectory_duration:.2f} s within the "
         f"joint limits")
-    console.print(f"{who}{state}: {len(path)} waypoints over {path.duration:.2f} s{executed}, min clearance "
-                  f"{path.min_clearance:.4g} m; plot written to {output}" + (f", waypoints to {csv}" if csv else ""))
+    model = "" if robot is None else " (link model)"  # whole body: the planner's cover of the meshes, a lower bound
+    clearance = "no obstacles" if math.isinf(path.min_clearance) else \
+        f"min clearance {path.min_clearance:.4g} m{model}"
+    # one line per message however narrow the terminal or a pipe (rich would cut numbers from their units)
+    console.print(f"{who}{state}: {len(path)} waypoints over {path.duration:.2f} s{executed}, {clearance}; plot "
+                  f"written to {output}" + (f", waypoints to {csv}" if csv else ""), soft_wrap=True)
     if robot is not None and scene_file is not None and scene["start"] is not SEED_START:
-        console.print("the scene file's start pose is not used: a whole-body plan starts from --start-joints")
+        console.print("the scene file's start pose is not used: a whole-body plan starts from --start-joints",
+                      soft_wrap=True)
     return 0 if path.success else 1
 
 

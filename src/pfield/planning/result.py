@@ -49,7 +49,13 @@ class PlannedPath:
         positions: (N, 3) m, end-effector positions in the world frame.
         orientations: (N, 4) unit quaternions (x, y, z, w), world frame.
         twists: (N, 6) the world-frame twist (linear m/s, angular rad/s) applied from each waypoint.
-        clearances: (N,) m, signed distance to the nearest obstacle (``inf`` without obstacles).
+        clearances: (N,) m, signed distance to the nearest obstacle (``inf`` without obstacles). Task space: of the
+            end-effector point. Whole body: of the planner's link model (:mod:`pfield.robot.geometry`), which
+            contains each link's collision meshes, so it is a lower bound of the meshes' distance; it can be
+            negative where the model overlaps an obstacle the meshes clear (a link whose model already overlaps
+            it at the start may stay as deep; a coarse fit, such as a large gap on a link, shows most). Whether the
+            meshes touch is the certificate's to say (:func:`pfield.planning.certify.certify_path`): a reached plan
+            passed it.
         iterations: integration steps taken (N − 1 for a plan that was not cut short).
         joint_names: joint names in tree order (empty for task-space plans).
         joint_positions: (N, n) rad or m, or None for task-space plans.
@@ -173,7 +179,8 @@ class PlannedPath:
 
     @property
     def min_clearance(self) -> float:
-        """Smallest clearance along the path (m); ``inf`` without obstacles."""
+        """Smallest clearance along the path (m; :attr:`clearances`: whole body, of the link model, a lower bound of
+        the meshes'); ``inf`` without obstacles."""
         return float(np.min(self.clearances))
 
     def csv_header(self) -> list[str]:
