@@ -130,6 +130,10 @@ def test_missing_end_effector_lists_links() -> None:
         RobotModel.from_urdf(root / "robots/xarm_description/urdf/xarm7.urdf", end_effector="gripper",
                              package_paths={"example-robot-data": root})
     assert info.value.field == "end_effector"
+    with pytest.raises(errors.InvalidInput, match="a joint, not a link") as info:  # as RobotDescription asks
+        RobotModel.from_urdf(root / "robots/xarm_description/urdf/xarm7.urdf", end_effector="joint7",
+                             package_paths={"example-robot-data": root})
+    assert info.value.field == "end_effector"
 
 
 @pytest.mark.parametrize(

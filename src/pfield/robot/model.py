@@ -117,9 +117,10 @@ class RobotModel:
                  name: str | None = None, named_configurations: Mapping[str, ArrayLike] | None = None,
                  joint_limits: str | Path | None = None) -> None:
         model = loaded.model
-        if not model.existFrame(end_effector):
+        if not model.existFrame(end_effector, pin.FrameType.BODY):  # a link, as RobotDescription and the CLI ask
             links = [f.name for f in model.frames if f.type == pin.FrameType.BODY]
-            raise InvalidInput("end_effector", end_effector, f"no such frame in the URDF; links: {links}")
+            what = "a joint, not a link" if model.existFrame(end_effector) else "no such link in the URDF"
+            raise InvalidInput("end_effector", end_effector, f"{what}; links: {links}")
         self._loaded = loaded
         self.name = name or loaded.robot_name
         self.end_effector = end_effector
