@@ -138,6 +138,21 @@ def test_joints_the_goal_leaves_out_are_locked_at_the_start(ur5_folder: Path, tm
     assert isinstance(bad[1], Problem) and "wrist_3_joint" in bad[1].error
 
 
+def test_a_locked_joint_that_replaces_the_requests_values_is_warned_of(ur5_folder: Path,
+                                                                     caplog: pytest.LogCaptureFixture) -> None:
+    """The request starts wrist_3_joint at 3.14 and its goal asks 0.1145…: a user's lock at 0.25 replaces both (the plan
+    neither starts nor ends there for that joint), said once per joint and value."""
+    with caplog.at_level("WARNING", logger="pfield.scene.problems"):
+        problem = read_moveit_problem(ur5_folder / "scene0001.yaml", ur5_folder / "request0001.yaml", 1,
+                                      ur5(locked_joints={"wrist_3_joint": 0.25}))
+        read_moveit_problem(ur5_folder / "scene0001.yaml", ur5_folder / "request0001.yaml", 1,
+                            ur5(locked_joints={"wrist_3_joint": 0.25}))
+    assert "wrist_3_joint" not in problem.start
+    said = [r.getMessage() for r in caplog.records]
+    assert said == ["the locked joint wrist_3_joint=0.25 replaces the request's start 3.14 and goal 0.114546 "
+                    "(request0001.yaml; warned once per joint)"], said
+
+
 def test_a_missing_file_in_another_folder_reads_the_same(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.chdir(tmp_path)
     with pytest.raises(InvalidInput) as info:

@@ -24,6 +24,7 @@ catalog locks, are locked at the request's start values (MotionBenchMaker opens 
 
 from __future__ import annotations
 
+import logging
 import re
 import tempfile
 from collections.abc import Iterable, Iterator, Mapping, Sequence
@@ -173,6 +174,7 @@ class Problem:
         return cls(scene, index, error=text("error", error) or "unreadable problem")
 
 
+_LOG = logging.getLogger(__name__)
 _OTHER_ROBOT = "another robot's problem"  # the words of a problem that names none of the robot's joints
 
 
@@ -222,6 +224,7 @@ def read_moveit_problem(scene_file: Path, request_file: Path, index: int, robot:
         raise InvalidInput(f"{request_file.name}: request.start_state.joint_state.name", sorted(request.start),
                            f"the goal leaves the robot's joints {missing} free and the start state gives no value "
                            "to lock them at")
+    _warn_overridden(own, request.start, request.goal_joints or {}, request_file)
     locked = {name: request.start[name] for name in catalog if name in request.start}
     free = [name for name in free if name not in locked]
     start = {name: request.start[name] for name in free if name in request.start}
@@ -229,6 +232,22 @@ def read_moveit_problem(scene_file: Path, request_file: Path, index: int, robot:
         {name: request.goal_joints[name] for name in free if name in request.goal_joints}
     return Problem(scene_file.parent.name, index, tuple(obstacles), start, request.goal_pose, goal_joints,
                    description.with_locked(locked), config, options)
+
+
+_OVERRIDDEN: set[tuple[str, float]] = set()  # (joint, locked value) already warned of
+
+
+def _warn_overridden(own: dict[str, float], start: Mapping[str, float], goal: Mapping[str, float],
+                     request_file: Path) -> None:
+    """Warn (once per joint and value) where the caller's locked joints replace the values a request gives them: the
+    plan then neither starts nor ends where the request says for that joint."""
+    for name, value in own.items():
+        given = [f"{what} {values[name]:g}" for what, values in (("start", start), ("goal", goal))
+                 if name in values and abs(values[name] - value) > 1e-9]
+        if given and (name, value) not in _OVERRIDDEN:
+            _OVERRIDDEN.add((name, value))
+            _LOG.warning("the locked joint %s=%g replaces the request's %s (%s; warned once per joint)", name, value,
+                         " and ".join(given), request_file.name)
 
 
 def _short(scene: str, robot: RobotDescription) -> str:
