@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -110,8 +112,16 @@ def test_ik_failure_names_the_waypoint(xarm: RobotModel) -> None:
                        np.zeros((count, 6)), np.full(count, np.inf))
     path = attach_joint_trajectory(plan, xarm, SEED_Q0)
     assert not path.success and path.status == PlanStatus.IK_FAILED
-    assert "waypoint 2 of 4" in path.failure_reason
+    assert "waypoint 2 of 4" in path.failure_reason and "starting joint angles" not in path.failure_reason
     assert path.joint_positions is None
+    # a path whose start is out of reach from where the seed's end effector is (a start pose not given for the seed)
+    away = positions.copy()
+    away[0] = (2.0, 0.0, 0.0)
+    failed = attach_joint_trajectory(replace(plan, positions=away), xarm, SEED_Q0)
+    offset = float(np.linalg.norm(away[0] - start.position))
+    assert "waypoint 0 of 4" in failed.failure_reason
+    assert f"its start is {offset:.4g} m from the end effector at the starting joint angles" in failed.failure_reason
+    assert "an unset pose is the origin" in failed.failure_reason
 
 
 def test_attach_joint_trajectory_bad_seed(xarm: RobotModel) -> None:

@@ -48,6 +48,12 @@ def attach_joint_trajectory(path: PlannedPath, robot: RobotModel, q_seed: ArrayL
     if failed >= 0:
         reason = (f"inverse kinematics failed at waypoint {failed} of {len(path)} (position error {pos_err:.4g} m, "
                   f"rotation error {rot_err:.4g} rad): the robot cannot follow the planned path")
+        if failed == 0:  # the path's start is not where the seed's end effector is, nor near it
+            at_seed = robot.forward_kinematics(seed).position
+            off = float(np.linalg.norm(np.asarray(path.positions[0]) - at_seed))
+            reason += (f"; its start is {off:.4g} m from the end effector at the starting joint angles (at "
+                       f"{np.round(at_seed, 4).tolist()}): give the start pose of those joints (an unset pose is the "
+                       "origin)")
         _LOG.info(reason)
         return replace(path, success=False, failure_reason=reason, status=PlanStatus.IK_FAILED,
                        joint_names=robot.joint_names,
