@@ -58,10 +58,13 @@ def test_bad_arguments_exit_2_naming_the_option(problem_paths: list[Path], tmp_p
 def test_a_ray_address_where_no_cluster_answers_fails_at_once(problem_paths: list[Path], tmp_path: Path) -> None:
     """Ray's own connection retries such an address for minutes; the batch gives up within CONNECT_TIMEOUT (nothing
     listens on loopback port 1: refused at once), exit 1 as for any service that may answer later."""
-    result = CliRunner().invoke(app, ["batch", *map(str, problem_paths), "--out", str(tmp_path / "x.jsonl"),
+    out = tmp_path / "kept.jsonl"
+    out.write_text('{"scene": "s", "index": 0}\n')
+    result = CliRunner().invoke(app, ["batch", *map(str, problem_paths), "--out", str(out),
                                       "--backend", "ray", "--address", "127.0.0.1:1"])
     assert result.exit_code == 1, result.output
     assert "no Ray cluster answers at 127.0.0.1:1" in result.output and "ray start --head" in result.output
+    assert out.read_text() == '{"scene": "s", "index": 0}\n'  # refused before --out was opened
 
 
 def test_resume_reads_only_a_regular_results_file_and_skips_lines_that_are_not_records(

@@ -10,7 +10,16 @@ from typing import Any
 
 import pytest
 
-from pfield.batch import RECORD_FIELDS, TIMING_FIELDS, Workspace, plan_many, problem_seed, ray_endpoint, solve
+from pfield.batch import (
+    RECORD_FIELDS,
+    TIMING_FIELDS,
+    Workspace,
+    check_settings,
+    plan_many,
+    problem_seed,
+    ray_endpoint,
+    solve,
+)
 from pfield.errors import InvalidInput
 from pfield.planning import PlanOptions, PlanStatus
 from pfield.scene import Problem, read_problems
@@ -81,7 +90,7 @@ def test_the_problem_seed_depends_on_the_key_and_seed_only() -> None:
     ({"backend": "mpi"}, "backend"), ({"seed": "x"}, "seed"), ({"timeout": -1.0}, "timeout"),
     ({"timeout": float("inf")}, "timeout"), ({"address": "127.0.0.1:6379"}, "address"),
     ({"backend": "ray", "address": "127.0.0.1"}, "address"), ({"backend": "ray", "address": "host:0"}, "address"),
-    ({"backend": "ray", "address": "ray://:6379"}, "address"),
+    ({"backend": "ray", "address": "ray://:6379"}, "address"), ({"backend": "ray", "address": "head:²"}, "address"),
 ])
 def test_bad_arguments_are_refused_before_anything_runs(kwargs: dict[str, Any], field: str) -> None:
     problem = Problem("s", 0, start=Pose(), goal=Pose((0.1, 0, 0)))
@@ -94,8 +103,10 @@ def test_ray_addresses_are_read_as_host_and_port() -> None:
     assert ray_endpoint("127.0.0.1:6379") == ("127.0.0.1", 6379)
     assert ray_endpoint("ray://head.local:10001") == ("head.local", 10001)
     assert ray_endpoint("[::1]:6379") == ("::1", 6379)
-    for bad in ("auto", "6379", "head:", "head:65536", "head:x1"):
+    for bad in ("auto", "6379", "head:", "head:65536", "head:x1", "head:²", "head:" + "9" * 5000, "ray://a://b:1"):
         assert ray_endpoint(bad) is None, bad
+    for other in ("auto", "local", "ray://head:10001", "head:6379"):  # what ray.init takes besides HOST:PORT
+        assert check_settings(1, "ray", 0, None, other) == (1, None)
 
 
 def test_bad_problem_lists_are_refused_naming_the_entry() -> None:

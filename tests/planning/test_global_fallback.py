@@ -15,6 +15,7 @@ from pfield.field.field import PotentialField
 from pfield.geometry import Box, Obstacle, Sphere, signed_distances
 from pfield.node._base import Bus
 from pfield.node.manager import ManagerNode
+from pfield.planning.certify import certify_path
 from pfield.planning.result import PlannedPath
 from pfield.planning.scenes import SEED_GOAL, SEED_START, seed_obstacles
 from pfield.planning.status import PlanStatus
@@ -250,3 +251,8 @@ def test_a_joint_goal_is_reached_in_its_own_configuration_not_another_at_its_pos
     assert np.max(np.abs(asked.joint_positions[-1] - ready)) <= JOINT_GOAL_TOLERANCE
     alone = field.plan_whole_body(panda, start, dt=0.02, goal_configuration=ready, global_fallback=False)
     assert not alone.success and "another configuration than the joint goal" in alone.failure_reason
+    # what the failed plan returns is the field's motion, certified clear on the meshes (a contact would cut it
+    # short, COLLISION, as for a motion that reaches its goal): here the whole motion
+    assert alone.status == PlanStatus.STAGNATION and alone.planner == "field"
+    np.testing.assert_array_equal(alone.joint_positions, by_pose.joint_positions)
+    assert certify_path(panda, [], alone.joint_positions).clear

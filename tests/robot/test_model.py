@@ -227,6 +227,12 @@ def test_named_configurations_of_a_urdf_with_an_srdf(tmp_path) -> None:
     with pytest.raises(errors.InvalidInput) as info:  # outside the limits: skipped at load, and said so when asked
         robot.named_configuration("wide")
     assert "the SRDF's group state 'wide' was skipped when" in info.value.reason and "joint1" in info.value.reason
+    assert list(robot.skipped_group_states) == ["wide"]
+    from pfield.cli._manipulator import start_joints
+
+    with pytest.raises(errors.InvalidInput) as info:  # pfield plan --start-joints wide says the same
+        start_joints(robot, "wide")
+    assert info.value.field == "--start-joints" and "was skipped when" in info.value.reason
     no_srdf = RobotModel.from_urdf(root / "robots/xarm_description/urdf/xarm7.urdf", "link_eef",
                                    {"example-robot-data": root})
     assert no_srdf.named_configurations() == {}
@@ -273,6 +279,28 @@ def test_a_locked_continuous_joint_is_turned_by_its_angle(tmp_path: Path, angle:
         np.testing.assert_allclose(abs(np.dot(pose.orientation, expected.orientation)), 1.0, atol=1e-12)
     np.testing.assert_allclose(locked.forward_kinematics([0.0]).position, [0.2 * math.cos(angle),
                                                                             0.2 * math.sin(angle), 0.0], atol=1e-12)
+
+
+def test_a_joint_of_several_degrees_of_freedom_is_locked_at_its_neutral_configuration(tmp_path: Path) -> None:
+    """The loader asks to lock a planar or floating joint; one value cannot say where, so it is held at pinocchio's
+    neutral configuration, given as 0; another value is refused saying so."""
+    urdf = tmp_path / "base.urdf"
+    urdf.write_text(
+        "<robot name='base'><link name='world'/><link name='body'/><link name='l1'><collision><origin xyz='0.1 0 0'/>"
+        "<geometry><box size='0.2 0.04 0.04'/></geometry></collision></link><link name='tool'/>"
+        "<joint name='float' type='planar'><parent link='world'/><child link='body'/></joint>"
+        "<joint name='j1' type='revolute'><parent link='body'/><child link='l1'/><axis xyz='0 0 1'/>"
+        "<limit lower='-1' upper='1' velocity='1' effort='1'/></joint>"
+        "<joint name='j2' type='fixed'><parent link='l1'/><child link='tool'/><origin xyz='0.2 0 0'/></joint></robot>")
+    with pytest.raises(errors.InvalidInput, match="lock it"):
+        RobotModel.from_urdf(urdf, end_effector="tool")
+    robot = RobotModel.from_urdf(urdf, end_effector="tool", locked_joints={"float": 0.0})
+    assert robot.joint_names == ("j1",)
+    np.testing.assert_allclose(robot.forward_kinematics([0.5]).position, [0.2 * math.cos(0.5), 0.2 * math.sin(0.5),
+                                                                          0.0], atol=1e-12)
+    with pytest.raises(errors.InvalidInput, match="neutral configuration only: give 0") as info:
+        RobotModel.from_urdf(urdf, end_effector="tool", locked_joints={"float": 0.3})
+    assert info.value.field == "locked_joints['float']"
 
 
 def test_end_effector_positions_of_any_array_layout() -> None:

@@ -53,9 +53,10 @@ def check_settings(workers: Any = 1, backend: Any = "process", seed: Any = 0, ti
     if address is not None:
         if backend != "ray" or not isinstance(address, str) or not address:
             raise InvalidInput("address", address, "a non-empty Ray address, only with backend='ray'")
-        if address != "auto" and ray_endpoint(address) is None:
+        if address not in ("auto", "local") and ("://" not in address or address.startswith("ray://")) \
+                and ray_endpoint(address) is None:
             raise InvalidInput("address", address, "expected HOST:PORT (ray start --head prints it), "
-                                                   "ray://HOST:PORT or auto")
+                                                   "ray://HOST:PORT, auto or local")
     return count, limit
 
 
@@ -88,7 +89,9 @@ def plan_many(problems: Iterable[Problem], workers: int = 1, backend: str = "pro
         seed: mixed with each problem's key (:func:`problem_seed`), so a problem's result does not depend on
             which worker plans it or when.
         timeout: seconds per problem (> 0) after which its plan is cancelled (status ``"timeout"``).
-        address: the Ray cluster to connect to (``"auto"``, ``"127.0.0.1:6379"``); None starts a local one.
+        address: the Ray cluster to connect to (``"127.0.0.1:6379"``, ``"ray://HOST:PORT"``, ``"auto"``, or
+            another address ``ray.init`` takes); None starts a local one. A ``HOST:PORT`` where nothing answers
+            within 5 s raises :class:`~pfield.errors.Unreachable`.
         progress: called with each record as it is yielded (the CLI draws a rich progress bar with it).
 
     A problem that cannot be planned yields a record with status ``"error"`` and the reason in ``error``;

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import multiprocessing
 import signal
+import threading
+import time
 from collections.abc import Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
@@ -55,24 +57,42 @@ def _stopped_on_exit(pool: ProcessPoolExecutor) -> Iterator[None]:
     try:
         yield
     except BaseException:
-        # shutdown() lets go of the workers, the manager thread and the result pipe: taken before it
-        workers = list((getattr(pool, "_processes", None) or {}).values())
-        manager = getattr(pool, "_executor_manager_thread", None)
-        writer = getattr(getattr(pool, "_result_queue", None), "_writer", None)
-        pool.shutdown(wait=False, cancel_futures=True)
-        for process in workers:  # what Python 3.14's terminate_workers() does
-            process.terminate()
-        for process in workers:
-            process.join(_WORKER_EXIT)
-        if writer is not None and not any(process.is_alive() for process in workers):
-            writer.close()
-        if manager is not None:  # it closes the pool's pipes: done before the interpreter's exit writes to them
-            manager.join(_WORKER_EXIT)
+        # a second Ctrl-C must not cut the stop short (the hang would be back): held off until it is done
+        main = threading.current_thread() is threading.main_thread()
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+        try:
+            _stop(pool)
+        finally:
+            if main:
+                signal.signal(signal.SIGINT, previous)
         raise
 
 
+def _stop(pool: ProcessPoolExecutor) -> None:
+    """Terminate ``pool``'s workers (killed if they outlast :data:`_WORKER_EXIT`), close the parent's end of the result
+    pipe and wait for the manager thread (:func:`_stopped_on_exit`)."""
+    # shutdown() lets go of the workers, the manager thread and the result pipe: taken before it
+    workers = list((getattr(pool, "_processes", None) or {}).values())
+    manager = getattr(pool, "_executor_manager_thread", None)
+    writer = getattr(getattr(pool, "_result_queue", None), "_writer", None)
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in workers:  # what Python 3.14's terminate_workers() does
+        process.terminate()
+    deadline = time.monotonic() + _WORKER_EXIT
+    for process in workers:
+        process.join(max(0.0, deadline - time.monotonic()))
+    for process in workers:
+        if process.is_alive():
+            process.kill()
+            process.join(_WORKER_EXIT)
+    if writer is not None and not any(process.is_alive() for process in workers):
+        writer.close()
+    if manager is not None:  # it closes the pool's pipes: done before the interpreter's exit writes to them
+        manager.join(_WORKER_EXIT)
+
+
 _WORKER_EXIT = 5.0
-"""(s) how long a terminated worker is waited for before the parent lets go of the pool."""
+"""(s) how long the terminated workers are waited for before they are killed, and the manager thread after."""
 
 
 def run_in_process(problems: Sequence[Problem], robots: tuple[RobotSpec, ...], timeout: float | None,

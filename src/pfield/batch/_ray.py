@@ -19,7 +19,7 @@ from pfield.batch._solve import Workspace, solve
 from pfield.errors import PfieldError, Unreachable
 from pfield.scene import Problem, RobotSpec
 
-__all__ = ["CONNECT_TIMEOUT", "ray_endpoint", "run_ray"]
+__all__ = ["CONNECT_TIMEOUT", "check_reachable", "ray_endpoint", "run_ray"]
 
 CONNECT_TIMEOUT = 5.0
 """(s) how long the driver waits for a cluster's address to accept a connection before it gives up: Ray's own
@@ -49,14 +49,16 @@ def ray_endpoint(address: str) -> tuple[str, int] | None:
     is neither."""
     host, colon, port = address.removeprefix("ray://").rpartition(":")
     host = host.removeprefix("[").removesuffix("]")
-    if not colon or not host or not port.isdigit() or not 0 < int(port) < 65536:
+    if not colon or not host or "://" in host or not (port.isascii() and port.isdigit() and len(port) <= 5) \
+            or not 0 < int(port) < 65536:
         return None
     return host, int(port)
 
 
-def _answering(address: str) -> None:
-    """Raise :class:`Unreachable` unless something accepts a TCP connection at ``address`` within
-    :data:`CONNECT_TIMEOUT` (``auto`` is Ray's own look-up, which fails at once when there is no cluster)."""
+def check_reachable(address: str) -> None:
+    """Raise :class:`Unreachable` unless something accepts a TCP connection at ``address`` (``HOST:PORT`` or
+    ``ray://HOST:PORT``) within :data:`CONNECT_TIMEOUT`; other addresses (``auto``, ``local``: Ray's own look-ups,
+    which fail at once when there is no cluster) are left to Ray."""
     endpoint = ray_endpoint(address)
     if endpoint is None:
         return
@@ -79,7 +81,7 @@ def run_ray(problems: Sequence[Problem], robots: tuple[RobotSpec, ...], workers:
     if not ray.is_initialized():
         env = {"env_vars": {"PYTHONPATH": os.environ["PYTHONPATH"]}} if os.environ.get("PYTHONPATH") else None
         if address:
-            _answering(address)
+            check_reachable(address)
             ray.init(address=address, runtime_env=env, log_to_driver=False)
         else:
             # a local cluster listens on loopback only

@@ -65,6 +65,10 @@ def batch(
     console = Console(stderr=True)
     with cli_errors():
         check_settings(workers, backend, seed, timeout, address)  # before anything is read
+        if address is not None:  # and before --out is opened: a refused run changes nothing
+            from pfield.batch._ray import check_reachable
+
+            check_reachable(address)
         check_writable("--out", out)
         description = robot_description(robot, srdf, end_effector, package_path, locked_joint)
         if not description.is_builtin:  # its files (meshes through --package-path) are read now, not per problem

@@ -45,6 +45,8 @@ def start_joints(robot: RobotModel, value: str | None) -> Any:
                            + (f", or a named state ({', '.join(named)})" if named else ""))
     if value.strip() in named:
         return named[value.strip()]
+    if value.strip() in robot.skipped_group_states:
+        raise InvalidInput("--start-joints", value, robot.skipped_group_states[value.strip()])
     try:
         values = [float(part) for part in value.split(",")]
     except ValueError:

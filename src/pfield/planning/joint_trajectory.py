@@ -48,9 +48,9 @@ def attach_joint_trajectory(path: PlannedPath, robot: RobotModel, q_seed: ArrayL
     if failed >= 0:
         reason = (f"inverse kinematics failed at waypoint {failed} of {len(path)} (position error {pos_err:.4g} m, "
                   f"rotation error {rot_err:.4g} rad): the robot cannot follow the planned path")
-        if failed == 0:  # the path's start is not where the seed's end effector is, nor near it
-            at_seed = robot.forward_kinematics(seed).position
-            off = float(np.linalg.norm(np.asarray(path.positions[0]) - at_seed))
+        at_seed = robot.forward_kinematics(seed).position
+        off = float(np.linalg.norm(np.asarray(path.positions[0]) - at_seed))
+        if failed == 0 and off > position_tolerance:  # the path does not start where the seed's end effector is
             reason += (f"; its start is {off:.4g} m from the end effector at the starting joint angles (at "
                        f"{np.round(at_seed, 4).tolist()}): give the start pose of those joints (an unset pose is the "
                        "origin)")

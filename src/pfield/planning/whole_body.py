@@ -233,23 +233,31 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
         start, arrays, scene, np.array(goal.position, dtype=np.float64),
         np.array(goal.orientation, dtype=np.float64), params, settings.max_iterations, cancel)
     certificate_reason = ""
-    # a joint goal first: a motion that ends in another configuration is not kept, so it is not certified either
+    # a joint goal first: a motion that ends in another configuration goes to the fallback, and is certified only if
+    # it is what the plan returns (the fallback found nothing), not before
+    joint_off = False
     if status == PlanStatus.REACHED and goal_q is not None:
         off = float(np.max(np.abs(qs[-1] - goal_q)))
         if off > JOINT_GOAL_TOLERANCE:  # the goal pose, but not the configuration asked for: search to that one
-            status = PlanStatus.STAGNATION
+            status, joint_off = PlanStatus.STAGNATION, True
             certificate_reason = (f"the field reached the goal pose in another configuration than the joint goal "
                                   f"(a joint {off:.3g} rad from it, beyond {JOINT_GOAL_TOLERANCE:g})")
             _LOG.info("whole-body plan: %s", certificate_reason)
-    if status == PlanStatus.REACHED:  # the planner's certificate: the field's motion on the exact meshes
+
+    def cut_at_contact() -> None:
+        """The planner's certificate of the field's motion (the exact meshes): at a contact, the status says so and
+        the path ends before it, at the waypoint before (the start at least)."""
+        nonlocal status, certificate_reason, count, qs, qds, pos, quats, twists, clear
         certificate = certify_path(robot, list(obstacles or ()), qs, checker=checker)
         if not certificate.clear:
             status = PlanStatus.SELF_COLLISION if certificate.self_collision else PlanStatus.COLLISION
             certificate_reason = certificate.describe()
             _LOG.info("whole-body plan: the field's motion fails the certificate: %s", certificate_reason)
-            # the path ends before the contact: its waypoints up to the one before it (the start at least)
             count = max(1, certificate.waypoint + (1 if certificate.fraction > 0.0 else 0))
             qs, qds, pos, quats, twists, clear = (a[:count] for a in (qs, qds, pos, quats, twists, clear))
+
+    if status == PlanStatus.REACHED:
+        cut_at_contact()
     # --- global fallback: the field stopped short (or its motion failed the certificate, or ended in another
     # configuration than the joint goal); search, then let the field track the found path (the fallback certifies
     # its own motion)
@@ -266,6 +274,11 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
         else:
             status, fallback_reason = outcome.status, outcome.reason
     # --- end of the global fallback
+    if joint_off and planner == FIELD_PLANNER:  # the field's motion is what a failed plan returns: certified too
+        fallback_status = status
+        cut_at_contact()
+        if fallback_reason:  # the fallback's status stays the plan's, as for any field motion it could not mend
+            status = fallback_status
     errors = (float(np.linalg.norm(goal.position - pos[-1])), float(Pose(pos[-1], quats[-1]).rotation_distance(goal)))
     reason = "" if status == PlanStatus.REACHED else (certificate_reason or _failure_reason(
         field_status, count, culprit, robot, errors, obstacle_names, settings.dt, config.influence_distance))

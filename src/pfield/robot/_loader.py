@@ -132,11 +132,12 @@ def _lock(model: pin.Model, geometry: pin.GeometryModel,
         joint_id = model.getJointId(name)
         ids.append(joint_id)
         joint, angle = model.joints[joint_id], finite(f"locked_joints[{name!r}]", value)
-        if joint.nv != 1:
-            raise InvalidInput(f"locked_joints[{name!r}]", value,
-                               f"a joint of {joint.nv} degrees of freedom ({joint.shortname()}) cannot be locked at "
-                               "one value")
-        if joint.nq == 2:  # a continuous joint: pinocchio's configuration is (cos θ, sin θ), not θ
+        if joint.nv != 1:  # planar, floating, spherical: held at their neutral configuration
+            if angle != 0.0:
+                raise InvalidInput(f"locked_joints[{name!r}]", value,
+                                   f"a joint of {joint.nv} degrees of freedom ({joint.shortname()}) is locked at its "
+                                   "neutral configuration only: give 0")
+        elif joint.nq == 2:  # a continuous joint: pinocchio's configuration is (cos θ, sin θ), not θ
             q_ref[joint.idx_q:joint.idx_q + 2] = (math.cos(angle), math.sin(angle))
         else:
             q_ref[joint.idx_q] = angle

@@ -184,7 +184,7 @@ def _link_surfaces(robot: RobotModel) -> dict[str, tuple[int, pin.SE3, LinkSurfa
         source = str(obj.meshPath) if hasattr(obj.geometry, "vertices") else type(obj.geometry).__name__.lower()
         try:
             vertices, triangles, volume = _element_surface(obj)
-        except Exception as exc:  # scipy's qhull on a shape without volume, say: named by its link
+        except (InvalidInput, ValueError, RuntimeError) as exc:  # qhull on a shape without volume: named by its link
             raise _unfittable(frame.name, source, exc) from exc
         in_link = entry[1].inverse() * obj.placement
         entry[2].append((vertices @ np.asarray(in_link.rotation).T + np.asarray(in_link.translation), triangles,

@@ -125,7 +125,7 @@ class RobotModel:
         self.name = name or loaded.robot_name
         self.end_effector = end_effector
         self.disabled_pairs = frozenset(disabled_pairs) if disabled_pairs is not None else None
-        self.kinematics = _pack_kinematics(model, model.frames[model.getFrameId(end_effector)])
+        self.kinematics = _pack_kinematics(model, model.frames[model.getFrameId(end_effector, pin.FrameType.BODY)])
         n = model.njoints - 1
         self._joint_names = tuple(model.names[j] for j in range(1, n + 1))
         idx_q = [model.joints[j].idx_q for j in range(1, n + 1)]
@@ -284,6 +284,12 @@ class RobotModel:
         """Name → joint angles (tree order) of the SRDF's group states that set every joint (MoveIt's named
         targets), plus built-in aliases (the Panda's ``ready`` = its SRDF's ``default``)."""
         return dict(self._named)
+
+    @property
+    def skipped_group_states(self) -> dict[str, str]:
+        """The SRDF's group states that were not adopted as named configurations, each with why (outside the joint
+        limits: :meth:`_adopt_group_states`)."""
+        return dict(self._skipped)
 
     def named_configuration(self, name: str) -> NDArray[np.float64]:
         """Joint angles of the named configuration ``name`` (see :meth:`named_configurations`)."""
