@@ -76,3 +76,14 @@ def test_rigid_motion_invariance(shape, quaternion, point):
     assert abs(d_local[0] - d_world[0]) < 1e-12
     if d_local[0] > 1e-6:  # outside a convex shape the closest point, hence the normal, is unique
         np.testing.assert_allclose(moved.pose.rotation @ n_local[0], n_world[0], atol=1e-9)
+
+
+def test_an_ellipsoid_is_measured_right_at_points_a_hair_from_its_centre() -> None:
+    """Coordinates between 1e-100 (taken as 0) and about 1e-65 of an axis: the root solve began from a bracket
+    [z2, 1] around a root of 1e-70, where Halley's steps shrink u by a constant factor and ran out of iterations
+    (the distance came out as -1.7e-9 instead of -0.5). Found by the rigid-motion property above."""
+    for axes, deepest in (((0.5, 0.5, 0.5), -0.5), ((0.5, 0.3, 0.2), -0.2)):
+        obstacle = Obstacle("o", Ellipsoid(*axes), Pose())
+        for tiny in (1e-30, 1e-70, 2.79e-77, 1e-90, 1e-99):
+            for point in ((0.0, tiny, tiny), (tiny, tiny, tiny), (tiny, 0.0, 0.0)):
+                assert abs(obstacle.signed_distance(np.array(point))[0][0] - deepest) < 1e-12, (axes, point)

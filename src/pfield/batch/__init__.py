@@ -25,13 +25,13 @@ from typing import IO, Any
 
 from pfield._files import open_regular
 from pfield._validation import integer, positive
-from pfield.batch._ray import ray_endpoint
+from pfield.batch._ray import check_reachable, ray_endpoint
 from pfield.batch._solve import RECORD_FIELDS, TIMING_FIELDS, Workspace, problem_seed, solve
 from pfield.errors import InvalidInput
 from pfield.scene import Problem
 
-__all__ = ["BACKENDS", "RECORD_FIELDS", "TIMING_FIELDS", "Workspace", "check_settings", "finished_keys", "plan_many",
-           "problem_seed", "ray_endpoint", "solve", "write_records"]
+__all__ = ["BACKENDS", "RECORD_FIELDS", "TIMING_FIELDS", "Workspace", "check_reachable", "check_settings",
+           "finished_keys", "plan_many", "problem_seed", "ray_endpoint", "solve", "write_records"]
 
 BACKENDS = ("process", "ray")
 Progress = Callable[[dict[str, Any]], None]

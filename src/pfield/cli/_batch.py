@@ -58,7 +58,7 @@ def batch(
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     from pfield._files import check_writable
-    from pfield.batch import check_settings, finished_keys, plan_many, write_records
+    from pfield.batch import check_reachable, check_settings, finished_keys, plan_many, write_records
     from pfield.cli._node import cli_errors
     from pfield.scene import read_problems
 
@@ -66,8 +66,6 @@ def batch(
     with cli_errors():
         check_settings(workers, backend, seed, timeout, address)  # before anything is read
         if address is not None:  # and before --out is opened: a refused run changes nothing
-            from pfield.batch._ray import check_reachable
-
             check_reachable(address)
         check_writable("--out", out)
         description = robot_description(robot, srdf, end_effector, package_path, locked_joint)
