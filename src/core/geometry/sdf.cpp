@@ -71,8 +71,9 @@ constexpr double kRelTol = 1e-15;
 constexpr double kHalleyTol = 1e-9;
 constexpr double kNoise = 1e-15;
 // |n| below which an inside point's root is bracketed by [z2, |n|] rather than [z2, 1] (ellipsoid_root): Halley from
-// 1 needs about log3(1 / root) steps, so every root above 1e-6 is found well within kMaxIterations either way
-constexpr double kNearCentre = 1e-6;
+// 1 needs about log3(1 / root) steps, 84 for a root of 1e-40, within kMaxIterations; only points that close to the
+// centre take the other bracket, so every other value keeps the numba kernel's bits (both digests of the tests)
+constexpr double kNearCentre = 1e-40;
 }  // namespace
 
 double ellipsoid_root(double r0, double r1, double z0, double z1, double z2, double g) {
@@ -82,7 +83,7 @@ double ellipsoid_root(double r0, double r1, double z0, double z1, double z2, dou
   // centre |n| is the tight bound: a bracket [z2, 1] around a root of 1e-70 took Halley more than the iteration
   // budget (it shrinks u by a constant factor per step far above the root) and the distance came out as the
   // point's own tiny norm. Elsewhere the bracket stays [z2, 1], so the iterations, hence the bits, are the numba
-  // kernel's (tests/geometry/test_core_sdf.py).
+  // kernel's (tests/geometry/test_core_sdf.py, tests/robot/test_core_distance.py).
   const double length = std::sqrt(n0 * n0 + n1 * n1 + z2 * z2);
   double lo = z2;
   double hi = g < 0.0 ? (length < kNearCentre ? length : 1.0) : length;
