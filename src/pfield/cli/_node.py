@@ -174,12 +174,9 @@ def cli_errors() -> Iterator[None]:
     answer later)."""
     try:
         yield
-    except Unreachable as exc:
-        typer.echo("error: " + " ".join(str(exc).splitlines()), err=True)
-        raise typer.Exit(FAILED) from None
     except PfieldError as exc:
         typer.echo("error: " + " ".join(str(exc).splitlines()), err=True)
-        raise typer.Exit(USAGE) from None
+        raise typer.Exit(FAILED if isinstance(exc, Unreachable) else USAGE) from None
 
 
 def nodes_from_options(robot: RobotDescription, params: Path | None, mesh_root: list[Path] | None,

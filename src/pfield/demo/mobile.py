@@ -18,6 +18,6 @@ def run(out_dir: Path, console: Console) -> None:
     with console.status("plotting the 2D field (seed parameter sets)"):
         paths = save_seed_plots(target)
     console.print(f"{len(paths)} field plots: " + ", ".join(p.name for p in paths))
-    outcome = run_sim2d("doorway", target, "diff_drive", True, console).outcome
-    if outcome != "goal_reached":
-        raise RuntimeError(f"doorway simulation ended with {outcome!r}, expected goal_reached")
+    result = run_sim2d("doorway", target, "diff_drive", True, console)
+    if result.outcome != result.scenario.expected:  # pfield sim2d's rule (exit 1)
+        raise RuntimeError(f"doorway simulation ended with {result.outcome!r}, expected {result.scenario.expected}")

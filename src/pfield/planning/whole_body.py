@@ -244,20 +244,22 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
                                   f"(a joint {off:.3g} rad from it, beyond {JOINT_GOAL_TOLERANCE:g})")
             _LOG.info("whole-body plan: %s", certificate_reason)
 
-    def cut_at_contact() -> None:
-        """The planner's certificate of the field's motion (the exact meshes): at a contact, the status says so and
-        the path ends before it, at the waypoint before (the start at least)."""
-        nonlocal status, certificate_reason, count, qs, qds, pos, quats, twists, clear
+    def cut_at_contact() -> PlanStatus | None:
+        """The planner's certificate of the field's motion (the exact meshes): at a contact the path ends before it
+        (at the waypoint before, the start at least), the reason says so, and the contact's status is returned;
+        None when clear."""
+        nonlocal certificate_reason, count, qs, qds, pos, quats, twists, clear
         certificate = certify_path(robot, list(obstacles or ()), qs, checker=checker)
-        if not certificate.clear:
-            status = PlanStatus.SELF_COLLISION if certificate.self_collision else PlanStatus.COLLISION
-            certificate_reason = certificate.describe()
-            _LOG.info("whole-body plan: the field's motion fails the certificate: %s", certificate_reason)
-            count = max(1, certificate.waypoint + (1 if certificate.fraction > 0.0 else 0))
-            qs, qds, pos, quats, twists, clear = (a[:count] for a in (qs, qds, pos, quats, twists, clear))
+        if certificate.clear:
+            return None
+        certificate_reason = certificate.describe()
+        _LOG.info("whole-body plan: the field's motion fails the certificate: %s", certificate_reason)
+        count = max(1, certificate.waypoint + (1 if certificate.fraction > 0.0 else 0))
+        qs, qds, pos, quats, twists, clear = (a[:count] for a in (qs, qds, pos, quats, twists, clear))
+        return PlanStatus.SELF_COLLISION if certificate.self_collision else PlanStatus.COLLISION
 
     if status == PlanStatus.REACHED:
-        cut_at_contact()
+        status = cut_at_contact() or status
     # --- global fallback: the field stopped short (or its motion failed the certificate, or ended in another
     # configuration than the joint goal); search, then let the field track the found path (the fallback certifies
     # its own motion)
@@ -275,10 +277,9 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
             status, fallback_reason = outcome.status, outcome.reason
     # --- end of the global fallback
     if joint_off and planner == FIELD_PLANNER:  # the field's motion is what a failed plan returns: certified too
-        fallback_status = status
-        cut_at_contact()
-        if fallback_reason:  # the fallback's status stays the plan's, as for any field motion it could not mend
-            status = fallback_status
+        contact = cut_at_contact()
+        if contact is not None and not fallback_reason:  # a fallback that ran keeps its status, as for any motion
+            status = contact
     errors = (float(np.linalg.norm(goal.position - pos[-1])), float(Pose(pos[-1], quats[-1]).rotation_distance(goal)))
     reason = "" if status == PlanStatus.REACHED else (certificate_reason or _failure_reason(
         field_status, count, culprit, robot, errors, obstacle_names, settings.dt, config.influence_distance))

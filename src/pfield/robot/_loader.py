@@ -21,7 +21,7 @@ from pfield._validation import finite
 from pfield.errors import InvalidInput, ResourceNotAllowed, ResourceNotFound
 from pfield.geometry.resources import PackagePaths, ResourceResolver, package_path_map
 
-__all__ = ["LoadedRobot", "load_urdf", "resolve_mesh_uri"]
+__all__ = ["LoadedRobot", "load_urdf", "resolve_mesh_uri", "write_angle"]
 
 _LOG = logging.getLogger(__name__)
 _ONE_DOF_JOINTS = ("JointModelR", "JointModelP", "JointModelRevoluteUnaligned", "JointModelPrismaticUnaligned",
@@ -137,12 +137,19 @@ def _lock(model: pin.Model, geometry: pin.GeometryModel,
                 raise InvalidInput(f"locked_joints[{name!r}]", value,
                                    f"a joint of {joint.nv} degrees of freedom ({joint.shortname()}) is locked at its "
                                    "neutral configuration only: give 0")
-        elif joint.nq == 2:  # a continuous joint: pinocchio's configuration is (cos θ, sin θ), not θ
-            q_ref[joint.idx_q:joint.idx_q + 2] = (math.cos(angle), math.sin(angle))
         else:
-            q_ref[joint.idx_q] = angle
+            write_angle(q_ref, joint.idx_q, joint.nq == 2, angle)
     reduced, reduced_geometry = pin.buildReducedModel(model, geometry, ids, q_ref)
     return reduced, reduced_geometry
+
+
+def write_angle(config: np.ndarray, start: int, continuous: bool, angle: float) -> None:
+    """A 1-DoF joint's value (rad or m) into pinocchio's configuration vector ``config`` at its slot ``start``
+    (``idx_q``): a continuous joint holds two slots, (cos θ, sin θ), not θ."""
+    if continuous:
+        config[start:start + 2] = (math.cos(angle), math.sin(angle))
+    else:
+        config[start] = angle
 
 
 def joint_axis(model: pin.Model, joint_id: int) -> tuple[np.ndarray, int]:

@@ -34,6 +34,7 @@ from pfield.robot._loader import (
     joint_axis,
     load_urdf,
     resolve_mesh_uri,
+    write_angle,
 )
 from pfield.robot.catalog import builtin_spec, example_robot_data_root
 from pfield.robot.limits import default_accelerations, missing_velocity_limit, read_joint_limits
@@ -345,10 +346,7 @@ class RobotModel:
         values = np.asarray(q, dtype=np.float64)
         config = np.zeros(self.pinocchio_model.nq)
         for i, start in enumerate(self._idx_q):
-            if self._continuous[i]:
-                config[start:start + 2] = (np.cos(values[i]), np.sin(values[i]))
-            else:
-                config[start] = values[i]
+            write_angle(config, int(start), bool(self._continuous[i]), float(values[i]))
         return config
 
     # ---- kinematics -----------------------------------------------------------------------------------
