@@ -389,3 +389,42 @@ def test_the_plan_releases_the_gil_and_reads_the_cancel_flag() -> None:
     worker.join()
     assert results[0].status == PlanStatus.CANCELLED and results[0].count < total
     assert time.perf_counter() - started < 2.0
+
+
+def test_the_posture_term_is_the_damped_least_squares_free_term() -> None:
+    """With a joint goal, the step minimises |J q̇ − v|²_W + λ²|q̇ − k (q_goal − q)|²: at the goal pose (v = 0), among
+    no obstacles and far from the joint limits, q̇ = (JᵀWJ + λ²I)⁻¹ λ² k (q_goal − q) exactly; its component in J's
+    null space is k (q_goal − q)'s own, and a step without the joint goal is zero."""
+    panda = RobotModel.builtin("panda")
+    config, options = FieldConfig(), WholeBodyOptions()
+    params = kernel_parameters(config, PlanOptions(dt=0.02).resolved(config), options)
+    arrays = pack_robot(panda, config, options)
+    scene = make_scene(None, arrays, None)
+    q = panda.named_configuration("ready")
+    goal = panda.forward_kinematics(q)
+    goal_p, goal_q = np.array(goal.position), np.array(goal.orientation)
+    target = q + np.array([0.05, -0.03, 0.04, 0.02, -0.05, 0.03, 0.06])
+    gain = 0.7
+    row, _ = planner(arrays, scene, goal_p, goal_q, params, target, gain).joint_velocity_step(q)
+    qd = np.asarray(row)[wb.STEP_OUT.size():]
+    jac = panda.jacobian(q)
+    weights = np.diag([1.0, 1.0, 1.0] + [options.rotation_weight] * 3)
+    damping = options.damping
+    expected = np.linalg.solve(jac.T @ weights @ jac + damping * np.eye(7), damping * gain * (target - q))
+    np.testing.assert_allclose(qd, expected, rtol=1e-9, atol=1e-12)
+    null = np.eye(7) - np.linalg.pinv(jac) @ jac
+    np.testing.assert_allclose(null @ qd, null @ (gain * (target - q)), atol=1e-6)
+    still, _ = planner(arrays, scene, goal_p, goal_q, params).joint_velocity_step(q)
+    np.testing.assert_allclose(np.asarray(still)[wb.STEP_OUT.size():], 0.0, atol=1e-12)
+
+
+@pytest.mark.parametrize(("field", "value"), [
+    ("rotation_weight", 0.0), ("damping", -1e-3), ("damping", math.nan), ("joint_influence", 0.0),
+    ("null_space_gain", math.inf), ("posture_gain", -1.0), ("posture_gain", math.nan), ("joint_safety", 0.2),
+])
+def test_whole_body_options_refuse_bad_values_naming_them(field: str, value: float) -> None:
+    from pfield.errors import InvalidInput
+
+    with pytest.raises(InvalidInput) as info:
+        WholeBodyOptions(**{field: value})
+    assert info.value.field == field

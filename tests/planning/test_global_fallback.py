@@ -19,6 +19,7 @@ from pfield.planning.certify import certify_path
 from pfield.planning.result import PlannedPath
 from pfield.planning.scenes import SEED_GOAL, SEED_START, seed_obstacles
 from pfield.planning.status import PlanStatus
+from pfield.planning.whole_body import JOINT_GOAL_TOLERANCE, WholeBodyOptions, plan_whole_body
 from pfield.robot import RobotModel
 from pfield.robot.collision import CollisionChecker
 from pfield.robot.ik import solve_ik
@@ -207,12 +208,20 @@ def test_a_given_goal_configuration_is_where_the_fallback_goes(xarm: RobotModel)
     assert not any(checker.check(q).in_collision for q in path.joint_positions[::5])
 
 
-def test_a_given_goal_configuration_leaves_the_fields_own_plans_unchanged(xarm: RobotModel, tmp_path: Path) -> None:
+def test_a_goal_configuration_where_the_field_ends_anyway_changes_nothing_without_the_posture_term(
+        xarm: RobotModel, tmp_path: Path) -> None:
+    """With posture_gain 0 a joint goal only checks the end: the field's own plan, bit for bit. With the default
+    gain the steps are drawn toward it too: another motion, reached by the field alone at that configuration."""
     field = PotentialField(FieldConfig(), SEED_GOAL, seed_obstacles(tmp_path))
     alone = field.plan_whole_body(xarm, SEED_Q0, 0.02, 0.01, 25000)
     assert alone.success and alone.planner == "field" and alone.joint_positions is not None
-    given = field.plan_whole_body(xarm, SEED_Q0, 0.02, 0.01, 25000, goal_configuration=alone.joint_positions[-1])
+    end = alone.joint_positions[-1]
+    given = plan_whole_body(field, xarm, SEED_Q0, 0.02, 0.01, 25000, options=WholeBodyOptions(posture_gain=0.0),
+                            goal_configuration=end)
     _same(alone, given)
+    drawn = field.plan_whole_body(xarm, SEED_Q0, 0.02, 0.01, 25000, goal_configuration=end)
+    assert drawn.success and drawn.planner == "field" and drawn.joint_positions is not None
+    assert np.max(np.abs(drawn.joint_positions[-1] - end)) <= JOINT_GOAL_TOLERANCE
 
 
 @pytest.mark.parametrize(("shift", "name", "why"), [
@@ -230,12 +239,11 @@ def test_a_goal_configuration_off_the_goal_or_the_limits_is_refused(xarm: RobotM
 
 
 def test_a_joint_goal_is_reached_in_its_own_configuration_not_another_at_its_pose() -> None:
-    """A MoveIt joint goal (goal_configuration): the field is attracted by its pose and reached it in another
+    """A MoveIt joint goal (goal_configuration): attracted by its pose alone, the field reaches it in another
     configuration of the redundant arm (0.61 rad away here; the Panda's MotionBenchMaker bookshelf plans 5.4 rad,
-    the UR5's flipped wrists 2.7-4.1 rad), and that counted as reached. Beyond JOINT_GOAL_TOLERANCE the global
-    fallback searches to the configuration asked for."""
-    from pfield.planning.whole_body import JOINT_GOAL_TOLERANCE
-
+    the UR5's flipped wrists 2.7-4.1 rad), which is not the goal. The posture term (WholeBodyOptions.posture_gain)
+    draws the arm's free motion toward the configuration asked for, and the field reaches it alone; without the
+    term, beyond JOINT_GOAL_TOLERANCE the global fallback searches to it."""
     panda = RobotModel.builtin("panda")
     ready = panda.named_configuration("ready")
     goal = panda.forward_kinematics(ready)
@@ -246,10 +254,16 @@ def test_a_joint_goal_is_reached_in_its_own_configuration_not_another_at_its_pos
     by_pose = field.plan_whole_body(panda, start, dt=0.02)
     assert by_pose.success and by_pose.planner == "field"
     assert np.max(np.abs(by_pose.joint_positions[-1] - ready)) > JOINT_GOAL_TOLERANCE  # the pose, its own posture
-    asked = field.plan_whole_body(panda, start, dt=0.02, goal_configuration=ready)
+    drawn = field.plan_whole_body(panda, start, dt=0.02, goal_configuration=ready)
+    assert drawn.success and drawn.planner == "field", drawn.failure_reason
+    assert np.max(np.abs(drawn.joint_positions[-1] - ready)) <= JOINT_GOAL_TOLERANCE
+    assert certify_path(panda, [], drawn.joint_positions).clear
+    free = WholeBodyOptions(posture_gain=0.0)
+    asked = plan_whole_body(field, panda, start, dt=0.02, options=free, goal_configuration=ready)
     assert asked.success and asked.planner == "field+global", asked.failure_reason
     assert np.max(np.abs(asked.joint_positions[-1] - ready)) <= JOINT_GOAL_TOLERANCE
-    alone = field.plan_whole_body(panda, start, dt=0.02, goal_configuration=ready, global_fallback=False)
+    alone = plan_whole_body(field, panda, start, dt=0.02, options=free, goal_configuration=ready,
+                            global_fallback=False)
     assert not alone.success and "another configuration than the joint goal" in alone.failure_reason
     # what the failed plan returns is the field's motion, certified clear on the meshes (a contact would cut it
     # short, COLLISION, as for a motion that reaches its goal): here the whole motion

@@ -246,13 +246,15 @@ void step_segments(const robot::RobotView& robot, const WholeBodyScene& scene, W
 
 std::size_t velocity_from_segments(const double* q, const double* previous, const robot::RobotView& robot,
                                    const WholeBodyScene& scene, const WholeBodyParams& params, WholeBodyWorkspace& ws,
-                                   double free_weight, bool hold) {
+                                   double free_weight, bool hold, const Goal* posture) {
   const std::size_t n = ws.joint_count;
   std::fill(ws.free.begin(), ws.free.end(), 0.0);
   ConstraintRows rows{ws.rows.data(), ws.bounds.data(), n, 0};
   obstacle_rows(robot, scene, params, ws, rows, hold);
   self_rows(robot, scene, params, ws, rows, hold);
   joint_limit_rows(q, robot, params, rows);
+  if (posture != nullptr && posture->joints != nullptr)
+    for (std::size_t j = 0; j < n; ++j) ws.free[j] += posture->joint_gain * (posture->joints[j] - q[j]);
   for (std::size_t j = 0; j < n; ++j) ws.rhs[j] += free_weight * ws.free[j];
   math::solve_qp(ws.h.data(), n, ws.rhs.data(), rows.view(), n, ws.x.data(), ws.qp, kDamperQpSettings);
   limit_speed(previous, robot, params, ws, rows);
@@ -277,7 +279,8 @@ std::size_t joint_velocity_step(const double* q, const double* previous, const r
                                 WholeBodyWorkspace& ws) {
   robot::joint_transforms(robot.kinematics, q, ws.frames);
   task(robot, goal, params, ws);
-  return constrained_velocity(q, previous, robot, scene, params, ws, params.damping);
+  step_segments(robot, scene, ws);
+  return velocity_from_segments(q, previous, robot, scene, params, ws, params.damping, false, &goal);
 }
 
 std::size_t autonomy_step(const double* q, const double* previous, const robot::RobotView& robot,

@@ -94,10 +94,13 @@ struct WholeBodyScene {
   bool fitted_self = false;
 };
 
-// The end effector's goal pose.
+// The end effector's goal pose, and optionally a joint goal at it (a posture): joints (n,) or null, drawn toward
+// at joint_gain (1/s) through the null-space channel (velocity_from_segments).
 struct Goal {
   math::Vec3 position;
   math::Quat orientation;
+  const double* joints = nullptr;
+  double joint_gain = 0.0;
 };
 
 // The scratch of one step, sized once (n joints, caps links, M obstacles, P self pairs, the fitted primitives) and
@@ -147,10 +150,12 @@ void step_segments(const robot::RobotView& robot, const WholeBodyScene& scene, W
 // ws.x, speed- and rate-limited, and its twist J qd into ws.result, once the frames and world segments are in ws.
 // previous: the last joint velocity (n,) for the rate limit, or null for none; free_weight scales the null-space
 // repulsion added to the task; hold: the start offsets are taken at q itself (pairs closer than d_s may not
-// approach further: max(d, d_s)), without the scene's offsets. Returns the number of damper rows.
+// approach further: max(d, d_s)), without the scene's offsets; posture: a goal with joints adds
+// joint_gain (q_goal - q) to that free term (the planner's joint goal; shared control has none). Returns the number
+// of damper rows.
 std::size_t velocity_from_segments(const double* q, const double* previous, const robot::RobotView& robot,
                                    const WholeBodyScene& scene, const WholeBodyParams& params, WholeBodyWorkspace& ws,
-                                   double free_weight, bool hold);
+                                   double free_weight, bool hold, const Goal* posture = nullptr);
 
 // step_segments, then velocity_from_segments with the scene's offsets.
 std::size_t constrained_velocity(const double* q, const double* previous, const robot::RobotView& robot,

@@ -35,8 +35,15 @@ static_assert(kStepSize == 21, "StepResult is _whole_body_layout.STEP_OUT's 21 d
 class Planner {
  public:
   Planner(nb::handle_t<SceneArrays> scene, const Point& goal_position, const Quaternion& goal_orientation,
-          const Vector& params)
-      : scene_(scene), goal_(goal_pose(goal_position, goal_orientation)), params_(whole_body_params(params)) {}
+          const Vector& params, std::optional<Vector> goal_joints, double joint_gain)
+      : scene_(scene), goal_(goal_pose(goal_position, goal_orientation)), params_(whole_body_params(params)) {
+    if (goal_joints) {
+      require(goal_joints->shape(0) == this->joints(), "goal_joints: expected one value per joint");
+      joint_goal_.assign(goal_joints->data(), goal_joints->data() + goal_joints->shape(0));
+      goal_.joints = joint_goal_.data();
+      goal_.joint_gain = joint_gain;
+    }
+  }
 
   const robot::RobotView& robot() const { return scene_->robot().view(); }
   const planning::WholeBodyScene& scene() const { return scene_->view(); }
@@ -76,6 +83,7 @@ class Planner {
 
  private:
   Held<SceneArrays> scene_;  // the robot and obstacles the core views
+  std::vector<double> joint_goal_;  // the posture goal_ points to (empty: none)
   planning::Goal goal_;
   WholeBodyParams params_;
 };
@@ -210,8 +218,10 @@ void bind_whole_body(nb::module_& m) {
       .def_ro("last", &PathOutcome::last, "the last step evaluated (its nearest pairs name a failure's culprit)");
 
   nb::class_<Planner>(m, "Planner", "A robot in a scene (robot.Scene) with a goal pose and parameters.")
-      .def(nb::init<nb::handle_t<SceneArrays>, const Point&, const Quaternion&, const Vector&>(), "scene"_a,
-           "goal_position"_a, "goal_orientation"_a, "params"_a,
+      .def(nb::init<nb::handle_t<SceneArrays>, const Point&, const Quaternion&, const Vector&, std::optional<Vector>,
+                    double>(),
+           "scene"_a, "goal_position"_a, "goal_orientation"_a, "params"_a, "goal_joints"_a.none() = nb::none(),
+           "joint_gain"_a = 0.0,
            "goal (3,) and (4,) (x, y, z, w), params: _whole_body_layout.PARAMS's vector (copied).")
       .def("plan", &Planner::plan, "q0"_a, "max_iterations"_a, "cancel"_a, "joints"_a, "velocities"_a, "positions"_a,
            "orientations"_a, "twists"_a, "clearances"_a,

@@ -84,10 +84,12 @@ def core_scene(robot: RobotArrays, scene: Scene) -> Any:
 
 
 def planner(robot: RobotArrays, scene: Scene, goal_p: NDArray[np.float64], goal_q: NDArray[np.float64],
-            params: NDArray[np.float64]) -> Any:
+            params: NDArray[np.float64], goal_joints: NDArray[np.float64] | None = None,
+            joint_gain: float = 0.0) -> Any:
     """The core's ``Planner``: ``robot`` in ``scene`` (:func:`core_scene`), the goal position (3,), orientation (4,)
-    (x, y, z, w) and the parameter vector (``_whole_body_layout.PARAMS``) copied."""
-    return _core.Planner(core_scene(robot, scene), goal_p, goal_q, params)
+    (x, y, z, w) and the parameter vector (``_whole_body_layout.PARAMS``) copied; ``goal_joints`` (n,): a joint
+    goal the steps are drawn toward at ``joint_gain`` (1/s, :attr:`WholeBodyOptions.posture_gain`), copied."""
+    return _core.Planner(core_scene(robot, scene), goal_p, goal_q, params, goal_joints, joint_gain)
 
 
 def culprit(last: Any) -> NDArray[np.float64]:
@@ -99,9 +101,11 @@ def culprit(last: Any) -> NDArray[np.float64]:
 
 def plan_loop(q0: NDArray[np.float64], robot: RobotArrays, scene: Scene, goal_p: NDArray[np.float64],
               goal_q: NDArray[np.float64], params: NDArray[np.float64], max_iterations: int,
-              cancel: NDArray[np.uint8]) -> tuple[Any, ...]:
+              cancel: NDArray[np.uint8], goal_joints: NDArray[np.float64] | None = None,
+              joint_gain: float = 0.0) -> tuple[Any, ...]:
     """Integrate q ← clip(q + q̇ dt) from ``q0`` until the goal, a collision, stagnation, the iteration limit or
     ``cancel[0] != 0`` (a :class:`~pfield.planning.CancelToken`'s flag, read every step; the GIL is released).
+    ``goal_joints``, ``joint_gain``: the posture term (:func:`planner`).
 
     Returns ``(status, count, q, qdot, positions, quaternions, twists, clearances, culprit)`` with ``count``
     recorded waypoints (the start included) and ``status`` a :class:`PlanStatus`. Waypoint k holds the
@@ -111,7 +115,7 @@ def plan_loop(q0: NDArray[np.float64], robot: RobotArrays, scene: Scene, goal_p:
     n, total = len(q0), max_iterations + 1
     qs, qds = np.empty((total, n)), np.empty((total, n))
     positions, quats, twists, clear = np.empty((total, 3)), np.empty((total, 4)), np.empty((total, 6)), np.empty(total)
-    result = planner(robot, scene, goal_p, goal_q, params).plan(
+    result = planner(robot, scene, goal_p, goal_q, params, goal_joints, joint_gain).plan(
         np.ascontiguousarray(q0, dtype=np.float64), max_iterations, cancel, qs, qds, positions, quats, twists, clear)
     count = result.count
     return PlanStatus(result.status), count, qs[:count], qds[:count], positions[:count], quats[:count], \
