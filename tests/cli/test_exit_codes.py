@@ -177,4 +177,5 @@ def test_outputs_and_values_are_checked_before_the_work(args: list[str], says: s
     (tmp_path / "long.yaml").write_text("name: long\nstart: [0, 0, 0]\ngoal: [1, 0]\nduration: 1e9\n")
     result = CliRunner().invoke(app, [a.replace("{tmp}", str(tmp_path)) for a in args])
     assert result.exit_code == 2, result.output
-    assert says in " ".join(result.output.split()) and "Traceback" not in result.output
+    assert says in " ".join(result.stderr.split()) and "Traceback" not in result.output
+    assert "error" not in result.stdout  # a script's stdout gets results, not the complaint

@@ -7,9 +7,8 @@ from typing import TYPE_CHECKING
 
 import typer
 
-from pfield.cli._exit_codes import FAILED, USAGE
-from pfield.cli._node import ServeContext, register_node_factory
-from pfield.errors import PfieldError
+from pfield.cli._exit_codes import FAILED
+from pfield.cli._node import ServeContext, cli_errors, register_node_factory
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -50,11 +49,8 @@ def register(app: typer.Typer) -> None:
         from pfield.viz.plots2d import save_seed_plots
 
         console = Console()
-        try:
+        with cli_errors():
             writable_folder("--output-dir", output_dir)
-        except PfieldError as exc:
-            console.print(f"[red]error:[/red] {exc}")
-            raise typer.Exit(USAGE) from None
         with console.status("plotting the 2D field"):
             paths = save_seed_plots(output_dir)
         for path in paths:
@@ -81,11 +77,8 @@ def register(app: typer.Typer) -> None:
         if list_scenarios:
             _list_scenarios(console)
             return
-        try:
+        with cli_errors():
             writable_folder("--output-dir", output_dir)
             result = run_sim2d(scenario, output_dir, drive, gif, console)
-        except PfieldError as exc:
-            console.print(f"[red]error:[/red] {exc}")
-            raise typer.Exit(USAGE) from exc
         if result.outcome != result.scenario.expected:
             raise typer.Exit(FAILED)
