@@ -28,7 +28,7 @@ from pfield.planning._whole_body_core import core_robot, core_scene
 from pfield.planning.certify import certify_path
 from pfield.planning.global_search import contact_region, self_contact_slack
 from pfield.planning.status import PlanStatus
-from pfield.planning.whole_body import WholeBodyOptions, make_scene, pack_robot, plan_whole_body
+from pfield.planning.whole_body import WholeBodyOptions, make_scene, pack_robot
 from pfield.robot.collision import CollisionChecker
 from pfield.spatial import Pose
 
@@ -164,14 +164,14 @@ def test_a_searched_path_whose_tracking_stalls_is_searched_again_with_another_se
     monkeypatch.setattr(fallback, "track", track)
     # without the posture term, the field ends off the joint goal and the fallback runs (with it, the field alone
     # reaches the joint goal here)
-    path = plan_whole_body(field, panda, start, options=WholeBodyOptions(posture_gain=0.0), plan_options=MBM_OPTIONS,
-                           goal_configuration=goal)
+    path = field.plan_whole_body(panda, start, options=MBM_OPTIONS, goal_configuration=goal,
+                                 whole_body_options=WholeBodyOptions(posture_gain=0.0))
     assert path.success and path.planner == "field+global", path.failure_reason
     assert searched == [PlanStatus.STAGNATION, PlanStatus.STAGNATION, PlanStatus.REACHED]
     assert path.joint_positions is not None and certify_path(panda, obstacles, path.joint_positions).clear
 
     monkeypatch.setattr(fallback, "SEARCH_SEEDS", 1)
     searched.clear()
-    again = plan_whole_body(field, panda, start, options=WholeBodyOptions(posture_gain=0.0), plan_options=MBM_OPTIONS,
-                            goal_configuration=goal)
+    again = field.plan_whole_body(panda, start, options=MBM_OPTIONS, goal_configuration=goal,
+                                  whole_body_options=WholeBodyOptions(posture_gain=0.0))
     assert not again.success and searched == [PlanStatus.STAGNATION, PlanStatus.STAGNATION]

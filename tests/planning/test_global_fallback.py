@@ -19,7 +19,7 @@ from pfield.planning.certify import certify_path
 from pfield.planning.result import PlannedPath
 from pfield.planning.scenes import SEED_GOAL, SEED_START, seed_obstacles
 from pfield.planning.status import PlanStatus
-from pfield.planning.whole_body import JOINT_GOAL_TOLERANCE, WholeBodyOptions, plan_whole_body
+from pfield.planning.whole_body import JOINT_GOAL_TOLERANCE, WholeBodyOptions
 from pfield.robot import RobotModel
 from pfield.robot.collision import CollisionChecker
 from pfield.robot.ik import solve_ik
@@ -211,17 +211,20 @@ def test_a_given_goal_configuration_is_where_the_fallback_goes(xarm: RobotModel)
 def test_a_goal_configuration_where_the_field_ends_anyway_changes_nothing_without_the_posture_term(
         xarm: RobotModel, tmp_path: Path) -> None:
     """With posture_gain 0 a joint goal only checks the end: the field's own plan, bit for bit. With the default
-    gain the steps are drawn toward it too: another motion, reached by the field alone at that configuration."""
+    gain the steps are drawn toward it from the start: another motion, which the field alone still ends at that
+    configuration."""
     field = PotentialField(FieldConfig(), SEED_GOAL, seed_obstacles(tmp_path))
     alone = field.plan_whole_body(xarm, SEED_Q0, 0.02, 0.01, 25000)
     assert alone.success and alone.planner == "field" and alone.joint_positions is not None
     end = alone.joint_positions[-1]
-    given = plan_whole_body(field, xarm, SEED_Q0, 0.02, 0.01, 25000, options=WholeBodyOptions(posture_gain=0.0),
-                            goal_configuration=end)
+    given = field.plan_whole_body(xarm, SEED_Q0, 0.02, 0.01, 25000, goal_configuration=end,
+                                  whole_body_options=WholeBodyOptions(posture_gain=0.0))
     _same(alone, given)
     drawn = field.plan_whole_body(xarm, SEED_Q0, 0.02, 0.01, 25000, goal_configuration=end)
     assert drawn.success and drawn.planner == "field" and drawn.joint_positions is not None
     assert np.max(np.abs(drawn.joint_positions[-1] - end)) <= JOINT_GOAL_TOLERANCE
+    n = min(len(drawn.joint_positions), len(alone.joint_positions))
+    assert np.max(np.abs(drawn.joint_positions[:n] - alone.joint_positions[:n])) > 1e-3  # the term acted
 
 
 @pytest.mark.parametrize(("shift", "name", "why"), [
@@ -259,11 +262,11 @@ def test_a_joint_goal_is_reached_in_its_own_configuration_not_another_at_its_pos
     assert np.max(np.abs(drawn.joint_positions[-1] - ready)) <= JOINT_GOAL_TOLERANCE
     assert certify_path(panda, [], drawn.joint_positions).clear
     free = WholeBodyOptions(posture_gain=0.0)
-    asked = plan_whole_body(field, panda, start, dt=0.02, options=free, goal_configuration=ready)
+    asked = field.plan_whole_body(panda, start, dt=0.02, goal_configuration=ready, whole_body_options=free)
     assert asked.success and asked.planner == "field+global", asked.failure_reason
     assert np.max(np.abs(asked.joint_positions[-1] - ready)) <= JOINT_GOAL_TOLERANCE
-    alone = plan_whole_body(field, panda, start, dt=0.02, options=free, goal_configuration=ready,
-                            global_fallback=False)
+    alone = field.plan_whole_body(panda, start, dt=0.02, goal_configuration=ready, whole_body_options=free,
+                                  global_fallback=False)
     assert not alone.success and "another configuration than the joint goal" in alone.failure_reason
     # what the failed plan returns is the field's motion, certified clear on the meshes (a contact would cut it
     # short, COLLISION, as for a motion that reaches its goal): here the whole motion

@@ -95,7 +95,8 @@ struct WholeBodyScene {
 };
 
 // The end effector's goal pose, and optionally a joint goal at it (a posture): joints (n,) or null, drawn toward
-// at joint_gain (1/s) through the null-space channel (velocity_from_segments).
+// at joint_gain (1/s) through the null-space channel (velocity_from_segments). A view: joints must outlive every
+// copy of the Goal (the binding's Planner owns them and is not copyable).
 struct Goal {
   math::Vec3 position;
   math::Quat orientation;
@@ -162,7 +163,8 @@ std::size_t constrained_velocity(const double* q, const double* previous, const 
                                  const WholeBodyScene& scene, const WholeBodyParams& params, WholeBodyWorkspace& ws,
                                  double free_weight);
 
-// The planner's step at q (n,): joint frames, task, constrained_velocity with free weight lambda^2.
+// The planner's step at q (n,): joint frames, task, step_segments, velocity_from_segments with free weight lambda^2
+// and the goal's posture.
 std::size_t joint_velocity_step(const double* q, const double* previous, const robot::RobotView& robot,
                                 const WholeBodyScene& scene, const Goal& goal, const WholeBodyParams& params,
                                 WholeBodyWorkspace& ws);

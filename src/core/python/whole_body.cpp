@@ -44,6 +44,9 @@ class Planner {
       goal_.joint_gain = joint_gain;
     }
   }
+  // goal_.joints points into joint_goal_: a copy would point into the original
+  Planner(const Planner&) = delete;
+  Planner& operator=(const Planner&) = delete;
 
   const robot::RobotView& robot() const { return scene_->robot().view(); }
   const planning::WholeBodyScene& scene() const { return scene_->view(); }

@@ -28,6 +28,7 @@ from pfield.spatial import Pose, Twist, Wrench, twist_from_checked, wrench_from_
 if TYPE_CHECKING:
     from pfield.planning.options import PlanOptions
     from pfield.planning.result import PlannedPath
+    from pfield.planning.whole_body import WholeBodyOptions
 
 __all__ = ["FieldArrays", "PotentialField"]
 
@@ -304,16 +305,19 @@ class PotentialField:
         max_iterations: int | None = None, rotation_tolerance: float | None = None, *,
         global_fallback: bool | None = None, global_time_limit: float | None = None,
         options: PlanOptions | None = None, goal_configuration: ArrayLike | None = None,
+        whole_body_options: WholeBodyOptions | None = None,
     ) -> PlannedPath:
         """Whole-body plan of ``robot`` from joint positions ``q0`` (:mod:`pfield.planning.whole_body`).
 
         The keyword arguments are shorthands for the :class:`~pfield.planning.PlanOptions` fields of the
         same names and override ``options``'s; ``goal_configuration`` is a joint goal at the field's goal
-        pose, which the global fallback searches to (:func:`~pfield.planning.plan_whole_body`).
+        pose, which the field's steps are drawn toward and the global fallback searches to; ``whole_body_options``:
+        the QP's own settings (:class:`~pfield.planning.WholeBodyOptions`, e.g. ``posture_gain=0`` for no pull
+        toward the joint goal). :func:`~pfield.planning.plan_whole_body` says more.
         """
         from pfield.planning.whole_body import plan_whole_body
 
         return plan_whole_body(self, robot, q0, dt=dt, goal_tolerance=goal_tolerance, max_iterations=max_iterations,
-                               rotation_tolerance=rotation_tolerance, global_fallback=global_fallback,
-                               global_time_limit=global_time_limit, plan_options=options,
-                               goal_configuration=goal_configuration)
+                               rotation_tolerance=rotation_tolerance, options=whole_body_options,
+                               global_fallback=global_fallback, global_time_limit=global_time_limit,
+                               plan_options=options, goal_configuration=goal_configuration)
