@@ -124,3 +124,27 @@ def test_whole_body_plan_around_obstacles_is_exactly_clear(kinova: RobotModel, e
     # the hand crossed the wall's plane y = 0, and the checks above say it never touched the wall
     hand = np.array([kinova.forward_kinematics(q).position for q in executed])
     assert hand[0, 1] < 0.0 < hand[-1, 1]
+
+
+def test_a_continuous_joints_goal_is_turned_to_the_short_way(kinova: RobotModel, exact: ExactRobot) -> None:
+    """A joint goal whose continuous joints (1, 4 and 6) are given a full turn away from the plan's goal: the same
+    rotations, so the same goal; the plan turns them the short way, as MoveIt compares continuous joints, and ends
+    within JOINT_GOAL_TOLERANCE of the goal's equivalent angles. A bounded joint turned by 2π is another goal (off
+    the limits here: refused, naming it)."""
+    from pfield.errors import InvalidInput
+    from pfield.planning.whole_body import JOINT_GOAL_TOLERANCE
+
+    continuous = np.isinf(kinova.upper_limits)
+    turned = GOAL + np.where(continuous, 2.0 * np.pi, 0.0) * np.array([1, 1, 1, -1, 1, 1])[:len(GOAL)]
+    field = PotentialField(MBM_CONFIG, kinova.forward_kinematics(GOAL), list(OBSTACLES))
+    path = field.plan_whole_body(kinova, HOME, options=MBM_OPTIONS, goal_configuration=turned)
+    assert path.success, path.failure_reason
+    waypoints = np.asarray(path.joint_positions)
+    assert np.max(np.abs(waypoints[-1] - GOAL)) <= JOINT_GOAL_TOLERANCE  # not GOAL ± 2π on the continuous joints
+    assert np.all(np.abs(waypoints[:, continuous] - HOME[continuous]) < np.pi + np.abs(GOAL - HOME)[continuous])
+    assert exact.scene(OBSTACLES).path_contact(waypoints, RESOLUTION) is None
+    bounded = int(np.flatnonzero(~continuous)[0])
+    with pytest.raises(InvalidInput) as info:
+        field.plan_whole_body(kinova, HOME, options=MBM_OPTIONS,
+                              goal_configuration=GOAL + 2.0 * np.pi * (np.arange(len(GOAL)) == bounded))
+    assert info.value.field == f"goal_configuration[{bounded}]"

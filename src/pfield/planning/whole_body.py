@@ -30,6 +30,7 @@ SELF_COLLISION, naming the pair, and its path stops before the contact.
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -235,7 +236,8 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
         raise InvalidInput("obstacles", None, "give the Obstacle objects the packed obstacles were made from: "
                            "the certificate checks every reached motion against them on the exact meshes")
     start = robot.check_joint_angles(q0, "starting_joint_angles")
-    goal_q = None if goal_configuration is None else _goal_configuration(robot, goal, goal_configuration, settings)
+    goal_q = None if goal_configuration is None else _goal_configuration(robot, goal, goal_configuration, settings,
+                                                                         start)
     opts = options or WholeBodyOptions()
     params = kernel_parameters(config, settings, opts)
     arrays = pack_robot(robot, config, opts)
@@ -315,9 +317,13 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
                        joint_velocities=qds, status=status, planner=planner, trajectory=trajectory)
 
 
-def _goal_configuration(robot: RobotModel, goal: Pose, values: ArrayLike, settings: PlanOptions) -> NDArray[np.float64]:
+def _goal_configuration(robot: RobotModel, goal: Pose, values: ArrayLike, settings: PlanOptions,
+                        start: NDArray[np.float64]) -> NDArray[np.float64]:
     """``values`` checked as a goal configuration: within the joint limits, and its end effector at ``goal``
-    within the plan's tolerances."""
+    within the plan's tolerances. A continuous joint's value (no limits) is taken as the angle of the same rotation
+    nearest its ``start`` value, as MoveIt compares continuous joints: the field's pull, the reached check and the
+    search then turn it the short way (a goal 2π from the start is the start's own rotation, not a full turn).
+    Joints with limits keep the value asked for."""
     q = robot.check_joint_angles(values, "goal_configuration")
     reached = robot.forward_kinematics(q)
     position_error = float(np.linalg.norm(reached.position - goal.position))
@@ -328,6 +334,9 @@ def _goal_configuration(robot: RobotModel, goal: Pose, values: ArrayLike, settin
                            f"its end effector is {position_error:.4g} m and {rotation_error:.4g} rad from the goal "
                            f"pose (tolerances {settings.goal_tolerance:g} m, {settings.rotation_tolerance:g} rad); "
                            "give a configuration at the goal, or none to let the planner solve the IK")
+    continuous = np.isinf(robot.lower_limits) & np.isinf(robot.upper_limits)
+    for j in np.flatnonzero(continuous):
+        q[j] = start[j] + math.remainder(float(q[j] - start[j]), 2.0 * math.pi)
     return q
 
 
@@ -392,9 +401,10 @@ def plan_whole_body(field: Any, robot: RobotModel, q0: ArrayLike, dt: float | No
             goal: the plan is reached only within :data:`JOINT_GOAL_TOLERANCE` of it on every joint. The field
             is attracted by the pose, and drawn toward this configuration where the task leaves the arm free
             (:attr:`WholeBodyOptions.posture_gain`); when it reaches the pose in another configuration (another IK
-            branch), the global fallback searches to this one (no IK). Outside the limits, or
-            its end effector not at the goal pose within the tolerances → ``InvalidInput``; colliding → the
-            fallback ends with ``GOAL_INVALID`` at once.
+            branch), the global fallback searches to this one (no IK). A continuous joint's value counts as the
+            angle of the same rotation nearest the start (MoveIt's convention), so it is turned the short way.
+            Outside the limits, or its end effector not at the goal pose within the tolerances → ``InvalidInput``;
+            colliding → the fallback ends with ``GOAL_INVALID`` at once.
 
     Returns:
         A :class:`PlannedPath` with joint names, positions and velocities for every waypoint (the start
