@@ -271,9 +271,9 @@ std::size_t velocity_from_segments(const double* q, const double* previous, cons
 
 std::size_t constrained_velocity(const double* q, const double* previous, const robot::RobotView& robot,
                                  const WholeBodyScene& scene, const WholeBodyParams& params, WholeBodyWorkspace& ws,
-                                 double free_weight) {
+                                 double free_weight, const Goal* posture) {
   step_segments(robot, scene, ws);
-  return velocity_from_segments(q, previous, robot, scene, params, ws, free_weight, false);
+  return velocity_from_segments(q, previous, robot, scene, params, ws, free_weight, false, posture);
 }
 
 std::size_t joint_velocity_step(const double* q, const double* previous, const robot::RobotView& robot,
@@ -281,8 +281,7 @@ std::size_t joint_velocity_step(const double* q, const double* previous, const r
                                 WholeBodyWorkspace& ws) {
   robot::joint_transforms(robot.kinematics, q, ws.frames);
   task(robot, goal, params, ws);
-  step_segments(robot, scene, ws);
-  return velocity_from_segments(q, previous, robot, scene, params, ws, params.damping, false, &goal);
+  return constrained_velocity(q, previous, robot, scene, params, ws, params.damping, &goal);
 }
 
 std::size_t autonomy_step(const double* q, const double* previous, const robot::RobotView& robot,

@@ -158,13 +158,13 @@ std::size_t velocity_from_segments(const double* q, const double* previous, cons
                                    const WholeBodyScene& scene, const WholeBodyParams& params, WholeBodyWorkspace& ws,
                                    double free_weight, bool hold, const Goal* posture = nullptr);
 
-// step_segments, then velocity_from_segments with the scene's offsets.
+// step_segments, then velocity_from_segments with the scene's offsets (and posture's pull, when given).
 std::size_t constrained_velocity(const double* q, const double* previous, const robot::RobotView& robot,
                                  const WholeBodyScene& scene, const WholeBodyParams& params, WholeBodyWorkspace& ws,
-                                 double free_weight);
+                                 double free_weight, const Goal* posture = nullptr);
 
-// The planner's step at q (n,): joint frames, task, step_segments, velocity_from_segments with free weight lambda^2
-// and the goal's posture.
+// The planner's step at q (n,): joint frames, task, constrained_velocity with free weight lambda^2 and the goal's
+// posture.
 std::size_t joint_velocity_step(const double* q, const double* previous, const robot::RobotView& robot,
                                 const WholeBodyScene& scene, const Goal& goal, const WholeBodyParams& params,
                                 WholeBodyWorkspace& ws);

@@ -291,16 +291,20 @@ def goal_configurations(robot: RobotModel, goal: Pose, seeds: Sequence[NDArray[n
     return [], f"goal invalid: every inverse-kinematics solution of the goal pose collides ({reachable} found)"
 
 
-def nearest_equivalent(robot: RobotModel, q: NDArray[np.float64], reference: NDArray[np.float64]
-                       ) -> NDArray[np.float64]:
+def nearest_equivalent(robot: RobotModel, q: NDArray[np.float64], reference: NDArray[np.float64],
+                       continuous_only: bool = False) -> NDArray[np.float64]:
     """``q`` with each revolute joint moved by the multiple of 2π that brings it nearest ``reference`` while
     it stays within the joint's limits (continuous joints: any multiple). q_j + 2πm is the same joint
     rotation, so the pose and every link's placement are those of ``q``; only the way there is shorter.
-    Prismatic joints are kept."""
+    Prismatic joints are kept; with ``continuous_only``, so are the revolute joints that have limits (a joint goal
+    asks for their value itself, as MoveIt reads it)."""
     out = np.array(q, dtype=np.float64)
     turn = 2.0 * math.pi
     lower, upper = robot.lower_limits, robot.upper_limits
-    for j in np.flatnonzero(np.asarray(robot.kinematics.kinds) == 0):
+    moved = np.asarray(robot.kinematics.kinds) == 0
+    if continuous_only:
+        moved &= np.isinf(lower) & np.isinf(upper)
+    for j in np.flatnonzero(moved):
         nearest = round((float(reference[j]) - float(out[j])) / turn)
         options = [float(out[j]) + m * turn for m in (nearest - 1, nearest, nearest + 1)]
         inside = [value for value in options if lower[j] <= value <= upper[j]]

@@ -30,7 +30,6 @@ SELF_COLLISION, naming the pair, and its path stops before the contact.
 from __future__ import annotations
 
 import logging
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -48,7 +47,7 @@ from pfield.planning import _whole_body_layout as _wb
 from pfield.planning.cancel import cancel_flag
 from pfield.planning.certify import certify_path
 from pfield.planning.fallback import FALLBACK_PLANNER, FIELD_PLANNER, whole_body_fallback
-from pfield.planning.global_search import GlobalOptions
+from pfield.planning.global_search import GlobalOptions, nearest_equivalent
 from pfield.planning.options import PlanOptions
 from pfield.planning.result import PlannedPath
 from pfield.planning.retime import retime_joint_path
@@ -334,10 +333,7 @@ def _goal_configuration(robot: RobotModel, goal: Pose, values: ArrayLike, settin
                            f"its end effector is {position_error:.4g} m and {rotation_error:.4g} rad from the goal "
                            f"pose (tolerances {settings.goal_tolerance:g} m, {settings.rotation_tolerance:g} rad); "
                            "give a configuration at the goal, or none to let the planner solve the IK")
-    continuous = np.isinf(robot.lower_limits) & np.isinf(robot.upper_limits)
-    for j in np.flatnonzero(continuous):
-        q[j] = start[j] + math.remainder(float(q[j] - start[j]), 2.0 * math.pi)
-    return q
+    return nearest_equivalent(robot, q, start, continuous_only=True)
 
 
 def _endpoint_collision(checker: CollisionChecker, start: NDArray[np.float64], goal: NDArray[np.float64] | None
