@@ -80,11 +80,11 @@ def median_time(fn: Callable[[], object], *, repeat: int = 7, number: int = 1, w
 
 
 class Report(NamedTuple):
-    """What a module's ``run`` may return instead of bare rows: the rows and other views of them
-    (file name → Markdown), which the runner writes beside the rows."""
+    """What a module's ``run`` may return instead of bare rows: the rows and other views of them (file name →
+    Markdown or CSV text, or a picture's bytes), which the runner writes beside the rows."""
 
     rows: list[BenchRow]
-    tables: dict[str, str]
+    files: dict[str, str | bytes]
 
 
 HOST_CHECK = "host check: sum(range(10**6)) in pure Python"

@@ -165,8 +165,8 @@ def merge(olds: list[list[dict[str, Any]]], news: list[list[dict[str, Any]]],
     return rows, figures
 
 
-def copy_tables(source: Path, out: Path, module: str) -> None:
-    """The other files a module wrote beside its rows (its Report tables) in ``source``, copied to ``out``."""
+def copy_files(source: Path, out: Path, module: str) -> None:
+    """The other files a module wrote beside its rows (its Report files) in ``source``, copied to ``out``."""
     for path in source.iterdir():
         if path.is_file() and path.name not in (f"{module}.json", "latest.md"):
             shutil.copy2(path, out / path.name)

@@ -34,7 +34,8 @@ Reported per robot, scene and planner: valid/total problems, success over the va
 planning time (every valid problem; a failure counts with the time it took; the CPU is often shared, so the JSON
 records also hold CPU time), median joint path length (rad, L2 over the waypoints, successes), median trajectory
 duration (s, pfield's retimed trajectories) and the colliding claims. The failures and collisions are listed by
-scene, index and status.
+scene, index and status. ``make bench`` also writes every plan's figures (:data:`PLANS_CSV`) and draws the planning
+times from them (:data:`TIMES_PICTURE`; ``--redraw CSV`` draws it again from a saved file).
 
 Run: ``python -m benchmarks.bench_fallback [--robot panda|ur5 ...] [--limit N] [--scenes NAME ...]
 [--out FILE.jsonl]`` (default: both robots, every problem; ``make bench`` runs :data:`QUICK_LIMIT` problems per
@@ -46,6 +47,8 @@ scene, a full ``make bench`` every problem). ``--out`` writes one JSON object pe
 from __future__ import annotations
 
 import argparse
+import csv
+import io
 import json
 import logging
 import math
@@ -455,11 +458,141 @@ def bench(robots: Sequence[str] = tuple(ROBOTS), limit: int | None = None, scene
     return results, missing
 
 
+PLANS_CSV = "mbm_plans.csv"
+"""The file beside the table with one line per plan (:func:`plans_csv`)."""
+TIMES_PICTURE = "mbm_times.png"
+"""The picture of the planning times (:func:`times_picture`), drawn from the plans' lines."""
+TIME_TARGETS_MS = (10.0, 100.0)
+"""(ms) Issue 34's median and p95 planning time per scene, drawn across the picture."""
+_CSV_COLUMNS = ("robot", "scene", "index", "planner", "status", "success", "ms", "cpu_ms", "path_rad", "duration_s",
+                "contact")
+
+
+@dataclass(frozen=True)
+class PlanLine:
+    """One plan of the table (a planner on one valid problem), as :data:`PLANS_CSV` keeps it."""
+
+    robot: str
+    scene: str
+    index: int
+    planner: str
+    status: str
+    success: bool
+    ms: float
+    cpu_ms: float
+    path_rad: float
+    duration_s: float
+    contact: str
+
+
+def plan_lines(results: Sequence[Result]) -> list[PlanLine]:
+    """Every plan of ``results`` (valid problems only), in the order they ran."""
+    return [PlanLine(r.robot, r.scene, r.index, planner, o.status, o.success, 1e3 * o.seconds, 1e3 * o.cpu_seconds,
+                     o.length, o.duration, o.contact)
+            for r in results for planner, o in r.outcomes.items()]
+
+
+def plans_csv(lines: Sequence[PlanLine]) -> str:
+    """:data:`PLANS_CSV`'s text: a header, then one row per plan (times in ms; path and duration empty where not
+    measured; ``contact``: the independent check's first contact of a claimed success, empty when clear)."""
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(_CSV_COLUMNS)
+
+    def number(value: float, digits: int) -> str:
+        return "" if math.isnan(value) else f"{value:.{digits}f}"
+
+    for p in lines:
+        writer.writerow([p.robot, p.scene, p.index, p.planner, p.status, int(p.success), number(p.ms, 3),
+                         number(p.cpu_ms, 3), number(p.path_rad, 4), number(p.duration_s, 3), p.contact])
+    return out.getvalue()
+
+
+def read_plans_csv(text: str) -> list[PlanLine]:
+    """The plans of a :func:`plans_csv` text."""
+    reader = csv.DictReader(io.StringIO(text))
+    if tuple(reader.fieldnames or ()) != _CSV_COLUMNS:
+        raise ValueError(f"not a {PLANS_CSV}: its columns are {reader.fieldnames}, expected {list(_CSV_COLUMNS)}")
+
+    def number(cell: str) -> float:
+        return float(cell) if cell else math.nan
+
+    return [PlanLine(row["robot"], row["scene"], int(row["index"]), row["planner"], row["status"],
+                     row["success"] == "1", number(row["ms"]), number(row["cpu_ms"]), number(row["path_rad"]),
+                     number(row["duration_s"]), row["contact"]) for row in reader]
+
+
+_PLANNER_COLOURS = {PLANNERS[0]: "#1f77b4", PLANNERS[1]: "#ff7f0e"}  # matplotlib's tab10 blue and orange
+
+
+def times_picture(lines: Sequence[PlanLine]) -> bytes:
+    """A PNG of the planning times: a panel per robot, per scene a box per planner (the box: quartiles; the line
+    inside: the median; the whiskers: 5th and 95th percentiles; the plans beyond them as dots) on a log scale,
+    every valid problem counted as the table counts it (a failure with the time it took), the share solved
+    above each box, and :data:`TIME_TARGETS_MS` across."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Patch
+
+    robots = list(dict.fromkeys(p.robot for p in lines))
+    scenes = {robot: list(dict.fromkeys(p.scene for p in lines if p.robot == robot)) for robot in robots}
+    planners = [name for name in PLANNERS if any(p.planner == name for p in lines)]
+    widths = [max(len(scenes[robot]), 1) for robot in robots] or [1]
+    figure = Figure(figsize=(2.0 + 1.45 * sum(widths), 4.6))
+    FigureCanvasAgg(figure)
+    grid = figure.add_gridspec(1, len(widths), width_ratios=widths, wspace=0.08)
+    axes = [figure.add_subplot(grid[0, k]) for k in range(len(widths))]
+    for k, (ax, robot) in enumerate(zip(axes, robots, strict=False)):
+        names = scenes[robot]
+        for s, scene in enumerate(names):
+            for j, planner in enumerate(planners):
+                here = [p for p in lines if p.robot == robot and p.scene == scene and p.planner == planner]
+                if not here:
+                    continue
+                where = s + (j - (len(planners) - 1) / 2) * 0.38
+                colour = _PLANNER_COLOURS[planner]
+                ax.boxplot([p.ms for p in here], positions=[where], widths=0.32, whis=(5, 95), patch_artist=True,
+                           boxprops={"facecolor": colour, "alpha": 0.55, "edgecolor": colour},
+                           medianprops={"color": "black"}, whiskerprops={"color": colour},
+                           capprops={"color": colour},
+                           flierprops={"marker": ".", "markersize": 3, "markeredgecolor": colour})
+                solved = sum(p.success for p in here)
+                ax.annotate(f"{100.0 * solved / len(here):.0f} %", (where, 1.0), xycoords=("data", "axes fraction"),
+                            xytext=(0, -11), textcoords="offset points", ha="center", fontsize=7, color=colour)
+        for target, label in zip(TIME_TARGETS_MS, ("median target", "p95 target"), strict=True):
+            ax.axhline(target, color="0.35", linestyle="--", linewidth=0.8)
+            if k == 0:
+                ax.annotate(f"{label} {target:g} ms", (0.0, target), xycoords=("axes fraction", "data"),
+                            xytext=(3, 2), textcoords="offset points", fontsize=7, color="0.35")
+        ax.set_yscale("log")
+        ax.set_xticks(range(len(names)), [name.replace("_", "\n", 1) for name in names], fontsize=8)
+        ax.set_xlim(-0.6, len(names) - 0.4)
+        ax.set_title(f"{robot}: {len({(p.scene, p.index) for p in lines if p.robot == robot})} valid problems",
+                     fontsize=10)
+        ax.grid(axis="y", which="major", color="0.9")
+        if k == 0:
+            ax.set_ylabel("planning time per problem (ms, wall)")
+        else:
+            ax.tick_params(labelleft=False)
+    low = min((p.ms for p in lines if p.ms > 0.0), default=1.0)
+    high = max((p.ms for p in lines), default=1e4)
+    for ax in axes:
+        ax.set_ylim(low / 1.5, high * 3.0)
+    figure.suptitle("MotionBenchMaker: planning time per scene (share solved above each box)", fontsize=10, y=1.05)
+    figure.legend(handles=[Patch(facecolor=_PLANNER_COLOURS[p], alpha=0.55, label=p) for p in planners],
+                  loc="upper center", bbox_to_anchor=(0.5, 1.01), ncol=len(planners), fontsize=8, frameon=False)
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=110, bbox_inches="tight")
+    return buffer.getvalue()
+
+
 def run(quick: bool) -> Report:
     results, missing = bench(limit=QUICK_LIMIT if quick else None)
     lines = figures(results)
+    plans = plan_lines(results)
     return Report(rows(lines), {"mbm_table.md": table(lines, missing) + "\n",
-                                "mbm_problems.md": problems_list(results) + "\n"})
+                                "mbm_problems.md": problems_list(results) + "\n", PLANS_CSV: plans_csv(plans),
+                                TIMES_PICTURE: times_picture(plans)})
 
 
 def main(argv: Sequence[str] | None = None) -> None:
@@ -470,7 +603,18 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--ompl-time", type=float, default=OMPL_TIME_LIMIT, help="OMPL's time limit (s)")
     parser.add_argument("--no-ompl", action="store_true", help="run pfield only")
     parser.add_argument("--out", type=Path, default=None, help="JSON-lines file of every plan")
+    parser.add_argument("--redraw", type=Path, default=None, metavar="CSV",
+                        help=f"draw {TIMES_PICTURE} again from a saved {PLANS_CSV} (beside it) and plan nothing")
     args = parser.parse_args(argv)
+    if args.redraw is not None:
+        try:
+            plans = read_plans_csv(args.redraw.read_text())
+        except (OSError, ValueError, KeyError) as error:
+            parser.error(f"--redraw {args.redraw}: {error}")
+        picture = args.redraw.with_name(TIMES_PICTURE)
+        picture.write_bytes(times_picture(plans))
+        print(f"wrote {picture} ({len(plans)} plans)")
+        return
     if args.limit is not None and args.limit < 1:
         parser.error(f"--limit must be at least 1, got {args.limit}")
     if not args.ompl_time > 0:

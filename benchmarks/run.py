@@ -159,12 +159,15 @@ def _in_process(name: str, quick: bool, out: Path) -> tuple[list[BenchRow], dict
     start = time.perf_counter()
     module = importlib.import_module(f"benchmarks.{name}")
     result = module.run(quick)
-    rows, tables = (result.rows, result.tables) if isinstance(result, Report) else (result, {})
+    rows, files = (result.rows, result.files) if isinstance(result, Report) else (result, {})
     if rows:
         rows = [BenchRow(rows[0].section, HOST_CHECK, host, "ms",
                          note=f"before {name}; single-thread figures of two runs compare through it"), *rows]
-    for file_name, text in tables.items():
-        (out / file_name).write_text(text)
+    for file_name, content in files.items():
+        if isinstance(content, bytes):
+            (out / file_name).write_bytes(content)
+        else:
+            (out / file_name).write_text(content)
     return rows, _payload(name, time.perf_counter() - start, host, rows)
 
 
@@ -186,7 +189,7 @@ def _paired(name: str, old: _old_engine.Engine, quick: bool, rounds: int, out: P
         new_runs = [r for r in news if r.payload is not None]
         if not new_runs:
             return [], None
-        _old_engine.copy_tables(new_runs[-1].out, out, name)
+        _old_engine.copy_files(new_runs[-1].out, out, name)
     new_payloads = [r.payload for r in new_runs if r.payload is not None]
     rows, figures = _old_engine.merge([p["rows"] for p in old_payloads], [p["rows"] for p in new_payloads])
     hosts = [p["host_check_ms"] for p in new_payloads if p.get("host_check_ms")]

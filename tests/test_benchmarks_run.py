@@ -71,12 +71,15 @@ def test_a_full_run_updates_the_tracked_results(fake_benchmarks: Path, monkeypat
 def test_a_reports_tables_go_where_the_run_writes(fake_benchmarks: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     module = sys.modules["benchmarks.bench_alpha"]
     rows = module.run(False)
-    monkeypatch.setattr(module, "run", lambda quick: Report(rows, {"alpha_table.md": "a table\n"}))
+    picture = b"\x89PNG\r\n\x1a\n not decoded here"
+    monkeypatch.setattr(module, "run", lambda quick: Report(rows, {"alpha_table.md": "a table\n",
+                                                                   "alpha.png": picture}))
     before = _snapshot(fake_benchmarks)
     monkeypatch.setattr(sys, "argv", ["benchmarks.run", "--only", "alpha"])
     bench_run.main()
     assert _snapshot(fake_benchmarks) == before
     assert (fake_benchmarks / "partial" / "alpha_table.md").read_text() == "a table\n"
+    assert (fake_benchmarks / "partial" / "alpha.png").read_bytes() == picture
     assert json.loads((fake_benchmarks / "partial" / "bench_alpha.json").read_text())["rows"][1]["value"] == 1.0
     monkeypatch.setattr(sys, "argv", ["benchmarks.run"])
     bench_run.main()
@@ -203,7 +206,38 @@ def test_the_mbm_table_adds_a_line_over_all_scenes_with_vamps_path_as_the_target
     assert single.scene == "box"
 
 
-@pytest.mark.parametrize("argv", [["--limit", "0"], ["--robot", "kuka"], ["--ompl-time", "0"], ["--scenes", "x"]])
+def test_the_mbm_plans_round_trip_through_their_csv_and_draw_a_picture_per_robot(tmp_path: Path) -> None:
+    from benchmarks import bench_fallback
+    from benchmarks.bench_fallback import Result, plan_lines, plans_csv, read_plans_csv, times_picture
+    from matplotlib.image import imread
+
+    results = [Result("panda", "box", 1, "", "", {"pfield": _outcome(True, 0.004, 4.5),
+                                                  "OMPL RRT-Connect": _outcome(False, 5.0)}),
+               Result("ur5", "cage", 7, "", "", {"pfield": _outcome(True, 0.041, 8.0, "wrist_2_link/bar at 3")}),
+               Result("ur5", "cage", 8, "forearm_link/bar", "")]  # invalid: no plan, no line
+    lines = plan_lines(results)
+    assert [(p.robot, p.scene, p.index, p.planner) for p in lines] == [
+        ("panda", "box", 1, "pfield"), ("panda", "box", 1, "OMPL RRT-Connect"), ("ur5", "cage", 7, "pfield")]
+    text = plans_csv(lines)
+    assert text.splitlines()[1] == "panda,box,1,pfield,reached,1,4.000,4.000,4.5000,2.000,"
+    assert text.splitlines()[2] == "panda,box,1,OMPL RRT-Connect,global_time_limit,0,5000.000,5000.000,,,"
+    back = read_plans_csv(text)
+    assert back[2].contact == "wrist_2_link/bar at 3" and back[2].ms == pytest.approx(41.0)
+    assert math.isnan(back[1].path_rad) and not back[1].success and back[0].success
+    with pytest.raises(ValueError, match="columns"):
+        read_plans_csv("robot,scene\nur5,box\n")
+    picture = tmp_path / "mbm_times.png"
+    picture.write_bytes(times_picture(back))
+    height, width = imread(picture).shape[:2]
+    assert width > height > 300  # two robots side by side
+    (tmp_path / "mbm_plans.csv").write_text(text)
+    (tmp_path / "mbm_times.png").unlink()
+    bench_fallback.main(["--redraw", str(tmp_path / "mbm_plans.csv")])
+    assert (tmp_path / "mbm_times.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("argv", [["--limit", "0"], ["--robot", "kuka"], ["--ompl-time", "0"], ["--scenes", "x"],
+                                  ["--redraw", "/nonexistent/mbm_plans.csv"]])
 def test_the_mbm_bench_refuses_bad_arguments(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
     from benchmarks import bench_fallback
 
