@@ -79,7 +79,7 @@ $(CONTROL_MSGS_STAMP): $(CONTROL_MSGS_PKG)/CMakeLists.txt $(CONTROL_MSGS_PKG)/pa
 
 ros2-interfaces: $(CONTROL_MSGS_STAMP)
 
-# warmup first: a self-check of the install (seconds; on a new machine it fits the built-in robots' link models)
+# warmup first: a self-check of the install (about a second; the built-in robots' link models ship with pfield)
 demo: $(STAMP) $(CORE_STAMP)
 	$(VENV)/bin/pfield warmup
 	$(VENV)/bin/pfield demo

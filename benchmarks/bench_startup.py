@@ -1,16 +1,17 @@
 """Start-up: ``pfield warmup`` on a new machine, and a new process's first whole-body plan.
 
-Nothing compiles at run time (the kernels are the compiled core, built at install); what a new machine does once
-is fit the robots' link models into pfield's cache (``PFIELD_CACHE_DIR``, :func:`pfield.robot._fit.cache_root`).
+Nothing compiles at run time (the kernels are the compiled core, built at install), and the built-in robots' link
+models ship with pfield (:data:`pfield.robot._fit.SHIPPED_DIRECTORY`): a new machine with an empty cache
+(``PFIELD_CACHE_DIR``, :func:`pfield.robot._fit.cache_root`) reads them and fits nothing.
 
 * self-check, empty cache — ``pfield.warmup.check()`` (what ``pfield warmup`` runs) in a new process whose
-  ``PFIELD_CACHE_DIR`` is an empty temporary directory: it fits both built-in robots. CPU time of that process
+  ``PFIELD_CACHE_DIR`` is an empty temporary directory (the shipped fits are read). CPU time of that process
   (user + system; it does not grow when other processes share the machine) and wall time.
 * first plan — a new process with that cache filled: ``import pfield``, load the xArm7, build a field
   of five primitive obstacles (one of each shape) and plan the seed's whole-body example from the seed's
   start (the node's first ``plan_path``). Measured from spawning the interpreter to its exit; target 1.5 s.
   Once more with the seed's six obstacles, the mesh included (importing trimesh costs most of the difference),
-  and once with an empty cache (the xArm7's link model fitted in that process: a new machine's first plan).
+  and once with an empty cache (a new machine's first plan: the xArm7's shipped fits read in that process).
 """
 
 from __future__ import annotations
@@ -83,7 +84,7 @@ def run(quick: bool) -> list[BenchRow]:
     cold_wall = statistics.median(w for w, _ in cold)
     return [
         BenchRow(SECTION, "pfield warmup self-check (empty cache), CPU", check_cpu, "s",
-                 note="pfield.warmup.check() in a new process: fits the xArm7 and the Panda; user + system time"),
+                 note="pfield.warmup.check() in a new process, empty user cache; user + system time"),
         BenchRow(SECTION, "pfield warmup self-check (empty cache), wall", check_wall, "s",
                  note="grows with the machine's load; the CPU row does not"),
         BenchRow(SECTION, "new process to first whole-body plan (warm cache), wall", first_wall, "s", target=1.5,
@@ -93,5 +94,5 @@ def run(quick: bool) -> list[BenchRow]:
         BenchRow(SECTION, "the same with the seed's mesh obstacle too, CPU", mesh_cpu, "s",
                  note="adds importing trimesh (+scipy) and loading the mesh"),
         BenchRow(SECTION, "new process to first whole-body plan (empty cache), wall", cold_wall, "s",
-                 note="a new machine's first plan: the xArm7's link model is fitted in that process"),
+                 note="a new machine's first plan: the xArm7's shipped fits are read in that process"),
     ]

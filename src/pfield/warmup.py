@@ -1,13 +1,14 @@
 """A fast self-check of pfield on this machine (``pfield warmup``), and the node's readiness.
 
 pfield's per-step kernels are the compiled core (:mod:`pfield._core`, built when pfield is installed), so nothing
-compiles on first use. What a new machine still does once is fit each robot's link model (seconds per robot; the
-fits are then read from pfield's cache, :func:`pfield.robot._fit.cache_root`). :func:`check` runs :data:`STEPS`,
+compiles on first use, and the built-in robots' link models ship with pfield
+(:data:`pfield.robot._fit.SHIPPED_DIRECTORY`); a URDF robot new to the machine has its link model fitted once
+(seconds), then read from pfield's cache (:func:`pfield.robot._fit.cache_root`). :func:`check` runs :data:`STEPS`,
 each on a tiny problem, and says what each checked:
 
 * the compiled core imports, with every part;
 * the signed distances of one obstacle of every shape (a triangle mesh included) against closed forms;
-* each built-in robot's link model, fitted now or read from the cache (what takes time on a new machine);
+* each built-in robot's link model, read from the user's cache or the fits shipped with pfield;
 * a task-space plan and an xArm7 whole-body plan, each reaching its goal.
 
 For the node (``pfield serve``, ``pfield ros2 node``):

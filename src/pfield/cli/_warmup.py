@@ -8,8 +8,8 @@ import typer
 
 def warmup() -> None:
     """Check that pfield works here: the compiled core imports, signed distances of every shape are right, the
-    built-in robots' link models load (fitted once on a new machine, seconds each; then read from the cache,
-    $PFIELD_CACHE_DIR or ~/.cache/pfield), and a task-space and a whole-body plan reach their goals.
+    built-in robots' link models load (their fits ship with pfield; a cache in $PFIELD_CACHE_DIR or
+    ~/.cache/pfield comes first), and a task-space and a whole-body plan reach their goals.
 
     Prints what each step checked; exit status 1 when a step fails. `make demo` runs it first.
     """

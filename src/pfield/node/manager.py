@@ -97,8 +97,9 @@ DEFAULT_GOAL_TOLERANCE = 0.01
 """m: the goal tolerance of a plan whose request leaves ``goal_tolerance`` at 0 (the seed's examples)."""
 MAX_PLAN_WORK = 50_000_000
 """Largest ``max_iterations × max(1, obstacles)`` of one plan (obstacle-steps): e.g. 200 000 iterations
-among 250 obstacles or 30 000 among 1666. Measured ~0.6 µs per obstacle-step (task space, spheres), so
-the obstacles cost a capped plan at most ~30 s."""
+among 250 obstacles or 30 000 among 1666. With the compiled core a task-space step costs about 0.04 µs per sphere
+and up to about 2 µs per 448-triangle mesh (``make bench`` of 2026-12-07: bench_task_space, bench_field), so a capped
+plan takes a few seconds among spheres and up to a minute or two among meshes, off the event loop."""
 QUICK_CALL_SECONDS = 0.5e-3
 """s: a control-loop call (autonomy vector, assistance) that took at most this long is *quick*: the next one
 of its kind, on the same derived state and no more obstacles, may be answered on the transport's event loop
