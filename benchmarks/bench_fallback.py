@@ -517,9 +517,15 @@ def read_plans_csv(text: str) -> list[PlanLine]:
     def number(cell: str) -> float:
         return float(cell) if cell else math.nan
 
-    return [PlanLine(row["robot"], row["scene"], int(row["index"]), row["planner"], row["status"],
-                     row["success"] == "1", number(row["ms"]), number(row["cpu_ms"]), number(row["path_rad"]),
-                     number(row["duration_s"]), row["contact"]) for row in reader]
+    lines = []
+    for row in reader:
+        if None in row or None in row.values():  # a row with more (key None) or fewer (values None) cells
+            cells = sum(v is not None for k, v in row.items() if k is not None) + len(row.get(None) or ())
+            raise ValueError(f"line {reader.line_num} has {cells} of {len(_CSV_COLUMNS)} cells")
+        lines.append(PlanLine(row["robot"], row["scene"], int(row["index"]), row["planner"], row["status"],
+                              row["success"] == "1", number(row["ms"]), number(row["cpu_ms"]),
+                              number(row["path_rad"]), number(row["duration_s"]), row["contact"]))
+    return lines
 
 
 _PLANNER_COLOURS = {PLANNERS[0]: "#1f77b4", PLANNERS[1]: "#ff7f0e"}  # matplotlib's tab10 blue and orange
@@ -534,9 +540,12 @@ def times_picture(lines: Sequence[PlanLine]) -> bytes:
     from matplotlib.figure import Figure
     from matplotlib.patches import Patch
 
-    robots = list(dict.fromkeys(p.robot for p in lines))
-    scenes = {robot: list(dict.fromkeys(p.scene for p in lines if p.robot == robot)) for robot in robots}
-    planners = [name for name in PLANNERS if any(p.planner == name for p in lines)]
+    grouped: dict[tuple[str, str, str], list[PlanLine]] = {}  # (robot, scene, planner) -> its plans, in run order
+    for p in lines:
+        grouped.setdefault((p.robot, p.scene, p.planner), []).append(p)
+    robots = list(dict.fromkeys(robot for robot, _, _ in grouped))
+    scenes = {robot: list(dict.fromkeys(scene for r, scene, _ in grouped if r == robot)) for robot in robots}
+    planners = [name for name in PLANNERS if any(planner == name for _, _, planner in grouped)]
     widths = [max(len(scenes[robot]), 1) for robot in robots] or [1]
     figure = Figure(figsize=(2.0 + 1.45 * sum(widths), 4.6))
     FigureCanvasAgg(figure)
@@ -546,8 +555,8 @@ def times_picture(lines: Sequence[PlanLine]) -> bytes:
         names = scenes[robot]
         for s, scene in enumerate(names):
             for j, planner in enumerate(planners):
-                here = [p for p in lines if p.robot == robot and p.scene == scene and p.planner == planner]
-                if not here:
+                here = grouped.get((robot, scene, planner))
+                if here is None:
                     continue
                 where = s + (j - (len(planners) - 1) / 2) * 0.38
                 colour = _PLANNER_COLOURS[planner]
@@ -609,7 +618,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     if args.redraw is not None:
         try:
             plans = read_plans_csv(args.redraw.read_text())
-        except (OSError, ValueError, KeyError) as error:
+        except (OSError, ValueError) as error:
             parser.error(f"--redraw {args.redraw}: {error}")
         picture = args.redraw.with_name(TIMES_PICTURE)
         picture.write_bytes(times_picture(plans))

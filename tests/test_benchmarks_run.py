@@ -226,6 +226,8 @@ def test_the_mbm_plans_round_trip_through_their_csv_and_draw_a_picture_per_robot
     assert math.isnan(back[1].path_rad) and not back[1].success and back[0].success
     with pytest.raises(ValueError, match="columns"):
         read_plans_csv("robot,scene\nur5,box\n")
+    with pytest.raises(ValueError, match="line 3 has 4 of 11 cells"):
+        read_plans_csv(text.splitlines()[0] + "\n" + text.splitlines()[1] + "\nur5,cage,7,pfield\n")
     picture = tmp_path / "mbm_times.png"
     picture.write_bytes(times_picture(back))
     height, width = imread(picture).shape[:2]
