@@ -117,3 +117,32 @@ TEST(a_point_search_goes_around_a_sphere_and_shortcuts_keep_the_margin) {
         planning::SearchStatus::Searching);
   CHECK(checker.states_checked() == before);
 }
+
+TEST(a_bound_on_the_checks_ends_a_chunk_where_the_budget_would_not) {
+  // the race of seeds (global_search._Race) lowers a lane's bound while it runs: no iteration starts at or past it
+  const OneSphere sphere(0.5, 0.0, 0.0, 0.2);
+  planning::StateChecker checker(sphere.view, 0.02, 0.005);
+  const double start[3] = {0.0, 0.0, 0.0}, goal[3] = {1.0, 0.0, 0.0};
+  const double lower[3] = {-0.5, -0.5, -0.5}, upper[3] = {1.5, 0.5, 0.5};
+  planning::Trees trees(start, goal, 1, 3, 2000, 3);
+  const std::int64_t bound = 40;
+  const planning::SearchOutcome bounded = planning::rrt_connect(checker, trees, lower, upper, 0.1, 100000, nullptr,
+                                                                &bound);
+  CHECK(bounded.status == planning::SearchStatus::Searching);
+  CHECK(checker.states_checked() >= bound);
+  // past the bound only the iteration that started before it: an extension (at most step / resolution = 20
+  // samples) and the other tree's connection (at most the box's diagonal / step = 25 extensions), far below the budget
+  CHECK(checker.states_checked() < bound + 20 + 25 * 20);
+  // a bound already reached checks nothing
+  const std::int64_t reached = checker.states_checked();
+  CHECK(planning::rrt_connect(checker, trees, lower, upper, 0.1, 100000, nullptr, &reached).status ==
+        planning::SearchStatus::Searching);
+  CHECK(checker.states_checked() == reached);
+  // the same stream with no bound checks the budget's worth (or finds the path)
+  planning::StateChecker free_checker(sphere.view, 0.02, 0.005);
+  planning::Trees same(start, goal, 1, 3, 2000, 3);
+  const planning::SearchOutcome unbounded = planning::rrt_connect(free_checker, same, lower, upper, 0.1, 100000,
+                                                                  nullptr);
+  CHECK(unbounded.status == planning::SearchStatus::Found || free_checker.states_checked() >= 100000);
+  CHECK(free_checker.states_checked() > checker.states_checked());
+}

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import itertools
+import threading
+import time
 from typing import Any
 
 import numpy as np
@@ -12,6 +14,7 @@ from pfield._core.robot_distance import fitted_self_clearances_at
 from pfield.errors import InvalidInput
 from pfield.field.config import FieldConfig
 from pfield.geometry import Box, Obstacle, Sphere, pack_obstacles, signed_distances
+from pfield.planning import global_search
 from pfield.planning._whole_body_core import core_robot
 from pfield.planning.global_search import (
     GlobalOptions,
@@ -104,6 +107,108 @@ def test_a_full_tree_starts_the_search_again_until_the_time_limit() -> None:
     assert result.states_checked > 20 * 50  # many trees of 50 nodes, not one
 
 
+def _holed_enclosure(gap: float) -> list[Obstacle]:
+    """:func:`_enclosure` with a square hole of side ``gap`` in its wall at x = 0.75, on the x axis."""
+    side = (0.5 - gap) / 2
+    walls = [((0.05, 0.5, 0.5), (1.25, 0, 0)), ((0.5, 0.05, 0.5), (1.0, 0.25, 0)), ((0.5, 0.05, 0.5), (1.0, -0.25, 0)),
+             ((0.5, 0.5, 0.05), (1.0, 0, 0.25)), ((0.5, 0.5, 0.05), (1.0, 0, -0.25)),
+             ((0.05, side, 0.5), (0.75, (gap + side) / 2, 0)), ((0.05, side, 0.5), (0.75, -(gap + side) / 2, 0)),
+             ((0.05, gap, side), (0.75, 0, (gap + side) / 2)), ((0.05, gap, side), (0.75, 0, -(gap + side) / 2))]
+    return [Obstacle(f"wall{i}", Box(*size), Pose(centre)) for i, (size, centre) in enumerate(walls)]
+
+
+# Into the holed enclosure (3.5 cm hole, 1 cm margin): RRT-Connect's checks to a path are heavy-tailed there. Seed 1
+# alone needs about 1.2 million (a restart's fresh trees find it), the race's second seed (1 + _LANE_SEED) about 500;
+# seed 3 alone about 22 000, its second seed about 1.9 million. Both are past RACE_AFTER, so both races run.
+_HOLE = ((make_scene(pack_obstacles(_holed_enclosure(0.035))), np.zeros(3), np.array([1.0, 0.0, 0.0]), 0.01))
+
+
+def _hole_search(seed: int, threads: int = 2, cancel: Any = None) -> Any:
+    return point_space_search(*_HOLE, GlobalOptions(seed=seed, search_threads=threads, time_limit=30.0), cancel)
+
+
+@pytest.mark.parametrize(("seed", "winner"), [(1, 1), (3, 0)])
+def test_a_long_search_races_another_seed_and_keeps_the_path_found_with_fewer_checks(seed: int, winner: int) -> None:
+    """The race's second lane is the search seeded ``seed + _LANE_SEED`` started after RACE_AFTER checks of the
+    first: its path (and its shortening, which draws from its own trees' stream) is that search's own."""
+    raced = _hole_search(seed)
+    alone = [_hole_search(seed, threads=1), _hole_search(seed + global_search._LANE_SEED, threads=1)]
+    assert raced.found and all(result.found for result in alone)
+    np.testing.assert_array_equal(raced.path, alone[winner].path)
+    if winner == 1:  # the race checked fewer states than the first seed alone
+        assert raced.states_checked < alone[0].states_checked
+    assert raced.states_checked > global_search.RACE_AFTER  # both lanes' checks are counted
+
+
+def test_the_race_keeps_the_same_path_whatever_the_threads_timing(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The winner is the lowest count on one clock, not the first to arrive: a second lane started late, or a first
+    lane slowed down, changes the time, never the path."""
+    expected = {seed: _hole_search(seed).path for seed in (1, 3)}
+    start = global_search._Race.start
+
+    def late_start(race: Any, lane: Any) -> None:
+        time.sleep(0.05)
+        start(race, lane)
+
+    monkeypatch.setattr(global_search._Race, "start", late_start)
+    for seed, path in expected.items():
+        np.testing.assert_array_equal(_hole_search(seed).path, path)
+    monkeypatch.undo()
+    connect = global_search._connect
+
+    def slow_first_lane(*args: Any, **kwargs: Any) -> Any:
+        if threading.current_thread() is threading.main_thread():
+            time.sleep(0.002)
+        return connect(*args, **kwargs)
+
+    monkeypatch.setattr(global_search, "_connect", slow_first_lane)
+    for seed, path in expected.items():
+        np.testing.assert_array_equal(_hole_search(seed).path, path)
+
+
+def test_a_short_search_starts_no_thread(monkeypatch: pytest.MonkeyPatch) -> None:
+    def refused(*args: Any, **kwargs: Any) -> None:
+        raise AssertionError("a search that ends before RACE_AFTER checks started a thread")
+
+    monkeypatch.setattr(threading.Thread, "start", refused)
+    scene = make_scene(pack_obstacles(WALL))
+    raced = point_space_search(scene, np.zeros(3), np.array([1.0, 0.0, 0.0]), 0.02, GlobalOptions(seed=7))
+    alone = point_space_search(scene, np.zeros(3), np.array([1.0, 0.0, 0.0]), 0.02,
+                               GlobalOptions(seed=7, search_threads=1))
+    assert raced.states_checked < global_search.RACE_AFTER
+    np.testing.assert_array_equal(raced.path, alone.path)
+
+
+def test_an_error_in_a_racing_lane_reaches_the_caller_and_stops_the_race(monkeypatch: pytest.MonkeyPatch) -> None:
+    run_lane = global_search._run_lane
+
+    def failing(lane: Any, *args: Any, **kwargs: Any) -> Any:
+        if lane.index == 1:
+            raise RuntimeError("lane 1 failed")
+        return run_lane(lane, *args, **kwargs)
+
+    monkeypatch.setattr(global_search, "_run_lane", failing)
+    begin = time.perf_counter()
+    with pytest.raises(RuntimeError, match="lane 1 failed"):
+        _hole_search(1)  # seed 1's first lane alone would run about 1.2 million checks: stopped instead
+    assert not any(t.name.startswith("pfield-search") for t in threading.enumerate())
+    assert time.perf_counter() - begin < 30.0
+
+
+def test_a_cancelled_race_stops_every_lane(monkeypatch: pytest.MonkeyPatch) -> None:
+    cancel = np.zeros(1, dtype=np.uint8)
+    start = global_search._Race.start
+
+    def start_then_cancel(race: Any, lane: Any) -> None:
+        start(race, lane)
+        cancel[0] = 1  # as a CancelToken would, while both lanes run
+
+    monkeypatch.setattr(global_search._Race, "start", start_then_cancel)
+    result = _hole_search(2, cancel=cancel)  # seed 2: about 200 000 checks alone, 1.9 million its second lane
+    assert not result.found and result.status == PlanStatus.CANCELLED
+    assert not any(t.name.startswith("pfield-search") for t in threading.enumerate())
+
+
 def test_orientations_follow_the_geodesic_in_proportion_to_the_distance() -> None:
     start, goal = Pose((0, 0, 0)), Pose((2, 0, 0), (0.0, 0.0, 1.0, 0.0))  # 180° about z
     poses = orientations_along(np.array([[0.0, 0, 0], [1.0, 0, 0], [2.0, 0, 0]]), start, goal)
@@ -186,7 +291,8 @@ def test_a_given_goal_configuration_on_a_joint_limit_is_kept_as_given(xarm: Robo
 @pytest.mark.parametrize(("kwargs", "field"), [
     ({"time_limit": 0.0}, "time_limit"), ({"joint_step": -1.0}, "joint_step"), ({"capacity": 1}, "capacity"),
     ({"seed": True}, "seed"), ({"extra_margin": float("nan")}, "extra_margin"),
-    ({"goal_configurations": 0}, "goal_configurations"),
+    ({"goal_configurations": 0}, "goal_configurations"), ({"search_threads": 0}, "search_threads"),
+    ({"search_threads": True}, "search_threads"), ({"search_threads": 1.5}, "search_threads"),
 ])
 def test_bad_options_are_refused_naming_the_field(kwargs: dict[str, Any], field: str) -> None:
     with pytest.raises(InvalidInput) as info:

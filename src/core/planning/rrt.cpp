@@ -303,7 +303,7 @@ Trees::Trees(const double* start, const double* goals, std::size_t goal_count, s
 }
 
 SearchOutcome rrt_connect(StateChecker& checker, Trees& trees, const double* lower, const double* upper, double step,
-                          std::int64_t budget, const std::uint8_t* cancel) {
+                          std::int64_t budget, const std::uint8_t* cancel, const std::int64_t* bound) {
   const std::size_t n = trees.dimension;
   const auto capacity = static_cast<std::int64_t>(trees.capacity);
   std::vector<double> sample(n), candidate(n), target(n);
@@ -311,6 +311,7 @@ SearchOutcome rrt_connect(StateChecker& checker, Trees& trees, const double* low
   SearchOutcome outcome;
   while (checker.states_checked() < stop) {
     if (cancel != nullptr && __atomic_load_n(cancel, __ATOMIC_RELAXED) != 0) return outcome;  // Searching
+    if (bound != nullptr && checker.states_checked() >= __atomic_load_n(bound, __ATOMIC_RELAXED)) return outcome;
     if (trees.counts[0] >= capacity || trees.counts[1] >= capacity) {
       outcome.status = SearchStatus::Exhausted;
       return outcome;

@@ -185,9 +185,11 @@ struct SearchOutcome {
 // RRT-Connect on `trees` until `budget` more state checks are done (checked before each iteration, so a chunk may
 // overrun it by one iteration's checks). lower, upper (dimension,): the sampling box;
 // step: the largest extension (Euclidean norm). cancel (or null) is read atomically every iteration: when set, the
-// chunk ends (Searching) at once.
+// chunk ends (Searching) at once. bound (or null), a count of the checker's states, is read atomically every
+// iteration too: no iteration starts once the checker has checked that many (a search racing this one found a path
+// with fewer checks, pfield.planning.global_search's race of seeds).
 SearchOutcome rrt_connect(StateChecker& checker, Trees& trees, const double* lower, const double* upper, double step,
-                          std::int64_t budget, const std::uint8_t* cancel);
+                          std::int64_t budget, const std::uint8_t* cancel, const std::int64_t* bound = nullptr);
 
 // A shorter valid path through a subset of path's vertices (rows, dimension): `attempts` random shortcuts i -> j
 // (drawn from `random`, continuing the search's stream), then a greedy pass joining each kept vertex to the farthest

@@ -40,6 +40,8 @@ using IntMatrix = nb::ndarray<const std::int64_t, nb::ndim<2>, nb::c_contig, nb:
 using Pairs = nb::ndarray<const std::int64_t, nb::shape<-1, 2>, nb::c_contig, nb::device::cpu>;
 // A cancel flag (pfield.planning.cancel_flag): read atomically by the loops that release the GIL.
 using Cancel = nb::ndarray<const std::uint8_t, nb::shape<1>, nb::c_contig, nb::device::cpu>;
+// A count another thread may lower while a loop runs (pfield.planning.global_search's race of seeds): read atomically.
+using Bound = nb::ndarray<const std::int64_t, nb::shape<1>, nb::c_contig, nb::device::cpu>;
 // Outputs the caller allocates (np.empty), written in place.
 using OutVector = nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
 using OutMatrix = nb::ndarray<double, nb::ndim<2>, nb::c_contig, nb::device::cpu>;

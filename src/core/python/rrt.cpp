@@ -69,7 +69,8 @@ class Checker {
   }
 
   std::tuple<SearchStatus, NumpyArray> connect(Trees& trees, const Vector& lower, const Vector& upper, double step,
-                                               std::int64_t budget, std::optional<Cancel> cancel) {
+                                               std::int64_t budget, std::optional<Cancel> cancel,
+                                               std::optional<Bound> bound) {
     const std::size_t n = dimension();
     require(trees.dimension == n, "trees: built for another state space");
     require_state(lower, "lower");
@@ -78,7 +79,7 @@ class Checker {
     {
       nb::gil_scoped_release release;
       outcome = planning::rrt_connect(*checker_, trees, lower.data(), upper.data(), step, budget,
-                                      cancel ? cancel->data() : nullptr);
+                                      cancel ? cancel->data() : nullptr, bound ? bound->data() : nullptr);
     }
     return {outcome.status, matrix(outcome.path.data(), outcome.rows, n)};
   }
@@ -210,9 +211,10 @@ void bind_rrt(nb::module_& m) {
       .def("edge_valid", &Checker::edge_valid, "a"_a, "b"_a,
            "Whether the straight edge a -> b is valid (a assumed valid), sampled every resolution.")
       .def("connect", &Checker::connect, "trees"_a, "lower"_a, "upper"_a, "step"_a, "budget"_a,
-           "cancel"_a.none() = nb::none(),
+           "cancel"_a.none() = nb::none(), "bound"_a.none() = nb::none(),
            "RRT-Connect on trees for about budget more state checks: (SearchStatus, path (K, n) when FOUND). The GIL "
-           "is released; cancel[0] != 0 ends the chunk (SEARCHING) at the next iteration.")
+           "is released; cancel[0] != 0 ends the chunk (SEARCHING) at the next iteration, and so does bound[0] (an "
+           "int64 array another thread may lower) once states_checked reaches it.")
       .def("shortcut", &Checker::shortcut, "path"_a, "attempts"_a, "trees"_a,
            "The shortened path (random shortcuts drawn from trees' stream, then a greedy pass).")
       .def("shorten", &Checker::shorten, "path"_a, "attempts"_a, "trees"_a, "clearance"_a,

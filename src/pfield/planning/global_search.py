@@ -39,8 +39,9 @@ from __future__ import annotations
 
 import logging
 import math
+import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -97,6 +98,9 @@ class GlobalOptions:
         ik_restarts: random IK seeds tried for goal configurations (after the given seeds).
         goal_configurations: most goal configurations the search starts from (its second tree's roots).
         tracking_gain: k_p (1/s) of the joint-space moving attractor; tracking_lead: largest lag (rad).
+        search_threads: seeds a search races, each on its own thread, when its first seed has found no path in
+            :data:`RACE_AFTER` state checks (:class:`_Race`); the path kept is the one found with the fewest state
+            checks, so the plan is the same with one core or many, only its time differs. 1: one seed, no thread.
 
     ``joint_resolution`` 0.03 rad: finer than OMPL's default (1 % of the space's extent, about 0.13 rad for
     a Panda) and MoveIt's (0.5 %); the searched path is a guide, the tracking's dampers keep the clearance
@@ -143,6 +147,7 @@ class GlobalOptions:
     goal_configurations: int = 4
     tracking_gain: float = 4.0
     tracking_lead: float = 0.05
+    search_threads: int = 2
 
     def __post_init__(self) -> None:
         for name in ("time_limit", "joint_step", "joint_resolution", "exact_resolution", "point_step",
@@ -151,13 +156,13 @@ class GlobalOptions:
         nonnegative("extra_margin", self.extra_margin)
         nonnegative("smoothing_clearance", self.smoothing_clearance)
         nonnegative("endpoint_band", self.endpoint_band)
+        least = {"capacity": 2, "goal_configurations": 1, "search_threads": 1}
         for name in ("seed", "capacity", "shortcut_attempts", "smoothing_attempts", "ik_restarts",
-                     "goal_configurations"):
+                     "goal_configurations", "search_threads"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < (
-                    2 if name == "capacity" else (1 if name == "goal_configurations" else 0)):
-                raise InvalidInput(name, value, "must be a non-negative integer" if name != "capacity"
-                                   else "must be an integer >= 2")
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < least.get(name, 0):
+                raise InvalidInput(name, value, f"must be an integer >= {least[name]}" if name in least
+                                   else "must be a non-negative integer")
 
 
 @dataclass(frozen=True, eq=False)
@@ -340,10 +345,16 @@ def _sampling_box(robot: RobotModel) -> tuple[NDArray[np.float64], NDArray[np.fl
 def _search(checker: _core.Checker, clearance: _core.Checker, start: NDArray[np.float64],
             goals: NDArray[np.float64], lower: NDArray[np.float64], upper: NDArray[np.float64], step: float,
             options: GlobalOptions, cancel: NDArray[np.uint8] | None,
-            wide: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None) -> SearchResult:
+            wide: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+            spare: Callable[[], _core.Checker] | None = None) -> SearchResult:
     """RRT-Connect from ``start`` to any row of ``goals`` (nearest the start first) in chunks of compiled work
     (the GIL released; ``cancel`` read every iteration) until found or ``options.time_limit`` (restarting after a
     budget of checks or with a full tree); then shortening (:func:`_shortened`).
+
+    Seeds race (``options.search_threads``, :class:`_Race`): when :data:`RACE_AFTER` checks found no path, further
+    searches with other seeds start on their own threads, each with a checker from ``spare`` (the same test), and the
+    path kept is the one found with the fewest state checks, so the outcome is the same on any machine and whatever
+    the threads' timing.
 
     Which goal: the goal tree is rooted at every goal, and RRT-Connect ends at whichever it meets first.
     When the shortened path is longer than the straight distance to another goal (a lower bound of any path
@@ -368,35 +379,51 @@ def _search(checker: _core.Checker, clearance: _core.Checker, start: NDArray[np.
                             "goal invalid: the goal violates the search margin",
                             checker.states_checked, time.perf_counter() - begin)
     before = checker.states_checked
-    trees = _core.Trees(start, valid, int(options.capacity), int(options.seed))
-    budget, attempt = RESTART_STATES, 0
-    again = (_core.SearchStatus.SEARCHING, _core.SearchStatus.EXHAUSTED)
-    while True:  # restarts with fresh trees after RESTART_STATES, then twice as many each time, or when a tree is full
-        status, path = _connect(checker, trees, lower, upper, step, options, cancel, begin, budget, wide)
-        if status not in again or time.perf_counter() - begin > options.time_limit:
-            break
-        attempt, budget = attempt + 1, 2 * budget
-        trees = _core.Trees(start, valid, int(options.capacity), int(options.seed) + _RESTART_SEED * attempt)
-    if status == _CANCELLED:
+    race = _Race(lambda lane: _run_lane(lane, race, start, valid, lower, upper, step, options, cancel, begin, wide))
+    first = race.add(checker, 0, int(options.seed))
+
+    def spread() -> None:  # after each chunk: past RACE_AFTER checks, the other seeds start, counted from here
+        if len(race.lanes) > 1 or checker.states_checked - before < RACE_AFTER:
+            return
+        assert spare is not None
+        for index in range(1, options.search_threads):
+            race.start(race.add(spare(), checker.states_checked, int(options.seed) + _LANE_SEED * index))
+
+    racing = spare is not None and options.search_threads > 1
+    try:
+        status = _run_lane(first, race, start, valid, lower, upper, step, options, cancel, begin, wide,
+                           spread if racing else None)
+    except BaseException:
+        race.stop()
+        raise
+    finally:
+        race.join()
+    checked = sum(lane.checker.states_checked for lane in race.lanes)
+    winner = race.winner()
+    if winner is None and (status == _CANCELLED or (cancel is not None and cancel[0] != 0)):
         return SearchResult(False, start[None], PlanStatus.CANCELLED, "cancelled during the global search",
-                            checker.states_checked, time.perf_counter() - begin)
-    if status != _core.SearchStatus.FOUND:  # the time limit: a full tree starts the search again until then
+                            checked, time.perf_counter() - begin)
+    if winner is None:  # the time limit: a full tree starts the search again until then
         return SearchResult(False, start[None], PlanStatus.GLOBAL_TIME_LIMIT, "global search: no path within the "
                             f"time limit ({options.time_limit:g} s, {options.capacity} nodes per tree)",
-                            checker.states_checked, time.perf_counter() - begin)
-    short = _shortened(checker, clearance, path, trees, options)
+                            checked, time.perf_counter() - begin)
+    best, path, trees = winner.checker, winner.path, winner.trees
+    assert path is not None and trees is not None
+    short = _shortened(best, clearance, path, trees, options)
     length = path_length(short)
     reached = int(np.argmin(np.max(np.abs(valid - short[-1]), axis=1)))
     nearer = np.array([g for k, g in enumerate(valid) if k != reached and float(np.linalg.norm(g - start)) < length])
     if len(nearer):
-        budget = max(int(NEARER_GOAL_SHARE * (checker.states_checked - before)), _CHUNK)
+        budget = max(int(NEARER_GOAL_SHARE * (winner.found_at - before)), _CHUNK)
         again = _core.Trees(start, nearer, int(options.capacity), int(options.seed) + 1)
-        status, path = _connect(checker, again, lower, upper, step, options, cancel, begin, budget, wide)
+        ahead = best.states_checked
+        status, path = _connect(best, again, lower, upper, step, options, cancel, begin, budget, wide)
+        checked += best.states_checked - ahead
         if status == _core.SearchStatus.FOUND:
-            other = _shortened(checker, clearance, path, again, options)
+            other = _shortened(best, clearance, path, again, options)
             if path_length(other) < length:
                 short = other
-    return SearchResult(True, short, PlanStatus.REACHED, "", checker.states_checked, time.perf_counter() - begin)
+    return SearchResult(True, short, PlanStatus.REACHED, "", checked, time.perf_counter() - begin)
 
 
 RESTART_STATES = 200_000
@@ -412,6 +439,10 @@ solved with 40 000, 696 with 200 000, 0 claims in collision either way; each of 
 the compiled core about 0.5 s (2.7 µs per check on the cage problems, 2026-12-06), so within the default 2 s a
 search restarts at most three times, and with a longer limit the tail is still cut."""
 _RESTART_SEED = 7919  # seed offset of each restart's trees (the nearer-goal search takes seed + 1)
+RACE_AFTER = 10_000
+"""State checks of a search's first seed after which the others join the race (``GlobalOptions.search_threads``,
+:class:`_Race`): most searches end sooner, and a thread started for them only costs time."""
+_LANE_SEED = 15_485_863  # seed offset of each further lane of a race (a prime, far from the others' offsets)
 NEARER_GOAL_SHARE = 1.0
 """Budget of the search for nearer goals, as a share of the states the first search checked (:func:`_search`):
 at most doubling the search's work where it ran."""
@@ -420,15 +451,129 @@ WIDE_EVERY = 4
 """Every this many chunks of a joint-space search sample the whole joint box instead of the window
 (:func:`sampling_window`)."""
 _CANCELLED = -1
+_BEATEN = -2  # a lane of a race stopped: another found a path with fewer state checks
+
+
+@dataclass(eq=False)
+class _Lane:
+    """One seed of a :class:`_Race`: its checker, the race's count when it started (``offset``), its seed, the int64
+    ``bound`` on its own count that the core reads every iteration, and what it found."""
+
+    index: int
+    checker: _core.Checker
+    offset: int
+    seed: int
+    bound: NDArray[np.int64]
+    found_at: int = 0  # the race's count (offset + own checks) when it found its path
+    path: NDArray[np.float64] | None = None
+    trees: _core.Trees | None = None
+
+
+class _Race:
+    """Seeds of one search racing on threads, with a deterministic winner.
+
+    RRT-Connect's time to a path is heavy-tailed and differs from seed to seed by orders of magnitude (UR5 cage
+    problems, 2026-12-07: 2 500 to 350 000 state checks for one problem across six seeds), so two seeds on two cores
+    find a path about as soon as the luckier one (Luby, Sinclair & Zuckerman 1993; OMPL's ``ParallelPlan`` races
+    planners the same way). Taking the first path to arrive would make the plan depend on the threads' timing;
+    instead each lane's checks are counted on one clock (lane ``k`` starts at ``offset``: the first lane's count
+    when it joined), the path found at the lowest count wins (ties: the lower lane), and a lane stops as soon as it
+    can no longer win (its ``bound``). The outcome is that of running the lanes one check at a time in turn, on any
+    machine, with one core or many."""
+
+    def __init__(self, run: Callable[[_Lane], object]) -> None:
+        self.lanes: list[_Lane] = []
+        self._run = run
+        self._lock = threading.Lock()
+        self._best: tuple[int, int] | None = None  # (count, lane index) of the best path found so far
+        self._threads: list[threading.Thread] = []
+        self._errors: list[BaseException] = []
+
+    def add(self, checker: _core.Checker, offset: int, seed: int) -> _Lane:
+        with self._lock:
+            lane = _Lane(len(self.lanes), checker, offset, seed, np.full(1, np.iinfo(np.int64).max, np.int64))
+            self.lanes.append(lane)
+            if self._best is not None:
+                self._limit(lane, *self._best)
+        return lane
+
+    def start(self, lane: _Lane) -> None:
+        def run() -> None:
+            try:
+                self._run(lane)
+            except BaseException as error:  # raised again by join(), on the caller's thread
+                self._errors.append(error)
+                self.stop()
+        thread = threading.Thread(target=run, name=f"pfield-search-{lane.index}", daemon=True)
+        self._threads.append(thread)
+        thread.start()
+
+    def offer(self, lane: _Lane, path: NDArray[np.float64], trees: _core.Trees) -> None:
+        """``lane`` found ``path``: it wins unless a lane found one at a lower count; the others' bounds follow."""
+        with self._lock:
+            lane.found_at, lane.path, lane.trees = lane.offset + lane.checker.states_checked, path, trees
+            if self._best is None or (lane.found_at, lane.index) < self._best:
+                self._best = (lane.found_at, lane.index)
+                for other in self.lanes:
+                    self._limit(other, *self._best)
+
+    @staticmethod
+    def _limit(lane: _Lane, count: int, index: int) -> None:
+        # lane may start an iteration while offset + its count < count (<= count when it is the lower lane)
+        lane.bound[0] = min(int(lane.bound[0]), count - lane.offset + (1 if lane.index < index else 0))
+
+    def beaten(self, lane: _Lane) -> bool:
+        return lane.checker.states_checked >= int(lane.bound[0])
+
+    def stop(self) -> None:
+        for lane in self.lanes:
+            lane.bound[0] = -1
+
+    def join(self) -> None:
+        for thread in self._threads:
+            thread.join()
+        if self._errors:
+            raise self._errors[0]
+
+    def winner(self) -> _Lane | None:
+        return None if self._best is None else self.lanes[self._best[1]]
+
+
+def _run_lane(lane: _Lane, race: _Race, start: NDArray[np.float64], valid: NDArray[np.float64],
+              lower: NDArray[np.float64], upper: NDArray[np.float64], step: float, options: GlobalOptions,
+              cancel: NDArray[np.uint8] | None, begin: float,
+              wide: tuple[NDArray[np.float64], NDArray[np.float64]] | None,
+              after_chunk: Callable[[], None] | None = None) -> object:
+    """One lane's RRT-Connect with restarts (:func:`_search`) until it finds a path (offered to ``race``), is
+    beaten, cancelled or out of time; returns the last chunk's status. ``after_chunk``: called after every chunk
+    that found nothing."""
+    checker = lane.checker
+    trees = _core.Trees(start, valid, int(options.capacity), lane.seed)
+    budget, attempt = RESTART_STATES, 0
+    again = (_core.SearchStatus.SEARCHING, _core.SearchStatus.EXHAUSTED)
+    while True:  # restarts with fresh trees after RESTART_STATES, then twice as many each time, or when a tree is full
+        status, path = _connect(checker, trees, lower, upper, step, options, cancel, begin, budget, wide,
+                                lane.bound, after_chunk)
+        if status == _core.SearchStatus.FOUND:
+            race.offer(lane, path, trees)
+            return status
+        if race.beaten(lane):
+            return _BEATEN
+        if status not in again or time.perf_counter() - begin > options.time_limit:
+            return status
+        attempt, budget = attempt + 1, 2 * budget
+        trees = _core.Trees(start, valid, int(options.capacity), lane.seed + _RESTART_SEED * attempt)
 
 
 def _connect(checker: _core.Checker, trees: _core.Trees, lower: NDArray[np.float64], upper: NDArray[np.float64],
              step: float, options: GlobalOptions, cancel: NDArray[np.uint8] | None, begin: float,
-             budget: int | None, wide: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+             budget: int | None, wide: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+             bound: NDArray[np.int64] | None = None, after_chunk: Callable[[], None] | None = None
              ) -> tuple[object, NDArray[np.float64]]:
     """RRT-Connect chunks on ``trees`` until found, full, cancelled (status ``_CANCELLED``), the time limit
-    (from ``begin``) or ``budget`` more state checks (None: no budget): (status, path). Every
-    :data:`WIDE_EVERY`-th chunk samples ``wide`` (when given) instead of [lower, upper]."""
+    (from ``begin``), ``budget`` more state checks (None: no budget) or the checker's count reaching ``bound[0]``
+    (read by the core every iteration): (status, path). Every :data:`WIDE_EVERY`-th chunk samples ``wide`` (when
+    given) instead of [lower, upper]. ``after_chunk``: called after every chunk that found nothing."""
     searching = _core.SearchStatus.SEARCHING
     status: object = searching
     path = np.empty((0, len(lower)))
@@ -437,12 +582,15 @@ def _connect(checker: _core.Checker, trees: _core.Trees, lower: NDArray[np.float
     while status == searching:
         chunk += 1
         box = wide if wide is not None and chunk % WIDE_EVERY == 0 else (lower, upper)
-        status, path = checker.connect(trees, box[0], box[1], step, _CHUNK, cancel)
+        status, path = checker.connect(trees, box[0], box[1], step, _CHUNK, cancel, bound)
         if status == searching and cancel is not None and cancel[0] != 0:
             return _CANCELLED, path
         if status == searching and (time.perf_counter() - begin > options.time_limit
-                                    or (stop is not None and checker.states_checked >= stop)):
+                                    or (stop is not None and checker.states_checked >= stop)
+                                    or (bound is not None and checker.states_checked >= bound[0])):
             break
+        if after_chunk is not None and status == searching:
+            after_chunk()
     return status, path
 
 
@@ -481,11 +629,17 @@ def joint_space_search(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Sc
     for region in forbidden:  # contact_region's arrays: contiguous float64
         checker.forbid(*region)
         clearance.forbid(*region)
+
+    def spare() -> _core.Checker:  # the same test, for another seed of the race (_search)
+        other = _joint_checker(arrays, search_scene, margin, options.joint_resolution)
+        for region in forbidden:
+            other.forbid(*region)
+        return other
     box = _sampling_box(robot)
     lower, upper = sampling_window(robot, box, start, goals, options.joint_step)
     wide = None if np.array_equal(lower, box[0]) and np.array_equal(upper, box[1]) else box
     return _search(checker, clearance, start, np.array(goals), lower, upper, options.joint_step, options,
-                   cancel, wide), search_scene
+                   cancel, wide, spare), search_scene
 
 
 Region = tuple[NDArray[np.float64], NDArray[np.float64], float]
@@ -638,7 +792,8 @@ def point_space_search(scene: _wb.Scene, start: NDArray[np.float64], goal: NDArr
                               float(options.point_resolution))
     return _search(checker, clearance, np.array(start, dtype=np.float64), np.array(goal, dtype=np.float64)[None],
                    np.ascontiguousarray(lower, dtype=np.float64), np.ascontiguousarray(upper, dtype=np.float64),
-                   options.point_step, options, cancel)
+                   options.point_step, options, cancel, spare=lambda: _core.Checker(
+                       core_obstacles(scene), float(margin), float(options.point_resolution)))
 
 
 def orientations_along(path: NDArray[np.float64], start: Pose, goal: Pose) -> list[Pose]:
