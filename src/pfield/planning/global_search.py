@@ -409,21 +409,22 @@ def _search(checker: _core.Checker, clearance: _core.Checker, start: NDArray[np.
                             checked, time.perf_counter() - begin)
     best, path, trees = winner.checker, winner.path, winner.trees
     assert path is not None and trees is not None
+    shortening = best.states_checked
     short = _shortened(best, clearance, path, trees, options)
+    spent = winner.found_at - before + best.states_checked - shortening  # the search's checks and its shortening's
     length = path_length(short)
     reached = int(np.argmin(np.max(np.abs(valid - short[-1]), axis=1)))
     nearer = np.array([g for k, g in enumerate(valid) if k != reached and float(np.linalg.norm(g - start)) < length])
     if len(nearer):
-        budget = max(int(NEARER_GOAL_SHARE * (winner.found_at - before)), _CHUNK)
+        budget = max(int(NEARER_GOAL_SHARE * spent), _CHUNK)
         again = _core.Trees(start, nearer, int(options.capacity), int(options.seed) + 1)
-        ahead = best.states_checked
         status, path = _connect(best, again, lower, upper, step, options, cancel, begin, budget, wide)
-        checked += best.states_checked - ahead
         if status == _core.SearchStatus.FOUND:
             other = _shortened(best, clearance, path, again, options)
             if path_length(other) < length:
                 short = other
-    return SearchResult(True, short, PlanStatus.REACHED, "", checked, time.perf_counter() - begin)
+    return SearchResult(True, short, PlanStatus.REACHED, "", sum(lane.checker.states_checked for lane in race.lanes),
+                        time.perf_counter() - begin)
 
 
 RESTART_STATES = 200_000
