@@ -100,7 +100,8 @@ class GlobalOptions:
         tracking_gain: k_p (1/s) of the joint-space moving attractor; tracking_lead: largest lag (rad).
         search_threads: seeds a search races, each on its own thread, when its first seed has found no path in
             :data:`RACE_AFTER` state checks (:class:`_Race`); the path kept is the one found with the fewest state
-            checks, so the plan is the same with one core or many, only its time differs. 1: one seed, no thread.
+            checks, so the plan is the same with one core or many, only its time differs (unless the time limit or
+            a cancel ends the search first). 1: one seed, no thread.
 
     ``joint_resolution`` 0.03 rad: finer than OMPL's default (1 % of the space's extent, about 0.13 rad for
     a Panda) and MoveIt's (0.5 %); the searched path is a guide, the tracking's dampers keep the clearance
@@ -170,7 +171,9 @@ class SearchResult:
     """Outcome of a global search: ``path`` (K, n) from start to goal when ``found``; otherwise ``status``
     says why (START_INVALID, GOAL_INVALID, GLOBAL_TIME_LIMIT, CANCELLED) and ``reason`` in words.
 
-    ``states_checked`` counts the compiled validity checks; ``seconds`` the search's wall time.
+    ``states_checked`` counts the compiled validity checks, of every seed of a race (a losing seed's last
+    iteration depends on when it learnt it lost, so a raced search's count may vary by a few); ``seconds`` the
+    search's wall time.
     """
 
     found: bool
@@ -480,7 +483,8 @@ class _Race:
     instead each lane's checks are counted on one clock (lane ``k`` starts at ``offset``: the first lane's count
     when it joined), the path found at the lowest count wins (ties: the lower lane), and a lane stops as soon as it
     can no longer win (its ``bound``). The outcome is that of running the lanes one check at a time in turn, on any
-    machine, with one core or many."""
+    machine, with one core or many, unless the time limit or a cancel ends the search before the lanes' counts
+    decide it (as they would end a search of one seed)."""
 
     def __init__(self, run: Callable[[_Lane], object]) -> None:
         self.lanes: list[_Lane] = []
@@ -489,12 +493,15 @@ class _Race:
         self._best: tuple[int, int] | None = None  # (count, lane index) of the best path found so far
         self._threads: list[threading.Thread] = []
         self._errors: list[BaseException] = []
+        self._stopped = False
 
     def add(self, checker: _core.Checker, offset: int, seed: int) -> _Lane:
         with self._lock:
             lane = _Lane(len(self.lanes), checker, offset, seed, np.full(1, np.iinfo(np.int64).max, np.int64))
             self.lanes.append(lane)
-            if self._best is not None:
+            if self._stopped:
+                lane.bound[0] = -1
+            elif self._best is not None:
                 self._limit(lane, *self._best)
         return lane
 
@@ -527,8 +534,11 @@ class _Race:
         return lane.checker.states_checked >= int(lane.bound[0])
 
     def stop(self) -> None:
-        for lane in self.lanes:
-            lane.bound[0] = -1
+        """Every lane, and any added later, ends at its next iteration (an error or an interrupt)."""
+        with self._lock:
+            self._stopped = True
+            for lane in self.lanes:
+                lane.bound[0] = -1
 
     def join(self) -> None:
         for thread in self._threads:
