@@ -171,9 +171,9 @@ class SearchResult:
     """Outcome of a global search: ``path`` (K, n) from start to goal when ``found``; otherwise ``status``
     says why (START_INVALID, GOAL_INVALID, GLOBAL_TIME_LIMIT, CANCELLED) and ``reason`` in words.
 
-    ``states_checked`` counts the compiled validity checks, of every seed of a race (a losing seed's last
-    iteration depends on when it learnt it lost, so a raced search's count may vary by a few); ``seconds`` the
-    search's wall time.
+    ``states_checked`` counts the compiled validity checks, of every seed of a race (how far a losing seed got
+    depends on when it learnt it lost, so a raced search's count varies from run to run, its path does not);
+    ``seconds`` the search's wall time.
     """
 
     found: bool
