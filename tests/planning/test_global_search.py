@@ -181,7 +181,7 @@ class _Counted:
 def test_the_race_keeps_the_path_found_at_the_lowest_count_not_the_first_to_arrive() -> None:
     """_Race's rule on its own: lane 1 joined at count 10 000; its path at 10 000 + 500 arrives first, lane 0's at
     10 400 later and wins; a tie goes to the lower lane; each lane's bound is where it can no longer win."""
-    race = global_search._Race(lambda lane: None)
+    race = global_search._Race()
     first, second = race.add(_Counted(0), 0, 1), race.add(_Counted(0), 10_000, 2)
     path = np.zeros((2, 3))
     second.checker.states_checked = 500
@@ -191,7 +191,7 @@ def test_the_race_keeps_the_path_found_at_the_lowest_count_not_the_first_to_arri
     first.checker.states_checked = 10_400
     race.offer(first, path, None)  # type: ignore[arg-type]
     assert race.winner() is first and int(second.bound[0]) == 400
-    tie = global_search._Race(lambda lane: None)
+    tie = global_search._Race()
     low, high = tie.add(_Counted(0), 0, 1), tie.add(_Counted(0), 10_000, 2)
     high.checker.states_checked, low.checker.states_checked = 500, 10_500
     tie.offer(high, path, None)  # type: ignore[arg-type]
@@ -241,8 +241,8 @@ def test_a_cancelled_race_stops_every_lane(monkeypatch: pytest.MonkeyPatch) -> N
     cancel = np.zeros(1, dtype=np.uint8)
     start = global_search._Race.start
 
-    def start_then_cancel(race: Any, lane: Any) -> None:
-        start(race, lane)
+    def start_then_cancel(race: Any, lane: Any, run: Any) -> None:
+        start(race, lane, run)
         cancel[0] = 1  # as a CancelToken would, while both lanes run
 
     monkeypatch.setattr(global_search._Race, "start", start_then_cancel)

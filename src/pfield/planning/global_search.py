@@ -345,17 +345,16 @@ def _sampling_box(robot: RobotModel) -> tuple[NDArray[np.float64], NDArray[np.fl
     return np.ascontiguousarray(lower, dtype=np.float64), np.ascontiguousarray(upper, dtype=np.float64)
 
 
-def _search(checker: _core.Checker, clearance: _core.Checker, start: NDArray[np.float64],
+def _search(checkers: Callable[[], _core.Checker], clearance: _core.Checker, start: NDArray[np.float64],
             goals: NDArray[np.float64], lower: NDArray[np.float64], upper: NDArray[np.float64], step: float,
             options: GlobalOptions, cancel: NDArray[np.uint8] | None,
-            wide: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
-            spare: Callable[[], _core.Checker] | None = None) -> SearchResult:
+            wide: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None) -> SearchResult:
     """RRT-Connect from ``start`` to any row of ``goals`` (nearest the start first) in chunks of compiled work
     (the GIL released; ``cancel`` read every iteration) until found or ``options.time_limit`` (restarting after a
     budget of checks or with a full tree); then shortening (:func:`_shortened`).
 
-    Seeds race (``options.search_threads``, :class:`_Race`): when :data:`RACE_AFTER` checks found no path, further
-    searches with other seeds start on their own threads, each with a checker from ``spare`` (the same test), and the
+    ``checkers`` makes the validity test (one per seed). Seeds race (``options.search_threads``, :class:`_Race`): when
+    :data:`RACE_AFTER` checks found no path, further searches with other seeds start on their own threads, and the
     path kept is the one found with the fewest state checks, so the outcome is the same on any machine and whatever
     the threads' timing.
 
@@ -372,6 +371,7 @@ def _search(checker: _core.Checker, clearance: _core.Checker, start: NDArray[np.
     ``wide``: a larger sampling box that every :data:`WIDE_EVERY`-th chunk samples instead of [lower, upper] (the
     joint-space window of :func:`sampling_window`): any state of it can still be sampled."""
     begin = time.perf_counter()
+    checker = checkers()
     if not checker.state_valid(start):
         return SearchResult(False, start[None], PlanStatus.START_INVALID,
                             "start invalid: the start violates the search margin",
@@ -382,26 +382,25 @@ def _search(checker: _core.Checker, clearance: _core.Checker, start: NDArray[np.
                             "goal invalid: the goal violates the search margin",
                             checker.states_checked, time.perf_counter() - begin)
     before = checker.states_checked
-    race = _Race(lambda lane: _run_lane(lane, race, start, valid, lower, upper, step, options, cancel, begin, wide))
-    first = race.add(checker, 0, int(options.seed))
+    race = _Race()
+
+    def run(lane: _Lane, after_chunk: Callable[[], None] | None = None) -> object:
+        return _run_lane(lane, race, start, valid, lower, upper, step, options, cancel, begin, wide, after_chunk)
 
     def spread() -> None:  # after each chunk: past RACE_AFTER checks, the other seeds start, counted from here
         if len(race.lanes) > 1 or checker.states_checked - before < RACE_AFTER:
             return
-        assert spare is not None
         for index in range(1, options.search_threads):
-            race.start(race.add(spare(), checker.states_checked, int(options.seed) + _LANE_SEED * index))
+            race.start(race.add(checkers(), checker.states_checked, int(options.seed) + _LANE_SEED * index), run)
 
-    racing = spare is not None and options.search_threads > 1
     try:
-        status = _run_lane(first, race, start, valid, lower, upper, step, options, cancel, begin, wide,
-                           spread if racing else None)
+        status = run(race.add(checker, 0, int(options.seed)), spread if options.search_threads > 1 else None)
     except BaseException:
         race.stop()
         raise
     finally:
         race.join()
-    checked = sum(lane.checker.states_checked for lane in race.lanes)
+    checked = race.states_checked()
     winner = race.winner()
     if winner is None and (status == _CANCELLED or (cancel is not None and cancel[0] != 0)):
         return SearchResult(False, start[None], PlanStatus.CANCELLED, "cancelled during the global search",
@@ -426,8 +425,7 @@ def _search(checker: _core.Checker, clearance: _core.Checker, start: NDArray[np.
             other = _shortened(best, clearance, path, again, options)
             if path_length(other) < length:
                 short = other
-    return SearchResult(True, short, PlanStatus.REACHED, "", sum(lane.checker.states_checked for lane in race.lanes),
-                        time.perf_counter() - begin)
+    return SearchResult(True, short, PlanStatus.REACHED, "", race.states_checked(), time.perf_counter() - begin)
 
 
 RESTART_STATES = 200_000
@@ -486,9 +484,8 @@ class _Race:
     machine, with one core or many, unless the time limit or a cancel ends the search before the lanes' counts
     decide it (as they would end a search of one seed)."""
 
-    def __init__(self, run: Callable[[_Lane], object]) -> None:
+    def __init__(self) -> None:
         self.lanes: list[_Lane] = []
-        self._run = run
         self._lock = threading.Lock()
         self._best: tuple[int, int] | None = None  # (count, lane index) of the best path found so far
         self._threads: list[threading.Thread] = []
@@ -505,14 +502,15 @@ class _Race:
                 self._limit(lane, *self._best)
         return lane
 
-    def start(self, lane: _Lane) -> None:
-        def run() -> None:
+    def start(self, lane: _Lane, run: Callable[[_Lane], object]) -> None:
+        """``run(lane)`` on a thread of its own; an error it raises stops the race and is raised again by join()."""
+        def thread_body() -> None:
             try:
-                self._run(lane)
+                run(lane)
             except BaseException as error:  # raised again by join(), on the caller's thread
                 self._errors.append(error)
                 self.stop()
-        thread = threading.Thread(target=run, name=f"pfield-search-{lane.index}", daemon=True)
+        thread = threading.Thread(target=thread_body, name=f"pfield-search-{lane.index}", daemon=True)
         self._threads.append(thread)
         thread.start()
 
@@ -548,6 +546,10 @@ class _Race:
 
     def winner(self) -> _Lane | None:
         return None if self._best is None else self.lanes[self._best[1]]
+
+    def states_checked(self) -> int:
+        """Every lane's checks so far."""
+        return sum(lane.checker.states_checked for lane in self.lanes)
 
 
 def _run_lane(lane: _Lane, race: _Race, start: NDArray[np.float64], valid: NDArray[np.float64],
@@ -633,24 +635,22 @@ def joint_space_search(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Sc
     search_scene = endpoint_scene(scene, arrays, ends, margin, options.endpoint_band, goal_band, measured)
     if self_slack is not None:
         search_scene = search_scene._replace(self_offsets=np.minimum(search_scene.self_offsets, -self_slack))
-    checker = _joint_checker(arrays, search_scene, margin, options.joint_resolution)
+    def checkers() -> _core.Checker:  # the search's test, one per seed (_search)
+        checker = _joint_checker(arrays, search_scene, margin, options.joint_resolution)
+        for region in forbidden:  # contact_region's arrays: contiguous float64
+            checker.forbid(*region)
+        return checker
+
     clearance = _joint_checker(arrays, _clearance_scene(scene, search_scene, arrays, ends, margin, options,
                                                         goal_band, measured), margin + options.smoothing_clearance,
                                options.joint_resolution)
-    for region in forbidden:  # contact_region's arrays: contiguous float64
-        checker.forbid(*region)
+    for region in forbidden:
         clearance.forbid(*region)
-
-    def spare() -> _core.Checker:  # the same test, for another seed of the race (_search)
-        other = _joint_checker(arrays, search_scene, margin, options.joint_resolution)
-        for region in forbidden:
-            other.forbid(*region)
-        return other
     box = _sampling_box(robot)
     lower, upper = sampling_window(robot, box, start, goals, options.joint_step)
     wide = None if np.array_equal(lower, box[0]) and np.array_equal(upper, box[1]) else box
-    return _search(checker, clearance, start, np.array(goals), lower, upper, options.joint_step, options,
-                   cancel, wide, spare), search_scene
+    return _search(checkers, clearance, start, np.array(goals), lower, upper, options.joint_step, options,
+                   cancel, wide), search_scene
 
 
 Region = tuple[NDArray[np.float64], NDArray[np.float64], float]
@@ -798,13 +798,12 @@ def point_space_search(scene: _wb.Scene, start: NDArray[np.float64], goal: NDArr
     points = np.vstack([start[None], goal[None], centres - radii[:, None], centres + radii[:, None]])
     pad = 10.0 * options.point_step
     lower, upper = points.min(axis=0) - pad, points.max(axis=0) + pad
-    checker = _core.Checker(core_obstacles(scene), float(margin), float(options.point_resolution))
-    clearance = _core.Checker(core_obstacles(scene), float(margin + options.smoothing_clearance),
-                              float(options.point_resolution))
-    return _search(checker, clearance, np.array(start, dtype=np.float64), np.array(goal, dtype=np.float64)[None],
+    obstacles = core_obstacles(scene)
+    clearance = _core.Checker(obstacles, float(margin + options.smoothing_clearance), float(options.point_resolution))
+    return _search(lambda: _core.Checker(obstacles, float(margin), float(options.point_resolution)), clearance,
+                   np.array(start, dtype=np.float64), np.array(goal, dtype=np.float64)[None],
                    np.ascontiguousarray(lower, dtype=np.float64), np.ascontiguousarray(upper, dtype=np.float64),
-                   options.point_step, options, cancel, spare=lambda: _core.Checker(
-                       core_obstacles(scene), float(margin), float(options.point_resolution)))
+                   options.point_step, options, cancel)
 
 
 def orientations_along(path: NDArray[np.float64], start: Pose, goal: Pose) -> list[Pose]:
