@@ -222,6 +222,29 @@ def test_whole_body_nearest_is_the_closest_pair_in_clutter(xarm: Any) -> None:
     assert 5 <= within <= 35  # both ways were taken
 
 
+def test_whole_body_nearest_beyond_the_steps_influence_reads_the_links_own_primitives(xarm: Any) -> None:
+    """The field step places a link's fitted primitives only when one of its pairs comes within the step's influence
+    distance; with a 5 cm influence a nearest pair 5-10 cm away is found by the assistance's own search, which places
+    the primitives it reads. A new scene each time: a fresh workspace holds no primitives of an earlier call."""
+    from pfield.robot.collision import capsule_clearances
+
+    config = FieldConfig(influence_distance=0.05)
+    rng = np.random.default_rng(11)
+    ee = xarm.forward_kinematics(Q)
+    obstacles = [Obstacle("ball", Sphere(0.04), Pose(ee.position + np.array([0.14, 0.0, 0.0]))),
+                 Obstacle("crate", Box(0.1, 0.1, 0.1), Pose(ee.position + np.array([0.0, -0.2, -0.05])))]
+    beyond = 0
+    for _ in range(20):
+        q = np.clip(Q + rng.normal(scale=0.1, size=7), xarm.lower_limits, xarm.upper_limits)
+        field = PotentialField(config, Pose(ee.position + np.array([0.0, 0.15, 0.05]), ee.orientation), obstacles)
+        answer = whole_body_assistance(AssistanceScene(field=field), xarm, q, Twist((0.02, 0.0, 0.0)))
+        _, nearest_id, nearest = capsule_clearances(xarm, q, obstacles).nearest()
+        assert answer.nearest_obstacle_id == nearest_id
+        assert answer.nearest_distance == pytest.approx(nearest, abs=1e-9)
+        beyond += config.influence_distance < nearest < 0.1
+    assert beyond >= 5
+
+
 def test_whole_body_command_away_unchanged_and_approach_limited(xarm: Any) -> None:
     arm, _ = arm_scene(xarm)
     away = whole_body_assistance(arm, xarm, Q, Twist((-0.02, 0.0, 0.0)), "safety_only")

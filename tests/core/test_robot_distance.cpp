@@ -200,4 +200,26 @@ TEST(a_two_link_robot_reaches_each_level_of_the_link_model) {
   WorldSegments partial{caps.data(), caps.data() + 6, stale.data(), stale.data() + 9};
   near_segments(links, frames, obstacles, partial);
   CHECK(stale[0] == -7.0 && stale[3] == 0.5 && stale[5] == 0.5);
+
+  // placement on first use: a pair the capsule level answers places nothing, one that reaches the fine level places
+  // its link's primitives (once: the flag holds them for this configuration) and gets the same value
+  std::vector<double> lazy(18, -7.0);
+  WorldSegments unplaced{caps.data(), caps.data() + 6, lazy.data(), lazy.data() + 9};
+  std::vector<unsigned char> placed(2, 0);
+  const PrimitivePlacement placement{&links, &frames, &unplaced, placed.data()};
+  const LinkObstacleDistance answered = link_obstacle_distance_below(links, unplaced, obstacles, 1, 1, kInf, kInf,
+                                                                     &placement);
+  CHECK(answered.level == ClearanceLevel::Capsule && placed[1] == 0 && lazy[3] == -7.0);
+  const LinkObstacleDistance fine = link_obstacle_distance_below(links, unplaced, obstacles, 1, 0, kInf, kInf,
+                                                                 &placement);
+  CHECK(placed[0] == 0 && placed[1] == 1 && lazy[0] == -7.0 && lazy[3] == 0.5 && lazy[5] == 0.5);
+  CHECK(fine.level == ClearanceLevel::Primitives && fine.distance == near.distance && fine.primitive == 1);
+
+  // the bounding spheres' gap of the two capsules: centres 0.625 apart in x and 0.25 in z, half lengths 0.25 and
+  // 0.375, radii 1/16: at most the capsules' distance (0.125)
+  std::vector<AxisMiddle> middles(2);
+  axis_middles(links, world, middles.data());
+  CHECK(middles[0].half == 0.25 && middles[0].middle.z == 0.25 && middles[1].half == 0.375);
+  const double gap = sphere_gap(middles[0], 0.0625, middles[1], 0.0625);
+  CHECK(gap == std::sqrt(0.625 * 0.625 + 0.25 * 0.25) - 0.3125 - 0.4375 && gap <= pair.distance);
 }

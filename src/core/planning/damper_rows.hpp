@@ -59,11 +59,12 @@ struct ConstraintRows {
 // a pair whose cheap bound (robot::capsule_lower_bound, that function's own first test, inline here because most
 // pairs end there) is at least cutoff goes to culled(link, obstacle, bound), every other one to
 // evaluated(link, obstacle, pair) with its LinkObstacleDistance (exact below cutoff; not exact: a lower bound, at
-// least cutoff). world.prim_* as link_obstacle_distance_below requires (robot::near_segments).
+// least cutoff). world.prim_* as link_obstacle_distance_below requires: placed already (robot::near_segments), or
+// by `placement` when a pair reaches the fine level.
 template <class Culled, class Evaluated>
 void scan_link_obstacle_pairs(const robot::LinkModelView& links, const robot::WorldSegments& world,
-                              const robot::ObstacleSet& obstacles, double cutoff, Culled&& culled,
-                              Evaluated&& evaluated) {
+                              const robot::ObstacleSet& obstacles, double cutoff,
+                              const robot::PrimitivePlacement* placement, Culled&& culled, Evaluated&& evaluated) {
   const std::size_t count = obstacles.count();
   for (std::size_t c = 0; c < links.capsule_count; ++c) {
     for (std::size_t i = 0; i < count; ++i) {
@@ -72,7 +73,7 @@ void scan_link_obstacle_pairs(const robot::LinkModelView& links, const robot::Wo
         culled(c, i, lower);
         continue;
       }
-      evaluated(c, i, robot::link_obstacle_distance_below(links, world, obstacles, c, i, cutoff, cutoff));
+      evaluated(c, i, robot::link_obstacle_distance_below(links, world, obstacles, c, i, cutoff, cutoff, placement));
     }
   }
 }

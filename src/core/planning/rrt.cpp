@@ -19,9 +19,8 @@ using math::Vec3;
 using robot::detail::py_max;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-// (m) how far a bound computed another way must clear a need to decide a pair as the exact value would: far above
-// the rounding of distances of a few metres (~1e-15 m), far below any margin
-constexpr double kSphereSlack = 1e-9;
+using robot::AxisMiddle;
+using robot::kSphereSlack;
 
 enum class Extension { Trapped, Advanced, Reached };
 
@@ -175,14 +174,7 @@ bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, 
   robot::joint_transforms(robot.kinematics, q, ws.frames);
   robot::capsule_segments(links, ws.frames, ws.world);
   ws.placement.reset();
-  for (std::size_t c = 0; c < links.capsule_count; ++c) {
-    const Vec3 a = ws.world.capsule_a(c), b = ws.world.capsule_b(c);
-    double half = 0.0;
-    half += (b.x - a.x) * (b.x - a.x);
-    half += (b.y - a.y) * (b.y - a.y);
-    half += (b.z - a.z) * (b.z - a.z);
-    ws.middles[c] = {{0.5 * (a.x + b.x), 0.5 * (a.y + b.y), 0.5 * (a.z + b.z)}, 0.5 * std::sqrt(half)};
-  }
+  robot::axis_middles(links, ws.world, ws.middles.data());
   group_spheres(links, ws, count);
   for (std::size_t c = 0; c < links.capsule_count; ++c) {
     const AxisMiddle& axis = ws.middles[c];
@@ -212,9 +204,9 @@ bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, 
       if (at_middle - axis.half - radius >= need) continue;
       const double lower = robot::capsule_lower_bound(obstacles, i, ws.world, links, c);
       if (lower >= need) continue;
-      // the two-level distance; its fine level reads the link's primitives (robot/clearance.hpp's rule for when)
-      if (lower < robot::kFineRange + robot::kFineMargin) ws.placement.place(c);
-      if (robot::link_obstacle_distance_below(links, ws.world, obstacles, c, i, need, need).distance < need)
+      // the two-level distance; its fine level places the link's primitives on first use
+      if (robot::link_obstacle_distance_below(links, ws.world, obstacles, c, i, need, need, &ws.placement).distance <
+          need)
         return false;
     }
   }
@@ -229,9 +221,7 @@ bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, 
     // the bounding spheres, then the bounding capsules (they contain the primitives): most pairs end at one of
     // them, their primitives unplaced. kSphereSlack keeps the spheres' bound below the capsules' distance where
     // the two differ only by rounding, so a pair is decided as without it.
-    const AxisMiddle &m1 = ws.middles[l1], &m2 = ws.middles[l2];
-    const Vec3 apart = m1.middle - m2.middle;
-    if (std::sqrt(dot(apart, apart)) - (m1.half + links.cap_r[l1]) - (m2.half + links.cap_r[l2]) >= need + kSphereSlack)
+    if (robot::sphere_gap(ws.middles[l1], links.cap_r[l1], ws.middles[l2], links.cap_r[l2]) >= need + kSphereSlack)
       continue;
     // then the capsules, whose primitives are placed only when the pair gets that far; "not below need" comes back
     // as need itself or more: compared with need, not as distance - offset < margin

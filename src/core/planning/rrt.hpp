@@ -52,13 +52,6 @@ inline double uniform(std::uint64_t& state) {
 // integers).
 void uniforms(std::uint64_t& state, double* out, std::size_t count);
 
-// A capsule's axis as its midpoint and half length: every point of the capsule lies within half + its radius of
-// the midpoint.
-struct AxisMiddle {
-  math::Vec3 middle;
-  double half;
-};
-
 // The scratch of the joint-space state check, sized once per robot: joint frames and world segments; the fitted
 // primitives of a link are moved into the world only when some pair of that link reaches the fine level.
 struct CapsuleWorkspace {
@@ -69,11 +62,11 @@ struct CapsuleWorkspace {
   std::vector<double> rotations, origins;  // (n, 3, 3), (n, 3)
   std::vector<double> segment_ends;        // capsules a, b (caps, 3) each, then primitives a, b (prims, 3)
   std::vector<unsigned char> placed;       // (caps,) whether the link's primitives are in `world` for this q
-  std::vector<AxisMiddle> middles;         // (caps,) each capsule's axis for this q
+  std::vector<robot::AxisMiddle> middles;         // (caps,) each capsule's axis for this q
   // Capsules on one joint (a gripper's links) as a group with one bounding sphere per q: an obstacle that clears the
   // sphere clears each of them without its own signed distance.
   std::vector<std::int64_t> group_of;      // (caps,) the capsule's group, -1 when alone on its joint
-  std::vector<AxisMiddle> groups;          // (groups,) each group's sphere for this q: centre and radius
+  std::vector<robot::AxisMiddle> groups;          // (groups,) each group's sphere for this q: centre and radius
   std::vector<double> group_share;         // (groups,) 1 / its number of capsules
   std::vector<double> group_distance;      // (groups, M) obstacle i's distance from group g's sphere, NaN: not yet
   robot::Frames frames;

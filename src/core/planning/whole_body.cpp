@@ -17,7 +17,7 @@ namespace pfield::planning {
 namespace {
 
 // Primitive placement into ws.world at ws.frames, its flags ws.placed: which links this configuration has placed
-// (step_segments resets them; all_segments sets them all).
+// (step_segments resets them).
 robot::PrimitivePlacement primitive_placement(const robot::LinkModelView& links, WholeBodyWorkspace& ws) {
   return {&links, &ws.frames, &ws.world, ws.placed.data()};
 }
@@ -64,7 +64,8 @@ void obstacle_rows(const robot::RobotView& robot, const WholeBodyScene& scene, c
         p.max_repulsive_force;
     for (std::size_t j = 0; j < n; ++j) ws.free[j] += push * row[j];
   };
-  scan_link_obstacle_pairs(links, ws.world, obstacles, influence, culled, evaluated);
+  const robot::PrimitivePlacement placement = primitive_placement(links, ws);
+  scan_link_obstacle_pairs(links, ws.world, obstacles, influence, &placement, culled, evaluated);
   ws.result.clearance = clearance;
   ws.result.nearest_capsule = static_cast<double>(culprit_c);
   ws.result.nearest_obstacle = static_cast<double>(culprit_o);
@@ -86,9 +87,15 @@ void self_rows(const robot::RobotView& robot, const WholeBodyScene& scene, const
   // the fitted level needs the primitives of the links in pairs whose bounding capsules come within the influence
   // distance: placed by the pair that first needs them, unless step_segments placed them (near an obstacle)
   const robot::PrimitivePlacement placement = primitive_placement(links, ws);
+  const double* radii = scene.fitted_self ? links.cap_r : links.self_r;  // the capsules the pairs are measured on
   for (std::size_t k = 0; k < links.pair_count; ++k) {
     const auto c1 = static_cast<std::size_t>(links.self_pairs[2 * k]);
     const auto c2 = static_cast<std::size_t>(links.self_pairs[2 * k + 1]);
+    // the capsules' bounding spheres first: a pair they keep at least the influence distance and the nearest pair's
+    // distance away gives no row and is not the nearest (its d is at least that bound), so it is not measured
+    const double gap = robot::sphere_gap(ws.middles[c1], radii[c1], ws.middles[c2], radii[c2]) - robot::kSphereSlack;
+    const double lower = hold ? py_max(gap, safety) : gap - scene.self_offsets[k];
+    if (lower >= influence && lower >= clearance) continue;
     // below the influence distance exactly; a farther pair (d >= its distance) gives no row either way
     const robot::LinkPairDistance pair = scene.fitted_self
                                              ? robot::fitted_pair_distance_below(links, ws.world, c1, c2, influence,
@@ -184,6 +191,7 @@ WholeBodyWorkspace::WholeBodyWorkspace(std::size_t joints, std::size_t capsules,
       limited(joints),
       segment_ends(6 * (capsules + primitives)),
       placed(capsules),
+      middles(capsules),
       qp(max_rows, joints),
       frames{rotations.data(), origins.data()},
       world{segment_ends.data(), segment_ends.data() + 3 * capsules, segment_ends.data() + 6 * capsules,
@@ -231,17 +239,10 @@ void task(const robot::RobotView& robot, const Goal& goal, const WholeBodyParams
   out.rotation_error = std::sqrt(r.x * r.x + r.y * r.y + r.z * r.z);
 }
 
-void all_segments(const robot::RobotView& robot, WholeBodyWorkspace& ws) {
+void step_segments(const robot::RobotView& robot, WholeBodyWorkspace& ws) {
   robot::capsule_segments(robot.links, ws.frames, ws.world);
-  robot::primitive_segments(robot.links, ws.frames, ws.world);
-  std::fill(ws.placed.begin(), ws.placed.end(), 1);
-}
-
-void step_segments(const robot::RobotView& robot, const WholeBodyScene& scene, WholeBodyWorkspace& ws) {
-  robot::capsule_segments(robot.links, ws.frames, ws.world);
-  const robot::PrimitivePlacement placement = primitive_placement(robot.links, ws);
-  placement.reset();
-  robot::near_segments(robot.links, ws.frames, scene.obstacles, ws.world, &placement);
+  robot::axis_middles(robot.links, ws.world, ws.middles.data());
+  primitive_placement(robot.links, ws).reset();  // a link's primitives are placed by the first pair that needs them
 }
 
 std::size_t velocity_from_segments(const double* q, const double* previous, const robot::RobotView& robot,
@@ -272,7 +273,7 @@ std::size_t velocity_from_segments(const double* q, const double* previous, cons
 std::size_t constrained_velocity(const double* q, const double* previous, const robot::RobotView& robot,
                                  const WholeBodyScene& scene, const WholeBodyParams& params, WholeBodyWorkspace& ws,
                                  double free_weight, const Goal* posture) {
-  step_segments(robot, scene, ws);
+  step_segments(robot, ws);
   return velocity_from_segments(q, previous, robot, scene, params, ws, free_weight, false, posture);
 }
 
@@ -288,7 +289,7 @@ std::size_t autonomy_step(const double* q, const double* previous, const robot::
                           const WholeBodyScene& scene, const Goal& goal, const WholeBodyParams& params,
                           WholeBodyWorkspace& ws) {
   robot::joint_transforms(robot.kinematics, q, ws.frames);
-  step_segments(robot, scene, ws);
+  step_segments(robot, ws);
   task(robot, goal, params, ws);
   return velocity_from_segments(q, previous, robot, scene, params, ws, params.damping, true);
 }

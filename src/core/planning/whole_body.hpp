@@ -130,6 +130,7 @@ struct WholeBodyWorkspace {
   std::vector<double> limited;      // (n,) qd under the rate limit
   std::vector<double> segment_ends; // world ends: capsules a, b (caps, 3) each, then primitives a, b (prims, 3)
   std::vector<unsigned char> placed;  // (caps,) the links whose primitives are in `world` for this step's frames
+  std::vector<robot::AxisMiddle> middles;  // (caps,) each bounding capsule's axis at this step's frames
   math::QpWorkspace qp;
   StepResult result{};
   robot::Frames frames;             // views of rotations / origins
@@ -140,12 +141,10 @@ struct WholeBodyWorkspace {
 // the QP's normal equations ws.h, ws.rhs; pose and goal errors into ws.result.
 void task(const robot::RobotView& robot, const Goal& goal, const WholeBodyParams& params, WholeBodyWorkspace& ws);
 
-// World ends of every bounding capsule and fitted primitive at the joint frames in ws (the global search's).
-void all_segments(const robot::RobotView& robot, WholeBodyWorkspace& ws);
-
-// The step's world segments: every bounding capsule, and the fitted primitives only of links that may reach the fine
-// level (robot::near_segments); the others are never read by the step.
-void step_segments(const robot::RobotView& robot, const WholeBodyScene& scene, WholeBodyWorkspace& ws);
+// The step's world segments: every bounding capsule (and its axis, ws.middles); a link's fitted primitives are placed (ws.placed) by the first
+// obstacle or self pair of the step that reaches its fine level, so the links no pair gets that near to are never
+// placed.
+void step_segments(const robot::RobotView& robot, WholeBodyWorkspace& ws);
 
 // The joint velocity of the task in ws.h / ws.rhs under the dampers (link-obstacle, self pairs, joint limits) into
 // ws.x, speed- and rate-limited, and its twist J qd into ws.result, once the frames and world segments are in ws.
@@ -229,6 +228,8 @@ class WholeBodyStepper {
   const StepResult& result() const { return ws_.result; }
   const double* joint_velocities() const { return ws_.x.data(); }
   const WholeBodyWorkspace& workspace() const { return ws_; }
+  // Places a link's primitives at the last step's frames on first use (the step placed only those its pairs needed).
+  robot::PrimitivePlacement placement() { return {&robot_.links, &ws_.frames, &ws_.world, ws_.placed.data()}; }
 
  private:
   robot::RobotView robot_;

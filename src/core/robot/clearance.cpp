@@ -147,7 +147,8 @@ LinkObstacleDistance fitted_distance_below(const PackedView& packed, std::size_t
 
 LinkObstacleDistance link_obstacle_distance_below(const LinkModelView& links, const WorldSegments& world,
                                                   const ObstacleSet& obstacles, std::size_t link, std::size_t i,
-                                                  double cutoff, double fine_cutoff) {
+                                                  double cutoff, double fine_cutoff,
+                                                  const PrimitivePlacement* placement) {
   LinkObstacleDistance out;
   const double lower = capsule_lower_bound(obstacles, i, world, links, link);
   if (lower >= cutoff) {
@@ -155,10 +156,12 @@ LinkObstacleDistance link_obstacle_distance_below(const LinkModelView& links, co
   } else {
     out = capsule_level_distance(*obstacles.packed, i, world.capsule_a(link), world.capsule_b(link),
                                  links.cap_r[link]);
-    if (!out.exact && !(out.distance >= fine_cutoff))
+    if (!out.exact && !(out.distance >= fine_cutoff)) {
+      if (placement != nullptr) placement->place(link);
       out = fitted_distance_below(*obstacles.packed, i, obstacles.centre(i), obstacles.bounds[i], links, world,
                                   static_cast<std::size_t>(links.link_start[link]),
                                   static_cast<std::size_t>(links.link_start[link + 1]), fine_cutoff);
+    }
   }
   out.link = static_cast<std::int64_t>(link);
   out.obstacle = static_cast<std::int64_t>(i);
@@ -182,6 +185,17 @@ LinkPairDistance link_pair_distance(const LinkModelView& links, const WorldSegme
                                     std::size_t l2) {
   return segment_pair(world.capsule_a(l1), world.capsule_b(l1), links.self_r[l1], world.capsule_a(l2),
                       world.capsule_b(l2), links.self_r[l2]);
+}
+
+void axis_middles(const LinkModelView& links, const WorldSegments& world, AxisMiddle* middles) {
+  for (std::size_t c = 0; c < links.capsule_count; ++c) {
+    const Vec3 a = world.capsule_a(c), b = world.capsule_b(c);
+    double half = 0.0;
+    half += (b.x - a.x) * (b.x - a.x);
+    half += (b.y - a.y) * (b.y - a.y);
+    half += (b.z - a.z) * (b.z - a.z);
+    middles[c] = {{0.5 * (a.x + b.x), 0.5 * (a.y + b.y), 0.5 * (a.z + b.z)}, 0.5 * std::sqrt(half)};
+  }
 }
 
 void PrimitivePlacement::reset() const {

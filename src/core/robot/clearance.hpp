@@ -38,6 +38,7 @@
 //     prim_r[primitive]).
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -112,6 +113,27 @@ void world_segment_range(const Frames& frames, const std::int64_t* joints, const
 void capsule_segments(const LinkModelView& links, const Frames& frames, WorldSegments& world);
 void primitive_segments(const LinkModelView& links, const Frames& frames, WorldSegments& world);
 
+// A capsule's axis as its midpoint and half length: every point of the capsule lies within half + its radius of
+// the midpoint.
+struct AxisMiddle {
+  Vec3 middle;
+  double half;
+};
+
+// Each bounding capsule's axis (world.cap_* filled) into middles (caps,).
+void axis_middles(const LinkModelView& links, const WorldSegments& world, AxisMiddle* middles);
+
+// (m) how far a bound computed another way must clear a need to decide a pair as the exact value would: far above
+// the rounding of distances of a few metres (~1e-15 m), far below any margin.
+constexpr double kSphereSlack = 1e-9;
+
+// The distance of two capsules' bounding spheres (axes m1, m2 with radii r1, r2): at most their distance, up to
+// rounding (compare it with a need plus kSphereSlack).
+inline double sphere_gap(const AxisMiddle& m1, double r1, const AxisMiddle& m2, double r2) {
+  const Vec3 apart = m1.middle - m2.middle;
+  return std::sqrt(math::dot(apart, apart)) - (m1.half + r1) - (m2.half + r2);
+}
+
 // ||c_i - segment|| - bound_i - r: the cheap lower bound of link's clearance to obstacle i (its bounding sphere
 // against the link's bounding capsule, world ends in `world`).
 inline double capsule_lower_bound(const ObstacleSet& obstacles, std::size_t i, const WorldSegments& world,
@@ -153,10 +175,12 @@ LinkObstacleDistance fitted_distance_below(const geometry::PackedView& packed, s
 // Values below fine_cutoff are exact (the fitted model's), bit for bit those of cutoff = fine_cutoff = inf; a
 // pair at least fine_cutoff away gets some value at least fine_cutoff (read it as "not below fine_cutoff").
 // world.prim_* must hold the link's primitives whenever its cheap bound is below min(cutoff, kFineRange +
-// kFineMargin) (near_segments, or primitive_segments).
+// kFineMargin) (near_segments, or primitive_segments), or `placement` places them when the fine level is reached
+// (on first use: a link whose capsule level answers is never placed).
 LinkObstacleDistance link_obstacle_distance_below(const LinkModelView& links, const WorldSegments& world,
                                                   const ObstacleSet& obstacles, std::size_t link, std::size_t i,
-                                                  double cutoff, double fine_cutoff);
+                                                  double cutoff, double fine_cutoff,
+                                                  const PrimitivePlacement* placement = nullptr);
 
 // link_obstacle_distance_below with exact values up to cutoff (fine_cutoff = inf).
 inline LinkObstacleDistance link_obstacle_distance(const LinkModelView& links, const WorldSegments& world,

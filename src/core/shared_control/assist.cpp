@@ -91,7 +91,8 @@ bool correct_nearest(const double* point_jac, Vec3 nv, Vec3 o, double allowed, s
 // qd: its rows n^T J_p qd >= n^T v_obs - s(d) into ws; when qd holds them all within the QP's tolerance it stands,
 // else qd becomes the QP's answer from the blend ws.blend. True in that case.
 bool hold_every_pair(const robot::RobotView& robot, const robot::Frames& frames, const robot::WorldSegments& world,
-                     const MovingObstacles& obstacles, const AssistParams& params, JointWorkspace& ws, double* qd) {
+                     const robot::PrimitivePlacement* placement, const MovingObstacles& obstacles,
+                     const AssistParams& params, JointWorkspace& ws, double* qd) {
   const std::size_t n = robot.kinematics.joint_count;
   const robot::LinkModelView& links = robot.links;
   const double influence = params.influence_distance;
@@ -105,7 +106,7 @@ bool hold_every_pair(const robot::RobotView& robot, const robot::Frames& frames,
     const double bound = (nv.x * o.x + nv.y * o.y + nv.z * o.z) - damper_allowance(pair.distance, params);
     rows.add_point_row(robot.kinematics, frames, joint, pair.point, nv, bound, ws.point_jacobian.data());
   };
-  planning::scan_link_obstacle_pairs(links, world, obstacles.set, influence, culled, evaluated);
+  planning::scan_link_obstacle_pairs(links, world, obstacles.set, influence, placement, culled, evaluated);
   double worst = 0.0;
   for (std::size_t k = 0; k < rows.count; ++k) {
     const double* a = rows.a + k * n;
@@ -197,7 +198,8 @@ PointAssistance assist_point(const geometry::PackedView& packed, const double* v
 }
 
 NearestLink nearest_link(const robot::LinkModelView& links, const robot::WorldSegments& world,
-                         const robot::ObstacleSet& obstacles, std::int64_t hint_link, std::int64_t hint_obstacle) {
+                         const robot::ObstacleSet& obstacles, std::int64_t hint_link, std::int64_t hint_obstacle,
+                         const robot::PrimitivePlacement* placement) {
   const auto caps = static_cast<std::int64_t>(links.capsule_count);
   const auto count = static_cast<std::int64_t>(obstacles.count());
   // the hinted pair alone (when it names one), or every pair
@@ -210,7 +212,7 @@ NearestLink nearest_link(const robot::LinkModelView& links, const robot::WorldSe
       // a pair whose bound is no better than the best so far answers that bound, not exact: it cannot be nearer
       const robot::LinkObstacleDistance pair = robot::link_obstacle_distance_below(
           links, world, obstacles, static_cast<std::size_t>(c), static_cast<std::size_t>(i), best.distance,
-          best.distance);
+          best.distance, placement);
       if (pair.exact && pair.distance < best.distance) {
         best.link = c;
         best.obstacle = i;
@@ -281,6 +283,7 @@ JointAssistance assist_joints(const double* q, const robot::RobotView& robot, co
   const robot::Frames* frames = &ws.frames;
   const double* jac = ws.jacobian.data();
   const robot::WorldSegments* world = &ws.world;
+  const robot::PrimitivePlacement* placement = nullptr;  // world holds every link near an obstacle
   if (state == nullptr) {
     robot::end_effector_kinematics(kinematics, q, ws.frames, ws.jacobian.data());
     robot::capsule_segments(robot.links, ws.frames, ws.world);
@@ -289,6 +292,7 @@ JointAssistance assist_joints(const double* q, const robot::RobotView& robot, co
     frames = state->frames;
     jac = state->jacobian;
     world = state->world;
+    placement = state->placement;
   }
   // qd_user = J^T (J J^T + lambda^2 I)^-1 u_user, or the operator's joint velocities; the undamped J J^T's
   // singularity test either way (it describes the arm at q)
@@ -306,7 +310,7 @@ JointAssistance assist_joints(const double* q, const robot::RobotView& robot, co
     if (q[j] - limits.lower[j] < joint_params.joint_limit_margin ||
         limits.upper[j] - q[j] < joint_params.joint_limit_margin)
       out.at_limit = true;
-  const NearestLink nearest = nearest_link(robot.links, *world, obstacles.set, hint_link, hint_obstacle);
+  const NearestLink nearest = nearest_link(robot.links, *world, obstacles.set, hint_link, hint_obstacle, placement);
   const double alpha = arbitrated_share(mode, nearest.link >= 0, nearest.distance, params, goal_share, false);
   for (std::size_t j = 0; j < n; ++j) qd[j] = alpha * qd_auto[j] + (1.0 - alpha) * qd_user[j];
   if (nearest.link >= 0) {
@@ -327,7 +331,7 @@ JointAssistance assist_joints(const double* q, const robot::RobotView& robot, co
       // the nearest pair in closed form, then every pair within Q (assist.hpp)
       std::copy(qd, qd + n, ws.blend.begin());
       out.limited = correct_nearest(point_jac, nv, o, damper_allowance(clearance, params), n, qd);
-      if (hold_every_pair(robot, *frames, *world, obstacles, params, ws, qd)) out.limited = true;
+      if (hold_every_pair(robot, *frames, *world, placement, obstacles, params, ws, qd)) out.limited = true;
     }
     out.obstacle_point = {nearest.point.x - clearance * nv.x, nearest.point.y - clearance * nv.y,
                           nearest.point.z - clearance * nv.z};
@@ -396,7 +400,8 @@ bool WholeBodyAssistance::step(const double* q, std::size_t q_size, const double
   const auto hint_obstacle = known ? static_cast<std::int64_t>(row.nearest_obstacle) : -1;
   // continue from the step's joint frames, Jacobian and world segments (the same link model and obstacles)
   const planning::WholeBodyWorkspace& step_ws = stepper_->workspace();
-  const JointState state{&step_ws.frames, step_ws.jacobian.data(), &step_ws.world};
+  const robot::PrimitivePlacement placement = stepper_->placement();
+  const JointState state{&step_ws.frames, step_ws.jacobian.data(), &step_ws.world, &placement};
   const double* qd_auto = stepper_->joint_velocities();
   out = assist_joints(clamped_.data(), robot_, obstacles_, params_, joint_params_, mode, goal_share, qd_auto, user,
                       hint_link, hint_obstacle, ws_, &state, qd);

@@ -116,7 +116,8 @@ struct PointAssistance {
 PointAssistance assist_point(const geometry::PackedView& packed, const double* velocities, Vec3 p, const double* user,
                              const double* autonomy, const AssistParams& params, Arbitration mode, double goal_share);
 
-// The closest link-obstacle pair of the link model at the world segments `world` (near_segments' filling): the pair
+// The closest link-obstacle pair of the link model at the world segments `world` (near_segments' filling, or the
+// primitives `placement` places on first use): the pair
 // with the smallest exact clearance (robot::link_obstacle_distance_below with cutoff = fine_cutoff = the best so
 // far, robot/clearance.hpp). The point is the robot's witness point on the link's surface: the deciding segment's
 // axis point less its radius along n (that radius taken as d_O(axis point) - d).
@@ -131,7 +132,7 @@ struct NearestLink {
 // hint_link, hint_obstacle: a pair already known to be the closest (both in range), then evaluated alone; -1: none.
 NearestLink nearest_link(const robot::LinkModelView& links, const robot::WorldSegments& world,
                          const robot::ObstacleSet& obstacles, std::int64_t hint_link = -1,
-                         std::int64_t hint_obstacle = -1);
+                         std::int64_t hint_obstacle = -1, const robot::PrimitivePlacement* placement = nullptr);
 
 // sigma_min(J) < threshold (> 0) for gram = J J^T (m x m, row-major), without an eigen solver: sigma_min^2 is the
 // smallest eigenvalue of J J^T, so sigma_min < t exactly when J J^T - t^2 I is not positive definite, i.e. when its
@@ -202,7 +203,9 @@ struct OperatorCommand {
 struct JointState {
   const robot::Frames* frames = nullptr;       // joint frames at q
   const double* jacobian = nullptr;            // (6, n) the end effector's at q
-  const robot::WorldSegments* world = nullptr;  // capsules and near primitives at q (robot::near_segments)
+  const robot::WorldSegments* world = nullptr;  // capsules at q, and the primitives the step placed
+  // places a link's primitives into world on first use (the step places only those its own pairs needed)
+  const robot::PrimitivePlacement* placement = nullptr;
 };
 
 // Whole-body assistance at q (n, within the limits) in one call: qd_user by damped least squares (math::dls_from_gram,
