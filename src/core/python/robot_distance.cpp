@@ -272,33 +272,34 @@ void bind_robot_distance(nb::module_& m) {
       "robot"_a, "rotations"_a, "origins"_a, "obstacles"_a, "Exact clearances at the joint frames.");
   m.def(
       "clearances_at",
-      [](const RobotArrays& robot, const Vector& q, const ObstacleArrays& obstacles) {
+      [](const RobotArrays& robot, const Vector& q, const ObstacleArrays& obstacles, double cutoff) {
         require(q.shape(0) == robot.joints(), "q: expected one value per joint");
         double *obstacle, *own;
         Clearances out = new_clearances(robot, obstacles, &obstacle, &own);
         {
           nb::gil_scoped_release release;
           robot::clearances_at(robot.view().kinematics, robot.view().links, q.data(), obstacles.set(), obstacle,
-                               own);
+                               own, cutoff);
         }
         return out;
       },
-      "robot"_a, "q"_a, "obstacles"_a,
-      "Exact clearances at configuration q (forward kinematics of the robot, then clearances).");
+      "robot"_a, "q"_a, "obstacles"_a, "cutoff"_a = kInf,
+      "Clearances at configuration q (forward kinematics of the robot, then clearances): the link-obstacle pairs\n"
+      "exact below cutoff (some value at least cutoff for the others), the self pairs exact.");
   m.def(
       "fitted_self_clearances_at",
-      [](const RobotArrays& robot, const Vector& q) {
+      [](const RobotArrays& robot, const Vector& q, double cutoff) {
         require(q.shape(0) == robot.joints(), "q: expected one value per joint");
         auto [out, own] = new_array({robot.pairs()});
         {
           nb::gil_scoped_release release;
-          robot::fitted_self_clearances_at(robot.view().kinematics, robot.view().links, q.data(), own);
+          robot::fitted_self_clearances_at(robot.view().kinematics, robot.view().links, q.data(), own, cutoff);
         }
         return out;
       },
-      "robot"_a, "q"_a,
+      "robot"_a, "q"_a, "cutoff"_a = kInf,
       "Self-pair clearances (pairs,) at configuration q on the fitted primitives "
-      "(robot::fitted_pair_distance_below, exact).");
+      "(robot::fitted_pair_distance_below): exact below cutoff, some value at least cutoff for the others.");
   m.def(
       "covering_clearances",
       [](const RobotArrays& robot, const Matrix& qs, const ObstacleArrays& obstacles) {

@@ -279,11 +279,11 @@ class PlacedLinks {
 }  // namespace
 
 void fitted_self_clearances_at(const KinematicsView& kinematics, const LinkModelView& links, const double* q,
-                               double* own) {
+                               double* own, double cutoff) {
   const PlacedLinks placed(kinematics, links, q);
   for (std::size_t k = 0; k < links.pair_count; ++k)
     own[k] = fitted_pair_distance_below(links, placed.world, static_cast<std::size_t>(links.self_pairs[2 * k]),
-                                        static_cast<std::size_t>(links.self_pairs[2 * k + 1]), kInf)
+                                        static_cast<std::size_t>(links.self_pairs[2 * k + 1]), cutoff)
                  .distance;
 }
 
@@ -308,9 +308,9 @@ void clearances(const LinkModelView& links, const Frames& frames, const Obstacle
 }
 
 void clearances_at(const KinematicsView& kinematics, const LinkModelView& links, const double* q,
-                   const ObstacleSet& obstacles, double* obstacle, double* own) {
+                   const ObstacleSet& obstacles, double* obstacle, double* own, double cutoff) {
   const PlacedLinks placed(kinematics, links, q);
-  fill_clearances(links, placed.world, obstacles, kInf, obstacle, own);
+  fill_clearances(links, placed.world, obstacles, cutoff, obstacle, own);
 }
 
 void covering_clearances(const KinematicsView& kinematics, const LinkModelView& links, const double* qs,

@@ -230,9 +230,10 @@ struct PrimitivePlacement {
   void place(std::size_t link) const;
 };
 
-// fitted_pair_distance_below for every self pair at configuration q (n,), exact (no cutoff), into own (pairs,).
+// fitted_pair_distance_below for every self pair at configuration q (n,) into own (pairs,): exact below cutoff (all
+// of them by default), some value at least cutoff for the others.
 void fitted_self_clearances_at(const KinematicsView& kinematics, const LinkModelView& links, const double* q,
-                               double* own);
+                               double* own, double cutoff = std::numeric_limits<double>::infinity());
 
 // Link-obstacle clearances into obstacle (caps, M) row-major and self-pair clearances into own (pairs,), from the
 // world segments; pairs whose bound is >= cutoff get a bound (link_obstacle_distance_below(cutoff, cutoff)).
@@ -245,9 +246,10 @@ void clearances(const LinkModelView& links, const Frames& frames, const Obstacle
                 double* obstacle, double* own);
 
 // clearances at configuration q (n,): the joint frames by forward kinematics (robot/kinematics.hpp), the
-// workspace allocated here.
+// workspace allocated here; the link-obstacle pairs exact below cutoff (fill_clearances), the self pairs exact.
 void clearances_at(const KinematicsView& kinematics, const LinkModelView& links, const double* q,
-                   const ObstacleSet& obstacles, double* obstacle, double* own);
+                   const ObstacleSet& obstacles, double* obstacle, double* own,
+                   double cutoff = std::numeric_limits<double>::infinity());
 
 // The covering capsules alone at `count` configurations qs (count, n) row-major (the certificate's bound,
 // pfield.planning.certify): for configuration k, capsule l against obstacle i, the axis's signed distance

@@ -122,12 +122,14 @@ def plan_loop(q0: NDArray[np.float64], robot: RobotArrays, scene: Scene, goal_p:
         twists[:count], clear[:count], culprit(result.last)
 
 
-def pair_distances(q: NDArray[np.float64], robot: RobotArrays, scene: Scene) -> tuple[NDArray[np.float64],
-                                                                                       NDArray[np.float64]]:
+def pair_distances(q: NDArray[np.float64], robot: RobotArrays, scene: Scene, cutoff: float = np.inf
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Clearances (m) of the fitted model at ``q``: link × obstacle (L, M) and self pairs (P,), by the compiled
     core (``src/core/robot/clearance``: the same bits as the numba kernels it replaced, issue 32); the self pairs on
-    the fitted primitives when ``scene.fitted_self``, else on the covering capsules."""
-    clearances = _distance.clearances_at(core_robot(robot), q, core_obstacles(scene))
+    the fitted primitives when ``scene.fitted_self``, else on the covering capsules. Exact below ``cutoff`` (m);
+    a pair at least that far may get any value at least ``cutoff`` (the covering capsules' self pairs are always
+    exact): a caller that compares the values with a margin up to ``cutoff`` gets the same answers."""
+    clearances = _distance.clearances_at(core_robot(robot), q, core_obstacles(scene), cutoff)
     if scene.fitted_self:
-        return clearances.obstacle, np.asarray(_distance.fitted_self_clearances_at(core_robot(robot), q))
+        return clearances.obstacle, np.asarray(_distance.fitted_self_clearances_at(core_robot(robot), q, cutoff))
     return clearances.obstacle, clearances.own

@@ -204,7 +204,7 @@ def endpoint_scene(scene: _wb.Scene, arrays: _wb.RobotArrays, ends: Sequence[NDA
     ``measured``: the ends' :func:`~pfield.planning._whole_body_core.pair_distances` in ``scene``, when the caller
     has them (:func:`end_distances`)."""
     obstacle_offsets, self_offsets = np.zeros_like(scene.obstacle_offsets), np.zeros_like(scene.self_offsets)
-    for index, (obstacle, own) in enumerate(measured or end_distances(arrays, scene, ends)):
+    for index, (obstacle, own) in enumerate(measured or end_distances(arrays, scene, ends, margin)):
         extra = band if index == 0 else goal_band
         obstacle_offsets = np.minimum(obstacle_offsets, np.where(obstacle < margin, obstacle - margin - extra, 0.0))
         self_offsets = np.minimum(self_offsets, np.where(own < margin, own - margin - extra, 0.0))
@@ -212,10 +212,11 @@ def endpoint_scene(scene: _wb.Scene, arrays: _wb.RobotArrays, ends: Sequence[NDA
                           self_offsets=self_offsets - _ROUNDING * (self_offsets < 0.0))
 
 
-def end_distances(arrays: _wb.RobotArrays, scene: _wb.Scene, ends: Sequence[NDArray[np.float64]]
-                  ) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
-    """The fitted model's pair distances (link × obstacle, self pairs) at each of ``ends`` in ``scene``."""
-    return [pair_distances(np.ascontiguousarray(q), arrays, scene) for q in ends]
+def end_distances(arrays: _wb.RobotArrays, scene: _wb.Scene, ends: Sequence[NDArray[np.float64]],
+                  cutoff: float = np.inf) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
+    """The fitted model's pair distances (link × obstacle, self pairs) at each of ``ends`` in ``scene``, exact
+    below ``cutoff`` (:func:`~pfield.planning._whole_body_core.pair_distances`)."""
+    return [pair_distances(np.ascontiguousarray(q), arrays, scene, cutoff) for q in ends]
 
 
 def _joint_checker(arrays: _wb.RobotArrays, scene: _wb.Scene, margin: float, resolution: float) -> _core.Checker:
@@ -223,7 +224,7 @@ def _joint_checker(arrays: _wb.RobotArrays, scene: _wb.Scene, margin: float, res
 
 
 def _capsules_clear(arrays: _wb.RobotArrays, scene: _wb.Scene, q: NDArray[np.float64], margin: float) -> bool:
-    obstacle, own = pair_distances(q, arrays, scene)
+    obstacle, own = pair_distances(q, arrays, scene, margin)
     return bool(np.all(obstacle >= margin) and np.all(own >= margin))
 
 
@@ -631,7 +632,8 @@ def joint_space_search(robot: RobotModel, arrays: _wb.RobotArrays, scene: _wb.Sc
     tracking."""
     scene = scene._replace(fitted_self=True)  # self pairs on the fitted primitives (module docstring)
     ends = (start, *goals)
-    measured = end_distances(arrays, scene, ends)  # for both scenes below
+    # for both scenes below, which compare them with margins up to the clearance checker's
+    measured = end_distances(arrays, scene, ends, margin + options.smoothing_clearance)
     search_scene = endpoint_scene(scene, arrays, ends, margin, options.endpoint_band, goal_band, measured)
     if self_slack is not None:
         search_scene = search_scene._replace(self_offsets=np.minimum(search_scene.self_offsets, -self_slack))

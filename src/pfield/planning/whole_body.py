@@ -177,7 +177,7 @@ def make_scene(packed: PackedObstacles | None, robot: _wb.RobotArrays | None = N
     scene = _wb.Scene(packed, centres, radii, np.zeros((n_caps, len(radii))), np.zeros(n_pairs))
     if robot is None or q0 is None:
         return scene
-    obstacle, own = _core_loop.pair_distances(q0, robot, scene)
+    obstacle, own = _core_loop.pair_distances(q0, robot, scene, safety_distance)  # exact where an offset is set
     return scene._replace(obstacle_offsets=np.minimum(obstacle - safety_distance, 0.0),
                           self_offsets=np.minimum(own - safety_distance, 0.0))
 
