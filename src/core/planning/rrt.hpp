@@ -62,11 +62,11 @@ struct CapsuleWorkspace {
   std::vector<double> rotations, origins;  // (n, 3, 3), (n, 3)
   std::vector<double> segment_ends;        // capsules a, b (caps, 3) each, then primitives a, b (prims, 3)
   std::vector<unsigned char> placed;       // (caps,) whether the link's primitives are in `world` for this q
-  std::vector<robot::AxisMiddle> middles;         // (caps,) each capsule's axis for this q
+  std::vector<robot::AxisMiddle> middles;  // (caps,) each capsule's axis for this q
   // Capsules on one joint (a gripper's links) as a group with one bounding sphere per q: an obstacle that clears the
   // sphere clears each of them without its own signed distance.
   std::vector<std::int64_t> group_of;      // (caps,) the capsule's group, -1 when alone on its joint
-  std::vector<robot::AxisMiddle> groups;          // (groups,) each group's sphere for this q: centre and radius
+  std::vector<robot::AxisMiddle> groups;   // (groups,) each group's sphere for this q: centre and radius
   std::vector<double> group_share;         // (groups,) 1 / its number of capsules
   std::vector<double> group_distance;      // (groups, M) obstacle i's distance from group g's sphere, NaN: not yet
   robot::Frames frames;

@@ -85,7 +85,7 @@ void self_rows(const robot::RobotView& robot, const WholeBodyScene& scene, const
   std::int64_t nearest = -1;
   double* jlin2 = ws.jlin2.data();
   // the fitted level needs the primitives of the links in pairs whose bounding capsules come within the influence
-  // distance: placed by the pair that first needs them, unless step_segments placed them (near an obstacle)
+  // distance: placed by the pair that first needs them, unless a link-obstacle pair of this step placed them
   const robot::PrimitivePlacement placement = primitive_placement(links, ws);
   const double* radii = scene.fitted_self ? links.cap_r : links.self_r;  // the capsules the pairs are measured on
   for (std::size_t k = 0; k < links.pair_count; ++k) {

@@ -141,13 +141,14 @@ struct WholeBodyWorkspace {
 // the QP's normal equations ws.h, ws.rhs; pose and goal errors into ws.result.
 void task(const robot::RobotView& robot, const Goal& goal, const WholeBodyParams& params, WholeBodyWorkspace& ws);
 
-// The step's world segments: every bounding capsule (and its axis, ws.middles); a link's fitted primitives are placed (ws.placed) by the first
-// obstacle or self pair of the step that reaches its fine level, so the links no pair gets that near to are never
-// placed.
+// The step's world segments: every bounding capsule (and its axis, ws.middles); a link's fitted primitives are
+// placed (ws.placed) by the first obstacle or self pair of the step that reaches its fine level, so the links no
+// pair gets that near to are never placed.
 void step_segments(const robot::RobotView& robot, WholeBodyWorkspace& ws);
 
 // The joint velocity of the task in ws.h / ws.rhs under the dampers (link-obstacle, self pairs, joint limits) into
-// ws.x, speed- and rate-limited, and its twist J qd into ws.result, once the frames and world segments are in ws.
+// ws.x, speed- and rate-limited, and its twist J qd into ws.result, once the frames are in ws and step_segments
+// has placed the capsules (their axes, the reset placement flags).
 // previous: the last joint velocity (n,) for the rate limit, or null for none; free_weight scales the null-space
 // repulsion added to the task; hold: the start offsets are taken at q itself (pairs closer than d_s may not
 // approach further: max(d, d_s)), without the scene's offsets; posture: a goal with joints adds
