@@ -14,13 +14,12 @@
 #include "robot/kinematics.hpp"
 
 namespace pfield::planning {
-namespace {
 
-// Primitive placement into ws.world at ws.frames, its flags ws.placed: which links this configuration has placed
-// (step_segments resets them).
 robot::PrimitivePlacement primitive_placement(const robot::LinkModelView& links, WholeBodyWorkspace& ws) {
   return {&links, &ws.frames, &ws.world, ws.placed.data()};
 }
+
+namespace {
 
 using field::stepped_damper_speed;
 using math::Quat;

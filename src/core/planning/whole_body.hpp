@@ -137,6 +137,10 @@ struct WholeBodyWorkspace {
   robot::WorldSegments world;       // views of segment_ends
 };
 
+// Primitive placement into ws.world at ws.frames, its flags ws.placed: which links this configuration has placed
+// (step_segments resets them).
+robot::PrimitivePlacement primitive_placement(const robot::LinkModelView& links, WholeBodyWorkspace& ws);
+
 // The end effector's pose, Jacobian (ws.jacobian) and the field's desired twist at the joint frames in ws, into
 // the QP's normal equations ws.h, ws.rhs; pose and goal errors into ws.result.
 void task(const robot::RobotView& robot, const Goal& goal, const WholeBodyParams& params, WholeBodyWorkspace& ws);
@@ -230,7 +234,7 @@ class WholeBodyStepper {
   const double* joint_velocities() const { return ws_.x.data(); }
   const WholeBodyWorkspace& workspace() const { return ws_; }
   // Places a link's primitives at the last step's frames on first use (the step placed only those its pairs needed).
-  robot::PrimitivePlacement placement() { return {&robot_.links, &ws_.frames, &ws_.world, ws_.placed.data()}; }
+  robot::PrimitivePlacement placement() { return primitive_placement(robot_.links, ws_); }
 
  private:
   robot::RobotView robot_;

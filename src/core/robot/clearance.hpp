@@ -11,9 +11,9 @@
 // pfield.planning.whole_body.obstacle_bounds; bound = inf never culls), which gives the cheapest lower bound.
 //
 // All segment ends here are world points (WorldSegments, filled by capsule_segments / primitive_segments /
-// near_segments from the joint frames, or a link's primitives on first use by a PrimitivePlacement). A closest point returned is on the deciding segment (the capsule's or
-// the primitive's axis), where the kernels take the point Jacobian; the normal points from the obstacle (or from
-// the second link) towards the link.
+// near_segments from the joint frames, or a link's primitives on first use by a PrimitivePlacement). A closest point
+// returned is on the deciding segment (the capsule's or the primitive's axis), where the kernels take the point
+// Jacobian; the normal points from the obstacle (or from the second link) towards the link.
 //
 // ONE link-obstacle distance for every caller: link_obstacle_distance_below. Its users in pfield (the numba engine
 // gave each its own copy of the two levels; tests/robot/test_core_distance.py replays the assistance's and the whole

@@ -250,6 +250,7 @@ JointWorkspace::JointWorkspace(const robot::RobotView& robot, std::size_t obstac
       jacobian(kTwist * robot.kinematics.joint_count),
       point_jacobian(3 * robot.kinematics.joint_count),
       segment_ends(6 * (robot.links.capsule_count + robot.links.primitive_count)),
+      placed(robot.links.capsule_count),
       qd_user(robot.kinematics.joint_count),
       blend(robot.kinematics.joint_count),
       identity(robot.kinematics.joint_count * robot.kinematics.joint_count, 0.0),
@@ -283,11 +284,13 @@ JointAssistance assist_joints(const double* q, const robot::RobotView& robot, co
   const robot::Frames* frames = &ws.frames;
   const double* jac = ws.jacobian.data();
   const robot::WorldSegments* world = &ws.world;
-  const robot::PrimitivePlacement* placement = nullptr;  // world holds every link near an obstacle
+  // a link's primitives are placed by the first pair that reaches its fine level (the step's rule)
+  const robot::PrimitivePlacement own{&robot.links, &ws.frames, &ws.world, ws.placed.data()};
+  const robot::PrimitivePlacement* placement = &own;
   if (state == nullptr) {
     robot::end_effector_kinematics(kinematics, q, ws.frames, ws.jacobian.data());
     robot::capsule_segments(robot.links, ws.frames, ws.world);
-    robot::near_segments(robot.links, ws.frames, obstacles.set, ws.world);
+    own.reset();
   } else {
     frames = state->frames;
     jac = state->jacobian;

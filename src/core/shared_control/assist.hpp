@@ -117,9 +117,8 @@ PointAssistance assist_point(const geometry::PackedView& packed, const double* v
                              const double* autonomy, const AssistParams& params, Arbitration mode, double goal_share);
 
 // The closest link-obstacle pair of the link model at the world segments `world` (near_segments' filling, or the
-// primitives `placement` places on first use): the pair
-// with the smallest exact clearance (robot::link_obstacle_distance_below with cutoff = fine_cutoff = the best so
-// far, robot/clearance.hpp). The point is the robot's witness point on the link's surface: the deciding segment's
+// primitives `placement` places on first use): the pair with the smallest exact clearance
+// (robot::link_obstacle_distance_below with cutoff = fine_cutoff = the best so far, robot/clearance.hpp). The point is the robot's witness point on the link's surface: the deciding segment's
 // axis point less its radius along n (that radius taken as d_O(axis point) - d).
 struct NearestLink {
   std::int64_t link = -1;      // -1 without obstacles (or links)
@@ -181,6 +180,7 @@ struct JointWorkspace {
   std::vector<double> jacobian;            // (6, n) the end effector's
   std::vector<double> point_jacobian;      // (3, n) a link point's linear Jacobian (the nearest's, then each row's)
   std::vector<double> segment_ends;        // capsules a, b (caps, 3) each, then primitives a, b (prims, 3)
+  std::vector<unsigned char> placed;       // (caps,) the links whose primitives are in `world` for this q
   std::vector<double> qd_user;             // (n,)
   std::vector<double> blend;               // (n,) qd before the dampers
   std::vector<double> identity;            // (n, n) the QP's Hessian I, its own Cholesky factor
@@ -204,7 +204,7 @@ struct JointState {
   const robot::Frames* frames = nullptr;       // joint frames at q
   const double* jacobian = nullptr;            // (6, n) the end effector's at q
   const robot::WorldSegments* world = nullptr;  // capsules at q, and the primitives the step placed
-  // places a link's primitives into world on first use (the step places only those its own pairs needed)
+  // places a link's primitives into world on first use (the step places only those its own pairs needed); required
   const robot::PrimitivePlacement* placement = nullptr;
 };
 
