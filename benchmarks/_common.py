@@ -115,38 +115,14 @@ def auto_number(fn: Callable[[], object], budget_s: float = 0.05) -> int:
 
 
 # ---------------------------------------------------------------------------------------------------------------
-# The benchmarks' own exact collision check, independent of the planner's (pfield.robot.collision and
-# pfield.planning.certify are not used): the robot is read from its URDF by pinocchio with its collision meshes,
-# obstacles become coal shapes, and a pair is in contact when coal's collision test finds the link mesh (a BVH of
-# its triangles) touching the obstacle's solid shape or the other link's mesh. Filters that never hide a contact
-# come first: world bounding boxes, then the meshes' convex hulls (coal/qhull; a hull contains its mesh).
+# The benchmarks' own exact collision check, independent of the planner's (pfield.planning.certify and
+# pfield.robot.collision's checker are not used): the robot is read from its URDF by pinocchio with its collision
+# meshes, obstacles become coal shapes (by pfield.robot.collision.coal_geometry, the one conversion of a shape to
+# coal, which tests/test_every_shape.py holds to the core's signed distances), and a pair is in contact when coal's
+# collision test finds the link mesh (a BVH of its triangles) touching the obstacle's solid shape or the other link's
+# mesh. Filters that never hide a contact come first: world bounding boxes, then the meshes' convex hulls
+# (coal/qhull; a hull contains its mesh).
 # Not detected: one link mesh wholly inside another's without touching its triangles.
-
-
-def _coal_obstacle(obstacle: Any) -> Any:
-    """A coal geometry of a :class:`pfield.geometry.Obstacle`'s shape, in the obstacle's local frame."""
-    import coal
-
-    from pfield.geometry import Box, Capsule, Cylinder, Ellipsoid, Sphere
-
-    shape = obstacle.shape
-    if isinstance(shape, Box):
-        return coal.Box(shape.length, shape.width, shape.height)  # full extents (m)
-    if isinstance(shape, Sphere):
-        return coal.Sphere(shape.radius)
-    if isinstance(shape, Cylinder):
-        return coal.Cylinder(shape.radius, shape.height)  # full height along local z
-    if isinstance(shape, Capsule):
-        return coal.Capsule(shape.radius, shape.height)
-    if isinstance(shape, Ellipsoid):
-        return coal.Ellipsoid(shape.semi_x, shape.semi_y, shape.semi_z)
-    mesh = coal.BVHModelOBBRSS()  # a triangle mesh obstacle: its surface
-    vertices, faces = np.asarray(shape.data.vertices, dtype=np.float64), np.asarray(shape.data.faces, dtype=np.int64)
-    mesh.beginModel(len(faces), len(vertices))
-    mesh.addVertices(vertices)
-    mesh.addTriangles(faces)
-    mesh.endModel()
-    return mesh
 
 
 def _local_box(geometry: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -255,9 +231,11 @@ class ExactScene:
     def __init__(self, robot: ExactRobot, obstacles: list[Any]) -> None:
         import coal
 
+        from pfield.robot.collision import coal_geometry
+
         self.robot, self._coal = robot, coal
         self.names = [o.id for o in obstacles]
-        self.shapes = [_coal_obstacle(o) for o in obstacles]
+        self.shapes = [coal_geometry(o) for o in obstacles]
         self.transforms: list[Any] = []
         for o in obstacles:
             x, y, z, w = (float(v) for v in o.pose.orientation)

@@ -1,10 +1,12 @@
 """Every obstacle shape through every consumer of shapes.
 
 A new obstacle kind (a point cloud is next, DESIGN §8) joins the ``Shape`` union of :mod:`pfield.geometry`. The
-first test then fails until the kind has an example here, and each of the others until its consumer handles it:
-the core's signed distances (which the exact check's coal geometry must agree with), the covering proxy of the
-plan certificate (which must contain the obstacle), the ROS message, MuJoCo, the pictures, the viewer and the
-RViz markers. Each consumer refuses a shape it does not know by name rather than taking it for another.
+first test then fails until the kind has an example here and a code in the core's ``Kind``, and each of the others
+until its consumer handles it: the core's signed distances by each of its paths (which the exact check's coal
+geometry must agree with), the link capsules' distance, the bounding radius the planners cull with, the covering
+proxy of the plan certificate (which must contain the obstacle), the ROS message, MuJoCo, the pictures, the viewer
+and the RViz markers. Each consumer refuses a shape it does not know by name rather than taking it for another (the
+core's switches over ``Kind`` do not build with a kind missing, and the core refuses a code that is no kind).
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import coal
 import numpy as np
 import pytest
 
+from pfield._core.geometry import Kind
 from pfield.geometry import (
     SHAPE_TYPES,
     Box,
@@ -28,9 +31,12 @@ from pfield.geometry import (
     ResourceResolver,
     Shape,
     Sphere,
+    distances,
+    nearest_distances,
     pack_obstacles,
     signed_distances,
 )
+from pfield.geometry.packed import SHAPE_CODES, bounding_radius
 from pfield.spatial import Pose
 
 MESHES = Path(__file__).parent / "data" / "meshes"
@@ -50,6 +56,26 @@ POSE = Pose((0.45, -0.1, 0.3), (0.1, 0.2, 0.3, 0.9273618495495703))
 def test_every_shape_type_has_an_example() -> None:
     assert set(EXAMPLES) == set(get_args(Shape))
     assert SHAPE_TYPES == tuple(kind.__name__ for kind in get_args(Shape))
+
+
+def test_every_shape_type_has_the_cores_code() -> None:
+    """The codes of packed sets are the core's ``Kind`` (their one definition), one for each shape type."""
+    assert SHAPE_CODES == {kind.name: int(kind) for kind in Kind}
+    assert sorted(SHAPE_CODES) == sorted(SHAPE_TYPES)
+    assert sorted(SHAPE_CODES.values()) == list(range(len(Kind)))
+
+
+@pytest.mark.parametrize("code", [-1, len(Kind), 99])
+def test_the_core_refuses_a_code_that_is_no_shape(code: int) -> None:
+    """A hand-built set whose kinds hold a code outside ``Kind`` is refused by name, not measured as a sphere."""
+    packed = pack_obstacles([Obstacle("ball", Sphere(0.1), POSE)])
+    packed.kinds[0] = code
+    expected = f"kinds: obstacle 0 has code {code}, which is no shape"
+    for query in (signed_distances, distances, nearest_distances):
+        with pytest.raises(ValueError, match=expected):
+            query(packed, np.zeros((1, 3)))
+    with pytest.raises(ValueError, match=f"kind {code} has no bounding radius"):
+        bounding_radius(packed, 0)
 
 
 @pytest.fixture(params=list(EXAMPLES), ids=lambda kind: kind.__name__)
@@ -74,11 +100,11 @@ def _inside(obstacle: Obstacle, count: int = 400) -> np.ndarray:
 
 def test_the_core_signed_distance_is_the_exact_checks_distance(obstacle: Obstacle) -> None:
     """The field's signed distance (the compiled core) and the certificate's (coal) measure the same shape."""
-    from pfield.robot.collision import _coal_geometry, _transform
+    from pfield.robot.collision import _transform, coal_geometry
 
     points = _around(obstacle)
     core, normals = signed_distances(pack_obstacles([obstacle]), points)
-    geometry, placement = _coal_geometry(obstacle), _transform(obstacle)
+    geometry, placement = coal_geometry(obstacle), _transform(obstacle)
     probe, request = coal.Sphere(1e-6), coal.DistanceRequest()
     for point, distance, normal in zip(points, core[:, 0], normals[:, 0], strict=True):
         result = coal.DistanceResult()
@@ -86,6 +112,40 @@ def test_the_core_signed_distance_is_the_exact_checks_distance(obstacle: Obstacl
         assert distance == pytest.approx(exact + 1e-6, abs=2e-6)
         assert np.linalg.norm(normal) == pytest.approx(1.0)
     assert np.all(core > 0.0)
+
+
+def test_every_path_of_the_core_gives_the_same_distances(obstacle: Obstacle) -> None:
+    """The core's three dispatches of a point's distance (with the normal, without it, the nearest over the set)
+    agree to the bit, with and without a cutoff; the bounding radius the planners cull with is the shape's own and
+    bounds the distance from below."""
+    packed = pack_obstacles([obstacle])
+    points = np.vstack([_around(obstacle), _inside(obstacle)])
+    for cutoff in (np.inf, 0.05):
+        with_normals, _ = signed_distances(packed, points, cutoff)
+        np.testing.assert_array_equal(distances(packed, points, cutoff), with_normals)
+    exact, _ = signed_distances(packed, points)
+    np.testing.assert_array_equal(nearest_distances(packed, points), exact[:, 0])
+    radius = bounding_radius(packed, 0)
+    assert radius == pytest.approx(obstacle.bounding_radius(), rel=1e-12)
+    assert np.all(exact[:, 0] >= np.linalg.norm(points - obstacle.pose.position, axis=1) - radius - 1e-12)
+
+
+def test_a_link_capsules_distance_is_the_least_along_its_axis(obstacle: Obstacle) -> None:
+    """The planners' segment–obstacle distance (each kind's own minimiser) is the signed distance's minimum along
+    the segment: never above a dense sampling's, never below it by more than half a step (d is 1-Lipschitz)."""
+    from pfield._core import robot_distance
+    from pfield.planning._whole_body_core import core_obstacles
+    from pfield.planning.whole_body import make_scene
+
+    obstacles = core_obstacles(make_scene(pack_obstacles([obstacle])))
+    rng = np.random.default_rng(5)
+    samples = np.linspace(0.0, 1.0, 2001)
+    centre, reach = np.asarray(obstacle.pose.position), 2.0 * obstacle.bounding_radius()
+    for _ in range(20):
+        a, b = centre + rng.uniform(-reach, reach, 3), centre + rng.uniform(-reach, reach, 3)
+        found = robot_distance.segment_obstacle_distance(obstacles, 0, a, b)
+        dense, _ = signed_distances(pack_obstacles([obstacle]), a + samples[:, None] * (b - a))
+        assert dense[:, 0].min() - np.linalg.norm(b - a) / 4000 - 1e-9 <= found.distance <= dense[:, 0].min() + 1e-6
 
 
 def test_the_covering_proxy_contains_the_obstacle(obstacle: Obstacle) -> None:

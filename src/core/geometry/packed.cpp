@@ -9,6 +9,10 @@ namespace pfield::geometry {
 std::string check_packed(const PackedView& packed) {
   const auto nodes = static_cast<std::int64_t>(packed.node_count);
   const auto triangles = static_cast<std::int64_t>(packed.triangle_count);
+  for (std::size_t i = 0; i < packed.obstacle_count; ++i)
+    if (packed.kinds[i] < 0 || packed.kinds[i] >= kKindCount)
+      return "kinds: obstacle " + std::to_string(i) + " has code " + std::to_string(packed.kinds[i]) +
+             ", which is no shape (pfield._core.geometry.Kind: 0 to " + std::to_string(kKindCount - 1) + ")";
   std::vector<std::int64_t> depth(packed.node_count, 0);
   for (std::int64_t k = 0; k < nodes; ++k) {
     const std::int64_t* node = packed.node(k);

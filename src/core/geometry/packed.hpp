@@ -1,5 +1,5 @@
 // A packed obstacle set, read in place: the layout pfield.geometry.pack_obstacles builds (src/pfield/geometry/
-// _packed.py documents it; this view and that docstring describe the same arrays).
+// packed.py documents it; this view and that docstring describe the same arrays).
 //
 //   kinds (M,)              shape code per obstacle (Kind below)
 //   rows (M, 16)            [0:3] world position of the shape centre, [3:12] the row-major rotation (local -> world),
@@ -21,7 +21,12 @@
 
 namespace pfield::geometry {
 
+// The shape codes of `kinds`: their one definition (bound as pfield._core.geometry.Kind, from which
+// pfield.geometry.packed takes its codes). Every switch over a Kind lists each kind and has no default, and the
+// build makes a missing case an error (-Werror=switch): a new kind cannot be taken for another in silence. Codes
+// outside the enum never reach a switch: check_packed refuses them.
 enum class Kind : std::int64_t { Sphere = 0, Box = 1, Cylinder = 2, Ellipsoid = 3, Capsule = 4, Mesh = 5 };
+constexpr std::int64_t kKindCount = 6;  // one past the last Kind
 
 constexpr std::size_t kRowWidth = 16;
 constexpr std::size_t kPseudoNormals = 7;
@@ -58,9 +63,9 @@ struct PackedView {
   const std::int64_t* mesh(std::int64_t m) const { return mesh_table + kMeshTableWidth * m; }
 };
 
-// Empty when every index the queries follow stays inside its array (mesh roots and node counts, children, leaf
-// triangle ranges) and every tree is shallower than kStackSize; otherwise what is wrong, for the binding's
-// ValueError. Children must come after their parent (depth-first order, as pack_obstacles stores them), which
+// Empty when every kind is a Kind and every index the queries follow stays inside its array (mesh roots and node
+// counts, children, leaf triangle ranges) and every tree is shallower than kStackSize; otherwise what is wrong, for
+// the binding's ValueError. Children must come after their parent (depth-first order, as pack_obstacles stores them), which
 // also rules out cycles. Mesh indices in rows are checked per query (NaN out).
 std::string check_packed(const PackedView& packed);
 

@@ -223,7 +223,8 @@ void signed_distances_only(const PackedView& packed, const double* points, std::
       case Kind::Capsule:
         column(row, points, n, m, out, [&](const Vec3& q) { return detail::capsule_distance(q, s0, s1); });
         break;
-      default:  // ellipsoids, meshes, unknown codes
+      case Kind::Ellipsoid:
+      case Kind::Mesh:
         for (std::size_t k = 0; k < n; ++k)
           out[k * m] = obstacle_distance(packed, i, {points[3 * k], points[3 * k + 1], points[3 * k + 2]}, cutoff);
     }

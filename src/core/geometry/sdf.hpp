@@ -159,8 +159,11 @@ SignedDistance mesh_within(const PackedView& packed, double mesh, const Vec3& q,
     if (norm > 0.0) return {norm - row[12], {dx / norm, dy / norm, dz / norm}};
   }
   const Vec3 q = detail::to_local(row, p);
-  SignedDistance local;
+  SignedDistance local{std::numeric_limits<double>::quiet_NaN(), {}};  // every Kind sets it (check_packed)
   switch (kind) {
+    case Kind::Sphere:  // at its centre
+      local = detail::sphere_at(q, row[12]);
+      break;
     case Kind::Box:
       local = detail::box_at(q, row[12], row[13], row[14]);
       break;
@@ -176,8 +179,6 @@ SignedDistance mesh_within(const PackedView& packed, double mesh, const Vec3& q,
     case Kind::Mesh:
       local = detail::mesh_within(packed, row[15], q, cutoff);
       break;
-    default:  // Sphere (at its centre), and any unknown code
-      local = detail::sphere_at(q, row[12]);
   }
   const Vec3& n = local.normal;
   return {local.distance, {row[3] * n.x + row[4] * n.y + row[5] * n.z, row[6] * n.x + row[7] * n.y + row[8] * n.z,
@@ -197,6 +198,8 @@ SignedDistance mesh_within(const PackedView& packed, double mesh, const Vec3& q,
   }
   const Vec3 q = detail::to_local(row, p);
   switch (kind) {
+    case Kind::Sphere:  // unreachable: answered above
+      return detail::sphere_at(q, row[12]).distance;
     case Kind::Box:
       return detail::box_distance(q, row[12], row[13], row[14]);
     case Kind::Cylinder:
@@ -207,9 +210,8 @@ SignedDistance mesh_within(const PackedView& packed, double mesh, const Vec3& q,
       return detail::ellipsoid_within(q, row[12], row[13], row[14], cutoff).distance;
     case Kind::Mesh:
       return detail::mesh_within(packed, row[15], q, cutoff).distance;
-    default:  // any unknown code: a sphere
-      return detail::sphere_at(q, row[12]).distance;
   }
+  return std::numeric_limits<double>::quiet_NaN();  // no Kind: check_packed refuses such codes
 }
 
 // The boxes among packed obstacles as columns, one array per coordinate, so that one point's distance to every box

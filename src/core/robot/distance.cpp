@@ -48,8 +48,8 @@ LocalSegment local_segment(const double* row, Vec3 a, Vec3 b) {
            row[5] * ux + row[8] * uy + row[11] * uz}};
 }
 
-// The local signed distance of a primitive that is neither a sphere, a capsule, a box nor a mesh (the signed
-// distance dispatch with no cutoff: cylinders, ellipsoids, and unknown codes as spheres).
+// The local signed distance of a cylinder or an ellipsoid, the kinds convex_minimum serves (the signed distance
+// dispatch with no cutoff; segment_obstacle_distance sends no other kind here).
 SignedDistance convex_local(Kind kind, Vec3 q, double s0, double s1, double s2) {
   if (kind == Kind::Cylinder) return geometry::detail::cylinder_at(q, s0, s1);
   if (kind == Kind::Ellipsoid) {
@@ -265,9 +265,11 @@ SegmentDistance segment_obstacle_distance(const PackedView& packed, std::size_t 
     }
     case Kind::Mesh:
       return mesh_minimum(packed, i, a, b);
-    default:  // cylinders, ellipsoids, unknown codes
+    case Kind::Cylinder:
+    case Kind::Ellipsoid:
       return convex_minimum(packed, i, a, b);
   }
+  return {std::numeric_limits<double>::quiet_NaN(), 0.0, {}};  // no Kind: check_packed refuses such codes
 }
 
 }  // namespace pfield::robot

@@ -3,7 +3,8 @@
 This is the contract between :mod:`pfield.geometry` (which builds it) and every compiled consumer
 (the field, whole-body planning, collision checks). One :class:`PackedObstacles` holds M obstacles:
 
-* ``kinds[i]`` — shape code (``SPHERE`` … ``MESH`` below);
+* ``kinds[i]`` — shape code (``SPHERE`` … ``MESH`` below: the core's ``Kind``, ``src/core/geometry/packed.hpp``,
+  their one definition; the core refuses any other code with a ``ValueError``);
 * ``rows[i]`` — ``ROW_WIDTH`` float64: ``[0:3]`` world position of the shape centre, ``[3:12]`` the
   row-major rotation matrix (local → world), ``[12:15]`` the shape sizes in the local frame, ``[15]``
   the mesh index (−1 for primitives). Sizes: Sphere ``(r, 0, 0)``; Box ``(hx, hy, hz)`` half extents;
@@ -27,10 +28,13 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-SPHERE, BOX, CYLINDER, ELLIPSOID, CAPSULE, MESH = 0, 1, 2, 3, 4, 5
+from pfield._core.geometry import Kind
+
+SHAPE_CODES: dict[str, int] = {kind.name: int(kind) for kind in Kind}
+"""Shape type name (``Shape.type_name``) → code in ``kinds``."""
+SPHERE, BOX, CYLINDER, ELLIPSOID, CAPSULE, MESH = (SHAPE_CODES[name] for name in
+                                                   ("Sphere", "Box", "Cylinder", "Ellipsoid", "Capsule", "Mesh"))
 ROW_WIDTH = 16
-SHAPE_CODES = {"Sphere": SPHERE, "Box": BOX, "Cylinder": CYLINDER, "Ellipsoid": ELLIPSOID,
-               "Capsule": CAPSULE, "Mesh": MESH}
 
 
 class PackedObstacles(NamedTuple):
@@ -66,7 +70,7 @@ def bounding_radius(packed: PackedObstacles, i: int) -> float:
         first, length = (int(v) for v in packed.mesh_table[int(packed.rows[i, 15]), 2:4])
         vertices = packed.triangles[first:first + length].reshape(-1, 3)
         return float(np.max(np.linalg.norm(vertices, axis=1))) if length else 0.0
-    return math.inf
+    raise ValueError(f"obstacle {i}: kind {kind} has no bounding radius (pfield.geometry.packed.bounding_radius)")
 
 
 def empty_packed() -> PackedObstacles:

@@ -37,7 +37,7 @@ from pfield.robot.model import RobotModel
 from pfield.spatial import Pose
 
 __all__ = ["DISTANCE_TOLERANCE", "UNBOUNDED_WEIGHT", "CapsuleClearances", "CollisionChecker", "CollisionReport",
-           "capsule_clearances"]
+           "capsule_clearances", "coal_geometry"]
 
 DISTANCE_TOLERANCE = 1e-6
 """(m) how far coal's distance may be from the exact one (its GJK tolerance): a lower bound of a pair's distance
@@ -104,7 +104,9 @@ def capsule_clearances(robot: RobotModel, q: ArrayLike, obstacles: Sequence[Obst
     return CapsuleClearances(obstacle, own, links, tuple(o.id for o in obstacles), pairs)
 
 
-def _coal_geometry(obstacle: Obstacle) -> coal.CollisionGeometry:
+def coal_geometry(obstacle: Obstacle) -> coal.CollisionGeometry:
+    """The coal geometry of ``obstacle``'s shape in its local frame (the exact checks of plans and of the benchmarks'
+    claims); a shape it does not know is refused by name (``TypeError``)."""
     shape = obstacle.shape
     if isinstance(shape, Sphere):
         return coal.Sphere(shape.radius)
@@ -167,7 +169,7 @@ class CollisionChecker:
 
     def __init__(self, robot: RobotModel, obstacles: Sequence[Obstacle] = ()) -> None:
         self.robot = robot
-        self._obstacles = [(o.id, _coal_geometry(o), _transform(o)) for o in obstacles]
+        self._obstacles = [(o.id, coal_geometry(o), _transform(o)) for o in obstacles]
         self._obstacle_list = tuple(obstacles)
         self._shapes = _convex_hulls(robot)
         self._tables = tables = _robot_tables(robot)

@@ -60,18 +60,16 @@ def _grown_shape_mesh(shape: Any, grow: float) -> TriangleMesh:
 
 def shape_mesh(shape: Any) -> TriangleMesh:
     """The triangle mesh of an obstacle shape in its local frame (a Mesh shape: its scaled vertices)."""
-    data = getattr(shape, "data", None)
-    if data is not None and hasattr(data, "vertices"):
-        return np.asarray(data.vertices, dtype=np.float64), np.asarray(data.faces, dtype=np.int32)
+    if type(shape).__name__ == "Mesh":
+        return np.asarray(shape.data.vertices, dtype=np.float64), np.asarray(shape.data.faces, dtype=np.int32)
     return _grown_shape_mesh(shape, 0.0)
 
 
 def influence_mesh(shape: Any, influence_distance: float) -> TriangleMesh:
     """The shape grown by ``influence_distance`` (m); a mesh's bounding sphere grown by it."""
-    data = getattr(shape, "data", None)
-    if data is not None and hasattr(data, "vertices"):
+    if type(shape).__name__ == "Mesh":
         import trimesh
 
-        radius = float(np.max(np.linalg.norm(np.asarray(data.vertices), axis=1))) + influence_distance
+        radius = shape.bounding_radius() + influence_distance
         return _triangles(trimesh.creation.icosphere(subdivisions=3, radius=radius))
     return _grown_shape_mesh(shape, influence_distance)

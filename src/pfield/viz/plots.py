@@ -80,8 +80,8 @@ def _obstacle_geometry(obstacle: Obstacle) -> tuple[str, Any]:
         local = _cylinder_surface(shape.radius, shape.height)
     elif isinstance(shape, Capsule):
         local = _capsule_surface(shape.radius, shape.height)
-    else:  # pragma: no cover - Obstacle validates its shape
-        raise InvalidInput("obstacle", type(shape).__name__, "unknown shape")
+    else:
+        raise TypeError(f"no picture for obstacle shape {type(shape).__name__}")
     return "surface", _to_world(pose, *local)
 
 
