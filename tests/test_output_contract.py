@@ -5,7 +5,8 @@ bound, previous commands far beyond the limits), for each call kind that returns
 autonomy vector (``PotentialField.twist``, ``PreparedTwist``, ``twists``), the whole-body autonomy vector, the
 task-space and whole-body assistance, and the mobile base controller's command. Each property runs
 :data:`CASES` generated cases (derandomised, the same cases on every run), :data:`BATCH` to a hypothesis example.
-Then the rules of :mod:`pfield.safety` one by one, with exact values.
+Then the rules of :mod:`pfield.safety` one by one, with exact values. An absurd input warns of nothing either: a
+numpy ``RuntimeWarning`` (an overflow on the way to a finite answer) fails the test.
 """
 
 from __future__ import annotations
@@ -48,6 +49,8 @@ BATCH = 10
 choice tree, its bookkeeping), far more than a case costs to check (0.02-0.3 ms): drawing the cases ten to an
 example checks the same :data:`CASES` cases per kind in half the time. A failing batch shrinks to its simplest
 cases, and the failing one is printed (``note``)."""
+pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
+
 CONTRACT = settings(max_examples=CASES // BATCH, deadline=None, derandomize=True, database=None,
                     suppress_health_check=list(HealthCheck), phases=[Phase.explicit, Phase.generate, Phase.shrink])
 SLACK = 1.0 + 1e-12  # a scaled norm may exceed its limit by rounding of the last bit

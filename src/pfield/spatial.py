@@ -233,7 +233,9 @@ class Pose:
         return rotate_vectors(self.orientation, points) + self.position
 
     def translation_distance(self, other: Pose) -> float:
-        return float(np.linalg.norm(self.position - other.position))
+        """Euclidean distance (m) between the positions; ``inf`` where it exceeds the largest float (absurd but
+        finite positions: no overflow warning, math.dist scales its sum)."""
+        return math.dist(self.position.tolist(), other.position.tolist())
 
     def rotation_distance(self, other: Pose) -> float:
         """Geodesic angle (rad) between the two orientations."""

@@ -185,7 +185,8 @@ class BaseController:
             self._idle_state = ControllerState.TIMEOUT
         if self._goal is None:
             return None, self._idle_state, None
-        if math.hypot(self._goal[0] - x, self._goal[1] - y) <= self._params.goal_tolerance:
+        # Python floats: a difference beyond the largest float is inf, with no numpy overflow warning
+        if math.hypot(float(self._goal[0]) - x, float(self._goal[1]) - y) <= self._params.goal_tolerance:
             self._goal = None
             self._idle_state = ControllerState.REACHED
             return None, ControllerState.REACHED, None
