@@ -17,11 +17,13 @@ STAMP  := $(VENV)/.installed
 TOOLS_STAMP := $(VENV)/.build-tools
 $(TOOLS_STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	@echo "pfield: installing the build tools into $(VENV) (first run only)"
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet 'scikit-build-core>=0.10' 'nanobind>=2.4' 'numpy>=2.0' cmake ninja 'setuptools>=70.1'
 	@touch $@
 
 $(STAMP): pyproject.toml CMakeLists.txt | $(TOOLS_STAMP)
+	@echo "pfield: installing the dependencies and compiling the C++ core (first run only: 1-3 min on 2 cores)"
 	$(PY) -m pip install --quiet --no-build-isolation -e '.[dev,ros2,viewer,ray,sim]'
 	@touch $(STAMP)
 
@@ -30,6 +32,7 @@ venv: $(STAMP)
 CORE_SOURCES := $(shell find src/core -name '*.cpp' -o -name '*.hpp')
 CORE_STAMP   := $(VENV)/.core-built
 $(CORE_STAMP): $(CORE_SOURCES) CMakeLists.txt | $(STAMP)
+	@echo "pfield: compiling what changed in the C++ core"
 	$(PY) -m pip install --quiet --no-build-isolation --no-deps -e .
 	@touch $@
 

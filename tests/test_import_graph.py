@@ -36,7 +36,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("mobile", "costmap"),  # 2D packages: spatial and the bottom layer only
     ("spatial",),
     ("safety",),  # the output contract: every command finite and within its limits (numpy and the bottom layer)
-    ("_layout", "_validation", "_files", "_lazy"),
+    ("_layout", "_validation", "_files", "_lazy", "_console"),
     ("_core",),  # the compiled core (C++, nanobind): imports nothing of pfield
     ("_enums",),  # enums that print their names (outcomes: PlanStatus, PoseState)
     ("errors",),
@@ -197,8 +197,8 @@ def test_the_walker_sees_function_level_and_aliased_imports() -> None:
     assert ("pfield.field.field", "pfield.planning.result") not in edges  # only under TYPE_CHECKING
 
 
-SHARED_PRIVATE = {"pfield._core", "pfield._enums", "pfield._files", "pfield._layout", "pfield._lazy",
-                  "pfield._validation"}
+SHARED_PRIVATE = {"pfield._console", "pfield._core", "pfield._enums", "pfield._files", "pfield._layout",
+                  "pfield._lazy", "pfield._validation"}
 """pfield's own private modules, below every package (DESIGN §1's bottom layers): every package may use them."""
 
 

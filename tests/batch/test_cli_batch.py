@@ -32,6 +32,9 @@ def test_resume_after_an_interrupted_run_plans_only_the_rest(problem_paths: list
     assert out.read_text().splitlines()[:2] == lines[:2]  # the finished records are kept as they were
     again = runner.invoke(app, ["batch", *map(str, problem_paths), "--out", str(out), "--resume"])
     assert again.exit_code == 0 and "0 problems planned (4 already in" in again.output, again.output
+    # one line however long, though not a terminal (rich's 80 columns split the file's name across lines of a log)
+    [summary] = [line for line in again.output.splitlines() if line.startswith("0 problems planned")]
+    assert summary.endswith(f"results in {out}")
 
 
 def test_bad_arguments_exit_2_naming_the_option(problem_paths: list[Path], tmp_path: Path) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import subprocess
 
+import pytest
 import yaml
 from pfield_node_server import PFIELD, NodeServer, free_port
 
@@ -53,10 +54,16 @@ def test_interface_show_prints_the_definition(node_server: NodeServer) -> None:
     assert node_server.cli("interface", "show", "nope/msg/Nope").returncode == 2
 
 
-def test_unreachable_server_is_a_clear_error() -> None:
-    env = os.environ | {"PFIELD_URL": f"http://127.0.0.1:{free_port()}"}
-    done = subprocess.run([str(PFIELD), "service", "list"], capture_output=True, text=True, env=env, check=False)
-    assert done.returncode == 1 and "cannot reach the pfield node" in done.stderr
+@pytest.mark.parametrize("command", [["service", "list"], ["topic", "echo", "--once", "/pfield/planned_path"],
+                                     ["topic", "hz", "/pfield/planned_path"]], ids=" ".join)
+def test_unreachable_server_is_a_clear_error(command: list[str]) -> None:
+    """Every verb that finds no node says so in the same words, with what to do."""
+    url = f"http://127.0.0.1:{free_port()}"
+    done = subprocess.run([str(PFIELD), *command], capture_output=True, text=True, env=os.environ | {"PFIELD_URL": url},
+                          check=False)
+    assert done.returncode == 1
+    assert done.stderr.startswith(f"error: cannot reach the pfield node at {url} (")
+    assert done.stderr.rstrip().endswith("start it with `pfield serve`")
 
 
 def test_serve_refuses_other_hosts_without_a_token() -> None:

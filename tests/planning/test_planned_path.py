@@ -50,6 +50,17 @@ def test_inconsistent_shapes_are_rejected(field: str, value: object) -> None:
     assert info.value.field == field
 
 
+def test_repr_is_a_summary_not_the_arrays() -> None:
+    from pfield.planning.status import PlanStatus
+
+    assert repr(_path(count=201)) == "PlannedPath(REACHED by field: 201 waypoints over 2 s, min clearance inf m)"
+    failed = _path(success=False, failure_reason="stagnation: no progress", status=PlanStatus.STAGNATION,
+                   joint_names=("a", "b"), joint_positions=np.array([[0.0, 0.0], [0.3, 0.4], [0.3, 0.4]]),
+                   clearances=np.array([0.2, 0.05, 0.1]))
+    assert repr(failed) == ("PlannedPath(STAGNATION by field: 3 waypoints over 0.02 s, 2 joints, joint path 0.5 rad, "
+                            "min clearance 0.05 m; stagnation: no progress)")
+
+
 def test_success_with_a_reason_is_rejected() -> None:
     with pytest.raises(InvalidInput, match="failure_reason"):
         _path(failure_reason="stagnation")

@@ -63,7 +63,9 @@ def test_the_ur5_mesh_warning_names_the_link_and_its_file(fresh_fits: Path, capl
     warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
     mesh = str((UR5 / "meshes" / "robotiq_fts300.stl").resolve())
     assert warnings == [f"mesh memory://fts_robotside ({mesh}) is not watertight: its distance is unsigned "
-                        "(never negative)"]  # once a link (the fit and its measures share the mesh)
+                        "(never negative: a point inside reads as outside); close its surface if it bounds a solid "
+                        "obstacle (a robot link's mesh needs nothing: the link's fit covers its surface)"]
+    # once a link (the fit and its measures share the mesh)
     assert f"fitting link 9/18 fts_robotside ({mesh}): 43473 triangles" in caplog.messages
     assert fit.max_gap <= 0.017 and fit.mean_gap <= 0.01
 

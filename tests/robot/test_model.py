@@ -108,6 +108,19 @@ def test_unknown_builtin_lists_known_names() -> None:
     assert info.value.field == "robot"
 
 
+def test_a_near_miss_of_a_builtin_name_is_named() -> None:
+    with pytest.raises(errors.InvalidInput, match=r"unknown built-in robot \(did you mean 'panda'\?\); known: panda, "):
+        RobotModel.builtin("Panada")
+
+
+def test_the_constructor_given_a_path_points_to_from_urdf() -> None:
+    """``RobotModel("robot.urdf", ...)`` is a natural first guess: it is refused naming the constructors to use."""
+    with pytest.raises(errors.InvalidInput, match=r"RobotModel.from_urdf\(path, end_effector=LINK\) or "
+                                                  r"RobotModel.builtin\(name\)") as info:
+        RobotModel("robot.urdf", end_effector="tool0")  # type: ignore[arg-type]
+    assert info.value.field == "loaded"
+
+
 def test_unreadable_urdf(tmp_path: Path) -> None:
     with pytest.raises(errors.ResourceNotFound, match="urdf"):
         RobotModel.from_urdf(tmp_path / "missing.urdf", end_effector="tool")

@@ -54,15 +54,15 @@ def batch(
     read; a --robot URDF is read, its meshes found, before anything is planned) or a problem file or archive that
     cannot be read or is out of bounds.
     """
-    from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+    from pfield._console import console as make_console
     from pfield._files import check_writable
     from pfield.batch import check_reachable, check_settings, finished_keys, plan_many, write_records
     from pfield.cli._node import cli_errors
     from pfield.scene import read_problems
 
-    console = Console(stderr=True)
+    console = make_console(stderr=True)
     with cli_errors():
         check_settings(workers, backend, seed, timeout, address)  # before anything is read
         if address is not None:  # and before --out is opened: a refused run changes nothing

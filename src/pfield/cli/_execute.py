@@ -77,9 +77,9 @@ def execute(
         typer.echo("error: control_msgs (FollowJointTrajectory) is not built: run `make ros2-interfaces` "
                    "(docs/ros2.md, Trajectories out)", err=True)
         raise typer.Exit(USAGE)
-    from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+    from pfield._console import console as make_console
     from pfield.transport.trajectory_client import (
         ExecutionOptions,
         TrajectoryClient,
@@ -97,7 +97,7 @@ def execute(
                                    accept_timeout=accept_timeout)
         duration = as_timed_trajectory(message).duration
         build_goal(message, options)  # every refusal before ROS starts
-    console = Console(stderr=True)
+    console = make_console(stderr=True)
     try:
         client = TrajectoryClient(action, args=ros_args)
     except InvalidInput as exc:

@@ -105,7 +105,7 @@ def register(app: typer.Typer) -> None:
 
     @app.command("plan")
     def plan(
-        scene: Path | None = typer.Option(None, "--scene", "-s", help="Scene YAML (default: the seed's scene)."),
+        scene: Path | None = typer.Option(None, "--scene", "-s", help="Scene YAML (default: the example scene)."),
         output: Path = typer.Option(Path("plan.png"), "--output", "-o", help="PNG of the path and obstacles."),
         csv: Path | None = typer.Option(None, "--csv", help="Also write the waypoints as CSV."),
         robot: str | None = typer.Option(None, "--robot", help="Plan this robot's whole body: a built-in robot "
@@ -120,7 +120,7 @@ def register(app: typer.Typer) -> None:
         """Plan a path with the potential field and plot it: the end effector's (task space), or with --robot a
         robot's whole body from --start-joints to the scene's goal. Exit 1 when the goal is not reached, 2 for a
         bad scene file, robot, start or output path, checked before planning."""
-        from rich.console import Console
+        from pfield._console import console as make_console
 
         with cli_errors():
             check_picture("--output", output)
@@ -133,5 +133,5 @@ def register(app: typer.Typer) -> None:
             elif start is not None or srdf is not None or end_effector is not None or package_path or locked_joint:
                 raise InvalidInput("--robot", None, "--start-joints, --srdf, --end-effector, --package-path and "
                                                     "--locked-joint describe a robot: give --robot NAME|FILE.urdf")
-            code = _plan(scene, output, csv, Console(), model, start)
+            code = _plan(scene, output, csv, make_console(), model, start)
         raise typer.Exit(code)

@@ -42,13 +42,13 @@ def register(app: typer.Typer) -> None:
     def plot2d(
         output_dir: Path = typer.Option(Path("plots2d"), "--output-dir", "-o", help="Where the PNGs go."),
     ) -> None:
-        """Plot the seed's 2D vector field: radial profiles (unclamped/clamped) and field plots (PNG)."""
-        from rich.console import Console
-
+        """Plot the 2D vector field of the example parameter sets: radial profiles (unclamped/clamped) and field plots
+        (PNG)."""
+        from pfield._console import console as make_console
         from pfield._files import writable_folder
         from pfield.viz.plots2d import save_seed_plots
 
-        console = Console()
+        console = make_console()
         with cli_errors():
             writable_folder("--output-dir", output_dir)
         with console.status("plotting the 2D field"):
@@ -68,12 +68,11 @@ def register(app: typer.Typer) -> None:
 
         Exit code 0 when the run ends as the scenario expects (goal_reached; stuck for grid_blocked), 1 when it
         ends otherwise (a collision, a timeout, stuck short of a goal it should reach), 2 for bad arguments."""
-        from rich.console import Console
-
+        from pfield._console import console as make_console
         from pfield._files import writable_folder
         from pfield.demo.tools import run_sim2d
 
-        console = Console()
+        console = make_console()
         if list_scenarios:
             _list_scenarios(console)
             return

@@ -229,7 +229,7 @@ def serve(
     header_timeout: Annotated[float, typer.Option(help="s a client may take to send a request head")]
     = ServerLimits.header_timeout,
 ) -> None:
-    """Start the pfield node (HTTP + WebSocket) with the ROS names of the seed's interfaces.
+    """Start the pfield node (HTTP + WebSocket) with the ROS names of potential_fields_interfaces.
 
     Exit status 2, before anything is printed or started, for bad options or a port in use."""
     logging.basicConfig(level=log_level.upper(), format="%(levelname)s %(name)s: %(message)s")

@@ -71,7 +71,18 @@ def _client(url: str, token: str | None) -> Iterator[httpx.Client]:
         with httpx.Client(base_url=url.rstrip("/"), headers=headers, timeout=None, verify=verify) as client:
             yield client
     except httpx.TransportError as exc:
-        _fail(f"cannot reach the pfield node at {url} ({exc}); start it with `pfield serve`")
+        _fail(_unreachable(url, exc))
+
+
+def _unreachable(url: str, exc: BaseException) -> str:
+    """What a command that found no node at ``url`` says, and what to do."""
+    return f"cannot reach the pfield node at {url} ({exc}); start it with `pfield serve`"
+
+
+def _stream_failed(name: str, url: str, exc: BaseException) -> NoReturn:
+    """Fail a topic stream: no node at ``url`` (connection refused) is said as every command says it."""
+    _fail(_unreachable(url, exc) if isinstance(exc, ConnectionRefusedError) else
+          f"cannot stream {name} from {url}: {exc}")
 
 
 def _request(client: httpx.Client, method: str, path: str, json_text: str | None = None, **kwargs: Any) -> Any:
@@ -192,7 +203,7 @@ def topic_echo(topic: str, type_name: Annotated[str | None, typer.Argument(metav
         # The reader went away (``pfield topic echo ... | head``): stop quietly, as ``ros2 topic echo`` does.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     except (OSError, WebSocketException) as exc:
-        _fail(f"cannot stream {topic} from {url}: {exc}")
+        _stream_failed(topic, url, exc)
 
 
 def _echo_names(path: str, show_types: bool, url: str, token: str | None) -> None:

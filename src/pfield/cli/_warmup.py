@@ -13,12 +13,12 @@ def warmup() -> None:
 
     Prints what each step checked; exit status 1 when a step fails. `make demo` runs it first.
     """
-    from rich.console import Console
     from rich.table import Table
 
     from pfield import warmup as self_check
+    from pfield._console import console as make_console
 
-    console = Console(stderr=True)
+    console = make_console(stderr=True)
     with console.status("checking") as status:
         def report(done: int, total: int, name: str) -> None:
             if done < total:

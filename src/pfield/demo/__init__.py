@@ -6,12 +6,12 @@ A section is a module with ``TITLE`` and ``run(out_dir, console) -> None``; it r
 from __future__ import annotations
 
 import importlib
-import sys
 import time
 from pathlib import Path
 
-from rich.console import Console
 from rich.rule import Rule
+
+from pfield._console import console as make_console
 
 SECTIONS = ("manipulator", "whole_body", "assisted", "node_session", "mobile", "costmap", "viewer")
 
@@ -26,8 +26,7 @@ def run_demo(out_dir: Path, only: list[str] | None = None) -> int:
     for name in only or []:
         if name not in SECTIONS:
             raise InvalidInput("--only", name, f"unknown demo section; known: {', '.join(SECTIONS)}")
-    # Rich falls back to 80 columns when output is not a terminal (make, CI logs); tables need more.
-    console = Console(width=None if sys.stdout.isatty() else 120)
+    console = make_console()
     out_dir.mkdir(parents=True, exist_ok=True)
     failures = []
     for name in SECTIONS:

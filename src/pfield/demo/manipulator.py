@@ -23,7 +23,7 @@ TITLE = "manipulator: task-space planning"
 
 
 def _table(path: PlannedPath, rows: int = 8) -> Table:
-    table = Table(title="seed task-space plan (every few waypoints)", title_justify="left")
+    table = Table(title="example task-space plan (every few waypoints)", title_justify="left")
     for column in ("t (s)", "x", "y", "z", "speed (m/s)", "clearance (m)"):
         table.add_column(column, justify="right")
     picks = sorted(set(np.linspace(0, len(path) - 1, rows).round().astype(int).tolist()))
@@ -46,14 +46,14 @@ def run(out_dir: Path, console: Console) -> None:
     obstacles = seed_obstacles(out_dir / "meshes")
     field = PotentialField(FieldConfig(), SEED_GOAL, obstacles)
     path = field.plan(SEED_START, **SEED_PLAN)
-    console.print(f"seed example: start {SEED_START!r} → goal {SEED_GOAL!r}, dt {SEED_PLAN['dt']} s, "
+    console.print(f"example scene: start {SEED_START!r} → goal {SEED_GOAL!r}, dt {SEED_PLAN['dt']} s, "
                   f"obstacles: {', '.join(o.id for o in obstacles)}")
     console.print(_table(path))
     console.print(_summary(path, SEED_GOAL))
     if not path.success:
-        raise RuntimeError(f"the seed task-space example failed: {path.failure_reason}")
+        raise RuntimeError(f"the example task-space plan failed: {path.failure_reason}")
     picture = save_path_plot(path, out_dir / "manipulator_task_space.png", obstacles, SEED_GOAL,
-                             "seed task-space example through the six seed obstacles")
+                             "example task-space plan through the six example obstacles")
     path.to_csv(out_dir / "manipulator_task_space.csv")
     console.print(f"wrote {picture.name} and manipulator_task_space.csv")
 

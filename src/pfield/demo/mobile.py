@@ -15,7 +15,7 @@ def run(out_dir: Path, console: Console) -> None:
     from pfield.viz.plots2d import save_seed_plots
 
     target = out_dir / "mobile"
-    with console.status("plotting the 2D field (seed parameter sets)"):
+    with console.status("plotting the 2D field (the example parameter sets)"):
         paths = save_seed_plots(target)
     console.print(f"{len(paths)} field plots: " + ", ".join(p.name for p in paths))
     result = run_sim2d("doorway", target, "diff_drive", True, console)

@@ -17,7 +17,7 @@ import httpx
 from rich.console import Console
 from rich.table import Table
 
-TITLE = "Standalone node session (seed CLI examples over HTTP)"
+TITLE = "Standalone node session (the example CLI requests over HTTP)"
 
 _GOAL_POSITION = (0.5, 0.2, 0.4)
 _ORIENTATION = "orientation: {x: 0.707, y: 0.0, z: 0.707, w: 0.0}"
@@ -196,7 +196,7 @@ def _plot_paths(target: Path, paths: dict[str, list[list[float]]], markers: list
         axis.set_ylabel("xyz"[j] + " (m)")
     axes[0].legend(loc="lower left", fontsize=8)
     axes[1].legend(loc="upper left", fontsize=7, ncols=2, title="obstacles", title_fontsize=8)
-    figure.suptitle("Seed plans through the node (obstacles as marker extents, influence zones light)")
+    figure.suptitle("Example plans through the node (obstacles as marker extents, influence zones light)")
     figure.savefig(target, dpi=110, bbox_inches="tight")
     plt.close(figure)
     return target

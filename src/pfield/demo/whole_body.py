@@ -83,4 +83,4 @@ def run(out_dir: Path, console: Console) -> None:
     xarm = RobotModel.builtin("xarm7")
     field = PotentialField(FieldConfig(), SEED_GOAL, seed_obstacles(out_dir / "meshes"))
     seed = field.plan_whole_body(xarm, [0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0], 0.02, 0.01, 25000)
-    console.print(f"xArm7 seed whole_body example through the six seed obstacles: {_summary(seed, SEED_GOAL)}")
+    console.print(f"xArm7 whole_body example through the six example obstacles: {_summary(seed, SEED_GOAL)}")

@@ -136,7 +136,9 @@ def _prepare(source: str, vertices: NDArray[np.float64], faces: NDArray[np.int64
     normals = pseudo_normals(vertices, faces)
     bvh = build_bvh(triangles)
     if not watertight:
-        logger.warning("mesh %s is not watertight: its distance is unsigned (never negative)", source)
+        logger.warning("mesh %s is not watertight: its distance is unsigned (never negative: a point inside reads as "
+                       "outside); close its surface if it bounds a solid obstacle (a robot link's mesh needs nothing: "
+                       "the link's fit covers its surface)", source)
     return MeshData(
         source, _frozen(vertices, np.float64), _frozen(faces, np.int64), watertight,
         _frozen(triangles[bvh.order], np.float64), _frozen(normals[bvh.order], np.float64),

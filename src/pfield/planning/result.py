@@ -37,7 +37,7 @@ def _frozen(name: str, value: object, shape: tuple[int | None, ...]) -> NDArray[
     return array
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)
 class PlannedPath:
     """A planned trajectory with its status (DESIGN §3.3).
 
@@ -144,6 +144,17 @@ class PlannedPath:
 
     def __len__(self) -> int:
         return int(self.times.shape[0])
+
+    def __repr__(self) -> str:
+        """A summary, not the arrays: ``PlannedPath(REACHED by field+global: 475 waypoints over 9.48 s, ...)``."""
+        parts = [f"{len(self)} waypoints over {self.duration:.3g} s"]
+        if self.joint_positions is not None:
+            parts.append(f"{len(self.joint_names)} joints, joint path {self.joint_path_length:.3g} rad")
+        if self.trajectory_duration is not None:
+            parts.append(f"trajectory {self.trajectory_duration:.3g} s")
+        parts.append(f"min clearance {self.min_clearance:.3g} m")
+        reason = "" if self.success else f"; {self.failure_reason}"
+        return f"PlannedPath({self.status.name} by {self.planner}: {', '.join(parts)}{reason})"
 
     @property
     def poses(self) -> list[Pose]:

@@ -11,6 +11,7 @@ finger joints are locked at 0.04 m (fully open) so the planning model has the 7 
 
 from __future__ import annotations
 
+import difflib
 import importlib.metadata
 from dataclasses import dataclass, field
 from functools import cache
@@ -58,5 +59,12 @@ def builtin_spec(name: str) -> BuiltinRobot:
     """The catalog entry of ``name`` (case-insensitive); lists the known names when it is unknown."""
     key = str(name).strip().lower()
     if key not in BUILTIN_ROBOTS:
-        raise InvalidInput("robot", name, f"unknown built-in robot; known: {', '.join(sorted(BUILTIN_ROBOTS))}")
+        raise InvalidInput("robot", name, f"unknown built-in robot{did_you_mean(name)}; known: "
+                                          f"{', '.join(sorted(BUILTIN_ROBOTS))}")
     return BUILTIN_ROBOTS[key]
+
+
+def did_you_mean(name: str) -> str:
+    """`` (did you mean 'panda'?)`` when ``name`` is a near miss of one built-in robot's name, else ``""``."""
+    close = difflib.get_close_matches(str(name).strip().lower(), list(BUILTIN_ROBOTS), n=1, cutoff=0.6)
+    return f" (did you mean {close[0]!r}?)" if close else ""

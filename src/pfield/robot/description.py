@@ -31,7 +31,7 @@ from pfield._files import relative_to_cwd
 from pfield._validation import finite, text
 from pfield.errors import InvalidInput
 from pfield.geometry.resources import package_path_map
-from pfield.robot.catalog import BUILTIN_ROBOTS, builtin_spec, example_robot_data_root
+from pfield.robot.catalog import BUILTIN_ROBOTS, builtin_spec, did_you_mean, example_robot_data_root
 from pfield.robot.srdf import check_srdf_links, read_disabled_pairs
 
 if TYPE_CHECKING:
@@ -144,7 +144,7 @@ class RobotDescription:
             if not path.is_file():
                 names = ", ".join(sorted(BUILTIN_ROBOTS))
                 what = f"no such URDF file{relative_to_cwd(path)}" if path.suffix or "/" in robot else \
-                    f"neither a built-in robot ({names}) nor a URDF file"
+                    f"neither a built-in robot ({names}) nor a URDF file{did_you_mean(robot)}"
                 raise InvalidInput("robot", robot, f"{what}: give a built-in name, or the path of a URDF file "
                                                    "with its end-effector link")
             object.__setattr__(self, "robot", str(path.resolve()))

@@ -117,6 +117,9 @@ class RobotModel:
     def __init__(self, loaded: LoadedRobot, end_effector: str, disabled_pairs: set[frozenset[str]] | None = None,
                  name: str | None = None, named_configurations: Mapping[str, ArrayLike] | None = None,
                  joint_limits: str | Path | None = None) -> None:
+        if not isinstance(loaded, LoadedRobot):  # RobotModel("robot.urdf", ...): the constructor takes a loaded model
+            raise InvalidInput("loaded", loaded, "RobotModel takes a loaded model: use RobotModel.from_urdf(path, "
+                               "end_effector=LINK) or RobotModel.builtin(name)")
         model = loaded.model
         if not model.existFrame(end_effector, pin.FrameType.BODY):  # a link, as RobotDescription and the CLI ask
             links = [f.name for f in model.frames if f.type == pin.FrameType.BODY]
