@@ -182,6 +182,22 @@ def arm_scene(robot: Any, velocity: Any = None) -> tuple[AssistanceScene, Obstac
     return AssistanceScene(field=field, velocities={} if velocity is None else {"ball": velocity}), ball
 
 
+def test_scenes_in_turn_keep_their_compiled_assistance(xarm: Any) -> None:
+    """One scene per candidate goal, asked in turn: each keeps its compiled assistance on the thread, and answers as
+    when asked alone."""
+    from pfield.shared_control.assistance import _workspace
+
+    scenes = [arm_scene(xarm)[0], arm_scene(xarm, (0.0, 0.0, -0.1))[0]]
+    alone = [whole_body_assistance(arm_scene(xarm, v)[0], xarm, Q, Twist((0.02, 0.0, 0.0))).blended_command.as_array()
+             for v in (None, (0.0, 0.0, -0.1))]
+    built = [_workspace(scene, xarm) for scene in scenes]
+    for _ in range(3):
+        for scene, expected in zip(scenes, alone, strict=True):
+            answer = whole_body_assistance(scene, xarm, Q, Twist((0.02, 0.0, 0.0)))
+            np.testing.assert_array_equal(answer.blended_command.as_array(), expected)
+    assert all(_workspace(scene, xarm) is work for scene, work in zip(scenes, built, strict=True))
+
+
 def test_whole_body_nearest_matches_the_capsule_clearances(xarm: Any) -> None:
     from pfield.robot.collision import capsule_clearances
 

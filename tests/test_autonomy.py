@@ -134,3 +134,26 @@ def test_task_space_vector_is_the_field_twist() -> None:
     field = PotentialField(FieldConfig(), GOAL)
     pose = Pose((0.3, 0.1, 0.35), (0.707, 0.0, 0.707, 0.0))
     assert task_space_autonomy_vector(field, pose) == field.twist(pose)
+
+
+def test_several_fields_in_turn_keep_their_steppers(xarm: RobotModel) -> None:
+    """Shared autonomy asks for the autonomy vector toward each candidate goal every period: each field keeps its
+    compiled stepper on the thread (the last ``RECENT`` used), and the answers are those of a field asked alone."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from pfield.shared_control._recent import RECENT
+    from pfield.shared_control.autonomy import whole_body_stepper
+
+    goals = [Pose(GOAL.position + np.array((0.0, 0.02 * k, 0.0)), GOAL.orientation) for k in range(RECENT + 1)]
+    fields = [PotentialField(FieldConfig(), goal) for goal in goals]
+    alone = [whole_body_autonomy_vector(PotentialField(FieldConfig(), goal), xarm, Q0).as_array() for goal in goals]
+    first = [whole_body_stepper(field, xarm) for field in fields[:2]]
+    for _ in range(3):  # in turn: every answer the field's own, and no stepper built again
+        for field, expected in zip(fields[:2], alone, strict=False):
+            np.testing.assert_array_equal(whole_body_autonomy_vector(field, xarm, Q0).as_array(), expected)
+    assert [whole_body_stepper(field, xarm) for field in fields[:2]] == first
+    for field in fields:  # RECENT + 1 fields: the least recently used goes
+        whole_body_stepper(field, xarm)
+    assert whole_body_stepper(fields[0], xarm) is not first[0]
+    with ThreadPoolExecutor(1) as pool:  # another thread builds its own (a stepper owns its buffers)
+        assert pool.submit(whole_body_stepper, fields[1], xarm).result() is not whole_body_stepper(fields[1], xarm)

@@ -35,7 +35,6 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -52,6 +51,7 @@ from pfield.field.config import FieldConfig
 from pfield.geometry import Obstacle, empty_packed, pack_obstacles
 from pfield.planning.whole_body import WholeBodyOptions, core_robot, obstacle_bounds, pack_robot
 from pfield.robot.model import LIMIT_TOLERANCE, RobotModel
+from pfield.shared_control._recent import Recent
 from pfield.shared_control.autonomy import whole_body_stepper
 from pfield.spatial import Pose, Twist, readonly_parts, twist_from_checked
 
@@ -324,15 +324,16 @@ def _whole_body(scene: AssistanceScene, robot: RobotModel) -> Any:
                            goal_position, goal_orientation, step_params)
 
 
-_CACHE = threading.local()
+_WORKSPACES: Recent[Any] = Recent()
+"""The compiled whole-body assistance of (scene, robot) on each thread (several scenes in turn: one per goal)."""
 
 
 def _workspace(scene: AssistanceScene, robot: RobotModel) -> Any:
-    """The compiled whole-body assistance of (scene, robot) for this thread (the last one used is kept)."""
-    entry = getattr(_CACHE, "entry", None)
-    if entry is None or entry[0] is not scene or entry[1] is not robot:
-        entry = _CACHE.entry = (scene, robot, _whole_body(scene, robot))
-    return entry[2]
+    """The compiled whole-body assistance of (scene, robot) for this thread."""
+    last = _WORKSPACES.last()
+    if last is not None and last[0] is scene and last[1] is robot:
+        return last[2]
+    return _WORKSPACES.get(scene, robot, lambda: _whole_body(scene, robot))
 
 
 def _assist_step(work: Any, robot: RobotModel, joint_angles: ArrayLike, previous: ArrayLike | None, dt: float,

@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import logging
 import math
-import threading
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -35,13 +34,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from pfield.planning import WholeBodyOptions, WholeBodyStepper
 from pfield.robot.model import RobotModel
+from pfield.shared_control._recent import Recent
 from pfield.spatial import Pose, Twist, readonly_parts, twist_from_checked
 
 __all__ = ["WholeBodyAutonomy", "task_space_autonomy_vector", "whole_body_autonomy", "whole_body_autonomy_vector",
            "whole_body_row", "whole_body_stepper"]
 
 _LOG = logging.getLogger(__name__)
-_CACHE = threading.local()
+_STEPPERS: Recent[WholeBodyStepper] = Recent()
+"""The steppers of (field, robot) on each thread (several fields in turn: one per candidate goal)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,13 +70,8 @@ def task_space_autonomy_vector(field: Any, pose: Pose, previous: Twist | None = 
 
 def _stepper(field: Any, robot: RobotModel, options: WholeBodyOptions | None) -> WholeBodyStepper:
     """The cached :class:`WholeBodyStepper` of (field, robot, options) for this thread."""
-    cached: WholeBodyStepper | None = getattr(_CACHE, "entry", None)
-    if cached is not None and cached.field is field and cached.robot is robot and \
-            (options is None or options == cached.options):
-        return cached
-    entry = WholeBodyStepper(field, robot, options)
-    _CACHE.entry = entry
-    return entry
+    return _STEPPERS.get(field, robot, lambda: WholeBodyStepper(field, robot, options),
+                         lambda cached: options is None or options == cached.options)
 
 
 _MISMATCH_WARNING_PERIOD = 5.0  # s; autonomy vectors are asked for at control rate, the log must not flood
@@ -123,10 +119,10 @@ def whole_body_autonomy_vector(field: Any, robot: RobotModel, q: ArrayLike,
                                query_pose: Pose | None = None) -> Twist:
     """End-effector twist of :func:`whole_body_autonomy` (world frame): the ComputeAutonomyVector answer."""
     if query_pose is None:  # the service's hot path: the cached stepper's twist alone, no FK pose object
-        cached: WholeBodyStepper | None = getattr(_CACHE, "entry", None)
-        if cached is None or cached.field is not field or cached.robot is not robot:
-            cached = _stepper(field, robot, None)
-        return cached.autonomy_vector(q, prev_joint_velocities, dt)
+        last = _STEPPERS.last()
+        stepper = last[2] if last is not None and last[0] is field and last[1] is robot else \
+            _stepper(field, robot, None)
+        return stepper.autonomy_vector(q, prev_joint_velocities, dt)
     return whole_body_autonomy(field, robot, q, prev_joint_velocities, dt, query_pose).twist
 
 
