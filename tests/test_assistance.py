@@ -187,9 +187,18 @@ def test_scenes_in_turn_keep_their_compiled_assistance(xarm: Any) -> None:
     when asked alone."""
     from pfield.shared_control.assistance import _workspace
 
-    scenes = [arm_scene(xarm)[0], arm_scene(xarm, (0.0, 0.0, -0.1))[0]]
-    alone = [whole_body_assistance(arm_scene(xarm, v)[0], xarm, Q, Twist((0.02, 0.0, 0.0))).blended_command.as_array()
-             for v in (None, (0.0, 0.0, -0.1))]
+    ball = arm_scene(xarm)[1]
+    ee = xarm.forward_kinematics(Q)
+
+    def scene_toward(offset: tuple[float, float, float]) -> AssistanceScene:
+        goal = Pose(position=ee.position + np.array(offset), orientation=ee.orientation)
+        return AssistanceScene(field=PotentialField(CONFIG, goal, [ball]))
+
+    goals = [(0.0, 0.15, 0.05), (0.0, -0.15, 0.05)]
+    scenes = [scene_toward(goal) for goal in goals]
+    alone = [whole_body_assistance(scene_toward(goal), xarm, Q, Twist((0.02, 0.0, 0.0))).blended_command.as_array()
+             for goal in goals]
+    assert not np.array_equal(alone[0], alone[1])  # a workspace answering for the other scene would show
     built = [_workspace(scene, xarm) for scene in scenes]
     for _ in range(3):
         for scene, expected in zip(scenes, alone, strict=True):

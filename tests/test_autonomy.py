@@ -157,3 +157,15 @@ def test_several_fields_in_turn_keep_their_steppers(xarm: RobotModel) -> None:
     assert whole_body_stepper(fields[0], xarm) is not first[0]
     with ThreadPoolExecutor(1) as pool:  # another thread builds its own (a stepper owns its buffers)
         assert pool.submit(whole_body_stepper, fields[1], xarm).result() is not whole_body_stepper(fields[1], xarm)
+
+
+def test_the_default_stepper_is_never_one_built_with_other_options(xarm: RobotModel) -> None:
+    from pfield.planning import WholeBodyOptions
+    from pfield.shared_control.autonomy import whole_body_stepper
+
+    field = PotentialField(FieldConfig(), GOAL)
+    other = WholeBodyOptions(damping=0.2)
+    assert whole_body_autonomy(field, xarm, Q0, options=other).joint_velocities is not None
+    assert whole_body_stepper(field, xarm).options == WholeBodyOptions()
+    np.testing.assert_array_equal(whole_body_autonomy_vector(field, xarm, Q0).as_array(),
+                                  whole_body_autonomy_vector(PotentialField(FieldConfig(), GOAL), xarm, Q0).as_array())

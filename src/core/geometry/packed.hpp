@@ -65,8 +65,8 @@ struct PackedView {
 
 // Empty when every kind is a Kind and every index the queries follow stays inside its array (mesh roots and node
 // counts, children, leaf triangle ranges) and every tree is shallower than kStackSize; otherwise what is wrong, for
-// the binding's ValueError. Children must come after their parent (depth-first order, as pack_obstacles stores them), which
-// also rules out cycles. Mesh indices in rows are checked per query (NaN out).
+// the binding's ValueError. Children must come after their parent (depth-first order, as pack_obstacles stores
+// them), which also rules out cycles. Mesh indices in rows are checked per query (NaN out).
 std::string check_packed(const PackedView& packed);
 
 }  // namespace pfield::geometry

@@ -43,7 +43,8 @@ void bind_geometry(nb::module_& m) {
   m.doc() = "Exact signed distances to packed obstacles (pfield.geometry's compiled core).";
   nb::exception<NonFinitePoints>(m, "NonFinitePoints", PyExc_ValueError);
   nb::enum_<geometry::Kind>(m, "Kind", nb::is_arithmetic(),
-                            "Shape codes of a packed obstacle set's kinds (pfield.geometry.packed takes its codes here).")
+                            "Shape codes of a packed obstacle set's kinds (pfield.geometry.packed takes its codes "
+                            "here).")
       .value("Sphere", geometry::Kind::Sphere)
       .value("Box", geometry::Kind::Box)
       .value("Cylinder", geometry::Kind::Cylinder)

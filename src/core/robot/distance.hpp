@@ -166,9 +166,8 @@ struct SegmentDistance {
   Vec3 normal;
 };
 
-// min_t d_i(a + t (b - a)) to packed obstacle i, by the obstacle's kind (see the top of this file). Unknown kind
-// codes are treated as the signed-distance dispatch treats them (as spheres, minimised by bisection); a mesh row
-// naming no packed mesh gives NaN.
+// min_t d_i(a + t (b - a)) to packed obstacle i, by the obstacle's kind (see the top of this file); a mesh row naming
+// no packed mesh gives NaN, and so does a code that is no Kind (check_packed refuses such codes before a query).
 SegmentDistance segment_obstacle_distance(const geometry::PackedView& packed, std::size_t i, Vec3 a, Vec3 b);
 
 // The pieces, for tests and for callers that know the obstacle's kind.

@@ -160,7 +160,7 @@ def topic_hz(topic: str,
                     _print_rate(stamps)
                     printed = stamps[-1]
     except (OSError, WebSocketException) as exc:
-        _c._stream_failed(name, url, exc)
+        _c._fail(f"cannot stream {name} from {url}: {exc}")
     if len(stamps) < 2:
         _c._fail(f"fewer than two messages on {name} in {seconds:g} s: no rate")
     _print_rate(stamps)

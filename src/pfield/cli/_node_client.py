@@ -79,12 +79,6 @@ def _unreachable(url: str, exc: BaseException) -> str:
     return f"cannot reach the pfield node at {url} ({exc}); start it with `pfield serve`"
 
 
-def _stream_failed(name: str, url: str, exc: BaseException) -> NoReturn:
-    """Fail a topic stream: no node at ``url`` (connection refused) is said as every command says it."""
-    _fail(_unreachable(url, exc) if isinstance(exc, ConnectionRefusedError) else
-          f"cannot stream {name} from {url}: {exc}")
-
-
 def _request(client: httpx.Client, method: str, path: str, json_text: str | None = None, **kwargs: Any) -> Any:
     """Send ``json_text`` as the body if given; return the decoded answer, or fail with the server's error."""
     if json_text is not None:
@@ -122,7 +116,11 @@ def _topic_socket(topic: str, url: str, token: str | None) -> Iterator[Any]:
 
     ws_url = url.rstrip("/").replace("http", "ws", 1) + f"/ws/topic/{topic.lstrip('/')}"
     headers = {"Authorization": f"Bearer {token}"} if token else None
-    with connect(ws_url, additional_headers=headers, max_size=None) as socket:
+    try:
+        opened = connect(ws_url, additional_headers=headers, max_size=None)
+    except OSError as exc:  # refused, no such host, no route, timed out: no node there, as every verb says
+        _fail(_unreachable(url, exc))
+    with opened as socket:
         yield socket
 
 
@@ -203,7 +201,7 @@ def topic_echo(topic: str, type_name: Annotated[str | None, typer.Argument(metav
         # The reader went away (``pfield topic echo ... | head``): stop quietly, as ``ros2 topic echo`` does.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     except (OSError, WebSocketException) as exc:
-        _stream_failed(topic, url, exc)
+        _fail(f"cannot stream {topic} from {url}: {exc}")
 
 
 def _echo_names(path: str, show_types: bool, url: str, token: str | None) -> None:

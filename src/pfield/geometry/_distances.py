@@ -48,7 +48,8 @@ def signed_distances(
 
     Exact wherever ``d ≤ cutoff``; beyond it an entry may be a lower bound ``d'`` with ``cutoff < d' ≤ d`` (as
     :func:`obstacle_signed_distance_within`). Raises ``InvalidInput`` for points that are not finite (N, 3) and
-    ``ValueError`` for a hand-built ``packed`` whose mesh indices leave its arrays.
+    ``ValueError`` for a hand-built ``packed`` whose mesh indices leave its arrays or whose kinds hold a code that is
+    no shape.
     """
     return _signed_distances(packed.kinds, packed.rows, packed, points, cutoff)
 

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from pfield.errors import InvalidInput, ResourceNotFound
 
-__all__ = ["BUILTIN_ROBOTS", "BuiltinRobot", "example_robot_data_root"]
+__all__ = ["BUILTIN_ROBOTS", "BuiltinRobot", "builtin_spec", "did_you_mean", "example_robot_data_root"]
 
 
 @dataclass(frozen=True)

@@ -69,9 +69,11 @@ def task_space_autonomy_vector(field: Any, pose: Pose, previous: Twist | None = 
 
 
 def _stepper(field: Any, robot: RobotModel, options: WholeBodyOptions | None) -> WholeBodyStepper:
-    """The cached :class:`WholeBodyStepper` of (field, robot, options) for this thread."""
-    return _STEPPERS.get(field, robot, lambda: WholeBodyStepper(field, robot, options),
-                         lambda cached: options is None or options == cached.options)
+    """The cached :class:`WholeBodyStepper` of (field, robot, options) for this thread (None: the default
+    options, never a stepper built with others)."""
+    wanted = options or WholeBodyOptions()
+    return _STEPPERS.get(field, robot, lambda: WholeBodyStepper(field, robot, wanted),
+                         lambda cached: cached.options == wanted)
 
 
 _MISMATCH_WARNING_PERIOD = 5.0  # s; autonomy vectors are asked for at control rate, the log must not flood
