@@ -49,16 +49,25 @@ LocalSegment local_segment(const double* row, Vec3 a, Vec3 b) {
 }
 
 // The local signed distance of a cylinder or an ellipsoid, the kinds convex_minimum serves (the signed distance
-// dispatch with no cutoff; segment_obstacle_distance sends no other kind here).
+// dispatch with no cutoff); segment_obstacle_distance sends no other kind here, and a new kind must say whether it
+// comes (the switch lists every kind).
 SignedDistance convex_local(Kind kind, Vec3 q, double s0, double s1, double s2) {
-  if (kind == Kind::Cylinder) return geometry::detail::cylinder_at(q, s0, s1);
-  if (kind == Kind::Ellipsoid) {
-    // the dispatch's bounding-sphere test, with cutoff inf: it passes unless the bound is NaN
-    const SignedDistance bound = geometry::detail::sphere_at(q, py_max(py_max(s0, s1), s2));
-    if (bound.distance <= kInf) return geometry::detail::ellipsoid::signed_distance(q, s0, s1, s2);
-    return bound;
+  switch (kind) {
+    case Kind::Cylinder:
+      return geometry::detail::cylinder_at(q, s0, s1);
+    case Kind::Ellipsoid: {
+      // the dispatch's bounding-sphere test, with cutoff inf: it passes unless the bound is NaN
+      const SignedDistance bound = geometry::detail::sphere_at(q, py_max(py_max(s0, s1), s2));
+      if (bound.distance <= kInf) return geometry::detail::ellipsoid::signed_distance(q, s0, s1, s2);
+      return bound;
+    }
+    case Kind::Sphere:
+    case Kind::Box:
+    case Kind::Capsule:
+    case Kind::Mesh:
+      break;  // minimised by their own rules (segment_obstacle_distance)
   }
-  return geometry::detail::sphere_at(q, s0);
+  return {std::numeric_limits<double>::quiet_NaN(), {}};
 }
 
 // The slope grad d . u of d along the segment at p0 + t u (obstacle frame).
