@@ -6,7 +6,9 @@ lateral offset 0.15 m); parameters "default" and "rosYaml". µs per step = (medi
 ``plan_whole_body`` call − that of its exact mesh certificate) / steps taken (pfield needs far fewer steps, so ms
 per plan is also shown, with the certificate's share: a reached plan is certified on the exact meshes, which
 neither the numba engine nor the C++ original did, so the per-step figure leaves it out).
-Autonomy vector: ``whole_body_autonomy_vector`` from Python at q0 (previous velocities zero, dt 0.01).
+Autonomy vector: ``whole_body_autonomy_vector`` from Python at q0 (previous velocities zero, dt 0.01); also toward
+three candidate goals in turn, as shared autonomy's goal inference asks (a field per goal, 5 cm apart), where each
+field keeps its compiled stepper (``pfield.shared_control._recent``).
 Kinematics: FK, end-effector Jacobian and one IK solve (+1 cm) through the public Python API (target ≤ 2× the
 C++ library's in-process calls, issue 32), and the IK solve also through the core's entry without the result object.
 Notes add the median CPU time (the machine is shared; wall time includes waiting for a core).
@@ -122,6 +124,20 @@ def _vector_rows(robot: RobotModel, repeat: int) -> list[BenchRow]:
                                      CPP_VECTOR[(count, name)])
             rows.append(BenchRow(SECTION_VECTOR, f"{count} spheres / {name}", seconds * 1e6, "µs", cpp, target=cpp,
                                  note=f"CPU {cpu * 1e6:.3g} µs; {source}; target ≤ 1.0× the C++"))
+    scene = sphere_line_scene(5, lateral_offset=0.15)
+    goals = [Pose(GOAL.position + np.array((0.0, dy, 0.0)), GOAL.orientation) for dy in (0.0, 0.05, -0.05)]
+    fields = [PotentialField(PARAMS["rosYaml"], goal, scene) for goal in goals]
+    turn = [0]
+
+    def in_turn() -> object:
+        turn[0] += 1
+        return whole_body_autonomy_vector(fields[turn[0] % len(fields)], robot, Q0, previous, 0.01)
+
+    number = auto_number(in_turn)
+    seconds = median_time(in_turn, repeat=repeat, number=number)
+    rows.append(BenchRow(SECTION_VECTOR, "5 spheres / rosYaml, three candidate goals in turn", seconds * 1e6, "µs",
+                         note=f"CPU {cpu_time(in_turn, repeat, number) * 1e6:.3g} µs; a field per goal, each keeping "
+                              "its stepper (with one kept per thread, every call built one: about 70 µs)"))
     return rows
 
 

@@ -41,6 +41,7 @@ __all__ = ["WholeBodyAutonomy", "task_space_autonomy_vector", "whole_body_autono
            "whole_body_row", "whole_body_stepper"]
 
 _LOG = logging.getLogger(__name__)
+_DEFAULT_OPTIONS = WholeBodyOptions()  # frozen: one value for every call without options
 _STEPPERS: Recent[WholeBodyStepper] = Recent()
 """The steppers of (field, robot) on each thread (several fields in turn: one per candidate goal)."""
 
@@ -71,9 +72,9 @@ def task_space_autonomy_vector(field: Any, pose: Pose, previous: Twist | None = 
 def _stepper(field: Any, robot: RobotModel, options: WholeBodyOptions | None) -> WholeBodyStepper:
     """The cached :class:`WholeBodyStepper` of (field, robot, options) for this thread (None: the default
     options, never a stepper built with others)."""
-    wanted = options or WholeBodyOptions()
+    wanted = options or _DEFAULT_OPTIONS
     return _STEPPERS.get(field, robot, lambda: WholeBodyStepper(field, robot, wanted),
-                         lambda cached: cached.options == wanted)
+                         lambda cached: cached.options is wanted or cached.options == wanted)
 
 
 _MISMATCH_WARNING_PERIOD = 5.0  # s; autonomy vectors are asked for at control rate, the log must not flood
