@@ -118,8 +118,9 @@ PointAssistance assist_point(const geometry::PackedView& packed, const double* v
 
 // The closest link-obstacle pair of the link model at the world segments `world` (near_segments' filling, or the
 // primitives `placement` places on first use): the pair with the smallest exact clearance
-// (robot::link_obstacle_distance_below with cutoff = fine_cutoff = the best so far, robot/clearance.hpp). The point is the robot's witness point on the link's surface: the deciding segment's
-// axis point less its radius along n (that radius taken as d_O(axis point) - d).
+// (robot::link_obstacle_distance_below with cutoff = fine_cutoff = the best so far, robot/clearance.hpp). The point
+// is the robot's witness point on the link's surface: the deciding segment's axis point less its radius along n (that
+// radius taken as d_O(axis point) - d).
 struct NearestLink {
   std::int64_t link = -1;      // -1 without obstacles (or links)
   std::int64_t obstacle = -1;

@@ -330,9 +330,6 @@ _WORKSPACES: Recent[Any] = Recent()
 
 def _workspace(scene: AssistanceScene, robot: RobotModel) -> Any:
     """The compiled whole-body assistance of (scene, robot) for this thread."""
-    last = _WORKSPACES.last()
-    if last is not None and last[0] is scene and last[1] is robot:
-        return last[2]
     return _WORKSPACES.get(scene, robot, lambda: _whole_body(scene, robot))
 
 
