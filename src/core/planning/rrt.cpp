@@ -11,6 +11,7 @@
 #include "planning/segment_free.hpp"
 #include "robot/distance.hpp"
 #include "robot/kinematics.hpp"
+#include "robot/pair_tables.hpp"
 
 namespace pfield::planning {
 namespace {
@@ -223,6 +224,12 @@ bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, 
     // the two differ only by rounding, so a pair is decided as without it.
     if (robot::sphere_gap(ws.middles[l1], links.cap_r[l1], ws.middles[l2], links.cap_r[l2]) >= need + kSphereSlack)
       continue;
+    // then the pair's table, where it has one: the primitives' own verdict for most states (robot/pair_tables.hpp)
+    if (robot.pair_tables != nullptr) {
+      const robot::PairVerdict said = robot.pair_tables->verdict(k, q, need);
+      if (said == robot::PairVerdict::Clear) continue;
+      if (said == robot::PairVerdict::Below) return false;
+    }
     // then the capsules, whose primitives are placed only when the pair gets that far; "not below need" comes back
     // as need itself or more: compared with need, not as distance - offset < margin
     if (robot::fitted_pair_distance_below(links, ws.world, l1, l2, need, &ws.placement).distance < need) return false;

@@ -1,6 +1,7 @@
 // The robot, its obstacles and its scene (python/robot_arrays.hpp), registered once as pfield._core.robot's Robot,
 // Obstacles and Scene; every other submodule takes these types. No arithmetic here: arrays are checked and viewed.
 #include <nanobind/nanobind.h>
+#include <nanobind/stl/vector.h>
 
 #include <algorithm>
 #include <cstddef>
@@ -9,6 +10,7 @@
 #include <string>
 
 #include "python/robot_arrays.hpp"
+#include "robot/pair_tables.hpp"
 
 namespace pfield::python {
 namespace {
@@ -33,7 +35,7 @@ RobotArrays::RobotArrays(const Ints& parents, const Rotations& place_rot, const 
                          const Rows<3>& cap_b, const Vector& cap_r, const Pairs& self_pairs, const Vector& lower,
                          const Vector& upper, const Vector& max_velocity, const Vector& max_acceleration,
                          const Ints& link_start, const Ints& prim_joint, const Rows<3>& prim_a, const Rows<3>& prim_b,
-                         const Vector& prim_r, const Vector& self_r)
+                         const Vector& prim_r, const Vector& self_r, nb::handle pair_tables)
     : parents_(parents), place_rot_(place_rot), place_pos_(place_pos), axes_(axes), kinds_(kinds),
       support_(support), ee_rot_(ee_rot), ee_pos_(ee_pos), lower_(lower), upper_(upper),
       max_velocity_(max_velocity), max_acceleration_(max_acceleration), cap_joint_(cap_joint), cap_a_(cap_a),
@@ -41,6 +43,7 @@ RobotArrays::RobotArrays(const Ints& parents, const Rotations& place_rot, const 
       prim_joint_(prim_joint), prim_a_(prim_a), prim_b_(prim_b), prim_r_(prim_r) {
   bind_kinematics(ee_joint);
   bind_links();
+  if (!pair_tables.is_none()) use_pair_tables(pair_tables);
 }
 
 RobotArrays::RobotArrays(const Ints& parents, const Rotations& place_rot, const Rows<3>& place_pos,
@@ -94,6 +97,14 @@ void RobotArrays::bind_links() {
   view_.links = {caps,           cap_joint_.data(),    cap_a_.data(), cap_b_.data(),  cap_r_.data(),
                  self_r_.data(), self_pairs_.shape(0), pairs,         prims,          start,
                  prim_joint_.data(), prim_a_.data(),   prim_b_.data(), prim_r_.data()};
+}
+
+void RobotArrays::use_pair_tables(nb::handle tables) {
+  const auto& made = nb::cast<const robot::PairTables&>(tables);
+  require(made.made_from(view_), "pair_tables: made from another robot (its kinematics, link model or limits differ "
+                                 "from this one's); make them from this robot");
+  pair_tables_ = nb::borrow(tables);
+  view_.pair_tables = &made;
 }
 
 ObstacleArrays::ObstacleArrays(const Kinds& kinds, const Rows<16>& rows, const Triangles& triangles,
@@ -156,11 +167,14 @@ void bind_robot(nb::module_& m) {
       .def(nb::init<const Ints&, const Rotations&, const Rows<3>&, const Rows<3>&, const Ints&, const IntMatrix&,
                     std::int64_t, const Matrix3&, const Point&, const Ints&, const Rows<3>&, const Rows<3>&,
                     const Vector&, const Pairs&, const Vector&, const Vector&, const Vector&, const Vector&,
-                    const Ints&, const Ints&, const Rows<3>&, const Rows<3>&, const Vector&, const Vector&>(),
+                    const Ints&, const Ints&, const Rows<3>&, const Rows<3>&, const Vector&, const Vector&,
+                    nb::handle>(),
            "parents"_a, "place_rot"_a, "place_pos"_a, "axes"_a, "kinds"_a, "support"_a, "ee_joint"_a, "ee_rot"_a,
            "ee_pos"_a, "cap_joint"_a, "cap_a"_a, "cap_b"_a, "cap_r"_a, "self_pairs"_a, "lower"_a, "upper"_a,
            "max_velocity"_a, "max_acceleration"_a, "link_start"_a, "prim_joint"_a, "prim_a"_a, "prim_b"_a,
-           "prim_r"_a, "self_r"_a, "RobotArrays' fields in order (Robot(*arrays)).")
+           "prim_r"_a, "self_r"_a, "pair_tables"_a = nb::none(),
+           "RobotArrays' fields in order (Robot(*arrays)); pair_tables: a PairTables made from these arrays, which "
+           "the global search's state checks ask first, or None.")
       .def(nb::init<const Ints&, const Rotations&, const Rows<3>&, const Rows<3>&, const Ints&, const IntMatrix&,
                     std::int64_t, const Matrix3&, const Point&, const Vector&, const Vector&, const Vector&,
                     const Vector&>(),
@@ -171,6 +185,44 @@ void bind_robot(nb::module_& m) {
       .def_prop_ro("capsule_count", &RobotArrays::capsules, "links of the link model (0 without one)")
       .def_prop_ro("pair_count", &RobotArrays::pairs, "self pairs")
       .def_prop_ro("primitive_count", &RobotArrays::primitives, "fitted primitives");
+  nb::enum_<robot::PairVerdict>(m, "PairVerdict", "What a self pair's table says (robot/pair_tables.hpp).")
+      .value("Unknown", robot::PairVerdict::Unknown, "not decided: the primitives decide")
+      .value("Clear", robot::PairVerdict::Clear, "the pair's fitted distance is at least the need")
+      .value("Below", robot::PairVerdict::Below, "the pair's fitted distance is below the need");
+  nb::class_<robot::TableAxis>(m, "TableAxis", "One tabulated joint of a self pair.")
+      .def_ro("joint", &robot::TableAxis::joint)
+      .def_ro("origin", &robot::TableAxis::origin, "the first cell's lower edge (rad or m)")
+      .def_ro("width", &robot::TableAxis::width, "one cell (rad or m)")
+      .def_ro("cells", &robot::TableAxis::cells)
+      .def_ro("turns", &robot::TableAxis::turns, "tabulated over one turn")
+      .def_ro("weight", &robot::TableAxis::weight, "w_pj (m/rad or m/m)");
+  nb::class_<robot::PairTables>(m, "PairTables", "The self pairs that move apart by one or two joints, their fitted "
+                                                 "distances tabulated over those joints (robot/pair_tables.hpp).")
+      .def(
+          "__init__",
+          [](robot::PairTables* self, const RobotArrays& robot, const Matrix& weights) {
+            require(weights.shape(0) == robot.pairs() && weights.shape(1) == robot.joints(),
+                    "weights: expected (self pairs, joints)");
+            new (self) robot::PairTables(robot.view(), weights.data());
+          },
+          "robot"_a, "weights"_a,
+          "PairTables(robot, weights): weights (pairs, n) w_pj, m/rad or m/m "
+          "(pfield.robot.collision.self_pair_weights of the fitted primitives).")
+      .def_prop_ro("pair_count", &robot::PairTables::pair_count)
+      .def("axes", [](const robot::PairTables& t, std::size_t pair) {
+            require(pair < t.pair_count(), "pair: out of range");
+            return t.axes(pair);
+          }, "pair"_a, "The pair's tabulated joints (empty: no table).", nb::rv_policy::copy)
+      .def("filled", [](const robot::PairTables& t, std::size_t pair) {
+            require(pair < t.pair_count(), "pair: out of range");
+            return t.filled(pair);
+          }, "pair"_a, "Cells of the pair's table filled so far.")
+      .def("verdict", [](const robot::PairTables& t, std::size_t pair, const Vector& q, double need) {
+            require(pair < t.pair_count(), "pair: out of range");
+            require(q.shape(0) == t.joint_count(), "q: expected one value per joint");
+            return t.verdict(pair, q.data(), need);
+          }, "pair"_a, "q"_a, "need"_a,
+          "What the pair's table says of `fitted distance at q >= need` (Unknown without a table).");
   nb::class_<ObstacleArrays>(m, "Obstacles", "Packed obstacles (PackedObstacles' eight arrays) and their bounding "
                                              "spheres, read in place.")
       .def(nb::init<const Kinds&, const Rows<16>&, const Triangles&, const PseudoNormals&, const Rows<3>&,

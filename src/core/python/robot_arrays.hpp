@@ -3,9 +3,9 @@
 // whole-body planner and stepper, the global search and tracking, the assistance.
 //
 // * RobotArrays (robot.Robot): pfield.planning._whole_body_layout.RobotArrays' 24 arrays (kinematics, link model,
-//   limits), or the kinematics and limits alone (a RobotModel before its link model is fitted), read in place for
-//   the object's life, every length and index checked once (a ValueError for an array that disagrees), and the
-//   robot::RobotView over them.
+//   limits) and its self pairs' tables (robot.PairTables, or None), or the kinematics and limits alone (a RobotModel
+//   before its link model is fitted), read in place for the object's life, every length and index checked once (a
+//   ValueError for an array that disagrees), and the robot::RobotView over them.
 // * ObstacleArrays (robot.Obstacles): the packed obstacles (PackedObstacles' eight arrays) and their bounding
 //   spheres (centres (M, 3), radii (M,)): robot::ObstacleSet.
 // * SceneArrays (robot.Scene): a robot among obstacles with the start offsets of its pairs (<= 0, m; obstacle
@@ -35,7 +35,7 @@ class RobotArrays {
               const Vector& cap_r, const Pairs& self_pairs, const Vector& lower, const Vector& upper,
               const Vector& max_velocity, const Vector& max_acceleration, const Ints& link_start,
               const Ints& prim_joint, const Rows<3>& prim_a, const Rows<3>& prim_b, const Vector& prim_r,
-              const Vector& self_r);
+              const Vector& self_r, nb::handle pair_tables = nb::none());
   // The kinematics (a RobotModel's KinematicArrays, in order) and the limits, without a link model.
   RobotArrays(const Ints& parents, const Rotations& place_rot, const Rows<3>& place_pos, const Rows<3>& axes,
               const Ints& kinds, const IntMatrix& support, std::int64_t ee_joint, const Matrix3& ee_rot,
@@ -51,6 +51,9 @@ class RobotArrays {
   std::size_t primitives() const { return view_.links.primitive_count; }
 
  private:
+  // The view carries `tables` (a robot.PairTables made from this robot's arrays, else a ValueError), kept alive
+  // with this object.
+  void use_pair_tables(nb::handle tables);
   void bind_kinematics(std::int64_t ee_joint);
   void bind_links();
 
@@ -70,6 +73,7 @@ class RobotArrays {
   Ints link_start_, prim_joint_;
   Rows<3> prim_a_, prim_b_;
   Vector prim_r_;
+  nb::object pair_tables_;  // the robot::PairTables view_ points to, or None
   robot::RobotView view_;
 };
 

@@ -61,10 +61,15 @@ struct JointLimitsView {
   const double* max_acceleration = nullptr;  // (n,)
 };
 
+class PairTables;  // robot/pair_tables.hpp
+
 struct RobotView {
   KinematicsView kinematics;
   LinkModelView links;
   JointLimitsView limits;
+  // The self pairs tabulated over the joints between their links (null: none), made from this robot: the global
+  // search's state check asks them first (planning/rrt.cpp).
+  const PairTables* pair_tables = nullptr;
 };
 
 // World frames of every joint at one configuration; the caller owns the storage (n * 9 and n * 3 doubles).

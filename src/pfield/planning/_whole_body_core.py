@@ -24,11 +24,14 @@ from pfield._core import robot as _robot_core
 from pfield._core import robot_distance as _distance
 from pfield._core import whole_body as _core
 from pfield.planning.status import PlanStatus
+from pfield.robot.collision import motion_bounds, self_pair_weights
 
 if TYPE_CHECKING:
     from pfield.planning._whole_body_layout import RobotArrays, Scene
+    from pfield.robot.model import RobotModel
 
-__all__ = ["core_obstacles", "core_robot", "core_scene", "culprit", "pair_distances", "plan_loop", "planner"]
+__all__ = ["core_obstacles", "core_robot", "core_scene", "culprit", "pair_distances", "pair_tables", "plan_loop",
+           "planner"]
 
 _T = TypeVar("_T")
 
@@ -62,11 +65,29 @@ class _Bindings:
 # a plan binds one robot and one obstacle set, and a few scenes (the start's offsets, the search's endpoint
 # offsets, the tracking's zero offsets); a few concurrent plans fit
 _ROBOTS, _OBSTACLES, _SCENES = _Bindings(8), _Bindings(8), _Bindings(16)
+_PAIR_TABLES = _Bindings(8)  # per robot and link model: the searches of one robot share their cells
 
 
 def core_robot(robot: RobotArrays) -> Any:
     """The core's ``robot.Robot`` of ``robot`` (its arrays read in place), bound once per RobotArrays."""
     return _ROBOTS.get((robot,), lambda: _robot_core.Robot(*robot))
+
+
+def pair_tables(robot: RobotModel, arrays: RobotArrays) -> Any:
+    """The core's ``robot.PairTables`` of ``robot``'s fitted self pairs (``src/core/robot/pair_tables.hpp``): one per
+    robot (and link model), made from ``arrays`` (``robot`` packed, :func:`pfield.planning.whole_body.pack_robot`) the
+    first time, so that every search of the robot fills and reads the same cells. Each pair's weights are
+    :func:`pfield.robot.collision.self_pair_weights` of its links' primitives (their segments' ends; a link without
+    primitives has no table)."""
+    def make() -> Any:
+        ends = [np.vstack([arrays.prim_a[s:e], arrays.prim_b[s:e]]) if e > s else np.zeros((1, 3))
+                for s, e in zip(arrays.link_start[:-1].tolist(), arrays.link_start[1:].tolist(), strict=True)]
+        bounds, supports, cross = motion_bounds(robot, arrays.cap_joint, ends)
+        pairs = np.asarray(arrays.self_pairs, dtype=np.int64).reshape(-1, 2)
+        weights = self_pair_weights(bounds, supports, cross, pairs[:, 0], pairs[:, 1])
+        return _robot_core.PairTables(_robot_core.Robot(*arrays), np.ascontiguousarray(weights, dtype=np.float64))
+
+    return _PAIR_TABLES.get((robot, robot.geometry), make)
 
 
 def core_obstacles(scene: Scene) -> Any:

@@ -82,6 +82,8 @@ class RobotArrays(NamedTuple):
     ``cap_*`` are the links' bounding capsules (index l; ``self_r`` the radii of the ungrown covering
     capsules, for the ``self_pairs`` link pairs), and ``link_start``, ``prim_*`` the fitted primitives of
     each link (:class:`pfield.robot.geometry.RobotGeometry`): link l owns ``link_start[l]:link_start[l + 1]``.
+    ``pair_tables``: the self pairs' tables (``pfield._core.robot.PairTables``, made from these arrays by
+    :func:`pfield.planning._whole_body_core.pair_tables`), which the global search's state checks ask first, or None.
     """
 
     parents: NDArray[np.int64]
@@ -108,6 +110,7 @@ class RobotArrays(NamedTuple):
     prim_b: NDArray[np.float64]
     prim_r: NDArray[np.float64]
     self_r: NDArray[np.float64]
+    pair_tables: object = None
 
 
 class Scene(NamedTuple):

@@ -138,10 +138,11 @@ def pack_robot(robot: RobotModel, config: FieldConfig, options: WholeBodyOptions
         accel = np.array([positive(f"acceleration_limits[{i}]", a) for i, a in enumerate(options.acceleration_limits)])
         if accel.shape != (robot.n_joints,):
             raise InvalidInput("acceleration_limits", options.acceleration_limits, f"expected {robot.n_joints} values")
-    return _wb.RobotArrays(k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, k.support, k.ee_joint, k.ee_rot,
-                           k.ee_pos, g.joints, g.a, g.b, g.radii, g.self_pairs, np.array(robot.lower_limits),
-                           np.array(robot.upper_limits), np.array(robot.velocity_limits), accel.astype(np.float64),
-                           g.link_start, g.prim_joint, g.prim_a, g.prim_b, g.prim_r, g.self_radii)
+    arrays = _wb.RobotArrays(k.parents, k.place_rot, k.place_pos, k.axes, k.kinds, k.support, k.ee_joint, k.ee_rot,
+                             k.ee_pos, g.joints, g.a, g.b, g.radii, g.self_pairs, np.array(robot.lower_limits),
+                             np.array(robot.upper_limits), np.array(robot.velocity_limits), accel.astype(np.float64),
+                             g.link_start, g.prim_joint, g.prim_a, g.prim_b, g.prim_r, g.self_radii)
+    return arrays._replace(pair_tables=_core_loop.pair_tables(robot, arrays))
 
 
 def kernel_parameters(config: FieldConfig, plan: PlanOptions, options: WholeBodyOptions) -> NDArray[np.float64]:

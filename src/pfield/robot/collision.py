@@ -37,7 +37,7 @@ from pfield.robot.model import RobotModel
 from pfield.spatial import Pose
 
 __all__ = ["DISTANCE_TOLERANCE", "UNBOUNDED_WEIGHT", "CapsuleClearances", "CollisionChecker", "CollisionReport",
-           "capsule_clearances", "coal_geometry"]
+           "capsule_clearances", "coal_geometry", "motion_bounds", "self_pair_weights"]
 
 DISTANCE_TOLERANCE = 1e-6
 """(m) how far coal's distance may be from the exact one (its GJK tolerance): a lower bound of a pair's distance
@@ -216,14 +216,12 @@ class CollisionChecker:
         bounded by either point's distance from the axis. (The UR5's base and upper arm: the shoulder pan turns
         the upper arm, 0.51 m from its axis at most, about the base, 0.11 m from it.)
         """
-        radii, supports, cross = self._tables.bounds, self._tables.supports, self._tables.cross
+        tables = self._tables
         first, second, obstacle = self._first, self._second, self._obstacle_pair
         weights = np.zeros((len(self.pair_names), self.robot.n_joints))
-        weights[obstacle] = np.where(supports[first[obstacle]], radii[first[obstacle]], 0.0)
-        a, b = first[~obstacle], second[~obstacle]
-        only_a, only_b = supports[a] & ~supports[b], supports[b] & ~supports[a]
-        weights[~obstacle] = (np.where(only_a, np.minimum(radii[a], cross[b]), 0.0)
-                              + np.where(only_b, np.minimum(radii[b], cross[a]), 0.0))
+        weights[obstacle] = tables.bounds[first[obstacle]]  # 0 where j does not move the object
+        weights[~obstacle] = self_pair_weights(tables.bounds, tables.supports, tables.cross, first[~obstacle],
+                                               second[~obstacle])
         return weights
 
     @functools.cached_property
@@ -447,17 +445,13 @@ def _robot_tables(robot: RobotModel) -> _RobotTables:
     shapes = _convex_hulls(robot)
     joints = np.array([int(obj.parentJoint) - 1 for obj in objects], dtype=np.int64)
     pairs = _self_pairs(robot)
-    carried = robot.kinematics.support  # carried[k, j]: joint j moves the body of joint k
-    supports = np.array([np.zeros(robot.n_joints, dtype=bool) if joint < 0 else carried[joint].astype(bool)
-                         for joint in joints]).reshape(len(objects), robot.n_joints)
     rotations = np.array([obj.placement.rotation for obj in objects]).reshape(-1, 3, 3)
     positions = np.array([obj.placement.translation for obj in objects]).reshape(-1, 3)
     names = tuple(str(obj.name) for obj in objects)
     meshes = [obj.geometry for obj in objects]
     hulls = [_local_points(shape, obj.placement) for shape, obj in zip(shapes, objects, strict=True)]
-    walked, axis = _object_bounds(robot, joints, hulls), _axis_bounds(robot, joints, hulls)
-    return _RobotTables(tuple(pairs), joints, np.where(supports, np.minimum(walked, axis), 0.0),
-                        supports, np.where(supports, np.inf, axis), names,
+    bounds, supports, cross = motion_bounds(robot, joints, hulls)
+    return _RobotTables(tuple(pairs), joints, bounds, supports, cross, names,
                         tuple(f"{names[a]}/{names[b]}" for a, b in pairs), meshes,
                         [int(m.num_tris) if isinstance(m, coal.BVHModelBase) else None for m in meshes],
                         [(int(j), coal.Transform3s(r, t))
@@ -524,6 +518,33 @@ def _self_pairs(robot: RobotModel) -> list[tuple[int, int]]:
                 continue
             pairs.append((i, j))
     return pairs
+
+
+def motion_bounds(robot: RobotModel, joints: NDArray[np.int64], hulls: Sequence[NDArray[np.float64]]
+                  ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:
+    """How far a joint motion can move each of G point sets (collision objects, or a link's fitted primitives):
+    ``hulls[g]`` holds points whose convex hull contains set g, in the frame of its joint ``joints[g]`` (−1: the
+    base). Returns (G, n) each: ``bounds`` r_gj, the largest distance (m) of g from joint j's axis at every
+    configuration (1 for a prismatic j, 0 where j does not move g: :func:`_object_bounds` walked up the chain, or
+    :func:`_axis_bounds` where smaller); ``supports``, whether j moves g; ``cross``, g's distance from the axis of a
+    joint that does not move it where a line or point fixed in g's frame bounds it (inf elsewhere). A motion Δq
+    moves every point of g by at most Σ_j r_gj |Δq_j| (:attr:`CollisionChecker.motion_weights`)."""
+    carried = robot.kinematics.support  # carried[k, j]: joint j moves the body of joint k
+    supports = np.array([np.zeros(robot.n_joints, dtype=bool) if joint < 0 else carried[joint].astype(bool)
+                         for joint in joints.tolist()]).reshape(len(hulls), robot.n_joints)
+    walked, axis = _object_bounds(robot, joints, hulls), _axis_bounds(robot, joints, hulls)
+    return np.where(supports, np.minimum(walked, axis), 0.0), supports, np.where(supports, np.inf, axis)
+
+
+def self_pair_weights(bounds: NDArray[np.float64], supports: NDArray[np.bool_], cross: NDArray[np.float64],
+                      a: NDArray[np.int64], b: NDArray[np.int64]) -> NDArray[np.float64]:
+    """(P, n) weights w_pj (m/rad or m/m) of the pairs of point sets (a[p], b[p]) of :func:`motion_bounds`: a joint
+    motion Δq changes the distance of pair p by at most Σ_j w_pj |Δq_j|. The joints that move both sets move them
+    rigidly together and count 0; a joint that moves one set alone counts the smaller of that set's r and the other
+    set's distance from its axis (:attr:`CollisionChecker.motion_weights` says why either bounds the rate)."""
+    only_a, only_b = supports[a] & ~supports[b], supports[b] & ~supports[a]
+    return (np.where(only_a, np.minimum(bounds[a], cross[b]), 0.0)
+            + np.where(only_b, np.minimum(bounds[b], cross[a]), 0.0))
 
 
 def _object_bounds(robot: RobotModel, joints: NDArray[np.int64], hulls: Sequence[NDArray[np.float64]]
