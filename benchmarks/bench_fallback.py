@@ -595,11 +595,61 @@ def times_picture(lines: Sequence[PlanLine]) -> bytes:
     return buffer.getvalue()
 
 
+SECTION_CHECK = "global search: a UR5 state check (µs, one thread)"
+CHECK_PROBLEMS = (("cage", 5), ("cage", 16))
+MARGIN = 0.003  # m: the search's margin with MBM_CONFIG (safety_distance 2 mm + GlobalOptions.extra_margin 1 mm)
+"""UR5 problems whose searches check many states (the cage's tail): RRT-Connect from seed 0 on each, as the fallback
+runs it (the fitted self pairs, a 3 mm margin, edges every 0.03 rad), with and without the self pairs' tables."""
+
+
+def state_check_rows(budget: int = 150_000) -> list[BenchRow]:
+    """µs per state check of RRT-Connect on :data:`CHECK_PROBLEMS` (thread CPU over at most ``budget`` checks each),
+    with the self pairs' tables (``src/core/robot/pair_tables.hpp``) and with the primitives alone: the same states
+    are checked either way (the tables give the primitives' own verdicts), so the figures compare one check."""
+    from pfield._core import rrt
+    from pfield.geometry import pack_obstacles
+    from pfield.planning._whole_body_core import core_scene
+    from pfield.planning.whole_body import WholeBodyOptions, make_scene, pack_robot
+
+    spec = ROBOTS["ur5"]
+    if not spec.archive.exists():
+        return []
+    robot = spec.model()
+    arrays = pack_robot(robot, CONFIG, WholeBodyOptions())
+    spent = {"tables": 0.0, "primitives": 0.0}
+    counts = {"tables": 0, "primitives": 0}
+    with extracted_scene_folders(spec.archive) as folders:
+        by_name = {f.name.removesuffix(spec.suffix): f for f in folders}
+        for scene, index in CHECK_PROBLEMS:
+            start, goal, obstacles, _ = read_problem(by_name[scene], index, robot.joint_names, spec.base_link)
+            for name, tables in (("primitives", None), ("tables", arrays.pair_tables)):
+                packed = arrays._replace(pair_tables=tables)
+                searched = make_scene(pack_obstacles(obstacles), packed)
+                # the search's own self pairs: on the fitted primitives, which may touch (self_contact_slack)
+                searched = searched._replace(fitted_self=True, self_offsets=searched.self_offsets - MARGIN)
+                checker = rrt.Checker(core_scene(packed, searched), MARGIN, 0.03)
+                trees = rrt.Trees(np.clip(start, robot.lower_limits, robot.upper_limits),
+                                  np.clip(goal, robot.lower_limits, robot.upper_limits)[None], 20000, 0)
+                began = time.thread_time()
+                checker.connect(trees, robot.lower_limits, robot.upper_limits, 1.0, budget, None, None)
+                spent[name] += time.thread_time() - began
+                counts[name] += checker.states_checked
+    if counts["tables"] != counts["primitives"]:
+        raise AssertionError(f"the tables changed the states checked: {counts}")
+    problems = ", ".join(f"{scene} {index}" for scene, index in CHECK_PROBLEMS)
+    note = (f"RRT-Connect from seed 0 on {problems}: {counts['tables']} states either way; the tables filled as "
+            "the search meets their cells")
+    return [BenchRow(SECTION_CHECK, "self pairs moved by one or two joints from their tables", 1e6 * spent["tables"]
+                     / counts["tables"], "µs", note=note),
+            BenchRow(SECTION_CHECK, "every self pair on its fitted primitives", 1e6 * spent["primitives"]
+                     / counts["primitives"], "µs", note=note)]
+
+
 def run(quick: bool) -> Report:
     results, missing = bench(limit=QUICK_LIMIT if quick else None)
     lines = figures(results)
     plans = plan_lines(results)
-    return Report(rows(lines), {"mbm_table.md": table(lines, missing) + "\n",
+    return Report(rows(lines) + state_check_rows(), {"mbm_table.md": table(lines, missing) + "\n",
                                 "mbm_problems.md": problems_list(results) + "\n", PLANS_CSV: plans_csv(plans),
                                 TIMES_PICTURE: times_picture(plans)})
 
