@@ -4,6 +4,9 @@
 // Run under the sanitizers (the lazy cells, the wrap of a joint that turns more than once).
 #include <cmath>
 #include <cstdint>
+#include <functional>
+#include <limits>
+#include <thread>
 #include <vector>
 
 #include "harness.hpp"
@@ -93,11 +96,116 @@ TEST(pair_tables_know_the_robot_they_were_made_from) {
   CHECK(tables.made_from(other.view()));  // the same arrays, elsewhere
   other.prim_r[1] = 0.2;
   CHECK(!tables.made_from(other.view()));
-  // a pair moved by no joint, or by one without limits, has no table
+  TwoBalls limits;
+  limits.upper = {2.0};
+  CHECK(!tables.made_from(limits.view()));
+  // a pair moved by no joint, or by a prismatic one without limits, has no table
   const double none = 0.0;
   CHECK(PairTables(robot.view(), &none).axes(0).empty());
-  robot.upper = {INFINITY};
-  CHECK(PairTables(robot.view(), &weight).axes(0).empty());
+  TwoBalls endless;
+  endless.kinds = {1};
+  endless.upper = {INFINITY};
+  CHECK(PairTables(endless.view(), &weight).axes(0).empty());
   const double q = 1.0;
-  CHECK(PairTables(robot.view(), &weight).verdict(0, &q, 0.0) == PairVerdict::Unknown);
+  CHECK(PairTables(endless.view(), &weight).verdict(0, &q, 0.0) == PairVerdict::Unknown);
+  // a continuous joint (no limits) turns: one turn of it, from -π
+  robot.lower = {-INFINITY};
+  robot.upper = {INFINITY};
+  const PairTables continuous(robot.view(), &weight);
+  CHECK(continuous.axes(0).size() == 1 && continuous.axes(0)[0].turns && continuous.axes(0)[0].origin == -M_PI);
+  const double across = 3.0 + 4.0 * M_PI;
+  CHECK(continuous.verdict(0, &across, 0.0) == PairVerdict::Clear);
+}
+
+TEST(a_pair_table_leaves_configurations_it_cannot_bound_to_the_primitives) {
+  TwoBalls robot;
+  const double weight = 0.5;
+  const PairTables tables(robot.view(), &weight);
+  for (const double q : {3.5, -3.01, std::numeric_limits<double>::quiet_NaN(),
+                         std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()})
+    CHECK(tables.verdict(0, &q, 0.0) == PairVerdict::Unknown);
+  const double edge = 3.0;  // the upper limit itself is in the last cell
+  CHECK(tables.verdict(0, &edge, 0.0) == PairVerdict::Clear);
+  // a turning joint wraps any finite angle, but not infinities
+  robot.lower = {-7.0};
+  robot.upper = {7.0};
+  const PairTables turning(robot.view(), &weight);
+  const double far = 1000.0 * M_PI + 3.0, endless = std::numeric_limits<double>::infinity();
+  CHECK(turning.verdict(0, &far, 0.0) == PairVerdict::Clear);
+  CHECK(turning.verdict(0, &endless, 0.0) == PairVerdict::Unknown);
+}
+
+TEST(a_prismatic_joint_and_two_joints_make_tables_too) {
+  // the joint slides along x: the balls are |q| apart along x, D(q) = |q| - 0.2 at 1 m/m
+  TwoBalls slide;
+  slide.kinds = {1};
+  slide.axes = {1, 0, 0};
+  slide.lower = {-0.5};
+  slide.upper = {0.5};
+  const double one = 1.0;
+  const PairTables sliding(slide.view(), &one);
+  CHECK(sliding.axes(0).size() == 1 && !sliding.axes(0)[0].turns);
+  for (int i = 0; i <= 100; ++i) {
+    const double q = -0.5 + 0.01 * i, d = std::abs(q) - 0.2;
+    const PairVerdict said = sliding.verdict(0, &q, 0.0);
+    if (said == PairVerdict::Clear) CHECK(d >= 0.0);
+    if (said == PairVerdict::Below) CHECK(d < 0.0);
+  }
+  // two revolute joints about z in a chain, link 1 on the second: the ball turns by q0 + q1, D = |sin((q0+q1)/2)| - 0.2
+  TwoBalls chain;
+  chain.parents = {-1, 0};
+  chain.kinds = {0, 0};
+  chain.support = {1, 0, 1, 1};
+  chain.place_rot = {1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+  chain.place_pos = {0, 0, 0, 0, 0, 0};
+  chain.axes = {0, 0, 1, 0, 0, 1};
+  chain.cap_joint = {-1, 1};
+  chain.prim_joint = {-1, 1};
+  chain.lower = {-1.5, -1.5};
+  chain.upper = {1.5, 1.5};
+  RobotView view = chain.view();
+  view.kinematics.joint_count = 2;
+  const double weights[2] = {0.5, 0.5};
+  const PairTables both(view, weights);
+  CHECK(both.axes(0).size() == 2);
+  int decided = 0;
+  for (int i = 0; i <= 30; ++i)
+    for (int j = 0; j <= 30; ++j) {
+      const double q[2] = {-1.5 + 0.1 * i, -1.5 + 0.1 * j};
+      const double d = std::abs(std::sin((q[0] + q[1]) / 2.0)) - 0.2;
+      const PairVerdict said = both.verdict(0, q, 0.0);
+      if (said == PairVerdict::Clear) CHECK(d >= 0.0);
+      if (said == PairVerdict::Below) CHECK(d < 0.0);
+      decided += said != PairVerdict::Unknown ? 1 : 0;
+    }
+  CHECK(decided > 800);  // of 961
+  // a joint that moves the pair by less than kUntabulated over its range is no axis, its share added instead
+  const double slight[2] = {1e-6, 0.5};
+  CHECK(PairTables(view, slight).axes(0).size() == 1);
+  // a link whose primitives are on another joint than its capsule's: its weights were not computed there
+  chain.prim_joint = {-1, 0};
+  CHECK(PairTables(chain.view(), weights).axes(0).empty());
+}
+
+TEST(two_threads_fill_one_table_with_the_same_verdicts) {
+  // the race of seeds fills one robot's tables from two threads at once (relaxed atomics: each cell one value)
+  TwoBalls robot;
+  const double weight = 0.5;
+  const PairTables shared(robot.view(), &weight), alone(robot.view(), &weight);
+  std::vector<PairVerdict> first(601), second(601);
+  const auto sweep = [&](std::vector<PairVerdict>& out) {
+    for (int i = 0; i <= 600; ++i) {
+      const double angle = -3.0 + 0.01 * i;
+      out[static_cast<std::size_t>(i)] = shared.verdict(0, &angle, 0.0);
+    }
+  };
+  std::thread other(sweep, std::ref(second));
+  sweep(first);
+  other.join();
+  for (int i = 0; i <= 600; ++i) {
+    const double angle = -3.0 + 0.01 * i;
+    const PairVerdict expected = alone.verdict(0, &angle, 0.0);
+    CHECK(first[static_cast<std::size_t>(i)] == expected && second[static_cast<std::size_t>(i)] == expected);
+  }
+  CHECK(shared.filled(0) == alone.filled(0));
 }

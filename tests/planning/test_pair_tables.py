@@ -34,6 +34,14 @@ def _packed(name: str) -> tuple[object, object]:
     return arrays, core_robot(arrays)
 
 
+def _fresh_tables(name: str) -> tuple[object, object]:
+    """The robot packed with new tables of its own (every cell unfilled), not the ones its plans share."""
+    arrays, _ = _packed(name)
+    bare = arrays._replace(pair_tables=None)
+    tables = core.PairTables(core.Robot(*bare), _whole_body_core.pair_weights(robot(name), arrays))
+    return arrays._replace(pair_tables=tables), tables
+
+
 def _tabulated(tables: object) -> list[int]:
     return [k for k in range(tables.pair_count) if tables.axes(k)]
 
@@ -59,10 +67,13 @@ def test_a_tables_verdict_is_the_primitives_own(name: str) -> None:
             for need in (0.0, 0.003, exact[k], exact[k] + 1e-6, exact[k] - 1e-6, exact[k] + 0.01, exact[k] - 0.01):
                 verdict = tables.verdict(k, q, need)
                 said[verdict] += 1
+                # the search's own form of the primitives' verdict: their distance below need, with need as cutoff
+                below = distance.fitted_self_clearances_at(bound, q, need)[k] < need
+                assert below == (exact[k] < need)
                 if verdict == CLEAR:
-                    assert exact[k] >= need, (k, q, need)
+                    assert not below, (k, q, need)
                 elif verdict == BELOW:
-                    assert exact[k] < need, (k, q, need)
+                    assert below, (k, q, need)
     assert said[CLEAR] > 0 and said[BELOW] > 0 and said[UNKNOWN] > 0  # every verdict was exercised
 
 
@@ -99,25 +110,25 @@ def test_the_ur5_forearm_and_wrist_2_are_decided_by_their_table() -> None:
     """The pair the UR5's checks spent most on (its SRDF keeps it; its fitted primitives 4 mm apart at the median
     configuration, so no capsule bound decides it) depends on wrist 1 and wrist 2 alone; its table answers "at least
     0" (the search's self need) without the primitives in most configurations."""
-    arrays, _ = _packed("ur5")
-    tables = arrays.pair_tables
+    arrays, tables = _fresh_tables("ur5")
     k = _pair(arrays, "forearm_link", "wrist_2_link")
     assert [axis.joint for axis in tables.axes(k)] == [3, 4]  # wrist_1_joint, wrist_2_joint
+    assert tables.filled(k) == 0
     model = robot("ur5")
     rng = np.random.default_rng(7)
     verdicts = [tables.verdict(k, q, 0.0) for q in rng.uniform(model.lower_limits, model.upper_limits, (1000, 6))]
     assert verdicts.count(UNKNOWN) < 0.3 * len(verdicts)
-    assert tables.filled(k) > 0
+    assert 0 < tables.filled(k) <= 1000  # a cell is measured once, when first met
 
 
 @pytest.mark.parametrize(("scene", "index"), [("cage_ur5", 5), ("bookshelf_small_ur5", 9)])
 def test_a_search_checks_the_same_states_with_its_tables(scene: str, index: int) -> None:
     """Every verdict of a table is the primitives' own, so RRT-Connect from one seed checks the same states and
     finds the same path with the tables as without them."""
-    arrays, _ = _packed("ur5")
+    arrays, fresh = _fresh_tables("ur5")
     obstacles, start, goal = ur5_problem(scene, index)
     outcomes = []
-    for tables in (None, arrays.pair_tables):
+    for tables in (None, fresh):
         packed = arrays._replace(pair_tables=tables)
         scene_arrays = make_scene(pack_obstacles(obstacles), packed)._replace(fitted_self=True)
         checker = rrt.Checker(core_scene(packed, scene_arrays), 0.003, 0.03)
@@ -128,6 +139,7 @@ def test_a_search_checks_the_same_states_with_its_tables(scene: str, index: int)
     (status, path, checked), (status_t, path_t, checked_t) = outcomes
     assert status == status_t and checked == checked_t
     np.testing.assert_array_equal(path, path_t)
+    assert fresh.filled(_pair(arrays, "forearm_link", "wrist_2_link")) > 0  # the search asked the table
 
 
 def test_tables_of_another_robot_or_of_wrong_weights_are_refused() -> None:
@@ -135,13 +147,22 @@ def test_tables_of_another_robot_or_of_wrong_weights_are_refused() -> None:
     ur5, _ = _packed("ur5")
     with pytest.raises(ValueError, match="pair_tables: made from another robot"):
         core.Robot(*panda._replace(pair_tables=ur5.pair_tables))
-    with pytest.raises(ValueError, match=r"weights: expected \(self pairs, joints\)"):
+    with pytest.raises(ValueError, match=r"pair_tables: expected a robot\.PairTables"):
+        core.Robot(*ur5._replace(pair_tables="tables"))
+    pairs = len(ur5.self_pairs)
+    with pytest.raises(ValueError, match=rf"weights: expected shape \(self pairs, joints\) = \({pairs}, 6\), "
+                                         r"got \(3, 6\)"):
         core.PairTables(core.Robot(*ur5._replace(pair_tables=None)), np.zeros((3, 6)))
     tables = ur5.pair_tables
-    with pytest.raises(ValueError, match="pair: out of range"):
-        tables.verdict(tables.pair_count, np.zeros(6), 0.0)
+    with pytest.raises(ValueError, match=rf"pair: expected a self pair's index, 0 to {pairs} \(excluded\), got "
+                                         rf"{pairs}"):
+        tables.verdict(pairs, np.zeros(6), 0.0)
     with pytest.raises(ValueError, match="q: expected one value per joint"):
         tables.verdict(0, np.zeros(5), 0.0)
+    # a configuration beyond a tabulated joint's limits, or not a number there, is the primitives' to decide
+    k = _pair(ur5, "forearm_link", "wrist_2_link")
+    for value in (4.0, -4.0, np.nan, np.inf):
+        assert tables.verdict(k, np.array([0.0, 0.0, 0.0, value, 0.0, 0.0]), 0.0) == UNKNOWN
 
 
 def test_one_robot_keeps_one_set_of_tables() -> None:

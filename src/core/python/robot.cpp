@@ -24,6 +24,12 @@ bool joints_within(const std::int64_t* joints, std::size_t count, std::size_t n)
                      [n](std::int64_t j) { return j >= -1 && j < static_cast<std::int64_t>(n); });
 }
 
+void require_pair(const robot::PairTables& tables, std::size_t pair) {
+  require(pair < tables.pair_count(), "pair: expected a self pair's index, 0 to " +
+                                          std::to_string(tables.pair_count()) + " (excluded), got " +
+                                          std::to_string(pair));
+}
+
 // link_start of a robot without a link model: its one entry, 0
 constexpr std::int64_t kNoPrimitives[1] = {0};
 
@@ -100,6 +106,8 @@ void RobotArrays::bind_links() {
 }
 
 void RobotArrays::use_pair_tables(nb::handle tables) {
+  require(nb::isinstance<robot::PairTables>(tables),
+          "pair_tables: expected a robot.PairTables made from this robot's arrays, or None");
   const auto& made = nb::cast<const robot::PairTables&>(tables);
   require(made.made_from(view_), "pair_tables: made from another robot (its kinematics, link model or limits differ "
                                  "from this one's); make them from this robot");
@@ -202,7 +210,9 @@ void bind_robot(nb::module_& m) {
           "__init__",
           [](robot::PairTables* self, const RobotArrays& robot, const Matrix& weights) {
             require(weights.shape(0) == robot.pairs() && weights.shape(1) == robot.joints(),
-                    "weights: expected (self pairs, joints)");
+                    "weights: expected shape (self pairs, joints) = (" + std::to_string(robot.pairs()) + ", " +
+                        std::to_string(robot.joints()) + "), got (" + std::to_string(weights.shape(0)) + ", " +
+                        std::to_string(weights.shape(1)) + ")");
             new (self) robot::PairTables(robot.view(), weights.data());
           },
           "robot"_a, "weights"_a,
@@ -210,15 +220,15 @@ void bind_robot(nb::module_& m) {
           "(pfield.robot.collision.self_pair_weights of the fitted primitives).")
       .def_prop_ro("pair_count", &robot::PairTables::pair_count)
       .def("axes", [](const robot::PairTables& t, std::size_t pair) {
-            require(pair < t.pair_count(), "pair: out of range");
+            require_pair(t, pair);
             return t.axes(pair);
           }, "pair"_a, "The pair's tabulated joints (empty: no table).", nb::rv_policy::copy)
       .def("filled", [](const robot::PairTables& t, std::size_t pair) {
-            require(pair < t.pair_count(), "pair: out of range");
+            require_pair(t, pair);
             return t.filled(pair);
           }, "pair"_a, "Cells of the pair's table filled so far.")
       .def("verdict", [](const robot::PairTables& t, std::size_t pair, const Vector& q, double need) {
-            require(pair < t.pair_count(), "pair: out of range");
+            require_pair(t, pair);
             require(q.shape(0) == t.joint_count(), "q: expected one value per joint");
             return t.verdict(pair, q.data(), need);
           }, "pair"_a, "q"_a, "need"_a,

@@ -59,46 +59,74 @@ PairTables::PairTables(const RobotView& robot, const double* weights) {
   if (prims == 0 || weights == nullptr) return;
   for (std::size_t p = 0; p < pairs; ++p) {
     const auto l1 = static_cast<std::size_t>(self_pairs_[2 * p]), l2 = static_cast<std::size_t>(self_pairs_[2 * p + 1]);
-    if (link_start_[l1] == link_start_[l1 + 1] || link_start_[l2] == link_start_[l2 + 1]) continue;  // no primitives
+    if (!on_own_joint(l1) || !on_own_joint(l2)) continue;
+    // the joints that move one link and not the other: each a table axis, or, where its weight is too small to
+    // matter over its whole range, a constant share of the slack
+    const std::int64_t m1 = cap_joint_[l1], m2 = cap_joint_[l2];
     std::vector<TableAxis> axes;
+    double fixed = 0.0;
     bool usable = true;
-    for (std::size_t j = 0; j < n && usable; ++j) {
-      const double w = weights[p * n + j];
-      if (w == 0.0) continue;
-      const double range = upper_[j] - lower_[j];
-      usable = std::isfinite(w) && w > 0.0 && std::isfinite(range) && range > 0.0 && axes.size() < 2;
+    for (std::size_t j = 0; j < n; ++j) {
+      const bool moves1 = m1 >= 0 && support_[static_cast<std::size_t>(m1) * n + j] != 0;
+      const bool moves2 = m2 >= 0 && support_[static_cast<std::size_t>(m2) * n + j] != 0;
+      if (moves1 == moves2) continue;  // neither link, or both rigidly together
+      const double w = weights[p * n + j] + kWeightRounding;
+      const bool turns = kinds_[j] == static_cast<std::int64_t>(JointKind::Revolute) && upper_[j] - lower_[j] > kTurn;
+      const double span = turns ? kTurn : upper_[j] - lower_[j];
+      usable = std::isfinite(w) && w > 0.0 && std::isfinite(span) && span > 0.0;
+      if (usable && w * span <= kUntabulated) {
+        fixed += w * span;
+        continue;
+      }
+      usable = usable && axes.size() < 2;
       if (!usable) break;
       TableAxis axis;
       axis.joint = j;
       axis.weight = w;
-      axis.turns = kinds_[j] == static_cast<std::int64_t>(JointKind::Revolute) && range > kTurn;
-      axis.origin = lower_[j];
+      axis.turns = turns;
+      axis.origin = std::isfinite(lower_[j]) ? lower_[j] : -0.5 * kTurn;  // a continuous joint: any turn will do
       axes.push_back(axis);
     }
-    if (!usable || axes.empty()) continue;
-    // cells of kTableSlack at their corners, wider by a common factor where that makes more than kTableCells
-    std::size_t size = kTableCells + 1;
-    for (double wider = 1.0; size > kTableCells; wider *= 1.25) {
-      size = 1;
-      for (TableAxis& axis : axes) {
-        const double span = axis.turns ? kTurn : upper_[axis.joint] - lower_[axis.joint];
-        const double wanted = std::clamp(wider * 2.0 * kTableSlack / (static_cast<double>(axes.size()) * axis.weight),
-                                         kTableWidths[0], kTableWidths[1]);
-        axis.cells = static_cast<std::size_t>(std::max(1.0, std::ceil(span / wanted)));
-        axis.width = span / static_cast<double>(axis.cells);
-        size *= axis.cells;
-      }
-      if (wider > 1e6) break;  // the widest cells still too many: no table
-    }
-    if (size > kTableCells) continue;
+    if (!usable || axes.empty() || !sized(axes)) continue;
     Table table;
     table.pair = p;
     table.axes = std::move(axes);
-    table.size = size;
-    table.values = std::make_unique<std::atomic<double>[]>(size);
-    for (std::size_t c = 0; c < size; ++c) table.values[c].store(kNaN, std::memory_order_relaxed);
+    table.fixed = fixed;
+    table.size = 1;
+    for (const TableAxis& axis : table.axes) table.size *= axis.cells;
+    table.values = std::make_unique<std::atomic<double>[]>(table.size);
+    for (std::size_t c = 0; c < table.size; ++c) table.values[c].store(kNaN, std::memory_order_relaxed);
     table_of_[p] = static_cast<std::int64_t>(tables_.size());
     tables_.push_back(std::move(table));
+  }
+}
+
+bool PairTables::on_own_joint(std::size_t link) const {
+  const auto start = static_cast<std::size_t>(link_start_[link]);
+  const auto stop = static_cast<std::size_t>(link_start_[link + 1]);
+  return start < stop && std::all_of(prim_joint_.begin() + static_cast<std::ptrdiff_t>(start),
+                                     prim_joint_.begin() + static_cast<std::ptrdiff_t>(stop),
+                                     [&](std::int64_t j) { return j == cap_joint_[link]; });
+}
+
+bool PairTables::sized(std::vector<TableAxis>& axes) {
+  // cells of kTableSlack at their corners, wider by a common factor while that makes more than kTableCells; no
+  // table when the widest cells still do
+  for (double wider = 1.0;; wider *= 1.25) {
+    double size = 1.0;
+    bool widest = true;
+    for (TableAxis& axis : axes) {
+      const double span = axis.turns ? kTurn : upper_[axis.joint] - lower_[axis.joint];
+      const double wanted = wider * 2.0 * kTableSlack / (static_cast<double>(axes.size()) * axis.weight);
+      const double width = std::clamp(wanted, kTableWidths[0], kTableWidths[1]);
+      widest = widest && width == kTableWidths[1];
+      const double cells = std::max(1.0, std::ceil(span / width));
+      size *= cells;
+      axis.cells = cells <= static_cast<double>(kTableCells) ? static_cast<std::size_t>(cells) : kTableCells + 1;
+      axis.width = span / cells;
+    }
+    if (size <= static_cast<double>(kTableCells)) return true;
+    if (widest) return false;
   }
 }
 
@@ -111,6 +139,7 @@ bool PairTables::made_from(const RobotView& robot) const {
   return same(parents_, k.parents) && same(kinds_, k.kinds) && same(support_, k.support) &&
          same(place_rot_, k.place_rot) && same(place_pos_, k.place_pos) && same(axes_, k.axes) &&
          same(cap_joint_, l.cap_joint) && same(cap_a_, l.cap_a) && same(cap_b_, l.cap_b) && same(cap_r_, l.cap_r) &&
+         same(self_r_, l.self_r) &&
          same(self_pairs_, l.self_pairs) && same(link_start_, l.link_start) && same(prim_joint_, l.prim_joint) &&
          same(prim_a_, l.prim_a) && same(prim_b_, l.prim_b) && same(prim_r_, l.prim_r) &&
          same(lower_, robot.limits.lower) && same(upper_, robot.limits.upper);
@@ -149,15 +178,12 @@ double PairTables::centre_distance(const Table& table, std::size_t cell) const {
   joint_transforms(kinematics_, q.data(), frames);
   WorldSegments world{caps.data(), caps.data() + 3 * links_.capsule_count, prims.data(),
                       prims.data() + 3 * links_.primitive_count};
+  capsule_segments(links_, frames, world);
   const auto l1 = static_cast<std::size_t>(self_pairs_[2 * table.pair]);
   const auto l2 = static_cast<std::size_t>(self_pairs_[2 * table.pair + 1]);
-  for (const std::size_t link : {l1, l2}) {
-    world_segment_range(frames, cap_joint_.data(), cap_a_.data(), cap_b_.data(), link, link + 1, world.cap_a,
-                        world.cap_b);
-    world_segment_range(frames, prim_joint_.data(), prim_a_.data(), prim_b_.data(),
-                        static_cast<std::size_t>(link_start_[link]), static_cast<std::size_t>(link_start_[link + 1]),
-                        world.prim_a, world.prim_b);
-  }
+  const PrimitivePlacement placement{&links_, &frames, &world, nullptr};
+  placement.place(l1);
+  placement.place(l2);
   const double d = fitted_pair_distance_below(links_, world, l1, l2, kTableReach).distance;
   return d < kTableReach ? d : kInf;
 }
@@ -167,12 +193,14 @@ PairVerdict PairTables::verdict(std::size_t pair, const double* q, double need) 
   if (t < 0) return PairVerdict::Unknown;
   const Table& table = tables_[static_cast<std::size_t>(t)];
   std::size_t cell = 0;
-  double delta = kTableRounding;
+  double delta = kTableRounding + table.fixed;
   for (const TableAxis& axis : table.axes) {
     double u = q[axis.joint] - axis.origin;
     if (axis.turns) u -= kTurn * std::floor(u / kTurn);  // [0, 2π): D is 2π-periodic in the joint
-    const double at = std::floor(u / axis.width);
-    const auto index = static_cast<std::size_t>(std::clamp(at, 0.0, static_cast<double>(axis.cells - 1)));
+    const double span = axis.turns ? kTurn : upper_[axis.joint] - lower_[axis.joint];
+    // beyond the limits (or not a number) the weights bound nothing: a prismatic joint's travel is within them
+    if (!(u >= 0.0 && u <= span)) return PairVerdict::Unknown;
+    const auto index = std::min(static_cast<std::size_t>(u / axis.width), axis.cells - 1);
     delta += axis.weight * std::abs(u - (static_cast<double>(index) + 0.5) * axis.width);
     cell = cell * axis.cells + index;
   }

@@ -10,21 +10,25 @@
 // The bound. For a pair p and the joints j that move one of its links alone, a joint motion Δq changes the pair's
 // fitted distance D_p by at most sum_j w_pj |Δq_j| (pfield.robot.collision.self_pair_weights: the largest distance of
 // a link's primitives from the joint's axis, Schwarzer, Saha & Latombe, IEEE T-RO 21(3), 2005, §III; the distance
-// between two sets of segments moves no faster than their points). A table covers the joints with w_pj > 0 when
-// there are one or two of them, all with finite weights and ranges. Each cell of its grid holds D_p at the cell's
-// centre c, computed on first use (fitted_pair_distance_below with cutoff kTableReach: "at least kTableReach" is
-// kept as +inf). For a configuration q in the cell, with delta = sum_j w_pj |q_j - c_j|:
+// between two sets of segments moves no faster than their points). A table covers those joints (less the ones that
+// move the pair by at most kUntabulated over their range) when there are one or two of them, with finite weights
+// and ranges, and both links' primitives on their capsules' joints (the frames the weights were computed in). Each
+// cell of its grid holds D_p at the cell's centre c, computed on first use (fitted_pair_distance_below with cutoff
+// kTableReach: "at least kTableReach" is kept as +inf). For a configuration q in the cell, with
+// delta = sum_j w_pj |q_j - c_j| (+ the untabulated joints' share):
 //   D_p(c) - delta - kTableRounding >= need  -> the pair is clear of need   (D_p(q) >= D_p(c) - delta)
 //   D_p(c) + delta + kTableRounding <  need  -> the pair is below need      (D_p(q) <= D_p(c) + delta)
 //   otherwise                                -> not decided: the caller measures the primitives.
 // Both verdicts are those the primitives would give (kTableRounding, far above the rounding of any of these
 // distances, keeps them so), so a search decides every state as without tables: the same states checked, the same
 // paths, only faster. A revolute joint whose range exceeds a turn is tabulated over one turn (D_p is 2π-periodic in
-// it); any other over its limits (a q beyond them takes the nearest cell, with its true delta).
+// it); any other over its limits.
 //
-// The cells are filled lazily and kept for the tables' life (pfield.planning.whole_body keeps one PairTables per
-// robot), so the searches of a robot share them; several threads may fill and read them at once (relaxed atomics:
-// a cell holds NaN or its one value, and two threads that fill a cell write the same bits).
+// The cells are filled lazily and kept for the tables' life (pfield.planning._whole_body_core.pair_tables keeps one
+// PairTables for each of the last 8 robots planned with), so the searches of a robot share them; several threads may
+// fill and read them at once (relaxed atomics: a cell holds NaN or its one value, and two threads that fill a cell
+// write the same bits). A configuration outside a non-turning joint's limits, or not finite, gets Unknown: the
+// weights bound the motion within the limits (a prismatic joint's travel).
 #pragma once
 
 #include <atomic>
@@ -54,6 +58,11 @@ constexpr double kTableWidths[2] = {0.002, 0.1};
 constexpr std::size_t kTableCells = std::size_t{1} << 18;
 // (m) added to delta in both verdicts: the rounding of a computed distance is below 1e-14 m
 constexpr double kTableRounding = 1e-9;
+// (m/rad) added to every weight: the distances from an axis that make them lose up to ~5e-9 to cancellation
+constexpr double kWeightRounding = 1e-8;
+// (m) a joint that moves the pair by at most this much over its whole range is not tabulated: that much is added
+// to every delta of the table instead (a link whose primitives lie on the joint's axis)
+constexpr double kUntabulated = 1e-4;
 
 enum class PairVerdict : std::int64_t {
   Unknown = 0,  // the table does not decide (or the pair has none): measure the primitives
@@ -73,7 +82,8 @@ struct TableAxis {
 
 class PairTables {
  public:
-  // Tables for the self pairs of `robot`'s fitted link model that qualify (above), with weights (pairs, n) w_pj.
+  // Tables for the self pairs of `robot`'s fitted link model that qualify (above), with weights (pairs, n) w_pj
+  // (m/rad or m/m).
   // Copies what it reads of robot: the tables outlive the view.
   PairTables(const RobotView& robot, const double* weights);
   PairTables(const PairTables&) = delete;
@@ -95,6 +105,7 @@ class PairTables {
   struct Table {
     std::size_t pair = 0;
     std::vector<TableAxis> axes;
+    double fixed = 0.0;  // (m) the most the joints moving the pair but not tabulated (weights ~0) change it
     std::size_t size = 0;
     std::unique_ptr<std::atomic<double>[]> values;  // (size,) NaN: not yet computed; +inf: at least kTableReach
   };
@@ -102,6 +113,11 @@ class PairTables {
   // D_p at the centre of cell `cell` of `table` (other joints at 0, which do not move the pair), kTableReach and
   // beyond as +inf.
   double centre_distance(const Table& table, std::size_t cell) const;
+  // Whether link's primitives are all on its capsule's joint (the frame the weights were computed in) and it has some.
+  bool on_own_joint(std::size_t link) const;
+  // Each axis's cells and width (kTableSlack at a cell's corners, wider while the table would exceed kTableCells);
+  // false when even the widest cells make too many.
+  bool sized(std::vector<TableAxis>& axes);
 
   // the robot's arrays, copied (views below point into them)
   std::vector<std::int64_t> parents_, kinds_, support_, cap_joint_, self_pairs_, link_start_, prim_joint_;

@@ -30,8 +30,8 @@ if TYPE_CHECKING:
     from pfield.planning._whole_body_layout import RobotArrays, Scene
     from pfield.robot.model import RobotModel
 
-__all__ = ["core_obstacles", "core_robot", "core_scene", "culprit", "pair_distances", "pair_tables", "plan_loop",
-           "planner"]
+__all__ = ["core_obstacles", "core_robot", "core_scene", "culprit", "pair_distances", "pair_tables", "pair_weights",
+           "plan_loop", "planner"]
 
 _T = TypeVar("_T")
 
@@ -76,18 +76,21 @@ def core_robot(robot: RobotArrays) -> Any:
 def pair_tables(robot: RobotModel, arrays: RobotArrays) -> Any:
     """The core's ``robot.PairTables`` of ``robot``'s fitted self pairs (``src/core/robot/pair_tables.hpp``): one per
     robot (and link model), made from ``arrays`` (``robot`` packed, :func:`pfield.planning.whole_body.pack_robot`) the
-    first time, so that every search of the robot fills and reads the same cells. Each pair's weights are
-    :func:`pfield.robot.collision.self_pair_weights` of its links' primitives (their segments' ends; a link without
-    primitives has no table)."""
-    def make() -> Any:
-        ends = [np.vstack([arrays.prim_a[s:e], arrays.prim_b[s:e]]) if e > s else np.zeros((1, 3))
-                for s, e in zip(arrays.link_start[:-1].tolist(), arrays.link_start[1:].tolist(), strict=True)]
-        bounds, supports, cross = motion_bounds(robot, arrays.cap_joint, ends)
-        pairs = np.asarray(arrays.self_pairs, dtype=np.int64).reshape(-1, 2)
-        weights = self_pair_weights(bounds, supports, cross, pairs[:, 0], pairs[:, 1])
-        return _robot_core.PairTables(_robot_core.Robot(*arrays), np.ascontiguousarray(weights, dtype=np.float64))
+    first time, so that every search of the robot fills and reads the same cells; weights :func:`pair_weights`."""
+    return _PAIR_TABLES.get((robot, robot.geometry), lambda: _robot_core.PairTables(
+        _robot_core.Robot(*arrays._replace(pair_tables=None)), pair_weights(robot, arrays)))
 
-    return _PAIR_TABLES.get((robot, robot.geometry), make)
+
+def pair_weights(robot: RobotModel, arrays: RobotArrays) -> NDArray[np.float64]:
+    """(pairs, n) how fast each self pair's fitted distance can change with each joint (m/rad or m/m):
+    :func:`pfield.robot.collision.self_pair_weights` of the two links' primitives (their segments' ends, in the
+    frame of the link's joint; a link without primitives has a point at its joint's origin, and no table)."""
+    ends = [np.vstack([arrays.prim_a[s:e], arrays.prim_b[s:e]]) if e > s else np.zeros((1, 3))
+            for s, e in zip(arrays.link_start[:-1].tolist(), arrays.link_start[1:].tolist(), strict=True)]
+    bounds, supports, cross = motion_bounds(robot, arrays.cap_joint, ends)
+    pairs = np.asarray(arrays.self_pairs, dtype=np.int64).reshape(-1, 2)
+    return np.ascontiguousarray(self_pair_weights(bounds, supports, cross, pairs[:, 0], pairs[:, 1]),
+                                dtype=np.float64)
 
 
 def core_obstacles(scene: Scene) -> Any:

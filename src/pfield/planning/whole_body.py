@@ -127,7 +127,9 @@ def obstacle_bounds(packed: PackedObstacles) -> tuple[NDArray[np.float64], NDArr
 
 def pack_robot(robot: RobotModel, config: FieldConfig, options: WholeBodyOptions) -> _wb.RobotArrays:
     """The robot's kinematics, link model and limits as the kernel's :class:`RobotArrays` (the one door of whole-body
-    plans, steppers and assistance: a joint without a velocity limit is refused here, naming it)."""
+    plans, steppers and assistance: a joint without a velocity limit is refused here, naming it), with the robot's
+    self-pair tables (:func:`pfield.planning._whole_body_core.pair_tables`, made once per robot; only the global
+    search's state check asks them)."""
     missing = missing_velocity_limit(robot.joint_names, robot.velocity_limits, robot.urdf_path.name)
     if missing:
         raise InvalidInput("robot", robot.name, missing)
