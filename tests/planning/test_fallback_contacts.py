@@ -81,6 +81,41 @@ def test_a_contact_region_holds_only_configurations_closer_than_the_margin(ur5: 
 
 
 @needs_ur5
+def test_the_contacts_along_a_path_are_scanned_from_its_first_contact(ur5: RobotModel,
+                                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    """_contact_regions certifies the rest of a path after each contact, never the clear stretch before the first one
+    again (it did, and found the first contact twice: a third of the certificates' time on the UR5 bookshelf_thin
+    problems whose searched paths met contacts); the regions it returns are distinct contacts, in the path's order."""
+    from pfield.planning import fallback
+    from pfield.planning.certify import resolution_grid
+    from pfield.planning.global_search import GlobalOptions, in_region
+
+    clear = UR5_FOREARM_WRIST_2.copy()
+    clear[3] = 0.3  # wrist 1 turned back: the forearm and wrist 2 apart
+    path = np.array([clear, UR5_FOREARM_WRIST_2, clear])
+    exact = CollisionChecker(ur5)
+    options = GlobalOptions()
+    first = certify_path(ur5, [], path, options.exact_resolution, exact)
+    assert not first.clear and first.pair == "forearm_link_0/wrist_2_link_0"
+    dense = resolution_grid(path, options.exact_resolution)[0]
+    starts = []
+    real = fallback.certify_path
+
+    def spy(robot: RobotModel, obstacles: list[Obstacle], qs: np.ndarray, *args: object) -> object:
+        starts.append(int(np.flatnonzero(np.all(dense == qs[0], axis=1))[0]))
+        return real(robot, obstacles, qs, *args)
+
+    monkeypatch.setattr(fallback, "certify_path", spy)
+    regions = fallback._contact_regions(ur5, [], exact, path, first, 0.003, [clear], options)
+    assert 1 < len(regions) <= fallback.CONTACTS_PER_PATH
+    assert starts and min(starts) > first.grid_points - 1  # every scan begins past the first contact
+    assert starts == sorted(starts)
+    centres = np.array([region[0] for region in regions])
+    assert len({tuple(c) for c in centres.round(9)}) == len(regions)  # no contact twice
+    assert in_region(first.configuration[None], regions[0])[0]
+
+
+@needs_ur5
 def test_bookshelf_small_33_is_solved_around_the_forearm_wrist_2_contacts(ur5: RobotModel) -> None:
     """bookshelf_small_ur5 #33: both searched paths (with the goal's band and without) went 14-18 mm into the meshes
     of forearm_link and wrist_2_link, and the plan ended SELF_COLLISION; the exact check of the searched path and
