@@ -182,14 +182,21 @@ def _contact_regions(robot: RobotModel, obstacles: list[Obstacle], exact: Collis
     certificate at ``exact_resolution``) and the next contacts along ``path``, at most :data:`CONTACTS_PER_PATH`: after
     each, the rest of the path (interpolated every ``exact_resolution``: the certificate's own grid) is certified from
     the first configuration past the region. One search then avoids every contact its path met, not the first only
-    (a path through a contact of the UR5's forearm and wrist_2 meets it along a stretch). Everything before ``first``
-    is clear (it is the first contact), so the scan starts there: from the path's start it certified the stretch to
-    ``first`` again and found it again, a third of the certificates' time on the UR5 bookshelf_thin problems whose
-    searched paths met contacts (issue 34)."""
+    (a path through a contact of the UR5's forearm and wrist_2 meets it along a stretch).
+
+    The scan begins at ``first``'s own grid point: the certificate found no contact before it. (It began at the
+    path's start until issue 34's last measures, certifying that clear stretch again and finding ``first`` a second
+    time: on the UR5 bookshelf_thin problem 42, 4 certificates of 5-9 ms each out of 24, and the duplicate took one of
+    the path's regions.) A contact's own grid point counts as held even where its region is empty (an end at the
+    contact), so no contact is scanned twice."""
     dense = resolution_grid(path, options.exact_resolution)[0]
     regions = [contact_region(exact, first, margin, ends)]
     covered = in_region(dense, regions[0])  # the grid points some region holds
-    index = min(max(first.grid_points - 1, 0), len(dense) - 1)  # the first contact: its grid point
+    index = first.grid_points - 1  # the first contact's grid point, when first is path's certificate on this grid
+    if not (0 <= index < len(dense) and first.configuration is not None
+            and np.array_equal(dense[index], first.configuration)):
+        index = 0
+    covered[index] = True
     while len(regions) < CONTACTS_PER_PATH:
         outside = np.flatnonzero(~covered[index:])
         if len(outside) == 0 or index + outside[0] >= len(dense) - 1:
@@ -200,7 +207,8 @@ def _contact_regions(robot: RobotModel, obstacles: list[Obstacle], exact: Collis
             break
         regions.append(contact_region(exact, certificate, margin, ends))
         covered |= in_region(dense, regions[-1])
-        index += certificate.waypoint + 1
+        index += certificate.grid_points - 1  # the contact's grid point (dense[index:] is its own grid)
+        covered[min(index, len(dense) - 1)] = True
     return regions
 
 
