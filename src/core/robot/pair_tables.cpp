@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <stdexcept>
 
 #include "robot/clearance.hpp"
 #include "robot/kinematics.hpp"
@@ -139,8 +138,8 @@ bool PairTables::made_from(const RobotView& robot) const {
   return same(parents_, k.parents) && same(kinds_, k.kinds) && same(support_, k.support) &&
          same(place_rot_, k.place_rot) && same(place_pos_, k.place_pos) && same(axes_, k.axes) &&
          same(cap_joint_, l.cap_joint) && same(cap_a_, l.cap_a) && same(cap_b_, l.cap_b) && same(cap_r_, l.cap_r) &&
-         same(self_r_, l.self_r) &&
-         same(self_pairs_, l.self_pairs) && same(link_start_, l.link_start) && same(prim_joint_, l.prim_joint) &&
+         same(self_r_, l.self_r) && same(self_pairs_, l.self_pairs) && same(link_start_, l.link_start) &&
+         same(prim_joint_, l.prim_joint) &&
          same(prim_a_, l.prim_a) && same(prim_b_, l.prim_b) && same(prim_r_, l.prim_r) &&
          same(lower_, robot.limits.lower) && same(upper_, robot.limits.upper);
 }
