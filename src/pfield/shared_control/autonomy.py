@@ -122,9 +122,9 @@ def whole_body_autonomy_vector(field: Any, robot: RobotModel, q: ArrayLike,
                                query_pose: Pose | None = None) -> Twist:
     """End-effector twist of :func:`whole_body_autonomy` (world frame): the ComputeAutonomyVector answer."""
     if query_pose is None:  # the service's hot path: the cached stepper's twist alone, no FK pose object
-        last = _STEPPERS.last()
-        stepper = last[2] if last is not None and last[0] is field and last[1] is robot else \
-            _stepper(field, robot, None)
+        last = _STEPPERS.last()  # the stepper used last, when it is this field's and robot's with the defaults
+        stepper = last[2] if last is not None and last[0] is field and last[1] is robot and \
+            last[2].options is _DEFAULT_OPTIONS else _stepper(field, robot, None)
         return stepper.autonomy_vector(q, prev_joint_velocities, dt)
     return whole_body_autonomy(field, robot, q, prev_joint_velocities, dt, query_pose).twist
 
