@@ -597,7 +597,6 @@ def times_picture(lines: Sequence[PlanLine]) -> bytes:
 
 SECTION_CHECK = "global search: a UR5 state check (µs, one thread)"
 CHECK_PROBLEMS = (("cage", 5), ("cage", 16))
-MARGIN = 0.003  # m: the search's margin with MBM_CONFIG (safety_distance 2 mm + GlobalOptions.extra_margin 1 mm)
 """UR5 problems whose searches check many states (the cage's tail): RRT-Connect from seed 0 on each, as the fallback
 runs it (the fitted self pairs, a 3 mm margin, edges every 0.03 rad), with and without the self pairs' tables."""
 
@@ -609,6 +608,7 @@ def state_check_rows(budget: int = 150_000) -> list[BenchRow]:
     from pfield._core import rrt
     from pfield.geometry import pack_obstacles
     from pfield.planning._whole_body_core import core_scene
+    from pfield.planning.global_search import GlobalOptions, search_margin, self_contact_slack
     from pfield.planning.whole_body import WholeBodyOptions, make_scene, pack_robot
 
     spec = ROBOTS["ur5"]
@@ -616,6 +616,8 @@ def state_check_rows(budget: int = 150_000) -> list[BenchRow]:
         return []
     robot = spec.model()
     arrays = pack_robot(robot, CONFIG, WholeBodyOptions())
+    options = GlobalOptions()
+    margin = search_margin(CONFIG, options)
     spent = {"tables": 0.0, "primitives": 0.0}
     counts = {"tables": 0, "primitives": 0}
     with extracted_scene_folders(spec.archive) as folders:
@@ -625,13 +627,14 @@ def state_check_rows(budget: int = 150_000) -> list[BenchRow]:
             for name, tables in (("primitives", None), ("tables", arrays.pair_tables)):
                 packed = arrays._replace(pair_tables=tables)
                 searched = make_scene(pack_obstacles(obstacles), packed)
-                # the search's own self pairs: on the fitted primitives, which may touch (self_contact_slack)
-                searched = searched._replace(fitted_self=True, self_offsets=searched.self_offsets - MARGIN)
-                checker = rrt.Checker(core_scene(packed, searched), MARGIN, 0.03)
+                # the search's own self pairs: on the fitted primitives, which may touch
+                searched = searched._replace(fitted_self=True, self_offsets=searched.self_offsets
+                                             - self_contact_slack(packed, margin))
+                checker = rrt.Checker(core_scene(packed, searched), margin, options.joint_resolution)
                 trees = rrt.Trees(np.clip(start, robot.lower_limits, robot.upper_limits),
-                                  np.clip(goal, robot.lower_limits, robot.upper_limits)[None], 20000, 0)
+                                  np.clip(goal, robot.lower_limits, robot.upper_limits)[None], options.capacity, 0)
                 began = time.thread_time()
-                checker.connect(trees, robot.lower_limits, robot.upper_limits, 1.0, budget, None, None)
+                checker.connect(trees, robot.lower_limits, robot.upper_limits, options.joint_step, budget, None, None)
                 spent[name] += time.thread_time() - began
                 counts[name] += checker.states_checked
     if counts["tables"] != counts["primitives"]:

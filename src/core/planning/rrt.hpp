@@ -88,7 +88,8 @@ struct CapsuleWorkspace {
 // two-level distance robot::link_obstacle_distance_below with cutoff = fine_cutoff = that need (which decides
 // "below the need" as exact values would). Self pairs on the covering capsules (robot::link_pair_distance), or with
 // scene.fitted_self on the fitted primitives, after two lower bounds: the capsules' bounding spheres (centres at
-// the axes' midpoints, radii half the axis plus the capsule's), then the capsules themselves.
+// the axes' midpoints, radii half the axis plus the capsule's), then (fitted) the pair's table where the robot has one
+// (robot.pair_tables, robot/pair_tables.hpp: the primitives' own verdict or none), then the capsules themselves.
 bool capsules_valid(const robot::RobotView& robot, const WholeBodyScene& scene, const double* q, double margin,
                     CapsuleWorkspace& ws);
 
