@@ -19,7 +19,9 @@ Per problem (problem loading: :func:`benchmarks.bench_mbm.read_problem`; joint v
 * **pfield** — ``PotentialField(MBM_CONFIG, FK(goal), obstacles).plan_whole_body(robot, start,
   options=mbm_options(robot), goal_configuration=goal)``: the field, and when it stagnates its global
   fallback (5 s, the time limit of ``MBM_OPTIONS``), as a user calls it (``pfield batch`` plans MoveIt problems with
-  the same options: the robot's step, Panda 0.02 s, UR5 0.05 s);
+  the same options: the robot's step, Panda 0.02 s, UR5 0.05 s), once with each of the search's seeds
+  :data:`SEEDS` (``PlanOptions.global_seed``; 0 is a user's default): the figures pool every seed's plans, so that
+  they measure the planner and not one seed's luck;
 * **OMPL RRT-Connect** — ``ompl`` 2.0.1 (the ``bench`` extra), default range, from the start joints to the goal
   joints within :data:`OMPL_TIME_LIMIT` s, then ``simplifySolution`` within the remaining time (at most
   :data:`SIMPLIFY_TIME` s; OMPL looks at its deadline only between its steps, so a plan may overrun it); states are
@@ -38,9 +40,10 @@ scene, index and status. ``make bench`` also writes every plan's figures (:data:
 times from them (:data:`TIMES_PICTURE`; ``--redraw CSV`` draws it again from a saved file).
 
 Run: ``python -m benchmarks.bench_fallback [--robot panda|ur5 ...] [--limit N] [--scenes NAME ...]
-[--out FILE.jsonl]`` (default: both robots, every problem; ``make bench`` runs :data:`QUICK_LIMIT` problems per
-scene, a full ``make bench`` every problem). ``--out`` writes one JSON object per plan (``robot``, ``scene``,
-``index``, ``planner``, ``success``, ``status``, ``seconds``, ``cpu_seconds``, ``joint_names``, ``positions``,
+[--seeds SEED ...] [--out FILE.jsonl]`` (default: both robots, every problem, the seeds of :data:`SEEDS`; ``make
+bench`` runs :data:`QUICK_LIMIT` problems per scene, a full ``make bench`` every problem). ``--out`` writes one JSON
+object per plan (``robot``, ``scene``, ``index``, ``planner``, ``seed``, ``success``, ``status``, ``seconds``,
+``cpu_seconds``, ``joint_names``, ``positions``,
 ``times``, ``contact``).
 """
 
@@ -56,7 +59,7 @@ import time
 from collections import Counter
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -66,6 +69,7 @@ from rich.progress import Progress
 from benchmarks._common import BenchRow, ExactRobot, ExactScene, Report
 from benchmarks.bench_mbm import ARCHIVE, CONFIG, extracted_scene_folders, problem_indices, read_problem
 from pfield.field import PotentialField
+from pfield.planning.options import SEED_LIMIT
 from pfield.robot import RobotModel
 from pfield.robot._loader import load_urdf
 from pfield.robot.catalog import builtin_spec, example_robot_data_root
@@ -82,6 +86,11 @@ QUICK_LIMIT = 2
 PLANNERS = ("pfield", "OMPL RRT-Connect")
 MBM_SCENES = ("table_pick", "table_under_pick", "box", "bookshelf_small", "bookshelf_tall", "bookshelf_thin", "cage")
 UR5_DIR = ARCHIVE.parent / "ur5"
+SEEDS = (0, 1, 2)
+"""The global search's seeds (``PlanOptions.global_seed``) pfield plans every valid problem with: RRT-Connect's time
+to a path is heavy-tailed and differs from seed to seed, so one seed's median can be luck (the UR5's cage on this
+machine, 2026-12-08: median 22.8, 66.6 and 50.9 ms with seeds 0, 1 and 2). The table's figures pool every seed's
+plans; 0 is the default a user's plan runs with."""
 
 
 def panda_open_fingers() -> RobotModel:
@@ -145,11 +154,13 @@ class Outcome:
     length: float = math.nan  # rad, L2 over the waypoints
     duration: float = math.nan  # s, the retimed trajectory
     contact: str = ""  # the independent check's first contact of a claimed success ("" when clear)
+    seed: int = 0  # pfield's: the global search's seed (PlanOptions.global_seed)
 
 
 @dataclass
 class Result:
-    """One problem: whether it is valid, and each planner's outcome (none when invalid)."""
+    """One problem: whether it is valid, and each planner's outcome (none when invalid); ``reruns``: pfield's plans
+    with the further seeds of :data:`SEEDS` (its first seed's is ``outcomes["pfield"]``)."""
 
     robot: str
     scene: str
@@ -157,6 +168,12 @@ class Result:
     start_contact: str
     goal_contact: str
     outcomes: dict[str, Outcome] = field(default_factory=dict)
+    reruns: list[Outcome] = field(default_factory=list)
+
+    def plans(self, planner: str) -> list[Outcome]:
+        """Every plan of ``planner`` on this problem: pfield's under each seed, OMPL's one."""
+        first = [self.outcomes[planner]] if planner in self.outcomes else []
+        return first + self.reruns if planner == PLANNERS[0] else first
 
     @property
     def valid(self) -> bool:
@@ -187,8 +204,8 @@ def _counting() -> Iterator[_StateCounter]:
         logger.setLevel(level)
 
 
-def _pfield(robot: RobotModel, field_: PotentialField, start: np.ndarray, goal: np.ndarray) -> Outcome:
-    options = mbm_options(robot)
+def _pfield(robot: RobotModel, field_: PotentialField, start: np.ndarray, goal: np.ndarray, seed: int = 0) -> Outcome:
+    options = replace(mbm_options(robot), global_seed=seed)
     with _counting() as counter:
         begin, cpu = time.perf_counter(), time.process_time()
         path = field_.plan_whole_body(robot, start, options=options, goal_configuration=goal)
@@ -199,7 +216,8 @@ def _pfield(robot: RobotModel, field_: PotentialField, start: np.ndarray, goal: 
     executed = positions if trajectory is None else np.array(trajectory.positions)
     times = np.zeros(1) if trajectory is None else np.array(trajectory.times)
     return Outcome(bool(path.success), path.status.name.lower(), seconds, cpu, path.planner, positions, executed,
-                   times, counter.states, duration=float(times[-1]) if trajectory is not None else math.nan)
+                   times, counter.states, duration=float(times[-1]) if trajectory is not None else math.nan,
+                   seed=seed)
 
 
 def _ompl(robot: RobotModel, scene: ExactScene, start: np.ndarray, goal: np.ndarray, time_limit: float) -> Outcome:
@@ -246,9 +264,9 @@ def _ompl(robot: RobotModel, scene: ExactScene, start: np.ndarray, goal: np.ndar
 
 
 def solve(spec: MbmRobot, robot: RobotModel, exact: ExactRobot, directory: Path, index: int,
-          ompl_time: float | None = OMPL_TIME_LIMIT) -> Result:
-    """Problem ``index`` of the scene folder ``directory``: validity, both planners (OMPL unless ``ompl_time`` is
-    None), and the independent check of every claimed success."""
+          ompl_time: float | None = OMPL_TIME_LIMIT, seeds: Sequence[int] = (0,)) -> Result:
+    """Problem ``index`` of the scene folder ``directory``: validity, pfield with each of ``seeds``, OMPL (unless
+    ``ompl_time`` is None), and the independent check of every claimed success."""
     start, goal, obstacles, _ = read_problem(directory, index, robot.joint_names, spec.base_link)
     start = np.clip(start, robot.lower_limits, robot.upper_limits)
     goal = np.clip(goal, robot.lower_limits, robot.upper_limits)
@@ -258,10 +276,12 @@ def solve(spec: MbmRobot, robot: RobotModel, exact: ExactRobot, directory: Path,
     if not result.valid:
         return result
     field_ = PotentialField(CONFIG, robot.forward_kinematics(goal), obstacles)
-    result.outcomes[PLANNERS[0]] = _pfield(robot, field_, start, goal)
+    first, *others = seeds
+    result.outcomes[PLANNERS[0]] = _pfield(robot, field_, start, goal, first)
+    result.reruns = [_pfield(robot, field_, start, goal, seed) for seed in others]
     if ompl_time is not None:
         result.outcomes[PLANNERS[1]] = _ompl(robot, scene, start, goal, ompl_time)
-    for outcome in result.outcomes.values():
+    for outcome in [*result.outcomes.values(), *result.reruns]:
         if outcome.success:
             outcome.length = float(np.linalg.norm(np.diff(outcome.positions, axis=0), axis=1).sum())
             found = scene.path_contact(outcome.executed, CHECK_RESOLUTION)
@@ -292,10 +312,23 @@ class SceneFigures:
     duration: float
     colliding: int
     statuses: str
+    plans: int = -1  # the plans counted: valid problems × seeds (-1: one plan per valid problem)
+    seed_medians: tuple[tuple[int, float], ...] = ()  # pfield's median time (ms) under each seed, when several
+
+    @property
+    def attempts(self) -> int:
+        return self.valid if self.plans < 0 else self.plans
 
     @property
     def success(self) -> float:
-        return 100.0 * self.solved / self.valid if self.valid else math.nan
+        return 100.0 * self.solved / self.attempts if self.attempts else math.nan
+
+    def seeds_note(self) -> str:
+        """"seeds 0, 1, 2: median 22.8 / 66.6 / 50.9 ms" ("" for one seed)."""
+        if len(self.seed_medians) < 2:
+            return ""
+        return (f"seeds {', '.join(str(seed) for seed, _ in self.seed_medians)}: median "
+                f"{' / '.join(f'{ms:.1f}' for _, ms in self.seed_medians)} ms")
 
 
 ALL_SCENES = "all scenes"
@@ -328,15 +361,19 @@ def _scene_figures(robot: str, scene: str, here: Sequence[Result]) -> list[Scene
     planners = dict.fromkeys(p for r in valid for p in r.outcomes) or dict.fromkeys(PLANNERS[:1])
     lines = []
     for planner in planners:
-        outcomes = [r.outcomes[planner] for r in valid if planner in r.outcomes]
+        outcomes = [o for r in valid for o in r.plans(planner)]  # pfield: every seed's plans, pooled
         good = [o for o in outcomes if o.success]
         ms = [o.seconds * 1e3 for o in outcomes]
         statuses = ", ".join(f"{k} {v}" for k, v in sorted(Counter(o.status for o in outcomes).items()))
+        seeds = sorted({o.seed for o in outcomes})
+        medians = tuple((seed, _percentile([o.seconds * 1e3 for o in outcomes if o.seed == seed], 50))
+                        for seed in seeds) if len(seeds) > 1 else ()
         lines.append(SceneFigures(robot, scene, planner, len(here), len(valid), len(good), _percentile(ms, 50),
                                   _percentile(ms, 95), _percentile([o.cpu_seconds * 1e3 for o in outcomes], 50),
                                   _percentile([o.length for o in good], 50),
                                   _percentile([o.duration for o in good if not math.isnan(o.duration)], 50),
-                                  sum(bool(o.contact) for o in good), statuses))
+                                  sum(bool(o.contact) for o in good), statuses,
+                                  len(outcomes) if len(seeds) > 1 else -1, medians))
     return lines
 
 
@@ -349,15 +386,18 @@ def table(lines: Sequence[SceneFigures], missing: dict[str, list[str]]) -> str:
     out = ["| robot | scene | planner | valid | success | median ms | p95 ms | CPU median ms | path rad | duration s "
            "| colliding | status |", "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
     for f in lines:
-        out.append(f"| {f.robot} | {f.scene} | {f.planner} | {f.valid}/{f.problems} | {f.solved}/{f.valid} "
+        statuses = "; ".join(part for part in (f.statuses, f.seeds_note()) if part)
+        out.append(f"| {f.robot} | {f.scene} | {f.planner} | {f.valid}/{f.problems} | {f.solved}/{f.attempts} "
                    f"({cell(f.success, 1)} %) | {cell(f.median_ms, 1)} | {cell(f.p95_ms, 1)} "
                    f"| {cell(f.cpu_median_ms, 1)} | {cell(f.length, 2)} | {cell(f.duration, 2)} | **{f.colliding}** "
-                   f"| {f.statuses} |")
+                   f"| {statuses} |")
     notes = [f"{robot}: scenes {', '.join(names)} are not in its archive on this machine (not measured)"
              for robot, names in missing.items() if names]
     out.append("")
     out.append("valid: start and goal clear under the bench's exact check (pinocchio + coal on the link meshes); "
-               "success over the valid problems; times: wall clock of every valid problem (CPU: this process's CPU "
+               "success over the valid problems (pfield: each planned once per seed of its global search, the "
+               "figures over every seed's plans, the status column giving each seed's median); times: wall clock "
+               "of every valid problem (CPU: this process's CPU "
                "time, which does not grow when other processes share the machine); path: "
                "median joint path length (L2) of the successes; duration: pfield's retimed trajectory; colliding: "
                "claimed successes that the independent check finds in contact (every waypoint and ≤ 0.01 rad between)."
@@ -373,13 +413,18 @@ def problems_list(results: Sequence[Result]) -> str:
             what = "; ".join(f"{k} in contact: {v}" for k, v in (("start", r.start_contact), ("goal", r.goal_contact))
                              if v)
             out.append(f"| {r.robot} | {r.scene} | {r.index} | — | invalid ({what}) |")
-        for planner, o in r.outcomes.items():
+        for planner, o in _labelled(r):
             if not o.success:
                 out.append(f"| {r.robot} | {r.scene} | {r.index} | {planner} | {o.status} ({o.seconds:.2f} s) |")
             elif o.contact:
                 out.append(f"| {r.robot} | {r.scene} | {r.index} | {planner} | **claimed reached, in contact: "
                            f"{o.contact}** |")
     return "\n".join(out)
+
+
+def _labelled(result: Result) -> list[tuple[str, Outcome]]:
+    """Every plan of ``result`` with its planner's name, pfield's further seeds as "pfield (seed k)"."""
+    return [*result.outcomes.items(), *((f"{PLANNERS[0]} (seed {o.seed})", o) for o in result.reruns)]
 
 
 def rows(lines: Sequence[SceneFigures]) -> list[BenchRow]:
@@ -393,8 +438,9 @@ def rows(lines: Sequence[SceneFigures]) -> list[BenchRow]:
         vamp = VAMP_PATH_LENGTH.get(f.robot) if f.scene == ALL_SCENES else None
         out += [
             BenchRow(SECTION, f"{name} success", f.success, "%", target=99.0 if ours else None, higher_is_better=True,
-                     note=f"{f.solved}/{f.valid} valid ({f.problems} problems); {f.statuses}"),
-            BenchRow(SECTION, f"{name} median time", f.median_ms, "ms", target=10.0 if ours else None),
+                     note=f"{f.solved}/{f.attempts} plans of {f.valid} valid ({f.problems} problems); {f.statuses}"),
+            BenchRow(SECTION, f"{name} median time", f.median_ms, "ms", target=10.0 if ours else None,
+                     note=f.seeds_note()),
             BenchRow(SECTION, f"{name} p95 time", f.p95_ms, "ms", target=100.0 if ours else None),
             BenchRow(SECTION, f"{name} median path length", f.length, "rad",
                      target=None if vamp is None or not ours else PATH_LENGTH_FACTOR * vamp,
@@ -410,7 +456,7 @@ def rows(lines: Sequence[SceneFigures]) -> list[BenchRow]:
 
 def _record(result: Result, planner: str, outcome: Outcome, joint_names: Sequence[str]) -> str:
     return json.dumps({"robot": result.robot, "scene": result.scene, "index": result.index, "planner": planner,
-                       "used": outcome.planner,
+                       "seed": outcome.seed, "used": outcome.planner,
                        "success": outcome.success, "status": outcome.status, "seconds": outcome.seconds,
                        "cpu_seconds": outcome.cpu_seconds, "states_checked": outcome.states,
                        "joint_names": list(joint_names), "positions": outcome.executed.tolist(),
@@ -419,11 +465,11 @@ def _record(result: Result, planner: str, outcome: Outcome, joint_names: Sequenc
 
 
 def bench(robots: Sequence[str] = tuple(ROBOTS), limit: int | None = None, scenes: Sequence[str] | None = None,
-          out: Path | None = None, ompl_time: float | None = OMPL_TIME_LIMIT, progress: bool = False
-          ) -> tuple[list[Result], dict[str, list[str]]]:
+          out: Path | None = None, ompl_time: float | None = OMPL_TIME_LIMIT, progress: bool = False,
+          seeds: Sequence[int] = SEEDS) -> tuple[list[Result], dict[str, list[str]]]:
     """Plan at most ``limit`` problems of each scene (all when None; ``scenes`` names them without the robot
-    suffix, all when None) of each robot in ``robots``. Returns the results and, per robot, the MBM scenes its
-    archive lacks. ``out`` receives one JSON line per plan as it is made."""
+    suffix, all when None) of each robot in ``robots``, pfield once with each of ``seeds``. Returns the results
+    and, per robot, the MBM scenes its archive lacks. ``out`` receives one JSON line per plan as it is made."""
     results: list[Result] = []
     missing: dict[str, list[str]] = {}
     stream = out.open("w") if out is not None else None
@@ -445,10 +491,10 @@ def bench(robots: Sequence[str] = tuple(ROBOTS), limit: int | None = None, scene
                         solve(spec, robot, exact, folders[work[0][0]], work[0][1], None)
                     task = bar.add_task(f"{name}: MBM problems", total=len(work))
                     for scene, index in work:
-                        result = solve(spec, robot, exact, folders[scene], index, ompl_time)
+                        result = solve(spec, robot, exact, folders[scene], index, ompl_time, seeds)
                         results.append(result)
                         if stream is not None:
-                            for planner, outcome in result.outcomes.items():
+                            for planner, outcome in _labelled(result):
                                 stream.write(_record(result, planner, outcome, robot.joint_names) + "\n")
                             stream.flush()
                         bar.advance(task)
@@ -464,8 +510,10 @@ TIMES_PICTURE = "mbm_times.png"
 """The picture of the planning times (:func:`times_picture`), drawn from the plans' lines."""
 TIME_TARGETS_MS = (10.0, 100.0)
 """(ms) Issue 34's median and p95 planning time per scene, drawn across the picture."""
-_CSV_COLUMNS = ("robot", "scene", "index", "planner", "status", "success", "ms", "cpu_ms", "path_rad", "duration_s",
-                "contact")
+_CSV_COLUMNS = ("robot", "scene", "index", "planner", "seed", "status", "success", "ms", "cpu_ms", "path_rad",
+                "duration_s", "contact")
+_CSV_COLUMNS_ONE_SEED = tuple(column for column in _CSV_COLUMNS if column != "seed")
+"""The columns of the files written before pfield was planned with several seeds (read as seed 0)."""
 
 
 @dataclass(frozen=True)
@@ -476,6 +524,7 @@ class PlanLine:
     scene: str
     index: int
     planner: str
+    seed: int
     status: str
     success: bool
     ms: float
@@ -487,9 +536,9 @@ class PlanLine:
 
 def plan_lines(results: Sequence[Result]) -> list[PlanLine]:
     """Every plan of ``results`` (valid problems only), in the order they ran."""
-    return [PlanLine(r.robot, r.scene, r.index, planner, o.status, o.success, 1e3 * o.seconds, 1e3 * o.cpu_seconds,
-                     o.length, o.duration, o.contact)
-            for r in results for planner, o in r.outcomes.items()]
+    return [PlanLine(r.robot, r.scene, r.index, planner, o.seed, o.status, o.success, 1e3 * o.seconds,
+                     1e3 * o.cpu_seconds, o.length, o.duration, o.contact)
+            for r in results for planner in r.outcomes for o in r.plans(planner)]
 
 
 def plans_csv(lines: Sequence[PlanLine]) -> str:
@@ -503,7 +552,7 @@ def plans_csv(lines: Sequence[PlanLine]) -> str:
         return "" if math.isnan(value) else f"{value:.{digits}f}"
 
     for p in lines:
-        writer.writerow([p.robot, p.scene, p.index, p.planner, p.status, int(p.success), number(p.ms, 3),
+        writer.writerow([p.robot, p.scene, p.index, p.planner, p.seed, p.status, int(p.success), number(p.ms, 3),
                          number(p.cpu_ms, 3), number(p.path_rad, 4), number(p.duration_s, 3), p.contact])
     return out.getvalue()
 
@@ -511,7 +560,8 @@ def plans_csv(lines: Sequence[PlanLine]) -> str:
 def read_plans_csv(text: str) -> list[PlanLine]:
     """The plans of a :func:`plans_csv` text."""
     reader = csv.DictReader(io.StringIO(text))
-    if tuple(reader.fieldnames or ()) != _CSV_COLUMNS:
+    columns = tuple(reader.fieldnames or ())
+    if columns not in (_CSV_COLUMNS, _CSV_COLUMNS_ONE_SEED):
         raise ValueError(f"not a {PLANS_CSV}: its columns are {reader.fieldnames}, expected {list(_CSV_COLUMNS)}")
 
     def number(cell: str) -> float:
@@ -521,8 +571,9 @@ def read_plans_csv(text: str) -> list[PlanLine]:
     for row in reader:
         if None in row or None in row.values():  # a row with more (key None) or fewer (values None) cells
             cells = sum(v is not None for k, v in row.items() if k is not None) + len(row.get(None) or ())
-            raise ValueError(f"line {reader.line_num} has {cells} of {len(_CSV_COLUMNS)} cells")
-        lines.append(PlanLine(row["robot"], row["scene"], int(row["index"]), row["planner"], row["status"],
+            raise ValueError(f"line {reader.line_num} has {cells} of {len(columns)} cells")
+        lines.append(PlanLine(row["robot"], row["scene"], int(row["index"]), row["planner"], int(row.get("seed", 0)),
+                              row["status"],
                               row["success"] == "1", number(row["ms"]), number(row["cpu_ms"]),
                               number(row["path_rad"]), number(row["duration_s"]), row["contact"]))
     return lines
@@ -649,7 +700,7 @@ def state_check_rows(budget: int = 150_000) -> list[BenchRow]:
 
 
 def run(quick: bool) -> Report:
-    results, missing = bench(limit=QUICK_LIMIT if quick else None)
+    results, missing = bench(limit=QUICK_LIMIT if quick else None, seeds=SEEDS)
     lines = figures(results)
     plans = plan_lines(results)
     return Report(rows(lines) + state_check_rows(), {"mbm_table.md": table(lines, missing) + "\n",
@@ -664,6 +715,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--scenes", nargs="*", default=None, choices=MBM_SCENES, help="scenes (default: all)")
     parser.add_argument("--ompl-time", type=float, default=OMPL_TIME_LIMIT, help="OMPL's time limit (s)")
     parser.add_argument("--no-ompl", action="store_true", help="run pfield only")
+    parser.add_argument("--seeds", type=int, nargs="+", default=list(SEEDS), metavar="SEED",
+                        help=f"pfield's global search seeds, each problem planned once per seed (default: "
+                             f"{' '.join(map(str, SEEDS))})")
     parser.add_argument("--out", type=Path, default=None, help="JSON-lines file of every plan")
     parser.add_argument("--redraw", type=Path, default=None, metavar="CSV",
                         help=f"draw {TIMES_PICTURE} again from a saved {PLANS_CSV} (beside it) and plan nothing")
@@ -681,8 +735,11 @@ def main(argv: Sequence[str] | None = None) -> None:
         parser.error(f"--limit must be at least 1, got {args.limit}")
     if not args.ompl_time > 0:
         parser.error(f"--ompl-time must be a positive number of seconds, got {args.ompl_time}")
+    bad = [seed for seed in args.seeds if not 0 <= seed < SEED_LIMIT]
+    if bad or len(set(args.seeds)) != len(args.seeds):
+        parser.error(f"--seeds must be distinct integers in [0, {SEED_LIMIT}), got {' '.join(map(str, args.seeds))}")
     results, missing = bench(args.robot, args.limit, args.scenes, args.out,
-                             None if args.no_ompl else args.ompl_time, progress=True)
+                             None if args.no_ompl else args.ompl_time, progress=True, seeds=args.seeds)
     lines = figures(results)
     print(table(lines, missing))
     print()

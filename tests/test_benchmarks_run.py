@@ -159,13 +159,39 @@ def test_the_table_gains_the_old_engine_columns_only_when_paired() -> None:
     assert cells["new only"] == ["1.00", "ms", "—", "—"]
 
 
-def _outcome(success: bool, seconds: float, length: float = math.nan, contact: str = "") -> Any:
+def _outcome(success: bool, seconds: float, length: float = math.nan, contact: str = "", seed: int = 0) -> Any:
     import numpy as np
     from benchmarks.bench_fallback import Outcome
 
     status = "reached" if success else "global_time_limit"
     return Outcome(success, status, seconds, seconds, "pfield", np.zeros((2, 6)), np.zeros((2, 6)), np.zeros(2),
-                   length=length, duration=2.0 if success else math.nan, contact=contact)
+                   length=length, duration=2.0 if success else math.nan, contact=contact, seed=seed)
+
+
+def test_the_mbm_table_pools_pfields_seeds_and_gives_each_seeds_median() -> None:
+    from benchmarks.bench_fallback import Result, figures, plan_lines, problems_list, rows, table
+
+    results = [Result("ur5", "cage", k, "", "", {"pfield": _outcome(True, 0.010 * k, 8.0),
+                                                 "OMPL RRT-Connect": _outcome(True, 1.0, 7.0)},
+                      [_outcome(True, 0.100 * k, 9.0, seed=1), _outcome(k != 2, 0.200 * k, 9.0, seed=2)])
+               for k in (1, 2, 3)]
+    pfield, ompl = figures(results)
+    assert (pfield.valid, pfield.attempts, pfield.solved) == (3, 9, 8)
+    assert pfield.success == pytest.approx(800 / 9)
+    assert pfield.median_ms == pytest.approx(200.0)  # of 10 20 30 100 200 200 300 400 600 (ms)
+    assert pfield.seed_medians == ((0, pytest.approx(20.0)), (1, pytest.approx(200.0)), (2, pytest.approx(400.0)))
+    assert pfield.length == pytest.approx(9.0)
+    assert (ompl.attempts, ompl.solved, ompl.seed_medians) == (3, 3, ())
+    text = table([pfield, ompl], {})
+    assert "| ur5 | cage | pfield | 3/3 | 8/9 (88.9 %) | 200.0 |" in text
+    assert "seeds 0, 1, 2: median 20.0 / 200.0 / 400.0 ms" in text
+    assert "| ur5 | cage | OMPL RRT-Connect | 3/3 | 3/3 (100.0 %) |" in text
+    assert "| ur5 | cage | 2 | pfield (seed 2) | global_time_limit (0.40 s) |" in problems_list(results)
+    median = {r.name: r for r in rows([pfield])}["ur5 cage: pfield median time"]
+    assert median.note == "seeds 0, 1, 2: median 20.0 / 200.0 / 400.0 ms"
+    lines = plan_lines(results)
+    assert [(p.index, p.planner, p.seed) for p in lines[:4]] == [
+        (1, "pfield", 0), (1, "pfield", 1), (1, "pfield", 2), (1, "OMPL RRT-Connect", 0)]
 
 
 def test_the_mbm_table_counts_over_valid_problems_and_shows_colliding_claims() -> None:
@@ -219,14 +245,18 @@ def test_the_mbm_plans_round_trip_through_their_csv_and_draw_a_picture_per_robot
     assert [(p.robot, p.scene, p.index, p.planner) for p in lines] == [
         ("panda", "box", 1, "pfield"), ("panda", "box", 1, "OMPL RRT-Connect"), ("ur5", "cage", 7, "pfield")]
     text = plans_csv(lines)
-    assert text.splitlines()[1] == "panda,box,1,pfield,reached,1,4.000,4.000,4.5000,2.000,"
-    assert text.splitlines()[2] == "panda,box,1,OMPL RRT-Connect,global_time_limit,0,5000.000,5000.000,,,"
+    assert text.splitlines()[1] == "panda,box,1,pfield,0,reached,1,4.000,4.000,4.5000,2.000,"
+    assert text.splitlines()[2] == "panda,box,1,OMPL RRT-Connect,0,global_time_limit,0,5000.000,5000.000,,,"
     back = read_plans_csv(text)
     assert back[2].contact == "wrist_2_link/bar at 3" and back[2].ms == pytest.approx(41.0)
     assert math.isnan(back[1].path_rad) and not back[1].success and back[0].success
     with pytest.raises(ValueError, match="columns"):
         read_plans_csv("robot,scene\nur5,box\n")
-    with pytest.raises(ValueError, match="line 3 has 4 of 11 cells"):
+    # a file written before the seed column: every plan is seed 0's
+    older = "\n".join(line.replace(",pfield,0,", ",pfield,").replace(",OMPL RRT-Connect,0,", ",OMPL RRT-Connect,")
+                      .replace(",planner,seed,", ",planner,") for line in text.splitlines())
+    assert read_plans_csv(older) == back
+    with pytest.raises(ValueError, match="line 3 has 4 of 12 cells"):
         read_plans_csv(text.splitlines()[0] + "\n" + text.splitlines()[1] + "\nur5,cage,7,pfield\n")
     picture = tmp_path / "mbm_times.png"
     picture.write_bytes(times_picture(back))
@@ -239,7 +269,8 @@ def test_the_mbm_plans_round_trip_through_their_csv_and_draw_a_picture_per_robot
 
 
 @pytest.mark.parametrize("argv", [["--limit", "0"], ["--robot", "kuka"], ["--ompl-time", "0"], ["--scenes", "x"],
-                                  ["--redraw", "/nonexistent/mbm_plans.csv"]])
+                                  ["--redraw", "/nonexistent/mbm_plans.csv"], ["--seeds", "-1"],
+                                  ["--seeds", "1", "1"], ["--seeds", "x"]])
 def test_the_mbm_bench_refuses_bad_arguments(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
     from benchmarks import bench_fallback
 

@@ -16,6 +16,7 @@ from pfield.geometry import Box, Obstacle, Sphere, signed_distances
 from pfield.node._base import Bus
 from pfield.node.manager import ManagerNode
 from pfield.planning.certify import certify_path
+from pfield.planning.options import PlanOptions
 from pfield.planning.result import PlannedPath
 from pfield.planning.scenes import SEED_GOAL, SEED_START, seed_obstacles
 from pfield.planning.status import PlanStatus
@@ -225,6 +226,29 @@ def test_a_goal_configuration_where_the_field_ends_anyway_changes_nothing_withou
     assert np.max(np.abs(drawn.joint_positions[-1] - end)) <= JOINT_GOAL_TOLERANCE
     n = min(len(drawn.joint_positions), len(alone.joint_positions))
     assert np.max(np.abs(drawn.joint_positions[:n] - alone.joint_positions[:n])) > 1e-3  # the term acted
+
+
+def test_the_search_seed_is_a_plan_option_same_seed_same_plan_another_seed_another_path(xarm: RobotModel) -> None:
+    """PlanOptions.global_seed reaches the fallback's search: seed 0 is the default plan bit for bit, another seed
+    searches other samples (a retry, or a benchmark over seeds) and is as safe."""
+    field, _, start = _wall_field()
+    default = field.plan_whole_body(xarm, start, 0.02, 0.01, 10000)
+    assert default.success and default.planner == "field+global"
+    _same(default, field.plan_whole_body(xarm, start, options=PlanOptions(dt=0.02, goal_tolerance=0.01,
+                                                                         max_iterations=10000, global_seed=0)))
+    options = PlanOptions(dt=0.02, goal_tolerance=0.01, max_iterations=10000, global_seed=1)
+    other = field.plan_whole_body(xarm, start, options=options)
+    assert other.success and other.planner == "field+global", other.failure_reason
+    assert other.joint_positions is not None and default.joint_positions is not None
+    assert len(other.joint_positions) != len(default.joint_positions) or \
+        np.max(np.abs(other.joint_positions - default.joint_positions)) > 1e-3
+    _same(other, field.plan_whole_body(xarm, start, options=options))
+    assert certify_path(xarm, list(field.obstacles), other.joint_positions).clear
+    cup = PotentialField(FieldConfig(), CUP_GOAL, CUP)
+    task = [cup.plan(Pose((0.0, 0.0, 0.0)), options=PlanOptions(dt=0.02, goal_tolerance=0.01, max_iterations=20000,
+                                                                global_seed=seed)) for seed in (0, 1)]
+    assert all(path.success and path.planner == "field+global" for path in task)
+    assert len(task[0]) != len(task[1]) or np.max(np.abs(task[0].positions - task[1].positions)) > 1e-3
 
 
 @pytest.mark.parametrize(("shift", "name", "why"), [

@@ -10,7 +10,7 @@ import pfield
 from pfield.errors import InvalidInput
 from pfield.field import FieldConfig
 from pfield.planning import CancelToken, PlanOptions, PlanStatus
-from pfield.planning.options import DEFAULT_MAX_ITERATIONS, MAX_ITERATIONS_LIMIT, MIN_STAGNATION_STEPS
+from pfield.planning.options import DEFAULT_MAX_ITERATIONS, MAX_ITERATIONS_LIMIT, MIN_STAGNATION_STEPS, SEED_LIMIT
 
 
 def test_defaults_and_the_zero_or_negative_iteration_rule() -> None:
@@ -19,6 +19,8 @@ def test_defaults_and_the_zero_or_negative_iteration_rule() -> None:
     assert PlanOptions(max_iterations=0).max_iterations == 30000
     assert PlanOptions(max_iterations=-5).max_iterations == 30000
     assert PlanOptions(max_iterations=MAX_ITERATIONS_LIMIT).max_iterations == 2_000_000
+    assert PlanOptions().global_seed == 0
+    assert PlanOptions(global_seed=SEED_LIMIT - 1).global_seed == 2**32 - 1
 
 
 @pytest.mark.parametrize(
@@ -31,6 +33,8 @@ def test_defaults_and_the_zero_or_negative_iteration_rule() -> None:
         ({"max_iterations": "100"}, "max_iterations"), ({"max_iterations": MAX_ITERATIONS_LIMIT + 1}, "max_iterations"),
         ({"stagnation_window": 0.0}, "stagnation_window"), ({"stagnation_progress": -1e-3}, "stagnation_progress"),
         ({"cancel": True}, "cancel"),
+        ({"global_seed": -1}, "global_seed"), ({"global_seed": SEED_LIMIT}, "global_seed"),
+        ({"global_seed": True}, "global_seed"), ({"global_seed": 1.0}, "global_seed"),
     ],
 )
 def test_bad_options_name_the_field(changes: dict[str, object], name: str) -> None:

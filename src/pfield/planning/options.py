@@ -17,7 +17,7 @@ from pfield.errors import InvalidInput
 from pfield.planning.cancel import CancelToken
 
 __all__ = ["DEFAULT_GLOBAL_TIME_LIMIT", "DEFAULT_MAX_ITERATIONS", "MAX_ITERATIONS_LIMIT", "MIN_STAGNATION_STEPS",
-           "PlanOptions"]
+           "SEED_LIMIT", "PlanOptions"]
 
 DEFAULT_MAX_ITERATIONS = 30000
 """Used when ``max_iterations`` is 0, negative or missing (the PlanPath service's "0 or missing")."""
@@ -27,6 +27,8 @@ at this bound the buffers take ~0.25 GB (task space, 112 B per step) or ~0.5 GB 
 plan). Services may cap lower as their own policy (the node's ``MAX_ITERATIONS_CAP``)."""
 DEFAULT_GLOBAL_TIME_LIMIT = 2.0
 """Default wall-clock limit (s) of one global fallback search."""
+SEED_LIMIT = 2**32
+"""``global_seed`` is below this (the search adds its own offsets to it for restarts and racing seeds)."""
 _FROM_CONFIG = ("rotation_tolerance", "stagnation_window", "stagnation_progress")
 MIN_STAGNATION_STEPS = 10
 """The stagnation window is never shorter than this many steps, whatever ``stagnation_window / dt``."""
@@ -52,6 +54,9 @@ class PlanOptions:
             path. A bool (1, 0 and strings are refused).
         global_time_limit: wall-clock limit (s, > 0, finite) of that search; running out of it ends the
             plan with :attr:`PlanStatus.GLOBAL_TIME_LIMIT`.
+        global_seed: seed of that search's random samples (an integer in [0, 2³²)): the same seed gives the same
+            path; another seed another path, as another run of a randomised planner would (a retry after a
+            failure, or a benchmark that measures a planner's times over several seeds, not one).
 
     Stagnation (one rule for every planner, ``src/core/planning/status.hpp``'s ``Progress``): every
     ``stagnation_steps`` steps the best position error and the best rotation error so far are compared
@@ -71,6 +76,7 @@ class PlanOptions:
     cancel: CancelToken | None = None
     global_fallback: bool = True
     global_time_limit: float = DEFAULT_GLOBAL_TIME_LIMIT
+    global_seed: int = 0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "dt", positive("dt", self.dt))
@@ -91,6 +97,10 @@ class PlanOptions:
                 object.__setattr__(self, name, positive(name, value))
         object.__setattr__(self, "global_fallback", boolean("global_fallback", self.global_fallback))
         object.__setattr__(self, "global_time_limit", positive("global_time_limit", self.global_time_limit))
+        seed = integer("global_seed", self.global_seed)
+        if not 0 <= seed < SEED_LIMIT:
+            raise InvalidInput("global_seed", self.global_seed, f"must be in [0, {SEED_LIMIT})")
+        object.__setattr__(self, "global_seed", seed)
         if self.cancel is not None and not isinstance(self.cancel, CancelToken):
             raise InvalidInput("cancel", self.cancel, "expected a pfield.planning.CancelToken or None")
 

@@ -104,7 +104,7 @@ def plan_task_space(
         from pfield.planning.global_search import GlobalOptions
         from pfield.planning.whole_body import make_scene
 
-        global_options = GlobalOptions(time_limit=settings.global_time_limit)
+        global_options = GlobalOptions(time_limit=settings.global_time_limit, seed=settings.global_seed)
         tolerance, angle, progress = settings.goal_tolerance, settings.rotation_tolerance, settings.stagnation_progress
 
         def run_to(state: np.ndarray, target: Pose, final: bool) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:

@@ -289,8 +289,8 @@ def plan_whole_body_packed(config: FieldConfig, goal: Pose, packed: PackedObstac
                                                PlanStatus.COLLISION, PlanStatus.SELF_COLLISION):
         outcome = whole_body_fallback(robot, arrays, scene, start, qs[-1].copy(), goal, params,
                                       settings.max_iterations, config, obstacles,
-                                      GlobalOptions(time_limit=settings.global_time_limit), cancel, goal_q,
-                                      checker)
+                                      GlobalOptions(time_limit=settings.global_time_limit, seed=settings.global_seed),
+                                      cancel, goal_q, checker)
         if outcome.loop is not None:
             status, count, qs, qds, pos, quats, twists, clear, culprit = outcome.loop
             planner = FALLBACK_PLANNER
