@@ -26,7 +26,7 @@ from pfield._core.robot_distance import fitted_self_clearances_at
 from pfield.geometry import Obstacle, Sphere, pack_obstacles
 from pfield.planning._whole_body_core import core_robot, core_scene
 from pfield.planning.certify import certify_path
-from pfield.planning.global_search import contact_region, self_contact_slack
+from pfield.planning.global_search import contact_region, region_radius, self_contact_slack
 from pfield.planning.status import PlanStatus
 from pfield.planning.whole_body import WholeBodyOptions, make_scene, pack_robot
 from pfield.robot.collision import CollisionChecker
@@ -53,6 +53,38 @@ def test_a_forbidden_region_refuses_its_states_and_no_others() -> None:
     assert not checker.edge_valid(outside, outside - np.array([0, 0, 0, 0.5, 0, 0, 0]))  # an edge through it
     with pytest.raises(ValueError, match="centre"):
         checker.forbid(q[:3], weights, 0.1)
+
+
+def test_an_end_that_bounds_a_region_stays_outside_it_whatever_order_the_core_sums_in() -> None:
+    """A region cut at an end's weighted distance must not hold the end in the core's test, whose sum of the terms
+    w_j |end_j − c_j| may round differently from numpy's: cut at numpy's sum, the UR5's bookshelf_tall goal 58 (seed 1)
+    was 2 ulp inside its region in the core (GOAL_INVALID). Here the terms summed in four orders (which of them
+    numpy's BLAS kernel uses depends on the machine) all stay at or above the radius, and the core keeps the end
+    valid and the centre not."""
+    xarm = RobotModel.builtin("xarm7")
+    q = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -1.5708, 0.0])
+    arrays = pack_robot(xarm, FieldConfig(), WholeBodyOptions())
+    scene = core_scene(arrays, make_scene(pack_obstacles([Obstacle("ball", Sphere(0.1), Pose((0.6, 0.0, 0.6)))]),
+                                          arrays, q, 0.01))
+    end = q  # valid: the scene's offsets are measured there
+    rng = np.random.default_rng(11)
+    rounded = 0
+    for _ in range(300):
+        centre, weights = q + rng.uniform(-0.5, 0.5, 7), rng.uniform(0.0, 0.6, 7)
+        terms = [float(w * d) for w, d in zip(weights, np.abs(end - centre), strict=True)]
+        sums = []
+        for order in (terms, terms[::-1], sorted(terms), sorted(terms, reverse=True)):
+            total = 0.0
+            for term in order:
+                total += term
+            sums.append(total)
+        rounded += len(set(sums)) > 1
+        radius = region_radius(centre, weights, 1.0, [end])
+        assert radius < min(sums)
+        checker = core_rrt.Checker(scene, 0.01, 0.02)
+        checker.forbid(centre, weights, radius)
+        assert checker.state_valid(end) and not checker.state_valid(centre)
+    assert rounded > 30  # orders that round differently are common: the test means something
 
 
 @needs_ur5
