@@ -7,6 +7,8 @@ of the searched path now turns each contact into a region of certain contact the
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -214,7 +216,7 @@ def test_a_searched_path_whose_tracking_stalls_is_searched_again_with_another_se
     path, with the goal's band and without, is one whose tracking stalls 2 mm under the top shelf (STAGNATION),
     and there is no contact to forbid; the second seed's path is tracked and certified. With one seed the plan
     fails."""
-    from pfield.planning import fallback, global_search
+    from pfield.planning import fallback, global_search, whole_body
     from pfield.scene import MBM_CONFIG, MBM_OPTIONS
 
     panda = RobotModel.builtin("panda", {"panda_finger_joint1": 0.065, "panda_finger_joint2": 0.065})
@@ -232,6 +234,8 @@ def test_a_searched_path_whose_tracking_stalls_is_searched_again_with_another_se
     # one seed per search (no race of seeds: global_search.RACE_AFTER), as this problem was found with: the race's
     # second seed finds a path that is tracked at once
     monkeypatch.setattr(global_search, "RACE_AFTER", 10**15)
+    # and with 1.0 rad extensions, the search's step when it was found (with 0.35 the first path is tracked at once)
+    monkeypatch.setattr(whole_body, "GlobalOptions", functools.partial(global_search.GlobalOptions, joint_step=1.0))
     # without the posture term, the field ends off the joint goal and the fallback runs (with it, the field alone
     # reaches the joint goal here)
     path = field.plan_whole_body(panda, start, options=MBM_OPTIONS, goal_configuration=goal,
