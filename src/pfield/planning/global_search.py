@@ -476,8 +476,9 @@ RACE_AFTER = 10_000
 :class:`_Race`): most searches end sooner, and a thread started for them only costs time."""
 _LANE_SEED = 15_485_863  # seed offset of each further lane of a race (a prime, far from the others' offsets)
 NEARER_GOAL_SHARE = 1.0
-"""Budget of the search for nearer goals, as a share of the states the first search checked (:func:`_search`):
-at most doubling the search's work where it ran."""
+"""Budget of each search for a nearer goal, as a share of the states the first search checked (:func:`_search`):
+each nearer goal searched at most doubles the work where it ran (with ``GlobalOptions.goal_configurations`` 4, at
+most three such searches; a joint goal, as in MoveIt's requests, has none)."""
 _CHUNK = 2000  # state checks per compiled chunk of the search
 WIDE_EVERY = 4
 """Every this many chunks of a joint-space search sample the whole joint box instead of the window
