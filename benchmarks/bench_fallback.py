@@ -312,12 +312,8 @@ class SceneFigures:
     duration: float
     colliding: int
     statuses: str
-    plans: int = -1  # the plans counted: valid problems × seeds (-1: one plan per valid problem)
+    attempts: int  # the plans counted: valid problems × seeds (pfield), the valid problems (OMPL)
     seed_medians: tuple[tuple[int, float], ...] = ()  # pfield's median time (ms) under each seed, when several
-
-    @property
-    def attempts(self) -> int:
-        return self.valid if self.plans < 0 else self.plans
 
     @property
     def success(self) -> float:
@@ -372,8 +368,7 @@ def _scene_figures(robot: str, scene: str, here: Sequence[Result]) -> list[Scene
                                   _percentile(ms, 95), _percentile([o.cpu_seconds * 1e3 for o in outcomes], 50),
                                   _percentile([o.length for o in good], 50),
                                   _percentile([o.duration for o in good if not math.isnan(o.duration)], 50),
-                                  sum(bool(o.contact) for o in good), statuses,
-                                  len(outcomes) if len(seeds) > 1 else -1, medians))
+                                  sum(bool(o.contact) for o in good), statuses, len(outcomes), medians))
     return lines
 
 
@@ -700,7 +695,7 @@ def state_check_rows(budget: int = 150_000) -> list[BenchRow]:
 
 
 def run(quick: bool) -> Report:
-    results, missing = bench(limit=QUICK_LIMIT if quick else None, seeds=SEEDS)
+    results, missing = bench(limit=QUICK_LIMIT if quick else None)
     lines = figures(results)
     plans = plan_lines(results)
     return Report(rows(lines) + state_check_rows(), {"mbm_table.md": table(lines, missing) + "\n",

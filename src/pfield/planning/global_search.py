@@ -453,8 +453,8 @@ def _search(checkers: Callable[[], _core.Checker], clearance: _core.Checker, sta
         status, path = _connect(best, again, lower, upper, step, options, cancel, begin, budget, wide)
         if status == _core.SearchStatus.FOUND:
             other = _shortened(best, clearance, path, again, options)
-            if path_length(other) < length:
-                short, length = other, path_length(other)
+            if (other_length := path_length(other)) < length:
+                short, length = other, other_length
     return SearchResult(True, short, PlanStatus.REACHED, "", race.states_checked(), time.perf_counter() - begin)
 
 
